@@ -1,0 +1,428 @@
+"""Co-simulation of a planned transfer: plan -> PID -> DC motors with gears -> arm -> magnet -> payload.
+
+    TrajectorySource(plan, time-scaled) --desired_state--> JointPidController --voltage--> DcMotorWithGear
+        --joint_torque--> MultibodyPlant(arm + free payload, discrete, kLagged contact)
+    plant.body_poses --> ElectromagnetForce --spatial_forces--> plant (pull on the payload, reaction on hand)
+    everything --> TransferMonitor (slip, tilt, detachment, tracking error, motor peaks, energy)
+
+`build_transfer_diagram` returns a `TransferDiagram` (the Diagram plus handles); `simulate_transfer`
+runs it and returns a `TransferResult`; `run_simulate` is the CLI's entry point (a JSON-ready dict).
+
+Magnet calibration (`calibrated_coil_current_A`): seed 000 does not report the coil current or
+voltage. One rule is applied to both hands: the coil current is the one whose quasi-static hold
+limit equals the geometric mean of the thesis's last-success and first-failure moments
+(Table 2.3: 3.168e-5 / 3.344e-5 N*m; Table 4.2: 0.633e-3 / 0.727e-3 N*m):
+
+    tau_hold = (F(I, 0) - m g) * min(rho, mu * r_G)
+
+(the part tips about the edge of the contact ring of radius rho when m a r_G exceeds the net
+normal force times rho, or slides when m a exceeds mu times it). Everything else is shared by
+both hands: the magnet law and its equivalent gap g0, friction, contact stiffness, contact radius
+(the 7.8 mm core of both hands). The simulated thresholds are then an outcome of the dynamics,
+checked by studies/cosim_calibration.py against every row of both tables.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.controllers import InverseDynamics
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogVectorOutput, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+
+from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
+from qmt_drake.systems.electromagnet import THESIS_COILS, ElectromagnetForce, MagnetParams
+from qmt_drake.systems.joint_tracking import JointPidController, PidGains
+from qmt_drake.systems.payload import PayloadSpec, add_payload, seated_pose_in_hand
+from qmt_drake.systems.transfer_monitor import TransferMonitor
+
+GRAVITY_M_S2 = 9.81
+MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0: assumption, shared by both hands (see electromagnet.py)
+HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
+
+# Thesis slip experiments: the last success and first failure in peak moment [N*m].
+SLIP_BOUNDARIES_NM = {
+    "ch2": (3.168e-5, 3.344e-5),  # seed 000 Table 2.3
+    "ch4": (0.633e-3, 0.727e-3),  # seed 000 Table 4.2
+}
+HAND_COIL = {"ch2": THESIS_COILS["table_2_2"], "ch4": THESIS_COILS["table_3_2"]}
+
+
+def hand_of(scenario) -> str:
+    """'ch2' for the chapter-2 three-link arm and its Table 2.2 hand, 'ch4' for the ch.3-4 hand."""
+    return "ch2" if "three_link" in scenario.urdf_path.stem else "ch4"
+
+
+def hold_lever_m(payload: PayloadSpec) -> float:
+    """min(rho, mu * r_G) [m]: net normal force times this is the quasi-static hold moment."""
+    return min(payload.contact_radius_m, payload.friction * payload.com_offset_m)
+
+
+def calibrated_coil_current_A(scenario, payload: PayloadSpec, *, effective_gap_m: float = MAGNET_EFFECTIVE_GAP_M,
+                              boundary_Nm: tuple[float, float] | None = None) -> float:
+    """The calibration rule (module docstring): coil current [A] for this scenario's hand."""
+    hand = hand_of(scenario)
+    lo, hi = boundary_Nm or SLIP_BOUNDARIES_NM[hand]
+    tau_star = math.sqrt(lo * hi)
+    force = payload.mass_kg * GRAVITY_M_S2 + tau_star / hold_lever_m(payload)
+    return MagnetParams(HAND_COIL[hand], effective_gap_m, payload.face_radius_m).current_for_force_A(force)
+
+
+# ------------------------------------------------------------------------------------ the plan
+def reference_trajectories(plan, time_scale: float = 1.0, lead_s: float = 0.2, rate_hz: float = 1000.0):
+    """Cubic-Hermite q(t) and first-order-hold qdd(t) of the plan slowed by `time_scale`
+    (t_sim = lead_s + time_scale * t_plan), sampled at rate_hz; returns (pp_q, pp_qdd, t_end_motion)."""
+    if not time_scale > 0:
+        raise QmtInputError(f"time scale must be positive, got {time_scale}")
+    T = float(plan.motion_time_s) * time_scale
+    t = np.arange(0.0, lead_s + T + 0.5 / rate_hz, 1.0 / rate_hz)
+    t = np.append(t[t < lead_s + T - 1e-9], lead_s + T)
+    tp = np.clip((t - lead_s) / time_scale, 0.0, float(plan.motion_time_s))
+    q, qd, qdd = (np.asarray(a, float) for a in plan.sample(tp))
+    moving = (t >= lead_s)[:, None]
+    qd = np.where(moving, qd / time_scale, 0.0)
+    qdd = np.where(moving, qdd / time_scale**2, 0.0)
+    pp_q = PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
+    pp_qdd = PiecewisePolynomial.FirstOrderHold(t, qdd.T)
+    return pp_q, pp_qdd, lead_s + T
+
+
+# ------------------------------------------------------------------------------------ the diagram
+@dataclass
+class TransferDiagram:
+    """The built Diagram and what a user needs to run and read it."""
+
+    diagram: object
+    plant: object
+    scene_graph: object
+    arm_instance: object
+    payload_body: object
+    hand_body: object
+    motors: DcMotorWithGear
+    controller: JointPidController
+    magnet: ElectromagnetForce
+    monitor: TransferMonitor
+    loggers: dict
+    q_start: np.ndarray
+    t_motion_end_s: float
+    t_final_s: float
+    coil_current_A: float
+    payload_spec: PayloadSpec
+    motor_params: DcMotorParams
+    visualizer: object = None
+    simulator: object = None  # set by run_diagram (its context holds the loggers' data)
+
+    def set_initial_state(self, root_context) -> None:
+        """Arm at the plan's start, payload seated on the face, everything at rest."""
+        set_initial_state(self.plant, self.plant.GetMyMutableContextFromRoot(root_context), self.arm_instance,
+                          self.hand_body, self.payload_body, self.q_start)
+
+
+def set_initial_state(plant, plant_context, arm_instance, hand_body, payload_body, q_start) -> None:
+    plant.SetPositions(plant_context, arm_instance, q_start)
+    plant.SetVelocities(plant_context, arm_instance, np.zeros(len(q_start)))
+    X_WH = plant.EvalBodyPoseInWorld(plant_context, hand_body)
+    plant.SetFreeBodyPose(plant_context, payload_body, X_WH.multiply(seated_pose_in_hand()))
+    plant.SetFreeBodySpatialVelocity(plant_context, payload_body, _zero_spatial_velocity())
+
+
+def _zero_spatial_velocity():
+    from pydrake.multibody.math import SpatialVelocity
+    return SpatialVelocity(np.zeros(3), np.zeros(3))
+
+
+def motor_params_for(scenario) -> DcMotorParams:
+    """One catalogue motor per joint, chosen by the scenario's rated motor torque (dc_motor.py)."""
+    return DcMotorParams.for_rated_torques(scenario.limits.motor_torque_limit_Nm, scenario.gear_ratio)
+
+
+def pid_gains_for(scenario) -> PidGains:
+    c = scenario.control
+    if not all(k in c for k in ("kp", "kd")):
+        raise QmtInputError(f"scenario '{scenario.name}' has no control.kp/kd gains; add them to its YAML")
+    return PidGains.from_thesis(c["kp"], c.get("ki"), c["kd"])
+
+
+def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_scale: float = 1.0,
+                           lead_s: float = 0.2, settle_s: float = 0.5, coil_current_A: float | None = None,
+                           payload_spec: PayloadSpec | None = None, inverse_dynamics_feedforward: bool = False,
+                           back_emf_feedforward: bool = False, log_period_s: float = 5e-3, monitor_period_s: float | None = None,
+                           meshcat: Meshcat | None = None) -> TransferDiagram:
+    """One Diagram for the whole closed loop. Exported output ports: desired_state, arm_state,
+    voltage_command, joint_torque, motor_torque, current, electrical_power, attraction_force, slip,
+    tilt, gap, summary (TransferMonitor), payload_pose... see `TransferDiagram.diagram`."""
+    n_plan = int(plan.n_dof)
+    builder = DiagramBuilder()
+    # Live output ports: with sampled ones, discrete-update systems (monitor, PID integral) reading
+    # the plant during its step saw the next state paired with this step's reference.
+    cfg = MultibodyPlantConfig(time_step=time_step_s, discrete_contact_approximation="lagged", contact_model="point",
+                               use_sampled_output_ports=False)
+    plant, scene_graph = AddMultibodyPlant(cfg, builder)
+    arm = Parser(plant).AddModels(str(scenario.urdf_path))[0]
+    n = sum(plant.get_joint(j).num_velocities() for j in plant.GetJointIndices(arm))
+    if n_plan != n:
+        raise QmtInputError(f"plan has {n_plan} joints but scenario '{scenario.name}' arm "
+                            f"({scenario.urdf_path.name}) has {n}; use a plan made for this scenario")
+    hand = plant.GetBodyByName(scenario.hand_frame, arm)
+    spec = payload_spec or PayloadSpec.for_scenario(scenario)
+    payload = add_payload(plant, spec, hand)
+    plant.Finalize()
+
+    coil = HAND_COIL[hand_of(scenario)]
+    current = calibrated_coil_current_A(scenario, spec) if coil_current_A is None else float(coil_current_A)
+    mp = motor_params_for(scenario)
+    pp_q, pp_qdd, t_end = reference_trajectories(plan, time_scale, lead_s)
+
+    ref = builder.AddNamedSystem("reference", TrajectorySource(pp_q, output_derivative_order=1))
+    ctrl = builder.AddNamedSystem("controller", JointPidController(
+        pid_gains_for(scenario), mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
+        back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
+    motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
+    split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(MagnetParams(coil, MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m),
+                                                                  hand.index(), payload.index()))
+    coil_src = builder.AddNamedSystem("coil_current", ConstantVectorSource([current]))
+    monitor = builder.AddNamedSystem("monitor", TransferMonitor(n, hand.index(), payload.index(),
+                                                                period_s=monitor_period_s or time_step_s))
+
+    arm_state = plant.get_state_output_port(arm)
+    builder.Connect(ref.get_output_port(), ctrl.GetInputPort("desired_state"))
+    builder.Connect(arm_state, ctrl.GetInputPort("estimated_state"))
+    builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
+    builder.Connect(arm_state, split.get_input_port())
+    builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
+    builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+    builder.Connect(plant.get_body_poses_output_port(), magnet.GetInputPort("body_poses"))
+    builder.Connect(coil_src.get_output_port(), magnet.GetInputPort("coil_current"))
+    builder.Connect(magnet.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
+    builder.Connect(arm_state, monitor.GetInputPort("arm_state"))
+    builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
+    builder.Connect(motors.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
+    builder.Connect(motors.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
+
+    if inverse_dynamics_feedforward:
+        add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(),
+                                         ctrl.GetInputPort("feedforward_torque"))
+
+    exports = {
+        "desired_state": ref.get_output_port(),
+        "arm_state": arm_state,
+        "voltage_command": ctrl.GetOutputPort("voltage_command"),
+        "joint_torque": motors.GetOutputPort("joint_torque"),
+        "motor_torque": motors.GetOutputPort("motor_torque"),
+        "current": motors.GetOutputPort("current"),
+        "electrical_power": motors.GetOutputPort("electrical_power"),
+        "attraction_force": magnet.GetOutputPort("attraction_force"),
+        "slip": monitor.GetOutputPort("slip"),
+        "tilt": monitor.GetOutputPort("tilt"),
+        "gap": monitor.GetOutputPort("gap"),
+        "summary": monitor.GetOutputPort("summary"),
+        "body_poses": plant.get_body_poses_output_port(),
+        "contact_results": plant.get_contact_results_output_port(),
+    }
+    for name, port in exports.items():
+        builder.ExportOutput(port, name)
+    loggers = {}
+    if log_period_s:
+        for name in ("desired_state", "arm_state", "voltage_command", "motor_torque", "current",
+                     "electrical_power", "attraction_force", "slip", "tilt", "gap"):
+            loggers[name] = LogVectorOutput(exports[name], builder, log_period_s)
+
+    visualizer = None
+    if meshcat is not None:
+        from qmt_drake.recording import add_meshcat_visualizer
+        visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
+
+    diagram = builder.Build()
+    diagram.set_name(f"transfer[{scenario.name}]")
+    q0 = np.asarray(plan.sample(np.array([0.0]))[0], float).reshape(-1)
+    return TransferDiagram(diagram, plant, scene_graph, arm, payload, hand, motors, ctrl, magnet, monitor,
+                           loggers, q0, t_end, t_end + settle_s, current, spec, mp, visualizer)
+
+
+def add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, desired_state_port, feedforward_input):
+    """Drake InverseDynamics of the arm alone (continuous plant, reflected rotor inertia included),
+    evaluated on the desired state and acceleration, into the controller's feedforward_torque."""
+    id_plant = scenario.arm.plant
+    inv = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(id_plant))
+    acc = builder.AddNamedSystem("desired_acceleration", TrajectorySource(pp_qdd))
+    builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
+    builder.Connect(acc.get_output_port(), inv.get_input_port_desired_acceleration())
+    builder.Connect(inv.get_output_port_generalized_force(), feedforward_input)
+
+
+# ------------------------------------------------------------------------------------ simulation
+@dataclass
+class TransferResult:
+    scenario: str
+    method: str
+    time_scale: float
+    held: bool
+    max_slip_m: float
+    max_tilt_rad: float
+    max_gap_m: float
+    detached_at_s: float | None
+    max_tracking_error_rad: float
+    peak_motor_torque_Nm: np.ndarray
+    peak_motor_torque_ratio: float
+    peak_moment_ratio_planned: float
+    peak_moment_planned_Nm: float
+    peak_motor_torque_planned_Nm: np.ndarray  # inverse dynamics of the plan / N (thesis eq. 2-34)
+    energy_J: float
+    coil_current_A: float
+    time_step_s: float
+    sim_time_s: float
+    sim_wall_s: float
+    real_time_factor: float
+    series: dict = field(default_factory=dict, repr=False)
+
+    def summary_dict(self) -> dict:
+        d = {k: getattr(self, k) for k in (
+            "scenario", "method", "time_scale", "held", "max_slip_m", "max_tilt_rad", "max_gap_m", "detached_at_s",
+            "max_tracking_error_rad", "peak_motor_torque_ratio", "peak_moment_ratio_planned",
+            "peak_moment_planned_Nm", "energy_J", "coil_current_A", "time_step_s", "sim_time_s", "sim_wall_s",
+            "real_time_factor")}
+        d["peak_motor_torque_Nm"] = [float(x) for x in self.peak_motor_torque_Nm]
+        d["peak_motor_torque_planned_Nm"] = [float(x) for x in self.peak_motor_torque_planned_Nm]
+        return {k: (float(v) if isinstance(v, (np.floating,)) else v) for k, v in d.items()}
+
+
+def planned_peak_moment_Nm(scenario, plan, time_scale: float = 1.0, rate_hz: float = 10000.0) -> float:
+    """max m_o r_G |a_tip| of the time-scaled plan, sampled at rate_hz."""
+    t = np.linspace(0.0, float(plan.motion_time_s), int(plan.motion_time_s * rate_hz) + 2)
+    q, qd, qdd = plan.sample(t)
+    a = scenario.arm.tip_acceleration(q, qd, qdd)
+    return float(np.max(np.linalg.norm(a, axis=-1))) * scenario.moment_per_accel_kgm / time_scale**2
+
+
+def planned_peak_motor_torque_Nm(scenario, plan, time_scale: float = 1.0, rate_hz: float = 1000.0) -> np.ndarray:
+    """max |joint torque / N| per motor of the time-scaled plan (arm inverse dynamics, no payload)."""
+    t = np.linspace(0.0, float(plan.motion_time_s), int(plan.motion_time_s * rate_hz) + 2)
+    q, qd, qdd = plan.sample(t)
+    tau = scenario.arm.motor_torque(q, np.asarray(qd) / time_scale, np.asarray(qdd) / time_scale**2)
+    return np.max(np.abs(tau), axis=0)
+
+
+def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.05, max_tracking_error_rad: float = 0.5,
+                on_start=None) -> tuple[np.ndarray, float]:
+    """Simulate to td.t_final_s; returns (monitor summary, wall seconds). Raises QmtSimulationError
+    naming the failure time when the state becomes non-finite, Drake's solver fails, or the arm
+    leaves its reference by more than max_tracking_error_rad (an unstable loop: the voltage limit
+    keeps the state finite, so this is how divergence shows)."""
+    sim = Simulator(td.diagram)
+    ctx = sim.get_mutable_context()
+    td.set_initial_state(ctx)
+    sim.Initialize()
+    if on_start is not None:
+        on_start(sim)
+    plant_ctx = td.plant.GetMyContextFromRoot(ctx)
+    ref = td.diagram.GetOutputPort("desired_state")
+    n = len(td.q_start)
+    t_wall = time.perf_counter()
+    t = 0.0
+    while t < td.t_final_s - 1e-12:
+        t = min(t + chunk_s, td.t_final_s)
+        try:
+            sim.AdvanceTo(t)
+        except RuntimeError as exc:
+            raise QmtSimulationError(f"simulation failed at t = {ctx.get_time():.3f} s: "
+                                     f"{str(exc).splitlines()[0]}") from None
+        x = td.plant.GetPositionsAndVelocities(plant_ctx)
+        if not np.all(np.isfinite(x)):
+            raise QmtSimulationError(f"simulation diverged at t = {ctx.get_time():.3f} s: non-finite state")
+        err = float(np.max(np.abs(ref.Eval(ctx)[:n] - td.plant.GetPositions(plant_ctx, td.arm_instance))))
+        if err > max_tracking_error_rad:
+            raise QmtSimulationError(
+                f"simulation diverged at t = {ctx.get_time():.3f} s: joint tracking error {err:.3g} rad > "
+                f"{max_tracking_error_rad} rad (unstable control loop; use a time step <= 1 ms)")
+    wall = time.perf_counter() - t_wall
+    summary = td.diagram.GetOutputPort("summary").Eval(ctx)
+    td.simulator = sim
+    return np.asarray(summary), wall
+
+
+def logged_series(td: TransferDiagram) -> dict:
+    """The loggers' samples after run_diagram: {'t_s': (K,), port name: (K, width)}."""
+    ctx = td.simulator.get_context()
+    out = {}
+    for name, logger in td.loggers.items():
+        log = logger.FindLog(ctx)
+        out.setdefault("t_s", log.sample_times().copy())
+        out[name] = log.data().T.copy()
+    return out
+
+
+def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: float = 1e-3,
+                      record_path=None, keep_series: bool = True, **build_kw) -> TransferResult:
+    """Build, run and summarise one transfer (see TransferResult)."""
+    meshcat = None
+    if record_path is not None:
+        from qmt_drake.recording import make_headless_meshcat
+        meshcat = make_headless_meshcat()
+    td = build_transfer_diagram(scenario, plan, time_step_s=time_step_s, time_scale=time_scale,
+                                meshcat=meshcat, log_period_s=5e-3 if keep_series else 0.0, **build_kw)
+    on_start = None
+    if meshcat is not None:
+        from qmt_drake.recording import start_recording
+        on_start = lambda sim: start_recording(td.visualizer)  # noqa: E731
+    summary, wall = run_diagram(td, on_start=on_start)
+    if meshcat is not None:
+        from qmt_drake.recording import save_recording
+        save_recording(td.visualizer, meshcat, record_path)
+    return make_result(scenario, plan, td, summary, wall, time_scale, time_step_s,
+                       logged_series(td) if keep_series else {})
+
+
+def make_result(scenario, plan, td, summary, wall, time_scale, time_step_s, series) -> TransferResult:
+    s = TransferMonitor.unpack(summary)
+    detached = None if math.isnan(s["detached_at_s"]) else s["detached_at_s"]
+    peak = s["peak_motor_torque_Nm"]
+    moment = planned_peak_moment_Nm(scenario, plan, time_scale)
+    return TransferResult(
+        scenario=scenario.name, method=str(getattr(plan, "method", "")), time_scale=float(time_scale),
+        held=bool(detached is None and s["max_slip_m"] < HELD_SLIP_LIMIT_M),
+        max_slip_m=s["max_slip_m"], max_tilt_rad=s["max_tilt_rad"], max_gap_m=s["max_gap_m"],
+        detached_at_s=detached, max_tracking_error_rad=s["max_tracking_error_rad"], peak_motor_torque_Nm=peak,
+        peak_motor_torque_ratio=float(np.max(peak / scenario.limits.motor_torque_limit_Nm)),
+        peak_moment_ratio_planned=moment / scenario.limits.moment_limit_Nm, peak_moment_planned_Nm=moment,
+        peak_motor_torque_planned_Nm=planned_peak_motor_torque_Nm(scenario, plan, time_scale),
+        energy_J=s["energy_J"], coil_current_A=td.coil_current_A, time_step_s=time_step_s,
+        sim_time_s=td.t_final_s, sim_wall_s=wall, real_time_factor=td.t_final_s / wall, series=series)
+
+
+def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None) -> dict:
+    """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict)."""
+    res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False)
+    d = res.summary_dict()
+    if record_path is not None:
+        d["record_path"] = str(record_path)
+    return d
+
+
+# ------------------------------------------------------------------------------------ gene plans
+class GenesPlan:
+    """A minimal plan (the Plan contract: motion_time_s, n_dof, sample(t), method, scenario) made
+    straight from a scenario's trajectory family and one gene vector; held at the goal after T0."""
+
+    def __init__(self, scenario, genes, method: str = "genes"):
+        from qmt_drake.families import make_family
+        self.family = make_family(scenario)
+        self.genes = np.asarray(genes, float)
+        self.method = method
+        self.scenario = scenario.name
+        self.motion_time_s = float(self.family.motion_time_s(self.genes[None])[0])
+        self.n_dof = self.family.n_dof
+
+    def sample(self, t):
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.motion_time_s)
+        return self.family.sample(self.genes, t)

@@ -1,0 +1,239 @@
+"""DC motors with a gear reducer (harmonic drive), one per joint, as one Drake LeafSystem.
+
+Model, per joint i (motor side unless noted; SI units throughout)
+
+    v      = clip(v_cmd, -V_max, V_max)                      terminal voltage [V]
+    w_m    = N * qd                                           motor speed [rad/s], qd joint speed
+    quasi-static armature (default, L -> 0):
+        i  = clip((v - Ke * w_m) / R, -I_max, I_max)          current [A]
+    with inductance (optional continuous state i):
+        L di/dt = v - R i - Ke w_m,   output current clipped to +-I_max
+    tau_m  = Kt * i                                           motor torque [N*m]
+    tau_j  = N * eta * tau_m      if tau_m * qd >= 0 (motor drives the load)
+           = N * tau_m / eta_b    otherwise (load back-drives the gear)      joint torque [N*m]
+
+eta is the forward (motoring) efficiency. The back-driving efficiency eta_b defaults to 1
+(no loss): a torque gain that jumps from eta to 1/eta at zero speed made the stiff 1 ms
+position loop chatter at rest (a limit cycle at the Nyquist rate), so only the motoring loss
+is modelled unless `back_drive_efficiency` is set.
+    P_el   = v * i                                            electrical power [W]
+
+Ke = Kt in SI (V*s/rad = N*m/A). The rotor inertia is NOT in this system: it stays in the plant as
+the joint actuator's reflected inertia (drake:rotor_inertia, drake:gear_ratio in the URDF).
+
+Ports
+    inputs
+        voltage_command   (n,) [V]      commanded terminal voltage (clipped to +-V_max)
+        joint_velocity    (n,) [rad/s]  joint-side speed, for the back EMF
+    outputs
+        joint_torque      (n,) [N*m]    torque at the joint, to MultibodyPlant actuation
+        motor_torque      (n,) [N*m]    motor-side electromagnetic torque Kt*i
+        current           (n,) [A]      armature current
+        electrical_power  (n,) [W]      v*i (negative when regenerating)
+
+Motor parameters (`MOTOR_CATALOG`) are small coreless DC motors of the class the thesis used with
+1/100 harmonic drives (seed 000 gives only rotor inertia, gear ratio and rated torque, no motor
+model). The numbers are catalogue values of maxon RE-series / Faulhaber SR-series motors as written
+in the manufacturers' printed catalogues (maxon "Program 2012/13", Faulhaber "DC-Micromotors");
+they were written from those catalogue tables, not re-read from a datasheet in this repository, so
+treat them as representative of the class, not as the thesis's motors. Each is checked for internal
+consistency in the tests (stall torque = Kt*V/R, no-load speed = V/Ke).
+Harmonic drive efficiency 0.7: Harmonic Drive CSF/CSG-14, ratio 100, catalogue efficiency curve at
+rated torque and 1000-2000 rpm input is about 0.65-0.75.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
+
+
+@dataclass(frozen=True)
+class MotorDatasheet:
+    """One motor's catalogue numbers (motor side, SI)."""
+
+    name: str
+    source: str
+    nominal_voltage_V: float
+    resistance_ohm: float
+    inductance_H: float
+    torque_constant_Nm_per_A: float
+    rotor_inertia_kgm2: float
+    nominal_torque_Nm: float  # max. continuous torque
+    max_current_A: float  # drive current limit used here (amplifier), not the motor's stall current
+
+    @property
+    def stall_torque_Nm(self) -> float:
+        return self.torque_constant_Nm_per_A * self.nominal_voltage_V / self.resistance_ohm
+
+    @property
+    def no_load_speed_rad_s(self) -> float:
+        return self.nominal_voltage_V / self.torque_constant_Nm_per_A
+
+
+MOTOR_CATALOG: dict[str, MotorDatasheet] = {
+    # maxon RE 30, 60 W, graphite brushes, 24 V winding (order no. 310007).
+    "maxon_RE30_60W_24V": MotorDatasheet(
+        name="maxon RE 30 60 W 24 V", source="maxon catalogue 2012/13, RE 30 page, 310007",
+        nominal_voltage_V=24.0, resistance_ohm=0.611, inductance_H=0.119e-3,
+        torque_constant_Nm_per_A=25.9e-3, rotor_inertia_kgm2=33.3e-7, nominal_torque_Nm=85.6e-3,
+        max_current_A=6.0),
+    # maxon RE 25, 20 W, graphite brushes, 24 V winding (order no. 118752).
+    "maxon_RE25_20W_24V": MotorDatasheet(
+        name="maxon RE 25 20 W 24 V", source="maxon catalogue 2012/13, RE 25 page, 118752",
+        nominal_voltage_V=24.0, resistance_ohm=2.32, inductance_H=0.24e-3,
+        torque_constant_Nm_per_A=23.4e-3, rotor_inertia_kgm2=10.8e-7, nominal_torque_Nm=28.8e-3,
+        max_current_A=4.0),
+    # Faulhaber 1724 T 012 SR, 12 V coreless micromotor.
+    "faulhaber_1724T012SR": MotorDatasheet(
+        name="Faulhaber 1724 T 012 SR", source="Faulhaber DC-Micromotors catalogue, series 1724 SR",
+        nominal_voltage_V=12.0, resistance_ohm=8.71, inductance_H=0.26e-3,
+        torque_constant_Nm_per_A=14.7e-3, rotor_inertia_kgm2=1.0e-7, nominal_torque_Nm=4.5e-3,
+        max_current_A=1.4),
+}
+
+HARMONIC_DRIVE_EFFICIENCY = 0.7
+
+
+def motor_for_rated_torque(rated_torque_Nm: float) -> MotorDatasheet:
+    """The smallest catalogue motor whose continuous torque covers a thesis rated torque [N*m]."""
+    fitting = [m for m in MOTOR_CATALOG.values() if m.nominal_torque_Nm >= rated_torque_Nm]
+    if not fitting:
+        return max(MOTOR_CATALOG.values(), key=lambda m: m.nominal_torque_Nm)
+    return min(fitting, key=lambda m: m.nominal_torque_Nm)
+
+
+@dataclass
+class DcMotorParams:
+    """Per-joint parameter arrays (length n), motor side, SI."""
+
+    torque_constant_Nm_per_A: np.ndarray
+    resistance_ohm: np.ndarray
+    gear_ratio: np.ndarray
+    voltage_limit_V: np.ndarray
+    current_limit_A: np.ndarray
+    efficiency: np.ndarray
+    inductance_H: np.ndarray | None = None  # None: quasi-static armature
+    back_drive_efficiency: float = 1.0
+    names: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        for k in ("torque_constant_Nm_per_A", "resistance_ohm", "gear_ratio", "voltage_limit_V",
+                  "current_limit_A", "efficiency"):
+            setattr(self, k, np.atleast_1d(np.asarray(getattr(self, k), dtype=float)))
+        n = self.n
+        for k in ("resistance_ohm", "gear_ratio", "voltage_limit_V", "current_limit_A", "efficiency"):
+            if getattr(self, k).shape != (n,):
+                raise ValueError(f"DcMotorParams.{k} has shape {getattr(self, k).shape}, expected ({n},)")
+        if self.inductance_H is not None:
+            self.inductance_H = np.atleast_1d(np.asarray(self.inductance_H, dtype=float))
+        if np.any(self.efficiency <= 0) or np.any(self.efficiency > 1):
+            raise ValueError("gearbox efficiency must be in (0, 1]")
+
+    @property
+    def n(self) -> int:
+        return len(self.torque_constant_Nm_per_A)
+
+    @classmethod
+    def from_datasheets(cls, sheets: list[MotorDatasheet], gear_ratio, *,
+                        efficiency: float = HARMONIC_DRIVE_EFFICIENCY,
+                        with_inductance: bool = False) -> "DcMotorParams":
+        return cls(
+            torque_constant_Nm_per_A=[s.torque_constant_Nm_per_A for s in sheets],
+            resistance_ohm=[s.resistance_ohm for s in sheets],
+            gear_ratio=np.broadcast_to(np.asarray(gear_ratio, float), (len(sheets),)).copy(),
+            voltage_limit_V=[s.nominal_voltage_V for s in sheets],
+            current_limit_A=[s.max_current_A for s in sheets],
+            efficiency=[efficiency] * len(sheets),
+            inductance_H=[s.inductance_H for s in sheets] if with_inductance else None,
+            names=[s.name for s in sheets],
+        )
+
+    @classmethod
+    def for_rated_torques(cls, rated_torque_Nm, gear_ratio, **kw) -> "DcMotorParams":
+        """Pick one catalogue motor per joint from the thesis's rated motor torques [N*m]."""
+        return cls.from_datasheets([motor_for_rated_torque(t) for t in np.atleast_1d(rated_torque_Nm)],
+                                   gear_ratio, **kw)
+
+    def joint_torque_per_volt_stall(self) -> np.ndarray:
+        """Static gain N*eta*Kt/R [N*m/V] at zero speed (motoring)."""
+        return self.gear_ratio * self.efficiency * self.torque_constant_Nm_per_A / self.resistance_ohm
+
+
+class DcMotorWithGear(LeafSystem):
+    """n DC motors with gears; see the module docstring for the model, ports and units."""
+
+    def __init__(self, params: DcMotorParams):
+        super().__init__()
+        self.params = p = params
+        n = p.n
+        self._n = n
+        self._Kt = p.torque_constant_Nm_per_A
+        self._R = p.resistance_ohm
+        self._N = p.gear_ratio
+        self._eta = p.efficiency
+        self._Vmax = p.voltage_limit_V
+        self._Imax = p.current_limit_A
+        self._L = p.inductance_H
+        self._Ke_N = self._Kt * self._N  # back EMF per joint speed [V*s/rad] (Ke = Kt in SI)
+        self._gain_motoring = self._N * self._eta
+        self._gain_backdriven = self._N / p.back_drive_efficiency
+        self._v_in = self.DeclareVectorInputPort("voltage_command", n)
+        self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
+        if self._L is not None:
+            self.DeclareContinuousState(n)
+        # One cached evaluation [v, i, tau_m, tau_j, P] per context serves all four outputs.
+        self._cache = self.DeclareCacheEntry(
+            "motor_signals", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(5 * n)),
+                                           calc=self._calc_signals),
+            {self.all_input_ports_ticket(), self.all_state_ticket()})
+        self.DeclareVectorOutputPort("joint_torque", n, self._calc_joint_torque)
+        self.DeclareVectorOutputPort("motor_torque", n, self._calc_motor_torque)
+        self.DeclareVectorOutputPort("current", n, self._calc_current)
+        self.DeclareVectorOutputPort("electrical_power", n, self._calc_power)
+
+    # --- model -----------------------------------------------------------------------------
+    def _voltage(self, context) -> np.ndarray:
+        return np.minimum(np.maximum(self._v_in.Eval(context), -self._Vmax), self._Vmax)
+
+    def DoCalcTimeDerivatives(self, context, derivatives):
+        if self._L is None:
+            return
+        v = self._voltage(context)
+        i = context.get_continuous_state_vector().CopyToVector()
+        i_dot = (v - self._R * i - self._Ke_N * self._qd_in.Eval(context)) / self._L
+        # Current limit as a hard stop of the state (the amplifier's current loop).
+        i_dot = np.where((i >= self._Imax) & (i_dot > 0), 0.0, i_dot)
+        i_dot = np.where((i <= -self._Imax) & (i_dot < 0), 0.0, i_dot)
+        derivatives.get_mutable_vector().SetFromVector(i_dot)
+
+    def _calc_signals(self, context, value):
+        v = self._voltage(context)
+        if self._L is None:
+            i = (v - self._Ke_N * self._qd_in.Eval(context)) / self._R
+        else:
+            i = context.get_continuous_state_vector().CopyToVector()
+        i = np.minimum(np.maximum(i, -self._Imax), self._Imax)
+        tau_m = self._Kt * i
+        motoring = tau_m * self._qd_in.Eval(context) >= 0.0
+        tau_j = tau_m * np.where(motoring, self._gain_motoring, self._gain_backdriven)
+        value.set_value(np.concatenate([v, i, tau_m, tau_j, v * i]))
+
+    def _signal(self, context, k: int) -> np.ndarray:
+        n = self._n
+        return self._cache.Eval(context)[k * n:(k + 1) * n]
+
+    def _calc_current(self, context, output: BasicVector):
+        output.SetFromVector(self._signal(context, 1))
+
+    def _calc_motor_torque(self, context, output: BasicVector):
+        output.SetFromVector(self._signal(context, 2))
+
+    def _calc_joint_torque(self, context, output: BasicVector):
+        output.SetFromVector(self._signal(context, 3))
+
+    def _calc_power(self, context, output: BasicVector):
+        output.SetFromVector(self._signal(context, 4))

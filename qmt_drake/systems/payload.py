@@ -1,0 +1,114 @@
+"""The carried part as a free body in friction contact with the hand's attraction face.
+
+Not a LeafSystem: `add_payload` adds to a MultibodyPlant (before Finalize)
+  * on the hand body: a thin box whose lower face is the hand's attraction face (hand frame z = 0,
+    face normal -z), the contact partner;
+  * the payload: a free rigid body whose frame P has its origin at the centre of the payload's
+    attraction face, z_P pointing out of the face (towards the hand when seated); its centre of mass
+    sits r_G below the face, at (0, 0, -r_G) in P;
+  * contact: `n_contact_points` small spheres whose tops lie in the payload's face plane, on a ring
+    of radius `contact_radius_m` (the core end's radius: the part touches the core only), so the part
+    can slide along the face and tip about the ring's edge. Point contact with per-geometry stiffness
+    and Hunt-Crossley dissipation (NOTES.md: discrete plant, kLagged, spheres at the face corners).
+
+Payload shapes (seed 000): chapter 2 carries a steel M8 bolt, 40 mm long, 22 g, head on the face
+(Fig. 2.5); chapters 3-4 a 30 g steel part (Fig. 3.4, no dimensions printed), modelled as a steel
+cylinder whose length is 2 r_G (r_G = 28 mm, Table 4.1) and whose radius follows from its mass.
+The mass and r_G always come from the scenario; the shape only sets the rotational inertia and
+the visual.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import Box, Cylinder, ProximityProperties, Sphere
+from pydrake.geometry import AddContactMaterial
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import CoulombFriction
+from pydrake.multibody.tree import SpatialInertia, UnitInertia
+
+STEEL_DENSITY_KG_M3 = 7850.0
+
+
+@dataclass(frozen=True)
+class PayloadSpec:
+    """Payload and contact parameters (SI)."""
+
+    name: str
+    mass_kg: float
+    com_offset_m: float  # r_G: attraction face -> centre of mass
+    length_m: float  # along z_P, for inertia and visual
+    radius_m: float  # body radius, for inertia and visual
+    face_radius_m: float  # radius of the payload's attraction face (bolt head / part end)
+    contact_radius_m: float = 3.9e-3  # ring of contact points: the core end (d = 7.8 mm)
+    n_contact_points: int = 8
+    sphere_radius_m: float = 0.5e-3
+    friction: float = 0.3  # steel on iron, dry, dynamic (handbook range 0.3-0.6; lower end)
+    point_stiffness_N_per_m: float = 1.0e6  # per sphere; the hand face has the same, in series
+    hunt_crossley_dissipation_s_per_m: float = 5.0
+
+    @classmethod
+    def m8_bolt(cls, mass_kg: float = 0.022, com_offset_m: float = 0.0151, **kw) -> "PayloadSpec":
+        # M8 x 40 hexagon bolt, head (13 mm across flats, 5.3 mm) against the face.
+        return cls("M8x40 bolt", mass_kg, com_offset_m, length_m=0.0453, radius_m=0.004, face_radius_m=6.5e-3,
+                   **kw)
+
+    @classmethod
+    def steel_cylinder(cls, mass_kg: float = 0.030, com_offset_m: float = 0.028, **kw) -> "PayloadSpec":
+        length = 2.0 * com_offset_m
+        radius = math.sqrt(mass_kg / (STEEL_DENSITY_KG_M3 * math.pi * length))
+        return cls("steel part", mass_kg, com_offset_m, length_m=length, radius_m=radius, face_radius_m=radius,
+                   **kw)
+
+    @classmethod
+    def for_scenario(cls, scenario, **kw) -> "PayloadSpec":
+        m = float(scenario.payload.mass_kg)
+        r_g = float(scenario.payload.com_offset_m)
+        if abs(m - 0.022) < 1e-6:
+            return cls.m8_bolt(m, r_g, **kw)
+        return cls.steel_cylinder(m, r_g, **kw)
+
+    def spatial_inertia_about_origin(self) -> SpatialInertia:
+        """Solid cylinder of the spec's length and radius, centred on the COM at (0,0,-r_G) in P."""
+        unit = UnitInertia.SolidCylinder(self.radius_m, self.length_m, [0.0, 0.0, 1.0])
+        return SpatialInertia.MakeFromCentralInertia(
+            self.mass_kg, np.array([0.0, 0.0, -self.com_offset_m]), unit * self.mass_kg)
+
+
+def _proximity(spec: PayloadSpec) -> ProximityProperties:
+    props = ProximityProperties()
+    AddContactMaterial(dissipation=spec.hunt_crossley_dissipation_s_per_m,
+                       point_stiffness=spec.point_stiffness_N_per_m,
+                       friction=CoulombFriction(spec.friction, spec.friction), properties=props)
+    return props
+
+
+def add_payload(plant, spec: PayloadSpec, hand_body, *, name: str = "payload", model_instance=None):
+    """Add the hand's face geometry and the free payload body; returns the payload RigidBody.
+
+    The seated pose of the payload in the hand frame is the identity (`seated_pose_in_hand`)."""
+    if model_instance is None:
+        model_instance = plant.AddModelInstance(name)
+    props = _proximity(spec)
+    face_half = 8.0e-3
+    face_h = 4.0e-3
+    plant.RegisterCollisionGeometry(hand_body, RigidTransform([0.0, 0.0, face_h / 2]),
+                                    Box(2 * face_half, 2 * face_half, face_h), "hand_face", props)
+    body = plant.AddRigidBody(name, model_instance, spec.spatial_inertia_about_origin())
+    for k in range(spec.n_contact_points):
+        a = 2.0 * math.pi * k / spec.n_contact_points
+        p = [spec.contact_radius_m * math.cos(a), spec.contact_radius_m * math.sin(a), -spec.sphere_radius_m]
+        plant.RegisterCollisionGeometry(body, RigidTransform(p), Sphere(spec.sphere_radius_m),
+                                        f"{name}_contact_{k}", props)
+    plant.RegisterVisualGeometry(body, RigidTransform([0.0, 0.0, -spec.length_m / 2]),
+                                 Cylinder(spec.radius_m, spec.length_m), f"{name}_visual",
+                                 np.array([0.55, 0.55, 0.6, 1.0]))
+    return body
+
+
+def seated_pose_in_hand() -> RigidTransform:
+    """X_HP of a payload seated centred on the face (sphere tops in the face plane)."""
+    return RigidTransform()

@@ -1,0 +1,106 @@
+"""Transfer monitor: payload slip, tilt, gap and detachment; tracking error; motor peaks; energy.
+
+Sampled every `period_s` (a periodic discrete update; the running extrema live in the state).
+
+    slip      in-plane (hand x-y) distance of the payload's face centre from its seated position [m]
+    tilt      angle between the payload's face normal and the hand's face normal [rad]
+    gap       distance of the payload's face centre below the hand's face plane [m]
+    detached  first sample time at which gap > detach_gap_m or slip > detach_slip_m [s]
+    tracking  max over joints and time of |q_des - q| [rad]
+    motor     max |motor torque| per motor [N*m]
+    energy    integral of the summed electrical power [J] (net: regeneration counts negative)
+
+Ports
+    inputs
+        body_poses        abstract, MultibodyPlant.get_body_poses_output_port()
+        arm_state         (2n,) [rad, rad/s]  the arm model instance's state
+        desired_state     (2n,) [rad, rad/s]
+        motor_torque      (n,)  [N*m]
+        electrical_power  (n,)  [W]
+    outputs
+        slip              (1,) [m]     current slip
+        tilt              (1,) [rad]   current tilt
+        gap               (1,) [m]     current gap
+        summary           (6+n,)       [max_slip_m, max_tilt_rad, detached_at_s (NaN if never),
+                                        max_tracking_error_rad, energy_J, max_gap_m,
+                                        peak_motor_torque_Nm (n)]   (the `SUMMARY_FIELDS` order)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import LeafSystem
+
+SUMMARY_FIELDS = ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_error_rad", "energy_J",
+                  "max_gap_m")
+
+
+def relative_payload_motion(X_WH: RigidTransform, X_WP: RigidTransform, X_HP0: RigidTransform):
+    """(slip [m], tilt [rad], gap [m]) of payload pose X_WP relative to the seated X_HP0 in hand H."""
+    R_WH = X_WH.rotation().matrix()
+    R_H0 = X_HP0.rotation().matrix()
+    d = R_WH.T @ (X_WP.translation() - X_WH.translation()) - X_HP0.translation()
+    # Payload z axis in H, compared with the seated one (both unit vectors).
+    z_cos = float((R_WH.T @ X_WP.rotation().matrix()[:, 2]) @ R_H0[:, 2])
+    return math.hypot(d[0], d[1]), math.acos(max(-1.0, min(1.0, z_cos))), max(-d[2], 0.0)
+
+
+class TransferMonitor(LeafSystem):
+    """See the module docstring for quantities, ports and units."""
+
+    def __init__(self, n_joints: int, hand_body_index, payload_body_index, *, period_s: float = 1e-3,
+                 seated_pose_in_hand: RigidTransform | None = None, detach_gap_m: float = 2e-3,
+                 detach_slip_m: float = 5e-3):
+        super().__init__()
+        n = n_joints
+        self._n = n
+        self._hand = int(hand_body_index)
+        self._payload = int(payload_body_index)
+        self._T = float(period_s)
+        self._X_HP0 = seated_pose_in_hand or RigidTransform()
+        self._detach_gap = detach_gap_m
+        self._detach_slip = detach_slip_m
+        self._poses_in = self.DeclareAbstractInputPort("body_poses", AbstractValue.Make([RigidTransform()]))
+        self._x_in = self.DeclareVectorInputPort("arm_state", 2 * n)
+        self._xd_in = self.DeclareVectorInputPort("desired_state", 2 * n)
+        self._tau_in = self.DeclareVectorInputPort("motor_torque", n)
+        self._p_in = self.DeclareVectorInputPort("electrical_power", n)
+        init = np.zeros(len(SUMMARY_FIELDS) + n)
+        init[2] = np.nan
+        self._s = self.DeclareDiscreteState(init)
+        self.DeclarePeriodicDiscreteUpdateEvent(self._T, 0.0, self._update)
+        self.DeclareVectorOutputPort("slip", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[0]))
+        self.DeclareVectorOutputPort("tilt", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[1]))
+        self.DeclareVectorOutputPort("gap", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[2]))
+        self.DeclareStateOutputPort("summary", self._s)
+
+    def _motion(self, context):
+        poses = self._poses_in.Eval(context)
+        return relative_payload_motion(poses[self._hand], poses[self._payload], self._X_HP0)
+
+    def _update(self, context, discrete_state):
+        s = context.get_discrete_state(self._s).get_value().copy()
+        slip, tilt, gap = self._motion(context)
+        n = self._n
+        x = self._x_in.Eval(context)
+        xd = self._xd_in.Eval(context)
+        s[0] = max(s[0], slip)
+        s[1] = max(s[1], tilt)
+        if math.isnan(s[2]) and (gap > self._detach_gap or slip > self._detach_slip):
+            s[2] = context.get_time()
+        s[3] = max(s[3], float(np.max(np.abs(xd[:n] - x[:n]))))
+        s[4] += self._T * float(np.sum(self._p_in.Eval(context)))
+        s[5] = max(s[5], gap)
+        s[6:] = np.maximum(s[6:], np.abs(self._tau_in.Eval(context)))
+        discrete_state.get_mutable_vector(self._s).SetFromVector(s)
+
+    @staticmethod
+    def unpack(summary: np.ndarray) -> dict:
+        """The summary vector as a dict of named values (peak_motor_torque_Nm is an array)."""
+        d = {k: float(summary[i]) for i, k in enumerate(SUMMARY_FIELDS)}
+        d["peak_motor_torque_Nm"] = np.asarray(summary[len(SUMMARY_FIELDS):], float)
+        return d

@@ -1,0 +1,97 @@
+"""Joint trajectories as every planner returns them, and their conversion to Drake.
+
+A JointTrajectory has `duration_s`, `breakpoints_s` (0, the instants where acceleration may jump,
+and the duration), `n_dof`, and `evaluate(t_s, t_piece_s)` giving q, qd, qdd with the formula of
+the piece that contains `t_piece_s` (so one-sided values at a boundary can be asked for). After
+the duration the arm rests at the final position.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.trajectories import PiecewisePolynomial
+
+
+class JointTrajectory:
+    duration_s: float
+    breakpoints_s: np.ndarray
+    n_dof: int
+
+    def evaluate(self, t_s, t_piece_s):  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def sample(self, t_s):
+        """q, qd, qdd (len(t), n) at times t (right-continuous)."""
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        bp = self.breakpoints_s
+        j = np.clip(np.searchsorted(bp, t, side="right") - 1, 0, len(bp) - 2)
+        mid = np.where(t >= bp[-1], bp[-1] + 1.0, 0.5 * (bp[j] + bp[j + 1]))
+        return self.evaluate(t, mid)
+
+    def to_piecewise_polynomial(self, rate_hz: float = 1000.0) -> PiecewisePolynomial:
+        """Cubic Hermite interpolation of q through samples at rate_hz (and every breakpoint),
+        with the exact qd at each sample: a Drake trajectory for TrajectorySource and friends."""
+        t = np.union1d(np.linspace(0.0, self.duration_s,
+                                   int(np.ceil(self.duration_s * rate_hz)) + 1), self.breakpoints_s)
+        q, qd, _ = self.sample(t)
+        # At the end point sample() gives the resting value; q is continuous there anyway.
+        return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
+
+
+class FamilyTrajectory(JointTrajectory):
+    """One gene vector of a trajectory family (exact formulas)."""
+
+    def __init__(self, family, genes) -> None:
+        self.family = family
+        self.genes = np.atleast_2d(np.asarray(genes, dtype=float))
+        self.breakpoints_s = np.unique(family.breakpoints_s(self.genes)[0])
+        self.duration_s = float(family.motion_time_s(self.genes)[0])
+        self.n_dof = family.n_dof
+
+    def evaluate(self, t_s, t_piece_s):
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        return self.family.evaluate(self.genes, np.zeros(t.size, dtype=int), t,
+                                    np.broadcast_to(t_piece_s, t.shape).astype(float))
+
+
+class PolynomialTrajectory(JointTrajectory):
+    """A Drake PiecewisePolynomial of q starting at t = 0 (its derivatives give qd, qdd)."""
+
+    def __init__(self, pp: PiecewisePolynomial, breakpoints_s=None) -> None:
+        self.pp = pp
+        self.pp_d = pp.derivative(1)
+        self.pp_dd = pp.derivative(2)
+        self.duration_s = float(pp.end_time() - pp.start_time())
+        self.n_dof = pp.rows()
+        bp = np.asarray(pp.get_segment_times() if breakpoints_s is None else breakpoints_s)
+        self.breakpoints_s = np.unique(np.concatenate([[0.0, self.duration_s], bp]))
+
+    def evaluate(self, t_s, t_piece_s):
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        tp = np.broadcast_to(t_piece_s, t.shape)
+        rest = tp >= self.duration_s
+        # One-sided values: keep the time 1e-9 s inside the piece it belongs to.
+        bp = self.breakpoints_s
+        j = np.clip(np.searchsorted(bp, tp, side="right") - 1, 0, len(bp) - 2)
+        te = np.clip(t, bp[j] + 1e-9, bp[j + 1] - 1e-9)
+        te = np.where(rest, self.duration_s, te)
+        q = self.pp.vector_values(te).T
+        qd = np.where(rest[:, None], 0.0, self.pp_d.vector_values(te).T)
+        qdd = np.where(rest[:, None], 0.0, self.pp_dd.vector_values(te).T)
+        return q, qd, qdd
+
+
+class SampledTrajectory(JointTrajectory):
+    """A trajectory known by samples t, q, qd (cubic Hermite between them): what a plan file
+    stores for planners without a closed form."""
+
+    def __init__(self, t_s, q, qd) -> None:
+        t_s = np.asarray(t_s, dtype=float)
+        self.inner = PolynomialTrajectory(PiecewisePolynomial.CubicHermite(
+            t_s, np.asarray(q).T, np.asarray(qd).T), breakpoints_s=[t_s[0], t_s[-1]])
+        self.duration_s = self.inner.duration_s
+        self.breakpoints_s = self.inner.breakpoints_s
+        self.n_dof = self.inner.n_dof
+
+    def evaluate(self, t_s, t_piece_s):
+        return self.inner.evaluate(t_s, t_piece_s)

@@ -1,0 +1,165 @@
+"""Co-simulation of the chapter-4 transfer: the GA plan is carried at scale 1.0 and lost at 0.8; a
+hand-composed diagram reproduces build_transfer_diagram; errors are one clear line."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, TrajectorySource
+
+from qmt_drake.cosim import (GenesPlan, HAND_COIL, MAGNET_EFFECTIVE_GAP_M, build_transfer_diagram,
+                             calibrated_coil_current_A, motor_params_for, pid_gains_for, reference_trajectories,
+                             run_simulate, set_initial_state, simulate_transfer)
+from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.scenario import load_scenario
+from qmt_drake.systems.dc_motor import DcMotorWithGear
+from qmt_drake.systems.electromagnet import ElectromagnetForce, MagnetParams
+from qmt_drake.systems.joint_tracking import JointPidController
+from qmt_drake.systems.payload import PayloadSpec, add_payload
+from qmt_drake.systems.transfer_monitor import TransferMonitor
+
+GA_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 section 4.4
+
+
+@pytest.fixture(scope="module")
+def sc4():
+    return load_scenario("thesis-ch4")
+
+
+@pytest.fixture(scope="module")
+def plan4(sc4):
+    return GenesPlan(sc4, GA_GENES_CH4, method="thesis_ga")
+
+
+@pytest.fixture(scope="module")
+def carried(sc4, plan4):
+    return simulate_transfer(sc4, plan4, time_scale=1.0)
+
+
+def test_ga_plan_is_carried_at_scale_1(carried):
+    r = carried
+    assert r.held and r.detached_at_s is None
+    assert r.max_slip_m < 1e-3
+    assert r.peak_moment_ratio_planned == pytest.approx(0.9996, abs=2e-3)  # the GA touches its limit
+    # Motors, gears and PD track the plan: error and torques of the thesis's order (rated 0.064/0.032 N m).
+    assert r.max_tracking_error_rad < 0.02
+    assert np.all(r.peak_motor_torque_Nm < load_scenario("thesis-ch4").limits.motor_torque_limit_Nm)
+    assert 0.0 < r.energy_J
+
+
+def test_tracking_error_series_matches_the_summary(carried):
+    s = carried.series
+    n = 2
+    logged = np.max(np.abs(s["desired_state"][:, :n] - s["arm_state"][:, :n]))
+    # The log samples every 5 ms, the monitor every 1 ms: the log's maximum cannot exceed it.
+    assert logged <= carried.max_tracking_error_rad + 1e-12
+    assert logged > 0.8 * carried.max_tracking_error_rad
+
+
+def test_same_plan_faster_is_lost(sc4, plan4):
+    r = simulate_transfer(sc4, plan4, time_scale=0.8, keep_series=False)
+    assert r.peak_moment_ratio_planned == pytest.approx(0.9996 / 0.64, rel=3e-3)
+    assert not r.held
+    assert r.detached_at_s is not None or r.max_slip_m > 1e-3
+
+
+def test_hand_composed_diagram_gives_the_same_result(sc4, plan4, carried):
+    """Compose the published systems in a fresh DiagramBuilder, as user code would."""
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(
+        MultibodyPlantConfig(time_step=1e-3, discrete_contact_approximation="lagged", contact_model="point",
+                             use_sampled_output_ports=False), builder)
+    arm = Parser(plant).AddModels(str(sc4.urdf_path))[0]
+    hand = plant.GetBodyByName("hand", arm)
+    spec = PayloadSpec.steel_cylinder(sc4.payload.mass_kg, sc4.payload.com_offset_m)
+    payload = add_payload(plant, spec, hand)
+    plant.Finalize()
+    motor_params = motor_params_for(sc4)
+    pp_q, _, t_end = reference_trajectories(plan4, 1.0, lead_s=0.2)
+    ref = builder.AddSystem(TrajectorySource(pp_q, output_derivative_order=1))
+    pid = builder.AddSystem(JointPidController(pid_gains_for(sc4), motor_params.gear_ratio,
+                                               motor_params.voltage_limit_V))
+    motors = builder.AddSystem(DcMotorWithGear(motor_params))
+    split = builder.AddSystem(Demultiplexer([2, 2]))
+    magnet = builder.AddSystem(ElectromagnetForce(
+        MagnetParams(HAND_COIL["ch4"], MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m), hand.index(), payload.index()))
+    coil = builder.AddSystem(ConstantVectorSource([calibrated_coil_current_A(sc4, spec)]))
+    monitor = builder.AddSystem(TransferMonitor(2, hand.index(), payload.index()))
+    x = plant.get_state_output_port(arm)
+    builder.Connect(ref.get_output_port(), pid.GetInputPort("desired_state"))
+    builder.Connect(x, pid.GetInputPort("estimated_state"))
+    builder.Connect(pid.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
+    builder.Connect(x, split.get_input_port())
+    builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
+    builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+    builder.Connect(plant.get_body_poses_output_port(), magnet.GetInputPort("body_poses"))
+    builder.Connect(coil.get_output_port(), magnet.GetInputPort("coil_current"))
+    builder.Connect(magnet.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
+    builder.Connect(x, monitor.GetInputPort("arm_state"))
+    builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
+    builder.Connect(motors.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
+    builder.Connect(motors.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
+    diagram = builder.Build()
+    sim = Simulator(diagram)
+    ctx = sim.get_mutable_context()
+    q0 = plan4.sample(np.array([0.0]))[0][0]
+    set_initial_state(plant, plant.GetMyMutableContextFromRoot(ctx), arm, hand, payload, q0)
+    sim.AdvanceTo(t_end + 0.5)
+    mine = TransferMonitor.unpack(monitor.GetOutputPort("summary").Eval(monitor.GetMyContextFromRoot(ctx)))
+    assert math.isnan(mine["detached_at_s"]) == (carried.detached_at_s is None)
+    assert mine["max_slip_m"] == pytest.approx(carried.max_slip_m, rel=1e-6, abs=1e-12)
+    assert mine["max_tilt_rad"] == pytest.approx(carried.max_tilt_rad, rel=1e-6, abs=1e-12)
+    assert mine["max_tracking_error_rad"] == pytest.approx(carried.max_tracking_error_rad, rel=1e-6)
+    np.testing.assert_allclose(mine["peak_motor_torque_Nm"], carried.peak_motor_torque_Nm, rtol=1e-6)
+    assert mine["energy_J"] == pytest.approx(carried.energy_J, rel=1e-6)
+
+
+def test_diagram_exports_the_user_ports(sc4, plan4):
+    td = build_transfer_diagram(sc4, plan4, log_period_s=0)
+    names = {td.diagram.get_output_port(i).get_name() for i in range(td.diagram.num_output_ports())}
+    assert {"desired_state", "arm_state", "voltage_command", "joint_torque", "motor_torque", "current",
+            "electrical_power", "attraction_force", "slip", "tilt", "gap", "summary"} <= names
+
+
+def test_dof_mismatch_is_one_clear_line(sc4):
+    plan3 = GenesPlan(load_scenario("thesis-ch2"), (1.59, 0.51))
+    with pytest.raises(QmtInputError) as exc:
+        build_transfer_diagram(sc4, plan3)
+    msg = str(exc.value)
+    assert "\n" not in msg and "3 joints" in msg and "has 2" in msg
+
+
+def test_diverging_loop_names_the_time(sc4, plan4):
+    with pytest.raises(QmtSimulationError, match=r"^simulation diverged at t = \d+\.\d{3} s") as exc:
+        simulate_transfer(sc4, plan4, time_step_s=0.03, keep_series=False)
+    assert "\n" not in str(exc.value)
+
+
+def test_bad_time_scale_is_rejected(sc4, plan4):
+    with pytest.raises(QmtInputError, match="time scale"):
+        build_transfer_diagram(sc4, plan4, time_scale=0.0)
+
+
+def test_run_simulate_returns_the_cli_keys(sc4, plan4, carried):
+    d = run_simulate(sc4, plan4, time_scale=1.0)
+    for k in ("held", "max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_error_rad",
+              "peak_motor_torque_ratio", "peak_moment_ratio_planned", "sim_time_s", "sim_wall_s", "real_time_factor"):
+        assert k in d
+    assert d["held"] is True and d["detached_at_s"] is None
+    assert d["max_slip_m"] == pytest.approx(carried.max_slip_m, rel=1e-9)
+
+
+def test_feedforward_cuts_the_velocity_lag(sc4, plan4, carried):
+    # Without feedforward the back EMF (b = N^2 eta Kt^2 / R) makes a velocity lag b*qd/K; feeding
+    # the desired speed's back EMF forward removes it, and inverse dynamics keeps it removed.
+    emf = simulate_transfer(sc4, plan4, back_emf_feedforward=True, keep_series=False)
+    both = simulate_transfer(sc4, plan4, back_emf_feedforward=True, inverse_dynamics_feedforward=True,
+                             keep_series=False)
+    assert emf.max_tracking_error_rad < carried.max_tracking_error_rad / 10
+    assert both.max_tracking_error_rad < carried.max_tracking_error_rad / 10
+    assert emf.held and both.held

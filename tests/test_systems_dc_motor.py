@@ -1,0 +1,97 @@
+"""DcMotorWithGear against closed forms of a DC motor: stall torque, no-load speed, limits, L/R."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from qmt_drake.systems.dc_motor import MOTOR_CATALOG, DcMotorParams, DcMotorWithGear
+
+
+def _params(**kw):
+    sheets = [MOTOR_CATALOG["maxon_RE30_60W_24V"], MOTOR_CATALOG["maxon_RE25_20W_24V"]]
+    return DcMotorParams.from_datasheets(sheets, 100.0, **kw)
+
+
+def _outputs(sys, v, qd):
+    ctx = sys.CreateDefaultContext()
+    sys.GetInputPort("voltage_command").FixValue(ctx, v)
+    sys.GetInputPort("joint_velocity").FixValue(ctx, qd)
+    return {name: sys.GetOutputPort(name).Eval(ctx) for name in
+            ("joint_torque", "motor_torque", "current", "electrical_power")}
+
+
+def test_catalogue_numbers_are_self_consistent():
+    # A datasheet's stall torque is Kt*V/R and its no-load speed V/Ke: the two are tied by the
+    # same three numbers, so a mistyped entry shows up as an implausible stall torque / speed.
+    for m in MOTOR_CATALOG.values():
+        assert m.nominal_torque_Nm < m.stall_torque_Nm < 30 * m.nominal_torque_Nm, m.name
+        rpm = m.no_load_speed_rad_s * 60 / (2 * math.pi)
+        assert 3000 < rpm < 15000, m.name
+
+
+def test_stall_torque_current_and_power_closed_form():
+    p = _params()
+    sys = DcMotorWithGear(p)
+    v = np.array([1.5, -2.0])
+    out = _outputs(sys, v, np.zeros(2))
+    i = v / p.resistance_ohm
+    np.testing.assert_allclose(out["current"], i, rtol=1e-12)
+    np.testing.assert_allclose(out["motor_torque"], p.torque_constant_Nm_per_A * i, rtol=1e-12)
+    # Zero speed counts as motoring: the gear delivers N * eta * Kt * V / R.
+    np.testing.assert_allclose(out["joint_torque"], 100 * 0.7 * p.torque_constant_Nm_per_A * i, rtol=1e-12)
+    np.testing.assert_allclose(out["electrical_power"], v**2 / p.resistance_ohm, rtol=1e-12)
+
+
+def test_no_load_speed_gives_zero_torque():
+    p = _params()
+    sys = DcMotorWithGear(p)
+    v = np.array([3.0, 5.0])
+    qd_no_load = v / (p.torque_constant_Nm_per_A * p.gear_ratio)  # joint side: V / (Ke N)
+    out = _outputs(sys, v, qd_no_load)
+    np.testing.assert_allclose(out["current"], 0.0, atol=1e-12)
+    # Halfway to no-load speed: half the stall current.
+    out = _outputs(sys, v, qd_no_load / 2)
+    np.testing.assert_allclose(out["current"], v / p.resistance_ohm / 2, rtol=1e-12)
+
+
+def test_voltage_and_current_limits():
+    p = _params()
+    sys = DcMotorWithGear(p)
+    out = _outputs(sys, np.array([100.0, -100.0]), np.zeros(2))
+    # 24 V on 0.611 ohm would be 39 A: the 6 A drive limit holds; RE 25 gets 24 V / 2.32 ohm = 10.3 A -> 4 A.
+    np.testing.assert_allclose(out["current"], [6.0, -4.0])
+    np.testing.assert_allclose(out["electrical_power"], [24.0 * 6.0, 24.0 * 4.0])
+
+
+def test_back_driven_gear_uses_back_drive_efficiency():
+    p = _params(efficiency=0.7)
+    p.back_drive_efficiency = 0.5
+    sys = DcMotorWithGear(p)
+    out = _outputs(sys, np.array([-1.0, 1.0]), np.array([0.01, -0.01]))  # torque opposes motion
+    np.testing.assert_allclose(out["joint_torque"], 100 * out["motor_torque"] / 0.5, rtol=1e-12)
+
+
+def test_inductance_current_rises_with_time_constant_L_over_R():
+    p = _params(with_inductance=True)
+    sys = DcMotorWithGear(p)
+    sim = Simulator(sys)
+    ctx = sim.get_mutable_context()
+    v = np.array([0.5, 0.5])
+    sys.GetInputPort("voltage_command").FixValue(ctx, v)
+    sys.GetInputPort("joint_velocity").FixValue(ctx, np.zeros(2))
+    tau = p.inductance_H / p.resistance_ohm
+    sim.get_mutable_integrator().set_target_accuracy(1e-8)
+    for k, tk in enumerate(tau):
+        ctx.SetTime(0.0)
+        ctx.SetContinuousState(np.zeros(2))
+        sim.Initialize()
+        sim.AdvanceTo(tk)
+        i = sys.GetOutputPort("current").Eval(ctx)[k]
+        assert i == pytest.approx(v[k] / p.resistance_ohm[k] * (1 - math.exp(-1.0)), rel=1e-4)
+
+
+def test_shape_mismatch_is_rejected():
+    with pytest.raises(ValueError, match="resistance_ohm"):
+        DcMotorParams([0.02, 0.02], [1.0], [100, 100], [24, 24], [5, 5], [0.7, 0.7])
