@@ -172,10 +172,14 @@ class ArmModel:
 
         Planar recursive Newton-Euler: gravity is along -z and does no work on z-axis joints.
         """
+        return self.tip_acceleration_and_joint_torque(q, qd, qdd)[1]
+
+    def tip_acceleration_and_joint_torque(self, q, qd, qdd):
+        """(tip acceleration (..., 2) m/s^2, joint torque (..., n) N*m) from one forward pass."""
         q = np.asarray(q, dtype=float)
         qd = np.asarray(qd, dtype=float)
         qdd = np.asarray(qdd, dtype=float)
-        phi, w, al, per_link, _, _, _ = self._chain(q, qd, qdd)
+        phi, w, al, per_link, _, _, a_tip = self._chain(q, qd, qdd)
         n = self.n_dof
         tau = np.empty(np.broadcast_shapes(q.shape, qd.shape, qdd.shape))
         f_next = np.zeros(tau.shape[:-1] + (2,))  # force link i+1 takes from link i, world
@@ -191,7 +195,7 @@ class ArmModel:
                    + n_next + _cross(d, f_next))
             tau[..., i] = n_i
             f_next, n_next = f_i, n_i
-        return tau + self.reflected_inertia_kgm2 * qdd
+        return a_tip, tau + self.reflected_inertia_kgm2 * qdd
 
     def motor_torque(self, q, qd, qdd) -> np.ndarray:
         """Motor-side torque, N*m: joint torque / gear ratio (eq. 2-34)."""

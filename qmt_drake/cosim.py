@@ -19,7 +19,17 @@ limit equals the geometric mean of the thesis's last-success and first-failure m
 normal force times rho, or slides when m a exceeds mu times it). Everything else is shared by
 both hands: the magnet law and its equivalent gap g0, friction, contact stiffness, contact radius
 (the 7.8 mm core of both hands). The simulated thresholds are then an outcome of the dynamics,
-checked by studies/cosim_calibration.py against every row of both tables.
+checked by studies/cosim_calibration.py against every row of both tables (result: ch.2 between
+3.227e-5 and 3.230e-5 N*m, ch.4 between 0.640e-3 and 0.641e-3 N*m, all 14 rows as in the thesis;
+ch.4 sits 1% above its lower boundary because the moving arm tips the part earlier than the static
+bound). The two calibrated currents cannot come from one supply voltage: the ch.2 coil would need
+0.41 of the ch.4 coil's voltage (see out/cosim_calibration.json, shared_voltage_counterfactual).
+
+Assumptions worth knowing: MAGNET_EFFECTIVE_GAP_M (g0 = 0.5 mm) is assumed, not measured; it sets
+how fast the pull fades once the part tips, i.e. how surely a tipped part falls. Friction creep of
+the discrete contact solver (0.1 mm for ch.2, 0.35 mm for ch.4 at a 1 ms step, halving with the
+step) shows up as slip on payloads that are held. The stiff thesis-gain position loop and the
+contact need the 1 ms step: at 2 ms the same GA move loses the part (studies/bench_cosim.py).
 """
 
 from __future__ import annotations
@@ -67,9 +77,10 @@ def hold_lever_m(payload: PayloadSpec) -> float:
     return min(payload.contact_radius_m, payload.friction * payload.com_offset_m)
 
 
-def calibrated_coil_current_A(scenario, payload: PayloadSpec, *, effective_gap_m: float = MAGNET_EFFECTIVE_GAP_M,
+def calibrated_coil_current_A(scenario, payload: PayloadSpec, *, effective_gap_m: float | None = None,
                               boundary_Nm: tuple[float, float] | None = None) -> float:
     """The calibration rule (module docstring): coil current [A] for this scenario's hand."""
+    effective_gap_m = MAGNET_EFFECTIVE_GAP_M if effective_gap_m is None else effective_gap_m
     hand = hand_of(scenario)
     lo, hi = boundary_Nm or SLIP_BOUNDARIES_NM[hand]
     tau_star = math.sqrt(lo * hi)
@@ -140,9 +151,10 @@ def _zero_spatial_velocity():
     return SpatialVelocity(np.zeros(3), np.zeros(3))
 
 
-def motor_params_for(scenario) -> DcMotorParams:
+def motor_params_for(scenario, with_inductance: bool = False) -> DcMotorParams:
     """One catalogue motor per joint, chosen by the scenario's rated motor torque (dc_motor.py)."""
-    return DcMotorParams.for_rated_torques(scenario.limits.motor_torque_limit_Nm, scenario.gear_ratio)
+    return DcMotorParams.for_rated_torques(scenario.limits.motor_torque_limit_Nm, scenario.gear_ratio,
+                                           with_inductance=with_inductance)
 
 
 def pid_gains_for(scenario) -> PidGains:
@@ -156,10 +168,17 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
                            lead_s: float = 0.2, settle_s: float = 0.5, coil_current_A: float | None = None,
                            payload_spec: PayloadSpec | None = None, inverse_dynamics_feedforward: bool = False,
                            back_emf_feedforward: bool = False, log_period_s: float = 5e-3, monitor_period_s: float | None = None,
-                           meshcat: Meshcat | None = None) -> TransferDiagram:
-    """One Diagram for the whole closed loop. Exported output ports: desired_state, arm_state,
-    voltage_command, joint_torque, motor_torque, current, electrical_power, attraction_force, slip,
-    tilt, gap, summary (TransferMonitor), payload_pose... see `TransferDiagram.diagram`."""
+                           motor_inductance: bool = False, meshcat: Meshcat | None = None) -> TransferDiagram:
+    """One Diagram for the whole closed loop (see the module docstring).
+
+    Exported output ports (units as in the systems' docstrings): desired_state (2n) [rad, rad/s],
+    arm_state (2n), voltage_command (n) [V], joint_torque (n) [N*m], motor_torque (n) [N*m],
+    current (n) [A], electrical_power (n) [W], attraction_force (1) [N], slip (1) [m], tilt (1) [rad],
+    gap (1) [m], summary (TransferMonitor.SUMMARY_FIELDS + peak motor torques), body_poses,
+    contact_results. Raises QmtInputError (one line) when the plan's joint count differs from the
+    arm's. coil_current_A=None uses the calibration rule; lead_s of rest precedes the motion and
+    settle_s follows it. motor_inductance=True gives the armature current a continuous state
+    (L di/dt = v - R i - Ke w; L/R ~ 0.1-0.2 ms, so the integrator takes small steps: slow)."""
     n_plan = int(plan.n_dof)
     builder = DiagramBuilder()
     # Live output ports: with sampled ones, discrete-update systems (monitor, PID integral) reading
@@ -179,7 +198,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
 
     coil = HAND_COIL[hand_of(scenario)]
     current = calibrated_coil_current_A(scenario, spec) if coil_current_A is None else float(coil_current_A)
-    mp = motor_params_for(scenario)
+    mp = motor_params_for(scenario, with_inductance=motor_inductance)
     pp_q, pp_qdd, t_end = reference_trajectories(plan, time_scale, lead_s)
 
     ref = builder.AddNamedSystem("reference", TrajectorySource(pp_q, output_derivative_order=1))

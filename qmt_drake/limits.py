@@ -28,9 +28,9 @@ class SampleLimits:
 
 def sample_limits(scenario, q, qd, qdd) -> SampleLimits:
     arm = scenario.arm
-    a = arm.tip_acceleration(q, qd, qdd)
+    a, tau = arm.tip_acceleration_and_joint_torque(q, qd, qdd)
     moment = scenario.moment_per_accel_kgm * np.hypot(a[..., 0], a[..., 1])
-    motor = arm.motor_torque(q, qd, qdd)
+    motor = tau / arm.gear_ratio
     out = np.maximum(arm.joint_lower_rad - q, 0.0) + np.maximum(q - arm.joint_upper_rad, 0.0)
     return SampleLimits(moment, motor, out)
 

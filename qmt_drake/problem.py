@@ -14,7 +14,7 @@ from qmt_drake.limits import BatchPeaks, limit_columns, limit_report
 from qmt_drake.sampling import SampleGrid, peak_per_candidate, piecewise_grid, refine_grid
 from qmt_drake.scenario import Scenario
 
-COARSE_STRIDE = 10  # coarse samples are every 10th of the planning grid
+COARSE_STRIDE = 20  # coarse samples are every 20th of the planning grid
 REFINE_MARGIN = 0.01  # refine around coarse samples within 1% of their candidate's coarse peak
 JOINT_REFINE_MARGIN_RAD = 0.05
 

@@ -150,7 +150,9 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
 def _merge(base: dict, extra: dict) -> dict:
     out = dict(base)
     for k, v in extra.items():
-        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+        # Gene maps are replaced whole: their keys are the family's genes, in order.
+        nested = isinstance(v, dict) and isinstance(out.get(k), dict) and k != "genes"
+        out[k] = _merge(out[k], v) if nested else v
     return out
 
 

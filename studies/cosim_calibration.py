@@ -204,6 +204,19 @@ def main(argv=None):
     v2 = report["chapters"]["ch2"]["coil_voltage_V"]
     v4 = report["chapters"]["ch4"]["coil_voltage_V"]
     report["voltage_ratio_ch2_over_ch4"] = v2 / v4
+    # Counterfactual: both coils on one supply voltage (the other hand's calibrated one), quasi-static.
+    from qmt_drake.cosim import GRAVITY_M_S2
+    from qmt_drake.systems.electromagnet import MagnetParams
+    cf = {}
+    for ch, sc, v_other in (("ch2", sc2, v4), ("ch4", sc4, v2)):
+        spec = PayloadSpec.for_scenario(sc)
+        coil = HAND_COIL[ch]
+        f = MagnetParams(coil, MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m).force_N(v_other / coil.resistance_ohm)
+        hold = (f - spec.mass_kg * GRAVITY_M_S2) * hold_lever_m(spec)
+        cf[ch] = dict(supply_V=v_other, pull_N=f, weight_N=spec.mass_kg * GRAVITY_M_S2, hold_moment_Nm=hold,
+                      thesis_boundary_Nm=list(SLIP_BOUNDARIES_NM[ch]))
+    report["shared_voltage_counterfactual"] = cf
+    print("one supply voltage for both hands (quasi-static):", cf)
     report["wall_s"] = time.perf_counter() - t0
     (out / "cosim_calibration.json").write_text(json.dumps(report, indent=1, default=float))
 

@@ -163,3 +163,24 @@ def test_feedforward_cuts_the_velocity_lag(sc4, plan4, carried):
     assert emf.max_tracking_error_rad < carried.max_tracking_error_rad / 10
     assert both.max_tracking_error_rad < carried.max_tracking_error_rad / 10
     assert emf.held and both.held
+
+
+def test_core_plan_object_is_accepted(sc4, carried):
+    """A Plan from the planning core (family_plan, as `qmt-drake plan` makes) runs the same way."""
+    from qmt_drake.plan import family_plan
+    from qmt_drake.problem import PlanningProblem
+
+    problem = PlanningProblem(sc4)
+    plan = family_plan(problem, np.array(GA_GENES_CH4), "thesis_ga")
+    r = simulate_transfer(sc4, plan, keep_series=False)
+    assert r.held == carried.held
+    assert r.max_slip_m == pytest.approx(carried.max_slip_m, rel=1e-3)
+    assert r.max_tracking_error_rad == pytest.approx(carried.max_tracking_error_rad, rel=1e-3)
+
+
+def test_motor_torque_matches_inverse_dynamics_through_the_gear(carried):
+    # Independent of the co-simulation: the core's inverse dynamics of the plan divided by N. The
+    # motor must supply that divided by eta while it drives (eta = 0.7) and exactly that while the
+    # load back-drives the gear; its peak therefore lies between 1 and 1/eta times the plan's.
+    ratio = carried.peak_motor_torque_Nm / carried.peak_motor_torque_planned_Nm
+    assert np.all(ratio > 0.97) and np.all(ratio < 1 / 0.7 * 1.03)

@@ -95,3 +95,24 @@ def test_inductance_current_rises_with_time_constant_L_over_R():
 def test_shape_mismatch_is_rejected():
     with pytest.raises(ValueError, match="resistance_ohm"):
         DcMotorParams([0.02, 0.02], [1.0], [100, 100], [24, 24], [5, 5], [0.7, 0.7])
+
+
+def test_current_command_mode_and_its_voltage_ceiling():
+    p = _params()
+    sys = DcMotorWithGear(p, command="current")
+    ctx = sys.CreateDefaultContext()
+    sys.GetInputPort("current_command").FixValue(ctx, [2.0, -1.0])
+    qd = np.array([0.0, 3.0])
+    sys.GetInputPort("joint_velocity").FixValue(ctx, qd)
+    i = sys.GetOutputPort("current").Eval(ctx)
+    emf = p.torque_constant_Nm_per_A * p.gear_ratio * qd
+    # Joint 1 at rest gets its 2 A; joint 2 turns at 3 rad/s (motor 300 rad/s, EMF 7.0 V) and can
+    # be driven backwards only until the terminal voltage reaches -24 V: (-24 - 7.02) / 2.32 = -13 A,
+    # so -1 A is reachable.
+    np.testing.assert_allclose(i, [2.0, -1.0])
+    np.testing.assert_allclose(sys.GetOutputPort("electrical_power").Eval(ctx),
+                               (p.resistance_ohm * i + emf) * i, rtol=1e-12)
+    sys.GetInputPort("current_command").FixValue(ctx, [2.0, 3.0])
+    sys.GetInputPort("joint_velocity").FixValue(ctx, [0.0, 9.0])  # EMF 21.06 V leaves 2.94 V
+    i = sys.GetOutputPort("current").Eval(ctx)
+    assert i[1] == pytest.approx((24.0 - 0.0234 * 100 * 9.0) / 2.32, rel=1e-12)

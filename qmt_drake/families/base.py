@@ -42,6 +42,17 @@ class TrajectoryFamily(ABC):
     @abstractmethod
     def motion_time_s(self, genes: np.ndarray) -> np.ndarray: ...
 
+    #: How each gene scales when the motion is slowed by a factor lam (t -> lam*t): times scale
+    #: by lam**1, rates by lam**-1. Every limit here is inertial (no gravity in the plane), so
+    #: slowing by lam divides every peak ratio by lam**2 exactly.
+    time_exponents: tuple[int, ...] | None = None
+
+    def time_scaled(self, genes: np.ndarray, lam) -> np.ndarray:
+        """Genes of the same motion played lam times slower (lam may be (K,))."""
+        g = np.atleast_2d(np.asarray(genes, dtype=float))
+        exps = np.array(self.time_exponents or (1,) * g.shape[1])
+        return g * np.asarray(lam, dtype=float).reshape(-1, 1) ** exps
+
     def valid(self, genes: np.ndarray) -> np.ndarray:
         return np.ones(np.atleast_2d(genes).shape[0], dtype=bool)
 

@@ -18,6 +18,7 @@ from qmt_drake.families.base import TrajectoryFamily
 
 class TrapezoidPtp(TrajectoryFamily):
     expected_genes = ("T11", "T21", "omega_1m")
+    time_exponents = (1, 1, -1)
 
     def __init__(self, scenario) -> None:
         super().__init__(scenario)

@@ -69,19 +69,22 @@ class ViaCubic(TrajectoryFamily):
 
     def evaluate(self, genes, candidate, t_s, t_piece_s):
         g = np.atleast_2d(np.asarray(genes, dtype=float))
-        coef = self.coefficients(g)
+        K, m, n = g.shape[0], self.n_segments, self.n_dof
+        coef = self.coefficients(g).reshape(K * m, 4 * n)
         bp = self.breakpoints_s(g)
-        T0 = bp[candidate, -1]
-        seg = np.empty(t_s.shape, dtype=int)
-        # Segment index from the piece time: count knots at or before it.
-        seg[:] = (t_piece_s[:, None] >= bp[candidate, 1:]).sum(axis=1)
-        rest = t_piece_s >= T0
-        seg = np.minimum(seg, self.n_segments - 1)
-        c = coef[candidate, seg]  # (S, 4, n)
-        tau = np.where(rest, bp[candidate, -1] - bp[candidate, seg], t_s - bp[candidate, seg])[:, None]
+        seg = np.zeros(t_s.shape, dtype=int)
+        for j in range(1, m):  # the segment whose interior holds the piece time
+            seg += t_piece_s >= bp[candidate, j]
+        flat = candidate * m + seg
+        c = coef.take(flat, axis=0).reshape(-1, 4, n)
+        seg_start = bp[:, :-1].ravel().take(flat)
+        seg_end = bp[:, 1:].ravel().take(flat)
+        rest = t_piece_s >= np.where(seg < m - 1, np.inf, seg_end)  # after T0: rest at the goal
+        tau = (np.where(rest, seg_end, t_s) - seg_start)[:, None]
         q = c[:, 0] + tau * (c[:, 1] + tau * (c[:, 2] + tau * c[:, 3]))
         qd = c[:, 1] + tau * (2 * c[:, 2] + 3 * tau * c[:, 3])
         qdd = 2 * c[:, 2] + 6 * tau * c[:, 3]
-        qd = np.where(rest[:, None], 0.0, qd)
-        qdd = np.where(rest[:, None], 0.0, qdd)
+        if rest.any():
+            qd[rest] = 0.0
+            qdd[rest] = 0.0
         return q, qd, qdd

@@ -1,1 +1,53 @@
-"""Planners: every one returns a Plan (qmt_drake/plan.py) for a PlanningProblem."""
+"""Planners. Every one returns a re-checked Plan (qmt_drake/plan.py); `plan_with` dispatches by
+name, so the CLI, the studies and the benchmark call them all the same way.
+
+- ga: the thesis's binary GA over the family's genes (ga.py)
+- optimum: the deterministic best of the family (optimum.py)
+- thesis: the genes the thesis reported, evaluated by our model
+- toppra, toppra-drake, ruckig, trajopt: time-optimal baselines (their own modules)
+"""
+
+from __future__ import annotations
+
+from qmt_drake.errors import QmtInputError
+
+METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
+
+
+def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options):
+    from qmt_drake.plan import family_plan
+    from qmt_drake.problem import PlanningProblem
+
+    if method == "ga":
+        from qmt_drake.planners.ga import run_ga
+        problem = PlanningProblem(scenario)
+        r = run_ga(problem, seed=seed, progress=progress, **options)
+        return family_plan(problem, r.genes, "ga", planner_wall_s=r.wall_s,
+                           evaluations=r.evaluations, generations=r.generations,
+                           extra={"seed": seed, "stop_reason": r.stop_reason,
+                                  "ga_settings": scenario.ga.__dict__,
+                                  "history_best_motion_time_s": r.history.best_motion_time_s,
+                                  "history_mean_fitness": r.history.mean_fitness,
+                                  "history_feasible_fraction": r.history.feasible_fraction})
+    if method == "optimum":
+        from qmt_drake.planners.optimum import plan_family_optimum
+        return plan_family_optimum(PlanningProblem(scenario), seed=seed, progress=progress,
+                                   **options)
+    if method == "thesis":
+        if not scenario.reported.get("genes"):
+            raise QmtInputError(f"scenario {scenario.name} has no reported.genes to evaluate")
+        problem = PlanningProblem(scenario)
+        return family_plan(problem, problem.genes_vector(scenario.reported["genes"]), "thesis")
+    if method == "toppra":
+        from qmt_drake.planners.toppra_plan import plan_toppra
+        return plan_toppra(scenario, **options)
+    if method == "toppra-drake":
+        from qmt_drake.planners.toppra_plan import plan_toppra_drake
+        return plan_toppra_drake(scenario, **options)
+    if method == "ruckig":
+        from qmt_drake.planners.ruckig_plan import plan_ruckig
+        return plan_ruckig(scenario, **options)
+    if method == "trajopt":
+        from qmt_drake.planners.trajopt_plan import plan_trajopt
+        return plan_trajopt(scenario, **options)
+    raise QmtInputError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")

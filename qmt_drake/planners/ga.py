@@ -36,12 +36,14 @@ class GaHistory:
     best_fitness: list = field(default_factory=list)
     mean_fitness: list = field(default_factory=list)
     feasible_fraction: list = field(default_factory=list)
+    wall_s: list = field(default_factory=list)  # time since the run started
 
-    def append(self, best_T0, best_fit, fit):
+    def append(self, best_T0, best_fit, fit, wall_s=float("nan")):
         self.best_motion_time_s.append(float(best_T0))
         self.best_fitness.append(float(best_fit))
         self.mean_fitness.append(float(np.mean(fit)))
         self.feasible_fraction.append(float(np.mean(fit > 0)))
+        self.wall_s.append(float(wall_s))
 
 
 @dataclass
@@ -156,7 +158,8 @@ def run_ga(problem: PlanningProblem, settings: GaSettings | None = None, *, seed
             if T0 < best_T0 - 1e-12:
                 best_T0, best_key, best_gen = T0, int(keys[i_best]), gen
         history.append(best_T0 if np.isfinite(best_T0) else np.nan,
-                       np.exp(-c * best_T0) if np.isfinite(best_T0) else 0.0, fitness)
+                       np.exp(-c * best_T0) if np.isfinite(best_T0) else 0.0, fitness,
+                       time.perf_counter() - t_start + wall_before)
         gen += 1
         if stall and gen - best_gen >= stall and np.isfinite(best_T0):
             stop_reason = f"best unchanged for {stall} generations"

@@ -21,9 +21,14 @@ is modelled unless `back_drive_efficiency` is set.
 Ke = Kt in SI (V*s/rad = N*m/A). The rotor inertia is NOT in this system: it stays in the plant as
 the joint actuator's reflected inertia (drake:rotor_inertia, drake:gear_ratio in the URDF).
 
+Current-command mode (`command="current"`, an ideal current amplifier): the input is the current;
+it is clipped to +-I_max and to what the supply can push against the back EMF,
+(+-V_max - Ke w_m) / R, and the terminal voltage is v = R i + Ke w_m.
+
 Ports
     inputs
-        voltage_command   (n,) [V]      commanded terminal voltage (clipped to +-V_max)
+        voltage_command   (n,) [V]      commanded terminal voltage (clipped to +-V_max); named
+                                        current_command (n,) [A] in current-command mode
         joint_velocity    (n,) [rad/s]  joint-side speed, for the back EMF
     outputs
         joint_torque      (n,) [N*m]    torque at the joint, to MultibodyPlant actuation
@@ -166,8 +171,13 @@ class DcMotorParams:
 class DcMotorWithGear(LeafSystem):
     """n DC motors with gears; see the module docstring for the model, ports and units."""
 
-    def __init__(self, params: DcMotorParams):
+    def __init__(self, params: DcMotorParams, command: str = "voltage"):
         super().__init__()
+        if command not in ("voltage", "current"):
+            raise ValueError(f"command must be 'voltage' or 'current', got {command!r}")
+        if command == "current" and params.inductance_H is not None:
+            raise ValueError("current-command mode uses the quasi-static armature (inductance_H=None)")
+        self._current_mode = command == "current"
         self.params = p = params
         n = p.n
         self._n = n
@@ -181,7 +191,7 @@ class DcMotorWithGear(LeafSystem):
         self._Ke_N = self._Kt * self._N  # back EMF per joint speed [V*s/rad] (Ke = Kt in SI)
         self._gain_motoring = self._N * self._eta
         self._gain_backdriven = self._N / p.back_drive_efficiency
-        self._v_in = self.DeclareVectorInputPort("voltage_command", n)
+        self._v_in = self.DeclareVectorInputPort(f"{command}_command", n)
         self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
         if self._L is not None:
             self.DeclareContinuousState(n)
@@ -211,6 +221,17 @@ class DcMotorWithGear(LeafSystem):
         derivatives.get_mutable_vector().SetFromVector(i_dot)
 
     def _calc_signals(self, context, value):
+        if self._current_mode:
+            emf = self._Ke_N * self._qd_in.Eval(context)
+            i = np.minimum(np.maximum(self._v_in.Eval(context), (-self._Vmax - emf) / self._R),
+                           (self._Vmax - emf) / self._R)
+            i = np.minimum(np.maximum(i, -self._Imax), self._Imax)
+            v = self._R * i + emf
+            tau_m = self._Kt * i
+            motoring = tau_m * self._qd_in.Eval(context) >= 0.0
+            tau_j = tau_m * np.where(motoring, self._gain_motoring, self._gain_backdriven)
+            value.set_value(np.concatenate([v, i, tau_m, tau_j, v * i]))
+            return
         v = self._voltage(context)
         if self._L is None:
             i = (v - self._Ke_N * self._qd_in.Eval(context)) / self._R

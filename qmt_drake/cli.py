@@ -1,0 +1,185 @@
+"""The `qmt-drake` command line. Argument parsing only; the work is in plain functions.
+
+Exit codes: 0 done, 2 bad input (one line on stderr naming it), 3 no plan meets the limits
+(the least-violating plan is still written), 4 a simulation failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from qmt_drake.errors import QmtInputError, QmtSimulationError
+
+EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION = 2, 3, 4
+
+
+def _progress(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def _emit_json(data: dict, target: str | None) -> None:
+    if target is None:
+        return
+    text = json.dumps(data, indent=1)
+    if target == "-":
+        print(text)
+    else:
+        from qmt_drake.plan import write_text_atomic
+        write_text_atomic(target, text + "\n")
+
+
+def cmd_scenarios(args) -> int:
+    from qmt_drake.scenario import builtin_scenarios, load_scenario
+    for name in builtin_scenarios():
+        sc = load_scenario(name)
+        print(f"{name:12s} {sc.family.kind:20s} genes {', '.join(sc.family.gene_names):22s} "
+              f"{sc.arm.n_dof}-link arm, payload {sc.payload.mass_kg * 1e3:.0f} g")
+    return 0
+
+
+def cmd_plan(args) -> int:
+    from qmt_drake.planners import plan_with
+    from qmt_drake.scenario import load_scenario
+    sc = load_scenario(args.scenario)
+    options = {}
+    if args.method == "ga":
+        if args.generations is not None:
+            options["max_generations"] = args.generations
+        if args.stall is not None:
+            options["stall_generations"] = args.stall
+        if args.checkpoint:
+            options["checkpoint_path"] = args.checkpoint
+    for kv in args.option or []:
+        k, _, v = kv.partition("=")
+        options[k] = _parse_value(v)
+    plan = plan_with(args.method, sc, seed=args.seed, progress=None if args.quiet else _progress,
+                     **options)
+    summary = plan.summary()
+    if args.json and args.json != "-":
+        plan.write_json(args.json)
+    elif args.json == "-":
+        _emit_json(plan.to_json_dict(), "-")
+    if args.trajectory_csv:
+        plan.write_csv(args.trajectory_csv)
+    if args.json != "-":
+        print(f"{sc.name} {args.method}: T0 = {plan.motion_time_s:.4f} s, moment "
+              f"{summary['peak_moment_ratio']:.4f} of limit, motor torque "
+              f"{summary['peak_motor_torque_ratio']:.4f} of limit, "
+              f"{'feasible' if plan.feasible else 'INFEASIBLE (least-violating plan)'}, "
+              f"{plan.planner_wall_s:.2f} s")
+    return 0 if plan.feasible else EXIT_INFEASIBLE
+
+
+def cmd_simulate(args) -> int:
+    from qmt_drake.plan import load_plan
+    from qmt_drake.planners import plan_with
+    from qmt_drake.scenario import load_scenario
+    sc = load_scenario(args.scenario)
+    if args.plan:
+        plan = load_plan(args.plan, scenario=sc)
+    else:
+        plan = plan_with(args.method, sc, seed=args.seed,
+                         progress=None if args.quiet else _progress)
+    try:
+        from qmt_drake.cosim import run_simulate
+    except ImportError as exc:  # pragma: no cover - packaging problem
+        raise QmtInputError(f"co-simulation unavailable: {exc}") from None
+    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record)
+    _emit_json(result, args.json)
+    if args.json != "-":
+        print(f"{sc.name} {plan.method} x{args.time_scale}: "
+              f"{'held' if result['held'] else 'LOST'}, max slip {result['max_slip_m'] * 1e3:.3f} mm, "
+              f"tracking error {result['max_tracking_error_rad']:.2e} rad, "
+              f"real-time factor {result['real_time_factor']:.1f}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from qmt_drake.bench import run_bench
+    data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=_progress,
+                     seeds=args.seeds)
+    print(json.dumps(data, indent=1))
+    return 0
+
+
+def cmd_benchmark(args) -> int:
+    from qmt_drake.benchmark import run_benchmark
+    run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress)
+    return 0
+
+
+def _parse_value(v: str):
+    for cast in (int, float):
+        try:
+            return cast(v)
+        except ValueError:
+            pass
+    return v
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="qmt-drake", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("scenarios", help="list the built-in scenarios")
+    s.set_defaults(func=cmd_scenarios)
+
+    from qmt_drake.planners import METHODS
+    s = sub.add_parser("plan", help="plan a transfer motion")
+    s.add_argument("scenario", help="built-in name (see `qmt-drake scenarios`) or a YAML path")
+    s.add_argument("--method", default="ga", choices=METHODS)
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--json", metavar="PATH|-", help="write the plan as JSON (- for stdout)")
+    s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
+    s.add_argument("--generations", type=int, help="GA: maximum generations (default: scenario)")
+    s.add_argument("--stall", type=int, help="GA: stop after this many generations without "
+                   "improvement")
+    s.add_argument("--checkpoint", metavar="PATH", help="GA: resumable checkpoint file")
+    s.add_argument("--option", action="append", metavar="KEY=VALUE",
+                   help="planner option (e.g. path=joint_line, jerk_limit=10)")
+    s.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    s.set_defaults(func=cmd_plan)
+
+    s = sub.add_parser("simulate", help="execute a plan through motors, PID and the held payload")
+    s.add_argument("scenario")
+    g = s.add_mutually_exclusive_group()
+    g.add_argument("--method", default="ga", choices=METHODS)
+    g.add_argument("--plan", metavar="PLAN.json", help="a plan file written by `plan --json`")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--time-scale", type=float, default=1.0,
+                   help="replay with time stretched by S (S < 1 is faster)")
+    s.add_argument("--record", metavar="PATH.html", help="save a Meshcat recording")
+    s.add_argument("--json", metavar="PATH|-")
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser("bench", help="planner speed benchmark (JSON)")
+    s.add_argument("--scenario", default="thesis-ch4")
+    s.add_argument("--seeds", type=int, default=5)
+    s.add_argument("--out", default="out")
+    s.set_defaults(func=cmd_bench)
+
+    s = sub.add_parser("benchmark", help="GA vs TOPP-RA, Ruckig and trajopt (JSON, Markdown, PNG)")
+    s.add_argument("--scenarios", nargs="+", default=["thesis-ch2", "thesis-ch3", "thesis-ch4"])
+    s.add_argument("--out", default="out")
+    s.set_defaults(func=cmd_benchmark)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except QmtInputError as exc:
+        print(f"qmt-drake: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except QmtSimulationError as exc:
+        print(f"qmt-drake: simulation failed: {exc}", file=sys.stderr)
+        return EXIT_SIMULATION
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,295 @@
+"""Ruckig: jerk-limited time-optimal rest-to-rest profiles (community edition, offline).
+
+Ruckig knows per-axis velocity, acceleration and jerk limits only, so the payload-moment norm bound
+and the motor-torque limits enter as follows:
+
+mode="cartesian_line" (default): the tip moves along the straight segment between consecutive task
+  points. Two Cartesian axes with the per-axis limits scaled by the direction cosines of the
+  segment (a_max,i = lam * A * |d_i|, j_max,i = J * |d_i|, A = moment limit / (m_o r_G),
+  J = `jerk_limit` in m/s^3) and phase synchronization give a profile along the line whose
+  acceleration vector has norm exactly lam * A: the norm bound is exact at lam = 1 (1 - 1e-9 is
+  used: ruckig may reach a_max to the last bit). The joints follow by analytic IK (tool angle held
+  for 3 joints) with exact derivatives. If the motor torques break their limits there, lam is
+  reduced by bisection until the sampled trajectory keeps every limit.
+mode="joint": straight joint-space segments between the IK solutions of the task points (phase
+  synchronization keeps the straight joint line). Per-joint limits along the joint direction u:
+  a_max,i = lam * A_s * |u_i|, j_max,i = J_s * |u_i|, with A_s = A / max|J_tip u| and
+  J_s = J / max|J_tip u| over the segment (rad/s^2, rad/s^3 along the joint line: the tip
+  acceleration without the centripetal term). lam is the largest scale (bisection, relative
+  tolerance `bisection_rtol`) whose sampled trajectory keeps the moment and motor-torque
+  limits; the jerk limit then bounds the tip jerk only approximately (J_tip-mapped, no Jdot terms).
+  When doubling lam no longer shortens the motion the acceleration limit does not bind (the jerk
+  limit does) and the search stops there.
+
+The search samples at the scenario's planning rate (1 kHz); the plan is re-checked at the check
+rate (10 kHz) and, if it breaks a limit there, played slower by the exact factor (which only
+lowers the jerk) with the raw overshoot kept in extra["raw_check"] (toppra_plan.finish_plan).
+
+Via points: the community edition computes intermediate waypoints only through a remote
+(cloud) service, unusable offline, so the motion is chained segment by segment, each rest to rest:
+it stops at every via point. `extra["notes"]` says so.
+
+Profiles are evaluated exactly and vectorised from Ruckig's own phase data (jerk, and position,
+velocity and acceleration at each phase start); `tests/test_planners_ruckig.py` compares this with
+`Trajectory.at_time`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.limits import limit_columns
+from qmt_drake.plan import Plan
+from qmt_drake.planners.toppra_plan import (ConcatenatedTrajectory, finish_plan, infeasible_plan,
+                                            task_joint_points)
+from qmt_drake.sampling import piecewise_grid
+from qmt_drake.trajectory import JointTrajectory
+
+MODES = ("cartesian_line", "joint")
+TINY_LIMIT = 1e-12  # limits of an axis the segment does not move along
+VIA_NOTE = ("via points chained segment by segment, each rest to rest: the Ruckig community "
+            "edition computes intermediate waypoints only through a remote service")
+
+
+class RuckigProfile:
+    """Exact, vectorised evaluation of a computed ruckig Trajectory (one section, all DoFs)."""
+
+    def __init__(self, trajectory) -> None:
+        profs = trajectory.profiles[0]
+        self.duration_s = float(trajectory.duration)
+        self.n = len(profs)
+        self.t0 = []  # phase start times per DoF (8 values, last = end)
+        self.j, self.a, self.v, self.p = [], [], [], []
+        for pr in profs:
+            if pr.brake.duration > 0:
+                raise RuntimeError("ruckig returned a brake pre-phase; rest-to-rest profiles "
+                                   "should have none")
+            self.t0.append(np.concatenate([[0.0], np.cumsum(pr.t)]))
+            self.j.append(np.array(pr.j))
+            self.a.append(np.array(pr.a))
+            self.v.append(np.array(pr.v))
+            self.p.append(np.array(pr.p))
+        self.switch_times_s = np.unique(np.clip(np.concatenate(self.t0), 0, self.duration_s))
+
+    def evaluate(self, t_s):
+        """Position, velocity, acceleration (len(t), n) at times t (held after the end)."""
+        t = np.clip(np.atleast_1d(np.asarray(t_s, dtype=float)), 0.0, self.duration_s)
+        P, V, Acc = (np.empty((t.size, self.n)) for _ in range(3))
+        for i in range(self.n):
+            T0 = self.t0[i]
+            k = np.clip(np.searchsorted(T0, t, side="right") - 1, 0, 6)
+            tau = np.minimum(t - T0[k], T0[k + 1] - T0[k])
+            j, a, v, p = self.j[i][k], self.a[i][k], self.v[i][k], self.p[i][k]
+            P[:, i] = p + v * tau + a * tau**2 / 2 + j * tau**3 / 6
+            V[:, i] = v + a * tau + j * tau**2 / 2
+            Acc[:, i] = a + j * tau
+        return P, V, Acc
+
+
+def ruckig_profile(start, goal, v_max, a_max, j_max, phase: bool = True) -> RuckigProfile:
+    """Rest-to-rest time-optimal profile (raises RuntimeError if ruckig fails)."""
+    from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
+    n = len(start)
+    inp = InputParameter(n)
+    inp.current_position = list(map(float, start))
+    inp.target_position = list(map(float, goal))
+    inp.max_velocity = list(map(float, v_max))
+    inp.max_acceleration = list(map(float, a_max))
+    inp.max_jerk = list(map(float, j_max))
+    if phase:
+        inp.synchronization = Synchronization.Phase
+    traj = Trajectory(n)
+    res = Ruckig(n).calculate(inp, traj)
+    if res not in (Result.Working, Result.Finished):
+        raise RuntimeError(f"ruckig failed: {res}")
+    return RuckigProfile(traj)
+
+
+class CartesianProfileTrajectory(JointTrajectory):
+    """Joints following a Cartesian tip profile by analytic IK with exact derivatives."""
+
+    def __init__(self, arm, profile: RuckigProfile, tool_angle_rad, branch) -> None:
+        self.arm, self.profile = arm, profile
+        self.tool, self.branch = tool_angle_rad, branch
+        self.duration_s = profile.duration_s
+        self.breakpoints_s = np.unique(np.concatenate([[0.0, self.duration_s],
+                                                       profile.switch_times_s]))
+        self.n_dof = arm.n_dof
+
+    def evaluate(self, t_s, t_piece_s):
+        p, v, a = self.profile.evaluate(t_s)
+        arm = self.arm
+        q = arm.inverse_kinematics(p, self.tool, self.branch, check_range=False)
+        J = arm.jacobian(q)
+        if self.n_dof == 3:
+            J = np.concatenate([J, np.ones((len(q), 1, 3))], axis=1)
+            v = np.concatenate([v, np.zeros((len(q), 1))], axis=1)
+        qd = np.linalg.solve(J, v[..., None])[..., 0]
+        bias = arm.tip_acceleration(q, qd, np.zeros_like(qd))
+        rhs = a - bias
+        if self.n_dof == 3:
+            rhs = np.concatenate([rhs, np.zeros((len(q), 1))], axis=1)
+        qdd = np.linalg.solve(J, rhs[..., None])[..., 0]
+        rest = np.broadcast_to(t_piece_s, np.shape(np.atleast_1d(t_s))) >= self.duration_s
+        return q, np.where(rest[:, None], 0.0, qd), np.where(rest[:, None], 0.0, qdd)
+
+
+class JointProfileTrajectory(JointTrajectory):
+    def __init__(self, profile: RuckigProfile) -> None:
+        self.profile = profile
+        self.duration_s = profile.duration_s
+        self.breakpoints_s = np.unique(np.concatenate([[0.0, self.duration_s],
+                                                       profile.switch_times_s]))
+        self.n_dof = profile.n
+
+    def evaluate(self, t_s, t_piece_s):
+        q, qd, qdd = self.profile.evaluate(t_s)
+        rest = np.broadcast_to(t_piece_s, np.shape(np.atleast_1d(t_s))) >= self.duration_s
+        return q, np.where(rest[:, None], 0.0, qd), np.where(rest[:, None], 0.0, qdd)
+
+
+def _worst(scenario, traj: JointTrajectory, rate_hz: float) -> float:
+    """Worst limit ratio of a trajectory sampled at rate_hz (inf if a joint leaves its range)."""
+    grid = piecewise_grid(traj.breakpoints_s[None, :], rate_hz)
+    q, qd, qdd = traj.evaluate(grid.t_s, grid.t_piece_s)
+    cols = limit_columns(scenario, q, qd, qdd)
+    n = scenario.arm.n_dof
+    if np.max(cols[:, 1 + n:]) > 1e-12:
+        return np.inf
+    return float(np.max(cols[:, :1 + n]))
+
+
+def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_steps: int = 80):
+    """Largest lam (<= lam_max if given) with worst(make(lam)) <= 1; (lam, traj, steps) or
+    (None, None, steps) if none down to 1e-12."""
+    steps = 0
+    lam = 1.0 if lam_max is None else lam_max
+    traj = make(lam)
+    steps += 1
+    ok = worst(traj) <= 1.0
+    if ok and lam_max is not None:
+        return lam, traj, steps
+    lo = hi = None
+    if ok:
+        lo, lo_traj = lam, traj
+        while steps < max_steps:  # grow until a limit breaks
+            lam *= 2.0
+            t = make(lam)
+            steps += 1
+            if worst(t) <= 1.0:
+                if t.duration_s >= lo_traj.duration_s * (1 - 1e-9):
+                    return lo, lo_traj, steps  # the acceleration limit no longer binds (jerk does)
+                lo, lo_traj = lam, t
+            else:
+                hi = lam
+                break
+        if hi is None:
+            return lo, lo_traj, steps
+    else:
+        hi = lam
+        while lam > 1e-12 and steps < max_steps:
+            lam *= 0.5
+            t = make(lam)
+            steps += 1
+            if worst(t) <= 1.0:
+                lo, lo_traj = lam, t
+                break
+        if lo is None:
+            return None, None, steps
+    while hi / lo - 1 > rtol and steps < max_steps:
+        mid = np.sqrt(lo * hi)
+        t = make(mid)
+        steps += 1
+        if worst(t) <= 1.0:
+            lo, lo_traj = mid, t
+        else:
+            hi = mid
+    return lo, lo_traj, steps
+
+
+def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line", *,
+                bisection_rtol: float = 1e-4, velocity_limit_scale: float = 1e6,
+                slow_to_limits: bool = True, max_motion_time_s: float | None = None) -> Plan:
+    """Ruckig jerk-limited profiles ("ruckig"), re-checked. See the module docstring.
+
+    jerk_limit: tip jerk limit J, m/s^3 (mode "joint": mapped to each joint line, approximate).
+    mode: "cartesian_line" or "joint". bisection_rtol: relative tolerance of the limit scale lam.
+    velocity_limit_scale: velocity limits are this times A (no velocity limit in the thesis;
+    ruckig needs one). slow_to_limits / max_motion_time_s: as in toppra_plan.finish_plan.
+    """
+    if mode not in MODES:
+        raise QmtInputError(f"unknown ruckig mode '{mode}'; use one of {', '.join(MODES)}")
+    if not (np.isfinite(jerk_limit) and jerk_limit > 0):
+        raise QmtInputError(f"jerk_limit must be a positive number (m/s^3), got {jerk_limit}")
+    method = "ruckig"
+    t_start = time.perf_counter()
+    arm, task = scenario.arm, scenario.task
+    A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
+    rate = scenario.sampling.plan_rate_hz  # the search; make_plan re-checks at the check rate
+    extra = {"mode": mode, "jerk_limit_m_s3": float(jerk_limit), "A_m_s2": A,
+             "path": "cartesian_line" if mode == "cartesian_line" else "joint_line"}
+    notes = []
+    pts = task.points_m
+    if len(pts) > 2:
+        notes.append(VIA_NOTE)
+    try:
+        qk = task_joint_points(scenario)
+    except QmtInputError as exc:
+        return infeasible_plan(scenario, method, f"no path: {exc}",
+                               planner_wall_s=time.perf_counter() - t_start, extra=extra)
+    parts, scales, steps_total, solve_wall = [], [], 0, 0.0
+    worst = lambda tr: _worst(scenario, tr, rate)  # noqa: E731
+    for i in range(len(pts) - 1):
+        if mode == "cartesian_line":
+            d = pts[i + 1] - pts[i]
+            cos = np.abs(d) / np.hypot(*d)
+            lim = np.maximum(cos, TINY_LIMIT)
+            # Whole segment reachable and in range (else: infeasible).
+            try:
+                from qmt_drake.planners.toppra_plan import CartesianLinePath
+                CartesianLinePath(arm, pts[i], pts[i + 1], task.tool_angle_rad, task.ik_branch)
+            except QmtInputError as exc:
+                return infeasible_plan(scenario, method, f"no path: {exc}",
+                                       planner_wall_s=time.perf_counter() - t_start, extra=extra)
+
+            def make(lam, a=pts[i], b=pts[i + 1], lim=lim):
+                prof = ruckig_profile(a, b, velocity_limit_scale * A * lim, lam * A * lim,
+                                      jerk_limit * lim)
+                return CartesianProfileTrajectory(arm, prof, task.tool_angle_rad, task.ik_branch)
+            lam_max = 1.0 - 1e-9  # ruckig may reach a_max to the last bit
+        else:
+            dq = qk[i + 1] - qk[i]
+            u = dq / np.linalg.norm(dq)
+            s = np.linspace(0.0, 1.0, 201)[:, None]
+            gain = float(np.max(np.linalg.norm(arm.jacobian(qk[i] + s * dq) @ u, axis=-1)))
+            lim = np.maximum(np.abs(u), TINY_LIMIT)
+            A_s, J_s = A / gain, jerk_limit / gain
+
+            def make(lam, a=qk[i], b=qk[i + 1], lim=lim, A_s=A_s, J_s=J_s):
+                prof = ruckig_profile(a, b, velocity_limit_scale * A_s * lim, lam * A_s * lim,
+                                      J_s * lim)
+                return JointProfileTrajectory(prof)
+            lam_max = None
+        t0 = time.perf_counter()
+        lam, traj, steps = _largest_scale(make, worst, lam_max, bisection_rtol)
+        solve_wall += time.perf_counter() - t0
+        steps_total += steps
+        if lam is None:
+            return infeasible_plan(scenario, method, f"segment {i + 1}: no acceleration scale "
+                                   "down to 1e-12 keeps the limits",
+                                   planner_wall_s=time.perf_counter() - t_start, extra=extra)
+        parts.append(traj)
+        scales.append(lam)
+    traj = parts[0] if len(parts) == 1 else ConcatenatedTrajectory(parts)
+    extra.update({"acceleration_scale": scales, "ruckig_calls": steps_total,
+                  "search_wall_s": solve_wall, "notes": notes,
+                  "synchronization": "phase"})
+    if mode == "cartesian_line":
+        notes.append("per-axis limits scaled by the segment's direction cosines with phase "
+                     "synchronization: the tip acceleration norm is exactly scale * A")
+    return finish_plan(scenario, method, traj, planner_wall_s=time.perf_counter() - t_start,
+                       extra=extra, slow_to_limits=slow_to_limits,
+                       max_motion_time_s=max_motion_time_s, evaluations=steps_total)
