@@ -167,7 +167,8 @@ def pid_gains_for(scenario) -> PidGains:
 def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_scale: float = 1.0,
                            lead_s: float = 0.2, settle_s: float = 0.5, coil_current_A: float | None = None,
                            payload_spec: PayloadSpec | None = None, inverse_dynamics_feedforward: bool = False,
-                           back_emf_feedforward: bool = False, log_period_s: float = 5e-3, monitor_period_s: float | None = None,
+                           back_emf_feedforward: bool = False, log_period_s: float = 5e-3,
+                           monitor_period_s: float | None = None,
                            motor_inductance: bool = False, meshcat: Meshcat | None = None) -> TransferDiagram:
     """One Diagram for the whole closed loop (see the module docstring).
 
@@ -207,8 +208,8 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
         back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
     motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
     split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
-    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(MagnetParams(coil, MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m),
-                                                                  hand.index(), payload.index()))
+    magnet_params = MagnetParams(coil, MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m)
+    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(magnet_params, hand.index(), payload.index()))
     coil_src = builder.AddNamedSystem("coil_current", ConstantVectorSource([current]))
     monitor = builder.AddNamedSystem("monitor", TransferMonitor(n, hand.index(), payload.index(),
                                                                 period_s=monitor_period_s or time_step_s))

@@ -68,6 +68,12 @@ class GaSettings:
     fitness_c_per_s: float = 0.1  # fitness = exp(-c * T0)
     elite_count: int = 1  # 0 reproduces the thesis's plain GA
     stall_generations: int = 0  # stop when the best has not improved this long (0: never)
+    # Parent selection. The thesis names "selection" without saying how; "roulette" is
+    # fitness-proportional, "tournament" picks the fitter of two random individuals.
+    selection: str = "roulette"
+    # How 12 bits map to a level: "binary" (plain) or "gray" (reflected Gray code, where
+    # neighbouring levels differ in one bit, so a one-bit mutation can always step to them).
+    encoding: str = "binary"
 
 
 @dataclass(frozen=True)
@@ -236,6 +242,10 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     for k in ("crossover_rate", "mutation_rate"):
         if not 0.0 <= getattr(ga, k) <= 1.0:
             raise QmtInputError(f"{where}: ga.{k} must lie in [0, 1]")
+    if ga.encoding not in ("binary", "gray"):
+        raise QmtInputError(f"{where}: ga.encoding must be 'binary' or 'gray'")
+    if ga.selection not in ("roulette", "tournament"):
+        raise QmtInputError(f"{where}: ga.selection must be 'roulette' or 'tournament'")
     if ga.fitness_c_per_s <= 0:
         raise QmtInputError(f"{where}: ga.fitness_c_per_s must be positive")
     sampling = Sampling(**raw.get("sampling", {}))

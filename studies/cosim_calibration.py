@@ -98,7 +98,8 @@ def control_report(sc, genes) -> dict:
                                               "max_tracking_error_rad", "peak_motor_torque_Nm",
                                               "peak_motor_torque_planned_Nm", "peak_moment_ratio_planned",
                                               "energy_J", "real_time_factor")})
-        print(f"{sc.name} GA x{scale}: held={r.held} slip={r.max_slip_m*1e3:.3f} mm track={r.max_tracking_error_rad:.4f} rad "
+        print(f"{sc.name} GA x{scale}: held={r.held} slip={r.max_slip_m*1e3:.3f} mm "
+              f"track={r.max_tracking_error_rad:.4f} rad "
               f"motor={np.round(r.peak_motor_torque_Nm, 5)} N m (plan/N {np.round(r.peak_motor_torque_planned_Nm, 5)})",
               flush=True)
     return out

@@ -70,7 +70,8 @@ def _bench(spec, coil, current, a_max, g0=0.5e-3):
     pc = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
     plant.SetFreeBodyPose(pc, payload, RigidTransform())
     sim.AdvanceTo(1.5)
-    slip, tilt, gap = relative_payload_motion(RigidTransform(), plant.EvalBodyPoseInWorld(pc, payload), RigidTransform())
+    X_WP = plant.EvalBodyPoseInWorld(pc, payload)
+    slip, tilt, gap = relative_payload_motion(RigidTransform(), X_WP, RigidTransform())
     return slip < 1e-3 and gap < 1e-3
 
 

@@ -71,14 +71,18 @@ class BinaryGa:
         self._weights = (1 << np.arange(self.bits - 1, -1, -1)).astype(np.int64)
 
     def codes(self, pop: np.ndarray) -> np.ndarray:
-        """Integer code of each gene, (P, G)."""
-        return pop.reshape(pop.shape[0], self.n_genes, self.bits) @ self._weights
+        """Integer level of each gene, (P, G)."""
+        bits = pop.reshape(pop.shape[0], self.n_genes, self.bits)
+        if self.s.encoding == "gray":  # binary bit i = XOR of Gray bits 0..i
+            bits = np.bitwise_xor.accumulate(bits, axis=2)
+        return bits @ self._weights
 
     def decode(self, pop: np.ndarray) -> np.ndarray:
         lo, hi = self.problem.lower, self.problem.upper
         return lo + (hi - lo) * self.codes(pop) / self.levels
 
     def keys(self, pop: np.ndarray) -> np.ndarray:
+        """One integer per chromosome (the levels packed), for the fitness cache."""
         c = self.codes(pop)
         key = np.zeros(pop.shape[0], dtype=np.int64)
         for g in range(self.n_genes):
@@ -86,6 +90,9 @@ class BinaryGa:
         return key
 
     def select(self, fitness: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+        if self.s.selection == "tournament":
+            a, b = rng.integers(0, fitness.size, (2, n))
+            return np.where(fitness[a] >= fitness[b], a, b)
         total = fitness.sum()
         if total <= 0:
             return rng.integers(0, fitness.size, n)
@@ -184,8 +191,7 @@ def run_ga(problem: PlanningProblem, settings: GaSettings | None = None, *, seed
     chosen = _best_passing_recheck(problem, ga, cache, c)
     least = None
     if chosen is None:
-        k_least = min(cache, key=lambda k: cache[k][1])
-        least = _key_to_genes(ga, k_least)
+        least = _least_violating(problem, ga, cache)
     if ckpt and ckpt.is_file():
         ckpt.unlink()  # the run finished; its result is what the caller writes out
     genes = chosen if chosen is not None else least
@@ -199,6 +205,26 @@ def _key_to_genes(ga: BinaryGa, key: int) -> np.ndarray:
     codes = [(key >> (ga.bits * (ga.n_genes - 1 - g))) & ga.levels for g in range(ga.n_genes)]
     lo, hi = ga.problem.lower, ga.problem.upper
     return lo + (hi - lo) * np.array(codes) / ga.levels
+
+
+def _least_violating(problem, ga, cache, batch: int = 64) -> np.ndarray:
+    """Chromosome with the smallest worst ratio on the full grid among all evaluated.
+
+    The cache holds lower bounds for infeasible candidates (the fast evaluator stops at the
+    first coarse violation), so candidates are re-evaluated exactly in order of their bound
+    until no remaining bound can beat the best exact value."""
+    order = sorted(cache, key=lambda k: cache[k][1])
+    best_key, best = order[0], np.inf
+    for i in range(0, len(order), batch):
+        keys = order[i:i + batch]
+        if cache[keys[0]][1] >= best:
+            break
+        genes = np.array([_key_to_genes(ga, k) for k in keys])
+        worst = problem.evaluate(genes, exact=True).worst_ratio
+        j = int(np.argmin(worst))
+        if worst[j] < best:
+            best, best_key = float(worst[j]), keys[j]
+    return _key_to_genes(ga, best_key)
 
 
 def _best_passing_recheck(problem, ga, cache, c, tries: int = 50):

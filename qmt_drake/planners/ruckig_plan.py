@@ -43,7 +43,8 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits import limit_columns
 from qmt_drake.plan import Plan
-from qmt_drake.planners.toppra_plan import (ConcatenatedTrajectory, finish_plan, infeasible_plan,
+from qmt_drake.planners.toppra_plan import (CartesianLinePath, ConcatenatedTrajectory, finish_plan,
+                                            infeasible_plan, slowest_allowed_motion_s,
                                             task_joint_points)
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import JointTrajectory
@@ -162,9 +163,10 @@ def _worst(scenario, traj: JointTrajectory, rate_hz: float) -> float:
     return float(np.max(cols[:, :1 + n]))
 
 
-def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_steps: int = 80):
+def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration_s: float,
+                   max_steps: int = 80):
     """Largest lam (<= lam_max if given) with worst(make(lam)) <= 1; (lam, traj, steps) or
-    (None, None, steps) if none down to 1e-12."""
+    (None, None, steps) if none before the motion gets longer than max_duration_s."""
     steps = 0
     lam = 1.0 if lam_max is None else lam_max
     traj = make(lam)
@@ -197,6 +199,8 @@ def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_steps: i
             if worst(t) <= 1.0:
                 lo, lo_traj = lam, t
                 break
+            if t.duration_s > max_duration_s:  # slower still would only be longer
+                return None, None, steps
         if lo is None:
             return None, None, steps
     while hi / lo - 1 > rtol and steps < max_steps:
@@ -240,6 +244,7 @@ def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line"
     except QmtInputError as exc:
         return infeasible_plan(scenario, method, f"no path: {exc}",
                                planner_wall_s=time.perf_counter() - t_start, extra=extra)
+    T_max = slowest_allowed_motion_s(scenario) if max_motion_time_s is None else max_motion_time_s
     parts, scales, steps_total, solve_wall = [], [], 0, 0.0
     worst = lambda tr: _worst(scenario, tr, rate)  # noqa: E731
     for i in range(len(pts) - 1):
@@ -249,7 +254,6 @@ def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line"
             lim = np.maximum(cos, TINY_LIMIT)
             # Whole segment reachable and in range (else: infeasible).
             try:
-                from qmt_drake.planners.toppra_plan import CartesianLinePath
                 CartesianLinePath(arm, pts[i], pts[i + 1], task.tool_angle_rad, task.ik_branch)
             except QmtInputError as exc:
                 return infeasible_plan(scenario, method, f"no path: {exc}",
@@ -274,12 +278,14 @@ def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line"
                 return JointProfileTrajectory(prof)
             lam_max = None
         t0 = time.perf_counter()
-        lam, traj, steps = _largest_scale(make, worst, lam_max, bisection_rtol)
+        lam, traj, steps = _largest_scale(make, worst, lam_max, bisection_rtol, T_max)
         solve_wall += time.perf_counter() - t0
         steps_total += steps
         if lam is None:
             return infeasible_plan(scenario, method, f"segment {i + 1}: no acceleration scale "
-                                   "down to 1e-12 keeps the limits",
+                                   "keeps the limits before the motion gets longer than the "
+                                   f"slowest allowed motion {T_max:.4f} s: the limits are too "
+                                   "tight",
                                    planner_wall_s=time.perf_counter() - t_start, extra=extra)
         parts.append(traj)
         scales.append(lam)
@@ -292,4 +298,4 @@ def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line"
                      "synchronization: the tip acceleration norm is exactly scale * A")
     return finish_plan(scenario, method, traj, planner_wall_s=time.perf_counter() - t_start,
                        extra=extra, slow_to_limits=slow_to_limits,
-                       max_motion_time_s=max_motion_time_s, evaluations=steps_total)
+                       max_motion_time_s=T_max, evaluations=steps_total)

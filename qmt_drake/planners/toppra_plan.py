@@ -379,7 +379,10 @@ def slowest_allowed_motion_s(scenario) -> float:
     """The slowest motion the scenario's family allows (all genes at their upper bounds), s:
     the time budget every planner here must meet (a longer motion is an infeasible result)."""
     from qmt_drake.families import make_family
-    fam = make_family(scenario)
+    try:
+        fam = make_family(scenario)
+    except QmtInputError:
+        return float("inf")  # the family cannot even be built (its points are out of reach)
     return float(fam.motion_time_s(scenario.family.gene_bounds[:, 1][None])[0])
 
 
@@ -409,9 +412,20 @@ def finish_plan(scenario, method: str, trajectory: JointTrajectory, *, planner_w
                 evaluations: int = 0) -> Plan:
     """Re-check the planner's raw output at the check rate; record it in extra['raw_check'];
     optionally slow it by the exact factor until the re-check passes; flag a motion longer than
-    `max_motion_time_s` (default: the family's slowest allowed motion) as infeasible."""
-    raw = recheck(scenario, trajectory)
+    `max_motion_time_s` (default: the family's slowest allowed motion) as infeasible (such a
+    plan keeps no motion: the arm rests at the start, extra['found_motion_time_s'] holds the
+    duration the planner found)."""
     extra = dict(extra)
+    limit_T = slowest_allowed_motion_s(scenario) if max_motion_time_s is None else max_motion_time_s
+    extra["max_motion_time_s"] = limit_T
+    if trajectory.duration_s > limit_T:
+        # Not re-checked (a very slow motion would take millions of samples): no motion is kept.
+        extra["found_motion_time_s"] = trajectory.duration_s
+        return infeasible_plan(
+            scenario, method, f"the fastest motion found takes {trajectory.duration_s:.4g} s, longer "
+            f"than the slowest allowed motion {limit_T:.4f} s (family genes at their upper "
+            "bounds): the limits are too tight", planner_wall_s=planner_wall_s, extra=extra)
+    raw = recheck(scenario, trajectory)
     extra["raw_check"] = {"motion_time_s": raw.motion_time_s,
                           "peak_moment_ratio": raw.peak_moment_ratio,
                           "peak_motor_torque_ratio": raw.peak_motor_torque_ratio,
@@ -430,23 +444,23 @@ def finish_plan(scenario, method: str, trajectory: JointTrajectory, *, planner_w
                                   f"moment ratio {raw.peak_moment_ratio:.5f}, motor "
                                   f"{raw.peak_motor_torque_ratio:.5f}); played {factor:.6f} "
                                   "times slower (exact for inertial limits)")
-    limit_T = slowest_allowed_motion_s(scenario) if max_motion_time_s is None else max_motion_time_s
-    extra["max_motion_time_s"] = limit_T
     if not raw.joint_range_ok:
         return infeasible_plan(scenario, method, "the path leaves a joint range",
                                planner_wall_s=planner_wall_s, trajectory=traj, extra=extra)
     if traj.duration_s > limit_T:
         return infeasible_plan(
-            scenario, method, f"the fastest motion found takes {traj.duration_s:.4f} s, longer than "
-            f"the slowest allowed motion {limit_T:.4f} s (family genes at their upper bounds): the "
-            "limits are too tight", planner_wall_s=planner_wall_s, trajectory=traj, extra=extra)
+            scenario, method, f"slowed to keep the limits, the motion takes {traj.duration_s:.4f} s, "
+            f"longer than the slowest allowed motion {limit_T:.4f} s: the limits are too tight",
+            planner_wall_s=planner_wall_s, trajectory=traj, extra=extra)
     return make_plan(scenario, method, traj, planner_wall_s=planner_wall_s, extra=extra,
                      evaluations=evaluations)
 
 
 # ============================================================================ TOPP-RA (toppra)
-def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool):
-    """The moment polygon and motor-torque rows as one vectorised toppra SecondOrderConstraint."""
+def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
+                vertex_on_chord: bool = True):
+    """The moment polygon and motor-torque rows as one vectorised toppra SecondOrderConstraint.
+    vertex_on_chord: a vertex (else an edge normal) points along angle0."""
     from toppra.constraint import DiscretizationType, SecondOrderConstraint
     from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
 
@@ -454,7 +468,8 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool):
     n = arm.n_dof
     A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm  # m/s^2
     scale_motor = arm.gear_ratio * scenario.limits.motor_torque_limit_Nm  # joint-side N*m
-    theta = angle0_rad + np.pi / sides + 2 * np.pi * np.arange(sides) / sides  # vertex at angle0
+    offset = np.pi / sides if vertex_on_chord else 0.0
+    theta = angle0_rad + offset + 2 * np.pi * np.arange(sides) / sides  # vertex at angle0
     normals = np.stack([np.cos(theta), np.sin(theta)], axis=1)
     F = np.zeros((sides + 2 * n, 2 + n))
     F[:sides, :2] = normals
@@ -509,11 +524,12 @@ class _ToppraPath:
 
 def toppra_segment(scenario, segment: GeometricPath, *, polygon_sides: int = 32,
                    grid_points: int = 200, inscribed: bool = True,
-                   parametrizer: str = "ParametrizeConstAccel"):
+                   parametrizer: str = "ParametrizeConstAccel", vertex_on_chord: bool = True):
     """Time one rest-to-rest segment; (trajectory or None, return code, solve wall s)."""
     from toppra.algorithm import TOPPRA
     t0 = time.perf_counter()
-    c = _constraint(scenario, chord_angle_rad(scenario, segment), polygon_sides, inscribed)
+    c = _constraint(scenario, chord_angle_rad(scenario, segment), polygon_sides, inscribed,
+                    vertex_on_chord)
     grid = np.linspace(0.0, segment.length, int(grid_points))
     tp = _ToppraPath(segment)
     algo = TOPPRA([c], tp, gridpoints=grid, parametrizer=parametrizer)
@@ -537,7 +553,7 @@ def toppra_segment(scenario, segment: GeometricPath, *, polygon_sides: int = 32,
 def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_points: int = 200,
                 reference_plan: Plan | None = None, *, parametrizer: str = "ParametrizeConstAccel",
                 measure_polygon_cost: bool = True, slow_to_limits: bool = True,
-                max_motion_time_s: float | None = None) -> Plan:
+                max_motion_time_s: float | None = None, vertex_on_chord: bool = True) -> Plan:
     """TOPP-RA (toppra package) on a geometric path; returns a re-checked Plan ("toppra").
 
     path: one of PATHS (module docstring). polygon_sides: sides P of the inscribed moment polygon
@@ -547,6 +563,8 @@ def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_po
     known to overshoot: for demonstration). measure_polygon_cost: also time the path with the
     circumscribed polygon (a lower bound for the exact norm bound). slow_to_limits: see module
     docstring. max_motion_time_s: time budget (default: the family's slowest allowed motion).
+    vertex_on_chord: False turns the polygon by half a side (an edge normal along the chord: on a
+    straight line the motion is then 1/sqrt(cos(pi/P)) times slower; for tests and studies).
     """
     if polygon_sides < 4 or polygon_sides % 2:
         raise QmtInputError(f"polygon_sides must be an even number >= 4, got {polygon_sides}")
@@ -559,7 +577,8 @@ def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_po
     extra = {"path": path, "polygon_sides": int(polygon_sides), "grid_points": int(grid_points),
              "parametrizer": parametrizer,
              "polygon_worst_case_time_cost": 1 / np.sqrt(np.cos(np.pi / polygon_sides)) - 1,
-             "polygon": "inscribed, one vertex along each segment's tip chord"}
+             "polygon": "inscribed, " + ("one vertex" if vertex_on_chord else "one edge normal")
+                        + " along each segment's tip chord"}
     try:
         segs, notes = path_segments(scenario, path, reference_plan)
     except QmtInputError as exc:
@@ -572,7 +591,8 @@ def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_po
     parts, solve_wall, codes, outer_T = [], 0.0, [], 0.0
     for seg in segs:
         traj, code, wall = toppra_segment(scenario, seg, polygon_sides=polygon_sides,
-                                          grid_points=grid_points, parametrizer=parametrizer)
+                                          grid_points=grid_points, parametrizer=parametrizer,
+                                          vertex_on_chord=vertex_on_chord)
         solve_wall += wall
         codes.append(code)
         if traj is None:
@@ -581,7 +601,8 @@ def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_po
         parts.append(traj)
         if measure_polygon_cost:
             outer, _, _ = toppra_segment(scenario, seg, polygon_sides=polygon_sides,
-                                         grid_points=grid_points, inscribed=False)
+                                         grid_points=grid_points, inscribed=False,
+                                         vertex_on_chord=vertex_on_chord)
             outer_T += outer.duration_s if outer is not None else np.nan
     traj = parts[0] if len(parts) == 1 else ConcatenatedTrajectory(parts)
     extra["toppra_solve_wall_s"] = solve_wall

@@ -24,10 +24,11 @@ Kd = [104, 19.3, 0.45], printed as "Nm", "Nm*s", "Nm/s" on the joint angle error
 Reading them in SI at the joint (tau = Kp e + Kd e_dot, N*m/rad and N*m*s/rad) gives the closed-loop
 characteristic polynomial J s^2 + Kd s + Kp with J ~ 0.05 kg m^2 (ch.4 joint 1 incl. N^2 J_rotor):
 poles -0.29 and -2080 rad/s. The slow pole ~ Kp/Kd = 0.29 rad/s (both joints: Kd/Kp = 3.5 s) is a
-3.5 s time constant, longer than the whole 1.7 s motion: the arm could not follow the plan, while the
-thesis reports accurate tracking (Fig. 2.x, 4.12). Any common rescaling of Kp and Kd (motor-side
-angle, volts instead of newton-metres, encoder counts) keeps that ratio, so the two gains cannot share
-a time unit. The reading adopted here (`PidGains.from_thesis`):
+3.5 s time constant, longer than the whole 1.7 s motion: the arm could not follow the plan, while
+the thesis reports accurate tracking (section 2.6 conclusions; Fig. 4.12, experiment vs target).
+Any common rescaling of Kp and Kd (motor-side angle, volts instead of newton-metres, encoder
+counts) keeps that ratio, so the two gains cannot share a time unit. The reading adopted here
+(`PidGains.from_thesis`; eq. 2-23 calls the output tau_i, here it is the amplifier's command):
 
   * the gains act on the MOTOR-SIDE angle error (encoder on the motor shaft, N = 100) and produce
     the amplifier's VOLTAGE command: Kp in V/rad, Ki in V/(rad*s);
@@ -39,10 +40,18 @@ characteristic polynomial per joint becomes
 
     J s^2 + (c N Kd_SI + b_emf) s + c N Kp = 0,    b_emf = N^2 eta Kt^2 / R  (back-EMF damping)
 
-which for ch.4 gives damping ratios ~0.9 (joint 1) and ~0.7 (joint 2) at 420 and 170 rad/s: a
-well-damped, stiff position loop of the kind an experimenter tunes by hand, consistent with the
-accurate tracking the thesis shows. `closed_loop_poles` computes these numbers; the tests check them
-against a linearization of the Drake closed loop.
+At the ch.4 start posture (full mass matrix, catalogue motors) the poles are -142, -387 +- 160j
+(damping ratio 0.92) and -901 rad/s; for ch.2 -39, -151, -360 +- 177j, -645, -912 rad/s; the
+literal SI reading gives -0.29 rad/s twice. A well-damped, stiff position loop of the kind an
+experimenter tunes by hand, consistent with the accurate tracking the thesis shows (simulated: 11
+mrad max error on ch.4, 29 mrad on ch.2's third joint, almost all of it the back-EMF velocity lag
+b*qd/K; `back_emf_feedforward` removes it). `effective_joint_gains` gives K and D; the tests check
+the poles against a numerical linearization of the Drake closed loop (studies/cosim_calibration.py
+writes the pole table to out/cosim_calibration.json).
+
+What is assumed rather than read from the thesis: the 1 ms derivative sample (the DSP period is not
+given), the motor-side/volt units, and the motors (dc_motor.MOTOR_CATALOG); the damping ratio above
+depends on all three (c and b_emf come from the motors). Pass other PidGains to try other readings.
 """
 
 from __future__ import annotations
@@ -78,14 +87,6 @@ class PidGains:
         kp = np.atleast_1d(np.asarray(kp, float))
         ki = np.zeros_like(kp) if ki is None else np.atleast_1d(np.asarray(ki, float))
         return cls(kp, ki, np.atleast_1d(np.asarray(kd, float)) * derivative_sample_s)
-
-
-def closed_loop_poles(joint_inertia_kgm2, stiffness_Nm_per_rad, damping_Nm_s_per_rad) -> np.ndarray:
-    """Roots of J s^2 + D s + K per joint; returns array (n, 2) of complex poles [rad/s]."""
-    J = np.atleast_1d(joint_inertia_kgm2)
-    K = np.atleast_1d(stiffness_Nm_per_rad) * np.ones_like(J)
-    D = np.atleast_1d(damping_Nm_s_per_rad) * np.ones_like(J)
-    return np.array([np.roots([j, d, k]) for j, d, k in zip(J, D, K)])
 
 
 def effective_joint_gains(gains: PidGains, motor) -> tuple[np.ndarray, np.ndarray]:

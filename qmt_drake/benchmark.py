@@ -1,0 +1,366 @@
+"""Benchmark: the GA against TOPP-RA, Ruckig and Drake trajectory optimization under the same limits.
+
+`run_benchmark` plans every scenario with every method and writes, into `out_dir`:
+  benchmark.json  every row (the plan's re-check summary, planner facts, jerk, co-simulation);
+  benchmark.md    one table per scenario and the GA / TOPP-RA ratios;
+  benchmark_<scenario>_moment.png  tip acceleration |a_tip| and payload moment against the limit
+                  over time, every method;
+  benchmark_times.png  motion times per scenario and method (bar chart).
+
+Rows per scenario: the thesis's reported genes, the GA (one row per seed), the family optimum,
+TOPP-RA on the family path, the GA's path, the straight joint path and the straight Cartesian path,
+TOPP-RA's spline output on the family path unslowed (to show its overshoot), Drake's Toppra,
+Ruckig along the Cartesian line at each jerk limit and in joint space at the middle one, and the
+free-path trajectory optimization. Every number comes from the plan's 10 kHz re-check
+(`Plan.check`) and from the co-simulation, never from the planner's own claim.
+
+Peak jerk: the tip jerk |d a_tip / dt| by finite differences of the tip acceleration sampled at
+10 kHz (m/s^3). Where the 50 kHz value exceeds the 10 kHz value three times over, the acceleration
+jumps (TOPP-RA's constant-acceleration pieces, the thesis's trapezoids, a start or stop with
+nonzero acceleration): the row says "jump" and keeps the 10 kHz number, which is then only the
+jump divided by 0.1 ms.
+
+Reference: for a task without via points, no path can be faster than 2*sqrt(L/A) (the tip is a
+double integrator with |a| <= A, L the start-goal distance); the table states it.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from qmt_drake.plan import Plan, family_plan, write_text_atomic
+
+DEFAULT_JERK_LIMITS = (1.0, 10.0, 100.0)  # m/s^3
+
+
+def tip_jerk_peak(scenario, plan: Plan) -> dict:
+    """Peak tip jerk, m/s^3, by finite differences of the tip acceleration at 10 kHz; the
+    acceleration "jumps" where the 50 kHz value exceeds it three times over."""
+    out = {}
+    T = plan.motion_time_s
+    if T <= 0:
+        return {"peak_tip_jerk_m_s3": None, "acceleration_jumps": None}
+    for rate in (10000.0, 50000.0):
+        t = np.linspace(0.0, T, max(int(np.ceil(T * rate)) + 1, 3))
+        q, qd, qdd = plan.sample(t)
+        a = scenario.arm.tip_acceleration(q, qd, qdd)
+        out[rate] = float(np.max(np.linalg.norm(np.diff(a, axis=0), axis=1) / np.diff(t)))
+    return {"peak_tip_jerk_m_s3": out[10000.0],
+            "peak_tip_jerk_50kHz_m_s3": out[50000.0],
+            "acceleration_jumps": bool(out[50000.0] > 3.0 * out[10000.0])}
+
+
+def closed_form_bound_s(scenario) -> float | None:
+    """2*sqrt(L/A) for a task without vias (None with vias)."""
+    pts = scenario.task.points_m
+    if len(pts) != 2:
+        return None
+    A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
+    return float(2 * np.sqrt(np.hypot(*(pts[1] - pts[0])) / A))
+
+
+def cosim_outcome(scenario, plan: Plan) -> dict:
+    """Guarded co-simulation: held / max slip, or nulls and a note."""
+    if plan.motion_time_s <= 0:
+        return {"held": None, "max_slip_m": None, "cosim_note": "not simulated: no motion"}
+    try:
+        from qmt_drake.cosim import run_simulate
+    except Exception as exc:  # noqa: BLE001 - the co-simulation is optional here
+        return {"held": None, "max_slip_m": None, "cosim_note": f"co-simulation unavailable: {exc}"}
+    try:
+        r = run_simulate(scenario, plan)
+    except Exception as exc:  # noqa: BLE001
+        return {"held": None, "max_slip_m": None,
+                "cosim_note": f"co-simulation failed: {type(exc).__name__}: {exc}"}
+    return {"held": r.get("held"), "max_slip_m": r.get("max_slip_m"),
+            "cosim_sim_wall_s": r.get("sim_wall_s"), "cosim_note": None}
+
+
+def _row(scenario, label: str, plan: Plan, cosim: bool) -> dict:
+    s = plan.summary()
+    ex = plan.extra or {}
+    raw = ex.get("raw_check") or {}
+    row = {"label": label, "method": plan.method, "feasible": s["feasible"],
+           "motion_time_s": s["motion_time_s"], "peak_moment_ratio": s["peak_moment_ratio"],
+           "peak_motor_torque_ratio": s["peak_motor_torque_ratio"],
+           "joint_range_ok": s["joint_range_ok"], "planner_wall_s": s["planner_wall_s"],
+           "raw_peak_moment_ratio": raw.get("peak_moment_ratio"),
+           "raw_peak_motor_torque_ratio": raw.get("peak_motor_torque_ratio"),
+           "raw_motion_time_s": raw.get("motion_time_s"),
+           "slowdown_factor": ex.get("slowdown_factor"), "genes": s["genes"],
+           "infeasible": ex.get("infeasible"),
+           "extra": {k: v for k, v in ex.items() if k not in ("raw_check",)}}
+    row.update(tip_jerk_peak(scenario, plan))
+    row.update(cosim_outcome(scenario, plan) if cosim else
+               {"held": None, "max_slip_m": None, "cosim_note": "co-simulation not run"})
+    return row
+
+
+def _series(scenario, plan: Plan, rate_hz: float = 1000.0):
+    T = plan.motion_time_s
+    if T <= 0:
+        return None
+    t = np.linspace(0.0, T, int(np.ceil(T * rate_hz)) + 1)
+    q, qd, qdd = plan.sample(t)
+    a = np.linalg.norm(scenario.arm.tip_acceleration(q, qd, qdd), axis=1)
+    return t, a
+
+
+def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir="out",
+                  jerk_limits=DEFAULT_JERK_LIMITS, progress: Callable[[str], None] | None = print,
+                  ga_seeds=(0,), quick: bool = False, cosim: bool = True,
+                  ga_max_generations: int | None = None, ga_stall_generations: int | None = None,
+                  figures: bool = True) -> dict:
+    """Plan every scenario with every method, write benchmark.json/.md and figures; return the
+    JSON dict. quick=True: a 30-generation GA, a smaller trajopt (10 control points, 40 samples),
+    one jerk limit. cosim=False skips the co-simulation (rows then say so)."""
+    from qmt_drake.planners.optimum import plan_family_optimum
+    from qmt_drake.planners.ruckig_plan import plan_ruckig
+    from qmt_drake.planners.toppra_plan import plan_toppra, plan_toppra_drake
+    from qmt_drake.planners.trajopt_plan import plan_trajopt
+    from qmt_drake.problem import PlanningProblem
+    from qmt_drake.scenario import load_scenario
+
+    say = progress or (lambda _m: None)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    gmax = ga_max_generations or (30 if quick else 1000)
+    gstall = ga_stall_generations or (30 if quick else 200)
+    jerks = tuple(jerk_limits[-1:]) if quick else tuple(jerk_limits)
+    trajopt_kw = {"num_control_points": 10, "constraint_samples": 40} if quick else {}
+    result = {"settings": {"ga_seeds": list(ga_seeds), "ga_max_generations": gmax,
+                           "ga_stall_generations": gstall, "jerk_limits_m_s3": list(jerks),
+                           "quick": quick, "cosim": cosim,
+                           "check": "every row re-checked at the scenario's check rate (10 kHz)",
+                           "peak_jerk": "tip jerk, finite differences of the tip acceleration "
+                                        "at 10 kHz (m/s^3); 'jump' where it is discontinuous"},
+              "scenarios": {}}
+    plans_by_scenario = {}
+    for name in scenarios:
+        sc = load_scenario(name)
+        P = PlanningProblem(sc)
+        plans: list[tuple[str, Plan]] = []
+
+        def add(label, fn):
+            t0 = time.perf_counter()
+            try:
+                plan = fn()
+            except Exception as exc:  # noqa: BLE001 - one method's failure is a row, not a crash
+                say(f"{name}: {label} raised {type(exc).__name__}: {exc}")
+                result["scenarios"].setdefault(name, {}).setdefault("errors", []).append(
+                    {"label": label, "error": f"{type(exc).__name__}: {exc}"})
+                return None
+            say(f"{name}: {label}: {plan.motion_time_s:.4f} s, feasible {plan.feasible} "
+                f"({time.perf_counter() - t0:.2f} s)")
+            plans.append((label, plan))
+            return plan
+
+        add("thesis reported", lambda: family_plan(P, P.genes_vector(sc.reported["genes"]),
+                                                   "thesis"))
+        ga_plans = []
+        for seed in ga_seeds:
+            def ga(seed=seed):
+                from qmt_drake.planners.ga import run_ga
+                r = run_ga(P, seed=seed, max_generations=gmax, stall_generations=gstall)
+                return family_plan(P, r.genes, "ga", planner_wall_s=r.wall_s,
+                                   evaluations=r.evaluations, generations=r.generations,
+                                   extra={"seed": seed, "stop_reason": r.stop_reason})
+            p = add(f"GA (seed {seed})", ga)
+            if p is not None:
+                ga_plans.append(p)
+        add("family optimum", lambda: plan_family_optimum(P))
+        best_ga = min(ga_plans, key=lambda p: p.motion_time_s) if ga_plans else None
+        for path in ("family", "ga_path", "joint_line", "cartesian_line"):
+            if path == "ga_path" and best_ga is None:
+                continue
+            add(f"TOPP-RA {path}", lambda path=path: plan_toppra(sc, path=path,
+                                                                 reference_plan=best_ga))
+        add("TOPP-RA family, spline output (raw)",
+            lambda: plan_toppra(sc, path="family", parametrizer="ParametrizeSpline",
+                                slow_to_limits=False, measure_polygon_cost=False))
+        add("Drake Toppra family (inscribed box)", lambda: plan_toppra_drake(sc, path="family"))
+        for J in jerks:
+            add(f"Ruckig line J={J:g}", lambda J=J: plan_ruckig(sc, jerk_limit=J))
+        jm = jerks[len(jerks) // 2]
+        add(f"Ruckig joint J={jm:g}", lambda: plan_ruckig(sc, jerk_limit=jm, mode="joint"))
+        add("trajopt (free path)", lambda: plan_trajopt(sc, **trajopt_kw))
+
+        rows = []
+        for label, plan in plans:
+            if cosim:
+                say(f"{name}: co-simulating {label}")
+            rows.append(_row(sc, label, plan, cosim))
+        feas = [r["motion_time_s"] for r in rows if r["feasible"]]
+        fastest = min(feas) if feas else None
+        for r in rows:
+            r["ratio_to_fastest"] = (r["motion_time_s"] / fastest
+                                     if fastest and r["motion_time_s"] > 0 else None)
+        entry = result["scenarios"].setdefault(name, {})
+        entry.update({"rows": rows, "fastest_feasible_s": fastest,
+                      "closed_form_bound_s": closed_form_bound_s(sc),
+                      "A_m_s2": sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm,
+                      "ratios": _ga_ratios(rows)})
+        plans_by_scenario[name] = plans
+    write_text_atomic(out / "benchmark.json", json.dumps(_jsonable(result), indent=1))
+    write_text_atomic(out / "benchmark.md", benchmark_markdown(result))
+    if figures:
+        result["figures"] = write_figures(plans_by_scenario, out)
+    say(f"wrote {out / 'benchmark.json'} and {out / 'benchmark.md'}")
+    return result
+
+
+def _ga_ratios(rows) -> dict:
+    by = {r["label"]: r for r in rows}
+    ga = [r for r in rows if r["method"] == "ga" and r["feasible"]]
+    out = {}
+    if not ga:
+        return out
+    g = min(ga, key=lambda r: r["motion_time_s"])
+    for key in ("TOPP-RA ga_path", "TOPP-RA family"):
+        t = by.get(key)
+        if t and t["feasible"] and t["motion_time_s"] > 0:
+            out[f"GA / {key}: motion time"] = g["motion_time_s"] / t["motion_time_s"]
+            out[f"GA / {key}: planning wall time"] = g["planner_wall_s"] / t["planner_wall_s"]
+            tw = (t["extra"] or {}).get("toppra_solve_wall_s")
+            if tw:
+                out[f"GA / {key}: GA wall / toppra solve wall"] = g["planner_wall_s"] / tw
+    return out
+
+
+def _fmt(v, spec=".4f"):
+    if v is None:
+        return "—"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    return format(v, spec)
+
+
+def benchmark_markdown(result: dict) -> str:
+    lines = ["# Benchmark: GA vs TOPP-RA, Ruckig and trajectory optimization", "",
+             "Every number is from the plan's 10 kHz re-check with the shared limit code and from "
+             "the co-simulation (held = never detached and slip < 1 mm), not from the planner. "
+             "Ratios are peak/limit. 'raw' is the re-check of the planner's own output "
+             "(moment / motor ratios) before the exact slow-down: 'over by x' is its worst ratio "
+             "minus 1 (x below 1e-12 is rounding). Jerk: peak tip jerk by finite differences "
+             "of the tip acceleration at 10 kHz; 'jump' marks an acceleration discontinuity.", ""]
+    for name, e in result["scenarios"].items():
+        lines += [f"## {name}", ""]
+        A = e.get("A_m_s2")
+        if A is not None:
+            lines.append(f"A = moment limit / (m_o r_G) = {A:.5f} m/s^2.")
+        if e.get("closed_form_bound_s"):
+            lines.append(f"No path can beat 2*sqrt(L/A) = {e['closed_form_bound_s']:.5f} s "
+                         "(tip as a double integrator with |a| <= A).")
+        lines += ["", "| method | feasible | motion time [s] | / fastest | moment ratio | "
+                  "motor ratio | raw moment / motor | peak jerk [m/s^3] | wall [s] | held | "
+                  "max slip [mm] |", "|" + "---|" * 11]
+        for r in e.get("rows", []):
+            raw = "—"
+            if r.get("raw_peak_moment_ratio") is not None:
+                rm, rt = r["raw_peak_moment_ratio"], r["raw_peak_motor_torque_ratio"]
+                over = max(rm, rt) - 1.0
+                raw = f"**over by {over:.2g}** ({rm:.4f} / {rt:.4f})" if over > 0 else "within"
+            jerk = _fmt(r.get("peak_tip_jerk_m_s3"), ".3g")
+            if r.get("acceleration_jumps"):
+                jerk = f"jump ({jerk})"
+            slip = r.get("max_slip_m")
+            lines.append(
+                f"| {r['label']} | {_fmt(r['feasible'])} | "
+                f"{_fmt(r['motion_time_s']) if r['motion_time_s'] > 0 else '—'} | "
+                f"{_fmt(r.get('ratio_to_fastest'), '.3f')} | {_fmt(r['peak_moment_ratio'])} | "
+                f"{_fmt(r['peak_motor_torque_ratio'])} | {raw} | {jerk} | "
+                f"{_fmt(r['planner_wall_s'], '.3f')} | {_fmt(r.get('held'))} | "
+                f"{_fmt(None if slip is None else slip * 1e3, '.3f')} |")
+        notes = [f"- {r['label']}: {r['infeasible']}" for r in e.get("rows", []) if r.get("infeasible")]
+        notes += [f"- {r['label']}: co-simulation: {r['cosim_note']}" for r in e.get("rows", [])
+                  if r.get("cosim_note") and r["cosim_note"] != "co-simulation not run"]
+        notes += [f"- {x['label']}: raised {x['error']}" for x in e.get("errors", [])]
+        if notes:
+            lines += ["", *notes]
+        if e.get("ratios"):
+            lines += [""] + [f"- {k}: {v:.4g}" for k, v in e["ratios"].items()]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def write_figures(plans_by_scenario: dict, out: Path) -> list[str]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    for name, plans in plans_by_scenario.items():
+        if not plans:
+            continue
+        sc = plans[0][1].scenario
+        A = sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm
+        fig, axes = plt.subplots(2, 1, figsize=(11, 8), sharex=True)
+        cmap = plt.get_cmap("tab20")
+        for k, (label, plan) in enumerate(plans):
+            s = _series(sc, plan)
+            if s is None:
+                continue
+            t, a = s
+            style = "--" if k % 2 else "-"
+            axes[0].plot(t, a, style, color=cmap(k % 20), lw=1.1, label=label)
+            axes[1].plot(t, a * sc.moment_per_accel_kgm * 1e3, style, color=cmap(k % 20), lw=1.1)
+        axes[0].axhline(A, color="k", lw=1.5, label=f"limit A = {A:.4g} m/s²")
+        axes[1].axhline(sc.limits.moment_limit_Nm * 1e3, color="k", lw=1.5)
+        axes[0].set_ylabel("|tip acceleration| [m/s²]")
+        axes[1].set_ylabel("payload moment [mN·m]")
+        axes[1].set_xlabel("time [s]")
+        axes[0].set_title(f"{name}: tip acceleration and payload moment against the limit")
+        axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+        for ax in axes:
+            ax.grid(alpha=0.3)
+            ax.set_ylim(0, None)
+        fig.tight_layout()
+        path = out / f"benchmark_{name}_moment.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files.append(str(path))
+
+    fig, axes = plt.subplots(len(plans_by_scenario), 1,
+                             figsize=(11, 3.6 * len(plans_by_scenario)), squeeze=False)
+    for ax, (name, plans) in zip(axes[:, 0], plans_by_scenario.items()):
+        labels = [lb for lb, _ in plans]
+        times = [p.motion_time_s for _, p in plans]
+        colors = ["tab:green" if p.feasible else "tab:red" for _, p in plans]
+        y = np.arange(len(plans))
+        ax.barh(y, times, color=colors)
+        for yi, (tt, (_, p)) in enumerate(zip(times, plans)):
+            ax.text(tt, yi, f" {tt:.3f}" + ("" if p.feasible else " (breaks a limit)"),
+                    va="center", fontsize=7)
+        ax.set_yticks(y, labels, fontsize=7)
+        ax.invert_yaxis()
+        ax.set_xlabel("motion time [s]")
+        ax.set_title(f"{name}: motion time (green: keeps every limit on the 10 kHz re-check)")
+        ax.set_xlim(0, max(times) * 1.25 if times else 1)
+        ax.grid(axis="x", alpha=0.3)
+    fig.tight_layout()
+    path = out / "benchmark_times.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    files.append(str(path))
+    return files
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    if isinstance(x, (np.floating, float)):
+        return None if not np.isfinite(x) else float(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    return x

@@ -1,0 +1,11 @@
+"""Seed 000 chapter 4: reported genes, GA over 10 seeds, family optimum, figures -> out/thesis-ch4/.
+
+Run: .venv/bin/python -m studies.thesis_ch4 [--out out] [--seeds 10] [--workers 2]
+"""
+
+import sys
+
+from qmt_drake.thesis_study import main
+
+if __name__ == "__main__":
+    sys.exit(main("thesis-ch4"))
