@@ -78,6 +78,8 @@ def cosim_outcome(scenario, plan: Plan) -> dict:
         return {"held": None, "max_slip_m": None,
                 "cosim_note": f"co-simulation failed: {type(exc).__name__}: {exc}"}
     return {"held": r.get("held"), "max_slip_m": r.get("max_slip_m"),
+            "detached_at_s": r.get("detached_at_s"),
+            "max_tracking_error_rad": r.get("max_tracking_error_rad"),
             "cosim_sim_wall_s": r.get("sim_wall_s"), "cosim_note": None}
 
 
@@ -257,7 +259,7 @@ def benchmark_markdown(result: dict) -> str:
             lines.append(f"No path can beat 2*sqrt(L/A) = {e['closed_form_bound_s']:.5f} s "
                          "(tip as a double integrator with |a| <= A).")
         lines += ["", "| method | feasible | motion time [s] | / fastest | moment ratio | "
-                  "motor ratio | raw moment / motor | peak jerk [m/s^3] | wall [s] | held | "
+                  "motor ratio | raw moment / motor | peak jerk [m/s^3] | planning wall [s] | held | "
                   "max slip [mm] |", "|" + "---|" * 11]
         for r in e.get("rows", []):
             raw = "—"
@@ -269,16 +271,22 @@ def benchmark_markdown(result: dict) -> str:
             if r.get("acceleration_jumps"):
                 jerk = f"jump ({jerk})"
             slip = r.get("max_slip_m")
+            wall = _fmt(r["planner_wall_s"], ".3f")
+            solve = (r.get("extra") or {}).get("toppra_solve_wall_s")
+            if solve:
+                wall += f" (solve {solve * 1e3:.0f} ms)"
             lines.append(
                 f"| {r['label']} | {_fmt(r['feasible'])} | "
                 f"{_fmt(r['motion_time_s']) if r['motion_time_s'] > 0 else '—'} | "
                 f"{_fmt(r.get('ratio_to_fastest'), '.3f')} | {_fmt(r['peak_moment_ratio'])} | "
                 f"{_fmt(r['peak_motor_torque_ratio'])} | {raw} | {jerk} | "
-                f"{_fmt(r['planner_wall_s'], '.3f')} | {_fmt(r.get('held'))} | "
+                f"{wall} | {_fmt(r.get('held'))} | "
                 f"{_fmt(None if slip is None else slip * 1e3, '.3f')} |")
         notes = [f"- {r['label']}: {r['infeasible']}" for r in e.get("rows", []) if r.get("infeasible")]
         notes += [f"- {r['label']}: co-simulation: {r['cosim_note']}" for r in e.get("rows", [])
                   if r.get("cosim_note") and r["cosim_note"] != "co-simulation not run"]
+        notes += [f"- {r['label']}: co-simulation: the payload detached at {r['detached_at_s']:.3f} s"
+                  for r in e.get("rows", []) if r.get("detached_at_s") is not None]
         notes += [f"- {x['label']}: raised {x['error']}" for x in e.get("errors", [])]
         if notes:
             lines += ["", *notes]
@@ -299,26 +307,38 @@ def write_figures(plans_by_scenario: dict, out: Path) -> list[str]:
             continue
         sc = plans[0][1].scenario
         A = sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm
-        fig, axes = plt.subplots(2, 1, figsize=(11, 8), sharex=True)
-        cmap = plt.get_cmap("tab20")
-        for k, (label, plan) in enumerate(plans):
-            s = _series(sc, plan)
-            if s is None:
-                continue
-            t, a = s
-            style = "--" if k % 2 else "-"
-            axes[0].plot(t, a, style, color=cmap(k % 20), lw=1.1, label=label)
-            axes[1].plot(t, a * sc.moment_per_accel_kgm * 1e3, style, color=cmap(k % 20), lw=1.1)
-        axes[0].axhline(A, color="k", lw=1.5, label=f"limit A = {A:.4g} m/s²")
-        axes[1].axhline(sc.limits.moment_limit_Nm * 1e3, color="k", lw=1.5)
-        axes[0].set_ylabel("|tip acceleration| [m/s²]")
-        axes[1].set_ylabel("payload moment [mN·m]")
-        axes[1].set_xlabel("time [s]")
-        axes[0].set_title(f"{name}: tip acceleration and payload moment against the limit")
-        axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-        for ax in axes:
+        X = sc.moment_per_accel_kgm
+        shown = [(lb, p) for lb, p in plans if p.motion_time_s > 0]
+        cols = 3
+        rows = int(np.ceil(len(shown) / cols))
+        T_all = max(p.motion_time_s for _, p in shown)
+        fig, axes = plt.subplots(rows, cols, figsize=(13, 2.1 * rows + 0.8), sharex=True,
+                                 sharey=True, squeeze=False)
+        for ax, (label, plan) in zip(axes.ravel(), shown):
+            t, a = _series(sc, plan)
+            color = "tab:blue" if plan.feasible else "tab:red"
+            ax.plot(t, a, color=color, lw=1.0)
+            ax.axhline(A, color="k", lw=1.0, ls="--")
+            ax.set_title(f"{label}: {plan.motion_time_s:.3f} s, peak "
+                         f"{plan.check.peak_moment_ratio:.4f}", fontsize=8)
+            ax.set_xlim(0, T_all * 1.02)
+            ax.set_ylim(0, 1.2 * A)
             ax.grid(alpha=0.3)
-            ax.set_ylim(0, None)
+            ax.tick_params(labelsize=7)
+            sec = ax.secondary_yaxis("right", functions=(lambda v: v * X * 1e3,
+                                                         lambda m: m / (X * 1e3)))
+            sec.tick_params(labelsize=7)
+            if ax in axes[:, -1]:
+                sec.set_ylabel("moment [mN·m]", fontsize=8)
+        for ax in axes.ravel()[len(shown):]:
+            ax.set_visible(False)
+        for ax in axes[:, 0]:
+            ax.set_ylabel("|a_tip| [m/s²]", fontsize=8)
+        for ax in axes[-1]:
+            ax.set_xlabel("time [s]", fontsize=8)
+        fig.suptitle(f"{name}: tip acceleration (left axis) = payload moment (right axis) over "
+                     f"time; dashed: the limit A = {A:.4g} m/s² = {sc.limits.moment_limit_Nm*1e3:.4g} "
+                     "mN·m; red: breaks a limit on the re-check", fontsize=9)
         fig.tight_layout()
         path = out / f"benchmark_{name}_moment.png"
         fig.savefig(path, dpi=110)

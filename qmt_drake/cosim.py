@@ -284,6 +284,13 @@ def add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, desired_state_po
 # ------------------------------------------------------------------------------------ simulation
 @dataclass
 class TransferResult:
+    """One co-simulated transfer. Times are simulation time: lead_s (0.2 s) of rest, the plan slowed
+    by time_scale, settle_s (0.5 s); detached_at_s counts from the start of the lead (None: never).
+    held = never detached and max_slip_m < 1 mm. peak_motor_torque_ratio is the simulated peak over
+    the scenario's rated motor torque; peak_moment_ratio_planned is the time-scaled plan's
+    m_o r_G |a_tip| peak over the moment limit. real_time_factor = sim_time_s / sim_wall_s.
+    series (if kept): 5 ms samples of the exported signals, see logged_series."""
+
     scenario: str
     method: str
     time_scale: float

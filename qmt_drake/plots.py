@@ -91,7 +91,7 @@ def moment(plans: dict, path, title=""):
     ax.set_ylabel("payload moment |tau_M| [mNm]")
     ax.set_title(title or "payload moment against its limit")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower center")
+    ax.legend(fontsize=7, loc="center", framealpha=0.9)
     return _save(fig, path)
 
 

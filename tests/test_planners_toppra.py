@@ -139,6 +139,8 @@ def test_infeasible_limits_give_infeasible_plans(sc3):
     p = plan_toppra(weak, path="joint_line", measure_polygon_cost=False)
     assert not p.feasible
     assert "limits are too tight" in p.extra["infeasible"]
+    p = plan_toppra_drake(weak, path="joint_line")
+    assert not p.feasible and "too tight" in p.extra["infeasible"]
     far = load_scenario("thesis-ch3", overrides={"task": {"points_m": [[0.22, 0.15], [0.5, 0.5]]}})
     for path in ("joint_line", "cartesian_line", "family"):
         p = plan_toppra(far, path=path)

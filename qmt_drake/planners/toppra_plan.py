@@ -702,14 +702,11 @@ def _drake_timed(pp, s_of_t) -> JointTrajectory:
         return (d1.vector_values(s) * sdd + d2.vector_values(s) * sd**2).T
 
     bp = np.asarray(s_of_t.get_segment_times()) - t0
-    return _OneSided(f, T, bp, pp.rows(), s_of_t)
+    return _OneSided(f, T, bp, pp.rows())
 
 
 class _OneSided(CallableTrajectory):
     """CallableTrajectory whose pieces are evaluated 1e-9 s inside (one-sided at breakpoints)."""
-
-    def __init__(self, f, T, bp, n, s_of_t) -> None:
-        super().__init__(f, T, bp, n)
 
     def evaluate(self, t_s, t_piece_s):
         t = np.atleast_1d(np.asarray(t_s, dtype=float))

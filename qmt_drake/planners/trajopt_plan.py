@@ -214,9 +214,12 @@ def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: 
     traj = BsplineJointTrajectory(trajopt.ReconstructTrajectory(result))
     wall = time.perf_counter() - t_start
     if not result.is_success():
+        at_bound = traj.duration_s >= T_max * (1 - 1e-6)
         return infeasible_plan(
             scenario, method, f"SNOPT did not converge ({result.get_solution_result()}, info "
-            f"{info}); the last iterate is kept as the trajectory", planner_wall_s=wall,
+            f"{info})" + (f" with the duration at its upper bound {T_max:.4f} s (the slowest "
+                          "allowed motion): the limits are likely too tight" if at_bound else "")
+            + "; the last iterate is kept as the trajectory", planner_wall_s=wall,
             trajectory=traj, extra=extra)
     return finish_plan(scenario, method, traj, planner_wall_s=wall, extra=extra,
                        slow_to_limits=slow_to_limits, max_motion_time_s=T_max)

@@ -1,0 +1,79 @@
+"""Benchmark: a quick chapter-3 run writes the JSON, the Markdown table and readable figures; its
+rows come from the re-check (the straight-line TOPP-RA row meets 2*sqrt(L/A), the fastest row has
+ratio 1); the co-simulation is called per row and guarded (a failing or missing co-simulation gives
+nulls and a note, not a crash)."""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+import qmt_drake.cosim
+from qmt_drake.benchmark import closed_form_bound_s, cosim_outcome, run_benchmark
+from qmt_drake.planners.toppra_plan import plan_toppra
+from qmt_drake.scenario import load_scenario
+
+
+def test_quick_benchmark_ch3(tmp_path, monkeypatch):
+    calls = []
+
+    def fake_simulate(scenario, plan, time_scale=1.0, record_path=None):
+        calls.append(plan.method)
+        if plan.method == "ruckig":
+            raise RuntimeError("boom")
+        return {"held": True, "max_slip_m": 1e-4, "sim_wall_s": 0.0}
+
+    monkeypatch.setattr(qmt_drake.cosim, "run_simulate", fake_simulate)
+    res = run_benchmark(scenarios=("thesis-ch3",), out_dir=tmp_path, quick=True, progress=None)
+    for f in ("benchmark.json", "benchmark.md", "benchmark_thesis-ch3_moment.png",
+              "benchmark_times.png"):
+        assert (tmp_path / f).is_file()
+        if f.endswith(".png"):
+            assert (tmp_path / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    data = json.loads((tmp_path / "benchmark.json").read_text())
+    rows = data["scenarios"]["thesis-ch3"]["rows"]
+    labels = [r["label"] for r in rows]
+    for want in ("thesis reported", "GA (seed 0)", "family optimum", "TOPP-RA family",
+                 "TOPP-RA ga_path", "TOPP-RA joint_line", "TOPP-RA cartesian_line",
+                 "Drake Toppra family (inscribed box)", "trajopt (free path)"):
+        assert want in labels
+    assert any(lb.startswith("Ruckig line") for lb in labels)
+    by = {r["label"]: r for r in rows}
+    sc = load_scenario("thesis-ch3")
+    line = by["TOPP-RA cartesian_line"]
+    assert line["motion_time_s"] == pytest.approx(closed_form_bound_s(sc), rel=1e-3)
+    feasible = [r for r in rows if r["feasible"]]
+    assert min(r["ratio_to_fastest"] for r in feasible) == pytest.approx(1.0)
+    assert all(r["motion_time_s"] >= closed_form_bound_s(sc) * (1 - 1e-3) for r in feasible)
+    for r in rows:
+        assert r["peak_moment_ratio"] is not None and r["peak_motor_torque_ratio"] is not None
+        if r["feasible"]:
+            assert max(r["peak_moment_ratio"], r["peak_motor_torque_ratio"]) <= 1.0
+        if r["method"] == "ruckig":
+            assert r["held"] is None and "failed" in r["cosim_note"]
+        else:
+            assert r["held"] is True
+    assert len(calls) == len(rows)
+    ratios = data["scenarios"]["thesis-ch3"]["ratios"]
+    assert "GA / TOPP-RA ga_path: motion time" in ratios
+    md = (tmp_path / "benchmark.md").read_text()
+    assert "| TOPP-RA cartesian_line | yes |" in md
+    assert "co-simulation failed" in md
+    assert res["scenarios"]["thesis-ch3"]["closed_form_bound_s"] == pytest.approx(
+        closed_form_bound_s(sc))
+
+
+def test_cosim_missing_is_a_note(monkeypatch):
+    sc = load_scenario("thesis-ch3")
+    plan = plan_toppra(sc, path="joint_line", measure_polygon_cost=False)
+    monkeypatch.setitem(sys.modules, "qmt_drake.cosim", None)  # import fails
+    out = cosim_outcome(sc, plan)
+    assert out["held"] is None and "unavailable" in out["cosim_note"]
+
+
+def test_closed_form_bound():
+    sc = load_scenario("thesis-ch2")
+    A = sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm
+    assert closed_form_bound_s(sc) == pytest.approx(2 * np.sqrt(0.2 / A))
+    assert closed_form_bound_s(load_scenario("thesis-ch4")) is None
