@@ -6,7 +6,7 @@ every method, and `feasible`, the peaks and the ratios come from that re-check.
 
 Files: `write_json` (atomic) holds the keys of the CLI contract plus what `load_plan` needs to
 rebuild the trajectory: the genes for a family plan, 1 kHz samples (t, q, qd) for any other.
-`write_csv` writes t, q1..qn, qd1..qdn, qdd1..qddn at 1 kHz or finer.
+A plan loads back with the same re-check (tests/test_plan_io.py). `write_csv` writes t, q1..qn, qd1..qdn, qdd1..qddn at 1 kHz or finer.
 """
 
 from __future__ import annotations
@@ -101,10 +101,12 @@ class Plan:
         if isinstance(self.trajectory, FamilyTrajectory):
             d["trajectory"] = {"kind": "family", "family": self.scenario.family.kind}
         else:
-            t = np.union1d(np.arange(0.0, self.motion_time_s, 1e-3), [self.motion_time_s])
-            q, qd, _ = self.sample(t)
-            d["trajectory"] = {"kind": "samples", "t_s": t.tolist(), "q_rad": q.tolist(),
-                               "qd_rad_s": qd.tolist()}
+            # 1 kHz samples per piece, each phase boundary twice (left and right values).
+            grid = piecewise_grid(self.trajectory.breakpoints_s[None, :], 1000.0)
+            q, qd, qdd = self.trajectory.evaluate(grid.t_s, grid.t_piece_s)
+            d["trajectory"] = {"kind": "samples", "t_s": grid.t_s.tolist(), "q_rad": q.tolist(),
+                               "qd_rad_s": qd.tolist(), "qdd_rad_s2": qdd.tolist(),
+                               "breakpoints_s": self.trajectory.breakpoints_s.tolist()}
         return d
 
     def write_json(self, path: str | Path) -> None:
@@ -161,11 +163,12 @@ def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
             genes = problem.genes_vector(d["genes"])
             plan = family_plan(problem, genes, d.get("method", "loaded"))
         elif traj["kind"] == "samples":
-            t, q, qd = (np.asarray(traj[k], dtype=float) for k in ("t_s", "q_rad", "qd_rad_s"))
-            if q.ndim != 2 or q.shape != qd.shape or q.shape[0] != t.size:
-                raise ValueError("t_s, q_rad and qd_rad_s disagree in shape")
-            plan = make_plan(scenario, d.get("method", "loaded"), SampledTrajectory(t, q, qd),
-                             genes=d.get("genes"))
+            t, q, qd, qdd = (np.asarray(traj[k], dtype=float)
+                             for k in ("t_s", "q_rad", "qd_rad_s", "qdd_rad_s2"))
+            if q.ndim != 2 or not q.shape == qd.shape == qdd.shape or q.shape[0] != t.size:
+                raise ValueError("t_s, q_rad, qd_rad_s and qdd_rad_s2 disagree in shape")
+            traj_obj = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
+            plan = make_plan(scenario, d.get("method", "loaded"), traj_obj, genes=d.get("genes"))
         else:
             raise ValueError(f"unknown trajectory kind {traj['kind']!r}")
     except (KeyError, TypeError, ValueError) as exc:

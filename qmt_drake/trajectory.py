@@ -82,16 +82,45 @@ class PolynomialTrajectory(JointTrajectory):
 
 
 class SampledTrajectory(JointTrajectory):
-    """A trajectory known by samples t, q, qd (cubic Hermite between them): what a plan file
-    stores for planners without a closed form."""
+    """A trajectory known by samples t, q, qd, qdd: what a plan file stores for planners without
+    a closed form. Between samples it is the quintic Hermite interpolant (q, qd, qdd match at
+    both ends), so acceleration is continuous between samples; a phase boundary is stored twice
+    (its left and its right value), so jumps survive a save and load."""
 
-    def __init__(self, t_s, q, qd) -> None:
-        t_s = np.asarray(t_s, dtype=float)
-        self.inner = PolynomialTrajectory(PiecewisePolynomial.CubicHermite(
-            t_s, np.asarray(q).T, np.asarray(qd).T), breakpoints_s=[t_s[0], t_s[-1]])
-        self.duration_s = self.inner.duration_s
-        self.breakpoints_s = self.inner.breakpoints_s
-        self.n_dof = self.inner.n_dof
+    def __init__(self, t_s, q, qd, qdd, breakpoints_s=None) -> None:
+        t = np.asarray(t_s, dtype=float)
+        self.q, self.qd, self.qdd = (np.asarray(a, dtype=float) for a in (q, qd, qdd))
+        keep = np.flatnonzero(np.diff(t) > 0)  # zero-length steps are the boundary duplicates
+        self.left, self.right = keep, keep + 1
+        self.start, self.end = t[keep], t[keep + 1]
+        self.duration_s = float(t[-1] - t[0])
+        self.n_dof = self.q.shape[1]
+        bp = [t[0], t[-1]] if breakpoints_s is None else breakpoints_s
+        self.breakpoints_s = np.unique(np.concatenate([[t[0], t[-1]], np.asarray(bp, float)]))
 
     def evaluate(self, t_s, t_piece_s):
-        return self.inner.evaluate(t_s, t_piece_s)
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        tp = np.broadcast_to(t_piece_s, t.shape)
+        rest = tp >= self.duration_s
+        # The sample interval: the one containing t, searched on the side t_piece lies.
+        side_right = tp > t
+        k = np.where(side_right, np.searchsorted(self.start, t, side="right") - 1,
+                     np.searchsorted(self.end, t, side="left"))
+        k = np.clip(k, 0, self.start.size - 1)
+        k = np.where(rest, self.start.size - 1, k)
+        h = (self.end - self.start)[k][:, None]
+        u = np.clip((np.where(rest, self.end[k], t) - self.start[k])[:, None] / h, 0.0, 1.0)
+        i0, i1 = self.left[k], self.right[k]
+        p0, v0, a0 = self.q[i0], self.qd[i0] * h, self.qdd[i0] * h**2
+        p1, v1, a1 = self.q[i1], self.qd[i1] * h, self.qdd[i1] * h**2
+        # Quintic Hermite in u in [0, 1]: coefficients of p(u) = sum c_k u^k.
+        c0, c1, c2 = p0, v0, a0 / 2
+        c3 = 10 * (p1 - p0) - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1
+        c4 = -15 * (p1 - p0) + 8 * v0 + 7 * v1 + 1.5 * a0 - a1
+        c5 = 6 * (p1 - p0) - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1
+        q = c0 + u * (c1 + u * (c2 + u * (c3 + u * (c4 + u * c5))))
+        qd = (c1 + u * (2 * c2 + u * (3 * c3 + u * (4 * c4 + u * 5 * c5)))) / h
+        qdd = (2 * c2 + u * (6 * c3 + u * (12 * c4 + u * 20 * c5))) / h**2
+        qd = np.where(rest[:, None], 0.0, qd)
+        qdd = np.where(rest[:, None], 0.0, qdd)
+        return q, qd, qdd

@@ -4,7 +4,11 @@ friction contact) against the plant's time step.
 For each step size the thesis GA move (genes 0.622/0.532/0.562 s, 1.716 s, plus 0.2 s lead and 0.5 s
 settle) is simulated `--repeats` times; the fastest wall time is kept (the machine is shared). The
 loop's outcome at each step (held, slip, tracking error) is printed too: the thesis-gain position
-loop is stiff (about 420 rad/s), so larger steps change the physics, not just the speed.
+loop is stiff (poles out to -900 rad/s), and sampled at 2 ms it is unstable: the motors chatter
+between their +-6 A current limits (both ch.4 joints get the RE 30) from the first steps on and
+shake the part off, while the tracking error stays small (the chatter is fast). So 1 ms is the
+largest usable step; the contact solve costs about as much as everything else together (compare
+the run without contact).
 
 Writes out/bench_cosim.json. Run: .venv/bin/python studies/bench_cosim.py [--repeats 3]
 """

@@ -25,6 +25,12 @@ played slower by the exact factor sqrt(peak ratio) (every limit here is inertial
 plane, no velocity limit, so playing lam times slower divides every ratio by lam^2); the raw
 overshoot is kept in `extra["raw_check"]`, never hidden.
 
+Infeasible limits never raise: a path that cannot be built (a point out of reach, a straight
+segment that leaves a joint range) or a motion longer than the time budget `max_motion_time_s`
+(default: the slowest motion the scenario's family allows, all genes at their upper bounds; every
+limit can be met by going slowly enough, so "too tight" means "not within that budget") gives a
+Plan with feasible=False and the reason in extra["infeasible"] (`infeasible_plan`).
+
 Paths (`path=`):
   "family"         the geometric path of the scenario's thesis family: the straight tip line for
                    chapter 2 (exact IK path, arc length in m), otherwise the joint path traced by the

@@ -41,11 +41,13 @@ SUMMARY_FIELDS = ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_e
 
 def relative_payload_motion(X_WH: RigidTransform, X_WP: RigidTransform, X_HP0: RigidTransform):
     """(slip [m], tilt [rad], gap [m]) of payload pose X_WP relative to the seated X_HP0 in hand H."""
-    R_WH = X_WH.rotation().matrix()
-    R_H0 = X_HP0.rotation().matrix()
-    d = R_WH.T @ (X_WP.translation() - X_WH.translation()) - X_HP0.translation()
+    T_WH = X_WH.GetAsMatrix4()
+    T_WP = X_WP.GetAsMatrix4()
+    T_H0 = X_HP0.GetAsMatrix4()
+    R_HW = T_WH[:3, :3].T
+    d = R_HW.dot(T_WP[:3, 3] - T_WH[:3, 3]) - T_H0[:3, 3]
     # Payload z axis in H, compared with the seated one (both unit vectors).
-    z_cos = float((R_WH.T @ X_WP.rotation().matrix()[:, 2]) @ R_H0[:, 2])
+    z_cos = float(R_HW.dot(T_WP[:3, 2]).dot(T_H0[:3, 2]))
     return math.hypot(d[0], d[1]), math.acos(max(-1.0, min(1.0, z_cos))), max(-d[2], 0.0)
 
 
