@@ -107,7 +107,9 @@ def cmd_bench(args) -> int:
 
 def cmd_benchmark(args) -> int:
     from qmt_drake.benchmark import run_benchmark
-    run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress)
+    run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress,
+                  jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
+                  quick=args.quick, cosim=not args.no_cosim)
     return 0
 
 
@@ -165,6 +167,11 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("benchmark", help="GA vs TOPP-RA, Ruckig and trajopt (JSON, Markdown, PNG)")
     s.add_argument("--scenarios", nargs="+", default=["thesis-ch2", "thesis-ch3", "thesis-ch4"])
     s.add_argument("--out", default="out")
+    s.add_argument("--jerk-limits", nargs="+", type=float, default=[1.0, 10.0, 100.0],
+                   help="Ruckig jerk limits to sweep, m/s^3")
+    s.add_argument("--ga-seeds", nargs="+", type=int, default=[0])
+    s.add_argument("--quick", action="store_true", help="short GA, small trajopt, one jerk limit")
+    s.add_argument("--no-cosim", action="store_true", help="skip the closed-loop column")
     s.set_defaults(func=cmd_benchmark)
     return p
 
