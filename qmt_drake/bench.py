@@ -90,7 +90,8 @@ def run_bench(scenario: str = "thesis-ch4", out_dir: Path = Path("out"), progres
     data["ga_wall_s_to_within_0.5pct_median"] = float(np.median(hits)) if hits else None
     if full_run:
         progress(f"bench {scenario}: one full {sc.ga.max_generations}-generation GA run")
-        r = run_ga(PlanningProblem(sc), seed=0, progress=progress, progress_every_s=20)
+        r = run_ga(PlanningProblem(sc), seed=0, progress=progress, progress_every_s=20,
+                   stall_generations=0)  # all generations, no early stop
         data["ga_full_run"] = {"generations": r.generations, "wall_s": r.wall_s,
                                "motion_time_s": r.motion_time_s, "evaluations": r.evaluations}
     out = Path(out_dir) / "bench.json"
