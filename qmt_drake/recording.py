@@ -10,12 +10,22 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Role
 
 
+# The arms span about 0.3 m: look at the work area from the front and above, close enough to see
+# the payload (Meshcat's default camera sits metres away).
+CAMERA_IN_WORLD_M = np.array([0.0, -0.42, 0.38])
+CAMERA_TARGET_IN_WORLD_M = np.array([0.0, 0.10, -0.03])
+
+
 def make_headless_meshcat() -> Meshcat:
-    """A Meshcat server on localhost with an OS-chosen port (no clashes in CI)."""
-    return Meshcat(MeshcatParams(host="localhost", port=0))
+    """A Meshcat server on localhost with an OS-chosen port (no clashes in CI), its camera on
+    the arm's work area."""
+    meshcat = Meshcat(MeshcatParams(host="localhost", port=0))
+    meshcat.SetCameraPose(CAMERA_IN_WORLD_M, CAMERA_TARGET_IN_WORLD_M)
+    return meshcat
 
 
 def add_meshcat_visualizer(builder, scene_graph, meshcat: Meshcat, publish_period_s: float = 1 / 30):
@@ -33,5 +43,7 @@ def save_recording(visualizer, meshcat: Meshcat, path) -> Path:
     visualizer.PublishRecording()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(meshcat.StaticHtml())
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(meshcat.StaticHtml())
+    tmp.replace(path)  # atomic: never half a file
     return path
