@@ -33,7 +33,7 @@ from typing import Callable
 
 import numpy as np
 
-from qmt_drake.plan import Plan, family_plan, write_text_atomic
+from qmt_drake.plan import Plan, family_plan, jsonable, write_text_atomic
 
 DEFAULT_JERK_LIMITS = (1.0, 10.0, 100.0)  # m/s^3
 
@@ -208,7 +208,7 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
                       "A_m_s2": sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm,
                       "ratios": _ga_ratios(rows)})
         plans_by_scenario[name] = plans
-    write_text_atomic(out / "benchmark.json", json.dumps(_jsonable(result), indent=1))
+    write_text_atomic(out / "benchmark.json", json.dumps(jsonable(result), indent=1))
     write_text_atomic(out / "benchmark.md", benchmark_markdown(result))
     if figures:
         result["figures"] = write_figures(plans_by_scenario, out)
@@ -370,17 +370,3 @@ def write_figures(plans_by_scenario: dict, out: Path) -> list[str]:
     return files
 
 
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    if isinstance(x, (np.floating, float)):
-        return None if not np.isfinite(x) else float(x)
-    if isinstance(x, np.integer):
-        return int(x)
-    return x

@@ -97,7 +97,7 @@ class Plan:
     def to_json_dict(self) -> dict:
         d = self.summary()
         d["scenario_path"] = str(self.scenario.source_path)
-        d["extra"] = _jsonable(self.extra)
+        d["extra"] = jsonable(self.extra)
         if isinstance(self.trajectory, FamilyTrajectory):
             d["trajectory"] = {"kind": "family", "family": self.scenario.family.kind}
         else:
@@ -191,13 +191,16 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def _jsonable(x):
+def jsonable(x):
+    """Plain JSON types for nested numpy data (non-finite floats become null)."""
     if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
+        return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
+        return [jsonable(v) for v in x]
     if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
+        return jsonable(x.tolist())
+    if isinstance(x, np.bool_):
+        return bool(x)
     if isinstance(x, (np.floating, float)):
         return None if not np.isfinite(x) else float(x)
     if isinstance(x, (np.integer,)):
