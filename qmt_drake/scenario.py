@@ -177,7 +177,10 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     arm = raw["arm"]
     urdf = Path(_need(arm, "urdf", f"{where}: arm"))
     if not urdf.is_absolute():
-        urdf = (path.parent / urdf).resolve()
+        beside = (path.parent / urdf).resolve()
+        # A built-in scenario copied elsewhere still finds the packaged model by its file name.
+        packaged = MODELS_DIR / urdf.name
+        urdf = beside if beside.is_file() or not packaged.is_file() else packaged
     if not urdf.is_file():
         raise QmtInputError(f"{where}: arm.urdf {urdf} does not exist; give a path relative to "
                             "the scenario file or an absolute one")

@@ -100,3 +100,10 @@ def test_unparsable_plan_file(tmp_path, capsys):
     bad.write_text("{not json")
     rc, _, err = _run(capsys, "simulate", "thesis-ch4", "--plan", str(bad))
     assert rc == 2 and "bad.json" in err and "not valid JSON" in err
+
+
+def test_copied_builtin_scenario_finds_its_model(tmp_path, capsys):
+    copy = tmp_path / "my_task.yaml"
+    copy.write_text((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
+    rc, out, err = _run(capsys, "plan", str(copy), "--method", "thesis")
+    assert rc == 0, err
