@@ -124,3 +124,82 @@ class SampledTrajectory(JointTrajectory):
         qd = np.where(rest[:, None], 0.0, qd)
         qdd = np.where(rest[:, None], 0.0, qdd)
         return q, qd, qdd
+
+
+class CallableTrajectory(JointTrajectory):
+    """A trajectory given by a function f(t, order) -> (len(t), n) (e.g. toppra's spline output);
+    derivatives are continuous inside the given breakpoints."""
+
+    def __init__(self, f, duration_s, breakpoints_s, n_dof) -> None:
+        self.f = f
+        self.duration_s = float(duration_s)
+        self.breakpoints_s = np.unique(np.clip(np.concatenate(
+            [[0.0, self.duration_s], breakpoints_s]), 0.0, self.duration_s))
+        self.n_dof = n_dof
+
+    def evaluate(self, t_s, t_piece_s):
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        rest = np.broadcast_to(t_piece_s, t.shape) >= self.duration_s
+        te = np.clip(t, 0.0, self.duration_s)
+        q = self.f(te, 0)
+        qd = np.where(rest[:, None], 0.0, self.f(te, 1))
+        qdd = np.where(rest[:, None], 0.0, self.f(te, 2))
+        return q, qd, qdd
+
+
+class TimeScaledTrajectory(JointTrajectory):
+    """`inner` played `factor` times slower: q(t) = q_in(t/factor) (every inertial ratio / factor^2)."""
+
+    def __init__(self, inner: JointTrajectory, factor: float) -> None:
+        self.inner, self.factor = inner, float(factor)
+        self.duration_s = inner.duration_s * self.factor
+        self.breakpoints_s = inner.breakpoints_s * self.factor
+        self.n_dof = inner.n_dof
+
+    def evaluate(self, t_s, t_piece_s):
+        f = self.factor
+        q, qd, qdd = self.inner.evaluate(np.asarray(t_s) / f, np.asarray(t_piece_s) / f)
+        return q, qd / f, qdd / f**2
+
+
+class ConcatenatedTrajectory(JointTrajectory):
+    """Rest-to-rest pieces played one after another (via points chained segment by segment)."""
+
+    def __init__(self, parts: list[JointTrajectory]) -> None:
+        self.parts = parts
+        self.offsets = np.concatenate([[0.0], np.cumsum([p.duration_s for p in parts])])
+        self.duration_s = float(self.offsets[-1])
+        self.breakpoints_s = np.unique(np.concatenate(
+            [p.breakpoints_s + o for p, o in zip(parts, self.offsets[:-1])]))
+        self.n_dof = parts[0].n_dof
+
+    def evaluate(self, t_s, t_piece_s):
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        tp = np.broadcast_to(t_piece_s, t.shape)
+        k = np.clip(np.searchsorted(self.offsets, tp, side="right") - 1, 0, len(self.parts) - 1)
+        n = self.n_dof
+        q, qd, qdd = np.empty((t.size, n)), np.empty((t.size, n)), np.empty((t.size, n))
+        for i, p in enumerate(self.parts):
+            m = k == i
+            if np.any(m):
+                o = self.offsets[i]
+                q[m], qd[m], qdd[m] = p.evaluate(t[m] - o, tp[m] - o)
+        return q, qd, qdd
+
+
+class RestTrajectory(JointTrajectory):
+    """Holding q for `duration_s` (0 by default): the trajectory of a plan that found no motion."""
+
+    def __init__(self, q, duration_s: float = 0.0) -> None:
+        self.q = np.asarray(q, dtype=float)
+        self.duration_s = float(duration_s)
+        self.breakpoints_s = np.array([0.0, self.duration_s])
+        self.n_dof = self.q.size
+
+    def evaluate(self, t_s, t_piece_s):
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        q = np.broadcast_to(self.q, (t.size, self.n_dof)).copy()
+        return q, np.zeros_like(q), np.zeros_like(q)
+
+
+# ============================================================================ plans

@@ -6,7 +6,7 @@ family; via points are passed at their times; infeasible limits give infeasible 
 import numpy as np
 import pytest
 
-from qmt_drake.planners.toppra_plan import task_joint_points
+from qmt_drake.paths import task_joint_points
 from qmt_drake.planners.trajopt_plan import basis_weights, plan_trajopt, tip_acceleration_generic
 from qmt_drake.scenario import load_scenario
 

@@ -43,11 +43,10 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits import limit_columns
 from qmt_drake.plan import Plan
-from qmt_drake.planners.toppra_plan import (CartesianLinePath, ConcatenatedTrajectory, finish_plan,
-                                            infeasible_plan, slowest_allowed_motion_s,
-                                            task_joint_points)
+from qmt_drake.paths import CartesianLinePath, task_joint_points
+from qmt_drake.planners.baseline import finish_plan, infeasible_plan, slowest_allowed_motion_s
 from qmt_drake.sampling import piecewise_grid
-from qmt_drake.trajectory import JointTrajectory
+from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
 
 MODES = ("cartesian_line", "joint")
 TINY_LIMIT = 1e-12  # limits of an axis the segment does not move along
