@@ -175,26 +175,41 @@ class ArmModel:
         return self.tip_acceleration_and_joint_torque(q, qd, qdd)[1]
 
     def tip_acceleration_and_joint_torque(self, q, qd, qdd):
-        """(tip acceleration (..., 2) m/s^2, joint torque (..., n) N*m) from one forward pass."""
+        """(tip acceleration (..., 2) m/s^2, joint torque (..., n) N*m) from one pass.
+
+        The hot path of planning: planar recursive Newton-Euler written on x and y components
+        separately (no stacking of small arrays), forward for link accelerations, backward for
+        forces and moments."""
         q = np.asarray(q, dtype=float)
         qd = np.asarray(qd, dtype=float)
         qdd = np.asarray(qdd, dtype=float)
-        phi, w, al, per_link, _, _, a_tip = self._chain(q, qd, qdd)
         n = self.n_dof
+        ax = ay = 0.0  # acceleration of joint i, world
+        phi = w = al = 0.0  # absolute angle, rate and angular acceleration of link i
+        links = []
+        for i, lk in enumerate(self.links):
+            phi, w, al = phi + q[..., i], w + qd[..., i], al + qdd[..., i]
+            c, s = np.cos(phi), np.sin(phi)
+            wi2, ali = w * w, al
+            rcx = c * lk.com_m[0] - s * lk.com_m[1]  # joint -> COM
+            rcy = s * lk.com_m[0] + c * lk.com_m[1]
+            dx = c * lk.next_joint_m[0] - s * lk.next_joint_m[1]  # joint -> next joint
+            dy = s * lk.next_joint_m[0] + c * lk.next_joint_m[1]
+            acx = ax - ali * rcy - wi2 * rcx
+            acy = ay + ali * rcx - wi2 * rcy
+            links.append((rcx, rcy, dx, dy, acx, acy, ali))
+            ax = ax - ali * dy - wi2 * dx
+            ay = ay + ali * dx - wi2 * dy
+        a_tip = np.stack(np.broadcast_arrays(ax, ay), axis=-1)
         tau = np.empty(np.broadcast_shapes(q.shape, qd.shape, qdd.shape))
-        f_next = np.zeros(tau.shape[:-1] + (2,))  # force link i+1 takes from link i, world
-        n_next = np.zeros(tau.shape[:-1])  # its moment about z at the next joint
+        fx = fy = nz = 0.0  # force and moment link i+1 takes from link i (at the next joint)
         for i in range(n - 1, -1, -1):
             lk = self.links[i]
-            c, s, p_i, _, a_i = per_link[i]
-            r_c = _rotate(c, s, lk.com_m)  # joint -> COM, world
-            d = _rotate(c, s, lk.next_joint_m)  # joint -> next joint, world
-            a_c = a_i + al[..., i, None] * _perp(r_c) - (w[..., i] ** 2)[..., None] * r_c
-            f_i = lk.mass_kg * a_c + f_next
-            n_i = (lk.izz_about_com_kgm2 * al[..., i] + _cross(r_c, lk.mass_kg * a_c)
-                   + n_next + _cross(d, f_next))
-            tau[..., i] = n_i
-            f_next, n_next = f_i, n_i
+            rcx, rcy, dx, dy, acx, acy, ali = links[i]
+            mx, my = lk.mass_kg * acx, lk.mass_kg * acy
+            nz = lk.izz_about_com_kgm2 * ali + rcx * my - rcy * mx + nz + dx * fy - dy * fx
+            fx, fy = mx + fx, my + fy
+            tau[..., i] = nz
         return a_tip, tau + self.reflected_inertia_kgm2 * qdd
 
     def motor_torque(self, q, qd, qdd) -> np.ndarray:

@@ -50,12 +50,13 @@ class PlanningProblem:
         peaks = np.full((K, 1 + 3 * n), np.inf)
         todo = np.flatnonzero(valid)
         if todo.size:
-            bp = self.family.breakpoints_s(g[todo])
+            gt = g[todo]
+            bp = self.family.breakpoints_s(gt)
             if exact:
-                peaks[todo] = self._peaks(g[todo], piecewise_grid(bp, rate))[0]
+                peaks[todo] = self._peaks(gt, piecewise_grid(bp, rate))[0]
             else:
                 coarse_grid = piecewise_grid(bp, rate, COARSE_STRIDE)
-                coarse, cols = self._peaks(g[todo], coarse_grid)
+                coarse, cols = self._peaks(gt, coarse_grid)
                 peaks[todo] = coarse
                 over = (coarse[:, :1 + n].max(axis=1) > 1.0) | (coarse[:, 1 + n:].max(axis=1) > 1e-12)
                 rest = np.flatnonzero(~over)
@@ -66,11 +67,13 @@ class PlanningProblem:
                     top = (ratios >= cmax[:, :1 + n] * (1 - REFINE_MARGIN)) & _local_max(ratios, coarse_grid)
                     near = np.any(top, axis=1)
                     near |= np.any(cols[:, 1 + n:] >= -JOINT_REFINE_MARGIN_RAD, axis=1)
-                    keep = ~over[c]
-                    sub = _subset(coarse_grid, keep, rest)
-                    fine_grid = refine_grid(sub, near[keep])
+                    fine_grid = refine_grid(coarse_grid, near & ~over[c])
                     self.last_sample_counts = (coarse_grid.t_s.size, fine_grid.t_s.size)
-                    fine, _ = self._peaks(g[todo][rest], fine_grid)
+                    q, qd, qdd = self.family.evaluate(gt, fine_grid.candidate, fine_grid.t_s,
+                                                      fine_grid.t_piece_s)
+                    fine_cols = limit_columns(self.scenario, q, qd, qdd)
+                    # Only the candidates in `rest` have fine samples, contiguous and in order.
+                    fine = np.maximum.reduceat(fine_cols, fine_grid.start[rest], axis=0)
                     peaks[todo[rest]] = np.maximum(coarse[rest], fine)
         return BatchPeaks.from_columns(T0, valid, peaks, n)
 
@@ -103,17 +106,6 @@ class PlanningProblem:
             from qmt_drake.errors import QmtInputError
             raise QmtInputError(f"genes {missing} missing; this family takes {list(self.gene_names)}")
         return np.array([float(genes[k]) for k in self.gene_names])
-
-
-def _subset(grid: SampleGrid, keep: np.ndarray, kept_candidates: np.ndarray) -> SampleGrid:
-    """The samples `keep` of a grid, renumbering candidates to 0..len(kept_candidates)-1."""
-    renum = np.full(grid.n_candidates, -1)
-    renum[kept_candidates] = np.arange(kept_candidates.size)
-    cand = renum[grid.candidate[keep]]
-    per = np.bincount(cand, minlength=kept_candidates.size)
-    return SampleGrid(cand, grid.t_s[keep], grid.t_piece_s[keep], np.cumsum(per) - per,
-                      kept_candidates.size, grid.piece_a_s[keep], grid.piece_e_s[keep],
-                      grid.fine_count[keep], grid.fine_index[keep], grid.stride)
 
 
 def _local_max(values: np.ndarray, grid: SampleGrid) -> np.ndarray:

@@ -70,7 +70,13 @@ class ViaCubic(TrajectoryFamily):
     def evaluate(self, genes, candidate, t_s, t_piece_s):
         g = np.atleast_2d(np.asarray(genes, dtype=float))
         K, m, n = g.shape[0], self.n_segments, self.n_dof
-        coef = self.coefficients(g).reshape(K * m, 4 * n)
+        # A batch is evaluated twice in a row (coarse grid, then refinement): solve once.
+        memo = getattr(self, "_memo", None)
+        if memo is not None and memo[0].shape == g.shape and np.array_equal(memo[0], g):
+            coef = memo[1]
+        else:
+            coef = self.coefficients(g).reshape(K * m, 4 * n)
+            self._memo = (g.copy(), coef)
         bp = self.breakpoints_s(g)
         seg = np.zeros(t_s.shape, dtype=int)
         for j in range(1, m):  # the segment whose interior holds the piece time
