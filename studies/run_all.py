@@ -40,7 +40,7 @@ def main(argv=None) -> int:
         _log(f"co-simulation calibration unavailable: {exc}")
     try:
         from qmt_drake.benchmark import run_benchmark
-        step("benchmark", lambda: run_benchmark(out_dir=out, progress=_log))
+        step("benchmark", lambda: run_benchmark(out_dir=out / "benchmark", progress=_log))
     except ImportError as exc:
         _log(f"benchmark unavailable: {exc}")
     from qmt_drake.bench import run_bench
