@@ -55,8 +55,13 @@ def cmd_plan(args) -> int:
     for kv in args.option or []:
         k, _, v = kv.partition("=")
         options[k] = _parse_value(v)
-    plan = plan_with(args.method, sc, seed=args.seed, progress=None if args.quiet else _progress,
-                     **options)
+    try:
+        plan = plan_with(args.method, sc, seed=args.seed,
+                         progress=None if args.quiet else _progress, **options)
+    except TypeError as exc:
+        if "unexpected keyword argument" not in str(exc):
+            raise
+        raise QmtInputError(f"--option: {exc}; see the planner's docstring for its options") from None
     summary = plan.summary()
     if args.json and args.json != "-":
         plan.write_json(args.json)

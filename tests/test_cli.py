@@ -107,3 +107,8 @@ def test_copied_builtin_scenario_finds_its_model(tmp_path, capsys):
     copy.write_text((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
     rc, out, err = _run(capsys, "plan", str(copy), "--method", "thesis")
     assert rc == 0, err
+
+
+def test_unknown_planner_option_is_one_line(capsys):
+    rc, _, err = _run(capsys, "plan", "thesis-ch4", "--method", "ruckig", "--option", "foo=1")
+    assert rc == 2 and "foo" in err and "Traceback" not in err
