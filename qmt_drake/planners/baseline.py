@@ -11,6 +11,8 @@ bounds): every limit can be met by going slowly enough, so "too tight" means "no
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
@@ -100,3 +102,10 @@ def finish_plan(scenario, method: str, trajectory: JointTrajectory, *, planner_w
 
 
 # ============================================================================ TOPP-RA (toppra)
+
+
+def no_path_plan(scenario, method: str, exc: Exception, t_start: float, extra: dict) -> Plan:
+    """The infeasible result for a path that cannot be built (a point out of reach, a segment
+    that leaves a joint range); `t_start` is the planner's perf_counter() at its start."""
+    return infeasible_plan(scenario, method, f"no path: {exc}",
+                           planner_wall_s=time.perf_counter() - t_start, extra=extra)

@@ -44,7 +44,8 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.limits import limit_columns
 from qmt_drake.plan import Plan
 from qmt_drake.paths import CartesianLinePath, task_joint_points
-from qmt_drake.planners.baseline import finish_plan, infeasible_plan, slowest_allowed_motion_s
+from qmt_drake.planners.baseline import (finish_plan, infeasible_plan, no_path_plan,
+                                         slowest_allowed_motion_s)
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
 
@@ -241,8 +242,7 @@ def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line"
     try:
         qk = task_joint_points(scenario)
     except QmtInputError as exc:
-        return infeasible_plan(scenario, method, f"no path: {exc}",
-                               planner_wall_s=time.perf_counter() - t_start, extra=extra)
+        return no_path_plan(scenario, method, exc, t_start, extra)
     T_max = slowest_allowed_motion_s(scenario) if max_motion_time_s is None else max_motion_time_s
     parts, scales, steps_total, solve_wall = [], [], 0, 0.0
     worst = lambda tr: _worst(scenario, tr, rate)  # noqa: E731

@@ -51,7 +51,7 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.paths import PATHS, GeometricPath, PathTimingTrajectory, chord_angle_rad, path_segments
-from qmt_drake.planners.baseline import finish_plan, infeasible_plan
+from qmt_drake.planners.baseline import finish_plan, infeasible_plan, no_path_plan
 from qmt_drake.plan import Plan
 from qmt_drake.trajectory import CallableTrajectory, ConcatenatedTrajectory, JointTrajectory
 
@@ -149,6 +149,19 @@ def toppra_segment(scenario, segment: GeometricPath, *, polygon_sides: int = 32,
     return traj, code, wall
 
 
+def _segments_into(extra: dict, scenario, path: str, reference_plan):
+    """The path's segments (notes go into `extra`), or the QmtInputError saying why the path
+    cannot be built; an unknown path name is a user error and raises."""
+    if path not in PATHS:
+        raise QmtInputError(f"unknown path '{path}'; use one of {', '.join(PATHS)}")
+    try:
+        segs, notes = path_segments(scenario, path, reference_plan)
+    except QmtInputError as exc:
+        return exc
+    extra["notes"] = notes
+    return segs
+
+
 def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_points: int = 200,
                 reference_plan: Plan | None = None, *, parametrizer: str = "ParametrizeConstAccel",
                 measure_polygon_cost: bool = True, slow_to_limits: bool = True,
@@ -178,14 +191,9 @@ def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_po
              "polygon_worst_case_time_cost": 1 / np.sqrt(np.cos(np.pi / polygon_sides)) - 1,
              "polygon": "inscribed, " + ("one vertex" if vertex_on_chord else "one edge normal")
                         + " along each segment's tip chord"}
-    try:
-        segs, notes = path_segments(scenario, path, reference_plan)
-    except QmtInputError as exc:
-        if path not in PATHS:
-            raise
-        return infeasible_plan(scenario, method, f"no path: {exc}",
-                               planner_wall_s=time.perf_counter() - t_start, extra=extra)
-    extra["notes"] = notes
+    segs = _segments_into(extra, scenario, path, reference_plan)
+    if isinstance(segs, QmtInputError):
+        return no_path_plan(scenario, method, segs, t_start, extra)
     extra["path_unit"] = segs[0].unit
     parts, solve_wall, codes, outer_T = [], 0.0, [], 0.0
     for seg in segs:
@@ -244,14 +252,9 @@ def plan_toppra_drake(scenario, path: str = "family", grid_points: int = 200,
              "frame_acceleration_box_m_s2": half,
              "what": "Drake Toppra: per-component box on the hand's translational acceleration "
                      f"({box} square of the norm bound), joint torque limits N*motor limit"}
-    try:
-        segs, notes = path_segments(scenario, path, reference_plan)
-    except QmtInputError as exc:
-        if path not in PATHS:
-            raise
-        return infeasible_plan(scenario, method, f"no path: {exc}",
-                               planner_wall_s=time.perf_counter() - t_start, extra=extra)
-    extra["notes"] = notes
+    segs = _segments_into(extra, scenario, path, reference_plan)
+    if isinstance(segs, QmtInputError):
+        return no_path_plan(scenario, method, segs, t_start, extra)
     big = 1e6
     lower = np.array([-big, -big, -big, -half, -half, -big])
     upper = -lower

@@ -29,7 +29,8 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
 from qmt_drake.paths import reported_family_plan, task_joint_points
-from qmt_drake.planners.baseline import finish_plan, infeasible_plan, slowest_allowed_motion_s
+from qmt_drake.planners.baseline import (finish_plan, infeasible_plan, no_path_plan,
+                                         slowest_allowed_motion_s)
 from qmt_drake.trajectory import JointTrajectory
 
 
@@ -134,8 +135,7 @@ def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: 
     try:
         qk = task_joint_points(scenario)
     except QmtInputError as exc:
-        return infeasible_plan(scenario, method, f"no path: {exc}",
-                               planner_wall_s=time.perf_counter() - t_start, extra=extra)
+        return no_path_plan(scenario, method, exc, t_start, extra)
     T_max = slowest_allowed_motion_s(scenario) if max_motion_time_s is None else max_motion_time_s
     sv = np.asarray(default_via_times(scenario, len(qk)) if via_times is None else via_times,
                     dtype=float)
