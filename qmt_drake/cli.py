@@ -92,7 +92,11 @@ def cmd_simulate(args) -> int:
         from qmt_drake.cosim import run_simulate
     except ImportError as exc:  # pragma: no cover - packaging problem
         raise QmtInputError(f"co-simulation unavailable: {exc}") from None
-    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record)
+    if args.time_step_ms is not None and not args.time_step_ms > 0:
+        raise QmtInputError(f"--time-step-ms must be positive, got {args.time_step_ms}")
+    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record,
+                          time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
+                          implicit_loop_damping=not args.explicit)
     _emit_json(result, args.json)
     if args.json != "-":
         print(f"{sc.name} {plan.method} x{args.time_scale}: "
@@ -159,6 +163,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--time-scale", type=float, default=1.0,
                    help="replay with time stretched by S (S < 1 is faster)")
     s.add_argument("--record", metavar="PATH.html", help="save a Meshcat recording")
+    s.add_argument("--time-step-ms", type=float, default=None,
+                   help="plant step in ms (default 2 with implicit loop damping, 1 with --explicit)")
+    s.add_argument("--explicit", action="store_true",
+                   help="motors drive the plant directly (no implicit loop damping; needs <= 1 ms)")
     s.add_argument("--json", metavar="PATH|-")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_simulate)

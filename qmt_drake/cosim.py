@@ -1,7 +1,8 @@
 """Co-simulation of a planned transfer: plan -> PID -> DC motors with gears -> arm -> magnet -> payload.
 
     TrajectorySource(plan, time-scaled) --desired_state--> JointPidController --voltage--> DcMotorWithGear
-        --joint_torque--> MultibodyPlant(arm + free payload, discrete, kLagged contact)
+        --joint_torque (+ D qd, implicit loop damping)--> MultibodyPlant(arm + free payload, discrete,
+        kLagged contact)
     plant.body_poses --> ElectromagnetForce --spatial_forces--> plant (pull on the payload, reaction on hand)
     everything --> TransferMonitor (slip, tilt, detachment, tracking error, motor peaks, energy)
 
@@ -20,20 +21,23 @@ normal force times rho, or slides when m a exceeds mu times it). Everything else
 both hands: the magnet law and its equivalent gap g0, friction, contact stiffness, contact radius
 (the 7.8 mm core of both hands). The simulated thresholds are then an outcome of the dynamics,
 checked by studies/cosim_calibration.py against every row of both tables (result: ch.2 between
-3.227e-5 and 3.230e-5 N*m, ch.4 between 0.640e-3 and 0.641e-3 N*m, all 14 rows as in the thesis;
+3.2245e-5 and 3.2273e-5 N*m, ch.4 between 0.640e-3 and 0.641e-3 N*m at the default 2 ms step, all 14 rows as in the thesis;
 ch.4 sits 1% above its lower boundary because the moving arm tips the part earlier than the static
 bound). The two calibrated currents cannot come from one supply voltage: the ch.2 coil would need
 0.41 of the ch.4 coil's voltage (see out/cosim_calibration.json, shared_voltage_counterfactual).
 
 Assumptions worth knowing: MAGNET_EFFECTIVE_GAP_M (g0 = 0.5 mm) is assumed, not measured; it sets
 how fast the pull fades once the part tips, i.e. how surely a tipped part falls. Friction creep of
-the discrete contact solver (0.1 mm for ch.2, 0.35 mm for ch.4 at a 1 ms step, halving with the
-step) shows up as slip on payloads that are held. The stiff thesis-gain position loop and the
-contact need the 1 ms step: at 2 ms the same GA move loses the part (studies/bench_cosim.py).
+the discrete contact solver shows up as slip on payloads that are held; it grows in proportion to
+the plant step (ch.4 GA move: 0.35 mm at 1 ms, 0.67 mm at 2 ms). The stiff thesis-gain position
+loop is unstable at 2 ms when the motors drive the plant explicitly; by default its velocity
+feedback is stepped implicitly (`add_implicit_damping_actuation`), which runs at 2 ms with the same
+motion and motor torques as a 0.25 ms explicit run (studies/bench_cosim.py, tests/test_cosim.py).
 """
 
 from __future__ import annotations
 
+import gc
 import math
 import time
 from dataclasses import dataclass, field
@@ -41,23 +45,29 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.multibody.parsing import Parser
+from pydrake.multibody.tree import JointActuatorIndex
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogVectorOutput, TrajectorySource
+from pydrake.systems.primitives import (Adder, ConstantVectorSource, Demultiplexer, LogVectorOutput, MatrixGain,
+                                        TrajectorySource, ZeroOrderHold)
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
-from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
+from qmt_drake.systems.dc_motor import AppliedMotorSignals, DcMotorParams, DcMotorWithGear
 from qmt_drake.systems.electromagnet import THESIS_COILS, ElectromagnetForce, MagnetParams
-from qmt_drake.systems.joint_tracking import JointPidController, PidGains
+from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
 from qmt_drake.systems.payload import PayloadSpec, add_payload, seated_pose_in_hand
 from qmt_drake.systems.transfer_monitor import TransferMonitor
 
 GRAVITY_M_S2 = 9.81
 MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0: assumption, shared by both hands (see electromagnet.py)
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
+# Plant steps: the implicitly damped loop (default) is stable and accurate at 2 ms; the explicit
+# loop needs 1 ms (studies/bench_cosim.py measures both against a 0.25 ms explicit reference).
+IMPLICIT_TIME_STEP_S = 2e-3
+EXPLICIT_TIME_STEP_S = 1e-3
 
 # Thesis slip experiments: the last success and first failure in peak moment [N*m].
 SLIP_BOUNDARIES_NM = {
@@ -129,6 +139,8 @@ class TransferDiagram:
     coil_current_A: float
     payload_spec: PayloadSpec
     motor_params: DcMotorParams
+    time_step_s: float = 0.0
+    implicit_loop_damping: bool = False
     visualizer: object = None
     simulator: object = None  # set by run_diagram (its context holds the loggers' data)
 
@@ -164,12 +176,18 @@ def pid_gains_for(scenario) -> PidGains:
     return PidGains.from_thesis(c["kp"], c.get("ki"), c["kd"])
 
 
-def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_scale: float = 1.0,
+def default_time_step_s(implicit_loop_damping: bool) -> float:
+    """The plant step [s] each stepping scheme is run at unless told otherwise (studies/bench_cosim.py)."""
+    return IMPLICIT_TIME_STEP_S if implicit_loop_damping else EXPLICIT_TIME_STEP_S
+
+
+def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, time_scale: float = 1.0,
                            lead_s: float = 0.2, settle_s: float = 0.5, coil_current_A: float | None = None,
                            payload_spec: PayloadSpec | None = None, inverse_dynamics_feedforward: bool = False,
                            back_emf_feedforward: bool = False, log_period_s: float = 5e-3,
                            monitor_period_s: float | None = None,
-                           motor_inductance: bool = False, meshcat: Meshcat | None = None) -> TransferDiagram:
+                           motor_inductance: bool = False, implicit_loop_damping: bool | None = None,
+                           meshcat: Meshcat | None = None) -> TransferDiagram:
     """One Diagram for the whole closed loop (see the module docstring).
 
     Exported output ports (units as in the systems' docstrings): desired_state (2n) [rad, rad/s],
@@ -179,7 +197,21 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
     contact_results. Raises QmtInputError (one line) when the plan's joint count differs from the
     arm's. coil_current_A=None uses the calibration rule; lead_s of rest precedes the motion and
     settle_s follows it. motor_inductance=True gives the armature current a continuous state
-    (L di/dt = v - R i - Ke w; L/R ~ 0.1-0.2 ms, so the integrator takes small steps: slow)."""
+    (L di/dt = v - R i - Ke w; L/R ~ 0.1-0.2 ms, so the integrator takes small steps: slow).
+
+    implicit_loop_damping (default: on, except with motor_inductance) steps the loop's velocity
+    feedback implicitly (`add_implicit_damping_actuation`), which keeps the loop stable at the 2 ms
+    default step; off, the motors drive the plant directly (explicit) and need time_step_s <= 1 ms
+    (the 1 ms default). time_step_s=None picks the scheme's default (`default_time_step_s`)."""
+    if implicit_loop_damping is None:
+        implicit_loop_damping = not motor_inductance
+    if implicit_loop_damping and motor_inductance:
+        raise QmtInputError("implicit_loop_damping needs the quasi-static armature; with motor_inductance=True "
+                            "pass implicit_loop_damping=False and time_step_s <= 1e-3")
+    if time_step_s is None:
+        time_step_s = default_time_step_s(implicit_loop_damping)
+    if not time_step_s > 0:
+        raise QmtInputError(f"time step must be positive, got {time_step_s} s")
     n_plan = int(plan.n_dof)
     builder = DiagramBuilder()
     # Live output ports: with sampled ones, discrete-update systems (monitor, PID integral) reading
@@ -195,16 +227,20 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
     hand = plant.GetBodyByName(scenario.hand_frame, arm)
     spec = payload_spec or PayloadSpec.for_scenario(scenario)
     payload = add_payload(plant, spec, hand)
+    gains = pid_gains_for(scenario)
+    mp = motor_params_for(scenario, with_inductance=motor_inductance)
+    loop_damping = effective_joint_gains(gains, mp)[1] if implicit_loop_damping else None
+    if loop_damping is not None:
+        move_loop_damping_into_plant(plant, arm, loop_damping)
     plant.Finalize()
 
     coil = HAND_COIL[hand_of(scenario)]
     current = calibrated_coil_current_A(scenario, spec) if coil_current_A is None else float(coil_current_A)
-    mp = motor_params_for(scenario, with_inductance=motor_inductance)
     pp_q, pp_qdd, t_end = reference_trajectories(plan, time_scale, lead_s)
 
     ref = builder.AddNamedSystem("reference", TrajectorySource(pp_q, output_derivative_order=1))
     ctrl = builder.AddNamedSystem("controller", JointPidController(
-        pid_gains_for(scenario), mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
+        gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
         back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
     motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
     split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
@@ -220,15 +256,22 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
     builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
     builder.Connect(arm_state, split.get_input_port())
     builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
-    builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+    # What the motors deliver: their own outputs when stepped explicitly; with implicit loop damping,
+    # the torque applied over the last step, read back through the motor model.
+    delivered = motors
+    if loop_damping is None:
+        builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+    else:
+        delivered = add_implicit_damping_actuation(builder, plant, arm, motors, split.get_output_port(1),
+                                                   loop_damping, time_step_s, mp)
     builder.Connect(plant.get_body_poses_output_port(), magnet.GetInputPort("body_poses"))
     builder.Connect(coil_src.get_output_port(), magnet.GetInputPort("coil_current"))
     builder.Connect(magnet.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
     builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
     builder.Connect(arm_state, monitor.GetInputPort("arm_state"))
     builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
-    builder.Connect(motors.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
-    builder.Connect(motors.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
+    builder.Connect(delivered.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
+    builder.Connect(delivered.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
 
     if inverse_dynamics_feedforward:
         add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(),
@@ -238,10 +281,10 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
         "desired_state": ref.get_output_port(),
         "arm_state": arm_state,
         "voltage_command": ctrl.GetOutputPort("voltage_command"),
-        "joint_torque": motors.GetOutputPort("joint_torque"),
-        "motor_torque": motors.GetOutputPort("motor_torque"),
-        "current": motors.GetOutputPort("current"),
-        "electrical_power": motors.GetOutputPort("electrical_power"),
+        "joint_torque": delivered.GetOutputPort("joint_torque"),
+        "motor_torque": delivered.GetOutputPort("motor_torque"),
+        "current": delivered.GetOutputPort("current"),
+        "electrical_power": delivered.GetOutputPort("electrical_power"),
         "attraction_force": magnet.GetOutputPort("attraction_force"),
         "slip": monitor.GetOutputPort("slip"),
         "tilt": monitor.GetOutputPort("tilt"),
@@ -267,7 +310,56 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float = 1e-3, time_sc
     diagram.set_name(f"transfer[{scenario.name}]")
     q0 = np.asarray(plan.sample(np.array([0.0]))[0], float).reshape(-1)
     return TransferDiagram(diagram, plant, scene_graph, arm, payload, hand, motors, ctrl, magnet, monitor,
-                           loggers, q0, t_end, t_end + settle_s, current, spec, mp, visualizer)
+                           loggers, q0, t_end, t_end + settle_s, current, spec, mp, time_step_s,
+                           bool(implicit_loop_damping), visualizer)
+
+
+def move_loop_damping_into_plant(plant, arm_instance, loop_damping) -> None:
+    """Before Finalize: add loop_damping [N*m*s/rad] (one per actuator, in actuator order) to the
+    actuated joints' damping, which the discrete plant steps implicitly, and lift the actuators'
+    effort limits (the motor model limits the torque; the actuation input now also carries D*qd)."""
+    actuators = [JointActuatorIndex(i) for i in range(plant.num_actuators())
+                 if plant.get_joint_actuator(JointActuatorIndex(i)).model_instance() == arm_instance]
+    for d, index in zip(loop_damping, actuators):
+        actuator = plant.get_mutable_joint_actuator(index)
+        joint = plant.get_mutable_joint(actuator.joint().index())
+        joint.set_default_damping(joint.default_damping() + float(d))
+        actuator.set_effort_limit(float("inf"))
+
+
+def add_implicit_damping_actuation(builder, plant, arm_instance, motors, joint_velocity_port, loop_damping,
+                                   time_step_s, motor_params):
+    """Wire the motors into the plant with their velocity feedback stepped implicitly.
+
+    Linearly implicit stepping: the loop's stiff part is its damping D = dtau_j/dqd (the PID's
+    derivative through the motors plus the back EMF, `effective_joint_gains`). The plant's joints
+    carry D as joint damping, which the discrete solver steps implicitly, and the actuation input is
+    tau_motor(x_n) + D qd_n, so over a step the arm receives tau_motor(x_n) - D (qd_{n+1} - qd_n):
+    exactly the motors' torque in their linear range, and stable at steps where the explicit loop is
+    not (ch.4 poles to -900 rad/s). The torque actually applied over step n is known after it:
+    a zero-order hold keeps u_n, and u_n - D qd_{n+1} goes through the motor model backwards
+    (`AppliedMotorSignals`) for the current, motor torque and power that are reported; the motors'
+    own outputs, evaluated at x_n, overstate the torque by about D h / J. Returns the
+    AppliedMotorSignals system."""
+    n = len(loop_damping)
+    D = np.diag(np.asarray(loop_damping, float))
+    add_back = builder.AddNamedSystem("damping_add_back", MatrixGain(D))
+    actuation = builder.AddNamedSystem("actuation", Adder(2, n))
+    builder.Connect(joint_velocity_port, add_back.get_input_port())
+    builder.Connect(motors.GetOutputPort("joint_torque"), actuation.get_input_port(0))
+    builder.Connect(add_back.get_output_port(), actuation.get_input_port(1))
+    builder.Connect(actuation.get_output_port(), plant.get_actuation_input_port(arm_instance))
+    latch = builder.AddNamedSystem("actuation_latch", ZeroOrderHold(time_step_s, n))
+    damping_now = builder.AddNamedSystem("damping_now", MatrixGain(-D))
+    applied = builder.AddNamedSystem("applied_joint_torque", Adder(2, n))
+    builder.Connect(actuation.get_output_port(), latch.get_input_port())
+    builder.Connect(joint_velocity_port, damping_now.get_input_port())
+    builder.Connect(latch.get_output_port(), applied.get_input_port(0))
+    builder.Connect(damping_now.get_output_port(), applied.get_input_port(1))
+    signals = builder.AddNamedSystem("applied_motor_signals", AppliedMotorSignals(motor_params))
+    builder.Connect(applied.get_output_port(), signals.GetInputPort("applied_joint_torque"))
+    builder.Connect(joint_velocity_port, signals.GetInputPort("joint_velocity"))
+    return signals
 
 
 def add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, desired_state_port, feedforward_input):
@@ -308,6 +400,7 @@ class TransferResult:
     energy_J: float
     coil_current_A: float
     time_step_s: float
+    implicit_loop_damping: bool
     sim_time_s: float
     sim_wall_s: float
     real_time_factor: float
@@ -317,7 +410,7 @@ class TransferResult:
         d = {k: getattr(self, k) for k in (
             "scenario", "method", "time_scale", "held", "max_slip_m", "max_tilt_rad", "max_gap_m", "detached_at_s",
             "max_tracking_error_rad", "peak_motor_torque_ratio", "peak_moment_ratio_planned",
-            "peak_moment_planned_Nm", "energy_J", "coil_current_A", "time_step_s", "sim_time_s", "sim_wall_s",
+            "peak_moment_planned_Nm", "energy_J", "coil_current_A", "time_step_s", "implicit_loop_damping", "sim_time_s", "sim_wall_s",
             "real_time_factor")}
         d["peak_motor_torque_Nm"] = [float(x) for x in self.peak_motor_torque_Nm]
         d["peak_motor_torque_planned_Nm"] = [float(x) for x in self.peak_motor_torque_planned_Nm]
@@ -356,6 +449,22 @@ def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.05, max_tracking_erro
     ref = td.diagram.GetOutputPort("desired_state")
     n = len(td.q_start)
     t_wall = time.perf_counter()
+    # The Python systems allocate small arrays every step; the cyclic collector would otherwise
+    # run thousands of times per simulated second for nothing (the arrays form no cycles).
+    gc_was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad)
+    finally:
+        if gc_was_enabled:
+            gc.enable()
+    wall = time.perf_counter() - t_wall
+    summary = td.diagram.GetOutputPort("summary").Eval(ctx)
+    td.simulator = sim
+    return np.asarray(summary), wall
+
+
+def _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad) -> None:
     t = 0.0
     while t < td.t_final_s - 1e-12:
         t = min(t + chunk_s, td.t_final_s)
@@ -371,11 +480,8 @@ def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.05, max_tracking_erro
         if err > max_tracking_error_rad:
             raise QmtSimulationError(
                 f"simulation diverged at t = {ctx.get_time():.3f} s: joint tracking error {err:.3g} rad > "
-                f"{max_tracking_error_rad} rad (unstable control loop; use a time step <= 1 ms)")
-    wall = time.perf_counter() - t_wall
-    summary = td.diagram.GetOutputPort("summary").Eval(ctx)
-    td.simulator = sim
-    return np.asarray(summary), wall
+                f"{max_tracking_error_rad} rad (unstable control loop: use a smaller time step, "
+                f"at most {default_time_step_s(td.implicit_loop_damping) * 1e3:g} ms for this loop)")
 
 
 def logged_series(td: TransferDiagram) -> dict:
@@ -389,7 +495,7 @@ def logged_series(td: TransferDiagram) -> dict:
     return out
 
 
-def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: float = 1e-3,
+def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
                       record_path=None, keep_series: bool = True, **build_kw) -> TransferResult:
     """Build, run and summarise one transfer (see TransferResult)."""
     meshcat = None
@@ -406,7 +512,7 @@ def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: f
     if meshcat is not None:
         from qmt_drake.recording import save_recording
         save_recording(td.visualizer, meshcat, record_path)
-    return make_result(scenario, plan, td, summary, wall, time_scale, time_step_s,
+    return make_result(scenario, plan, td, summary, wall, time_scale, td.time_step_s,
                        logged_series(td) if keep_series else {})
 
 
@@ -423,13 +529,16 @@ def make_result(scenario, plan, td, summary, wall, time_scale, time_step_s, seri
         peak_motor_torque_ratio=float(np.max(peak / scenario.limits.motor_torque_limit_Nm)),
         peak_moment_ratio_planned=moment / scenario.limits.moment_limit_Nm, peak_moment_planned_Nm=moment,
         peak_motor_torque_planned_Nm=planned_peak_motor_torque_Nm(scenario, plan, time_scale),
-        energy_J=s["energy_J"], coil_current_A=td.coil_current_A, time_step_s=time_step_s,
+        energy_J=s["energy_J"], coil_current_A=td.coil_current_A, time_step_s=td.time_step_s,
+        implicit_loop_damping=td.implicit_loop_damping,
         sim_time_s=td.t_final_s, sim_wall_s=wall, real_time_factor=td.t_final_s / wall, series=series)
 
 
-def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None) -> dict:
+def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time_step_s: float | None = None,
+                 implicit_loop_damping: bool | None = None) -> dict:
     """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict)."""
-    res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False)
+    res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,
+                            time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping)
     d = res.summary_dict()
     if record_path is not None:
         d["record_path"] = str(record_path)

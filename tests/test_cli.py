@@ -112,3 +112,20 @@ def test_copied_builtin_scenario_finds_its_model(tmp_path, capsys):
 def test_unknown_planner_option_is_one_line(capsys):
     rc, _, err = _run(capsys, "plan", "thesis-ch4", "--method", "ruckig", "--option", "foo=1")
     assert rc == 2 and "foo" in err and "Traceback" not in err
+
+
+def test_simulate_chooses_the_stepping_scheme(capsys):
+    """`simulate --method thesis` runs the default implicit 2 ms loop; --explicit the 1 ms one."""
+    rc, out, err = _run(capsys, "simulate", "thesis-ch4", "--method", "thesis", "--json", "-")
+    assert rc == 0, err
+    d = json.loads(out)
+    assert d["held"] and d["implicit_loop_damping"] is True and d["time_step_s"] == 2e-3
+    rc, out, err = _run(capsys, "simulate", "thesis-ch4", "--method", "thesis", "--explicit", "--json", "-")
+    assert rc == 0, err
+    d = json.loads(out)
+    assert d["held"] and d["implicit_loop_damping"] is False and d["time_step_s"] == 1e-3
+
+
+def test_simulate_rejects_a_bad_time_step(capsys):
+    rc, _, err = _run(capsys, "simulate", "thesis-ch4", "--method", "thesis", "--time-step-ms", "0")
+    assert rc == 2 and "--time-step-ms" in err and "\n" not in err.strip()

@@ -116,3 +116,27 @@ def test_current_command_mode_and_its_voltage_ceiling():
     sys.GetInputPort("joint_velocity").FixValue(ctx, [0.0, 9.0])  # EMF 21.06 V leaves 2.94 V
     i = sys.GetOutputPort("current").Eval(ctx)
     assert i[1] == pytest.approx((24.0 - 0.0234 * 100 * 9.0) / 2.32, rel=1e-12)
+
+
+def test_applied_signals_invert_the_motor_model():
+    """AppliedMotorSignals reads the motor model backwards: from the joint torque a motor delivers
+    (and the joint speed) back to its voltage, current, motor torque and power, motoring and
+    back-driven alike, within the limits."""
+    from qmt_drake.systems.dc_motor import AppliedMotorSignals
+
+    p = _params()
+    p.back_drive_efficiency = 0.8  # a lossy back-driven gear, so both branches differ
+    forward = DcMotorWithGear(p)
+    backward = AppliedMotorSignals(p)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        v = rng.uniform(-2.0, 2.0, 2)
+        qd = rng.uniform(-0.5, 0.5, 2)
+        out = _outputs(forward, v, qd)
+        assert np.all(np.abs(out["current"]) < p.current_limit_A)  # unsaturated draws only
+        ctx = backward.CreateDefaultContext()
+        backward.GetInputPort("applied_joint_torque").FixValue(ctx, out["joint_torque"])
+        backward.GetInputPort("joint_velocity").FixValue(ctx, qd)
+        np.testing.assert_allclose(backward.GetOutputPort("voltage").Eval(ctx), v, rtol=1e-9, atol=1e-12)
+        for name in ("joint_torque", "motor_torque", "current", "electrical_power"):
+            np.testing.assert_allclose(backward.GetOutputPort(name).Eval(ctx), out[name], rtol=1e-9, atol=1e-15)

@@ -18,7 +18,13 @@ position loop chatter at rest (a limit cycle at the Nyquist rate), so only the m
 is modelled unless `back_drive_efficiency` is set.
     P_el   = v * i                                            electrical power [W]
 
-Ke = Kt in SI (V*s/rad = N*m/A). The rotor inertia is NOT in this system: it stays in the plant as
+Ke = Kt in SI (V*s/rad = N*m/A).
+
+`motor_signals_from_joint_torque` inverts the model: given the joint torque a motor actually
+delivered and the joint speed, it returns the terminal voltage, current, motor torque and
+electrical power that go with it (quasi-static armature). `AppliedMotorSignals` is that inverse as a
+LeafSystem; the co-simulation uses it when the loop's velocity feedback is stepped implicitly
+(cosim.py, `implicit_loop_damping`), where the torque applied over a step is known only after it. The rotor inertia is NOT in this system: it stays in the plant as
 the joint actuator's reflected inertia (drake:rotor_inertia, drake:gear_ratio in the URDF).
 
 Current-command mode (`command="current"`, an ideal current amplifier): the input is the current;
@@ -168,6 +174,69 @@ class DcMotorParams:
         return self.gear_ratio * self.efficiency * self.torque_constant_Nm_per_A / self.resistance_ohm
 
 
+def motor_signals_from_joint_torque(params: DcMotorParams, joint_torque_Nm, joint_velocity_rad_s):
+    """(v [V], i [A], tau_m [N*m], P_el [W]) of motors that deliver joint_torque_Nm at joint_velocity_rad_s:
+    tau_m = tau_j / (N eta) while motoring (tau_j * qd >= 0), tau_j * eta_b / N while back-driven;
+    i = tau_m / Kt; v = R i + Ke N qd (quasi-static armature; L di/dt, ~0.1-0.2 ms, is left out);
+    P_el = v i. No limit is applied: the result says what the motors had to do."""
+    p = params
+    tau_j = np.asarray(joint_torque_Nm, float)
+    qd = np.asarray(joint_velocity_rad_s, float)
+    motoring = tau_j * qd >= 0.0
+    tau_m = np.where(motoring, tau_j / (p.gear_ratio * p.efficiency), tau_j * p.back_drive_efficiency / p.gear_ratio)
+    i = tau_m / p.torque_constant_Nm_per_A
+    v = p.resistance_ohm * i + p.torque_constant_Nm_per_A * p.gear_ratio * qd
+    return v, i, tau_m, v * i
+
+
+class AppliedMotorSignals(LeafSystem):
+    """Motor-side signals of a joint torque the motors delivered (`motor_signals_from_joint_torque`).
+
+    Ports
+        inputs
+            applied_joint_torque  (n,) [N*m]    torque the motors delivered at the joints
+            joint_velocity        (n,) [rad/s]  joint-side speed
+        outputs
+            joint_torque      (n,) [N*m]  the input, passed through
+            voltage           (n,) [V]    terminal voltage R i + Ke N qd
+            motor_torque      (n,) [N*m]  Kt i
+            current           (n,) [A]
+            electrical_power  (n,) [W]    v i
+    """
+
+    def __init__(self, params: DcMotorParams):
+        super().__init__()
+        self.params = params
+        n = params.n
+        self._n = n
+        p = params
+        self._per_joint = [tuple(float(x) for x in row) for row in zip(
+            p.gear_ratio, p.efficiency, np.broadcast_to(p.back_drive_efficiency, (n,)), p.torque_constant_Nm_per_A,
+            p.resistance_ohm)]
+        self._tau_in = self.DeclareVectorInputPort("applied_joint_torque", n)
+        self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
+        self._cache = self.DeclareCacheEntry(
+            "applied_signals", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(4 * n)),
+                                             calc=self._calc_signals), {self.all_input_ports_ticket()})
+        self.DeclareVectorOutputPort("joint_torque", n, lambda c, o: o.SetFromVector(self._tau_in.Eval(c)))
+        for k, name in enumerate(("voltage", "current", "motor_torque", "electrical_power")):
+            self.DeclareVectorOutputPort(name, n, lambda c, o, k=k: o.SetFromVector(
+                self._cache.Eval(c)[k * self._n:(k + 1) * self._n]))
+
+    def _calc_signals(self, context, value):
+        # motor_signals_from_joint_torque in plain floats (it runs every plant step; see DcMotorWithGear).
+        tau = self._tau_in.Eval(context).tolist()
+        qd = self._qd_in.Eval(context).tolist()
+        n = self._n
+        out = [0.0] * (4 * n)
+        for k, (n_gear, eta, eta_b, kt, r) in enumerate(self._per_joint):
+            tau_m = tau[k] / (n_gear * eta) if tau[k] * qd[k] >= 0.0 else tau[k] * eta_b / n_gear
+            i = tau_m / kt
+            v = r * i + kt * n_gear * qd[k]
+            out[k], out[n + k], out[2 * n + k], out[3 * n + k] = v, i, tau_m, v * i
+        value.set_value(np.array(out))
+
+
 class DcMotorWithGear(LeafSystem):
     """n DC motors with gears; see the module docstring for the model, ports and units."""
 
@@ -191,6 +260,9 @@ class DcMotorWithGear(LeafSystem):
         self._Ke_N = self._Kt * self._N  # back EMF per joint speed [V*s/rad] (Ke = Kt in SI)
         self._gain_motoring = self._N * self._eta
         self._gain_backdriven = self._N / p.back_drive_efficiency
+        self._per_joint = [tuple(float(x) for x in row) for row in zip(
+            self._Vmax, self._R, self._Ke_N, self._Imax, self._Kt, self._gain_motoring,
+            np.broadcast_to(self._gain_backdriven, (n,)))]
         self._v_in = self.DeclareVectorInputPort(f"{command}_command", n)
         self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
         if self._L is not None:
@@ -221,27 +293,28 @@ class DcMotorWithGear(LeafSystem):
         derivatives.get_mutable_vector().SetFromVector(i_dot)
 
     def _calc_signals(self, context, value):
-        if self._current_mode:
-            emf = self._Ke_N * self._qd_in.Eval(context)
-            i = np.minimum(np.maximum(self._v_in.Eval(context), (-self._Vmax - emf) / self._R),
-                           (self._Vmax - emf) / self._R)
-            i = np.minimum(np.maximum(i, -self._Imax), self._Imax)
-            v = self._R * i + emf
-            tau_m = self._Kt * i
-            motoring = tau_m * self._qd_in.Eval(context) >= 0.0
-            tau_j = tau_m * np.where(motoring, self._gain_motoring, self._gain_backdriven)
-            value.set_value(np.concatenate([v, i, tau_m, tau_j, v * i]))
-            return
-        v = self._voltage(context)
-        if self._L is None:
-            i = (v - self._Ke_N * self._qd_in.Eval(context)) / self._R
-        else:
-            i = context.get_continuous_state_vector().CopyToVector()
-        i = np.minimum(np.maximum(i, -self._Imax), self._Imax)
-        tau_m = self._Kt * i
-        motoring = tau_m * self._qd_in.Eval(context) >= 0.0
-        tau_j = tau_m * np.where(motoring, self._gain_motoring, self._gain_backdriven)
-        value.set_value(np.concatenate([v, i, tau_m, tau_j, v * i]))
+        # Per joint in plain floats: for the 2-3 joints here this is several times faster than numpy
+        # on tiny arrays, and it runs once per plant step.
+        cmd = self._v_in.Eval(context).tolist()
+        qd = self._qd_in.Eval(context).tolist()
+        i_state = context.get_continuous_state_vector().CopyToVector().tolist() if self._L is not None else None
+        n = self._n
+        out = [0.0] * (5 * n)
+        for k, (v_max, r, ke_n, i_max, kt, g_motoring, g_backdriven) in enumerate(self._per_joint):
+            if self._current_mode:
+                emf = ke_n * qd[k]
+                i = min(max(cmd[k], (-v_max - emf) / r), (v_max - emf) / r)
+                i = min(max(i, -i_max), i_max)
+                v = r * i + emf
+            else:
+                v = min(max(cmd[k], -v_max), v_max)
+                i = (v - ke_n * qd[k]) / r if i_state is None else i_state[k]
+                i = min(max(i, -i_max), i_max)
+            tau_m = kt * i
+            out[k], out[n + k], out[2 * n + k] = v, i, tau_m
+            out[3 * n + k] = tau_m * (g_motoring if tau_m * qd[k] >= 0.0 else g_backdriven)
+            out[4 * n + k] = v * i
+        value.set_value(np.array(out))
 
     def _signal(self, context, k: int) -> np.ndarray:
         n = self._n

@@ -129,12 +129,13 @@ class ElectromagnetForce(LeafSystem):
     def _geometry(self, context):
         """Payload face centre in the hand frame p_HP [m], hand rotation R_WH, force [N], gap [m]."""
         poses = self._poses_in.Eval(context)
-        T_WH = poses[self._hand_i].GetAsMatrix4()
-        R_WH = T_WH[:3, :3]
-        p_HP = R_WH.T.dot(poses[self._payload_i].translation() - T_WH[:3, 3])
-        gap = -p_HP[2] if p_HP[2] < 0.0 else 0.0
-        slide = math.hypot(p_HP[0], p_HP[1])
-        i = self._i_in.Eval(context)[0]
+        X_WH = poses[self._hand_i]
+        R_WH = X_WH.rotation().matrix()
+        p_HP = (poses[self._payload_i].translation() - X_WH.translation()).dot(R_WH)  # = R_WH^T (p_WP - p_WH)
+        x, y, z = p_HP.tolist()
+        gap = -z if z < 0.0 else 0.0
+        slide = math.hypot(x, y)
+        i = float(self._i_in.Eval(context)[0])
         f = self._k * i * i / (gap + self._g0) ** 2
         if slide > self._b - self._a:
             f *= covered_fraction(slide, self._a, self._b)

@@ -116,6 +116,7 @@ class JointPidController(LeafSystem):
         self._v_per_Nm = None
         if torque_feedforward:
             self._v_per_Nm = motor.resistance_ohm / (self._N * motor.efficiency * motor.torque_constant_Nm_per_A)
+        self._pd_gain = np.hstack([np.diag(gains.kp_V_per_rad * self._N), np.diag(gains.kd_V_s_per_rad * self._N)])
         self._xd_in = self.DeclareVectorInputPort("desired_state", 2 * n)
         self._x_in = self.DeclareVectorInputPort("estimated_state", 2 * n)
         self._ff_in = self.DeclareVectorInputPort("feedforward_torque", n) if torque_feedforward else None
@@ -126,23 +127,21 @@ class JointPidController(LeafSystem):
         self.DeclareVectorOutputPort("voltage_command", n, self._calc_voltage)
 
     def _unsaturated(self, context):
-        xd = self._xd_in.Eval(context)
-        x = self._x_in.Eval(context)
+        err = self._xd_in.Eval(context) - self._x_in.Eval(context)
         n = self._n
-        e = self._N * (xd[:n] - x[:n])
-        ed = self._N * (xd[n:] - x[n:])
-        u = self._g.kp_V_per_rad * e + self._g.kd_V_s_per_rad * ed
+        e = self._N * err[:n]
+        u = self._pd_gain.dot(err)  # Kp N (q_des - q) + Kd N (qd_des - qd), one product
         if self._has_integral:
             u = u + self._g.ki_V_per_rad_s * context.get_discrete_state(self._z).get_value()
         if self._ke is not None:
-            u = u + self._ke * xd[n:]
+            u = u + self._ke * self._xd_in.Eval(context)[n:]
         if self._ff_in is not None:
             u = u + self._v_per_Nm * self._ff_in.Eval(context)
         return u, e
 
     def _calc_voltage(self, context, output: BasicVector):
         u, _ = self._unsaturated(context)
-        output.SetFromVector(np.clip(u, -self._Vmax, self._Vmax))
+        output.SetFromVector(np.minimum(np.maximum(u, -self._Vmax), self._Vmax))
 
     def _update_integral(self, context, discrete_state):
         u, e = self._unsaturated(context)

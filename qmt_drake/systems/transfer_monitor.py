@@ -41,14 +41,12 @@ SUMMARY_FIELDS = ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_e
 
 def relative_payload_motion(X_WH: RigidTransform, X_WP: RigidTransform, X_HP0: RigidTransform):
     """(slip [m], tilt [rad], gap [m]) of payload pose X_WP relative to the seated X_HP0 in hand H."""
-    T_WH = X_WH.GetAsMatrix4()
-    T_WP = X_WP.GetAsMatrix4()
-    T_H0 = X_HP0.GetAsMatrix4()
-    R_HW = T_WH[:3, :3].T
-    d = R_HW.dot(T_WP[:3, 3] - T_WH[:3, 3]) - T_H0[:3, 3]
+    R_WH = X_WH.rotation().matrix()
+    # v.dot(R_WH) = R_WH^T v: world vectors expressed in H.
+    dx, dy, dz = ((X_WP.translation() - X_WH.translation()).dot(R_WH) - X_HP0.translation()).tolist()
     # Payload z axis in H, compared with the seated one (both unit vectors).
-    z_cos = float(R_HW.dot(T_WP[:3, 2]).dot(T_H0[:3, 2]))
-    return math.hypot(d[0], d[1]), math.acos(max(-1.0, min(1.0, z_cos))), max(-d[2], 0.0)
+    z_cos = float(X_WP.rotation().matrix()[:, 2].dot(R_WH).dot(X_HP0.rotation().matrix()[:, 2]))
+    return math.hypot(dx, dy), math.acos(max(-1.0, min(1.0, z_cos))), max(-dz, 0.0)
 
 
 class TransferMonitor(LeafSystem):
@@ -85,19 +83,20 @@ class TransferMonitor(LeafSystem):
         return relative_payload_motion(poses[self._hand], poses[self._payload], self._X_HP0)
 
     def _update(self, context, discrete_state):
-        s = context.get_discrete_state(self._s).get_value().copy()
+        # Plain floats: this runs every plant step (see DcMotorWithGear._calc_signals).
+        s = context.get_discrete_state(self._s).get_value().tolist()
         slip, tilt, gap = self._motion(context)
         n = self._n
-        x = self._x_in.Eval(context)
-        xd = self._xd_in.Eval(context)
+        err = (self._xd_in.Eval(context)[:n] - self._x_in.Eval(context)[:n]).tolist()
         s[0] = max(s[0], slip)
         s[1] = max(s[1], tilt)
         if math.isnan(s[2]) and (gap > self._detach_gap or slip > self._detach_slip):
             s[2] = context.get_time()
-        s[3] = max(s[3], float(np.max(np.abs(xd[:n] - x[:n]))))
-        s[4] += self._T * float(np.sum(self._p_in.Eval(context)))
+        s[3] = max(s[3], max(abs(e) for e in err))
+        s[4] += self._T * sum(self._p_in.Eval(context).tolist())
         s[5] = max(s[5], gap)
-        s[6:] = np.maximum(s[6:], np.abs(self._tau_in.Eval(context)))
+        for k, tau in enumerate(self._tau_in.Eval(context).tolist()):
+            s[6 + k] = max(s[6 + k], abs(tau))
         discrete_state.get_mutable_vector(self._s).SetFromVector(s)
 
     @staticmethod
