@@ -21,9 +21,9 @@ normal force times rho, or slides when m a exceeds mu times it). Everything else
 both hands: the magnet law and its equivalent gap g0, friction, contact stiffness, contact radius
 (the 7.8 mm core of both hands). The simulated thresholds are then an outcome of the dynamics,
 checked by studies/cosim_calibration.py against every row of both tables (result: ch.2 between
-3.2245e-5 and 3.2273e-5 N*m, ch.4 between 0.640e-3 and 0.641e-3 N*m at the default 2 ms step, all 14 rows as in the thesis;
-ch.4 sits 1% above its lower boundary because the moving arm tips the part earlier than the static
-bound). The two calibrated currents cannot come from one supply voltage: the ch.2 coil would need
+3.2245e-5 and 3.2273e-5 N*m, ch.4 between 0.640e-3 and 0.641e-3 N*m at the default 2 ms step, all
+14 rows as in the thesis; ch.4 sits 1% above its lower boundary because the moving arm tips the
+part earlier than the static bound). The two calibrated currents cannot come from one supply voltage: the ch.2 coil would need
 0.41 of the ch.4 coil's voltage (see out/cosim_calibration.json, shared_voltage_counterfactual).
 
 Assumptions worth knowing: MAGNET_EFFECTIVE_GAP_M (g0 = 0.5 mm) is assumed, not measured; it sets
@@ -139,8 +139,8 @@ class TransferDiagram:
     coil_current_A: float
     payload_spec: PayloadSpec
     motor_params: DcMotorParams
-    time_step_s: float = 0.0
-    implicit_loop_damping: bool = False
+    time_step_s: float
+    implicit_loop_damping: bool
     visualizer: object = None
     simulator: object = None  # set by run_diagram (its context holds the loggers' data)
 
@@ -410,8 +410,8 @@ class TransferResult:
         d = {k: getattr(self, k) for k in (
             "scenario", "method", "time_scale", "held", "max_slip_m", "max_tilt_rad", "max_gap_m", "detached_at_s",
             "max_tracking_error_rad", "peak_motor_torque_ratio", "peak_moment_ratio_planned",
-            "peak_moment_planned_Nm", "energy_J", "coil_current_A", "time_step_s", "implicit_loop_damping", "sim_time_s", "sim_wall_s",
-            "real_time_factor")}
+            "peak_moment_planned_Nm", "energy_J", "coil_current_A", "time_step_s", "implicit_loop_damping",
+            "sim_time_s", "sim_wall_s", "real_time_factor")}
         d["peak_motor_torque_Nm"] = [float(x) for x in self.peak_motor_torque_Nm]
         d["peak_motor_torque_planned_Nm"] = [float(x) for x in self.peak_motor_torque_planned_Nm]
         return {k: (float(v) if isinstance(v, (np.floating,)) else v) for k, v in d.items()}
@@ -512,11 +512,10 @@ def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: f
     if meshcat is not None:
         from qmt_drake.recording import save_recording
         save_recording(td.visualizer, meshcat, record_path)
-    return make_result(scenario, plan, td, summary, wall, time_scale, td.time_step_s,
-                       logged_series(td) if keep_series else {})
+    return make_result(scenario, plan, td, summary, wall, time_scale, logged_series(td) if keep_series else {})
 
 
-def make_result(scenario, plan, td, summary, wall, time_scale, time_step_s, series) -> TransferResult:
+def make_result(scenario, plan, td, summary, wall, time_scale, series) -> TransferResult:
     s = TransferMonitor.unpack(summary)
     detached = None if math.isnan(s["detached_at_s"]) else s["detached_at_s"]
     peak = s["peak_motor_torque_Nm"]

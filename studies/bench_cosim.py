@@ -64,7 +64,7 @@ def bench(time_step_s: float, repeats: int, *, implicit: bool, with_contact: boo
             return dict(row, error=str(exc))
         cpus.append(time.process_time() - c0)
         walls.append(wall)
-        res = make_result(sc, plan, td, summary, wall, 1.0, time_step_s, {})
+        res = make_result(sc, plan, td, summary, wall, 1.0, {})
     best = min(walls)
     return dict(row, sim_time_s=res.sim_time_s, wall_s_best=best, wall_s_all=walls,
                 real_time_factor=res.sim_time_s / best, cpu_s_best=min(cpus),

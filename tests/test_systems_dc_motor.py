@@ -122,7 +122,7 @@ def test_applied_signals_invert_the_motor_model():
     """AppliedMotorSignals reads the motor model backwards: from the joint torque a motor delivers
     (and the joint speed) back to its voltage, current, motor torque and power, motoring and
     back-driven alike, within the limits."""
-    from qmt_drake.systems.dc_motor import AppliedMotorSignals
+    from qmt_drake.systems.dc_motor import AppliedMotorSignals, motor_signals_from_joint_torque
 
     p = _params()
     p.back_drive_efficiency = 0.8  # a lossy back-driven gear, so both branches differ
@@ -140,3 +140,6 @@ def test_applied_signals_invert_the_motor_model():
         np.testing.assert_allclose(backward.GetOutputPort("voltage").Eval(ctx), v, rtol=1e-9, atol=1e-12)
         for name in ("joint_torque", "motor_torque", "current", "electrical_power"):
             np.testing.assert_allclose(backward.GetOutputPort(name).Eval(ctx), out[name], rtol=1e-9, atol=1e-15)
+        v_f, i_f, tau_m_f, p_f = motor_signals_from_joint_torque(p, out["joint_torque"], qd)
+        np.testing.assert_allclose(v_f, v, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(p_f, out["electrical_power"], rtol=1e-9, atol=1e-15)

@@ -18,14 +18,14 @@ position loop chatter at rest (a limit cycle at the Nyquist rate), so only the m
 is modelled unless `back_drive_efficiency` is set.
     P_el   = v * i                                            electrical power [W]
 
-Ke = Kt in SI (V*s/rad = N*m/A).
+Ke = Kt in SI (V*s/rad = N*m/A). The rotor inertia is NOT in this system: it stays in the plant as
+the joint actuator's reflected inertia (drake:rotor_inertia, drake:gear_ratio in the URDF).
 
 `motor_signals_from_joint_torque` inverts the model: given the joint torque a motor actually
 delivered and the joint speed, it returns the terminal voltage, current, motor torque and
 electrical power that go with it (quasi-static armature). `AppliedMotorSignals` is that inverse as a
 LeafSystem; the co-simulation uses it when the loop's velocity feedback is stepped implicitly
-(cosim.py, `implicit_loop_damping`), where the torque applied over a step is known only after it. The rotor inertia is NOT in this system: it stays in the plant as
-the joint actuator's reflected inertia (drake:rotor_inertia, drake:gear_ratio in the URDF).
+(cosim.py, `implicit_loop_damping`), where the torque applied over a step is known only after it.
 
 Current-command mode (`command="current"`, an ideal current amplifier): the input is the current;
 it is clipped to +-I_max and to what the supply can push against the back EMF,
@@ -174,19 +174,35 @@ class DcMotorParams:
         return self.gear_ratio * self.efficiency * self.torque_constant_Nm_per_A / self.resistance_ohm
 
 
-def motor_signals_from_joint_torque(params: DcMotorParams, joint_torque_Nm, joint_velocity_rad_s):
-    """(v [V], i [A], tau_m [N*m], P_el [W]) of motors that deliver joint_torque_Nm at joint_velocity_rad_s:
-    tau_m = tau_j / (N eta) while motoring (tau_j * qd >= 0), tau_j * eta_b / N while back-driven;
-    i = tau_m / Kt; v = R i + Ke N qd (quasi-static armature; L di/dt, ~0.1-0.2 ms, is left out);
-    P_el = v i. No limit is applied: the result says what the motors had to do."""
-    p = params
-    tau_j = np.asarray(joint_torque_Nm, float)
-    qd = np.asarray(joint_velocity_rad_s, float)
-    motoring = tau_j * qd >= 0.0
-    tau_m = np.where(motoring, tau_j / (p.gear_ratio * p.efficiency), tau_j * p.back_drive_efficiency / p.gear_ratio)
-    i = tau_m / p.torque_constant_Nm_per_A
-    v = p.resistance_ohm * i + p.torque_constant_Nm_per_A * p.gear_ratio * qd
+def _motor_side(tau_j, qd, gear_ratio, efficiency, back_drive_efficiency, kt, resistance):
+    """One joint, plain floats: (v, i, tau_m, P_el) of a motor delivering tau_j [N*m] at qd [rad/s]."""
+    if tau_j * qd >= 0.0:  # motoring
+        tau_m = tau_j / (gear_ratio * efficiency)
+    else:
+        tau_m = tau_j * back_drive_efficiency / gear_ratio
+    i = tau_m / kt
+    v = resistance * i + kt * gear_ratio * qd
     return v, i, tau_m, v * i
+
+
+def _inverse_rows(params: DcMotorParams) -> list[tuple]:
+    """Per joint: (N, eta, eta_b, Kt, R) as floats, the arguments of `_motor_side` after (tau_j, qd)."""
+    p = params
+    return [tuple(float(x) for x in row) for row in zip(
+        p.gear_ratio, p.efficiency, np.broadcast_to(p.back_drive_efficiency, (p.n,)), p.torque_constant_Nm_per_A,
+        p.resistance_ohm)]
+
+
+def motor_signals_from_joint_torque(params: DcMotorParams, joint_torque_Nm, joint_velocity_rad_s):
+    """(v [V], i [A], tau_m [N*m], P_el [W]) arrays of motors that deliver joint_torque_Nm at
+    joint_velocity_rad_s: tau_m = tau_j / (N eta) while motoring (tau_j * qd >= 0), tau_j * eta_b / N
+    while back-driven; i = tau_m / Kt; v = R i + Ke N qd (quasi-static armature; L di/dt,
+    ~0.1-0.2 ms, is left out); P_el = v i. No limit is applied: the result says what the motors had
+    to do."""
+    tau = np.broadcast_to(np.asarray(joint_torque_Nm, float), (params.n,)).tolist()
+    qd = np.broadcast_to(np.asarray(joint_velocity_rad_s, float), (params.n,)).tolist()
+    rows = [_motor_side(t, w, *r) for t, w, r in zip(tau, qd, _inverse_rows(params))]
+    return tuple(np.array(col) for col in zip(*rows))
 
 
 class AppliedMotorSignals(LeafSystem):
@@ -209,10 +225,7 @@ class AppliedMotorSignals(LeafSystem):
         self.params = params
         n = params.n
         self._n = n
-        p = params
-        self._per_joint = [tuple(float(x) for x in row) for row in zip(
-            p.gear_ratio, p.efficiency, np.broadcast_to(p.back_drive_efficiency, (n,)), p.torque_constant_Nm_per_A,
-            p.resistance_ohm)]
+        self._rows = _inverse_rows(params)
         self._tau_in = self.DeclareVectorInputPort("applied_joint_torque", n)
         self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
         self._cache = self.DeclareCacheEntry(
@@ -224,17 +237,10 @@ class AppliedMotorSignals(LeafSystem):
                 self._cache.Eval(c)[k * self._n:(k + 1) * self._n]))
 
     def _calc_signals(self, context, value):
-        # motor_signals_from_joint_torque in plain floats (it runs every plant step; see DcMotorWithGear).
-        tau = self._tau_in.Eval(context).tolist()
-        qd = self._qd_in.Eval(context).tolist()
-        n = self._n
-        out = [0.0] * (4 * n)
-        for k, (n_gear, eta, eta_b, kt, r) in enumerate(self._per_joint):
-            tau_m = tau[k] / (n_gear * eta) if tau[k] * qd[k] >= 0.0 else tau[k] * eta_b / n_gear
-            i = tau_m / kt
-            v = r * i + kt * n_gear * qd[k]
-            out[k], out[n + k], out[2 * n + k], out[3 * n + k] = v, i, tau_m, v * i
-        value.set_value(np.array(out))
+        # Plain floats per joint: this runs every plant step (see DcMotorWithGear._calc_signals).
+        rows = [_motor_side(t, w, *r) for t, w, r in zip(self._tau_in.Eval(context).tolist(),
+                                                          self._qd_in.Eval(context).tolist(), self._rows)]
+        value.set_value(np.array(rows).T.reshape(-1))  # [v..., i..., tau_m..., P...]
 
 
 class DcMotorWithGear(LeafSystem):
