@@ -58,8 +58,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
+from pydrake.systems.framework import LeafSystem
 
 
 @dataclass(frozen=True)
@@ -228,19 +227,16 @@ class AppliedMotorSignals(LeafSystem):
         self._rows = _inverse_rows(params)
         self._tau_in = self.DeclareVectorInputPort("applied_joint_torque", n)
         self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
-        self._cache = self.DeclareCacheEntry(
-            "applied_signals", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(4 * n)),
-                                             calc=self._calc_signals), {self.all_input_ports_ticket()})
         self.DeclareVectorOutputPort("joint_torque", n, lambda c, o: o.SetFromVector(self._tau_in.Eval(c)))
         for k, name in enumerate(("voltage", "current", "motor_torque", "electrical_power")):
             self.DeclareVectorOutputPort(name, n, lambda c, o, k=k: o.SetFromVector(
-                self._cache.Eval(c)[k * self._n:(k + 1) * self._n]))
+                [row[k] for row in self._rows_now(c)]))
 
-    def _calc_signals(self, context, value):
-        # Plain floats per joint: this runs every plant step (see DcMotorWithGear._calc_signals).
-        rows = [_motor_side(t, w, *r) for t, w, r in zip(self._tau_in.Eval(context).tolist(),
+    def _rows_now(self, context) -> list[tuple]:
+        # Plain floats per joint, recomputed per output: no cache entry is cheaper per plant step
+        # (two outputs are read per step; see DcMotorWithGear._signals).
+        return [_motor_side(t, w, *r) for t, w, r in zip(self._tau_in.Eval(context).tolist(),
                                                           self._qd_in.Eval(context).tolist(), self._rows)]
-        value.set_value(np.array(rows).T.reshape(-1))  # [v..., i..., tau_m..., P...]
 
 
 class DcMotorWithGear(LeafSystem):
@@ -273,15 +269,12 @@ class DcMotorWithGear(LeafSystem):
         self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
         if self._L is not None:
             self.DeclareContinuousState(n)
-        # One cached evaluation [v, i, tau_m, tau_j, P] per context serves all four outputs.
-        self._cache = self.DeclareCacheEntry(
-            "motor_signals", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(5 * n)),
-                                           calc=self._calc_signals),
-            {self.all_input_ports_ticket(), self.all_state_ticket()})
-        self.DeclareVectorOutputPort("joint_torque", n, self._calc_joint_torque)
-        self.DeclareVectorOutputPort("motor_torque", n, self._calc_motor_torque)
-        self.DeclareVectorOutputPort("current", n, self._calc_current)
-        self.DeclareVectorOutputPort("electrical_power", n, self._calc_power)
+        # Each output evaluates the model itself: per plant step only joint_torque is read, and a
+        # cache entry would cost an extra Python call and array per step.
+        self.DeclareVectorOutputPort("joint_torque", n, lambda c, o: o.SetFromVector(self._signal(c, 3)))
+        self.DeclareVectorOutputPort("motor_torque", n, lambda c, o: o.SetFromVector(self._signal(c, 2)))
+        self.DeclareVectorOutputPort("current", n, lambda c, o: o.SetFromVector(self._signal(c, 1)))
+        self.DeclareVectorOutputPort("electrical_power", n, lambda c, o: o.SetFromVector(self._signal(c, 4)))
 
     # --- model -----------------------------------------------------------------------------
     def _voltage(self, context) -> np.ndarray:
@@ -298,9 +291,11 @@ class DcMotorWithGear(LeafSystem):
         i_dot = np.where((i <= -self._Imax) & (i_dot < 0), 0.0, i_dot)
         derivatives.get_mutable_vector().SetFromVector(i_dot)
 
-    def _calc_signals(self, context, value):
-        # Per joint in plain floats: for the 2-3 joints here this is several times faster than numpy
-        # on tiny arrays, and it runs once per plant step.
+    def _signals(self, context) -> list[float]:
+        """[v (n), i (n), tau_m (n), tau_j (n), P_el (n)] as plain floats.
+
+        Per joint in plain floats: for the 2-3 joints here this is several times faster than numpy
+        on tiny arrays, and it runs once per plant step."""
         cmd = self._v_in.Eval(context).tolist()
         qd = self._qd_in.Eval(context).tolist()
         i_state = context.get_continuous_state_vector().CopyToVector().tolist() if self._L is not None else None
@@ -320,20 +315,8 @@ class DcMotorWithGear(LeafSystem):
             out[k], out[n + k], out[2 * n + k] = v, i, tau_m
             out[3 * n + k] = tau_m * (g_motoring if tau_m * qd[k] >= 0.0 else g_backdriven)
             out[4 * n + k] = v * i
-        value.set_value(np.array(out))
+        return out
 
-    def _signal(self, context, k: int) -> np.ndarray:
+    def _signal(self, context, k: int) -> list[float]:
         n = self._n
-        return self._cache.Eval(context)[k * n:(k + 1) * n]
-
-    def _calc_current(self, context, output: BasicVector):
-        output.SetFromVector(self._signal(context, 1))
-
-    def _calc_motor_torque(self, context, output: BasicVector):
-        output.SetFromVector(self._signal(context, 2))
-
-    def _calc_joint_torque(self, context, output: BasicVector):
-        output.SetFromVector(self._signal(context, 3))
-
-    def _calc_power(self, context, output: BasicVector):
-        output.SetFromVector(self._signal(context, 4))
+        return self._signals(context)[k * n:(k + 1) * n]

@@ -127,23 +127,22 @@ class ElectromagnetForce(LeafSystem):
         self.DeclareVectorOutputPort("gap", 1, self._calc_gap)
 
     def _geometry(self, context):
-        """Payload face centre in the hand frame p_HP [m], hand rotation R_WH, force [N], gap [m]."""
+        """Payload face centre in the hand frame p_HP [m] (3 floats), hand face normal in world
+        z_WH (3 floats), pull [N], gap [m]."""
         poses = self._poses_in.Eval(context)
         X_WH = poses[self._hand_i]
-        R_WH = X_WH.rotation().matrix()
-        p_HP = (poses[self._payload_i].translation() - X_WH.translation()).dot(R_WH)  # = R_WH^T (p_WP - p_WH)
-        x, y, z = p_HP.tolist()
+        x, y, z = X_WH.InvertAndCompose(poses[self._payload_i]).translation().tolist()
         gap = -z if z < 0.0 else 0.0
         slide = math.hypot(x, y)
         i = float(self._i_in.Eval(context)[0])
         f = self._k * i * i / (gap + self._g0) ** 2
         if slide > self._b - self._a:
             f *= covered_fraction(slide, self._a, self._b)
-        return p_HP, R_WH, f, gap
+        return (x, y, z), X_WH.rotation().col(2), f, gap
 
     def _calc_forces(self, context, output):
-        p_HP, R_WH, f, _ = self._geometry(context)
-        fz = f * R_WH[:, 2]
+        p_HP, z_WH, f, _ = self._geometry(context)
+        fz = f * z_WH
         self._on_payload.F_Bq_W = SpatialForce(self._zero3, fz)
         self._on_hand.p_BoBq_B = p_HP
         self._on_hand.F_Bq_W = SpatialForce(self._zero3, -fz)

@@ -41,11 +41,15 @@ SUMMARY_FIELDS = ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_e
 
 def relative_payload_motion(X_WH: RigidTransform, X_WP: RigidTransform, X_HP0: RigidTransform):
     """(slip [m], tilt [rad], gap [m]) of payload pose X_WP relative to the seated X_HP0 in hand H."""
-    R_WH = X_WH.rotation().matrix()
-    # v.dot(R_WH) = R_WH^T v: world vectors expressed in H.
-    dx, dy, dz = ((X_WP.translation() - X_WH.translation()).dot(R_WH) - X_HP0.translation()).tolist()
-    # Payload z axis in H, compared with the seated one (both unit vectors).
-    z_cos = float(X_WP.rotation().matrix()[:, 2].dot(R_WH).dot(X_HP0.rotation().matrix()[:, 2]))
+    return _motion_in_hand(X_WH.InvertAndCompose(X_WP).GetAsMatrix34(), X_HP0.translation().tolist(),
+                           X_HP0.rotation().matrix()[:, 2].tolist())
+
+
+def _motion_in_hand(M_HP, p_HP0, z_HP0):
+    """slip, tilt, gap from X_HP as a 3x4 array and the seated pose's origin and z axis (lists, in H)."""
+    x, y, z = M_HP[:, 3].tolist()
+    dx, dy, dz = x - p_HP0[0], y - p_HP0[1], z - p_HP0[2]
+    z_cos = sum(a * b for a, b in zip(M_HP[:, 2].tolist(), z_HP0))  # payload z vs seated z, both in H
     return math.hypot(dx, dy), math.acos(max(-1.0, min(1.0, z_cos))), max(-dz, 0.0)
 
 
@@ -61,7 +65,9 @@ class TransferMonitor(LeafSystem):
         self._hand = int(hand_body_index)
         self._payload = int(payload_body_index)
         self._T = float(period_s)
-        self._X_HP0 = seated_pose_in_hand or RigidTransform()
+        X_HP0 = seated_pose_in_hand or RigidTransform()
+        self._p_HP0 = X_HP0.translation().tolist()
+        self._z_HP0 = X_HP0.rotation().matrix()[:, 2].tolist()
         self._detach_gap = detach_gap_m
         self._detach_slip = detach_slip_m
         self._poses_in = self.DeclareAbstractInputPort("body_poses", AbstractValue.Make([RigidTransform()]))
@@ -80,24 +86,32 @@ class TransferMonitor(LeafSystem):
 
     def _motion(self, context):
         poses = self._poses_in.Eval(context)
-        return relative_payload_motion(poses[self._hand], poses[self._payload], self._X_HP0)
+        # InvertAndCompose and GetAsMatrix34 run in C++: one conversion instead of a dozen small ones.
+        return _motion_in_hand(poses[self._hand].InvertAndCompose(poses[self._payload]).GetAsMatrix34(),
+                               self._p_HP0, self._z_HP0)
 
     def _update(self, context, discrete_state):
-        # Plain floats: this runs every plant step (see DcMotorWithGear._calc_signals).
+        # Plain floats: this runs every plant step (see DcMotorWithGear._signals).
         s = context.get_discrete_state(self._s).get_value().tolist()
         slip, tilt, gap = self._motion(context)
         n = self._n
         err = (self._xd_in.Eval(context)[:n] - self._x_in.Eval(context)[:n]).tolist()
-        s[0] = max(s[0], slip)
-        s[1] = max(s[1], tilt)
-        if math.isnan(s[2]) and (gap > self._detach_gap or slip > self._detach_slip):
+        if slip > s[0]:
+            s[0] = slip
+        if tilt > s[1]:
+            s[1] = tilt
+        if s[2] != s[2] and (gap > self._detach_gap or slip > self._detach_slip):  # NaN: not yet detached
             s[2] = context.get_time()
-        s[3] = max(s[3], max(abs(e) for e in err))
+        s[3] = max(s[3], max(map(abs, err)))
         s[4] += self._T * sum(self._p_in.Eval(context).tolist())
-        s[5] = max(s[5], gap)
-        for k, tau in enumerate(self._tau_in.Eval(context).tolist()):
-            s[6 + k] = max(s[6 + k], abs(tau))
-        discrete_state.get_mutable_vector(self._s).SetFromVector(s)
+        if gap > s[5]:
+            s[5] = gap
+        k = 6
+        for tau in self._tau_in.Eval(context).tolist():
+            if abs(tau) > s[k]:
+                s[k] = abs(tau)
+            k += 1
+        discrete_state.set_value(self._s, s)
 
     @staticmethod
     def unpack(summary: np.ndarray) -> dict:
