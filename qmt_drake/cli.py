@@ -13,6 +13,9 @@ from pathlib import Path
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 
+# cosim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
+FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
+
 EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION = 2, 3, 4
 
 
@@ -96,7 +99,7 @@ def cmd_simulate(args) -> int:
         raise QmtInputError(f"--time-step-ms must be positive, got {args.time_step_ms}")
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record,
                           time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
-                          implicit_loop_damping=not args.explicit)
+                          implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
     _emit_json(result, args.json)
     if args.json != "-":
         print(f"{sc.name} {plan.method} x{args.time_scale}: "
@@ -165,6 +168,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--record", metavar="PATH.html", help="save a Meshcat recording")
     s.add_argument("--time-step-ms", type=float, default=None,
                    help="plant step in ms (default 2 with implicit loop damping, 1 with --explicit)")
+    s.add_argument("--feedforward", choices=FEEDFORWARD_CHOICES, default="none",
+                   help="controller feedforward: none (the thesis's PID), back-emf (Ke N qd_des), "
+                        "full (back-emf plus Drake inverse dynamics of the reference)")
     s.add_argument("--explicit", action="store_true",
                    help="motors drive the plant directly (no implicit loop damping; needs <= 1 ms)")
     s.add_argument("--json", metavar="PATH|-")

@@ -27,9 +27,10 @@ part earlier than the static bound). The two calibrated currents cannot come fro
 0.41 of the ch.4 coil's voltage (see out/cosim_calibration.json, shared_voltage_counterfactual).
 
 Assumptions worth knowing: MAGNET_EFFECTIVE_GAP_M (g0 = 0.5 mm) is assumed, not measured; it sets
-how fast the pull fades once the part tips, i.e. how surely a tipped part falls. Friction creep of
-the discrete contact solver shows up as slip on payloads that are held; it grows in proportion to
-the plant step (ch.4 GA move: 0.35 mm at 1 ms, 0.67 mm at 2 ms). The stiff thesis-gain position
+how fast the pull fades once the part tips, i.e. how surely a tipped part falls. Held payloads
+show a drift of the first-order discrete step as slip; it grows in proportion to the plant step
+and does not depend on friction or contact stiffness (ch.4 GA move: 0.35 mm at 1 ms, 0.67 mm at
+2 ms; studies/contact_drift.py). The stiff thesis-gain position
 loop is unstable at 2 ms when the motors drive the plant explicitly; by default its velocity
 feedback is stepped implicitly (`add_implicit_damping_actuation`), which runs at 2 ms with the same
 motion and motor torques as a 0.25 ms explicit run (studies/bench_cosim.py, tests/test_cosim.py).
@@ -533,12 +534,24 @@ def make_result(scenario, plan, td, summary, wall, time_scale, series) -> Transf
         sim_time_s=td.t_final_s, sim_wall_s=wall, real_time_factor=td.t_final_s / wall, series=series)
 
 
+FEEDFORWARD_OPTIONS = {  # CLI --feedforward -> build_transfer_diagram keywords
+    "none": {},
+    "back-emf": {"back_emf_feedforward": True},
+    "full": {"back_emf_feedforward": True, "inverse_dynamics_feedforward": True},
+}
+
+
 def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time_step_s: float | None = None,
-                 implicit_loop_damping: bool | None = None) -> dict:
-    """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict)."""
+                 implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
+    """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict).
+    feedforward: a FEEDFORWARD_OPTIONS key (the controller's feedforward terms)."""
+    if feedforward not in FEEDFORWARD_OPTIONS:
+        raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
     res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,
-                            time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping)
+                            time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
+                            **FEEDFORWARD_OPTIONS[feedforward])
     d = res.summary_dict()
+    d["feedforward"] = feedforward
     if record_path is not None:
         d["record_path"] = str(record_path)
     return d

@@ -195,8 +195,9 @@ def test_motor_torque_matches_inverse_dynamics_through_the_gear(carried):
 
 def test_implicit_damping_at_2ms_matches_a_fine_explicit_reference(sc4, plan4, carried):
     """The default scheme (loop damping stepped implicitly, 2 ms) against the motors driving the
-    plant explicitly at 0.25 ms: same motion, same motor effort, same verdict. Slip is friction
-    creep of the discrete contact solver, which grows with the step, so it is compared loosely."""
+    plant explicitly at 0.25 ms: same motion, same motor effort, same verdict. Slip of a held part
+    is a drift of the discrete step that grows with the step (studies/contact_drift.py), so it is
+    compared loosely."""
     assert carried.implicit_loop_damping and carried.time_step_s == pytest.approx(2e-3)
     ref = simulate_transfer(sc4, plan4, time_step_s=0.25e-3, implicit_loop_damping=False, keep_series=False)
     assert carried.held == ref.held
