@@ -143,6 +143,7 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
                                         "at 10 kHz (m/s^3); 'jump' where it is discontinuous"},
               "scenarios": {}}
     plans_by_scenario = {}
+    carried_by_scenario = {}  # per plan: True/False from the co-simulation, None if not simulated
     for name in scenarios:
         sc = load_scenario(name)
         P = PlanningProblem(sc)
@@ -208,10 +209,11 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
                       "A_m_s2": sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm,
                       "ratios": _ga_ratios(rows)})
         plans_by_scenario[name] = plans
+        carried_by_scenario[name] = [r["held"] for r in rows]
     write_text_atomic(out / "benchmark.json", json.dumps(jsonable(result), indent=1))
     write_text_atomic(out / "benchmark.md", benchmark_markdown(result))
     if figures:
-        result["figures"] = write_figures(plans_by_scenario, out)
+        result["figures"] = write_figures(plans_by_scenario, out, carried_by_scenario)
     say(f"wrote {out / 'benchmark.json'} and {out / 'benchmark.md'}")
     return result
 
@@ -296,7 +298,7 @@ def benchmark_markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
-def write_figures(plans_by_scenario: dict, out: Path) -> list[str]:
+def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict | None = None) -> list[str]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -352,14 +354,20 @@ def write_figures(plans_by_scenario: dict, out: Path) -> list[str]:
         times = [p.motion_time_s for _, p in plans]
         colors = ["tab:green" if p.feasible else "tab:red" for _, p in plans]
         y = np.arange(len(plans))
-        ax.barh(y, times, color=colors)
-        for yi, (tt, (_, p)) in enumerate(zip(times, plans)):
-            ax.text(tt, yi, f" {tt:.3f}" + ("" if p.feasible else " (breaks a limit)"),
-                    va="center", fontsize=7)
+        carried = (carried_by_scenario or {}).get(name) or [None] * len(plans)
+        bars = ax.barh(y, times, color=colors)
+        for bar, c in zip(bars, carried):
+            if c is False:  # hatched: the payload was not carried (lost, or slip >= 1 mm)
+                bar.set_hatch("///")
+                bar.set_edgecolor("black")
+        for yi, (tt, (_, p), c) in enumerate(zip(times, plans, carried)):
+            notes = ([] if p.feasible else ["breaks a limit"]) + (["not carried in co-simulation"] if c is False else [])
+            ax.text(tt, yi, f" {tt:.3f}" + (f" ({'; '.join(notes)})" if notes else ""), va="center", fontsize=7)
         ax.set_yticks(y, labels, fontsize=7)
         ax.invert_yaxis()
         ax.set_xlabel("motion time [s]")
-        ax.set_title(f"{name}: motion time (green: keeps every limit on the 10 kHz re-check)")
+        ax.set_title(f"{name}: motion time (green: keeps every limit on the 10 kHz re-check; "
+                     "hatched: payload not carried in the co-simulation)", fontsize=10)
         ax.set_xlim(0, max(times) * 1.25 if times else 1)
         ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()
