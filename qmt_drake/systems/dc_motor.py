@@ -233,8 +233,8 @@ class AppliedMotorSignals(LeafSystem):
                 [row[k] for row in self._rows_now(c)]))
 
     def _rows_now(self, context) -> list[tuple]:
-        # Plain floats per joint, recomputed per output: no cache entry is cheaper per plant step
-        # (two outputs are read per step; see DcMotorWithGear._signals).
+        # Plain floats per joint, recomputed per output (the monitor reads two per step): without a
+        # cache entry, one Python call and one array allocation fewer per output evaluation.
         return [_motor_side(t, w, *r) for t, w, r in zip(self._tau_in.Eval(context).tolist(),
                                                           self._qd_in.Eval(context).tolist(), self._rows)]
 
@@ -270,7 +270,7 @@ class DcMotorWithGear(LeafSystem):
         if self._L is not None:
             self.DeclareContinuousState(n)
         # Each output evaluates the model itself: per plant step only joint_torque is read, and a
-        # cache entry would cost an extra Python call and array per step.
+        # cache entry would add a Python call and an array allocation per step.
         self.DeclareVectorOutputPort("joint_torque", n, lambda c, o: o.SetFromVector(self._signal(c, 3)))
         self.DeclareVectorOutputPort("motor_torque", n, lambda c, o: o.SetFromVector(self._signal(c, 2)))
         self.DeclareVectorOutputPort("current", n, lambda c, o: o.SetFromVector(self._signal(c, 1)))

@@ -96,21 +96,15 @@ class TransferMonitor(LeafSystem):
         slip, tilt, gap = self._motion(context)
         n = self._n
         err = (self._xd_in.Eval(context)[:n] - self._x_in.Eval(context)[:n]).tolist()
-        if slip > s[0]:
-            s[0] = slip
-        if tilt > s[1]:
-            s[1] = tilt
-        if s[2] != s[2] and (gap > self._detach_gap or slip > self._detach_slip):  # NaN: not yet detached
+        s[0] = max(s[0], slip)
+        s[1] = max(s[1], tilt)
+        if math.isnan(s[2]) and (gap > self._detach_gap or slip > self._detach_slip):
             s[2] = context.get_time()
         s[3] = max(s[3], max(map(abs, err)))
         s[4] += self._T * sum(self._p_in.Eval(context).tolist())
-        if gap > s[5]:
-            s[5] = gap
-        k = 6
-        for tau in self._tau_in.Eval(context).tolist():
-            if abs(tau) > s[k]:
-                s[k] = abs(tau)
-            k += 1
+        s[5] = max(s[5], gap)
+        for k, tau in enumerate(self._tau_in.Eval(context).tolist()):
+            s[6 + k] = max(s[6 + k], abs(tau))
         discrete_state.set_value(self._s, s)
 
     @staticmethod
