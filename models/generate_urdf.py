@@ -97,6 +97,7 @@ def make_urdf(name: str, spec: dict) -> str:
         '  <material name="link_green"><color rgba="0.2 0.7 0.3 1"/></material>\n',
         '  <material name="joint_grey"><color rgba="0.3 0.3 0.3 1"/></material>\n',
         '  <material name="magnet_red"><color rgba="0.7 0.1 0.1 1"/></material>\n',
+        '  <link name="world"/>\n',
         '  <link name="base">\n    <visual>\n      <origin xyz="0 0 -0.04"/>\n'
         '      <geometry><cylinder radius="0.03" length="0.05"/></geometry>\n'
         '      <material name="joint_grey"/>\n    </visual>\n  </link>\n',

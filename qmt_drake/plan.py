@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits import LimitReport, limit_report
+from qmt_drake.limits import LimitReport
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.scenario import Scenario, load_scenario
 from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
@@ -27,11 +27,9 @@ from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTraje
 
 def recheck(scenario: Scenario, trajectory: JointTrajectory, rate_hz: float | None = None,
             valid: bool = True) -> LimitReport:
-    """Limits of `trajectory` sampled at `rate_hz` (default: the scenario's check rate)."""
-    rate = rate_hz or scenario.sampling.check_rate_hz
-    grid = piecewise_grid(trajectory.breakpoints_s[None, :], rate)
-    q, qd, qdd = trajectory.evaluate(grid.t_s, grid.t_piece_s)
-    return limit_report(scenario, grid.t_s, q, qd, qdd, rate, trajectory.duration_s, valid=valid)
+    """Limits of `trajectory` sampled at `rate_hz` (default: the scenario's check rate), every
+    local maximum near a peak or a limit refined between the samples (LimitSet.report)."""
+    return scenario.limit_set.report(trajectory, rate_hz or scenario.sampling.check_rate_hz, valid=valid)
 
 
 @dataclass

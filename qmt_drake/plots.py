@@ -16,7 +16,6 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from qmt_drake.limits import sample_limits  # noqa: E402
 
 STYLES = ["-", "--", ":", "-."]
 
@@ -77,12 +76,16 @@ def joint_angles(plans: dict, path, title=""):
     return _save(fig, path)
 
 
+def _moment_Nm(scenario, q, qd, qdd):
+    return scenario.limit_set.term("payload_moment").moment_Nm(scenario.arm.hand_state(q, qd, qdd))
+
+
 def moment(plans: dict, path, title=""):
     fig, ax = plt.subplots(figsize=(7, 4))
     limit = None
     for k, (label, plan) in enumerate(plans.items()):
         t, q, qd, qdd = _series(plan)
-        m = sample_limits(plan.scenario, q, qd, qdd).moment_Nm
+        m = _moment_Nm(plan.scenario, q, qd, qdd)
         limit = plan.scenario.limits.moment_limit_Nm
         ax.plot(t, m * 1e3, STYLES[k % 4], color=f"C{k}",
                 label=f"{label} (T0 {plan.motion_time_s:.3f} s, peak {plan.check.peak_moment_ratio:.4f})")
@@ -101,7 +104,7 @@ def motor_torques(plans: dict, path, title=""):
     fig, axes = plt.subplots(n, 1, figsize=(7, 2.2 * n), sharex=True)
     for k, (label, plan) in enumerate(plans.items()):
         t, q, qd, qdd = _series(plan)
-        tau = sample_limits(plan.scenario, q, qd, qdd).motor_torque_Nm
+        tau = plan.scenario.arm.motor_torque(q, qd, qdd)
         for j in range(n):
             axes[j].plot(t, tau[:, j] * 1e3, STYLES[k % 4], color=f"C{k}", label=label)
     for j in range(n):

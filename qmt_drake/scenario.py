@@ -74,6 +74,9 @@ class GaSettings:
     # How 12 bits map to a level: "binary" (plain) or "gray" (reflected Gray code, where
     # neighbouring levels differ in one bit, so a one-bit mutation can always step to them).
     encoding: str = "binary"
+    # Seed 003's operator: if > 0, that many individuals get one random bit flipped per
+    # generation (instead of flipping each bit with mutation_rate).
+    mutants_per_generation: int = 0
 
 
 @dataclass(frozen=True)
@@ -101,9 +104,27 @@ class Scenario:
 
     @cached_property
     def arm(self):
-        """The ArmModel built from the URDF (loaded once per scenario object)."""
-        from qmt_drake.arm import ArmModel
-        return ArmModel.from_urdf(self.urdf_path, hand_frame=self.hand_frame)
+        """The ArmModel built from the URDF with the carried part welded to the hand (loaded once
+        per scenario object)."""
+        from qmt_drake.model.arm import ArmModel
+        from qmt_drake.systems.payload import PayloadSpec
+        carried = PayloadSpec.for_scenario(self).spatial_inertia_about_origin()
+        return ArmModel.from_urdf(self.urdf_path, hand_frame=self.hand_frame, carried_inertia=carried)
+
+    def fingerprint(self) -> str:
+        """sha256 of the scenario's data and its URDF's bytes (GA checkpoints store it)."""
+        import hashlib
+        from dataclasses import fields
+        parts = [repr((f.name, getattr(self, f.name))) for f in fields(self) if f.name != "source_path"]
+        h = hashlib.sha256("\n".join(parts).encode())
+        h.update(Path(self.urdf_path).read_bytes())
+        return h.hexdigest()
+
+    @cached_property
+    def limit_set(self):
+        """The scenario's LimitSet (payload moment, motor torques, joint ranges)."""
+        from qmt_drake.limits import LimitSet
+        return LimitSet.for_scenario(self)
 
     @property
     def gear_ratio(self) -> np.ndarray:
@@ -199,7 +220,7 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         raise QmtInputError(f"{where}: task.points_m must be a list of at least two [x, y] "
                             f"points in metres, got shape {pts.shape}")
     branch = str(t.get("ik_branch", "elbow_positive"))
-    from qmt_drake.arm import IK_BRANCHES
+    from qmt_drake.model.arm import IK_BRANCHES
     if branch not in IK_BRANCHES:
         raise QmtInputError(f"{where}: task.ik_branch '{branch}' is not one of {IK_BRANCHES}")
     tool = t.get("tool_angle_rad")

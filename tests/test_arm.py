@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from qmt_drake.arm import ArmModel
+from qmt_drake.model.arm import ArmModel
 from qmt_drake.errors import QmtInputError
 from qmt_drake.scenario import MODELS_DIR
 

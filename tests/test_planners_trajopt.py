@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from qmt_drake.paths import task_joint_points
-from qmt_drake.planners.trajopt_plan import basis_weights, plan_trajopt, tip_acceleration_generic
+from qmt_drake.planners.trajopt_plan import basis_weights, plan_trajopt
 from qmt_drake.scenario import load_scenario
 
 QUICK = {"num_control_points": 10, "constraint_samples": 40}
@@ -25,11 +25,11 @@ def test_generic_tip_acceleration_matches_arm(name):
     rng = np.random.default_rng(1)
     for _ in range(5):
         q, qd, qdd = rng.normal(size=(3, arm.n_dof))
-        np.testing.assert_allclose(tip_acceleration_generic(arm, q, qd, qdd),
-                                   arm.tip_acceleration(q, qd, qdd), atol=1e-12)
+        np.testing.assert_allclose(arm.tip_acceleration(q, qd, qdd),
+                                   arm.drake_tip_acceleration(q, qd, qdd), atol=1e-12)
     # AutoDiff: the derivative wrt qdd is the Jacobian.
     qdd_ad = np.array([AutoDiffXd(v, np.eye(arm.n_dof)[i]) for i, v in enumerate(qdd)])
-    a = tip_acceleration_generic(arm, q, qd, qdd_ad)
+    a = arm.tip_acceleration(q, qd, qdd_ad)
     J = np.array([ai.derivatives() for ai in a])
     np.testing.assert_allclose(J, arm.jacobian(q), atol=1e-12)
 

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from qmt_drake.limits import sample_limits
 
 
 @pytest.mark.parametrize("name", ["thesis-ch2", "thesis-ch3", "thesis-ch4"])
@@ -16,8 +15,8 @@ def test_fast_evaluator_equals_full_grid(problems, name):
     y = tight_motion(P, g[:40])[0]
     y = y[np.all(np.isfinite(y), axis=1)]
     g = np.concatenate([g, y, y * 1.0005, y * 0.9995])
-    fast = P.evaluate(g)
-    full = P.evaluate(g, exact=True)
+    fast = P.peaks(g)
+    full = P.peaks(g, exact=True)
     np.testing.assert_array_equal(fast.feasible, full.feasible)
     ok = full.feasible
     np.testing.assert_array_equal(fast.peak_moment_ratio[ok], full.peak_moment_ratio[ok])
@@ -31,9 +30,9 @@ def test_1khz_peaks_within_0p1_percent_of_refined(problems, name):
     rng = np.random.default_rng(3)
     g = P.lower + (P.upper - P.lower) * rng.random((12, P.lower.size)) ** 2  # favour fast ones
     g = g[P.family.valid(g)]
-    base = P.evaluate(g, rate_hz=1000, exact=True)
+    base = P.peaks(g, rate_hz=1000, exact=True)
     for rate in (10000,):
-        fine = P.evaluate(g, rate_hz=rate, exact=True)
+        fine = P.peaks(g, rate_hz=rate, exact=True)
         np.testing.assert_allclose(fine.peak_moment_ratio, base.peak_moment_ratio, rtol=1e-3)
         np.testing.assert_allclose(fine.peak_motor_torque_ratio, base.peak_motor_torque_ratio,
                                    rtol=1e-3)
@@ -49,5 +48,5 @@ def test_trapezoid_peaks_use_both_one_sided_values(problems):
         assert at.size == 2, "each switching instant is sampled from both sides"
         assert not np.allclose(qdd[at[0]], qdd[at[1]])
     # The peak sits on a switching instant (where the thesis saw it, Fig. 3.10).
-    m = sample_limits(P.scenario, q, qd, qdd).moment_Nm
+    m = P.limit_set.term("payload_moment").moment_Nm(P.arm.hand_state(q, qd, qdd))
     assert np.min(np.abs(bps - t[np.argmax(m)])) < 1e-12

@@ -26,7 +26,7 @@ def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options)
                            evaluations=r.evaluations, generations=r.generations,
                            extra={"seed": seed, "stop_reason": r.stop_reason,
                                   "ga_settings": scenario.ga.__dict__,
-                                  "history_best_motion_time_s": r.history.best_motion_time_s,
+                                  "history_best_motion_time_s": r.history.best_cost,
                                   "history_mean_fitness": r.history.mean_fitness,
                                   "history_feasible_fraction": r.history.feasible_fraction})
     if method == "optimum":

@@ -1,14 +1,16 @@
 """The family optimum: the shortest motion a trajectory family allows under the limits, found
 deterministically, to measure how far the GA is from the best of its own family.
 
-Every limit here is inertial (no gravity in the plane, no velocity limit), so playing a motion
-lam times slower divides every peak ratio by lam^2 exactly. A gene vector x therefore maps to the
-tight motion y(x) = time_scaled(x, sqrt(worst_ratio(x))), whose duration is
+When every limit is inertial (LimitSet.time_scaling_is_exact: no gravity in the plane, no
+velocity limit), playing a motion lam times slower divides every peak ratio by lam^2 exactly, and a
+gene vector x maps to the tight motion y(x) = time_scaled(x, sqrt(worst_ratio(x))), whose duration is
 T0(x) * sqrt(worst_ratio(x)); the family optimum is the smallest such duration among the y that
 stay inside the gene bounds. That objective is piecewise smooth (a max over samples), so it is
 minimised with bounded Nelder-Mead (scipy) from a seeded Latin hypercube of starts, with a
 penalty for y leaving the bounds; the best y is clipped to the bounds and, if still over a limit,
-slowed by the exact factor. The winner is re-checked at the check rate like every plan.
+slowed by the exact factor. With gravity (or any other non-inertial limit) the tight scale is found
+by a batched bisection on lam instead (`tight_scale`). The winner is re-checked at the check rate
+like every plan.
 """
 
 from __future__ import annotations
@@ -28,13 +30,32 @@ BOUND_PENALTY_S = 100.0  # seconds of objective per unit of normalised bound vio
 def tight_motion(problem: PlanningProblem, genes: np.ndarray):
     """(y, T0(y), bound violation) for rows of genes, y on the limit boundary (nan if none)."""
     g = np.atleast_2d(genes)
-    peaks = problem.evaluate(g)
-    ok = peaks.valid & peaks.joint_range_ok & np.isfinite(peaks.worst_ratio)
-    lam = np.sqrt(np.where(ok, peaks.worst_ratio, np.nan))
+    lam = tight_scale(problem, g)
     y = problem.family.time_scaled(g, lam)
     span = problem.upper - problem.lower
     viol = (np.maximum(problem.lower - y, 0) + np.maximum(y - problem.upper, 0)) / span
     return y, problem.family.motion_time_s(y), viol.sum(axis=1)
+
+
+def tight_scale(problem: PlanningProblem, genes: np.ndarray, *, lam_max: float = 1e3,
+                iterations: int = 60) -> np.ndarray:
+    """(K,) smallest lam with the motion played lam times slower on every limit (nan: none).
+
+    Exact (lam = sqrt(worst ratio)) when the limit set allows the time-scaling shortcut; otherwise
+    a batched bisection in log(lam) over [1/lam_max, lam_max] (60 halvings: relative 1e-16)."""
+    g = np.atleast_2d(genes)
+    peaks = problem.peaks(g)
+    ok = peaks.valid & peaks.joint_range_ok & np.isfinite(peaks.worst_ratio)
+    if problem.limit_set.time_scaling_is_exact:
+        return np.sqrt(np.where(ok, peaks.worst_ratio, np.nan))
+    lo = np.full(len(g), -np.log(lam_max))
+    hi = np.full(len(g), np.log(lam_max))
+    feasible_hi = problem.peaks(problem.family.time_scaled(g, np.exp(hi))).feasible
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        f = problem.peaks(problem.family.time_scaled(g, np.exp(mid))).feasible
+        hi, lo = np.where(f, mid, hi), np.where(f, lo, mid)
+    return np.where(ok & feasible_hi, np.exp(hi), np.nan)
 
 
 def plan_family_optimum(problem: PlanningProblem, *, starts: int = 24, polished: int = 6,
@@ -73,9 +94,13 @@ def plan_family_optimum(problem: PlanningProblem, *, starts: int = 24, polished:
     genes = best[1] if best is not None else x0[order[0]]
     plan = family_plan(problem, genes, "optimum")
     if best is not None and not plan.feasible and plan.check.joint_range_ok:
-        # The check grid found a peak a hair above 1: slow down by the exact factor.
-        lam = np.sqrt(max(plan.check.peak_moment_ratio, plan.check.peak_motor_torque_ratio))
-        genes = problem.family.time_scaled(genes, lam * (1 + 1e-9))[0]
+        # The refined check found a peak a hair above 1 between the planning samples: slow down
+        # by the exact factor (or the searched one when gravity acts).
+        if problem.limit_set.time_scaling_is_exact:
+            lam = np.sqrt(plan.check.worst_ratio)
+            genes = problem.family.time_scaled(genes, lam * (1 + 1e-9))[0]
+        else:
+            genes = _slow_until_confirmed(problem, genes)
         plan = family_plan(problem, genes, "optimum")
     plan.planner_wall_s = time.perf_counter() - t_start
     plan.evaluations = problem.evaluations - n_eval0
@@ -85,17 +110,29 @@ def plan_family_optimum(problem: PlanningProblem, *, starts: int = 24, polished:
     return plan
 
 
+def _slow_until_confirmed(problem, genes, step: float = 1e-6, tries: int = 60):
+    """Play the motion 1e-6, 2e-6, 4e-6 ... slower until the refined re-check passes (no exact
+    factor exists when gravity acts)."""
+    for k in range(tries):
+        y = problem.family.time_scaled(genes, 1.0 + step * 2**k)[0]
+        if problem.confirm(y):
+            return y
+    return genes
+
+
 def _settle_inside_bounds(problem, y):
     """Clip a tight motion into the gene bounds and slow it again if that broke a limit."""
     if not np.all(np.isfinite(y)):
         return None
     y = np.clip(y, problem.lower, problem.upper)
     for _ in range(3):
-        p = problem.evaluate(y[None])
+        p = problem.peaks(y[None])
         if p.feasible[0]:
             return y
         if not (p.valid[0] and p.joint_range_ok[0]):
             return None
-        y = np.clip(problem.family.time_scaled(y, np.sqrt(p.worst_ratio[0]) * (1 + 1e-12))[0],
-                    problem.lower, problem.upper)
-    return y if problem.evaluate(y[None]).feasible[0] else None
+        lam = tight_scale(problem, y[None])[0]
+        if not np.isfinite(lam):
+            return None
+        y = np.clip(problem.family.time_scaled(y, lam * (1 + 1e-12))[0], problem.lower, problem.upper)
+    return y if problem.peaks(y[None]).feasible[0] else None

@@ -41,7 +41,6 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits import limit_columns
 from qmt_drake.plan import Plan
 from qmt_drake.paths import CartesianLinePath, task_joint_points
 from qmt_drake.planners.baseline import (finish_plan, infeasible_plan, no_path_plan,
@@ -156,11 +155,10 @@ def _worst(scenario, traj: JointTrajectory, rate_hz: float) -> float:
     """Worst limit ratio of a trajectory sampled at rate_hz (inf if a joint leaves its range)."""
     grid = piecewise_grid(traj.breakpoints_s[None, :], rate_hz)
     q, qd, qdd = traj.evaluate(grid.t_s, grid.t_piece_s)
-    cols = limit_columns(scenario, q, qd, qdd)
-    n = scenario.arm.n_dof
-    if np.max(cols[:, 1 + n:]) > 1e-12:
-        return np.inf
-    return float(np.max(cols[:, :1 + n]))
+    ls = scenario.limit_set
+    peaks = ls.batch_peaks(np.array([traj.duration_s]), np.array([True]),
+                           ls.columns(q, qd, qdd).max(axis=0)[None])
+    return float(peaks.worst_ratio[0]) if peaks.joint_range_ok[0] else np.inf
 
 
 def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration_s: float,

@@ -34,24 +34,6 @@ from qmt_drake.planners.baseline import (finish_plan, infeasible_plan, no_path_p
 from qmt_drake.trajectory import JointTrajectory
 
 
-def tip_acceleration_generic(arm, q, qd, qdd):
-    """In-plane hand acceleration (2,) for one state; works on floats and AutoDiffXd (planar
-    forward recursion, the same as ArmModel._chain)."""
-    from pydrake.math import cos, sin
-    ax, ay = 0.0 * q[0], 0.0 * q[0]
-    phi = w = al = 0.0 * q[0]
-    for i, lk in enumerate(arm.links):
-        phi = phi + q[i]
-        w = w + qd[i]
-        al = al + qdd[i]
-        c, s = cos(phi), sin(phi)
-        dx = c * lk.next_joint_m[0] - s * lk.next_joint_m[1]
-        dy = s * lk.next_joint_m[0] + c * lk.next_joint_m[1]
-        ax = ax - al * dy - w * w * dx
-        ay = ay + al * dx - w * w * dy
-    return np.array([ax, ay])
-
-
 def basis_weights(basis, s: float, order: int = 2):
     """(active indices, weights (order+1, len(active))): q^(k)(s) = P[:, idx] @ weights[k]."""
     from pydrake.trajectories import BsplineTrajectory
@@ -192,7 +174,7 @@ def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: 
             Pa = x[:n * k].reshape(n, k)
             T = x[-1]
             q, q1, q2 = Pa @ W[0], Pa @ W[1], Pa @ W[2]
-            a = tip_acceleration_generic(arm, q, q1, q2)  # m per (normalized s)^2
+            a = arm.tip_acceleration(q, q1, q2)  # m per (normalized s)^2 (AutoDiffXd)
             r2 = (a[0] * a[0] + a[1] * a[1]) / (A * A * T**4)
             return np.array([r2])
 

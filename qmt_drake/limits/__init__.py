@@ -1,0 +1,12 @@
+"""Limits as terms: each limit is its own module producing columns from the batched hand state
+(payload_moment.py, motor_torque.py, joint_range.py; base.py says how columns are read); the
+LimitSet (limit_set.py) evaluates them together for the GA, the re-check report and TOPP-RA."""
+
+from qmt_drake.limits.base import LimitTerm
+from qmt_drake.limits.joint_range import JointRangeTerm
+from qmt_drake.limits.limit_set import BatchPeaks, LimitReport, LimitSet
+from qmt_drake.limits.motor_torque import MotorTorqueTerm
+from qmt_drake.limits.payload_moment import PayloadMomentTerm
+
+__all__ = ["BatchPeaks", "JointRangeTerm", "LimitReport", "LimitSet", "LimitTerm", "MotorTorqueTerm",
+           "PayloadMomentTerm"]

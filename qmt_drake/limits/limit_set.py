@@ -1,0 +1,218 @@
+"""LimitSet: a scenario's limit terms, and the one place limits are evaluated.
+
+The set computes the hand state of all samples once and stacks every term's columns (S, M). From
+those columns come the GA's feasibility (`BatchPeaks`), the re-check report of every plan
+(`limit_report`) and, through the terms' toppra rows, the TOPP-RA constraint.
+
+"Feasible" holds between the samples too: `limit_report` refines every sampled local maximum that
+comes near its column's peak or near the limit by a batched golden-section search on the
+trajectory itself (within the sample's piece, between its neighbours), so the reported peak is
+the trajectory's local maximum, not the largest sample. `tests/test_planners_recheck.py` samples
+every planner's output 10x finer and finds no ratio above the refined peak.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from qmt_drake.limits.joint_range import JointRangeTerm
+from qmt_drake.limits.motor_torque import MotorTorqueTerm
+from qmt_drake.limits.payload_moment import PayloadMomentTerm
+
+JOINT_EXCESS_TOL_RAD = 1e-12
+REFINE_RELATIVE_MARGIN = 0.02  # refine local maxima within 2% of their column's sampled peak ...
+REFINE_NEAR_LIMIT = 0.98  # ... or above 98% of the limit (ratio columns) / within 0.02 rad (excess)
+GOLDEN_ITERATIONS = 60  # bracket of one sample step shrinks by 0.618^60 ~ 3e-13
+
+
+class LimitSet:
+    def __init__(self, arm, terms) -> None:
+        self.arm = arm
+        self.terms = list(terms)
+        self.slices, start = {}, 0
+        for t in self.terms:
+            self.slices[t.name] = slice(start, start + len(t.column_names))
+            start += len(t.column_names)
+        self.n_columns = start
+        self.ratio_mask = np.concatenate([np.full(len(t.column_names), t.kind == "ratio") for t in self.terms])
+        self.column_names = [c for t in self.terms for c in t.column_names]
+
+    @classmethod
+    def for_scenario(cls, scenario) -> "LimitSet":
+        """The thesis's limits: payload moment, motor torques, joint ranges."""
+        arm = scenario.arm
+        return cls(arm, [PayloadMomentTerm(arm, scenario.moment_per_accel_kgm, scenario.limits.moment_limit_Nm),
+                         MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm),
+                         JointRangeTerm(arm)])
+
+    def term(self, name: str):
+        return next((t for t in self.terms if t.name == name), None)
+
+    @property
+    def time_scaling_is_exact(self) -> bool:
+        """Playing a motion lam times slower divides every ratio column by lam^2 and leaves the rest:
+        the exact time-scaling shortcut of the planners is valid only then."""
+        return all(t.scaling in ("inverse_square", "invariant") for t in self.terms)
+
+    def columns(self, q, qd, qdd) -> np.ndarray:
+        state = self.arm.hand_state(q, qd, qdd)
+        return np.concatenate([t.columns(state) for t in self.terms], axis=1)
+
+    # ------------------------------------------------------------------ batched peaks (planners)
+    def batch_peaks(self, motion_time_s, valid, peaks) -> "BatchPeaks":
+        return BatchPeaks(motion_time_s, valid, peaks, self)
+
+    # ------------------------------------------------------------------ one trajectory (re-check)
+    def report(self, trajectory, rate_hz: float, valid: bool = True, refine: bool = True) -> "LimitReport":
+        from qmt_drake.sampling import piecewise_grid
+        grid = piecewise_grid(trajectory.breakpoints_s[None, :], rate_hz)
+        q, qd, qdd = trajectory.evaluate(grid.t_s, grid.t_piece_s)
+        cols = self.columns(q, qd, qdd)
+        peak = cols.max(axis=0)
+        k_peak = cols.argmax(axis=0)
+        t_peak = grid.t_s[k_peak]
+        refined_count = 0
+        if refine:
+            peak, t_peak, refined_count = self._refine(trajectory, grid, cols, peak, t_peak)
+        return self._make_report(rate_hz, float(trajectory.duration_s), peak, t_peak, valid, refined_count)
+
+    def _refine(self, trajectory, grid, cols, peak, t_peak):
+        """Golden-section maximisation of each column between the neighbours of its sampled local
+        maxima that matter (see module docstring); returns the refined peaks and their times."""
+        S = cols.shape[0]
+        same_prev = np.zeros(S, bool)
+        same_prev[1:] = grid.piece_a_s[1:] == grid.piece_a_s[:-1]
+        same_next = np.zeros(S, bool)
+        same_next[:-1] = same_prev[1:]
+        prev = np.where(same_prev, np.arange(S) - 1, np.arange(S))
+        nxt = np.where(same_next, np.arange(S) + 1, np.arange(S))
+        is_max = (cols >= cols[prev]) & (cols >= cols[nxt])
+        near_limit = np.where(self.ratio_mask, REFINE_NEAR_LIMIT, -0.02)
+        span = np.abs(peak) * REFINE_RELATIVE_MARGIN
+        wanted = is_max & ((cols >= peak - span) | (cols >= near_limit))
+        k, c = np.nonzero(wanted)
+        if k.size == 0:
+            return peak, t_peak, 0
+        a, b = grid.t_s[prev[k]], grid.t_s[nxt[k]]
+        tp = grid.t_piece_s[k]
+        inv_phi = (np.sqrt(5.0) - 1.0) / 2.0
+
+        def f(t):
+            qq, qqd, qqdd = trajectory.evaluate(t, tp)
+            return self.columns(qq, qqd, qqdd)[np.arange(t.size), c]
+
+        x1, x2 = b - inv_phi * (b - a), a + inv_phi * (b - a)
+        f1, f2 = f(x1), f(x2)
+        for _ in range(GOLDEN_ITERATIONS):
+            left = f1 >= f2  # the maximum lies in [a, x2]
+            b = np.where(left, x2, b)
+            a = np.where(left, a, x1)
+            x2n = np.where(left, x1, a + inv_phi * (b - a))
+            x1n = np.where(left, b - inv_phi * (b - a), x2)
+            f2n, f1n = np.where(left, f1, np.nan), np.where(left, np.nan, f2)
+            fresh = np.where(left, x1n, x2n)
+            fv = f(fresh)
+            f1 = np.where(left, fv, f1n)
+            f2 = np.where(left, f2n, fv)
+            x1, x2 = x1n, x2n
+        t_best = np.where(f1 >= f2, x1, x2)
+        v_best = np.maximum(f1, f2)
+        peak, t_peak = peak.copy(), t_peak.copy()
+        for col in np.unique(c):
+            m = c == col
+            j = np.argmax(v_best[m])
+            if v_best[m][j] > peak[col]:
+                peak[col], t_peak[col] = v_best[m][j], t_best[m][j]
+        return peak, t_peak, int(k.size)
+
+    def _make_report(self, rate_hz, T, peak, t_peak, valid, refined_count) -> "LimitReport":
+        moment = self.term("payload_moment")
+        motor = self.term("motor_torque")
+        joint = self.term("joint_range")
+        ratios = peak[self.ratio_mask]
+        worst = float(ratios.max()) if ratios.size else 0.0
+        joint_ok = True if joint is None else bool(peak[self.slices["joint_range"]].max() <= JOINT_EXCESS_TOL_RAD)
+        m_ratio = float(peak[self.slices["payload_moment"]][0]) if moment else 0.0
+        motor_ratios = peak[self.slices["motor_torque"]] if motor else np.zeros(0)
+        return LimitReport(
+            rate_hz=float(rate_hz), motion_time_s=T,
+            peak_moment_Nm=m_ratio * moment.moment_limit_Nm if moment else 0.0,
+            moment_limit_Nm=moment.moment_limit_Nm if moment else None,
+            peak_moment_ratio=m_ratio,
+            peak_moment_time_s=float(t_peak[self.slices["payload_moment"]][0]) if moment else None,
+            peak_motor_torque_Nm=(motor_ratios * motor.limit_Nm).tolist() if motor else [],
+            motor_torque_limit_Nm=motor.limit_Nm.tolist() if motor else [],
+            peak_motor_torque_ratio=float(motor_ratios.max()) if motor_ratios.size else 0.0,
+            joint_range_ok=joint_ok,
+            feasible=bool(valid and joint_ok and worst <= 1.0),
+            peak_ratios={t.name: float(peak[self.slices[t.name]].max()) for t in self.terms if t.kind == "ratio"},
+            refined_local_maxima=refined_count)
+
+
+@dataclass(frozen=True)
+class BatchPeaks:
+    """Peak columns of K candidates (inf where a candidate defines no trajectory)."""
+
+    motion_time_s: np.ndarray  # (K,)
+    valid: np.ndarray  # (K,) bool: the genes define a trajectory
+    peaks: np.ndarray  # (K, M) in LimitSet column order
+    limit_set: LimitSet = field(repr=False)
+
+    def _term(self, name, width):
+        s = self.limit_set.slices.get(name)
+        return self.peaks[:, s] if s is not None else np.zeros((self.peaks.shape[0], width))
+
+    @property
+    def peak_moment_ratio(self) -> np.ndarray:
+        return self._term("payload_moment", 1)[:, 0]
+
+    @property
+    def peak_motor_torque_ratio(self) -> np.ndarray:
+        return self._term("motor_torque", self.limit_set.arm.n_dof)
+
+    @property
+    def joint_excess_rad(self) -> np.ndarray:
+        ex = self.peaks[:, ~self.limit_set.ratio_mask]
+        return ex.max(axis=1) if ex.shape[1] else np.full(self.peaks.shape[0], -np.inf)
+
+    @property
+    def joint_range_ok(self) -> np.ndarray:
+        return self.joint_excess_rad <= JOINT_EXCESS_TOL_RAD
+
+    @property
+    def worst_ratio(self) -> np.ndarray:
+        r = self.peaks[:, self.limit_set.ratio_mask]
+        return r.max(axis=1) if r.shape[1] else np.zeros(self.peaks.shape[0])
+
+    @property
+    def feasible(self) -> np.ndarray:
+        return self.valid & self.joint_range_ok & (self.worst_ratio <= 1.0)
+
+
+@dataclass(frozen=True)
+class LimitReport:
+    """Limits of one trajectory on one sampling with its local maxima refined, in the units of its
+    field names. peak_ratios: every ratio term's peak (name -> peak / limit)."""
+
+    rate_hz: float
+    motion_time_s: float
+    peak_moment_Nm: float
+    moment_limit_Nm: float | None
+    peak_moment_ratio: float
+    peak_moment_time_s: float | None
+    peak_motor_torque_Nm: list
+    motor_torque_limit_Nm: list
+    peak_motor_torque_ratio: float
+    joint_range_ok: bool
+    feasible: bool
+    peak_ratios: dict = field(default_factory=dict)
+    refined_local_maxima: int = 0
+
+    @property
+    def worst_ratio(self) -> float:
+        return max(self.peak_ratios.values(), default=0.0)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
