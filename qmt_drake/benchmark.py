@@ -122,9 +122,9 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
     JSON dict. quick=True: a 30-generation GA, a smaller trajopt (10 control points, 40 samples),
     one jerk limit. cosim=False skips the co-simulation (rows then say so)."""
     from qmt_drake.planners.optimum import plan_family_optimum
-    from qmt_drake.planners.ruckig_plan import plan_ruckig
-    from qmt_drake.planners.toppra_plan import plan_toppra, plan_toppra_drake
-    from qmt_drake.planners.trajopt_plan import plan_trajopt
+    from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
+    from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
+    from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
     from qmt_drake.problem import PlanningProblem
     from qmt_drake.scenario import load_scenario
 

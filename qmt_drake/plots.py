@@ -132,14 +132,7 @@ def loci(plan, path, title="", frames: int = 12):
     tip = arm.tip_position(q)
     ax.plot(tip[:, 0], tip[:, 1], "k-", lw=1.5, label="hand path")
     for k, i in enumerate(np.linspace(0, len(t) - 1, frames).astype(int)):
-        pts = [np.zeros(2)]
-        phi = 0.0
-        for j, lk in enumerate(arm.links):
-            phi += q[i, j]
-            c, s = np.cos(phi), np.sin(phi)
-            pts.append(pts[-1] + np.array([c * lk.next_joint_m[0] - s * lk.next_joint_m[1],
-                                           s * lk.next_joint_m[0] + c * lk.next_joint_m[1]]))
-        pts = np.array(pts)
+        pts = arm.planar.joint_positions(q[i])
         ax.plot(pts[:, 0], pts[:, 1], "o-", color=plt.cm.viridis(k / (frames - 1)), lw=1.2,
                 ms=3, alpha=0.8)
     pts = plan.scenario.task.points_m

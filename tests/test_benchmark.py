@@ -11,7 +11,7 @@ import pytest
 
 import qmt_drake.cosim
 from qmt_drake.benchmark import closed_form_bound_s, cosim_outcome, run_benchmark
-from qmt_drake.planners.toppra_plan import plan_toppra
+from qmt_drake.planners.baselines.toppra_plan import plan_toppra
 from qmt_drake.scenario import load_scenario
 
 

@@ -149,3 +149,30 @@ def test_shipped_urdfs_against_pinocchio(urdf):
         ref = pin.rnea(model, data, q, v, a)
         np.testing.assert_allclose(arm.joint_torque(q[None], v[None], a[None])[0], ref, rtol=1e-9,
                                    atol=1e-12 * np.max(np.abs(ref)))
+
+
+def test_spatial_arm_hand_state_against_pinocchio(tmp_path):
+    """An arm whose joints are not parallel to a world axis goes to the DrakeChain backend; its
+    hand acceleration and joint torques (gravity on) agree with Pinocchio's."""
+    pin = pytest.importorskip("pinocchio")
+    text = _with_base_origin('<origin rpy="0.3 -0.2 0.1"/>').replace('<axis xyz="0 0 1"/>', '<axis xyz="0 1 0"/>', 1)
+    path = tmp_path / "spatial.urdf"
+    path.write_text(text)
+    arm = ArmModel.from_urdf(path)
+    assert arm.planar is None and "needs joint axes along a world axis" in arm.not_planar_reason
+    model = pin.buildModelFromUrdf(str(path))
+    model.armature[:] = arm.reflected_inertia_kgm2
+    data = model.createData()
+    fid = model.getFrameId("hand")
+    rng = np.random.default_rng(5)
+    q, qd, qdd = rng.normal(size=(3, 6, arm.n_dof))
+    hs = arm.hand_state(q, qd, qdd)
+    for k in range(len(q)):
+        tau = pin.rnea(model, data, q[k], qd[k], qdd[k])
+        np.testing.assert_allclose(hs.joint_torque_Nm[k], tau, rtol=1e-9, atol=1e-12)
+        pin.forwardKinematics(model, data, q[k], qd[k], qdd[k])
+        pin.updateFramePlacements(model, data)
+        a = pin.getFrameClassicalAcceleration(model, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        np.testing.assert_allclose(hs.linear_acceleration_m_s2[k], a.linear, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(hs.angular_acceleration_rad_s2[k], a.angular, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(hs.position_m[k], data.oMf[fid].translation, atol=1e-12)

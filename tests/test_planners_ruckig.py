@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from qmt_drake.benchmark import tip_jerk_peak
-from qmt_drake.planners.ruckig_plan import VIA_NOTE, plan_ruckig, ruckig_profile
+from qmt_drake.planners.baselines.ruckig_plan import VIA_NOTE, plan_ruckig, ruckig_profile
 from qmt_drake.scenario import load_scenario
 
 

@@ -5,9 +5,9 @@ exact slow-down of an overshooting output, solve time, and infeasible limits as 
 import numpy as np
 import pytest
 
-from qmt_drake.paths import CartesianLinePath, PathTimingTrajectory
-from qmt_drake.planners.baseline import finish_plan
-from qmt_drake.planners.toppra_plan import plan_toppra, plan_toppra_drake
+from qmt_drake.planners.baselines.paths import CartesianLinePath, PathTimingTrajectory
+from qmt_drake.planners.baselines.finish import finish_plan
+from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.trajectory import TimeScaledTrajectory
 from qmt_drake.scenario import load_scenario
 
@@ -81,7 +81,7 @@ def test_timed_path_evaluation_is_consistent(sc3):
     # qdd jumps at grid times; away from them the derivative of qd matches.
     far = np.min(np.abs(t[:, None] - traj.breakpoints_s[None]), axis=1) > 2 * h
     np.testing.assert_allclose(qdd[far], ((qdp - qdm) / (2 * h))[far], atol=1e-4)
-    from qmt_drake.paths import task_joint_points
+    from qmt_drake.planners.baselines.paths import task_joint_points
     qk = task_joint_points(sc3)
     np.testing.assert_allclose(traj.sample([0.0])[0][0], qk[0], atol=1e-12)
     np.testing.assert_allclose(traj.evaluate([traj.duration_s], [traj.duration_s])[0][0], qk[-1],

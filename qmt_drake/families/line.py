@@ -95,34 +95,8 @@ class LineCubicVelocity(TrajectoryFamily):
         g = np.atleast_2d(genes)
         T1, T2 = g[candidate, 0], g[candidate, 1]
         s, v, a = self.path_coordinate(T1, T2, t_s, t_piece_s)
-        xy = self.start_m + s[:, None] * self.direction
-        q = self._ik(xy, check=False)
-        # With the tool angle fixed, the wrist (joint n-1's far end) moves exactly like the tip,
-        # so the first two joints follow from the 2x2 planar Jacobian in closed form
-        # (eq. 2-18..2-19) and the last joint keeps q1+q2+q3 constant.
-        l1, l2 = self.arm.link_lengths_m[:2]
-        v_xy = v[:, None] * self.direction
-        a_xy = a[:, None] * self.direction
-        c1, s1 = np.cos(q[:, 0]), np.sin(q[:, 0])
-        c12, s12 = np.cos(q[:, 0] + q[:, 1]), np.sin(q[:, 0] + q[:, 1])
-        det = l1 * l2 * np.sin(q[:, 1])
-        # J = [[-l1 s1 - l2 s12, -l2 s12], [l1 c1 + l2 c12, l2 c12]]; J^-1 = adj(J) / det
-        j11, j12 = -l1 * s1 - l2 * s12, -l2 * s12
-        j21, j22 = l1 * c1 + l2 * c12, l2 * c12
-
-        def solve(b):
-            return np.stack([(j22 * b[:, 0] - j12 * b[:, 1]) / det,
-                             (-j21 * b[:, 0] + j11 * b[:, 1]) / det], axis=1)
-
-        qd2 = solve(v_xy)
-        w1, w12 = qd2[:, 0], qd2[:, 0] + qd2[:, 1]
-        bias = np.stack([-l1 * c1 * w1**2 - l2 * c12 * w12**2,
-                         -l1 * s1 * w1**2 - l2 * s12 * w12**2], axis=1)  # Jdot * qd
-        qdd2 = solve(a_xy - bias)
-        if self.n_dof == 2:
-            return q, qd2, qdd2
-        if self.n_dof != 3:
-            raise QmtInputError("line_cubic_velocity supports 2- or 3-joint arms")
-        qd = np.column_stack([qd2, -qd2.sum(axis=1)])
-        qdd = np.column_stack([qdd2, -qdd2.sum(axis=1)])
-        return q, qd, qdd
+        # With the tool angle fixed, the joints follow from IK and the augmented Jacobian
+        # (eq. 2-15..2-19), the one mapping every straight-line planner shares.
+        return self.arm.joint_motion_on_tip_path(self.start_m + s[:, None] * self.direction,
+                                                 v[:, None] * self.direction, a[:, None] * self.direction,
+                                                 self.tool_angle_rad, self.scenario.task.ik_branch)

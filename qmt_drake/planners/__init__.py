@@ -39,15 +39,15 @@ def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options)
         problem = PlanningProblem(scenario)
         return family_plan(problem, problem.genes_vector(scenario.reported["genes"]), "thesis")
     if method == "toppra":
-        from qmt_drake.planners.toppra_plan import plan_toppra
+        from qmt_drake.planners.baselines.toppra_plan import plan_toppra
         return plan_toppra(scenario, **options)
     if method == "toppra-drake":
-        from qmt_drake.planners.toppra_plan import plan_toppra_drake
+        from qmt_drake.planners.baselines.toppra_plan import plan_toppra_drake
         return plan_toppra_drake(scenario, **options)
     if method == "ruckig":
-        from qmt_drake.planners.ruckig_plan import plan_ruckig
+        from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
         return plan_ruckig(scenario, **options)
     if method == "trajopt":
-        from qmt_drake.planners.trajopt_plan import plan_trajopt
+        from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
         return plan_trajopt(scenario, **options)
     raise QmtInputError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.paths import task_joint_points
+from qmt_drake.planners.baselines.paths import task_joint_points
 from qmt_drake.plan import Plan, make_plan, recheck
 from qmt_drake.trajectory import JointTrajectory, RestTrajectory, TimeScaledTrajectory
 
@@ -49,7 +49,37 @@ def infeasible_plan(scenario, method: str, reason: str, *, planner_wall_s: float
 
 
 def worst_ratio(check) -> float:
-    return max(check.peak_moment_ratio, check.peak_motor_torque_ratio)
+    return check.worst_ratio
+
+
+def slow_to_limits_factor(scenario, trajectory, check, tries: int = 40):
+    """(factor, slowed trajectory, its check): the motion played `factor` times slower until every
+    limit holds on the refined re-check. Exact (factor = sqrt(worst ratio), repeated for the refined
+    peaks) when the limit set allows the time-scaling shortcut; with gravity, a doubling then a
+    bisection on the factor (each step a re-check)."""
+    if scenario.limit_set.time_scaling_is_exact:
+        factor, traj = 1.0, trajectory
+        for _ in range(4):
+            factor *= np.sqrt(worst_ratio(check)) * (1 + 1e-9)
+            traj = TimeScaledTrajectory(trajectory, factor)
+            check = recheck(scenario, traj)
+            if worst_ratio(check) <= 1.0:
+                break
+        return factor, traj, check
+    lo, hi = 1.0, 1.0
+    for _ in range(tries):  # find a slow enough factor
+        hi *= 1.5
+        c = recheck(scenario, TimeScaledTrajectory(trajectory, hi))
+        if worst_ratio(c) <= 1.0:
+            break
+    for _ in range(30):  # then the fastest within 1e-6 relative
+        if hi / lo - 1 < 1e-6:
+            break
+        mid = np.sqrt(lo * hi)
+        c = recheck(scenario, TimeScaledTrajectory(trajectory, mid))
+        lo, hi = (lo, mid) if worst_ratio(c) <= 1.0 else (mid, hi)
+    traj = TimeScaledTrajectory(trajectory, hi)
+    return hi, traj, recheck(scenario, traj)
 
 
 def finish_plan(scenario, method: str, trajectory: JointTrajectory, *, planner_wall_s: float,
@@ -77,18 +107,12 @@ def finish_plan(scenario, method: str, trajectory: JointTrajectory, *, planner_w
                           "joint_range_ok": raw.joint_range_ok}
     traj, factor = trajectory, 1.0
     if slow_to_limits and raw.joint_range_ok and worst_ratio(raw) > 1.0:
-        check = raw
-        for _ in range(4):
-            factor *= np.sqrt(worst_ratio(check)) * (1 + 1e-9)
-            traj = TimeScaledTrajectory(trajectory, factor)
-            check = recheck(scenario, traj)
-            if worst_ratio(check) <= 1.0:
-                break
+        factor, traj, _ = slow_to_limits_factor(scenario, trajectory, raw)
         extra["slowdown_factor"] = factor
         extra["note_slowdown"] = (f"the planner's own output broke a limit on the re-check (peak "
                                   f"moment ratio {raw.peak_moment_ratio:.5f}, motor "
                                   f"{raw.peak_motor_torque_ratio:.5f}); played {factor:.6f} "
-                                  "times slower (exact for inertial limits)")
+                                  "times slower (exact when every limit is inertial, else searched)")
     if not raw.joint_range_ok:
         return infeasible_plan(scenario, method, "the path leaves a joint range",
                                planner_wall_s=planner_wall_s, trajectory=traj, extra=extra)

@@ -42,8 +42,8 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
-from qmt_drake.paths import CartesianLinePath, task_joint_points
-from qmt_drake.planners.baseline import (finish_plan, infeasible_plan, no_path_plan,
+from qmt_drake.planners.baselines.paths import CartesianLinePath, task_joint_points
+from qmt_drake.planners.baselines.finish import (finish_plan, infeasible_plan, no_path_plan,
                                          slowest_allowed_motion_s)
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
@@ -121,18 +121,7 @@ class CartesianProfileTrajectory(JointTrajectory):
 
     def evaluate(self, t_s, t_piece_s):
         p, v, a = self.profile.evaluate(t_s)
-        arm = self.arm
-        q = arm.inverse_kinematics(p, self.tool, self.branch, check_range=False)
-        J = arm.jacobian(q)
-        if self.n_dof == 3:
-            J = np.concatenate([J, np.ones((len(q), 1, 3))], axis=1)
-            v = np.concatenate([v, np.zeros((len(q), 1))], axis=1)
-        qd = np.linalg.solve(J, v[..., None])[..., 0]
-        bias = arm.tip_acceleration(q, qd, np.zeros_like(qd))
-        rhs = a - bias
-        if self.n_dof == 3:
-            rhs = np.concatenate([rhs, np.zeros((len(q), 1))], axis=1)
-        qdd = np.linalg.solve(J, rhs[..., None])[..., 0]
+        q, qd, qdd = self.arm.joint_motion_on_tip_path(p, v, a, self.tool, self.branch)
         rest = np.broadcast_to(t_piece_s, np.shape(np.atleast_1d(t_s))) >= self.duration_s
         return q, np.where(rest[:, None], 0.0, qd), np.where(rest[:, None], 0.0, qdd)
 

@@ -50,36 +50,41 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.paths import PATHS, GeometricPath, PathTimingTrajectory, chord_angle_rad, path_segments
-from qmt_drake.planners.baseline import finish_plan, infeasible_plan, no_path_plan
+from qmt_drake.planners.baselines.paths import PATHS, GeometricPath, PathTimingTrajectory, chord_angle_rad, path_segments
+from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan, no_path_plan
 from qmt_drake.plan import Plan
 from qmt_drake.trajectory import CallableTrajectory, ConcatenatedTrajectory, JointTrajectory
 
 
 def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
                 vertex_on_chord: bool = True):
-    """The moment polygon and motor-torque rows as one vectorised toppra SecondOrderConstraint.
+    """The scenario's limit terms as one vectorised toppra SecondOrderConstraint: each term gives
+    w (affine in qdd, quadratic in qd; gravity in its constant part) and rows F w <= g (limits/);
+    the payload moment's rows are the polygon described in the module docstring.
     vertex_on_chord: a vertex (else an edge normal) points along angle0."""
+    from scipy.linalg import block_diag
     from toppra.constraint import DiscretizationType, SecondOrderConstraint
     from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
 
     arm = scenario.arm
     n = arm.n_dof
-    A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm  # m/s^2
-    scale_motor = arm.gear_ratio * scenario.limits.motor_torque_limit_Nm  # joint-side N*m
-    offset = np.pi / sides if vertex_on_chord else 0.0
-    theta = angle0_rad + offset + 2 * np.pi * np.arange(sides) / sides  # vertex at angle0
-    normals = np.stack([np.cos(theta), np.sin(theta)], axis=1)
-    F = np.zeros((sides + 2 * n, 2 + n))
-    F[:sides, :2] = normals
-    F[sides:sides + n, 2:] = np.eye(n)
-    F[sides + n:, 2:] = -np.eye(n)
-    g = np.ones(sides + 2 * n)
-    g[:sides] = np.cos(np.pi / sides) if inscribed else 1.0
+    options = dict(polygon_sides=sides, angle0_rad=angle0_rad, inscribed=inscribed, vertex_on_chord=vertex_on_chord)
+    terms, blocks = [], []
+    for term in scenario.limit_set.terms:
+        rows = term.toppra_rows(**options)
+        if rows is not None:
+            terms.append(term)
+            blocks.append(rows)
+    F = block_diag(*[b[0] for b in blocks])
+    g = np.concatenate([b[1] for b in blocks])
 
     def w(q, qd, qdd):
-        a, tau = arm.tip_acceleration_and_joint_torque(q, qd, qdd)
-        return np.concatenate([a / A, tau / scale_motor], axis=-1)
+        state = arm.hand_state(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd))
+        parts = [t.toppra_w(state) for t in terms]
+        if any(p is None for p in parts):
+            raise QmtInputError("TOPP-RA: a limit of this scenario has no linear form on this arm (the "
+                                "payload face is not in the arm's plane); use the GA or ruckig")
+        return np.concatenate(parts, axis=-1)
 
     class _Rows(SecondOrderConstraint):
         def compute_constraint_params(self, path, gridpoints):

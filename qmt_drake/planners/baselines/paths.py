@@ -91,26 +91,12 @@ class CartesianLinePath(GeometricPath):
             raise QmtInputError("the IK solution jumps along a straight tip segment (singularity "
                                 "or +-pi wrap); choose other points or the other ik_branch")
 
-    def _j_aug(self, q):
-        J = self.arm.jacobian(q)
-        if self.n_dof == 3:
-            J = np.concatenate([J, np.ones(q.shape[:-1] + (1, 3))], axis=-2)
-        return J
-
-    def _rhs(self, v2):
-        if self.n_dof == 3:
-            return np.concatenate([v2, np.zeros(v2.shape[:-1] + (1,))], axis=-1)
-        return v2
-
     def derivatives(self, s):
+        """q, q' = dq/ds, q'' = d2q/ds2: the tip moving at unit speed with zero acceleration."""
         s = np.asarray(s, dtype=float)
-        xy = self.p0 + s[:, None] * self.direction
-        q = self.arm.inverse_kinematics(xy, self.tool, self.branch, check_range=False)
-        J = self._j_aug(q)
-        qs = np.linalg.solve(J, self._rhs(np.broadcast_to(self.direction, xy.shape))[..., None])[..., 0]
-        bias = self.arm.tip_acceleration(q, qs, np.zeros_like(qs))
-        qss = np.linalg.solve(J, self._rhs(-bias)[..., None])[..., 0]
-        return q, qs, qss
+        d = np.broadcast_to(self.direction, s.shape + (2,))
+        return self.arm.joint_motion_on_tip_path(self.p0 + s[:, None] * self.direction, d, np.zeros_like(d),
+                                                 self.tool, self.branch)
 
 
 class SplinePath(GeometricPath):
