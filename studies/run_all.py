@@ -1,6 +1,7 @@
-"""The main job (`make run`): every chapter of seed 000, the co-simulation calibration and the
-benchmark, into OUT (default out/). Each step writes its results as it finishes; a step that
-fails is reported and the others still run."""
+"""The main job (`make run`): every chapter of seed 000, the five-via task, the co-simulation
+calibration, the benchmark and the planner bench into OUT (default out/), then one report of
+everything, OUT/report.html. Each step writes its results as it finishes (a rerun reuses finished
+GA runs); a step that fails is reported and the others still run."""
 
 import argparse
 import sys
@@ -33,6 +34,9 @@ def main(argv=None) -> int:
     for ch in ("thesis-ch2", "thesis-ch3", "thesis-ch4"):
         step(ch, lambda ch=ch: run_chapter(ch, out, seeds=a.seeds, workers=a.workers,
                                            progress=_log))
+    from studies import via_points
+    step("via5-ch4", lambda: via_points.main(["--out", str(out), "--seeds", str(a.seeds),
+                                              "--workers", str(a.workers)]))
     try:
         from studies import cosim_calibration
         step("co-simulation calibration", lambda: cosim_calibration.main(["--out", str(out)]))
@@ -45,10 +49,12 @@ def main(argv=None) -> int:
         _log(f"benchmark unavailable: {exc}")
     from qmt_drake.bench import run_bench
     step("bench", lambda: run_bench(out_dir=out, progress=_log))
+    from qmt_drake.report import build_report
+    step("report", lambda: _log(f"report: {build_report(out)}"))
     if failed:
         _log(f"steps that failed: {', '.join(failed)}")
         return 1
-    _log(f"all results in {out}/")
+    _log(f"all results in {out}/ (open {out}/report.html)")
     return 0
 
 

@@ -37,6 +37,14 @@ def main(argv=None) -> int:
     summary = {"scenario": SCENARIO, "optimum_motion_time_s": opt.motion_time_s, "optimum_feasible": opt.feasible,
                "ga": rows, "ga_within_0.5pct_of_optimum": within, "seeds": a.seeds}
     write_text_atomic(out / "summary.json", json.dumps(jsonable(summary), indent=1))
+    lines = ["| plan | genes | T0 [s] | vs optimum | moment / limit | motor torque / limit | feasible |",
+             "|---|---|---|---|---|---|---|"]
+    for label, p in [("family optimum", opt)] + [(f"GA seed {s}", p) for s, p in enumerate(ga)]:
+        genes = ", ".join(f"{k}={v:.4f}" for k, v in p.genes.items())
+        lines.append(f"| {label} | {genes} | {p.motion_time_s:.4f} | {p.motion_time_s / opt.motion_time_s - 1:+.2%} | "
+                     f"{p.check.peak_moment_ratio:.4f} | {p.check.peak_motor_torque_ratio:.4f} | {p.feasible} |")
+    lines.append(f"\nGA: {within} of {a.seeds} seeds within 0.5% of the family optimum.")
+    write_text_atomic(out / "table.md", "\n".join(lines) + "\n")
     print(f"{SCENARIO}: optimum T0 {opt.motion_time_s:.4f} s; GA within 0.5%: {within} of {a.seeds} seeds "
           f"(worst {max(r['vs_optimum'] for r in rows):+.3%})")
     return 0

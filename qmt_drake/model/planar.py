@@ -140,14 +140,7 @@ class PlanarChain:
 
     def tip_position(self, q) -> np.ndarray:
         """Hand origin in plane coordinates (..., 2) m."""
-        phi = self.absolute_angles(q)
-        x = np.full(phi.shape[:-1], self.base_m[0])
-        y = np.full(phi.shape[:-1], self.base_m[1])
-        for i, (du, dv) in enumerate(self._uv):
-            c, s = np.cos(phi[..., i]), np.sin(phi[..., i])
-            x = x + c * du - s * dv
-            y = y + s * du + c * dv
-        return np.stack([x, y], axis=-1)
+        return self.joint_positions(q)[..., -1, :]
 
     def joint_positions(self, q) -> np.ndarray:
         """Joints 1..n and the hand in plane coordinates, (..., n+1, 2) m (for stick figures)."""
@@ -165,17 +158,7 @@ class PlanarChain:
     def tip_acceleration(self, q, qd, qdd) -> np.ndarray:
         """In-plane hand-origin acceleration (..., 2) m/s^2 (kinematics only, no gravity). Works on
         float arrays and on Drake AutoDiffXd object arrays (trajectory optimisation gradients)."""
-        phi = np.cumsum(np.asarray(q) * self.joint_signs, axis=-1)
-        w = np.cumsum(np.asarray(qd) * self.joint_signs, axis=-1)
-        al = np.cumsum(np.asarray(qdd) * self.joint_signs, axis=-1)
-        ax = ay = 0.0
-        for i, (du, dv) in enumerate(self._uv):
-            c, s = np.cos(phi[..., i]), np.sin(phi[..., i])
-            dx, dy = c * du - s * dv, s * du + c * dv
-            w2 = w[..., i] ** 2
-            ax = ax - al[..., i] * dy - w2 * dx
-            ay = ay + al[..., i] * dx - w2 * dy
-        return np.stack(np.broadcast_arrays(ax, ay), axis=-1)
+        return self._forward(q, qd, qdd, gravity=False)[1]
 
     def jacobian(self, q) -> np.ndarray:
         """d(tip u, tip v)/dq, (..., 2, n)."""
@@ -188,17 +171,14 @@ class PlanarChain:
         return J
 
     # ------------------------------------------------------------------ dynamics (hot path)
-    def acceleration_and_torque(self, q, qd, qdd):
-        """(in-plane hand acceleration (..., 2) m/s^2, joint torque (..., n) N*m) in one pass.
-
-        Links accelerate as if the base accelerated at -g (so gravity enters as an inertial
-        force); the hand's true acceleration is that plus g."""
-        q = np.asarray(q, float)
-        qd = np.asarray(qd, float)
-        qdd = np.asarray(qdd, float)
+    def _forward(self, q, qd, qdd, gravity: bool = True):
+        """Forward pass of the recursion: per link (joint->COM, joint->next joint, COM acceleration,
+        angular acceleration) and the hand's acceleration. With gravity the base accelerates at -g
+        (gravity enters as an inertial force) and g is added back to the hand's acceleration."""
+        q, qd, qdd = np.asarray(q), np.asarray(qd), np.asarray(qdd)
         sg = self.joint_signs
-        gx, gy = self.gravity_in_plane_m_s2
-        ax, ay = -gx, -gy  # acceleration of joint i (with the -g base)
+        gx, gy = self.gravity_in_plane_m_s2 if gravity else (0.0, 0.0)
+        ax, ay = -gx, -gy  # acceleration of joint i
         phi = w = al = 0.0
         links = []
         for i in range(self.n_dof):
@@ -210,13 +190,17 @@ class PlanarChain:
             du, dv = self._uv[i]
             rcx, rcy = c * cu - s * cv, s * cu + c * cv  # joint -> COM
             dx, dy = c * du - s * dv, s * du + c * dv  # joint -> next joint
-            acx = ax - al * rcy - w2 * rcx
-            acy = ay + al * rcx - w2 * rcy
-            links.append((rcx, rcy, dx, dy, acx, acy, al))
+            links.append((rcx, rcy, dx, dy, ax - al * rcy - w2 * rcx, ay + al * rcx - w2 * rcy, al))
             ax = ax - al * dy - w2 * dx
             ay = ay + al * dx - w2 * dy
-        a_hand = np.stack(np.broadcast_arrays(ax + gx, ay + gy), axis=-1)
-        tau = np.empty(np.broadcast_shapes(q.shape, qd.shape, qdd.shape))
+        return links, np.stack(np.broadcast_arrays(ax + gx, ay + gy), axis=-1)
+
+    def acceleration_and_torque(self, q, qd, qdd):
+        """(in-plane hand acceleration (..., 2) m/s^2, joint torque (..., n) N*m) in one pass:
+        the forward pass, then forces and moments backward from the hand."""
+        links, a_hand = self._forward(q, qd, qdd)
+        qdd = np.asarray(qdd, float)
+        tau = np.empty(np.broadcast_shapes(np.shape(q), np.shape(qd), qdd.shape))
         fx = fy = nz = 0.0  # force and moment link i+1 takes from link i (at the next joint)
         for i in range(self.n_dof - 1, -1, -1):
             rcx, rcy, dx, dy, acx, acy, ali = links[i]
@@ -224,7 +208,7 @@ class PlanarChain:
             mx, my = m * acx, m * acy
             nz = self.izz_about_com_kgm2[i] * ali + rcx * my - rcy * mx + nz + dx * fy - dy * fx
             fx, fy = mx + fx, my + fy
-            tau[..., i] = sg[i] * nz
+            tau[..., i] = self.joint_signs[i] * nz
         return a_hand, tau + self.reflected_inertia_kgm2 * qdd
 
     # ------------------------------------------------------------------ 3-D hand state
