@@ -13,7 +13,7 @@ from pathlib import Path
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 
-# cosim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
+# sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
 
 EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION = 2, 3, 4
@@ -92,7 +92,7 @@ def cmd_simulate(args) -> int:
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else _progress)
     try:
-        from qmt_drake.cosim import run_simulate
+        from qmt_drake.sim import run_simulate
     except ImportError as exc:  # pragma: no cover - packaging problem
         raise QmtInputError(f"co-simulation unavailable: {exc}") from None
     if args.time_step_ms is not None and not args.time_step_ms > 0:

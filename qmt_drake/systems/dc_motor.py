@@ -25,7 +25,7 @@ the joint actuator's reflected inertia (drake:rotor_inertia, drake:gear_ratio in
 delivered and the joint speed, it returns the terminal voltage, current, motor torque and
 electrical power that go with it (quasi-static armature). `AppliedMotorSignals` is that inverse as a
 LeafSystem; the co-simulation uses it when the loop's velocity feedback is stepped implicitly
-(cosim.py, `implicit_loop_damping`), where the torque applied over a step is known only after it.
+(sim/actuation.py, `implicit_loop_damping`), where the torque applied over a step is known only after it.
 
 Current-command mode (`command="current"`, an ideal current amplifier): the input is the current;
 it is clipped to +-I_max and to what the supply can push against the back EMF,
