@@ -120,9 +120,12 @@ def cmd_plan(args) -> int:
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else _progress, **options)
     except TypeError as exc:
-        if "unexpected keyword argument" not in str(exc):
-            raise
-        raise QmtInputError(f"--option: {exc}; see the planner's docstring for its options") from None
+        if "unexpected keyword argument" in str(exc):
+            raise QmtInputError(f"--option: {exc}; see the planner's docstring for its options") from None
+        if args.option:  # a value of the wrong type reached the planner
+            raise QmtInputError(f"--option {' '.join(args.option)}: a value has the wrong type "
+                                f"({str(exc).splitlines()[0]}); see the planner's docstring") from None
+        raise
     summary = plan.summary()
     if args.json and args.json != "-":
         plan.write_json(args.json)
