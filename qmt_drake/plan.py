@@ -119,6 +119,35 @@ class Plan:
                                "breakpoints_s": self.trajectory.breakpoints_s.tolist()}
         return d
 
+    # Pickling (sweeps ship plans to worker processes): the trajectory may hold Drake objects
+    # (a family's arm, a planner's closures). A family plan travels as its genes and is rebuilt
+    # from the scenario's family; another trajectory travels as itself if it pickles, else as the
+    # samples a plan file stores (1 kHz per piece, both values at each boundary, quintic Hermite
+    # in between). The re-check travels unchanged.
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        traj = self.trajectory
+        if isinstance(traj, FamilyTrajectory):
+            state["trajectory"] = ("family", np.asarray(traj.genes[0], float))
+        else:
+            import pickle
+            try:
+                pickle.dumps(traj)
+            except Exception:  # noqa: BLE001 - any unpicklable part: fall back to samples
+                grid = piecewise_grid(traj.breakpoints_s[None, :], 1000.0)
+                q, qd, qdd = traj.evaluate(grid.t_s, grid.t_piece_s)
+                state["trajectory"] = ("samples", grid.t_s, q, qd, qdd, np.asarray(traj.breakpoints_s))
+        return state
+
+    def __setstate__(self, state):
+        traj = state["trajectory"]
+        if isinstance(traj, tuple) and traj and traj[0] == "family":
+            from qmt_drake.families import make_family
+            state["trajectory"] = FamilyTrajectory(make_family(state["scenario"]), traj[1])
+        elif isinstance(traj, tuple) and traj and traj[0] == "samples":
+            state["trajectory"] = SampledTrajectory(*traj[1:])
+        self.__dict__.update(state)
+
     def write_json(self, path: str | Path) -> None:
         write_text_atomic(path, json.dumps(self.to_json_dict(), indent=1))
 
