@@ -31,6 +31,12 @@ Current-command mode (`command="current"`, an ideal current amplifier): the inpu
 it is clipped to +-I_max and to what the supply can push against the back EMF,
 (+-V_max - Ke w_m) / R, and the terminal voltage is v = R i + Ke w_m.
 
+Needs: joint_velocity from the arm's state (a Demultiplexer of the plant's state port) and
+joint_torque into the plant's actuation input. Driving a discrete plant directly (explicitly) with
+the thesis's stiff gains is stable only at steps <= 1 ms; at larger steps wire it through
+`sim.actuation.add_implicit_damping_actuation` (and `sim.plant.move_loop_damping_into_plant`
+before Finalize).
+
 Ports
     inputs
         voltage_command   (n,) [V]      commanded terminal voltage (clipped to +-V_max); named

@@ -19,6 +19,11 @@ Model (lumped magnetic circuit of an iron-cored coil facing an iron part; Maxwel
 The pull acts at the payload's attraction-face centre along the hand's face normal (towards the
 hand); the equal and opposite force acts on the hand body at the same point.
 
+Needs: body_poses from the same MultibodyPlant that holds the hand and payload bodies whose
+indices it was built with, and its spatial_forces connected to that plant's
+applied_spatial_force input (`sim.magnet_hand.add_magnet_hand` does both). The plant's default
+state should have the payload seated (`sim.plant.finalize_transfer_plant`).
+
 Ports
     inputs
         body_poses       abstract, MultibodyPlant.get_body_poses_output_port()

@@ -11,6 +11,10 @@ Not a LeafSystem: `add_payload` adds to a MultibodyPlant (before Finalize)
     can slide along the face and tip about the ring's edge. Point contact with per-geometry stiffness
     and Hunt-Crossley dissipation (NOTES.md: discrete plant, kLagged, spheres at the face corners).
 
+Needs: a plant with point contact and the lagged discrete approximation
+(`sim.plant.transfer_plant_config`; the contact stiffness below was chosen for it), and the payload
+seated at the start (`sim.plant.finalize_transfer_plant` makes that the plant's default state).
+
 Payload shapes come from the scenario (payload.body; hand for the contact data), never from
 its mass. Those of the built-in scenarios (seed 000): chapter 2 carries a steel M8 bolt, 40 mm long, 22 g, head on the face
 (Fig. 2.5); chapters 3-4 a 30 g steel part (Fig. 3.4, no dimensions printed), modelled as a steel
