@@ -349,6 +349,18 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     for k, v in (raw.get("control") or {}).items():
         control[k] = _vector({k: v}, k, f"{where}: control", nonnegative=True,
                              what="gains, one per joint").tolist()
+    reported = dict(raw.get("reported") or {})
+    if "genes" in reported and reported["genes"] is not None:
+        rg = reported["genes"]
+        if not isinstance(rg, dict) or not all(_is_number(v) for v in rg.values()):
+            raise QmtInputError(f"{where}: reported.genes must map gene names to numbers, got {_show(rg)}")
+        unknown = [str(k) for k in rg if k not in family.gene_names]
+        if unknown:
+            raise QmtInputError(f"{where}: reported.genes names {unknown[0]!r}, not a gene of family "
+                                f"{family.kind} ({', '.join(family.gene_names)})")
+    for k in ("motion_time_s", "settled_after_generations"):
+        if reported.get(k) is not None:
+            _num(reported, k, f"{where}: reported", positive=True)
     notes = raw.get("notes") or []
     if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
         raise QmtInputError(f"{where}: notes must be a list of strings")
@@ -362,7 +374,7 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     sc = Scenario(
         name=name, description=description, source_path=path, urdf_path=arm_spec.urdf_path,
         hand_frame=arm_spec.hand_frame, payload=payload, task=task, limits=limits, family=family,
-        ga=ga, sampling=sampling, control=control, reported=dict(raw.get("reported") or {}),
+        ga=ga, sampling=sampling, control=control, reported=reported,
         notes=tuple(notes), arm_spec=arm_spec,
         hand=_hand(raw.get("hand"), f"{where}: hand"),
         actuator=_actuator(raw.get("actuator"), limits, f"{where}: actuator"))

@@ -162,6 +162,11 @@ def test_ctrl_c_exits_130_with_one_line(monkeypatch, capsys):
     ({"ga": [1, 2]}, "'ga' must be a mapping"),
     ({"name": 12}, "name must be a non-empty string, got 12"),
     ({"notes": "one"}, "notes must be a list of strings"),
+    ({"reported__genes": [0.6, 0.5, 0.5]}, "reported.genes must map gene names to numbers"),
+    ({"reported__genes": {"T1": "fast", "T2": 0.5, "T3": 0.5}}, "reported.genes must map gene names to numbers"),
+    ({"reported__genes": {"T9": 0.6}}, "reported.genes names 'T9', not a gene of family via_cubic"),
+    ({"reported__motion_time_s": "1.7 s"}, "reported.motion_time_s must be a number"),
+    ({"reported": 3}, "'reported' must be a mapping, got 3"),
 ])
 def test_bad_scenario_value_is_one_line(tmp_path, capsys, changes, needle):
     rc, _, err, _ = _run(capsys, "plan", _yaml(tmp_path, **changes), "--method", "thesis")
