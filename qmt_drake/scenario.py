@@ -354,10 +354,6 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         rg = reported["genes"]
         if not isinstance(rg, dict) or not all(_is_number(v) for v in rg.values()):
             raise QmtInputError(f"{where}: reported.genes must map gene names to numbers, got {_show(rg)}")
-        unknown = [str(k) for k in rg if k not in family.gene_names]
-        if unknown:
-            raise QmtInputError(f"{where}: reported.genes names {unknown[0]!r}, not a gene of family "
-                                f"{family.kind} ({', '.join(family.gene_names)})")
     for k in ("motion_time_s", "settled_after_generations"):
         if reported.get(k) is not None:
             _num(reported, k, f"{where}: reported", positive=True)
