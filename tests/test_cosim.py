@@ -139,8 +139,8 @@ def test_hand_composed_diagram_gives_the_same_result(sc4, plan4, carried_explici
 def test_why_the_plant_config_matters(sc4, plan4, carried_explicit_1ms):
     """The pitfall transfer_plant_config removes: Drake's default sampled output ports make the
     same hand-composed diagram report other numbers, with no error (measured: tracking error
-    8.4 vs 10.7 mrad, motor peaks at the current limit 0.155 N m vs 0.005 N m, energy -1.5 J vs
-    +0.09 J: the discrete motor/monitor updates pair the next plant state with this step's inputs)."""
+    8.4 vs 10.7 mrad, joint-1 motor peak 0.155 N m (the current limit) vs 0.0054 N m, energy -1.5 J
+    vs +0.086 J: the discrete updates pair the next plant state with this step's inputs)."""
     config = transfer_plant_config(1e-3)
     config.use_sampled_output_ports = True
     sampled = _compose_by_hand(sc4, plan4, config)
