@@ -157,15 +157,12 @@ def cmd_simulate(args) -> int:
     from qmt_drake.scenario import load_scenario
     sc = load_scenario(args.scenario)
     try:
-        from qmt_drake.sim import run_simulate
-        from qmt_drake.sim.magnet_hand import magnet_hand_of
-        from qmt_drake.sim.actuation import motor_params_for, pid_gains_for
+        from qmt_drake.sim import check_simulation_inputs, run_simulate
     except ImportError as exc:  # pragma: no cover - packaging problem
         raise QmtInputError(f"co-simulation unavailable: {exc}") from None
-    # What the co-simulation needs from the scenario, before planning.
-    magnet_hand_of(sc)
-    motor_params_for(sc)
-    pid_gains_for(sc)
+    # What the co-simulation needs from the scenario and the options, before planning.
+    check_simulation_inputs(sc, time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
+                            implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
     if args.plan:
         plan = load_plan(args.plan, scenario=sc)
     else:

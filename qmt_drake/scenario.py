@@ -109,8 +109,9 @@ class DcMotorGear:
 
 @dataclass(frozen=True)
 class IdealTorque:
-    """actuator.kind 'ideal': the joint torque is whatever the controller asks (no motor model).
-    Accepted in scenarios; the co-simulation refuses it until a torque-output controller exists."""
+    """actuator.kind 'ideal': the joint torque is whatever the controller asks (no motor model). The
+    co-simulation then reads control.kp [N*m/rad] and control.kd [N*m*s/rad] as JOINT-side PD
+    torque gains (not the thesis's motor-side volt gains; sim/actuation.add_ideal_torque_actuation)."""
 
     kind: str = "ideal"
 

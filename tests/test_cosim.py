@@ -298,8 +298,35 @@ def test_scenario_without_hand_or_motor_sections_is_refused_in_one_line(tmp_path
         p.write_text(yaml.safe_dump(r))
         with pytest.raises(QmtInputError, match=needle):
             build_transfer_diagram(load_scenario(p), plan4)
-    r = dict(raw, actuator={"kind": "ideal"})
+
+
+def test_ideal_torque_actuator(tmp_path, sc4, plan4):
+    """actuator.kind ideal: a joint-side PD torque source (gains for a 60 rad/s critically damped
+    loop on the arm's mass-matrix diagonal at q = 0) with Drake inverse-dynamics feedforward.
+    It follows the plan to < 1 mrad, holds the part, and its motor-side torque peaks lie within 10%
+    of the plan's inverse dynamics / N (the feedforward is the arm alone: the PD adds the part's
+    share). The default-context rule holds for it too; motor-only options are refused."""
+    import yaml
+
+    from qmt_drake.scenario import SCENARIO_DIR
+    raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
+    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
+    plant = sc4.arm.plant
+    J = np.diag(plant.CalcMassMatrix(plant.CreateDefaultContext()))
+    w = 60.0
+    raw["actuator"] = {"kind": "ideal"}
+    raw["control"] = {"kp": (J * w**2).tolist(), "kd": (2 * J * w).tolist()}
     p = tmp_path / "ideal.yaml"
-    p.write_text(yaml.safe_dump(r))
-    with pytest.raises(QmtInputError, match="got 'ideal'"):
-        build_transfer_diagram(load_scenario(p), plan4)
+    p.write_text(yaml.safe_dump(raw))
+    sc = load_scenario(p)
+    plan = GenesPlan(sc, GA_GENES_CH4)
+    r = simulate_transfer(sc, plan, inverse_dynamics_feedforward=True, keep_series=False)
+    assert r.held and r.max_tracking_error_rad < 1e-3
+    ratio = r.peak_motor_torque_Nm / r.peak_motor_torque_planned_Nm
+    assert np.all(np.abs(ratio - 1) < 0.10), ratio
+    td = build_transfer_diagram(sc, plan, inverse_dynamics_feedforward=True, log_period_s=0)
+    assert td.motors is None and "voltage_command" not in {
+        td.diagram.get_output_port(i).get_name() for i in range(td.diagram.num_output_ports())}
+    for bad in ({"back_emf_feedforward": True}, {"implicit_loop_damping": False}):
+        with pytest.raises(QmtInputError, match="actuator.kind ideal"):
+            build_transfer_diagram(sc, plan, **bad)

@@ -274,3 +274,13 @@ def test_matching_plan_file_still_simulates(capsys, plan_files):
                            "--json", "-")
     assert rc == 0, err
     assert json.loads(out)["held"] is True
+
+
+@pytest.mark.parametrize("extra, needle", [
+    (["--feedforward", "back-emf"], "--feedforward back-emf needs DC motors"),
+    (["--explicit"], "drop --explicit"),
+])
+def test_motor_options_on_an_ideal_actuator(tmp_path, capsys, extra, needle):
+    p = _yaml(tmp_path, actuator={"kind": "ideal"}, control={"kp": [180.0, 48.0], "kd": [6.0, 1.6]})
+    rc, _, err, wall = _run(capsys, "simulate", p, *extra)  # default GA: refused before planning
+    assert rc == 2 and needle in _one_line(err) and wall < 5.0

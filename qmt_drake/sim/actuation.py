@@ -20,6 +20,7 @@ from pydrake.systems.primitives import Adder, MatrixGain, TrajectorySource, Zero
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import MOTOR_CATALOG, AppliedMotorSignals, DcMotorParams
+from qmt_drake.systems.ideal_torque import IdealActuatorSignals
 from qmt_drake.systems.joint_tracking import PidGains
 
 # Plant steps: the implicitly damped loop (default) is stable and accurate at 2 ms; the explicit
@@ -76,6 +77,54 @@ def pid_gains_for(scenario) -> PidGains:
     if not all(k in c for k in ("kp", "kd")):
         raise QmtInputError(f"scenario '{scenario.name}' has no control.kp/kd gains; add them to its YAML")
     return PidGains.from_thesis(c["kp"], c.get("ki"), c["kd"])
+
+
+def ideal_joint_gains(scenario) -> tuple[np.ndarray, np.ndarray]:
+    """actuator.kind 'ideal': control.kp [N*m/rad] and control.kd [N*m*s/rad] read as JOINT-side
+    torque gains (no motor in between); control.ki must be absent or zero."""
+    c = scenario.control
+    if not all(k in c for k in ("kp", "kd")):
+        raise QmtInputError(f"scenario '{scenario.name}' has no control.kp/kd gains; add them to its YAML "
+                            "(joint-side N*m/rad and N*m*s/rad for actuator.kind ideal)")
+    if any(float(v) != 0.0 for v in c.get("ki", [])):
+        raise QmtInputError(f"scenario '{scenario.name}': actuator.kind ideal takes PD gains only; set "
+                            "control.ki to zeros or remove it")
+    return np.asarray(c["kp"], float), np.asarray(c["kd"], float)
+
+
+def add_ideal_torque_actuation(builder, plant, arm_instance, desired_state_port, state_port, joint_velocity_port,
+                               kp, kd, gear_ratio, time_step_s):
+    """actuator.kind 'ideal': joint torque tau = Kp (q_des - q) + Kd (qd_des - qd) + tau_ff, applied
+    without a motor model, with the damping part stepped implicitly like the motor loop.
+
+    Needs: a plant built with `move_loop_damping_into_plant(plant, arm, kd)` before Finalize. The
+    actuation input is Kp (q_des - q) + Kd qd_des + tau_ff (the -Kd qd part is the joints' damping,
+    stepped implicitly), so any step is stable. Reported: the torque applied over each step (the
+    latched actuation minus Kd qd_{n+1}), the motor-side torque tau / N (an ideal gear) and the
+    mechanical power tau * qd [W], which the monitor integrates as the energy. Returns
+    (IdealActuatorSignals system, the actuation Adder's feedforward input port [N*m])."""
+    kp, kd = np.asarray(kp, float), np.asarray(kd, float)
+    n = len(kp)
+    K, D = np.diag(kp), np.diag(kd)
+    from_desired = builder.AddNamedSystem("pd_desired", MatrixGain(np.hstack([K, D])))
+    from_state = builder.AddNamedSystem("pd_state", MatrixGain(np.hstack([-K, np.zeros((n, n))])))
+    actuation = builder.AddNamedSystem("actuation", Adder(3, n))
+    builder.Connect(desired_state_port, from_desired.get_input_port())
+    builder.Connect(state_port, from_state.get_input_port())
+    builder.Connect(from_desired.get_output_port(), actuation.get_input_port(0))
+    builder.Connect(from_state.get_output_port(), actuation.get_input_port(1))
+    builder.Connect(actuation.get_output_port(), plant.get_actuation_input_port(arm_instance))
+    latch = builder.AddNamedSystem("actuation_latch", ZeroOrderHold(time_step_s, n))
+    damping_now = builder.AddNamedSystem("damping_now", MatrixGain(-D))
+    applied = builder.AddNamedSystem("applied_joint_torque", Adder(2, n))
+    builder.Connect(actuation.get_output_port(), latch.get_input_port())
+    builder.Connect(joint_velocity_port, damping_now.get_input_port())
+    builder.Connect(latch.get_output_port(), applied.get_input_port(0))
+    builder.Connect(damping_now.get_output_port(), applied.get_input_port(1))
+    signals = builder.AddNamedSystem("applied_motor_signals", IdealActuatorSignals(gear_ratio))
+    builder.Connect(applied.get_output_port(), signals.GetInputPort("applied_joint_torque"))
+    builder.Connect(joint_velocity_port, signals.GetInputPort("joint_velocity"))
+    return signals, actuation.get_input_port(2)
 
 
 def add_implicit_damping_actuation(builder, plant, arm_instance, motors, joint_velocity_port, loop_damping,

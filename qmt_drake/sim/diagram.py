@@ -10,6 +10,8 @@
 is ready to simulate: the plant's default state is the plan's start with the payload seated, so
 `Simulator(td.diagram)` run to td.t_final_s gives the runner's numbers (tests/test_cosim.py).
 Everything about the hand, the motors and the payload comes from the scenario's typed sections.
+With actuator.kind 'ideal' the PID and the motors are replaced by a joint-side PD torque source
+(`add_ideal_torque_actuation`; control.kp/kd in N*m/rad, N*m*s/rad), its damping stepped implicitly.
 
 Held payloads show a drift of the first-order discrete step as slip; it grows in proportion to the
 plant step and does not depend on friction or contact stiffness (ch.4 GA move: 0.35 mm at 1 ms,
@@ -26,8 +28,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.sim.actuation import (add_implicit_damping_actuation, add_inverse_dynamics_feedforward,
-                                     check_time_step, default_time_step_s, motor_params_for, pid_gains_for)
+from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_damping_actuation,
+                                     add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
+                                     ideal_joint_gains, motor_params_for, pid_gains_for)
 from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
 from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, move_loop_damping_into_plant,
                                  set_initial_state)
@@ -49,8 +52,8 @@ class TransferDiagram:
     arm_instance: object
     payload_body: object
     hand_body: object
-    motors: DcMotorWithGear
-    controller: JointPidController
+    motors: DcMotorWithGear | None  # None with actuator.kind 'ideal'
+    controller: JointPidController | None
     magnet: ElectromagnetForce
     monitor: TransferMonitor
     loggers: dict
@@ -59,7 +62,7 @@ class TransferDiagram:
     t_final_s: float
     coil_current_A: float
     payload_spec: PayloadSpec
-    motor_params: DcMotorParams
+    motor_params: DcMotorParams | None
     time_step_s: float
     implicit_loop_damping: bool
     visualizer: object = None
@@ -97,6 +100,13 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     default step; off, the motors drive the plant directly (explicit) and time_step_s must be
     <= 1 ms (the 1 ms default; larger steps are refused). time_step_s=None picks the scheme's
     default (`default_time_step_s`)."""
+    from qmt_drake.scenario import IdealTorque
+    ideal = isinstance(getattr(scenario, "actuator", None), IdealTorque)
+    if ideal:
+        if motor_inductance or back_emf_feedforward or implicit_loop_damping is False:
+            raise QmtInputError(f"scenario '{scenario.name}' has actuator.kind ideal (no motors): drop the motor "
+                                "options (inductance, back-EMF feedforward, explicit motor loop)")
+        implicit_loop_damping = True
     if implicit_loop_damping is None:
         implicit_loop_damping = not motor_inductance
     if implicit_loop_damping and motor_inductance:
@@ -110,9 +120,13 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                             n_dof_expected=int(plan.n_dof))
     plant, arm, hand, payload, spec, n = (tp.plant, tp.arm_instance, tp.hand_body, tp.payload_body,
                                           tp.payload_spec, tp.n_dof)
-    gains = pid_gains_for(scenario)
-    mp = motor_params_for(scenario, with_inductance=motor_inductance)
-    loop_damping = effective_joint_gains(gains, mp)[1] if implicit_loop_damping else None
+    if ideal:
+        kp, loop_damping = ideal_joint_gains(scenario)
+        gains = mp = None
+    else:
+        gains = pid_gains_for(scenario)
+        mp = motor_params_for(scenario, with_inductance=motor_inductance)
+        loop_damping = effective_joint_gains(gains, mp)[1] if implicit_loop_damping else None
     if loop_damping is not None:
         move_loop_damping_into_plant(plant, arm, loop_damping)
     q0 = plan_start(plan)
@@ -122,29 +136,39 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     pp_q, pp_qdd, t_end = reference_trajectories(plan, time_scale, lead_s)
 
     ref = builder.AddNamedSystem("reference", TrajectorySource(pp_q, output_derivative_order=1))
-    ctrl = builder.AddNamedSystem("controller", JointPidController(
-        gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
-        back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
-    motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
-    split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+    arm_state = plant.get_state_output_port(arm)
+    ctrl = motors = None
+    if ideal:
+        split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+        builder.Connect(arm_state, split.get_input_port())
+        delivered, feedforward_input = add_ideal_torque_actuation(
+            builder, plant, arm, ref.get_output_port(), arm_state, split.get_output_port(1), kp, loop_damping,
+            scenario.gear_ratio, time_step_s)
+    else:
+        ctrl = builder.AddNamedSystem("controller", JointPidController(
+            gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
+            back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
+        motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
+        split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
     magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current)
     monitor = builder.AddNamedSystem("monitor", TransferMonitor(n, hand.index(), payload.index(),
                                                                 period_s=monitor_period_s or time_step_s))
 
-    arm_state = plant.get_state_output_port(arm)
-    builder.Connect(ref.get_output_port(), ctrl.GetInputPort("desired_state"))
-    builder.Connect(arm_state, ctrl.GetInputPort("estimated_state"))
-    builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
-    builder.Connect(arm_state, split.get_input_port())
-    builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
-    # What the motors deliver: their own outputs when stepped explicitly; with implicit loop damping,
-    # the torque applied over the last step, read back through the motor model.
-    delivered = motors
-    if loop_damping is None:
-        builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
-    else:
-        delivered = add_implicit_damping_actuation(builder, plant, arm, motors, split.get_output_port(1),
-                                                   loop_damping, time_step_s, mp)
+    if not ideal:
+        feedforward_input = ctrl.GetInputPort("feedforward_torque") if inverse_dynamics_feedforward else None
+        builder.Connect(ref.get_output_port(), ctrl.GetInputPort("desired_state"))
+        builder.Connect(arm_state, ctrl.GetInputPort("estimated_state"))
+        builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
+        builder.Connect(arm_state, split.get_input_port())
+        builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
+        # What the motors deliver: their own outputs when stepped explicitly; with implicit loop
+        # damping, the torque applied over the last step, read back through the motor model.
+        delivered = motors
+        if loop_damping is None:
+            builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+        else:
+            delivered = add_implicit_damping_actuation(builder, plant, arm, motors, split.get_output_port(1),
+                                                       loop_damping, time_step_s, mp)
     builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
     builder.Connect(arm_state, monitor.GetInputPort("arm_state"))
     builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
@@ -152,13 +176,16 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     builder.Connect(delivered.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
 
     if inverse_dynamics_feedforward:
-        add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(),
-                                         ctrl.GetInputPort("feedforward_torque"))
+        add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(), feedforward_input)
+    elif ideal:  # the ideal source's feedforward input is an Adder port: zero unless fed
+        from pydrake.systems.primitives import ConstantVectorSource
+        zero = builder.AddNamedSystem("no_feedforward", ConstantVectorSource(np.zeros(n)))
+        builder.Connect(zero.get_output_port(), feedforward_input)
 
     exports = {
         "desired_state": ref.get_output_port(),
         "arm_state": arm_state,
-        "voltage_command": ctrl.GetOutputPort("voltage_command"),
+        "voltage_command": None if ctrl is None else ctrl.GetOutputPort("voltage_command"),  # no PID: none
         "joint_torque": delivered.GetOutputPort("joint_torque"),
         "motor_torque": delivered.GetOutputPort("motor_torque"),
         "current": delivered.GetOutputPort("current"),
@@ -171,13 +198,15 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         "body_poses": plant.get_body_poses_output_port(),
         "contact_results": plant.get_contact_results_output_port(),
     }
+    exports = {k: v for k, v in exports.items() if v is not None}
     for name, port in exports.items():
         builder.ExportOutput(port, name)
     loggers = {}
     if log_period_s:
         for name in ("desired_state", "arm_state", "voltage_command", "motor_torque", "current",
                      "electrical_power", "attraction_force", "slip", "tilt", "gap"):
-            loggers[name] = LogVectorOutput(exports[name], builder, log_period_s)
+            if name in exports:
+                loggers[name] = LogVectorOutput(exports[name], builder, log_period_s)
 
     visualizer = None
     if meshcat is not None:

@@ -184,19 +184,56 @@ def make_result(scenario, plan, td, summary, wall, time_scale, series) -> Transf
         series=series)
 
 
+def feedforward_keywords(scenario, feedforward: str) -> dict:
+    """build_transfer_diagram keywords of a CLI --feedforward choice for this scenario's actuator
+    (an ideal torque source has no back EMF: 'full' is the inverse dynamics alone, 'back-emf' is
+    refused). One-line QmtInputError for an unknown choice."""
+    from qmt_drake.scenario import IdealTorque
+    if feedforward not in FEEDFORWARD_OPTIONS:
+        raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
+    kw = dict(FEEDFORWARD_OPTIONS[feedforward])
+    if isinstance(getattr(scenario, "actuator", None), IdealTorque):
+        if feedforward == "back-emf":
+            raise QmtInputError(f"--feedforward back-emf needs DC motors; scenario '{scenario.name}' has "
+                                "actuator.kind ideal: use none or full")
+        kw.pop("back_emf_feedforward", None)
+    return kw
+
+
+def check_simulation_inputs(scenario, *, time_step_s: float | None = None,
+                            implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
+    """Everything `run_simulate` needs from the scenario and the options, checked before any planning
+    or building: the hand, the actuator and its gains, the feedforward choice, the step (explicit
+    steps above the known stable limit are refused). Returns the feedforward keywords."""
+    from qmt_drake.scenario import IdealTorque
+    from qmt_drake.sim.actuation import ideal_joint_gains, motor_params_for, pid_gains_for
+    from qmt_drake.sim.magnet_hand import magnet_hand_of
+    magnet_hand_of(scenario)
+    kw = feedforward_keywords(scenario, feedforward)
+    if isinstance(getattr(scenario, "actuator", None), IdealTorque):
+        ideal_joint_gains(scenario)
+        if implicit_loop_damping is False:
+            raise QmtInputError(f"--explicit drives DC motors explicitly; scenario '{scenario.name}' has "
+                                "actuator.kind ideal (always stepped implicitly): drop --explicit")
+    else:
+        motor_params_for(scenario)
+        pid_gains_for(scenario)
+    implicit = True if implicit_loop_damping is None else bool(implicit_loop_damping)
+    if time_step_s is not None:
+        check_time_step(time_step_s, implicit, refuse_unstable=True)
+    return kw
+
+
 def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time_step_s: float | None = None,
                  implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
     """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict).
     feedforward: a FEEDFORWARD_OPTIONS key (the controller's feedforward terms). Refuses (one line)
-    explicit steps above the loop's known stable limit, before building anything."""
-    if feedforward not in FEEDFORWARD_OPTIONS:
-        raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
-    implicit = True if implicit_loop_damping is None else bool(implicit_loop_damping)
-    if time_step_s is not None:
-        check_time_step(time_step_s, implicit, refuse_unstable=True)
+    bad options, and explicit steps above the loop's known stable limit, before building anything
+    (`check_simulation_inputs`)."""
+    kw = check_simulation_inputs(scenario, time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
+                                 feedforward=feedforward)
     res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,
-                            time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
-                            **FEEDFORWARD_OPTIONS[feedforward])
+                            time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping, **kw)
     d = res.summary_dict()
     d["feedforward"] = feedforward
     if record_path is not None:
