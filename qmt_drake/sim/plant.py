@@ -66,6 +66,9 @@ def add_transfer_plant(builder, scenario, time_step_s: float, *, payload_spec: P
     if n_dof_expected is not None and int(n_dof_expected) != n:
         raise QmtInputError(f"plan has {int(n_dof_expected)} joints but scenario '{scenario.name}' arm "
                             f"({scenario.urdf_path.name}) has {n}; use a plan made for this scenario")
+    if not plant.HasBodyNamed(scenario.hand_frame, arm):
+        raise QmtInputError(f"scenario '{scenario.name}': the co-simulation seats the payload on a link; "
+                            f"arm.hand_frame '{scenario.hand_frame}' is not a link of {scenario.urdf_path.name}")
     hand = plant.GetBodyByName(scenario.hand_frame, arm)
     spec = payload_spec or PayloadSpec.for_scenario(scenario)
     payload = add_payload(plant, spec, hand)
