@@ -69,7 +69,7 @@ def cosim_outcome(scenario, plan: Plan) -> dict:
     if plan.motion_time_s <= 0:
         return {"held": None, "max_slip_m": None, "cosim_note": "not simulated: no motion"}
     try:
-        from qmt_drake.cosim import run_simulate
+        from qmt_drake.sim import run_simulate
     except Exception as exc:  # noqa: BLE001 - the co-simulation is optional here
         return {"held": None, "max_slip_m": None, "cosim_note": f"co-simulation unavailable: {exc}"}
     try:

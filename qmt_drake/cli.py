@@ -1,22 +1,56 @@
 """The `qmt-drake` command line. Argument parsing only; the work is in plain functions.
 
 Exit codes: 0 done, 2 bad input (one line on stderr naming it), 3 no plan meets the limits
-(the least-violating plan is still written), 4 a simulation failed.
+(the least-violating plan is still written), 4 a simulation failed, 130 interrupted (Ctrl-C; a GA
+run with --checkpoint leaves its checkpoint to resume from).
+
+Every argument is checked before any long computation: output paths first (`check_output_path`),
+then numbers (seeds, generations, time scale and step), the checkpoint file and the plan file.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 
-# cosim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
+# sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
 
-EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION = 2, 3, 4
+EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130
+EXPLICIT_MAX_TIME_STEP_MS = 1.0  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a test checks they agree)
+
+
+def _check_int(value, flag: str, minimum: int, fix: str) -> None:
+    if value is not None and value < minimum:
+        raise QmtInputError(f"{flag} {value} must be >= {minimum}; {fix}")
+
+
+def _check_positive_finite(value, flag: str, fix: str) -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise QmtInputError(f"{flag} {value} must be a finite positive number; {fix}")
+
+
+def _check_outputs(args, *flags: str) -> None:
+    from qmt_drake.plan import check_output_path
+    for flag in flags:
+        check_output_path(getattr(args, flag.lstrip("-").replace("-", "_"), None), flag)
+
+
+def _check_checkpoint(path, scenario, seed) -> None:
+    """The output path is writable and an existing file is a checkpoint of this very run
+    (planners/ga.py: same scenario data, GA settings and seed)."""
+    from qmt_drake.plan import check_output_path
+    from qmt_drake.planners.ga import check_checkpoint
+    check_output_path(path, "--checkpoint")
+    try:
+        check_checkpoint(path, scenario.fingerprint(), scenario.ga, seed)
+    except QmtInputError as exc:
+        raise QmtInputError(f"--checkpoint: {exc}") from None
 
 
 def _progress(msg: str) -> None:
@@ -44,9 +78,17 @@ def cmd_scenarios(args) -> int:
 
 
 def cmd_plan(args) -> int:
+    _check_outputs(args, "--json", "--trajectory-csv")
+    _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    _check_int(args.generations, "--generations", 1, "run at least one generation")
+    _check_int(args.stall, "--stall", 0, "0 never stops early")
     from qmt_drake.planners import plan_with
     from qmt_drake.scenario import load_scenario
     sc = load_scenario(args.scenario)
+    if args.checkpoint is not None:
+        if args.method != "ga":
+            raise QmtInputError(f"--checkpoint is for --method ga, not {args.method}; drop it")
+        _check_checkpoint(args.checkpoint, sc, args.seed)
     options = {}
     if args.method == "ga":
         if args.generations is not None:
@@ -56,15 +98,20 @@ def cmd_plan(args) -> int:
         if args.checkpoint:
             options["checkpoint_path"] = args.checkpoint
     for kv in args.option or []:
-        k, _, v = kv.partition("=")
+        k, eq, v = kv.partition("=")
+        if not eq or not k:
+            raise QmtInputError(f"--option {kv!r} must be KEY=VALUE (e.g. jerk_limit=10)")
         options[k] = _parse_value(v)
     try:
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else _progress, **options)
     except TypeError as exc:
-        if "unexpected keyword argument" not in str(exc):
-            raise
-        raise QmtInputError(f"--option: {exc}; see the planner's docstring for its options") from None
+        if "unexpected keyword argument" in str(exc):
+            raise QmtInputError(f"--option: {exc}; see the planner's docstring for its options") from None
+        if args.option:  # a value of the wrong type reached the planner
+            raise QmtInputError(f"--option {' '.join(args.option)}: a value has the wrong type "
+                                f"({str(exc).splitlines()[0]}); see the planner's docstring") from None
+        raise
     summary = plan.summary()
     if args.json and args.json != "-":
         plan.write_json(args.json)
@@ -82,21 +129,31 @@ def cmd_plan(args) -> int:
 
 
 def cmd_simulate(args) -> int:
+    _check_outputs(args, "--json", "--record")
+    _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    _check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
+    _check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
+    if args.explicit and args.time_step_ms is not None and args.time_step_ms > EXPLICIT_MAX_TIME_STEP_MS:
+        raise QmtInputError(f"--explicit --time-step-ms {args.time_step_ms:g}: the explicit motor loop is "
+                            f"known unstable above {EXPLICIT_MAX_TIME_STEP_MS:g} ms (a loss would be the "
+                            f"loop's, not the physics'); use --time-step-ms {EXPLICIT_MAX_TIME_STEP_MS:g} "
+                            "or less, or drop --explicit")
     from qmt_drake.plan import load_plan
     from qmt_drake.planners import plan_with
     from qmt_drake.scenario import load_scenario
     sc = load_scenario(args.scenario)
+    try:
+        from qmt_drake.sim import check_simulation_inputs, run_simulate
+    except ImportError as exc:  # pragma: no cover - packaging problem
+        raise QmtInputError(f"co-simulation unavailable: {exc}") from None
+    # What the co-simulation needs from the scenario and the options, before planning.
+    check_simulation_inputs(sc, time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
+                            implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
     if args.plan:
         plan = load_plan(args.plan, scenario=sc)
     else:
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else _progress)
-    try:
-        from qmt_drake.cosim import run_simulate
-    except ImportError as exc:  # pragma: no cover - packaging problem
-        raise QmtInputError(f"co-simulation unavailable: {exc}") from None
-    if args.time_step_ms is not None and not args.time_step_ms > 0:
-        raise QmtInputError(f"--time-step-ms must be positive, got {args.time_step_ms}")
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record,
                           time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
                           implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
@@ -110,6 +167,11 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    from qmt_drake.plan import check_output_dir
+    check_output_dir(args.out, "--out")
+    _check_int(args.seeds, "--seeds", 1, "run at least one seed")
+    from qmt_drake.scenario import load_scenario
+    load_scenario(args.scenario)
     from qmt_drake.bench import run_bench
     data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=_progress,
                      seeds=args.seeds)
@@ -118,6 +180,15 @@ def cmd_bench(args) -> int:
 
 
 def cmd_benchmark(args) -> int:
+    from qmt_drake.plan import check_output_dir
+    check_output_dir(args.out, "--out")
+    for seed in args.ga_seeds:
+        _check_int(seed, "--ga-seeds", 0, "seeds are non-negative integers")
+    for j in args.jerk_limits:
+        _check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
+    from qmt_drake.scenario import load_scenario
+    for name in args.scenarios:
+        load_scenario(name)
     from qmt_drake.benchmark import run_benchmark
     run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress,
                   jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
@@ -196,8 +267,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
     try:
+        args = build_parser().parse_args(argv)
         return args.func(args)
     except QmtInputError as exc:
         print(f"qmt-drake: error: {exc}", file=sys.stderr)
@@ -205,6 +276,10 @@ def main(argv=None) -> int:
     except QmtSimulationError as exc:
         print(f"qmt-drake: simulation failed: {exc}", file=sys.stderr)
         return EXIT_SIMULATION
+    except KeyboardInterrupt:
+        # The GA saves its checkpoint on the way out (planners/ga.py); nothing half-written stays.
+        print("qmt-drake: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -5,14 +5,21 @@ check rate (10 kHz; both one-sided values at every phase boundary) with the same
 every method, and `feasible`, the peaks and the ratios come from that re-check.
 
 Files: `write_json` (atomic) holds the keys of the CLI contract plus what `load_plan` needs to
-rebuild the trajectory: the genes for a family plan, 1 kHz samples (t, q, qd) for any other.
-A plan loads back with the same re-check (tests/test_plan_io.py). `write_csv` writes t, q1..qn, qd1..qdn, qdd1..qddn at 1 kHz or finer.
+rebuild the trajectory: the genes for a family plan, 1 kHz samples (t, q, qd) for any other, and
+what it needs to recognise its scenario: the task points, the joint count and the scenario's
+fingerprint. A plan loads back with the same re-check (tests/test_plan_io.py), and only against a
+scenario it fits (`load_plan`: same joint count and task points, family genes within the family's
+bounds, a sampled plan that starts and ends on the task's start and goal; one-line QmtInputError).
+
+`check_output_path` / `check_output_dir` validate where results will go before any long
+computation (the CLI calls them first). `write_csv` writes t, q1..qn, qd1..qdn, qdd1..qddn at 1 kHz or finer.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -95,6 +102,9 @@ class Plan:
     def to_json_dict(self) -> dict:
         d = self.summary()
         d["scenario_path"] = str(self.scenario.source_path)
+        d["scenario_fingerprint"] = self.scenario.fingerprint()
+        d["task_points_m"] = np.asarray(self.scenario.task.points_m, float).tolist()
+        d["n_dof"] = int(self.n_dof)
         d["extra"] = jsonable(self.extra)
         if isinstance(self.trajectory, FamilyTrajectory):
             d["trajectory"] = {"kind": "family", "family": self.scenario.family.kind}
@@ -106,6 +116,35 @@ class Plan:
                                "qd_rad_s": qd.tolist(), "qdd_rad_s2": qdd.tolist(),
                                "breakpoints_s": self.trajectory.breakpoints_s.tolist()}
         return d
+
+    # Pickling (sweeps ship plans to worker processes): the trajectory may hold Drake objects
+    # (a family's arm, a planner's closures). A family plan travels as its genes and is rebuilt
+    # from the scenario's family; another trajectory travels as itself if it pickles, else as the
+    # samples a plan file stores (1 kHz per piece, both values at each boundary, quintic Hermite
+    # in between). The re-check travels unchanged.
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        traj = self.trajectory
+        if isinstance(traj, FamilyTrajectory):
+            state["trajectory"] = ("family", np.asarray(traj.genes[0], float))
+        else:
+            import pickle
+            try:
+                pickle.dumps(traj)
+            except Exception:  # noqa: BLE001 - any unpicklable part: fall back to samples
+                grid = piecewise_grid(traj.breakpoints_s[None, :], 1000.0)
+                q, qd, qdd = traj.evaluate(grid.t_s, grid.t_piece_s)
+                state["trajectory"] = ("samples", grid.t_s, q, qd, qdd, np.asarray(traj.breakpoints_s))
+        return state
+
+    def __setstate__(self, state):
+        traj = state["trajectory"]
+        if isinstance(traj, tuple) and traj and traj[0] == "family":
+            from qmt_drake.families import make_family
+            state["trajectory"] = FamilyTrajectory(make_family(state["scenario"]), traj[1])
+        elif isinstance(traj, tuple) and traj and traj[0] == "samples":
+            state["trajectory"] = SampledTrajectory(*traj[1:])
+        self.__dict__.update(state)
 
     def write_json(self, path: str | Path) -> None:
         write_text_atomic(path, json.dumps(self.to_json_dict(), indent=1))
@@ -137,47 +176,157 @@ def family_plan(problem, genes, method: str, **kw) -> Plan:
                      genes=problem.genes_dict(g), valid=valid, **kw)
 
 
+# A sampled plan must start and end on the task's first and last points to this tolerance [m].
+PLAN_ENDPOINT_TOL_M = 1e-6
+
+
 def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
     """Read a plan file written by `Plan.write_json`; the scenario is reloaded from the path
-    stored in it unless one is given. Errors name the file and the problem."""
+    stored in it unless one is given. The plan must fit the scenario (module docstring). Errors
+    name the file and the problem in one line."""
     path = Path(path)
+    if path.is_dir():
+        raise QmtInputError(f"plan file {path} is a directory; give the JSON file written by "
+                            "`qmt-drake plan ... --json PATH`")
     try:
-        d = json.loads(path.read_text())
+        d = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise QmtInputError(f"plan file {path} does not exist") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except OSError as exc:
+        raise QmtInputError(f"plan file {path} cannot be read ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise QmtInputError(f"plan file {path} is not a UTF-8 JSON text file") from None
+    except json.JSONDecodeError as exc:
         raise QmtInputError(f"plan file {path} is not valid JSON ({exc})") from None
-    if not isinstance(d, dict) or "trajectory" not in d or "scenario" not in d:
+    if not isinstance(d, dict) or not isinstance(d.get("trajectory"), dict) or "scenario" not in d:
         raise QmtInputError(f"plan file {path} lacks the 'scenario' or 'trajectory' key; write it "
                             "with `qmt-drake plan ... --json PATH`")
     if scenario is None:
         src = d.get("scenario_path")
-        scenario = load_scenario(src if src and Path(src).is_file() else d["scenario"])
+        scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
+    _check_plan_fits(d, path, scenario)
     traj = d["trajectory"]
     try:
-        if traj["kind"] == "family":
+        if traj.get("kind") == "family":
             from qmt_drake.problem import PlanningProblem
+            if traj.get("family", scenario.family.kind) != scenario.family.kind:
+                raise QmtInputError(f"plan file {path} is a {traj.get('family')} plan but scenario "
+                                    f"{scenario.name} uses family {scenario.family.kind}; plan again "
+                                    "for this scenario")
             problem = PlanningProblem(scenario)
+            if not isinstance(d.get("genes"), dict):
+                raise ValueError("'genes' must map gene names to values")
             genes = problem.genes_vector(d["genes"])
-            plan = family_plan(problem, genes, d.get("method", "loaded"))
-        elif traj["kind"] == "samples":
+            _check_genes(genes, scenario, path)
+            plan = family_plan(problem, genes, str(d.get("method", "loaded")))
+        elif traj.get("kind") == "samples":
             t, q, qd, qdd = (np.asarray(traj[k], dtype=float)
                              for k in ("t_s", "q_rad", "qd_rad_s", "qdd_rad_s2"))
             if q.ndim != 2 or not q.shape == qd.shape == qdd.shape or q.shape[0] != t.size:
                 raise ValueError("t_s, q_rad, qd_rad_s and qdd_rad_s2 disagree in shape")
+            if t.size < 2 or not all(np.all(np.isfinite(a)) for a in (t, q, qd, qdd)) \
+                    or np.any(np.diff(t) < 0) or t[0] != 0.0 or not t[-1] > 0:
+                raise ValueError("samples must be finite with t_s rising from 0 to a positive motion time")
+            if q.shape[1] != scenario.arm.n_dof:
+                raise QmtInputError(f"plan file {path} has {q.shape[1]} joints but scenario "
+                                    f"{scenario.name}'s arm has {scenario.arm.n_dof}; plan again for it")
+            _check_endpoints(q[0], q[-1], scenario, path)
             traj_obj = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
-            plan = make_plan(scenario, d.get("method", "loaded"), traj_obj, genes=d.get("genes"))
+            plan = make_plan(scenario, str(d.get("method", "loaded")), traj_obj, genes=d.get("genes"))
         else:
-            raise ValueError(f"unknown trajectory kind {traj['kind']!r}")
+            raise ValueError(f"unknown trajectory kind {traj.get('kind')!r}")
     except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, QmtInputError):
+            raise
         raise QmtInputError(f"plan file {path}: cannot rebuild its trajectory ({exc})") from None
     if plan.n_dof != scenario.arm.n_dof:
         raise QmtInputError(f"plan file {path} has {plan.n_dof} joints but scenario "
                             f"{scenario.name}'s arm has {scenario.arm.n_dof}")
     for k in ("planner_wall_s", "evaluations", "generations"):
-        setattr(plan, k, d.get(k, getattr(plan, k)))
-    plan.extra = d.get("extra", {})
+        v = d.get(k, getattr(plan, k))
+        setattr(plan, k, v if isinstance(v, (int, float)) and not isinstance(v, bool) else getattr(plan, k))
+    plan.extra = d.get("extra", {}) if isinstance(d.get("extra", {}), dict) else {}
     return plan
+
+
+def _check_plan_fits(d: dict, path: Path, scenario: Scenario) -> None:
+    """What the file says about its scenario against the one it is run with (files written
+    before these keys existed skip the checks they lack)."""
+    n = d.get("n_dof")
+    if n is not None and n != scenario.arm.n_dof:
+        raise QmtInputError(f"plan file {path} has {n} joints but scenario {scenario.name}'s arm has "
+                            f"{scenario.arm.n_dof}; plan again for this scenario")
+    pts = d.get("task_points_m")
+    if pts is not None:
+        try:
+            pts = np.asarray(pts, dtype=float)
+        except (TypeError, ValueError):
+            raise QmtInputError(f"plan file {path}: task_points_m is not a list of points") from None
+        mine = np.asarray(scenario.task.points_m, float)
+        if pts.shape != mine.shape or not np.allclose(pts, mine, rtol=0.0, atol=1e-12):
+            raise QmtInputError(f"plan file {path} was made for task points {pts.tolist()} but scenario "
+                                f"{scenario.name} has {mine.tolist()}; plan again for this scenario")
+
+
+def _check_genes(genes: np.ndarray, scenario: Scenario, path: Path) -> None:
+    lo, hi = scenario.family.gene_bounds[:, 0], scenario.family.gene_bounds[:, 1]
+    for name, g, a, b in zip(scenario.family.gene_names, genes, lo, hi):
+        if not np.isfinite(g) or g < a * (1 - 1e-12) or g > b * (1 + 1e-12):
+            raise QmtInputError(f"plan file {path}: gene {name} = {g:g} lies outside the family's bounds "
+                                f"[{a:g}, {b:g}] of scenario {scenario.name}; plan again or widen "
+                                f"family.genes.{name}")
+
+
+def _check_endpoints(q_start, q_end, scenario: Scenario, path: Path) -> None:
+    arm = scenario.arm
+    ends = arm.tip_position(np.stack([q_start, q_end]))
+    want = np.asarray(scenario.task.points_m, float)[[0, -1]]
+    err = np.linalg.norm(np.asarray(ends)[:, :2] - want, axis=1)
+    if np.any(err > PLAN_ENDPOINT_TOL_M):
+        raise QmtInputError(f"plan file {path} starts/ends {err[0] * 1e3:.3g}/{err[1] * 1e3:.3g} mm away from "
+                            f"scenario {scenario.name}'s start and goal points; plan again for this scenario")
+
+
+def _probe_folder(folder: Path, what: str) -> None:
+    """Create `folder` if missing and write + remove a scratch file in it; one line if that fails."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise QmtInputError(f"{what}: {folder} is a file, not a folder; choose another path") from None
+    except OSError as exc:
+        raise QmtInputError(f"{what}: cannot create folder {folder} ({exc.strerror}); choose another "
+                            "path") from None
+    if not folder.is_dir():
+        raise QmtInputError(f"{what}: {folder} is not a folder; choose another path")
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".qmt-drake-probe-"):
+            pass
+    except OSError as exc:
+        raise QmtInputError(f"{what}: folder {folder} is not writable ({exc.strerror}); choose another "
+                            "path") from None
+
+
+def check_output_path(path: str | Path | None, flag: str) -> None:
+    """Before any long computation: `path` (a file to be written; '-' is stdout) must not be a
+    directory, and its folder must exist or be creatable (it is created) and be writable (a
+    scratch file is written and removed). One-line QmtInputError naming the flag."""
+    if path is None or str(path) == "-":
+        return
+    if str(path) == "":
+        raise QmtInputError(f"{flag}: empty path; give a file name")
+    p = Path(path)
+    if p.is_dir():
+        raise QmtInputError(f"{flag} {p} is a directory; give a file name inside it")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise QmtInputError(f"{flag} {p} exists and is not writable; choose another path")
+    _probe_folder(p.parent if str(p.parent) else Path("."), f"{flag} {p}")
+
+
+def check_output_dir(path: str | Path, flag: str) -> None:
+    """Like check_output_path for a folder results are written into (created if missing)."""
+    if str(path) == "":
+        raise QmtInputError(f"{flag}: empty path; give a folder")
+    _probe_folder(Path(path), f"{flag} {path}")
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:

@@ -1,16 +1,31 @@
 """Scenarios: a typed description of one transfer task, loaded from YAML and validated.
 
-A scenario names the arm (URDF), the payload (mass, r_G), the task points and IK branch, the
-planning limits, the trajectory family with its genes and bounds, the GA settings, the joint
-control gains and what the thesis reported. Built-in scenarios live in `models/scenarios/` and are
-loaded by name (`thesis-ch2`, `thesis-ch3`, `thesis-ch4`); any other YAML file by path.
+A scenario names the arm (`arm`: a URDF), the hand (`hand`: an electromagnet with its coil, how its
+current is set, and the contact it makes with the part), the motors (`actuator`: DC motors with
+gears, or ideal torque sources), the payload (mass, r_G, the rigid body the co-simulation uses),
+the task points and IK branch, the planning limits, the trajectory family with its genes and
+bounds, the GA settings, the joint control gains and what the thesis reported. Built-in scenarios
+live in `models/scenarios/` and are loaded by name (`thesis-ch2`, `thesis-ch3`, `thesis-ch4`); any
+other YAML file by path.
 
-Every problem with a file raises QmtInputError with one line naming the key and the fix.
+Each section is a small frozen dataclass with its own validation, in the spirit of Drake's
+hardware_sim scenario (`yaml_load_typed`), written out here so that every bad key gets its own
+one-line QmtInputError naming the key and the fix. Numbers are checked as numbers: a YAML `true`
+is not 1, a string is not 0.5. After the file is read, the arm is loaded once (`Scenario.arm`) and
+the lists that go per joint (motor limits, gains, motors) are checked against its joint count.
+
+Scenarios pickle (sweeps ship them to worker processes); the cached Drake arm is left out of the
+pickled state and rebuilt on first use. `Scenario.fingerprint()` is a sha256 of the validated data
+and the URDF's bytes: what a GA checkpoint or a plan file stores to recognise its scenario.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import hashlib
+import json
+import math
+import numbers
+from dataclasses import dataclass, field, fields, is_dataclass
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -23,6 +38,28 @@ from qmt_drake.errors import QmtInputError
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 SCENARIO_DIR = MODELS_DIR / "scenarios"
 FAMILY_KINDS = ("line_cubic_velocity", "trapezoid_ptp", "via_cubic")
+STEEL_DENSITY_KG_M3 = 7850.0
+
+
+# ------------------------------------------------------------------------------------ sections
+@dataclass(frozen=True)
+class UrdfArm:
+    """arm.kind 'urdf' (the default): a serial arm read from a URDF file."""
+
+    urdf_path: Path
+    hand_frame: str = "hand"
+    kind: str = "urdf"
+
+
+@dataclass(frozen=True)
+class PayloadBody:
+    """The rigid body the co-simulation carries (sets rotational inertia and the visual; mass and
+    r_G always come from the payload). A cylinder about the face normal."""
+
+    name: str
+    length_m: float  # along the face normal
+    radius_m: float
+    face_radius_m: float  # radius of the part's attraction face (>= the core radius)
 
 
 @dataclass(frozen=True)
@@ -32,7 +69,50 @@ class Payload:
     name: str
     mass_kg: float
     com_offset_m: float
-    length_m: float | None = None  # size for the co-simulation body (None: the co-sim decides)
+    length_m: float | None = None  # kept for old callers: body.length_m
+    body: PayloadBody | None = None
+
+
+@dataclass(frozen=True)
+class MagnetHand:
+    """hand.kind 'magnet': an iron-cored coil pulling an iron part onto its face (electromagnet.py).
+
+    The coil current is either given (`coil_current_A`) or calibrated (`slip_boundary_Nm`: the
+    thesis's last-success and first-failure peak moments; the current whose quasi-static hold
+    limit is their geometric mean, sim/magnet_hand.py). Contact data: friction coefficient, the
+    ring of contact points (the core end's radius), point stiffness and Hunt-Crossley dissipation."""
+
+    coil: Any  # systems.electromagnet.CoilSpec
+    coil_name: str  # THESIS_COILS key, or "explicit"
+    slip_boundary_Nm: tuple[float, float] | None = None
+    coil_current_A: float | None = None
+    effective_gap_m: float = 0.5e-3  # g0: an assumption, shared by both thesis hands
+    friction: float = 0.3
+    contact_radius_m: float = 3.9e-3
+    n_contact_points: int = 8
+    sphere_radius_m: float = 0.5e-3
+    point_stiffness_N_per_m: float = 1.0e6
+    hunt_crossley_dissipation_s_per_m: float = 5.0
+    kind: str = "magnet"
+
+
+@dataclass(frozen=True)
+class DcMotorGear:
+    """actuator.kind 'dc_motor_gear': one catalogue DC motor per joint (systems/dc_motor.py
+    MOTOR_CATALOG keys) behind the URDF's gear ratio; `efficiency` is the gearbox's."""
+
+    motors: tuple[str, ...]
+    efficiency: float = 0.7
+    kind: str = "dc_motor_gear"
+
+
+@dataclass(frozen=True)
+class IdealTorque:
+    """actuator.kind 'ideal': the joint torque is whatever the controller asks (no motor model). The
+    co-simulation then reads control.kp [N*m/rad] and control.kd [N*m*s/rad] as JOINT-side PD
+    torque gains (not the thesis's motor-side volt gains; sim/actuation.add_ideal_torque_actuation)."""
+
+    kind: str = "ideal"
 
 
 @dataclass(frozen=True)
@@ -98,31 +178,25 @@ class Scenario:
     family: Family
     ga: GaSettings
     sampling: Sampling
-    control: dict = field(default_factory=dict)
+    control: dict = field(default_factory=dict)  # kp, ki, kd lists (one per joint), validated
     reported: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    arm_spec: UrdfArm | None = None
+    hand: MagnetHand | None = None
+    actuator: DcMotorGear | IdealTorque | None = None
 
     @cached_property
     def arm(self):
         """The ArmModel built from the URDF with the carried part welded to the hand (loaded once
-        per scenario object)."""
-        from qmt_drake.model.arm import ArmModel
+        per scenario object; not pickled)."""
         from qmt_drake.systems.payload import PayloadSpec
         carried = PayloadSpec.for_scenario(self).spatial_inertia_about_origin()
-        return ArmModel.from_urdf(self.urdf_path, hand_frame=self.hand_frame, carried_inertia=carried)
-
-    def fingerprint(self) -> str:
-        """sha256 of the scenario's data and its URDF's bytes (GA checkpoints store it)."""
-        import hashlib
-        from dataclasses import fields
-        parts = [repr((f.name, getattr(self, f.name))) for f in fields(self) if f.name != "source_path"]
-        h = hashlib.sha256("\n".join(parts).encode())
-        h.update(Path(self.urdf_path).read_bytes())
-        return h.hexdigest()
+        return _load_arm(self.urdf_path, self.hand_frame, str(self.source_path), carried_inertia=carried,
+                         require_gear_ratio=not isinstance(self.actuator, IdealTorque))
 
     @cached_property
     def limit_set(self):
-        """The scenario's LimitSet (payload moment, motor torques, joint ranges)."""
+        """The scenario's LimitSet (payload moment, motor torques, joint ranges; limits/)."""
         from qmt_drake.limits import LimitSet
         return LimitSet.for_scenario(self)
 
@@ -135,19 +209,81 @@ class Scenario:
         """m_o * r_G: payload moment per unit tip acceleration."""
         return self.payload.mass_kg * self.payload.com_offset_m
 
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        for cached in ("arm", "limit_set"):  # hold Drake objects, which do not pickle: rebuilt on demand
+            state.pop(cached, None)
+        return state
+
+    def fingerprint(self) -> str:
+        """sha256 (hex) of a canonical JSON of the validated data plus the URDF file's bytes.
+
+        Left out: where the files are (source_path, urdf_path: the URDF counts by content) and
+        the prose (description, notes, reported). Any edit that can change a plan or a
+        simulation changes the fingerprint."""
+        data = {f.name: _canonical(getattr(self, f.name)) for f in fields(self)
+                if f.name not in ("source_path", "urdf_path", "description", "notes", "reported")}
+        if isinstance(data.get("arm_spec"), dict):
+            data["arm_spec"].pop("urdf_path", None)
+        h = hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode())
+        h.update(b"\0urdf\0")
+        h.update(Path(self.urdf_path).read_bytes())
+        return h.hexdigest()
+
+
+def _canonical(x):
+    """JSON-ready data of validated dataclasses/arrays; floats as repr strings (exact, stable)."""
+    if is_dataclass(x):
+        return {f.name: _canonical(getattr(x, f.name)) for f in fields(x)}
+    if isinstance(x, dict):
+        return {str(k): _canonical(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_canonical(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _canonical(x.tolist())
+    if isinstance(x, Path):
+        return str(x)
+    if isinstance(x, bool) or x is None or isinstance(x, str):
+        return x
+    if isinstance(x, numbers.Integral):
+        return int(x)
+    if isinstance(x, numbers.Real):
+        return repr(float(x))
+    return repr(x)
+
+
+def _load_arm(urdf_path: Path, hand_frame: str, where: str, **kw):
+    """ArmModel of a URDF (model/arm.py refuses non-XML, unparsable or non-serial URDFs in one
+    line); the message is prefixed with the scenario that names it."""
+    from qmt_drake.model.arm import ArmModel
+    if Path(urdf_path).is_dir():
+        raise QmtInputError(f"{where}: arm.urdf {urdf_path} is a directory; give the URDF file")
+    try:
+        return ArmModel.from_urdf(urdf_path, hand_frame=hand_frame, **kw)
+    except QmtInputError as exc:
+        raise QmtInputError(f"{where}: {exc}") from None
+    except OSError as exc:
+        raise QmtInputError(f"{where}: arm.urdf {urdf_path} cannot be read ({exc.strerror})") from None
+
 
 # ---------------------------------------------------------------------------------------- loading
-_TOP_KEYS = {"name", "description", "arm", "payload", "task", "limits", "family", "ga",
-             "sampling", "control", "reported", "notes", "source"}
+_TOP_KEYS = {"name", "description", "arm", "hand", "actuator", "payload", "task", "limits",
+             "family", "ga", "sampling", "control", "reported", "notes", "source"}
 _SECTION_KEYS = {
-    "arm": {"urdf", "hand_frame"},
-    "payload": {"name", "mass_kg", "com_offset_m", "length_m"},
+    "arm": {"kind", "urdf", "hand_frame"},
+    "payload": {"name", "mass_kg", "com_offset_m", "length_m", "body"},
     "task": {"points_m", "tool_angle_rad", "ik_branch"},
     "limits": {"moment_limit_Nm", "motor_torque_limit_Nm"},
     "family": {"kind", "genes"},
-    "ga": set(GaSettings.__dataclass_fields__),
-    "sampling": set(Sampling.__dataclass_fields__),
+    "ga": {f.name for f in fields(GaSettings)},
+    "sampling": {f.name for f in fields(Sampling)},
+    "control": {"kp", "ki", "kd"},
+    "reported": None,  # free-form
 }
+_HAND_KEYS = {"kind", "coil", "slip_boundary_Nm", "coil_current_A", "effective_gap_m", "friction",
+              "contact_radius_m", "n_contact_points", "sphere_radius_m", "point_stiffness_N_per_m",
+              "hunt_crossley_dissipation_s_per_m"}
+_COIL_KEYS = {"name", "turns", "resistance_ohm", "core_diameter_m", "outer_diameter_m", "length_m"}
 
 
 def builtin_scenarios() -> list[str]:
@@ -160,13 +296,23 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     path = Path(name_or_path)
     if not path.suffix and (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
         path = SCENARIO_DIR / f"{name_or_path}.yaml"
+    if path.is_dir():
+        raise QmtInputError(f"scenario '{name_or_path}' is a directory; give a built-in name "
+                            f"({', '.join(builtin_scenarios())}) or a YAML file")
     if not path.is_file():
         raise QmtInputError(f"scenario '{name_or_path}' is neither a built-in "
                             f"({', '.join(builtin_scenarios())}) nor a YAML file that exists")
     try:
-        raw = yaml.safe_load(path.read_text())
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise QmtInputError(f"{path}: not a UTF-8 text file; a scenario is a YAML text file") from None
+    except OSError as exc:
+        raise QmtInputError(f"{path}: cannot be read ({exc.strerror})") from None
     except yaml.YAMLError as exc:
         raise QmtInputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if raw is None:
+        raise QmtInputError(f"{path}: the file is empty; a scenario is a YAML mapping (see "
+                            f"{SCENARIO_DIR / 'thesis-ch4.yaml'})")
     if not isinstance(raw, dict):
         raise QmtInputError(f"{path}: a scenario file must be a YAML mapping")
     if overrides:
@@ -187,105 +333,293 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     where = str(path)
     _check_keys(raw, _TOP_KEYS, where)
     for sec, keys in _SECTION_KEYS.items():
-        if sec in raw:
+        if sec in raw and raw[sec] is not None:
             if not isinstance(raw[sec], dict):
-                raise QmtInputError(f"{where}: '{sec}' must be a mapping")
-            _check_keys(raw[sec], keys, f"{where}: {sec}")
+                raise QmtInputError(f"{where}: '{sec}' must be a mapping, got {_show(raw[sec])}")
+            if keys is not None:
+                _check_keys(raw[sec], keys, f"{where}: {sec}")
     for sec in ("arm", "payload", "task", "limits", "family"):
-        if sec not in raw:
+        if sec not in raw or raw[sec] is None:
             raise QmtInputError(f"{where}: missing section '{sec}'")
 
-    arm = raw["arm"]
-    urdf = Path(_need(arm, "urdf", f"{where}: arm"))
+    arm_spec = _arm(raw["arm"], path, where)
+    payload = _payload(raw["payload"], f"{where}: payload")
+    task = _task(raw["task"], f"{where}: task")
+
+    lim = raw["limits"]
+    limits = Limits(moment_limit_Nm=_num(lim, "moment_limit_Nm", f"{where}: limits", positive=True),
+                    motor_torque_limit_Nm=_vector(lim, "motor_torque_limit_Nm", f"{where}: limits",
+                                                  positive=True, what="motor torque limits [N*m]"))
+    family = _family(raw["family"], f"{where}: family")
+    ga = _ga(raw.get("ga") or {}, f"{where}: ga")
+    sm = raw.get("sampling") or {}
+    sampling = Sampling(**{f.name: _num(sm, f.name, f"{where}: sampling", positive=True,
+                                        default=f.default) for f in fields(Sampling)})
+    control = {}
+    for k, v in (raw.get("control") or {}).items():
+        control[k] = _vector({k: v}, k, f"{where}: control", nonnegative=True,
+                             what="gains, one per joint").tolist()
+    reported = dict(raw.get("reported") or {})
+    if "genes" in reported and reported["genes"] is not None:
+        rg = reported["genes"]
+        if not isinstance(rg, dict) or not all(_is_number(v) for v in rg.values()):
+            raise QmtInputError(f"{where}: reported.genes must map gene names to numbers, got {_show(rg)}")
+    for k in ("motion_time_s", "settled_after_generations"):
+        if reported.get(k) is not None:
+            _num(reported, k, f"{where}: reported", positive=True)
+    notes = raw.get("notes") or []
+    if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
+        raise QmtInputError(f"{where}: notes must be a list of strings")
+    name = raw.get("name", path.stem)
+    if not isinstance(name, str) or not name:
+        raise QmtInputError(f"{where}: name must be a non-empty string, got {_show(name)}")
+    description = raw.get("description", "")
+    if not isinstance(description, str):
+        raise QmtInputError(f"{where}: description must be a string, got {_show(description)}")
+
+    sc = Scenario(
+        name=name, description=description, source_path=path, urdf_path=arm_spec.urdf_path,
+        hand_frame=arm_spec.hand_frame, payload=payload, task=task, limits=limits, family=family,
+        ga=ga, sampling=sampling, control=control, reported=reported,
+        notes=tuple(notes), arm_spec=arm_spec,
+        hand=_hand(raw.get("hand"), f"{where}: hand"),
+        actuator=_actuator(raw.get("actuator"), limits, f"{where}: actuator"))
+    _check_against_arm(sc, where)
+    return sc
+
+
+def _arm(a: dict, path: Path, where: str) -> UrdfArm:
+    kind = a.get("kind", "urdf")
+    if kind != "urdf":
+        raise QmtInputError(f"{where}: arm.kind {_show(kind)} is not available; use 'urdf' "
+                            "(generated arms are not implemented yet)")
+    urdf_raw = _need(a, "urdf", f"{where}: arm")
+    if not isinstance(urdf_raw, str) or not urdf_raw:
+        raise QmtInputError(f"{where}: arm.urdf must be a file path, got {_show(urdf_raw)}")
+    urdf = Path(urdf_raw)
     if not urdf.is_absolute():
         beside = (path.parent / urdf).resolve()
         # A built-in scenario copied elsewhere still finds the packaged model by its file name.
         packaged = MODELS_DIR / urdf.name
         urdf = beside if beside.is_file() or not packaged.is_file() else packaged
+    if urdf.is_dir():
+        raise QmtInputError(f"{where}: arm.urdf {urdf} is a directory; give the URDF file")
     if not urdf.is_file():
         raise QmtInputError(f"{where}: arm.urdf {urdf} does not exist; give a path relative to "
                             "the scenario file or an absolute one")
+    frame = a.get("hand_frame", "hand")
+    if not isinstance(frame, str) or not frame:
+        raise QmtInputError(f"{where}: arm.hand_frame must be a frame name, got {_show(frame)}")
+    return UrdfArm(urdf_path=urdf, hand_frame=frame)
 
-    p = raw["payload"]
-    payload = Payload(
-        name=str(p.get("name", "payload")),
-        mass_kg=_positive(p, "mass_kg", f"{where}: payload"),
-        com_offset_m=_positive(p, "com_offset_m", f"{where}: payload"),
-        length_m=None if p.get("length_m") is None else _positive(p, "length_m",
-                                                                    f"{where}: payload"))
 
-    t = raw["task"]
-    pts = np.asarray(_need(t, "points_m", f"{where}: task"), dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 2:
-        raise QmtInputError(f"{where}: task.points_m must be a list of at least two [x, y] "
-                            f"points in metres, got shape {pts.shape}")
-    branch = str(t.get("ik_branch", "elbow_positive"))
+def _payload(p: dict, where: str) -> Payload:
+    mass = _num(p, "mass_kg", where, positive=True)
+    r_g = _num(p, "com_offset_m", where, positive=True)
+    name = p.get("name", "payload")
+    if not isinstance(name, str):
+        raise QmtInputError(f"{where}.name must be a string, got {_show(name)}")
+    length = None if p.get("length_m") is None else _num(p, "length_m", where, positive=True)
+    b = p.get("body", {"kind": "steel_cylinder"})
+    bw = f"{where}.body"
+    if not isinstance(b, dict):
+        raise QmtInputError(f"{bw} must be a mapping with kind steel_cylinder or cylinder, "
+                            f"got {_show(b)}")
+    kind = b.get("kind")
+    if kind == "steel_cylinder":
+        _check_keys(b, {"kind", "name"}, bw)
+        # Fig. 3.4 prints no dimensions: a steel cylinder of length 2 r_G whose radius follows
+        # from the mass (the face is the whole end).
+        blen = 2.0 * r_g
+        rad = math.sqrt(mass / (STEEL_DENSITY_KG_M3 * math.pi * blen))
+        body = PayloadBody(str(b.get("name", "steel part")), blen, rad, rad)
+    elif kind == "cylinder":
+        _check_keys(b, {"kind", "name", "length_m", "radius_m", "face_radius_m"}, bw)
+        body = PayloadBody(str(b.get("name", name)), _num(b, "length_m", bw, positive=True),
+                           _num(b, "radius_m", bw, positive=True),
+                           _num(b, "face_radius_m", bw, positive=True))
+    else:
+        raise QmtInputError(f"{bw}.kind must be 'steel_cylinder' (sized from mass and r_G) or "
+                            f"'cylinder' (length_m, radius_m, face_radius_m), got {_show(kind)}")
+    return Payload(name=name, mass_kg=mass, com_offset_m=r_g, length_m=length, body=body)
+
+
+def _task(t: dict, where: str) -> Task:
+    pts_raw = _need(t, "points_m", where)
+    shape_hint = "a list of at least two [x, y] points in metres"
+    if (not isinstance(pts_raw, list) or len(pts_raw) < 2
+            or not all(isinstance(p, list) for p in pts_raw)):
+        raise QmtInputError(f"{where}.points_m must be {shape_hint}, got {_show(pts_raw)}")
+    for i, p in enumerate(pts_raw):
+        if len(p) != 2:
+            raise QmtInputError(f"{where}.points_m[{i}] has {len(p)} coordinates; planar arms take "
+                                f"[x, y] in metres ({shape_hint})")
+        for v in p:
+            if not _is_number(v):
+                raise QmtInputError(f"{where}.points_m[{i}] must hold numbers, got {_show(v)}")
+    pts = np.asarray(pts_raw, dtype=float)
+    if not np.all(np.isfinite(pts)):
+        raise QmtInputError(f"{where}.points_m must be finite numbers")
+    branch = t.get("ik_branch", "elbow_positive")
     from qmt_drake.model.arm import IK_BRANCHES
     if branch not in IK_BRANCHES:
-        raise QmtInputError(f"{where}: task.ik_branch '{branch}' is not one of {IK_BRANCHES}")
-    tool = t.get("tool_angle_rad")
-    task = Task(points_m=pts, tool_angle_rad=None if tool is None else float(tool),
-                ik_branch=branch)
+        raise QmtInputError(f"{where}.ik_branch {_show(branch)} is not one of {IK_BRANCHES}")
+    tool = None if t.get("tool_angle_rad") is None else _num(t, "tool_angle_rad", where)
+    return Task(points_m=pts, tool_angle_rad=tool, ik_branch=branch)
 
-    lim = raw["limits"]
-    motor = np.asarray(_need(lim, "motor_torque_limit_Nm", f"{where}: limits"), dtype=float)
-    if motor.ndim != 1 or np.any(~np.isfinite(motor)) or np.any(motor <= 0):
-        raise QmtInputError(f"{where}: limits.motor_torque_limit_Nm must be a list of positive "
-                            f"numbers (one per joint), got {motor.tolist()}")
-    limits = Limits(moment_limit_Nm=_positive(lim, "moment_limit_Nm", f"{where}: limits"),
-                    motor_torque_limit_Nm=motor)
 
-    fam = raw["family"]
-    kind = _need(fam, "kind", f"{where}: family")
+def _family(fam: dict, where: str) -> Family:
+    kind = _need(fam, "kind", where)
     if kind not in FAMILY_KINDS:
-        raise QmtInputError(f"{where}: family.kind '{kind}' is not one of {FAMILY_KINDS}")
-    genes = _need(fam, "genes", f"{where}: family")
+        raise QmtInputError(f"{where}.kind {_show(kind)} is not one of {FAMILY_KINDS}")
+    genes = _need(fam, "genes", where)
     if not isinstance(genes, dict) or not genes:
-        raise QmtInputError(f"{where}: family.genes must map gene names to [min, max] bounds")
+        raise QmtInputError(f"{where}.genes must map gene names to [min, max] bounds")
     bounds = []
     for gname, b in genes.items():
-        if not (isinstance(b, (list, tuple)) and len(b) == 2):
-            raise QmtInputError(f"{where}: family.genes.{gname} must be [min, max], got {b!r}")
+        if not (isinstance(b, list) and len(b) == 2 and all(_is_number(v) for v in b)):
+            raise QmtInputError(f"{where}.genes.{gname} must be [min, max] (numbers), got {_show(b)}")
         lo, hi = float(b[0]), float(b[1])
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise QmtInputError(f"{where}.genes.{gname} bounds must be finite, got {b}")
         if not lo < hi:
-            raise QmtInputError(f"{where}: family.genes.{gname} has min {lo} >= max {hi}; "
+            raise QmtInputError(f"{where}.genes.{gname} has min {lo} >= max {hi}; "
                                 "swap them or widen the range")
         if lo <= 0:
-            raise QmtInputError(f"{where}: family.genes.{gname} min {lo} must be positive "
+            raise QmtInputError(f"{where}.genes.{gname} min {lo} must be positive "
                                 "(times and rates)")
         bounds.append((lo, hi))
-    family = Family(kind=kind, gene_names=tuple(genes), gene_bounds=np.array(bounds))
+    return Family(kind=kind, gene_names=tuple(str(g) for g in genes), gene_bounds=np.array(bounds))
 
-    ga = GaSettings(**raw.get("ga", {}))
+
+def _ga(g: dict, where: str) -> GaSettings:
+    d = GaSettings()
+    kw = {}
     for k in ("population", "bits_per_gene", "max_generations"):
-        if int(getattr(ga, k)) < 1:
-            raise QmtInputError(f"{where}: ga.{k} must be a positive integer")
-    if ga.population < 2 or ga.population % 2:
-        raise QmtInputError(f"{where}: ga.population must be an even number >= 2, got "
-                            f"{ga.population}")
+        kw[k] = _int(g, k, where, minimum=1, default=getattr(d, k))
+    for k in ("elite_count", "stall_generations"):
+        kw[k] = _int(g, k, where, minimum=0, default=getattr(d, k))
     for k in ("crossover_rate", "mutation_rate"):
-        if not 0.0 <= getattr(ga, k) <= 1.0:
-            raise QmtInputError(f"{where}: ga.{k} must lie in [0, 1]")
-    if ga.encoding not in ("binary", "gray"):
-        raise QmtInputError(f"{where}: ga.encoding must be 'binary' or 'gray'")
-    if ga.selection not in ("roulette", "tournament"):
-        raise QmtInputError(f"{where}: ga.selection must be 'roulette' or 'tournament'")
-    if ga.fitness_c_per_s <= 0:
-        raise QmtInputError(f"{where}: ga.fitness_c_per_s must be positive")
-    sampling = Sampling(**raw.get("sampling", {}))
-    if sampling.plan_rate_hz <= 0 or sampling.check_rate_hz <= 0:
-        raise QmtInputError(f"{where}: sampling rates must be positive")
+        kw[k] = _num(g, k, where, default=getattr(d, k))
+        if not 0.0 <= kw[k] <= 1.0:
+            raise QmtInputError(f"{where}.{k} must lie in [0, 1], got {kw[k]}")
+    kw["fitness_c_per_s"] = _num(g, "fitness_c_per_s", where, positive=True, default=d.fitness_c_per_s)
+    for k, allowed in (("selection", ("roulette", "tournament")), ("encoding", ("binary", "gray"))):
+        kw[k] = g.get(k, getattr(d, k))
+        if kw[k] not in allowed:
+            raise QmtInputError(f"{where}.{k} must be one of {allowed}, got {_show(kw[k])}")
+    if kw["population"] < 2 or kw["population"] % 2:
+        raise QmtInputError(f"{where}.population must be an even number >= 2, got {kw['population']}")
+    if kw["elite_count"] >= kw["population"]:
+        raise QmtInputError(f"{where}.elite_count {kw['elite_count']} must be below the population "
+                            f"{kw['population']}")
+    return GaSettings(**kw)
 
-    return Scenario(
-        name=str(raw.get("name", path.stem)), description=str(raw.get("description", "")),
-        source_path=path, urdf_path=urdf, hand_frame=str(arm.get("hand_frame", "hand")),
-        payload=payload, task=task, limits=limits, family=family, ga=ga, sampling=sampling,
-        control=dict(raw.get("control", {}) or {}), reported=dict(raw.get("reported", {}) or {}),
-        notes=tuple(raw.get("notes", []) or []))
+
+def _hand(h, where: str) -> MagnetHand | None:
+    if h is None:
+        return None
+    if not isinstance(h, dict):
+        raise QmtInputError(f"{where} must be a mapping with kind: magnet, got {_show(h)}")
+    kind = h.get("kind", "magnet")
+    if kind != "magnet":
+        raise QmtInputError(f"{where}.kind {_show(kind)} is not available; use 'magnet' "
+                            "(tray hands are not implemented yet)")
+    _check_keys(h, _HAND_KEYS, where)
+    from qmt_drake.systems.electromagnet import THESIS_COILS, CoilSpec
+    c = _need(h, "coil", where)
+    if isinstance(c, str):
+        if c not in THESIS_COILS:
+            raise QmtInputError(f"{where}.coil {c!r} is not one of {sorted(THESIS_COILS)}; name one or "
+                                f"give a mapping with {', '.join(sorted(_COIL_KEYS - {'name'}))}")
+        coil, coil_name = THESIS_COILS[c], c
+    elif isinstance(c, dict):
+        cw = f"{where}.coil"
+        _check_keys(c, _COIL_KEYS, cw)
+        coil = CoilSpec(str(c.get("name", "coil")), _int(c, "turns", cw, minimum=1),
+                        _num(c, "resistance_ohm", cw, positive=True),
+                        _num(c, "core_diameter_m", cw, positive=True),
+                        _num(c, "outer_diameter_m", cw, positive=True), _num(c, "length_m", cw, positive=True))
+        coil_name = "explicit"
+    else:
+        raise QmtInputError(f"{where}.coil must name a thesis coil ({', '.join(sorted(THESIS_COILS))}) "
+                            f"or be a mapping, got {_show(c)}")
+    boundary = current = None
+    if h.get("slip_boundary_Nm") is not None:
+        b = _vector(h, "slip_boundary_Nm", where, positive=True, what="[last success, first failure] [N*m]")
+        if b.shape != (2,) or not b[0] < b[1]:
+            raise QmtInputError(f"{where}.slip_boundary_Nm must be [last success, first failure] with "
+                                f"the first below the second, got {b.tolist()}")
+        boundary = (float(b[0]), float(b[1]))
+    if h.get("coil_current_A") is not None:
+        current = _num(h, "coil_current_A", where, positive=True)
+    if (boundary is None) == (current is None):
+        raise QmtInputError(f"{where}: give exactly one of slip_boundary_Nm (calibrate the coil current) "
+                            "or coil_current_A")
+    d = MagnetHand(coil=coil, coil_name=coil_name)
+    kw = {k: _num(h, k, where, positive=True, default=getattr(d, k))
+          for k in ("effective_gap_m", "friction", "contact_radius_m", "sphere_radius_m",
+                    "point_stiffness_N_per_m", "hunt_crossley_dissipation_s_per_m")}
+    kw["n_contact_points"] = _int(h, "n_contact_points", where, minimum=3, default=d.n_contact_points)
+    return MagnetHand(coil=coil, coil_name=coil_name, slip_boundary_Nm=boundary, coil_current_A=current, **kw)
+
+
+def _actuator(a, limits: Limits, where: str):
+    if a is None:
+        return None
+    if not isinstance(a, dict):
+        raise QmtInputError(f"{where} must be a mapping with kind dc_motor_gear or ideal, got {_show(a)}")
+    kind = a.get("kind")
+    if kind == "ideal":
+        _check_keys(a, {"kind"}, where)
+        return IdealTorque()
+    if kind != "dc_motor_gear":
+        raise QmtInputError(f"{where}.kind must be 'dc_motor_gear' or 'ideal', got {_show(kind)}")
+    _check_keys(a, {"kind", "motors", "efficiency"}, where)
+    from qmt_drake.systems.dc_motor import HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, motor_for_rated_torque
+    motors = a.get("motors", "by_rated_torque")
+    if motors == "by_rated_torque":
+        # The smallest catalogue motor whose continuous torque covers each rated motor torque.
+        inv = {id(v): k for k, v in MOTOR_CATALOG.items()}
+        motors = [inv[id(motor_for_rated_torque(t))] for t in limits.motor_torque_limit_Nm]
+    if not isinstance(motors, list) or not all(isinstance(m, str) for m in motors):
+        raise QmtInputError(f"{where}.motors must be a list of catalogue motor names or 'by_rated_torque', "
+                            f"got {_show(motors)}")
+    for m in motors:
+        if m not in MOTOR_CATALOG:
+            raise QmtInputError(f"{where}.motors: {m!r} is not in the catalogue ({', '.join(MOTOR_CATALOG)})")
+    eff = _num(a, "efficiency", where, positive=True, default=HARMONIC_DRIVE_EFFICIENCY)
+    if eff > 1:
+        raise QmtInputError(f"{where}.efficiency must lie in (0, 1], got {eff}")
+    return DcMotorGear(motors=tuple(motors), efficiency=eff)
+
+
+def _check_against_arm(sc: Scenario, where: str) -> None:
+    """Lists that go one per joint must match the arm's joint count (loads the arm once)."""
+    n = sc.arm.n_dof
+    checks = [("limits.motor_torque_limit_Nm", sc.limits.motor_torque_limit_Nm)]
+    checks += [(f"control.{k}", v) for k, v in sc.control.items()]
+    if isinstance(sc.actuator, DcMotorGear):
+        checks.append(("actuator.motors", sc.actuator.motors))
+    for key, v in checks:
+        if len(v) != n:
+            raise QmtInputError(f"{where}: {key} has {len(v)} entries but the arm "
+                                f"({sc.urdf_path.name}) has {n} joints; give one per joint")
+
+
+# ------------------------------------------------------------------------------------ value checks
+def _show(v) -> str:
+    s = repr(v)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def _is_number(v) -> bool:
+    """A real number that is not a bool (YAML `true` is not 1)."""
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
 def _check_keys(d: dict, allowed: set, where: str) -> None:
-    unknown = sorted(set(d) - allowed)
+    unknown = sorted(str(k) for k in set(d) - allowed)
     if unknown:
         raise QmtInputError(f"{where}: unknown key '{unknown[0]}'; allowed keys are "
                             f"{', '.join(sorted(allowed))}")
@@ -297,12 +631,41 @@ def _need(d: dict, key: str, where: str) -> Any:
     return d[key]
 
 
-def _positive(d: dict, key: str, where: str) -> float:
+_MISSING = object()
+
+
+def _num(d: dict, key: str, where: str, *, positive: bool = False, default=_MISSING) -> float:
+    """A finite number (not a bool); positive if asked. Missing keys take `default` if given."""
+    if default is not _MISSING and d.get(key) is None:
+        return default
     v = _need(d, key, where)
-    try:
-        v = float(v)
-    except (TypeError, ValueError):
-        raise QmtInputError(f"{where}.{key} must be a number, got {v!r}") from None
-    if not np.isfinite(v) or v <= 0:
-        raise QmtInputError(f"{where}.{key} must be positive, got {v}")
+    if not _is_number(v):
+        raise QmtInputError(f"{where}.{key} must be a number, got {_show(v)}")
+    v = float(v)
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise QmtInputError(f"{where}.{key} must be {'positive' if positive else 'finite'}, got {v}")
     return v
+
+
+def _int(d: dict, key: str, where: str, *, minimum: int, default=_MISSING) -> int:
+    if default is not _MISSING and d.get(key) is None:
+        return default
+    v = _need(d, key, where)
+    if not (isinstance(v, numbers.Integral) and not isinstance(v, bool)):
+        raise QmtInputError(f"{where}.{key} must be an integer, got {_show(v)}")
+    if v < minimum:
+        raise QmtInputError(f"{where}.{key} must be >= {minimum}, got {v}")
+    return int(v)
+
+
+def _vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: bool = False,
+            what: str = "numbers") -> np.ndarray:
+    v = _need(d, key, where)
+    if not isinstance(v, list) or not v or not all(_is_number(x) for x in v):
+        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {_show(v)}")
+    a = np.asarray(v, dtype=float)
+    bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
+    if np.any(bad):
+        sign = "positive " if positive else "non-negative " if nonnegative else "finite "
+        raise QmtInputError(f"{where}.{key} must be a list of {sign}numbers ({what}), got {a.tolist()}")
+    return a

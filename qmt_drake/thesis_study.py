@@ -119,7 +119,7 @@ def run_chapter(scenario: str, out_dir: Path = Path("out"), *, seeds: int = 10, 
 def _record(sc, plan, path: Path, progress):
     """Co-simulate the plan with a Meshcat recording, if the co-simulation is available."""
     try:
-        from qmt_drake.cosim import run_simulate
+        from qmt_drake.sim import run_simulate
         result = run_simulate(sc, plan, time_scale=1.0, record_path=str(path))
         progress(f"{sc.name}: recording {path} (held={result.get('held')})")
         return {"path": str(path), "held": result.get("held"),

@@ -39,7 +39,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.cosim import (IMPLICIT_TIME_STEP_S, GenesPlan, build_transfer_diagram, make_result,  # noqa: E402
+from qmt_drake.sim import (IMPLICIT_TIME_STEP_S, GenesPlan, build_transfer_diagram, make_result,  # noqa: E402
                              run_diagram)
 from qmt_drake.errors import QmtSimulationError  # noqa: E402
 from qmt_drake.plan import write_text_atomic  # noqa: E402

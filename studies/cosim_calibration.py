@@ -1,6 +1,6 @@
 """Calibration of the co-simulated magnet hold against the thesis's slip experiments.
 
-One calibration rule for both hands (qmt_drake.cosim.calibrated_coil_current_A): each coil's current
+One calibration rule for both hands (qmt_drake.sim.magnet_hand.calibrated_coil_current_A): each coil's current
 makes the quasi-static hold limit (F - m g) * min(rho, mu r_G) equal the geometric mean of the
 thesis's last-success / first-failure moments. Then every row is simulated with its own profile:
 
@@ -31,9 +31,14 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.cosim import (GenesPlan, HAND_COIL, MAGNET_EFFECTIVE_GAP_M, SLIP_BOUNDARIES_NM,  # noqa: E402
-                             hold_lever_m, planned_peak_moment_Nm, simulate_transfer)
+from qmt_drake.sim import (GenesPlan, MAGNET_EFFECTIVE_GAP_M,  # noqa: E402
+                           hold_lever_m, planned_peak_moment_Nm, simulate_transfer)
 from qmt_drake.scenario import load_scenario  # noqa: E402
+
+# The hands' data come from the scenarios' typed `hand` sections (coil, thesis slip boundary).
+_HANDS = {ch: load_scenario(name).hand for ch, name in (("ch2", "thesis-ch2"), ("ch4", "thesis-ch4"))}
+SLIP_BOUNDARIES_NM = {ch: h.slip_boundary_Nm for ch, h in _HANDS.items()}
+HAND_COIL = {ch: h.coil for ch, h in _HANDS.items()}
 from qmt_drake.systems.payload import PayloadSpec  # noqa: E402
 
 TABLE_2_3 = [  # peak moment [N*m], T1 [s], T2 [s], result (seed 000 Table 2.3, v_xmax = 0.07 m/s)
@@ -69,7 +74,7 @@ def threshold_by_bisection(moment_of, held_at, lo, hi, iters):
 def control_report(sc, genes) -> dict:
     """Closed-loop poles of the thesis gains (literal SI vs the adopted reading, at the plan's start
     posture), and the GA plan through motors, gears and PID at time scales 1.0 and 0.8."""
-    from qmt_drake.cosim import motor_params_for, pid_gains_for
+    from qmt_drake.sim import motor_params_for, pid_gains_for
     from qmt_drake.systems.joint_tracking import effective_joint_gains
 
     plan = GenesPlan(sc, genes, method="thesis_ga")
@@ -206,7 +211,7 @@ def main(argv=None):
     v4 = report["chapters"]["ch4"]["coil_voltage_V"]
     report["voltage_ratio_ch2_over_ch4"] = v2 / v4
     # Counterfactual: both coils on one supply voltage (the other hand's calibrated one), quasi-static.
-    from qmt_drake.cosim import GRAVITY_M_S2
+    from qmt_drake.sim import GRAVITY_M_S2
     from qmt_drake.systems.electromagnet import MagnetParams
     cf = {}
     for ch, sc, v_other in (("ch2", sc2, v4), ("ch4", sc4, v2)):

@@ -28,7 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.cosim import FEEDFORWARD_OPTIONS, SLIP_BOUNDARIES_NM, hand_of, simulate_transfer  # noqa: E402
+from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer  # noqa: E402
 from qmt_drake.plan import load_plan, write_text_atomic  # noqa: E402
 from qmt_drake.scenario import load_scenario  # noqa: E402
 
@@ -49,7 +49,7 @@ def executed_moment_row(scenario, plan, time_scale: float, feedforward: str = "n
         return m_rg * np.linalg.norm(scenario.arm.tip_acceleration(q, qd, qdd), axis=-1)[before]
 
     executed, desired = moment(s["arm_state"]), moment(s["desired_state"])
-    tau_star = math.sqrt(math.prod(SLIP_BOUNDARIES_NM[hand_of(scenario)]))
+    tau_star = math.sqrt(math.prod(scenario.hand.slip_boundary_Nm))
     dt = float(np.median(np.diff(t)))
     return dict(time_scale=time_scale, feedforward=feedforward, held=res.held,
                 max_tracking_error_rad=res.max_tracking_error_rad, max_slip_m=res.max_slip_m, detached_at_s=res.detached_at_s,

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-import qmt_drake.cosim
+import qmt_drake.sim
 from qmt_drake.benchmark import closed_form_bound_s, cosim_outcome, run_benchmark
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra
 from qmt_drake.scenario import load_scenario
@@ -24,7 +24,7 @@ def test_quick_benchmark_ch3(tmp_path, monkeypatch):
             raise RuntimeError("boom")
         return {"held": True, "max_slip_m": 1e-4, "sim_wall_s": 0.0}
 
-    monkeypatch.setattr(qmt_drake.cosim, "run_simulate", fake_simulate)
+    monkeypatch.setattr(qmt_drake.sim, "run_simulate", fake_simulate)
     res = run_benchmark(scenarios=("thesis-ch3",), out_dir=tmp_path, quick=True, progress=None)
     for f in ("benchmark.json", "benchmark.md", "benchmark_thesis-ch3_moment.png",
               "benchmark_times.png"):
@@ -67,7 +67,7 @@ def test_quick_benchmark_ch3(tmp_path, monkeypatch):
 def test_cosim_missing_is_a_note(monkeypatch):
     sc = load_scenario("thesis-ch3")
     plan = plan_toppra(sc, path="joint_line", measure_polygon_cost=False)
-    monkeypatch.setitem(sys.modules, "qmt_drake.cosim", None)  # import fails
+    monkeypatch.setitem(sys.modules, "qmt_drake.sim", None)  # import fails
     out = cosim_outcome(sc, plan)
     assert out["held"] is None and "unavailable" in out["cosim_note"]
 

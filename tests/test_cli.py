@@ -134,7 +134,7 @@ def test_simulate_rejects_a_bad_time_step(capsys):
 def test_simulate_feedforward_option(capsys):
     """--feedforward full removes the back-EMF lag: tracking error falls from ~11 to < 0.1 mrad."""
     from qmt_drake.cli import FEEDFORWARD_CHOICES
-    from qmt_drake.cosim import FEEDFORWARD_OPTIONS
+    from qmt_drake.sim import FEEDFORWARD_OPTIONS
     assert set(FEEDFORWARD_CHOICES) == set(FEEDFORWARD_OPTIONS)
     errors = {}
     for ff in ("none", "full"):

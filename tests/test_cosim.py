@@ -1,19 +1,23 @@
 """Co-simulation of the chapter-4 transfer: the GA plan is carried at scale 1.0 and lost at 0.8; a
-hand-composed diagram reproduces build_transfer_diagram; errors are one clear line."""
+hand-composed diagram (user code: transfer_plant_config + the published systems, a fresh default
+context) reproduces build_transfer_diagram; a payload that is not seated at t = 0 is an error, not a
+detachment; errors are one clear line."""
 
 import math
 
 import numpy as np
 import pytest
+from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
-from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.plant import AddMultibodyPlant
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, TrajectorySource
 
-from qmt_drake.cosim import (GenesPlan, HAND_COIL, MAGNET_EFFECTIVE_GAP_M, build_transfer_diagram,
-                             calibrated_coil_current_A, motor_params_for, pid_gains_for, reference_trajectories,
-                             run_simulate, set_initial_state, simulate_transfer)
+from qmt_drake.sim import (GenesPlan, build_transfer_diagram, calibrated_coil_current_A, motor_params_for,
+                           pid_gains_for, reference_trajectories, run_simulate,
+                           simulate_transfer, transfer_plant_config)
+from qmt_drake.sim.plant import seated_pose_in_hand
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.scenario import load_scenario
 from qmt_drake.systems.dc_motor import DcMotorWithGear
@@ -72,19 +76,21 @@ def carried_explicit_1ms(sc4, plan4):
     return simulate_transfer(sc4, plan4, time_step_s=1e-3, implicit_loop_damping=False, keep_series=False)
 
 
-def test_hand_composed_diagram_gives_the_same_result(sc4, plan4, carried_explicit_1ms):
-    """Compose the published systems in a fresh DiagramBuilder, as user code would (the motors
-    driving the plant directly at 1 ms, the explicit scheme)."""
-    carried = carried_explicit_1ms
+def _compose_by_hand(sc4, plan4, config):
+    """The published systems in a fresh DiagramBuilder, as user code would (the motors driving the
+    plant directly, the explicit scheme): the plant from `config`, its default state set before
+    building, run with a Simulator on a fresh default context. Returns the monitor's summary."""
     builder = DiagramBuilder()
-    plant, scene_graph = AddMultibodyPlant(
-        MultibodyPlantConfig(time_step=1e-3, discrete_contact_approximation="lagged", contact_model="point",
-                             use_sampled_output_ports=False), builder)
+    plant, scene_graph = AddMultibodyPlant(config, builder)
     arm = Parser(plant).AddModels(str(sc4.urdf_path))[0]
-    hand = plant.GetBodyByName("hand", arm)
-    spec = PayloadSpec.steel_cylinder(sc4.payload.mass_kg, sc4.payload.com_offset_m)
+    hand = plant.GetBodyByName(sc4.hand_frame, arm)
+    spec = PayloadSpec.for_scenario(sc4)
     payload = add_payload(plant, spec, hand)
     plant.Finalize()
+    q0 = plan4.sample(np.array([0.0]))[0][0]
+    plant.SetDefaultPositions(arm, q0)
+    X_WH = plant.EvalBodyPoseInWorld(plant.CreateDefaultContext(), hand)
+    plant.SetDefaultFloatingBaseBodyPose(payload, X_WH.multiply(seated_pose_in_hand()))
     motor_params = motor_params_for(sc4)
     pp_q, _, t_end = reference_trajectories(plan4, 1.0, lead_s=0.2)
     ref = builder.AddSystem(TrajectorySource(pp_q, output_derivative_order=1))
@@ -93,7 +99,7 @@ def test_hand_composed_diagram_gives_the_same_result(sc4, plan4, carried_explici
     motors = builder.AddSystem(DcMotorWithGear(motor_params))
     split = builder.AddSystem(Demultiplexer([2, 2]))
     magnet = builder.AddSystem(ElectromagnetForce(
-        MagnetParams(HAND_COIL["ch4"], MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m), hand.index(), payload.index()))
+        MagnetParams(sc4.hand.coil, sc4.hand.effective_gap_m, spec.face_radius_m), hand.index(), payload.index()))
     coil = builder.AddSystem(ConstantVectorSource([calibrated_coil_current_A(sc4, spec)]))
     monitor = builder.AddSystem(TransferMonitor(2, hand.index(), payload.index()))
     x = plant.get_state_output_port(arm)
@@ -112,18 +118,67 @@ def test_hand_composed_diagram_gives_the_same_result(sc4, plan4, carried_explici
     builder.Connect(motors.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
     builder.Connect(motors.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
     diagram = builder.Build()
-    sim = Simulator(diagram)
+    sim = Simulator(diagram)  # fresh default context: no state set by hand
     ctx = sim.get_mutable_context()
-    q0 = plan4.sample(np.array([0.0]))[0][0]
-    set_initial_state(plant, plant.GetMyMutableContextFromRoot(ctx), arm, hand, payload, q0)
     sim.AdvanceTo(t_end + 0.5)
-    mine = TransferMonitor.unpack(monitor.GetOutputPort("summary").Eval(monitor.GetMyContextFromRoot(ctx)))
+    return TransferMonitor.unpack(monitor.GetOutputPort("summary").Eval(monitor.GetMyContextFromRoot(ctx)))
+
+
+def test_hand_composed_diagram_gives_the_same_result(sc4, plan4, carried_explicit_1ms):
+    """User code with transfer_plant_config gets the runner's numbers (explicit scheme, 1 ms)."""
+    carried = carried_explicit_1ms
+    mine = _compose_by_hand(sc4, plan4, transfer_plant_config(1e-3))
     assert math.isnan(mine["detached_at_s"]) == (carried.detached_at_s is None)
     assert mine["max_slip_m"] == pytest.approx(carried.max_slip_m, rel=1e-6, abs=1e-12)
     assert mine["max_tilt_rad"] == pytest.approx(carried.max_tilt_rad, rel=1e-6, abs=1e-12)
     assert mine["max_tracking_error_rad"] == pytest.approx(carried.max_tracking_error_rad, rel=1e-6)
     np.testing.assert_allclose(mine["peak_motor_torque_Nm"], carried.peak_motor_torque_Nm, rtol=1e-6)
     assert mine["energy_J"] == pytest.approx(carried.energy_J, rel=1e-6)
+
+
+def test_why_the_plant_config_matters(sc4, plan4, carried_explicit_1ms):
+    """The pitfall transfer_plant_config removes: Drake's default sampled output ports make the
+    same hand-composed diagram report other numbers, with no error (measured: tracking error
+    8.4 vs 10.7 mrad, joint-1 motor peak 0.155 N m (the current limit) vs 0.0054 N m, energy -1.5 J
+    vs +0.086 J: the discrete updates pair the next plant state with this step's inputs)."""
+    config = transfer_plant_config(1e-3)
+    config.use_sampled_output_ports = True
+    sampled = _compose_by_hand(sc4, plan4, config)
+    live = carried_explicit_1ms
+    assert abs(sampled["max_tracking_error_rad"] / live.max_tracking_error_rad - 1) > 0.1
+    assert np.all(np.abs(sampled["peak_motor_torque_Nm"] / live.peak_motor_torque_Nm - 1) > 0.1)
+
+
+def test_default_context_of_the_built_diagram_reproduces_the_runner(sc4, plan4, carried):
+    """Simulator(td.diagram) on a fresh default context, advanced in one call, gives the runner's
+    summary (the runner advances in chunks and checks the state between them)."""
+    td = build_transfer_diagram(sc4, plan4, log_period_s=0)
+    sim = Simulator(td.diagram)
+    sim.AdvanceTo(td.t_final_s)
+    mine = TransferMonitor.unpack(td.diagram.GetOutputPort("summary").Eval(sim.get_context()))
+    assert math.isnan(mine["detached_at_s"]) and carried.detached_at_s is None
+    assert mine["max_slip_m"] == pytest.approx(carried.max_slip_m, rel=1e-9)
+    assert mine["max_tracking_error_rad"] == pytest.approx(carried.max_tracking_error_rad, rel=1e-9)
+    np.testing.assert_allclose(mine["peak_motor_torque_Nm"], carried.peak_motor_torque_Nm, rtol=1e-9)
+    # The default context holds the plan's start with the payload seated.
+    ctx = td.diagram.CreateDefaultContext()
+    pc = td.plant.GetMyContextFromRoot(ctx)
+    np.testing.assert_allclose(td.plant.GetPositions(pc, td.arm_instance), td.q_start, atol=1e-15)
+    X_HP = td.plant.EvalBodyPoseInWorld(pc, td.hand_body).InvertAndCompose(
+        td.plant.EvalBodyPoseInWorld(pc, td.payload_body))
+    assert X_HP.IsNearlyEqualTo(seated_pose_in_hand(), 1e-12)
+
+
+def test_unseated_start_is_an_error_not_a_detachment(sc4, plan4):
+    td = build_transfer_diagram(sc4, plan4, log_period_s=0)
+    sim = Simulator(td.diagram)
+    pc = td.plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
+    td.plant.SetFreeBodyPose(pc, td.payload_body, RigidTransform([0.0, 0.0, -0.3]))  # a user's slip
+    with pytest.raises(QmtSimulationError, match="payload not seated on the hand at t = 0 s") as exc:
+        sim.Initialize()
+    assert "\n" not in str(exc.value)
+    td.set_initial_state(sim.get_mutable_context())  # the documented fix
+    sim.Initialize()
 
 
 def test_diagram_exports_the_user_ports(sc4, plan4):
@@ -213,7 +268,7 @@ def test_explicit_loop_at_2ms_is_unstable_and_says_so(sc4, plan4):
     """Why the implicit scheme exists: the motors driving the plant explicitly at 2 ms chatter
     between their current limits (poles to -900 rad/s); the part is shaken off."""
     r = simulate_transfer(sc4, plan4, time_step_s=2e-3, implicit_loop_damping=False, keep_series=False)
-    assert not r.held
+    assert not r.held and r.explicit_step_known_unstable  # the library runs it, and says so
     # Both motors hit their current limit (carried, the same move stays below the rated torques).
     mp = motor_params_for(sc4)
     np.testing.assert_allclose(r.peak_motor_torque_Nm, mp.torque_constant_Nm_per_A * mp.current_limit_A, rtol=1e-9)
@@ -222,3 +277,56 @@ def test_explicit_loop_at_2ms_is_unstable_and_says_so(sc4, plan4):
 def test_inductance_with_implicit_damping_is_refused(sc4, plan4):
     with pytest.raises(QmtInputError, match="implicit_loop_damping"):
         build_transfer_diagram(sc4, plan4, motor_inductance=True, implicit_loop_damping=True)
+
+
+def test_cli_entry_refuses_explicit_steps_above_1ms(sc4, plan4):
+    with pytest.raises(QmtInputError, match="above 1 ms") as exc:
+        run_simulate(sc4, plan4, time_step_s=2e-3, implicit_loop_damping=False)
+    assert "\n" not in str(exc.value)
+
+
+def test_scenario_without_hand_or_motor_sections_is_refused_in_one_line(tmp_path, plan4):
+    import yaml
+
+    from qmt_drake.scenario import SCENARIO_DIR
+    raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
+    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
+    for section, needle in (("hand", "has no 'hand' section"), ("actuator", "actuator.kind dc_motor_gear")):
+        r = dict(raw)
+        del r[section]
+        p = tmp_path / f"no_{section}.yaml"
+        p.write_text(yaml.safe_dump(r))
+        with pytest.raises(QmtInputError, match=needle):
+            build_transfer_diagram(load_scenario(p), plan4)
+
+
+def test_ideal_torque_actuator(tmp_path, sc4, plan4):
+    """actuator.kind ideal: a joint-side PD torque source (gains for a 60 rad/s critically damped
+    loop on the arm's mass-matrix diagonal at q = 0) with Drake inverse-dynamics feedforward.
+    It follows the plan to < 1 mrad, holds the part, and its motor-side torque peaks lie within 10%
+    of the plan's inverse dynamics / N (the feedforward is the arm alone: the PD adds the part's
+    share). The default-context rule holds for it too; motor-only options are refused."""
+    import yaml
+
+    from qmt_drake.scenario import SCENARIO_DIR
+    raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
+    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
+    plant = sc4.arm.plant
+    J = np.diag(plant.CalcMassMatrix(plant.CreateDefaultContext()))
+    w = 60.0
+    raw["actuator"] = {"kind": "ideal"}
+    raw["control"] = {"kp": (J * w**2).tolist(), "kd": (2 * J * w).tolist()}
+    p = tmp_path / "ideal.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    sc = load_scenario(p)
+    plan = GenesPlan(sc, GA_GENES_CH4)
+    r = simulate_transfer(sc, plan, inverse_dynamics_feedforward=True, keep_series=False)
+    assert r.held and r.max_tracking_error_rad < 1e-3
+    ratio = r.peak_motor_torque_Nm / r.peak_motor_torque_planned_Nm
+    assert np.all(np.abs(ratio - 1) < 0.10), ratio
+    td = build_transfer_diagram(sc, plan, inverse_dynamics_feedforward=True, log_period_s=0)
+    assert td.motors is None and "voltage_command" not in {
+        td.diagram.get_output_port(i).get_name() for i in range(td.diagram.num_output_ports())}
+    for bad in ({"back_emf_feedforward": True}, {"implicit_loop_damping": False}):
+        with pytest.raises(QmtInputError, match="actuator.kind ideal"):
+            build_transfer_diagram(sc, plan, **bad)

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from qmt_drake.cosim import GenesPlan, planned_peak_moment_Nm, simulate_transfer
+from qmt_drake.sim import GenesPlan, planned_peak_moment_Nm, simulate_transfer
 from qmt_drake.scenario import load_scenario
 
 

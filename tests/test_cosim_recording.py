@@ -3,7 +3,7 @@
 import base64
 import re
 
-from qmt_drake.cosim import GenesPlan, simulate_transfer
+from qmt_drake.sim import GenesPlan, simulate_transfer
 from qmt_drake.recording import make_headless_meshcat
 from qmt_drake.scenario import load_scenario
 

@@ -15,7 +15,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
-from qmt_drake.cosim import GRAVITY_M_S2, hold_lever_m
+from qmt_drake.sim import GRAVITY_M_S2, hold_lever_m
 from qmt_drake.systems.electromagnet import THESIS_COILS, ElectromagnetForce, MagnetParams
 from qmt_drake.systems.payload import STEEL_DENSITY_KG_M3, PayloadSpec, add_payload
 from qmt_drake.systems.transfer_monitor import relative_payload_motion

@@ -21,8 +21,10 @@ def test_relative_motion_geometry():
     assert gap == pytest.approx(0.001, rel=1e-12)
 
 
-def _run(gap_m, slip_m, t_end, power):
-    mon = TransferMonitor(2, BodyIndex(1), BodyIndex(2), period_s=1e-3)
+def _run(gap_m, slip_m, t_end, power, check_seated_at_start=False):
+    # Fixed poses that are off the seat from t = 0: the start check is off unless asked for.
+    mon = TransferMonitor(2, BodyIndex(1), BodyIndex(2), period_s=1e-3,
+                          check_seated_at_start=check_seated_at_start)
     sim = Simulator(mon)
     ctx = sim.get_mutable_context()
     X_WH = RigidTransform([0.3, 0.0, 0.0])
@@ -50,3 +52,12 @@ def test_detachment_time_is_the_first_sample_past_the_gap():
     s = _run(0.003, 0.0, 0.2, [0.0, 0.0])
     assert s["detached_at_s"] == 0.0
     assert s["max_gap_m"] == pytest.approx(0.003)
+
+
+def test_unseated_start_raises_instead_of_detaching_at_0():
+    from qmt_drake.errors import QmtSimulationError
+    with pytest.raises(QmtSimulationError, match=r"payload not seated on the hand at t = 0 s \(slip 0 mm, gap 3 mm"):
+        _run(0.003, 0.0, 0.2, [0.0, 0.0], check_seated_at_start=True)
+    # Within the tolerance (0.1 mm) the start is accepted and the run is the same as without the check.
+    s = _run(0.0, 0.00005, 0.1, [1.0, 2.0], check_seated_at_start=True)
+    assert math.isnan(s["detached_at_s"]) and s["max_slip_m"] == pytest.approx(0.00005)

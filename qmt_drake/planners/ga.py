@@ -162,7 +162,7 @@ def run_ga(problem, settings: GaSettings | None = None, *, seed: int = 0,
     t_start = time.perf_counter()
     wall_before = 0.0
     ckpt = Path(checkpoint_path) if checkpoint_path else None
-    run_id = _run_fingerprint(problem, s, seed)
+    run_id = _run_fingerprint(problem.fingerprint(), s, seed)
     state = _load_checkpoint(ckpt, run_id) if ckpt and ckpt.is_file() else None
     if state:
         pop, start_gen, history = state["pop"], state["generation"], state["history"]
@@ -261,11 +261,19 @@ def _best_confirmed(problem, ga, cache, tries: int = 50):
     return None
 
 
-def _run_fingerprint(problem, settings, seed) -> str:
+def _run_fingerprint(problem_fingerprint: str, settings, seed) -> str:
     """The problem's data, the GA settings and the seed: what a checkpoint must match to resume."""
-    blob = json.dumps({"problem": problem.fingerprint(), "settings": asdict(settings), "seed": int(seed)},
+    blob = json.dumps({"problem": problem_fingerprint, "settings": asdict(settings), "seed": int(seed)},
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def check_checkpoint(path, problem_fingerprint: str, settings: GaSettings, seed: int) -> None:
+    """Raise QmtInputError (one line) unless `path` does not exist or holds a checkpoint of this
+    very run (same problem data, GA settings and seed): the CLI calls it before any work."""
+    p = Path(path)
+    if p.exists():
+        _load_checkpoint(p, _run_fingerprint(problem_fingerprint, settings, seed))
 
 
 def _save_checkpoint(path: Path, run_id, pop, gen, rng, history, cache, best_key, best_cost, best_gen,

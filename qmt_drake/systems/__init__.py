@@ -7,5 +7,5 @@ ports and documents them with their units.
     transfer_monitor.TransferMonitor  slip, tilt, detachment, tracking error, motor peaks, energy
     payload.add_payload               the carried part as a free body in friction contact (not a system)
 
-qmt_drake.cosim wires them into one diagram; the tests compose them by hand as user code would.
+qmt_drake.sim wires them into one diagram; the tests compose them by hand as user code would.
 """

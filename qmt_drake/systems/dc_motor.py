@@ -25,11 +25,17 @@ the joint actuator's reflected inertia (drake:rotor_inertia, drake:gear_ratio in
 delivered and the joint speed, it returns the terminal voltage, current, motor torque and
 electrical power that go with it (quasi-static armature). `AppliedMotorSignals` is that inverse as a
 LeafSystem; the co-simulation uses it when the loop's velocity feedback is stepped implicitly
-(cosim.py, `implicit_loop_damping`), where the torque applied over a step is known only after it.
+(sim/actuation.py, `implicit_loop_damping`), where the torque applied over a step is known only after it.
 
 Current-command mode (`command="current"`, an ideal current amplifier): the input is the current;
 it is clipped to +-I_max and to what the supply can push against the back EMF,
 (+-V_max - Ke w_m) / R, and the terminal voltage is v = R i + Ke w_m.
+
+Needs: joint_velocity from the arm's state (a Demultiplexer of the plant's state port) and
+joint_torque into the plant's actuation input. Driving a discrete plant directly (explicitly) with
+the thesis's stiff gains is stable only at steps <= 1 ms; at larger steps wire it through
+`sim.actuation.add_implicit_damping_actuation` (and `sim.plant.move_loop_damping_into_plant`
+before Finalize).
 
 Ports
     inputs

@@ -11,13 +11,18 @@ Model (lumped magnetic circuit of an iron-cored coil facing an iron part; Maxwel
              measured along the hand's face normal (>= 0; penetration counts as 0)
     g0       equivalent gap [m] lumping the reluctance of the core, the open return path through
              air and the surface roughness, referred to the core area (an assumption, the same for
-             both hands; see cosim.MAGNET_EFFECTIVE_GAP_M)
+             both hands; the scenario's hand.effective_gap_m)
     overlap  fraction of the core's end face still covered by the payload's face (a disc of radius
              b >= core radius a) whose centre has slid a distance d along the face: 1 while
              d <= b - a, then the circle-circle intersection area over pi a^2
 
 The pull acts at the payload's attraction-face centre along the hand's face normal (towards the
 hand); the equal and opposite force acts on the hand body at the same point.
+
+Needs: body_poses from the same MultibodyPlant that holds the hand and payload bodies whose
+indices it was built with, and its spatial_forces connected to that plant's
+applied_spatial_force input (`sim.magnet_hand.add_magnet_hand` does both). The plant's default
+state should have the payload seated (`sim.plant.finalize_transfer_plant`).
 
 Ports
     inputs

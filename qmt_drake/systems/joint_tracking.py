@@ -9,6 +9,10 @@ Control law (per joint i, evaluated at the control period T_c with the latest me
     z[k+1] = z[k] + T_c e_m   unless the output is saturated and e_m pushes further into
                               saturation (conditional integration / clamping anti-windup)
 
+Needs: estimated_state from a plant whose output ports are live (`use_sampled_output_ports=False`,
+as `sim.plant.transfer_plant_config` sets): the integral is a discrete update that reads the plant
+during its step; with sampled ports it would pair the next state with this step's reference.
+
 Ports
     inputs
         desired_state        (2n,) [rad, rad/s]   joint-side q_des, qd_des (e.g. TrajectorySource)

@@ -11,7 +11,12 @@ Not a LeafSystem: `add_payload` adds to a MultibodyPlant (before Finalize)
     can slide along the face and tip about the ring's edge. Point contact with per-geometry stiffness
     and Hunt-Crossley dissipation (NOTES.md: discrete plant, kLagged, spheres at the face corners).
 
-Payload shapes (seed 000): chapter 2 carries a steel M8 bolt, 40 mm long, 22 g, head on the face
+Needs: a plant with point contact and the lagged discrete approximation
+(`sim.plant.transfer_plant_config`; the contact stiffness below was chosen for it), and the payload
+seated at the start (`sim.plant.finalize_transfer_plant` makes that the plant's default state).
+
+Payload shapes come from the scenario (payload.body; hand for the contact data), never from
+its mass. Those of the built-in scenarios (seed 000): chapter 2 carries a steel M8 bolt, 40 mm long, 22 g, head on the face
 (Fig. 2.5); chapters 3-4 a 30 g steel part (Fig. 3.4, no dimensions printed), modelled as a steel
 cylinder whose length is 2 r_G (r_G = 28 mm, Table 4.1) and whose radius follows from its mass.
 The mass and r_G always come from the scenario; the shape only sets the rotational inertia and
@@ -70,11 +75,21 @@ class PayloadSpec:
 
     @classmethod
     def for_scenario(cls, scenario, **kw) -> "PayloadSpec":
-        m = float(scenario.payload.mass_kg)
-        r_g = float(scenario.payload.com_offset_m)
-        if abs(m - 0.022) < 1e-6:
-            return cls.m8_bolt(m, r_g, **kw)
-        return cls.steel_cylinder(m, r_g, **kw)
+        """From the scenario's typed data: mass, r_G and body (payload section), friction and the
+        contact ring (hand section, if any; else this class's defaults). kw overrides any field."""
+        p = scenario.payload
+        body = p.body
+        if body is None:
+            raise ValueError(f"scenario '{scenario.name}' payload has no body; load it with load_scenario")
+        contact = {}
+        hand = getattr(scenario, "hand", None)
+        if hand is not None:
+            contact = {k: getattr(hand, k) for k in (
+                "contact_radius_m", "n_contact_points", "sphere_radius_m", "friction",
+                "point_stiffness_N_per_m", "hunt_crossley_dissipation_s_per_m")}
+        contact.update(kw)
+        return cls(body.name, float(p.mass_kg), float(p.com_offset_m), length_m=body.length_m,
+                   radius_m=body.radius_m, face_radius_m=body.face_radius_m, **contact)
 
     def spatial_inertia_about_origin(self) -> SpatialInertia:
         """Solid cylinder of the spec's length and radius, centred on the COM at (0,0,-r_G) in P."""

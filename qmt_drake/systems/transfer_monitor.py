@@ -2,6 +2,13 @@
 
 Sampled every `period_s` (a periodic discrete update; the running extrema live in the state).
 
+Needs: a plant built with `sim.plant.transfer_plant_config` (live output ports: with sampled ones
+the monitor pairs the next plant state with this step's reference) and a context that starts with
+the payload seated. At initialization it checks that: a payload that is not seated at t = 0
+(slip or gap above `seated_tolerance_m`, tilt above `seated_tolerance_rad`) raises
+QmtSimulationError naming the numbers, instead of reporting "detached at 0 s" as a result
+(`check_seated_at_start=False` turns the check off, e.g. for a drop test).
+
     slip      in-plane (hand x-y) distance of the payload's face centre from its seated position [m]
     tilt      angle between the payload's face normal and the hand's face normal [rad]
     gap       distance of the payload's face centre below the hand's face plane [m]
@@ -35,6 +42,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import LeafSystem
 
+from qmt_drake.errors import QmtSimulationError
+
 SUMMARY_FIELDS = ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_error_rad", "energy_J",
                   "max_gap_m")
 
@@ -58,7 +67,8 @@ class TransferMonitor(LeafSystem):
 
     def __init__(self, n_joints: int, hand_body_index, payload_body_index, *, period_s: float = 1e-3,
                  seated_pose_in_hand: RigidTransform | None = None, detach_gap_m: float = 2e-3,
-                 detach_slip_m: float = 5e-3):
+                 detach_slip_m: float = 5e-3, check_seated_at_start: bool = True,
+                 seated_tolerance_m: float = 1e-4, seated_tolerance_rad: float = 1e-2):
         super().__init__()
         n = n_joints
         self._n = n
@@ -79,6 +89,9 @@ class TransferMonitor(LeafSystem):
         init[2] = np.nan
         self._s = self.DeclareDiscreteState(init)
         self.DeclarePeriodicDiscreteUpdateEvent(self._T, 0.0, self._update)
+        self._seat_tol = (float(seated_tolerance_m), float(seated_tolerance_rad))
+        if check_seated_at_start:
+            self.DeclareInitializationDiscreteUpdateEvent(self._check_seated)
         self.DeclareVectorOutputPort("slip", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[0]))
         self.DeclareVectorOutputPort("tilt", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[1]))
         self.DeclareVectorOutputPort("gap", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[2]))
@@ -89,6 +102,16 @@ class TransferMonitor(LeafSystem):
         # InvertAndCompose and GetAsMatrix34 run in C++: one conversion instead of a dozen small ones.
         return _motion_in_hand(poses[self._hand].InvertAndCompose(poses[self._payload]).GetAsMatrix34(),
                                self._p_HP0, self._z_HP0)
+
+    def _check_seated(self, context, discrete_state):
+        slip, tilt, gap = self._motion(context)
+        tol_m, tol_rad = self._seat_tol
+        if slip > tol_m or gap > tol_m or tilt > tol_rad:
+            raise QmtSimulationError(
+                f"payload not seated on the hand at t = {context.get_time():g} s (slip {slip * 1e3:.3g} mm, "
+                f"gap {gap * 1e3 + 0.0:.3g} mm, tilt {tilt:.3g} rad); start from the diagram's default context or "
+                "call TransferDiagram.set_initial_state")
+        discrete_state.set_value(self._s, context.get_discrete_state(self._s).get_value())
 
     def _update(self, context, discrete_state):
         # Plain floats: this runs every plant step (see DcMotorWithGear._signals).

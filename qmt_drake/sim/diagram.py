@@ -1,0 +1,220 @@
+"""The closed-loop transfer Diagram: plan -> PID -> DC motors with gears -> arm -> magnet -> payload.
+
+    TrajectorySource(plan, time-scaled) --desired_state--> JointPidController --voltage--> DcMotorWithGear
+        --joint_torque (+ D qd, implicit loop damping)--> MultibodyPlant(arm + free payload, discrete,
+        kLagged contact; settings: plant.transfer_plant_config)
+    plant.body_poses --> ElectromagnetForce --spatial_forces--> plant (pull on the payload, reaction on hand)
+    everything --> TransferMonitor (slip, tilt, detachment, tracking error, motor peaks, energy)
+
+`build_transfer_diagram` returns a `TransferDiagram` (the Diagram plus handles) whose DEFAULT context
+is ready to simulate: the plant's default state is the plan's start with the payload seated, so
+`Simulator(td.diagram)` run to td.t_final_s gives the runner's numbers (tests/test_cosim.py).
+Everything about the hand, the motors and the payload comes from the scenario's typed sections.
+With actuator.kind 'ideal' the PID and the motors are replaced by a joint-side PD torque source
+(`add_ideal_torque_actuation`; control.kp/kd in N*m/rad, N*m*s/rad), its damping stepped implicitly.
+
+Held payloads show a drift of the first-order discrete step as slip; it grows in proportion to the
+plant step and does not depend on friction or contact stiffness (ch.4 GA move: 0.35 mm at 1 ms,
+0.67 mm at 2 ms; studies/contact_drift.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_damping_actuation,
+                                     add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
+                                     ideal_joint_gains, motor_params_for, pid_gains_for)
+from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
+from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, move_loop_damping_into_plant,
+                                 set_initial_state)
+from qmt_drake.sim.reference import plan_start, reference_trajectories
+from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
+from qmt_drake.systems.electromagnet import ElectromagnetForce
+from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains
+from qmt_drake.systems.payload import PayloadSpec
+from qmt_drake.systems.transfer_monitor import TransferMonitor
+
+
+@dataclass
+class TransferDiagram:
+    """The built Diagram and what a user needs to run and read it."""
+
+    diagram: object
+    plant: object
+    scene_graph: object
+    arm_instance: object
+    payload_body: object
+    hand_body: object
+    motors: DcMotorWithGear | None  # None with actuator.kind 'ideal'
+    controller: JointPidController | None
+    magnet: ElectromagnetForce
+    monitor: TransferMonitor
+    loggers: dict
+    q_start: np.ndarray
+    t_motion_end_s: float
+    t_final_s: float
+    coil_current_A: float
+    payload_spec: PayloadSpec
+    motor_params: DcMotorParams | None
+    time_step_s: float
+    implicit_loop_damping: bool
+    visualizer: object = None
+    simulator: object = None  # set by run_diagram (its context holds the loggers' data)
+
+    def set_initial_state(self, root_context) -> None:
+        """Arm at the plan's start, payload seated on the face, everything at rest (what the
+        default context already holds; use it to reset a context that was changed)."""
+        set_initial_state(self.plant, self.plant.GetMyMutableContextFromRoot(root_context), self.arm_instance,
+                          self.hand_body, self.payload_body, self.q_start)
+
+
+def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, time_scale: float = 1.0,
+                           lead_s: float = 0.2, settle_s: float = 0.5, coil_current_A: float | None = None,
+                           payload_spec: PayloadSpec | None = None, inverse_dynamics_feedforward: bool = False,
+                           back_emf_feedforward: bool = False, log_period_s: float = 5e-3,
+                           monitor_period_s: float | None = None,
+                           motor_inductance: bool = False, implicit_loop_damping: bool | None = None,
+                           meshcat: Meshcat | None = None) -> TransferDiagram:
+    """One Diagram for the whole closed loop (see the module docstring); its default context starts
+    at the plan's start with the payload seated.
+
+    Exported output ports (units as in the systems' docstrings): desired_state (2n) [rad, rad/s],
+    arm_state (2n), voltage_command (n) [V], joint_torque (n) [N*m], motor_torque (n) [N*m],
+    current (n) [A], electrical_power (n) [W], attraction_force (1) [N], slip (1) [m], tilt (1) [rad],
+    gap (1) [m], summary (TransferMonitor.SUMMARY_FIELDS + peak motor torques), body_poses,
+    contact_results. Raises QmtInputError (one line) when the plan's joint count differs from the
+    arm's. coil_current_A=None uses the scenario's hand (hand.coil_current_A or the calibration
+    rule); lead_s of rest precedes the motion and settle_s follows it. motor_inductance=True gives
+    the armature current a continuous state (L di/dt = v - R i - Ke w; L/R ~ 0.1-0.2 ms, so the
+    integrator takes small steps: slow).
+
+    implicit_loop_damping (default: on, except with motor_inductance) steps the loop's velocity
+    feedback implicitly (`add_implicit_damping_actuation`), which keeps the loop stable at the 2 ms
+    default step; off, the motors drive the plant directly (explicit) and time_step_s must be
+    <= 1 ms (the 1 ms default; larger steps are refused). time_step_s=None picks the scheme's
+    default (`default_time_step_s`)."""
+    from qmt_drake.scenario import IdealTorque
+    ideal = isinstance(getattr(scenario, "actuator", None), IdealTorque)
+    if ideal:
+        if motor_inductance or back_emf_feedforward or implicit_loop_damping is False:
+            raise QmtInputError(f"scenario '{scenario.name}' has actuator.kind ideal (no motors): drop the motor "
+                                "options (inductance, back-EMF feedforward, explicit motor loop)")
+        implicit_loop_damping = True
+    if implicit_loop_damping is None:
+        implicit_loop_damping = not motor_inductance
+    if implicit_loop_damping and motor_inductance:
+        raise QmtInputError("implicit_loop_damping needs the quasi-static armature; with motor_inductance=True "
+                            "pass implicit_loop_damping=False and time_step_s <= 1e-3")
+    if time_step_s is None:
+        time_step_s = default_time_step_s(implicit_loop_damping)
+    check_time_step(time_step_s, implicit_loop_damping)
+    builder = DiagramBuilder()
+    tp = add_transfer_plant(builder, scenario, time_step_s, payload_spec=payload_spec,
+                            n_dof_expected=int(plan.n_dof))
+    plant, arm, hand, payload, spec, n = (tp.plant, tp.arm_instance, tp.hand_body, tp.payload_body,
+                                          tp.payload_spec, tp.n_dof)
+    if ideal:
+        kp, loop_damping = ideal_joint_gains(scenario)
+        gains = mp = None
+    else:
+        gains = pid_gains_for(scenario)
+        mp = motor_params_for(scenario, with_inductance=motor_inductance)
+        loop_damping = effective_joint_gains(gains, mp)[1] if implicit_loop_damping else None
+    if loop_damping is not None:
+        move_loop_damping_into_plant(plant, arm, loop_damping)
+    q0 = plan_start(plan)
+    finalize_transfer_plant(tp, q0)
+
+    current = coil_current_for(scenario, spec) if coil_current_A is None else float(coil_current_A)
+    pp_q, pp_qdd, t_end = reference_trajectories(plan, time_scale, lead_s)
+
+    ref = builder.AddNamedSystem("reference", TrajectorySource(pp_q, output_derivative_order=1))
+    arm_state = plant.get_state_output_port(arm)
+    ctrl = motors = None
+    if ideal:
+        split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+        builder.Connect(arm_state, split.get_input_port())
+        delivered, feedforward_input = add_ideal_torque_actuation(
+            builder, plant, arm, ref.get_output_port(), arm_state, split.get_output_port(1), kp, loop_damping,
+            scenario.gear_ratio, time_step_s)
+    else:
+        ctrl = builder.AddNamedSystem("controller", JointPidController(
+            gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
+            back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
+        motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
+        split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+    magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current)
+    monitor = builder.AddNamedSystem("monitor", TransferMonitor(n, hand.index(), payload.index(),
+                                                                period_s=monitor_period_s or time_step_s))
+
+    if not ideal:
+        feedforward_input = ctrl.GetInputPort("feedforward_torque") if inverse_dynamics_feedforward else None
+        builder.Connect(ref.get_output_port(), ctrl.GetInputPort("desired_state"))
+        builder.Connect(arm_state, ctrl.GetInputPort("estimated_state"))
+        builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
+        builder.Connect(arm_state, split.get_input_port())
+        builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
+        # What the motors deliver: their own outputs when stepped explicitly; with implicit loop
+        # damping, the torque applied over the last step, read back through the motor model.
+        delivered = motors
+        if loop_damping is None:
+            builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+        else:
+            delivered = add_implicit_damping_actuation(builder, plant, arm, motors, split.get_output_port(1),
+                                                       loop_damping, time_step_s, mp)
+    builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
+    builder.Connect(arm_state, monitor.GetInputPort("arm_state"))
+    builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
+    builder.Connect(delivered.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
+    builder.Connect(delivered.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
+
+    if inverse_dynamics_feedforward:
+        add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(), feedforward_input)
+    elif ideal:  # the ideal source's feedforward input is an Adder port: zero unless fed
+        from pydrake.systems.primitives import ConstantVectorSource
+        zero = builder.AddNamedSystem("no_feedforward", ConstantVectorSource(np.zeros(n)))
+        builder.Connect(zero.get_output_port(), feedforward_input)
+
+    exports = {
+        "desired_state": ref.get_output_port(),
+        "arm_state": arm_state,
+        "voltage_command": None if ctrl is None else ctrl.GetOutputPort("voltage_command"),  # no PID: none
+        "joint_torque": delivered.GetOutputPort("joint_torque"),
+        "motor_torque": delivered.GetOutputPort("motor_torque"),
+        "current": delivered.GetOutputPort("current"),
+        "electrical_power": delivered.GetOutputPort("electrical_power"),
+        "attraction_force": magnet.GetOutputPort("attraction_force"),
+        "slip": monitor.GetOutputPort("slip"),
+        "tilt": monitor.GetOutputPort("tilt"),
+        "gap": monitor.GetOutputPort("gap"),
+        "summary": monitor.GetOutputPort("summary"),
+        "body_poses": plant.get_body_poses_output_port(),
+        "contact_results": plant.get_contact_results_output_port(),
+    }
+    exports = {k: v for k, v in exports.items() if v is not None}
+    for name, port in exports.items():
+        builder.ExportOutput(port, name)
+    loggers = {}
+    if log_period_s:
+        for name in ("desired_state", "arm_state", "voltage_command", "motor_torque", "current",
+                     "electrical_power", "attraction_force", "slip", "tilt", "gap"):
+            if name in exports:
+                loggers[name] = LogVectorOutput(exports[name], builder, log_period_s)
+
+    visualizer = None
+    if meshcat is not None:
+        from qmt_drake.recording import add_meshcat_visualizer
+        visualizer = add_meshcat_visualizer(builder, tp.scene_graph, meshcat)
+
+    diagram = builder.Build()
+    diagram.set_name(f"transfer[{scenario.name}]")
+    return TransferDiagram(diagram, plant, tp.scene_graph, arm, payload, hand, motors, ctrl, magnet, monitor,
+                           loggers, q0, t_end, t_end + settle_s, current, spec, mp, time_step_s,
+                           bool(implicit_loop_damping), visualizer)

@@ -1,0 +1,241 @@
+"""Running a transfer Diagram and summarising it: `run_diagram`, `simulate_transfer` (-> TransferResult),
+and `run_simulate`, the CLI's entry point (a JSON-ready dict)."""
+
+from __future__ import annotations
+
+import gc
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+
+from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.sim.actuation import (FEEDFORWARD_OPTIONS, check_time_step, default_time_step_s,
+                                     explicit_step_known_unstable)
+from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
+from qmt_drake.systems.transfer_monitor import TransferMonitor
+
+HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
+
+
+@dataclass
+class TransferResult:
+    """One co-simulated transfer. Times are simulation time: lead_s (0.2 s) of rest, the plan slowed
+    by time_scale, settle_s (0.5 s); detached_at_s counts from the start of the lead (None: never).
+    held = never detached and max_slip_m < 1 mm. peak_motor_torque_ratio is the simulated peak over
+    the scenario's rated motor torque; peak_moment_ratio_planned is the time-scaled plan's
+    m_o r_G |a_tip| peak over the moment limit. real_time_factor = sim_time_s / sim_wall_s.
+    explicit_step_known_unstable: the motors drove the plant explicitly at a step above 1 ms, where
+    that loop is known unstable: a loss then says nothing about the physics.
+    series (if kept): 5 ms samples of the exported signals, see logged_series."""
+
+    scenario: str
+    method: str
+    time_scale: float
+    held: bool
+    max_slip_m: float
+    max_tilt_rad: float
+    max_gap_m: float
+    detached_at_s: float | None
+    max_tracking_error_rad: float
+    peak_motor_torque_Nm: np.ndarray
+    peak_motor_torque_ratio: float
+    peak_moment_ratio_planned: float
+    peak_moment_planned_Nm: float
+    peak_motor_torque_planned_Nm: np.ndarray  # inverse dynamics of the plan / N (thesis eq. 2-34)
+    energy_J: float
+    coil_current_A: float
+    time_step_s: float
+    implicit_loop_damping: bool
+    sim_time_s: float
+    sim_wall_s: float
+    real_time_factor: float
+    explicit_step_known_unstable: bool = False
+    series: dict = field(default_factory=dict, repr=False)
+
+    def summary_dict(self) -> dict:
+        d = {k: getattr(self, k) for k in (
+            "scenario", "method", "time_scale", "held", "max_slip_m", "max_tilt_rad", "max_gap_m", "detached_at_s",
+            "max_tracking_error_rad", "peak_motor_torque_ratio", "peak_moment_ratio_planned",
+            "peak_moment_planned_Nm", "energy_J", "coil_current_A", "time_step_s", "implicit_loop_damping",
+            "sim_time_s", "sim_wall_s", "real_time_factor", "explicit_step_known_unstable")}
+        d["peak_motor_torque_Nm"] = [float(x) for x in self.peak_motor_torque_Nm]
+        d["peak_motor_torque_planned_Nm"] = [float(x) for x in self.peak_motor_torque_planned_Nm]
+        return {k: (float(v) if isinstance(v, (np.floating,)) else v) for k, v in d.items()}
+
+
+def planned_peak_moment_Nm(scenario, plan, time_scale: float = 1.0, rate_hz: float = 10000.0) -> float:
+    """max m_o r_G |a_tip| of the time-scaled plan, sampled at rate_hz."""
+    t = np.linspace(0.0, float(plan.motion_time_s), int(plan.motion_time_s * rate_hz) + 2)
+    q, qd, qdd = plan.sample(t)
+    a = scenario.arm.tip_acceleration(q, qd, qdd)
+    return float(np.max(np.linalg.norm(a, axis=-1))) * scenario.moment_per_accel_kgm / time_scale**2
+
+
+def planned_peak_motor_torque_Nm(scenario, plan, time_scale: float = 1.0, rate_hz: float = 1000.0) -> np.ndarray:
+    """max |joint torque / N| per motor of the time-scaled plan (arm inverse dynamics, no payload)."""
+    t = np.linspace(0.0, float(plan.motion_time_s), int(plan.motion_time_s * rate_hz) + 2)
+    q, qd, qdd = plan.sample(t)
+    tau = scenario.arm.motor_torque(q, np.asarray(qd) / time_scale, np.asarray(qdd) / time_scale**2)
+    return np.max(np.abs(tau), axis=0)
+
+
+def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.05, max_tracking_error_rad: float = 0.5,
+                on_start=None) -> tuple[np.ndarray, float]:
+    """Simulate from the diagram's default context (the plan's start, payload seated) to
+    td.t_final_s; returns (monitor summary, wall seconds). Raises QmtSimulationError naming the
+    failure time when the state becomes non-finite, Drake's solver fails, or the arm leaves its
+    reference by more than max_tracking_error_rad (an unstable loop: the voltage limit keeps the
+    state finite, so this is how divergence shows)."""
+    sim = Simulator(td.diagram)
+    ctx = sim.get_mutable_context()
+    sim.Initialize()
+    if on_start is not None:
+        on_start(sim)
+    plant_ctx = td.plant.GetMyContextFromRoot(ctx)
+    ref = td.diagram.GetOutputPort("desired_state")
+    n = len(td.q_start)
+    t_wall = time.perf_counter()
+    # The Python systems allocate small arrays every step; the cyclic collector would otherwise
+    # run thousands of times per simulated second for nothing (the arrays form no cycles).
+    gc_was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad)
+    finally:
+        if gc_was_enabled:
+            gc.enable()
+    wall = time.perf_counter() - t_wall
+    summary = td.diagram.GetOutputPort("summary").Eval(ctx)
+    td.simulator = sim
+    return np.asarray(summary), wall
+
+
+def _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad) -> None:
+    t = 0.0
+    while t < td.t_final_s - 1e-12:
+        t = min(t + chunk_s, td.t_final_s)
+        try:
+            sim.AdvanceTo(t)
+        except RuntimeError as exc:
+            raise QmtSimulationError(f"simulation failed at t = {ctx.get_time():.3f} s: "
+                                     f"{str(exc).splitlines()[0]}") from None
+        x = td.plant.GetPositionsAndVelocities(plant_ctx)
+        if not np.all(np.isfinite(x)):
+            raise QmtSimulationError(f"simulation diverged at t = {ctx.get_time():.3f} s: non-finite state")
+        err = float(np.max(np.abs(ref.Eval(ctx)[:n] - td.plant.GetPositions(plant_ctx, td.arm_instance))))
+        if err > max_tracking_error_rad:
+            raise QmtSimulationError(
+                f"simulation diverged at t = {ctx.get_time():.3f} s: joint tracking error {err:.3g} rad > "
+                f"{max_tracking_error_rad} rad (unstable control loop: use a smaller time step, "
+                f"at most {default_time_step_s(td.implicit_loop_damping) * 1e3:g} ms for this loop)")
+
+
+def logged_series(td: TransferDiagram) -> dict:
+    """The loggers' samples after run_diagram: {'t_s': (K,), port name: (K, width)}."""
+    ctx = td.simulator.get_context()
+    out = {}
+    for name, logger in td.loggers.items():
+        log = logger.FindLog(ctx)
+        out.setdefault("t_s", log.sample_times().copy())
+        out[name] = log.data().T.copy()
+    return out
+
+
+def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
+                      record_path=None, keep_series: bool = True, **build_kw) -> TransferResult:
+    """Build, run and summarise one transfer (see TransferResult)."""
+    meshcat = None
+    if record_path is not None:
+        from qmt_drake.recording import make_headless_meshcat
+        meshcat = make_headless_meshcat()
+    td = build_transfer_diagram(scenario, plan, time_step_s=time_step_s, time_scale=time_scale,
+                                meshcat=meshcat, log_period_s=5e-3 if keep_series else 0.0, **build_kw)
+    on_start = None
+    if meshcat is not None:
+        from qmt_drake.recording import start_recording
+        on_start = lambda sim: start_recording(td.visualizer)  # noqa: E731
+    summary, wall = run_diagram(td, on_start=on_start)
+    if meshcat is not None:
+        from qmt_drake.recording import save_recording
+        save_recording(td.visualizer, meshcat, record_path)
+    return make_result(scenario, plan, td, summary, wall, time_scale, logged_series(td) if keep_series else {})
+
+
+def make_result(scenario, plan, td, summary, wall, time_scale, series) -> TransferResult:
+    s = TransferMonitor.unpack(summary)
+    detached = None if math.isnan(s["detached_at_s"]) else s["detached_at_s"]
+    peak = s["peak_motor_torque_Nm"]
+    moment = planned_peak_moment_Nm(scenario, plan, time_scale)
+    return TransferResult(
+        scenario=scenario.name, method=str(getattr(plan, "method", "")), time_scale=float(time_scale),
+        held=bool(detached is None and s["max_slip_m"] < HELD_SLIP_LIMIT_M),
+        max_slip_m=s["max_slip_m"], max_tilt_rad=s["max_tilt_rad"], max_gap_m=s["max_gap_m"],
+        detached_at_s=detached, max_tracking_error_rad=s["max_tracking_error_rad"], peak_motor_torque_Nm=peak,
+        peak_motor_torque_ratio=float(np.max(peak / scenario.limits.motor_torque_limit_Nm)),
+        peak_moment_ratio_planned=moment / scenario.limits.moment_limit_Nm, peak_moment_planned_Nm=moment,
+        peak_motor_torque_planned_Nm=planned_peak_motor_torque_Nm(scenario, plan, time_scale),
+        energy_J=s["energy_J"], coil_current_A=td.coil_current_A, time_step_s=td.time_step_s,
+        implicit_loop_damping=td.implicit_loop_damping,
+        sim_time_s=td.t_final_s, sim_wall_s=wall, real_time_factor=td.t_final_s / wall,
+        explicit_step_known_unstable=explicit_step_known_unstable(td.time_step_s, td.implicit_loop_damping),
+        series=series)
+
+
+def feedforward_keywords(scenario, feedforward: str) -> dict:
+    """build_transfer_diagram keywords of a CLI --feedforward choice for this scenario's actuator
+    (an ideal torque source has no back EMF: 'full' is the inverse dynamics alone, 'back-emf' is
+    refused). One-line QmtInputError for an unknown choice."""
+    from qmt_drake.scenario import IdealTorque
+    if feedforward not in FEEDFORWARD_OPTIONS:
+        raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
+    kw = dict(FEEDFORWARD_OPTIONS[feedforward])
+    if isinstance(getattr(scenario, "actuator", None), IdealTorque):
+        if feedforward == "back-emf":
+            raise QmtInputError(f"--feedforward back-emf needs DC motors; scenario '{scenario.name}' has "
+                                "actuator.kind ideal: use none or full")
+        kw.pop("back_emf_feedforward", None)
+    return kw
+
+
+def check_simulation_inputs(scenario, *, time_step_s: float | None = None,
+                            implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
+    """Everything `run_simulate` needs from the scenario and the options, checked before any planning
+    or building: the hand, the actuator and its gains, the feedforward choice, the step (explicit
+    steps above the known stable limit are refused). Returns the feedforward keywords."""
+    from qmt_drake.scenario import IdealTorque
+    from qmt_drake.sim.actuation import ideal_joint_gains, motor_params_for, pid_gains_for
+    from qmt_drake.sim.magnet_hand import magnet_hand_of
+    magnet_hand_of(scenario)
+    kw = feedforward_keywords(scenario, feedforward)
+    if isinstance(getattr(scenario, "actuator", None), IdealTorque):
+        ideal_joint_gains(scenario)
+        if implicit_loop_damping is False:
+            raise QmtInputError(f"--explicit drives DC motors explicitly; scenario '{scenario.name}' has "
+                                "actuator.kind ideal (always stepped implicitly): drop --explicit")
+    else:
+        motor_params_for(scenario)
+        pid_gains_for(scenario)
+    implicit = True if implicit_loop_damping is None else bool(implicit_loop_damping)
+    if time_step_s is not None:
+        check_time_step(time_step_s, implicit, refuse_unstable=True)
+    return kw
+
+
+def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time_step_s: float | None = None,
+                 implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
+    """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict).
+    feedforward: a FEEDFORWARD_OPTIONS key (the controller's feedforward terms). Refuses (one line)
+    bad options, and explicit steps above the loop's known stable limit, before building anything
+    (`check_simulation_inputs`)."""
+    kw = check_simulation_inputs(scenario, time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
+                                 feedforward=feedforward)
+    res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,
+                            time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping, **kw)
+    d = res.summary_dict()
+    d["feedforward"] = feedforward
+    if record_path is not None:
+        d["record_path"] = str(record_path)
+    return d
