@@ -23,14 +23,15 @@ def test_gain_conversion_follows_the_e_manual():
 
 
 def test_motor_params_reproduce_the_datasheet():
-    for s in (XM540_W270, XM430_W350):
-        p = motor_params([s])
+    for s, lossless in ((XM540_W270, True), (XM430_W350, True), (XM540_W270, False), (XM430_W350, False)):
+        p = motor_params([s], lossless_equivalent=lossless)
         stall = p.gear_ratio[0] * p.efficiency[0] * p.torque_constant_Nm_per_A[0] * s.supply_voltage_V / p.resistance_ohm[0]
         assert stall == pytest.approx(s.stall_torque_Nm, rel=1e-12)
         w0 = s.supply_voltage_V / (p.torque_constant_Nm_per_A[0] * p.gear_ratio[0])
         assert w0 == pytest.approx(s.no_load_speed_rpm * 2 * math.pi / 60, rel=1e-12)
-        assert 0.5 < p.efficiency[0] < 1.0
-        assert s.current_limit_A > s.stall_current_A  # the voltage, not the current limit, sets the stall
+        assert 0.5 < p.efficiency[0] <= 1.0
+        # the voltage, not the current limit, sets the stall torque
+        assert p.current_limit_A[0] > s.supply_voltage_V / p.resistance_ohm[0]
 
 
 def _servo_output(gains, goal, pos, steps=1, period=1e-3):
@@ -63,7 +64,7 @@ def test_saturation_and_integral_clamp():
         ServoGains((-1,), (0,), (0,))
 
 
-def _one_joint_loop(J_kgm2, gains, goal_rad, t_end, period=1e-3, efficiency=None):
+def _one_joint_loop(J_kgm2, gains, goal_rad, t_end, period=1e-3):
     builder = DiagramBuilder()
     plant = builder.AddSystem(MultibodyPlant(1e-3))
     body = plant.AddRigidBody("disc", SpatialInertia.MakeFromCentralInertia(
@@ -73,9 +74,7 @@ def _one_joint_loop(J_kgm2, gains, goal_rad, t_end, period=1e-3, efficiency=None
     plant.mutable_gravity_field().set_gravity_vector([0, 0, 0])
     plant.Finalize()
     servo = builder.AddSystem(DynamixelPositionServo([XM430_W350], gains, control_period_s=period))
-    params = motor_params([XM430_W350])
-    if efficiency is not None:  # a linear motor (no motoring/back-driving asymmetry) for closed forms
-        params.efficiency = np.array([efficiency])
+    params = motor_params([XM430_W350])  # lossless equivalent: linear, the closed form applies
     motor = builder.AddSystem(DcMotorWithGear(params))
     split = builder.AddSystem(Demultiplexer([1, 1]))
     goal = builder.AddSystem(ConstantVectorSource([goal_rad]))
@@ -105,10 +104,10 @@ def test_small_step_overshoot_matches_the_continuous_second_order_loop():
     # asymmetric): J qdd = Ke/R (kp (g - q)) - Ke^2/R qd below saturation.
     J = 0.03
     gains = ServoGains((800,), (0,), (0,))
-    q, _ = _one_joint_loop(J, gains, 0.05, 1.5, efficiency=1.0)
+    q, _ = _one_joint_loop(J, gains, 0.05, 1.5)
     s = XM430_W350
     kp = gains.continuous_equivalent([s])["kp_V_per_rad"][0]
-    g = s.back_emf_V_s_per_rad / s.resistance_ohm
+    g = s.stall_torque_Nm / s.supply_voltage_V  # joint torque per volt at standstill
     k, b = g * kp, g * s.back_emf_V_s_per_rad
     zeta = b / (2 * math.sqrt(k * J))
     overshoot_pred = math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2))

@@ -24,7 +24,8 @@ tau_s, stall current I_s and no-load speed w0 at the output shaft. With tau_j = 
 back EMF Kt N qd (dc_motor.py):
     R = V / I_s,   Kt = V / (w0 N),   eta = tau_s / (I_s V / w0)
 (eta lumps gear efficiency and friction: 0.63 for the XM540-W270, 0.72 for the XM430-W350), and the
-current is clipped to the control table's default Current Limit(38) x 2.69 mA.
+current is clipped to the control table's default Current Limit(38) x 2.69 mA. By default the
+co-simulation uses the lossless equivalent with the same torque-speed line (`motor_params`).
 
 Datasheet values (ROBOTIS e-Manual specifications, at 12.0 V, the recommended supply):
 - XM540-W270 (emanual.robotis.com/docs/en/dxl/x/xm540-w270, read via search): gear ratio 272.5:1,
@@ -100,15 +101,33 @@ XM430_W350 = ServoDatasheet("XM430-W350", "ROBOTIS e-Manual XM430-W350 specifica
 CRANE_X7_PLANAR_SERVOS = (XM540_W270, XM430_W350, XM430_W350)
 
 
-def motor_params(sheets) -> DcMotorParams:
-    """DcMotorParams reproducing each datasheet's stall torque, stall current and no-load speed."""
+def motor_params(sheets, *, lossless_equivalent: bool = True) -> DcMotorParams:
+    """DcMotorParams for the servos' motors.
+
+    lossless_equivalent=True (default): eta = 1 and R = Ke V / tau_s, which reproduces the
+    datasheet's straight torque-speed line (stall torque at zero speed, no-load speed at zero
+    torque) exactly; the current is scaled by I_s_model / I_s_datasheet and the current limit with
+    it, so the torque at the limit is kept. Why: DcMotorWithGear applies eta only while motoring,
+    and with eta = 0.63 the torque holding the arm against gravity jumps by 1/eta whenever the
+    joint speed changes sign: at the hold the 1 ms loop chattered (joint speeds +-0.02 rad/s
+    flipping every few ms, the bottle's normal force swinging 0.42-0.62 N).
+    lossless_equivalent=False: R = V / I_s, eta = tau_s / (Ke I_s) (stall current exact, with the
+    motoring/back-driving asymmetry)."""
+    if lossless_equivalent:
+        r = [s.back_emf_V_s_per_rad * s.supply_voltage_V / s.stall_torque_Nm for s in sheets]
+        i_limit = [s.current_limit_A * (s.supply_voltage_V / ri) / s.stall_current_A for s, ri in zip(sheets, r)]
+        eta = [1.0] * len(sheets)
+    else:
+        r = [s.resistance_ohm for s in sheets]
+        i_limit = [s.current_limit_A for s in sheets]
+        eta = [s.efficiency for s in sheets]
     return DcMotorParams(
         torque_constant_Nm_per_A=[s.back_emf_V_s_per_rad / s.gear_ratio for s in sheets],
-        resistance_ohm=[s.resistance_ohm for s in sheets],
+        resistance_ohm=r,
         gear_ratio=[s.gear_ratio for s in sheets],
         voltage_limit_V=[s.supply_voltage_V for s in sheets],
-        current_limit_A=[s.current_limit_A for s in sheets],
-        efficiency=[s.efficiency for s in sheets],
+        current_limit_A=i_limit,
+        efficiency=eta,
         names=[s.model for s in sheets],
     )
 

@@ -1,0 +1,243 @@
+"""Seed 002 study: the CRANE-X7 tray transfer, the fall/carry pair and what its outcome hinges on.
+
+    PYTHONPATH=. python studies/crane_tray.py [--quick] [--no-recordings]
+
+Writes out/crane_tray/:
+    ik.json                     our IK vs the seed's printed joints, the fitted tool offset
+    pair.json, pair_*.png       the two seed runs (P-only + linear, PID + eased) at the default
+                                bottle (mu 0.3): outcome, slide, tilt, normal force, RTF;
+                                Fig. 9/10-like joint responses; bottle slide/tilt/force over time
+    required_friction.json/png  max |f_t|/f_n per phase of a sticking bottle (mu = 1) for the 2x2
+                                of gains x spacing and over the servo period (the hinge parameters)
+    friction_sweep.json/png     max slide and outcome over mu for both seed runs
+    fill_sweep.json/png         max tilt over the bottle's centre-of-mass height (fill)
+    fall.html, carry.html       Meshcat replays of the pair at the friction where it splits
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from qmt_drake.plan import write_text_atomic  # noqa: E402
+from qmt_drake.systems.dynamixel_servo import SEED_GAINS_AFTER, SEED_GAINS_BEFORE  # noqa: E402
+from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
+from qmt_drake.tray import crane_ik  # noqa: E402
+from qmt_drake.tray.cosim import SEATING_S, required_friction, simulate_tray  # noqa: E402
+from qmt_drake.tray.waypoints import seed_motion  # noqa: E402
+
+OUT = ROOT / "out" / "crane_tray"
+CASES = {"before": (1.0, SEED_GAINS_BEFORE, "P-only (800), linear spacing (eq. 14)"),
+         "after": (1.5, SEED_GAINS_AFTER, "PID (1000/1040/1000, I 150, D 200/250/200), eased p=1.5 (eq. 15)")}
+SETTLE_S = 1.0
+
+
+def _json(path: Path, obj) -> None:
+    write_text_atomic(path, json.dumps(obj, indent=2, default=float))
+
+
+def ik_report() -> dict:
+    ours = {k: crane_ik.tray_ik(*xy).tolist() for k, xy in (("start", crane_ik.SEED_START_XY_M),
+                                                           ("goal", crane_ik.SEED_GOAL_XY_M))}
+    h, res = crane_ik.fit_tool_offset()
+    return {"ours_rad": ours, "seed_rad": {"start": crane_ik.SEED_START_THETA_RAD, "goal": crane_ik.SEED_GOAL_THETA_RAD},
+            "difference_rad": crane_ik.seed_joint_residual().tolist(),
+            "fk_of_seed_joints_xy_phi": {"start": crane_ik.tray_fk(crane_ik.SEED_START_THETA_RAD).tolist(),
+                                         "goal": crane_ik.tray_fk(crane_ik.SEED_GOAL_THETA_RAD).tolist()},
+            "table1_tool_offset_L0_plus_L3_m": crane_ik.TABLE1.L0 + crane_ik.TABLE1.L3,
+            "fitted_tool_offset_m": h, "fitted_max_residual_rad": res,
+            "residual_with_fit_rad": crane_ik.seed_joint_residual(h).tolist()}
+
+
+def run(case: str, *, mu: float = 0.3, period_s: float = 1e-3, exponent=None, gains=None, com_height=None,
+        recording=None):
+    e, g, _ = CASES[case]
+    bottle = BottleSpec.pet_500ml(friction=mu)
+    if com_height is not None:
+        bottle = bottle.with_com_height(com_height)
+    sched = seed_motion(e if exponent is None else exponent, settle_s=SETTLE_S)
+    return simulate_tray(sched, g if gains is None else gains, bottle, servo_period_s=period_s,
+                         recording_path=recording)
+
+
+def event_windows(phases: dict) -> dict:
+    """Named time windows [s] around the run's events (starts and stops of the goal stream)."""
+    m0, m1 = phases["move"]
+    r0, r1 = phases["return"]
+    return {"line start": (m0, m0 + 0.5), "line": (m0 + 0.5, m1), "arrival": (m1, m1 + 1.0), "hold": (m1 + 1.0, r0),
+            "return start": (r0, r0 + 0.5), "return": (r0 + 0.5, r1), "return end": (r1, r1 + 1.0)}
+
+
+def phase_mu(r) -> dict:
+    return {ev: required_friction(r.series, a, b) for ev, (a, b) in event_windows(r.phases).items()}
+
+
+def plot_pair(results: dict, path_joints: Path, path_bottle: Path) -> None:
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=True)
+    colors = ["tab:red", "tab:cyan", "tab:blue"]  # the seed's colours: joint 1 red, 2 light blue, 3 blue
+    for ax, (case, r) in zip(axes, results.items()):
+        t, q, goal = r.series["t"], r.series["arm_state"][:3], r.series["goal"]
+        for k in range(3):
+            ax.plot(t, q[k], color=colors[k], label=f"joint {k + 1}")
+            ax.plot(t, goal[k], color=colors[k], ls=":", lw=1)
+        for ph, (a, b) in r.phases.items():
+            ax.axvspan(a, b, alpha=0.06 if ph in ("move", "return") else 0.0, color="k")
+        ax.set_title(f"{case}: {CASES[case][2]}", fontsize=8)
+        ax.set_xlabel("time [s] (dotted: goal stream)")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("joint angle [rad]")
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Joint responses (cf. seed 002 Fig. 9 / Fig. 10); shaded: move and return")
+    fig.tight_layout()
+    fig.savefig(path_joints, dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(4, 1, figsize=(10, 9), sharex=True)
+    for case, r in results.items():
+        t, s = r.series["t"], r.series
+        m = t >= SEATING_S
+        slide = np.hypot(s["slide"][0], s["slide"][1])
+        f = s["contact_force"]
+        axes[0].plot(t[m], 1e3 * slide[m], label=case)
+        axes[1].plot(t[m], np.degrees(s["tilt"][0][m]), label=case)
+        axes[2].plot(t[m], f[2][m], label=case)
+        axes[3].plot(t[m], np.hypot(f[0], f[1])[m] / np.maximum(f[2][m], 1e-9), label=case)
+        err = s["goal"] - s["arm_state"][:3]
+        del err
+    axes[0].axhline(1.0, color="k", ls="--", lw=0.8, label="slip threshold 1 mm")
+    axes[0].set_ylabel("slide [mm]")
+    axes[1].set_ylabel("tilt [deg]")
+    axes[2].set_ylabel("normal force [N]")
+    axes[3].axhline(results["before"].friction, color="k", ls="--", lw=0.8, label="mu")
+    axes[3].set_ylabel("|f_t| / f_n")
+    axes[3].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"Bottle on the tray, mu = {results['before'].friction}")
+    fig.tight_layout()
+    fig.savefig(path_bottle, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="fewer sweep points")
+    ap.add_argument("--no-recordings", action="store_true")
+    args = ap.parse_args(argv)
+    OUT.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    _json(OUT / "ik.json", ik_report())
+
+    # 1. the pair at the default bottle
+    pair = {c: run(c) for c in CASES}
+    _json(OUT / "pair.json", {c: r.summary_dict() | {"required_friction_by_phase": phase_mu(r)} for c, r in pair.items()})
+    plot_pair(pair, OUT / "pair_joints.png", OUT / "pair_bottle.png")
+    print("pair:", {c: (r.outcome, round(r.max_slide_m * 1e3, 3), round(r.real_time_factor, 2)) for c, r in pair.items()})
+
+    # 2. required friction (sticking bottle) per phase: gains x spacing, and the servo period
+    req = {}
+    combos = {"P-only, linear": (1.0, SEED_GAINS_BEFORE), "P-only, eased": (1.5, SEED_GAINS_BEFORE),
+              "PID, linear": (1.0, SEED_GAINS_AFTER), "PID, eased": (1.5, SEED_GAINS_AFTER)}
+    for name, (e, g) in combos.items():
+        r = run("before", mu=1.0, exponent=e, gains=g)
+        req[name] = {"period_1ms": phase_mu(r)}
+        print("required mu", name, req[name])
+    periods = (2e-3, 4e-3) if args.quick else (2e-3, 4e-3, 8e-3)
+    for p in periods:
+        for name in ("P-only, linear", "PID, eased"):
+            e, g = combos[name]
+            r = run("before", mu=1.0, exponent=e, gains=g, period_s=p)
+            req[name][f"period_{p * 1e3:g}ms"] = phase_mu(r)
+            print("required mu", name, p, req[name][f"period_{p * 1e3:g}ms"])
+    _json(OUT / "required_friction.json", req)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    phases = list(event_windows({"move": (0, 1), "return": (2, 3)}))
+    w = 0.2
+    for k, name in enumerate(combos):
+        axes[0].bar(np.arange(len(phases)) + (k - 1.5) * w, [req[name]["period_1ms"][p] for p in phases], w,
+                    label=name)
+    axes[0].set_xticks(range(len(phases)), phases, fontsize=7)
+    axes[0].set_ylabel("required friction max |f_t|/f_n")
+    axes[0].set_title("gains x spacing, servo period 1 ms", fontsize=9)
+    axes[0].legend(fontsize=8)
+    pl = [1e-3, *periods]
+    for name, style in (("P-only, linear", "-o"), ("PID, eased", "-s")):
+        axes[1].plot([p * 1e3 for p in pl], [max(req[name][f"period_{p * 1e3:g}ms"][ph] for ph in phases) for p in pl],
+                     style, label=name)
+    axes[1].set_xlabel("servo control period [ms] (assumed 1 ms)")
+    axes[1].set_ylabel("required friction (worst phase)")
+    axes[1].set_title("the servo rate", fontsize=9)
+    axes[1].legend(fontsize=8)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.suptitle("Friction the bottle needs to stay put (sticking run, mu = 1)")
+    fig.tight_layout()
+    fig.savefig(OUT / "required_friction.png", dpi=110)
+    plt.close(fig)
+
+    # 3. friction sweep
+    mus = (0.2, 0.3, 0.4) if args.quick else (0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5)
+    sweep = {c: [run(c, mu=m).summary_dict() for m in mus] for c in CASES}
+    _json(OUT / "friction_sweep.json", {"mu": mus, **sweep})
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for c in CASES:
+        ax.semilogy(mus, [1e3 * max(d["max_slide_m"], 1e-7) for d in sweep[c]], "-o", label=f"{c}: {CASES[c][2]}")
+        for m, d in zip(mus, sweep[c]):
+            if d["outcome"] != "carried":
+                ax.annotate(d["outcome"], (m, 1e3 * d["max_slide_m"]), fontsize=7)
+    ax.axhline(1.0, color="k", ls="--", lw=0.8, label="slip threshold 1 mm")
+    ax.set_xlabel("friction coefficient mu (bottle on tray)")
+    ax.set_ylabel("max slide [mm]")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(OUT / "friction_sweep.png", dpi=110)
+    plt.close(fig)
+
+    # 4. fill (centre-of-mass height) sweep at a sticking friction: tipping
+    coms = (0.044, 0.08) if args.quick else (0.044, 0.06, 0.07, 0.08, 0.1)
+    fill = {c: [run(c, mu=1.0, com_height=h).summary_dict() for h in coms] for c in CASES}
+    _json(OUT / "fill_sweep.json", {"com_height_m": coms, **fill})
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for c in CASES:
+        ax.plot(coms, [np.degrees(d["max_tilt_rad"]) for d in fill[c]], "-o", label=c)
+        for h, d in zip(coms, fill[c]):
+            if d["outcome"] != "carried":
+                ax.annotate(d["outcome"], (h, np.degrees(d["max_tilt_rad"])), fontsize=7)
+    ax.set_yscale("log")
+    ax.set_xlabel("bottle centre-of-mass height [m] (ring radius 0.029 m), mu = 1")
+    ax.set_ylabel("max tilt [deg]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(OUT / "fill_sweep.png", dpi=110)
+    plt.close(fig)
+
+    # 5. recordings of the pair at the friction where it splits (if any), else the default
+    split = [m for m, b, a in zip(mus, sweep["before"], sweep["after"]) if b["slipped"] and not a["slipped"]]
+    mu_rec = split[0] if split else 0.3
+    if not args.no_recordings:
+        rb = run("before", mu=mu_rec, recording=OUT / "fall.html")
+        ra = run("after", mu=mu_rec, recording=OUT / "carry.html")
+        _json(OUT / "recordings.json", {"mu": mu_rec, "split_found": bool(split), "before": rb.summary_dict(),
+                                        "after": ra.summary_dict()})
+    print(f"done in {time.perf_counter() - t0:.0f} s -> {OUT}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
