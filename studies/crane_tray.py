@@ -12,6 +12,10 @@ Writes out/crane_tray/:
     friction_sweep.json/png     max slide and outcome over mu for both seed runs
     fill_sweep.json/png         max tilt over the bottle's centre-of-mass height (fill)
     fall.html, carry.html       Meshcat replays of the pair at the friction where it splits
+    qmt.json, qmt.png           fastest line: TOPP-RA with the tray limits (planned, re-checked), and
+                                the fastest time scaling of it (and of a jerk-limited Ruckig line)
+                                that the servos execute with the bottle carried (slip < 1 mm), over
+                                friction and fill, against the seed's 5 s eased line
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ from qmt_drake.systems.dynamixel_servo import SEED_GAINS_AFTER, SEED_GAINS_BEFOR
 from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
 from qmt_drake.tray import crane_ik  # noqa: E402
 from qmt_drake.tray.cosim import SEATING_S, required_friction, simulate_tray  # noqa: E402
-from qmt_drake.tray.waypoints import seed_motion  # noqa: E402
+from qmt_drake.tray.waypoints import ruckig_line, seed_motion, toppra_line  # noqa: E402
 
 OUT = ROOT / "out" / "crane_tray"
 CASES = {"before": (1.0, SEED_GAINS_BEFORE, "P-only (800), linear spacing (eq. 14)"),
@@ -133,14 +137,101 @@ def plot_pair(results: dict, path_joints: Path, path_bottle: Path) -> None:
     plt.close(fig)
 
 
+def carried_ok(r) -> bool:
+    return r.outcome == "carried" and not r.slipped
+
+
+def fastest_executed(make, bottle, k_hi: float = 8.0, iters: int = 4) -> dict:
+    """Smallest time scale k (geometric bisection on [1, k_hi]) at which the streamed plan make(k),
+    executed through the servos (seed's retuned PID), carries the bottle without slip."""
+    runs = []
+
+    def ok(k):
+        sched, info = make(k)
+        r = simulate_tray(sched, SEED_GAINS_AFTER, bottle)
+        runs.append({"time_scale": k, "duration_s": info["duration_s"], "outcome": r.outcome, "slip_m": r.slip_m,
+                     "creep_m": r.creep_m, "rtf": r.real_time_factor})
+        return carried_ok(r), info["duration_s"]
+
+    good1, d1 = ok(1.0)
+    if good1:
+        return {"duration_s": d1, "time_scale": 1.0, "runs": runs}
+    good_hi, d_hi = ok(k_hi)
+    if not good_hi:
+        return {"duration_s": None, "time_scale": None, "runs": runs, "note": f"not carried even at x{k_hi}"}
+    lo, hi, d_best = 1.0, k_hi, d_hi
+    for _ in range(iters):
+        mid = math.sqrt(lo * hi)
+        good, d = ok(mid)
+        if good:
+            hi, d_best = mid, d
+        else:
+            lo = mid
+    return {"duration_s": d_best, "time_scale": hi, "time_scale_failing": lo, "runs": runs}
+
+
+def qmt_section(quick: bool) -> dict:
+    mus = (0.3,) if quick else (0.2, 0.3, 0.4, 0.6)
+    coms = (0.044, 0.08)
+    out = {"cases": []}
+    for h in coms:
+        for mu in mus if h == coms[0] else (0.3,):
+            bottle = BottleSpec.pet_500ml(friction=mu).with_com_height(h)
+            sched, info = toppra_line(bottle)
+            case = {"friction": mu, "com_height_m": h, "toppra": info}
+            if sched is not None:
+                case["toppra_executed"] = fastest_executed(lambda k: toppra_line(bottle, time_scale=k), bottle)
+            seed = run("after", mu=mu, com_height=h)
+            case["seed_eased_5s"] = {"outcome": seed.outcome, "slip_m": seed.slip_m, "move_s": 5.0}
+            if h == coms[0] and mu == 0.3:
+                case["ruckig_executed"] = fastest_executed(
+                    lambda k: ruckig_line(bottle, jerk_m_s3=5.0, time_scale=k), bottle)
+            out["cases"].append(case)
+            print("qmt", mu, h, {k: (v.get("duration_s") if isinstance(v, dict) else v) for k, v in case.items()})
+    return out
+
+
+def plot_qmt(q: dict, path: Path) -> None:
+    cases = [c for c in q["cases"] if abs(c["com_height_m"] - 0.044) < 1e-9]
+    mus = [c["friction"] for c in cases]
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(mus, [c["toppra"].get("duration_s", np.nan) for c in cases], "-o", label="TOPP-RA plan (tray limits x0.8)")
+    ax.plot(mus, [c.get("toppra_executed", {}).get("duration_s") or np.nan for c in cases], "-s",
+            label="fastest TOPP-RA time scaling carried through the servos")
+    rk = [c for c in cases if "ruckig_executed" in c]
+    if rk:
+        ax.plot([c["friction"] for c in rk], [c["ruckig_executed"].get("duration_s") or np.nan for c in rk], "^",
+                ms=9, label="fastest Ruckig (jerk 5 m/s^3) carried")
+    ax.axhline(5.0, color="k", ls="--", lw=0.8, label="seed: 5 s eased line")
+    ax.set_xlabel("friction coefficient mu")
+    ax.set_ylabel("start-to-goal time [s]")
+    ax.set_yscale("log")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    ax.set_title("Fastest straight-line tray transfer (0.36 m), bottle COM 44 mm", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer sweep points")
     ap.add_argument("--no-recordings", action="store_true")
+    ap.add_argument("--sections", default="pair,req,friction,fill,rec,qmt",
+                    help="comma list of: pair, req, friction, fill, rec, qmt")
     args = ap.parse_args(argv)
+    sections = set(args.sections.split(","))
     OUT.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     _json(OUT / "ik.json", ik_report())
+
+    if "qmt" in sections and sections == {"qmt"}:
+        q = qmt_section(args.quick)
+        _json(OUT / "qmt.json", q)
+        plot_qmt(q, OUT / "qmt.png")
+        print(f"done in {time.perf_counter() - t0:.0f} s -> {OUT}")
+        return 0
 
     # 1. the pair at the default bottle
     pair = {c: run(c) for c in CASES}
@@ -235,6 +326,10 @@ def main(argv=None) -> int:
         ra = run("after", mu=mu_rec, recording=OUT / "carry.html")
         _json(OUT / "recordings.json", {"mu": mu_rec, "split_found": bool(split), "before": rb.summary_dict(),
                                         "after": ra.summary_dict()})
+    if "qmt" in sections:
+        q = qmt_section(args.quick)
+        _json(OUT / "qmt.json", q)
+        plot_qmt(q, OUT / "qmt.png")
     print(f"done in {time.perf_counter() - t0:.0f} s -> {OUT}")
     return 0
 

@@ -146,3 +146,41 @@ def toppra_constraint(bottle: BottleSpec, sides: int = 16, p_TG=None):
 
     return tc.SecondOrderConstraint(inv_dyn, lambda q: F, lambda q: g, dof=3,
                                     discretization_scheme=tc.DiscretizationType.Interpolation)
+
+
+def _tray_constraint_class():
+    import toppra.constraint as tc
+    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
+
+    class TrayConstraint(tc.SecondOrderConstraint):
+        """SecondOrderConstraint whose a, b, c come from three batched `contact_wrench` calls
+        instead of 3 (gridpoints) Python calls of inv_dyn."""
+
+        def __init__(self, bottle: BottleSpec, sides: int, p_TG):
+            F, g = linear_form(bottle, sides)
+            self._bottle, self._p = bottle, p_TG
+            super().__init__(lambda q, qd, qdd: contact_wrench(tray_kinematics(q, qd, qdd, p_TG), bottle)[0],
+                             lambda q: F, lambda q: g, dof=3,
+                             discretization_scheme=tc.DiscretizationType.Interpolation)
+            self._F, self._g = F, g
+
+        def compute_constraint_params(self, path, gridpoints):
+            p, ps, pss = path(gridpoints), path(gridpoints, 1), path(gridpoints, 2)
+            z = np.zeros_like(p)
+            w = lambda qd, qdd: contact_wrench(tray_kinematics(p, qd, qdd, self._p), self._bottle)  # noqa: E731
+            c = w(z, z)
+            a = w(z, ps) - c
+            b = w(ps, pss) - c
+            n = len(gridpoints)
+            F = np.broadcast_to(self._F, (n, *self._F.shape)).copy()
+            g = np.broadcast_to(self._g, (n, len(self._g))).copy()
+            return canlinear_colloc_to_interpolate(a, b, c, F, g, None, None, gridpoints)
+
+    return TrayConstraint
+
+
+def tray_constraint(bottle: BottleSpec, sides: int = 16, p_TG=None):
+    """The tray limits as a (batched) toppra SecondOrderConstraint; same physics as
+    `toppra_constraint`, a and b from three batched kinematics passes."""
+    p = np.array([0.0, 0.0, bottle.com_height_m]) if p_TG is None else np.asarray(p_TG, float)
+    return _tray_constraint_class()(bottle, sides, p)
