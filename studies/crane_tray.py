@@ -1,6 +1,8 @@
 """Seed 002 study: the CRANE-X7 tray transfer, the fall/carry pair and what its outcome hinges on.
 
-    PYTHONPATH=. python studies/crane_tray.py [--quick] [--no-recordings]
+    PYTHONPATH=. python studies/crane_tray.py [--quick] [--no-recordings] [--sections ...]
+    PYTHONPATH=. python studies/crane_tray.py plan [--start X Y] [--goal X Y] [--mu MU] [--com-height H]
+        (fastest TOPP-RA tray line as JSON; exit 2 on bad input, 3 when infeasible)
 
 Writes out/crane_tray/:
     ik.json                     our IK vs the seed's printed joints, the fitted tool offset
@@ -47,6 +49,8 @@ OUT = ROOT / "out" / "crane_tray"
 CASES = {"before": (1.0, SEED_GAINS_BEFORE, "P-only (800), linear spacing (eq. 14)"),
          "after": (1.5, SEED_GAINS_AFTER, "PID (1000/1040/1000, I 150, D 200/250/200), eased p=1.5 (eq. 15)")}
 SETTLE_S = 1.0
+# the seed's measured tool angle at the start (section 7): the tray at rest is this far off level
+SEED_REST_TILT_RAD = 0.0168
 
 
 def _json(path: Path, obj) -> None:
@@ -214,7 +218,36 @@ def plot_qmt(q: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def plan_command(argv) -> int:
+    """`crane_tray.py plan ...`: the fastest TOPP-RA tray line as JSON on stdout. Exit 2 on bad input
+    (one line on stderr), 3 when no parametrisation keeps the bottle (feasible: false)."""
+    from qmt_drake.errors import QmtInputError
+    ap = argparse.ArgumentParser(prog="crane_tray.py plan")
+    ap.add_argument("--start", type=float, nargs=2, default=list(crane_ik.SEED_START_XY_M), metavar=("X", "Y"))
+    ap.add_argument("--goal", type=float, nargs=2, default=list(crane_ik.SEED_GOAL_XY_M), metavar=("X", "Y"))
+    ap.add_argument("--mu", type=float, default=0.3, help="bottle-tray friction coefficient")
+    ap.add_argument("--com-height", type=float, default=None, help="bottle centre of mass above its base [m]")
+    ap.add_argument("--margin", type=float, default=0.8)
+    a = ap.parse_args(argv)
+    try:
+        bottle = BottleSpec.pet_500ml(friction=a.mu)
+        if a.com_height is not None:
+            bottle = bottle.with_com_height(a.com_height)
+        bottle.check_rests(SEED_REST_TILT_RAD)
+        crane_ik.tray_ik(*a.start)
+        crane_ik.tray_ik(*a.goal)
+        _, info = toppra_line(bottle, start_xy=a.start, goal_xy=a.goal, margin=a.margin)
+    except QmtInputError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(json.dumps(info, indent=2, default=float))
+    return 0 if info["feasible"] else 3
+
+
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["plan"]:
+        return plan_command(argv[1:])
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer sweep points")
     ap.add_argument("--no-recordings", action="store_true")

@@ -83,10 +83,13 @@ def tray_ik(x: float, y: float, geom: CraneGeometry = TABLE1, *, tool_offset_m: 
     the point is unreachable or the joints leave eq. 13's ranges."""
     if not (np.isfinite(x) and np.isfinite(y)):
         raise QmtInputError(f"tray point ({x}, {y}) must be finite numbers in metres")
-    if tool_offset_m is None:
-        q = seed_frame_ik(x, y - geom.L0, math.pi / 2, geom)
-    else:  # same IK with the tool length folded into the offset
-        q = seed_frame_ik(x, y - tool_offset_m + geom.L3, math.pi / 2, geom)
+    y_shoulder = y - geom.L0 if tool_offset_m is None else y - tool_offset_m + geom.L3
+    try:
+        q = seed_frame_ik(x, y_shoulder, math.pi / 2, geom)
+    except QmtInputError:
+        raise QmtInputError(f"tray point ({x:.4g}, {y:.4g}) m is out of the arm's reach (wrist axis "
+                            f"{math.hypot(x, y_shoulder - geom.L3):.3g} m from the shoulder, L1 + L2 = "
+                            f"{geom.L1 + geom.L2:.3g} m); move it closer") from None
     theta = robot_from_seed(q)
     theta = (theta + math.pi) % (2 * math.pi) - math.pi
     if check_limits:
