@@ -299,11 +299,12 @@ def main(argv=None) -> int:
     axes[0].set_title("gains x spacing, servo period 1 ms", fontsize=9)
     axes[0].legend(fontsize=8)
     pl = [1e-3, *periods]
-    for name, style in (("P-only, linear", "-o"), ("PID, eased", "-s")):
-        axes[1].plot([p * 1e3 for p in pl], [max(req[name][f"period_{p * 1e3:g}ms"][ph] for ph in phases) for p in pl],
-                     style, label=name)
+    for name, style in (("P-only, linear", "o"), ("PID, eased", "s")):
+        for ev, ls in (("arrival", "-"), ("return start", "--")):
+            axes[1].plot([p * 1e3 for p in pl], [req[name][f"period_{p * 1e3:g}ms"][ev] for p in pl], ls + style,
+                         label=f"{name}: {ev}")
     axes[1].set_xlabel("servo control period [ms] (assumed 1 ms)")
-    axes[1].set_ylabel("required friction (worst phase)")
+    axes[1].set_ylabel("required friction")
     axes[1].set_title("the servo rate", fontsize=9)
     axes[1].legend(fontsize=8)
     for ax in axes:
