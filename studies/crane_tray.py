@@ -93,6 +93,36 @@ def phase_mu(r) -> dict:
     return {ev: required_friction(r.series, a, b) for ev, (a, b) in event_windows(r.phases).items()}
 
 
+def plot_req(req: dict, path: Path) -> None:
+    combos = list(req)
+    periods = sorted({float(k[len("period_"):-2]) * 1e-3 for k in req["P-only, linear"]} - {1e-3})
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    phases = list(event_windows({"move": (0, 1), "return": (2, 3)}))
+    w = 0.2
+    for k, name in enumerate(combos):
+        axes[0].bar(np.arange(len(phases)) + (k - 1.5) * w, [req[name]["period_1ms"][p] for p in phases], w,
+                    label=name)
+    axes[0].set_xticks(range(len(phases)), phases, fontsize=7)
+    axes[0].set_ylabel("required friction max |f_t|/f_n")
+    axes[0].set_title("gains x spacing, servo period 1 ms", fontsize=9)
+    axes[0].legend(fontsize=8)
+    pl = [1e-3, *periods]
+    for name, style, color in (("P-only, linear", "o", "C0"), ("PID, eased", "s", "C3")):
+        for ev, ls in (("arrival", "-"), ("return start", "--")):
+            axes[1].plot([p * 1e3 for p in pl], [req[name][f"period_{p * 1e3:g}ms"][ev] for p in pl], ls + style,
+                         color=color, label=f"{name}: {ev}")
+    axes[1].set_xlabel("servo control period [ms] (assumed 1 ms)")
+    axes[1].set_ylabel("required friction")
+    axes[1].set_title("the servo rate", fontsize=9)
+    axes[1].legend(fontsize=8)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.suptitle("Friction the bottle needs to stay put (sticking run, mu = 1)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot_pair(results: dict, path_joints: Path, path_bottle: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=True)
     colors = ["tab:red", "tab:cyan", "tab:blue"]  # the seed's colours: joint 1 red, 2 light blue, 3 blue
@@ -253,113 +283,98 @@ def main(argv=None) -> int:
     ap.add_argument("--no-recordings", action="store_true")
     ap.add_argument("--sections", default="pair,req,friction,fill,rec,qmt",
                     help="comma list of: pair, req, friction, fill, rec, qmt")
+    ap.add_argument("--rec-mu", type=float, default=0.3, help="friction of the recordings when the sweep is not run")
     args = ap.parse_args(argv)
     sections = set(args.sections.split(","))
     OUT.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     _json(OUT / "ik.json", ik_report())
 
-    if "qmt" in sections and sections == {"qmt"}:
-        q = qmt_section(args.quick)
-        _json(OUT / "qmt.json", q)
-        plot_qmt(q, OUT / "qmt.png")
-        print(f"done in {time.perf_counter() - t0:.0f} s -> {OUT}")
-        return 0
+    if "replot" in sections:  # figures from the JSON already written
+        plot_req(json.loads((OUT / "required_friction.json").read_text()), OUT / "required_friction.png")
+    if "pair" in sections:
+        # 1. the pair at the default bottle
+        pair = {c: run(c) for c in CASES}
+        _json(OUT / "pair.json", {c: r.summary_dict() | {"required_friction_by_phase": phase_mu(r)} for c, r in pair.items()})
+        plot_pair(pair, OUT / "pair_joints.png", OUT / "pair_bottle.png")
+        print("pair:", {c: (r.outcome, round(r.max_slide_m * 1e3, 3), round(r.real_time_factor, 2)) for c, r in pair.items()})
 
-    # 1. the pair at the default bottle
-    pair = {c: run(c) for c in CASES}
-    _json(OUT / "pair.json", {c: r.summary_dict() | {"required_friction_by_phase": phase_mu(r)} for c, r in pair.items()})
-    plot_pair(pair, OUT / "pair_joints.png", OUT / "pair_bottle.png")
-    print("pair:", {c: (r.outcome, round(r.max_slide_m * 1e3, 3), round(r.real_time_factor, 2)) for c, r in pair.items()})
+    if "req" in sections:
+        # 2. required friction (sticking bottle) per phase: gains x spacing, and the servo period
+        req = {}
+        combos = {"P-only, linear": (1.0, SEED_GAINS_BEFORE), "P-only, eased": (1.5, SEED_GAINS_BEFORE),
+                  "PID, linear": (1.0, SEED_GAINS_AFTER), "PID, eased": (1.5, SEED_GAINS_AFTER)}
+        for name, (e, g) in combos.items():
+            r = run("before", mu=1.0, exponent=e, gains=g)
+            req[name] = {"period_1ms": phase_mu(r)}
+            print("required mu", name, req[name])
+        periods = (2e-3, 4e-3) if args.quick else (2e-3, 4e-3, 8e-3)
+        for p in periods:
+            for name in ("P-only, linear", "PID, eased"):
+                e, g = combos[name]
+                r = run("before", mu=1.0, exponent=e, gains=g, period_s=p)
+                req[name][f"period_{p * 1e3:g}ms"] = phase_mu(r)
+                print("required mu", name, p, req[name][f"period_{p * 1e3:g}ms"])
+        _json(OUT / "required_friction.json", req)
+        plot_req(req, OUT / "required_friction.png")
 
-    # 2. required friction (sticking bottle) per phase: gains x spacing, and the servo period
-    req = {}
-    combos = {"P-only, linear": (1.0, SEED_GAINS_BEFORE), "P-only, eased": (1.5, SEED_GAINS_BEFORE),
-              "PID, linear": (1.0, SEED_GAINS_AFTER), "PID, eased": (1.5, SEED_GAINS_AFTER)}
-    for name, (e, g) in combos.items():
-        r = run("before", mu=1.0, exponent=e, gains=g)
-        req[name] = {"period_1ms": phase_mu(r)}
-        print("required mu", name, req[name])
-    periods = (2e-3, 4e-3) if args.quick else (2e-3, 4e-3, 8e-3)
-    for p in periods:
-        for name in ("P-only, linear", "PID, eased"):
-            e, g = combos[name]
-            r = run("before", mu=1.0, exponent=e, gains=g, period_s=p)
-            req[name][f"period_{p * 1e3:g}ms"] = phase_mu(r)
-            print("required mu", name, p, req[name][f"period_{p * 1e3:g}ms"])
-    _json(OUT / "required_friction.json", req)
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
-    phases = list(event_windows({"move": (0, 1), "return": (2, 3)}))
-    w = 0.2
-    for k, name in enumerate(combos):
-        axes[0].bar(np.arange(len(phases)) + (k - 1.5) * w, [req[name]["period_1ms"][p] for p in phases], w,
-                    label=name)
-    axes[0].set_xticks(range(len(phases)), phases, fontsize=7)
-    axes[0].set_ylabel("required friction max |f_t|/f_n")
-    axes[0].set_title("gains x spacing, servo period 1 ms", fontsize=9)
-    axes[0].legend(fontsize=8)
-    pl = [1e-3, *periods]
-    for name, style in (("P-only, linear", "o"), ("PID, eased", "s")):
-        for ev, ls in (("arrival", "-"), ("return start", "--")):
-            axes[1].plot([p * 1e3 for p in pl], [req[name][f"period_{p * 1e3:g}ms"][ev] for p in pl], ls + style,
-                         label=f"{name}: {ev}")
-    axes[1].set_xlabel("servo control period [ms] (assumed 1 ms)")
-    axes[1].set_ylabel("required friction")
-    axes[1].set_title("the servo rate", fontsize=9)
-    axes[1].legend(fontsize=8)
-    for ax in axes:
-        ax.grid(alpha=0.3)
-    fig.suptitle("Friction the bottle needs to stay put (sticking run, mu = 1)")
-    fig.tight_layout()
-    fig.savefig(OUT / "required_friction.png", dpi=110)
-    plt.close(fig)
+    if "friction" in sections:
+        # 3. friction sweep
+        mus = (0.15, 0.2, 0.3) if args.quick else (0.1, 0.125, 0.15, 0.175, 0.2, 0.25, 0.3, 0.4)
+        sweep = {c: [run(c, mu=m).summary_dict() for m in mus] for c in CASES}
+        _json(OUT / "friction_sweep.json", {"mu": mus, **sweep})
+        fig, ax = plt.subplots(figsize=(7, 4))
+        for c in CASES:
+            ax.semilogy(mus, [1e3 * max(d["slip_m"], 1e-4) for d in sweep[c]], "-o", label=f"{c}: {CASES[c][2]}")
+            ax.semilogy(mus, [1e3 * max(d["creep_m"], 1e-4) for d in sweep[c]], ":", color=ax.lines[-1].get_color(),
+                        label=f"{c}: creep (slower than 3 mm/s)")
+            for m, d in zip(mus, sweep[c]):
+                if d["outcome"] != "carried":
+                    ax.annotate(f"{d['outcome']} {d['lost_at_s']:.1f} s", (m, 1e3 * max(d["slip_m"], 1e-4)), fontsize=7)
+        ax.axhline(1.0, color="k", ls="--", lw=0.8, label="slip threshold 1 mm")
+        ax.set_xlabel("friction coefficient mu (bottle on tray)")
+        ax.set_ylabel("slip path on the tray [mm]")
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3, which="both")
+        fig.tight_layout()
+        fig.savefig(OUT / "friction_sweep.png", dpi=110)
+        plt.close(fig)
 
-    # 3. friction sweep
-    mus = (0.2, 0.3, 0.4) if args.quick else (0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5)
-    sweep = {c: [run(c, mu=m).summary_dict() for m in mus] for c in CASES}
-    _json(OUT / "friction_sweep.json", {"mu": mus, **sweep})
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for c in CASES:
-        ax.semilogy(mus, [1e3 * max(d["max_slide_m"], 1e-7) for d in sweep[c]], "-o", label=f"{c}: {CASES[c][2]}")
-        for m, d in zip(mus, sweep[c]):
-            if d["outcome"] != "carried":
-                ax.annotate(d["outcome"], (m, 1e3 * d["max_slide_m"]), fontsize=7)
-    ax.axhline(1.0, color="k", ls="--", lw=0.8, label="slip threshold 1 mm")
-    ax.set_xlabel("friction coefficient mu (bottle on tray)")
-    ax.set_ylabel("max slide [mm]")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    fig.savefig(OUT / "friction_sweep.png", dpi=110)
-    plt.close(fig)
+    if "fill" in sections:
+        # 4. fill (centre-of-mass height) sweep at a sticking friction: tipping
+        coms = (0.044, 0.08) if args.quick else (0.044, 0.06, 0.07, 0.08, 0.1)
+        fill = {c: [run(c, mu=1.0, com_height=h).summary_dict() for h in coms] for c in CASES}
+        _json(OUT / "fill_sweep.json", {"com_height_m": coms, **fill})
+        fig, ax = plt.subplots(figsize=(7, 4))
+        for c in CASES:
+            ax.plot(coms, [np.degrees(d["max_tilt_rad"]) for d in fill[c]], "-o", label=c)
+            for h, d in zip(coms, fill[c]):
+                if d["outcome"] != "carried":
+                    ax.annotate(d["outcome"], (h, np.degrees(d["max_tilt_rad"])), fontsize=7)
+        ax.set_yscale("log")
+        ax.set_xlabel("bottle centre-of-mass height [m] (ring radius 0.029 m), mu = 1")
+        ax.set_ylabel("max tilt [deg]")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3, which="both")
+        fig.tight_layout()
+        fig.savefig(OUT / "fill_sweep.png", dpi=110)
+        plt.close(fig)
 
-    # 4. fill (centre-of-mass height) sweep at a sticking friction: tipping
-    coms = (0.044, 0.08) if args.quick else (0.044, 0.06, 0.07, 0.08, 0.1)
-    fill = {c: [run(c, mu=1.0, com_height=h).summary_dict() for h in coms] for c in CASES}
-    _json(OUT / "fill_sweep.json", {"com_height_m": coms, **fill})
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for c in CASES:
-        ax.plot(coms, [np.degrees(d["max_tilt_rad"]) for d in fill[c]], "-o", label=c)
-        for h, d in zip(coms, fill[c]):
-            if d["outcome"] != "carried":
-                ax.annotate(d["outcome"], (h, np.degrees(d["max_tilt_rad"])), fontsize=7)
-    ax.set_yscale("log")
-    ax.set_xlabel("bottle centre-of-mass height [m] (ring radius 0.029 m), mu = 1")
-    ax.set_ylabel("max tilt [deg]")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    fig.savefig(OUT / "fill_sweep.png", dpi=110)
-    plt.close(fig)
-
-    # 5. recordings of the pair at the friction where it splits (if any), else the default
-    split = [m for m, b, a in zip(mus, sweep["before"], sweep["after"]) if b["slipped"] and not a["slipped"]]
-    mu_rec = split[0] if split else 0.3
-    if not args.no_recordings:
-        rb = run("before", mu=mu_rec, recording=OUT / "fall.html")
-        ra = run("after", mu=mu_rec, recording=OUT / "carry.html")
-        _json(OUT / "recordings.json", {"mu": mu_rec, "split_found": bool(split), "before": rb.summary_dict(),
-                                        "after": ra.summary_dict()})
+    if "rec" in sections:
+        # 5. recordings of the pair at the friction where it splits (if any), else the default
+        if "friction" in sections:
+            lost = [m for m, b, a in zip(mus, sweep["before"], sweep["after"])
+                    if b["outcome"] != "carried" and a["outcome"] == "carried"]
+            slipped = [m for m, b, a in zip(mus, sweep["before"], sweep["after"]) if b["slipped"] and not a["slipped"]]
+            split = lost or slipped
+            mu_rec = max(split) if split else 0.3
+        else:
+            split, mu_rec = [], args.rec_mu
+        if not args.no_recordings:
+            rb = run("before", mu=mu_rec, recording=OUT / "fall.html")
+            ra = run("after", mu=mu_rec, recording=OUT / "carry.html")
+            _json(OUT / "recordings.json", {"mu": mu_rec, "split_found": bool(split), "before": rb.summary_dict(),
+                                            "after": ra.summary_dict()})
     if "qmt" in sections:
         q = qmt_section(args.quick)
         _json(OUT / "qmt.json", q)
