@@ -143,25 +143,25 @@ def plot_pair(results: dict, path_joints: Path, path_bottle: Path) -> None:
     fig.savefig(path_joints, dpi=110)
     plt.close(fig)
 
-    fig, axes = plt.subplots(4, 1, figsize=(10, 9), sharex=True)
+    fig, axes = plt.subplots(5, 1, figsize=(10, 11), sharex=True)
     for case, r in results.items():
         t, s = r.series["t"], r.series
         m = t >= SEATING_S
         slide = np.hypot(s["slide"][0], s["slide"][1])
         f = s["contact_force"]
-        axes[0].plot(t[m], 1e3 * slide[m], label=case)
-        axes[1].plot(t[m], np.degrees(s["tilt"][0][m]), label=case)
-        axes[2].plot(t[m], f[2][m], label=case)
-        axes[3].plot(t[m], np.hypot(f[0], f[1])[m] / np.maximum(f[2][m], 1e-9), label=case)
-        err = s["goal"] - s["arm_state"][:3]
-        del err
-    axes[0].axhline(1.0, color="k", ls="--", lw=0.8, label="slip threshold 1 mm")
-    axes[0].set_ylabel("slide [mm]")
-    axes[1].set_ylabel("tilt [deg]")
-    axes[2].set_ylabel("normal force [N]")
-    axes[3].axhline(results["before"].friction, color="k", ls="--", lw=0.8, label="mu")
-    axes[3].set_ylabel("|f_t| / f_n")
-    axes[3].set_xlabel("time [s]")
+        axes[0].plot(t[m], np.degrees(np.sum(s["arm_state"][:3], axis=0))[m], label=case)
+        axes[1].plot(t[m], 1e3 * slide[m], label=case)
+        axes[2].plot(t[m], np.degrees(s["tilt"][0][m]), label=case)
+        axes[3].plot(t[m], f[2][m], label=case)
+        axes[4].plot(t[m], np.hypot(f[0], f[1])[m] / np.maximum(f[2][m], 1e-9), label=case)
+    axes[0].set_ylabel("tray angle [deg]\n(theta1+theta2+theta3)")
+    axes[1].axhline(1.0, color="k", ls="--", lw=0.8, label="slip threshold 1 mm")
+    axes[1].set_ylabel("slide on tray [mm]")
+    axes[2].set_ylabel("bottle tilt\non tray [deg]")
+    axes[3].set_ylabel("normal force [N]")
+    axes[4].axhline(results["before"].friction, color="k", ls="--", lw=0.8, label="mu")
+    axes[4].set_ylabel("|f_t| / f_n")
+    axes[4].set_xlabel("time [s]")
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
