@@ -88,6 +88,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     if not time_step_s > 0 or not servo_period_s > 0:
         raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
     bottle = bottle or BottleSpec.pet_500ml()
+    bottle.check_rests(float(np.sum(schedule.q_start)))  # the tray's tilt at the start (0 = level)
     builder = DiagramBuilder()
     cfg = MultibodyPlantConfig(time_step=time_step_s, discrete_contact_approximation="lagged", contact_model="point",
                                use_sampled_output_ports=False)
