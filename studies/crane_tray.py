@@ -323,17 +323,20 @@ def main(argv=None) -> int:
         mus = (0.15, 0.2, 0.3) if args.quick else (0.1, 0.125, 0.15, 0.175, 0.2, 0.25, 0.3, 0.4)
         sweep = {c: [run(c, mu=m).summary_dict() for m in mus] for c in CASES}
         _json(OUT / "friction_sweep.json", {"mu": mus, **sweep})
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = plt.subplots(figsize=(9, 5))
         for c in CASES:
             ax.semilogy(mus, [1e3 * max(d["slip_m"], 1e-4) for d in sweep[c]], "-o", label=f"{c}: {CASES[c][2]}")
             ax.semilogy(mus, [1e3 * max(d["creep_m"], 1e-4) for d in sweep[c]], ":", color=ax.lines[-1].get_color(),
                         label=f"{c}: creep (slower than 3 mm/s)")
-            for m, d in zip(mus, sweep[c]):
-                if d["outcome"] != "carried":
-                    ax.annotate(f"{d['outcome']} {d['lost_at_s']:.1f} s", (m, 1e3 * max(d["slip_m"], 1e-4)), fontsize=7)
+            lost = [(m, d) for m, d in zip(mus, sweep[c]) if d["outcome"] != "carried"]
+            if lost:
+                ax.semilogy([m for m, _ in lost], [1e3 * max(d["slip_m"], 1e-4) for _, d in lost], "x", ms=12, mew=2,
+                            color=ax.lines[-2].get_color(), label=f"{c}: lost (" + ", ".join(
+                                f"{m:g}: {d['outcome']} at {d['lost_at_s']:.1f} s" for m, d in lost) + ")")
         ax.axhline(1.0, color="k", ls="--", lw=0.8, label="slip threshold 1 mm")
         ax.set_xlabel("friction coefficient mu (bottle on tray)")
-        ax.set_ylabel("slip path on the tray [mm]")
+        ax.set_ylabel("slip path on the tray until lost [mm]")
+        ax.set_title("seed motion: move 1-6 s, hold 6-11 s, return 11-16 s", fontsize=9)
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3, which="both")
         fig.tight_layout()

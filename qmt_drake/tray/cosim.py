@@ -142,8 +142,8 @@ class TrayResult:
     outcome: str
     lost_at_s: float | None
     max_slide_m: float
-    slip_m: float  # distance slid faster than SLIP_SPEED_M_S
-    creep_m: float  # distance slid slower than that
+    slip_m: float  # distance slid faster than SLIP_SPEED_M_S (until lost)
+    creep_m: float  # distance slid slower than that (until lost)
     slipped: bool
     max_tilt_rad: float
     lifted_s: float
@@ -208,10 +208,11 @@ def set_initial_state(td: TrayDiagram, root_context) -> None:
         np.concatenate([integral, np.round(e), pwm]))
 
 
-def split_slip_creep(series: dict) -> tuple[float, float]:
-    """(slip, creep) [m]: path length of the base centre on the tray, split by sliding speed."""
+def split_slip_creep(series: dict, until_s: float | None = None) -> tuple[float, float]:
+    """(slip, creep) [m]: path length of the base centre on the tray, split by sliding speed, up to
+    until_s (the time the bottle was lost: after that it is falling, not sliding)."""
     t = series["t"]
-    m = t >= SEATING_S
+    m = (t >= SEATING_S) & (t <= (np.inf if until_s is None else until_s))
     xy = series["slide"][:, m]
     step = np.hypot(np.diff(xy[0]), np.diff(xy[1]))
     speed = step / np.maximum(np.diff(t[m]), 1e-12)
@@ -284,7 +285,7 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     dt = np.diff(series["t"], prepend=series["t"][0])[after]
     q = series["arm_state"][:3]
     err = np.max(np.abs(series["goal"] - q), axis=1)
-    slip, creep = split_slip_creep(series)
+    slip, creep = split_slip_creep(series, lost_at)
     return TrayResult(schedule.label, outcome, lost_at, float(np.max(slide_norm)), slip, creep,
                       bool(slip > SLIP_THRESHOLD_M), float(np.max(series["tilt"][0][after])),
                       float(np.sum(dt[fn <= LIFT_FORCE_N])), float(np.min(fn)), err, float(schedule.t_end_s), wall,
