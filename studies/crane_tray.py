@@ -61,7 +61,8 @@ def ik_report() -> dict:
     ours = {k: crane_ik.tray_ik(*xy).tolist() for k, xy in (("start", crane_ik.SEED_START_XY_M),
                                                            ("goal", crane_ik.SEED_GOAL_XY_M))}
     h, res = crane_ik.fit_tool_offset()
-    return {"ours_rad": ours, "seed_rad": {"start": crane_ik.SEED_START_THETA_RAD, "goal": crane_ik.SEED_GOAL_THETA_RAD},
+    return {"ours_rad": ours,
+            "seed_rad": {"start": crane_ik.SEED_START_THETA_RAD, "goal": crane_ik.SEED_GOAL_THETA_RAD},
             "difference_rad": crane_ik.seed_joint_residual().tolist(),
             "fk_of_seed_joints_xy_phi": {"start": crane_ik.tray_fk(crane_ik.SEED_START_THETA_RAD).tolist(),
                                          "goal": crane_ik.tray_fk(crane_ik.SEED_GOAL_THETA_RAD).tolist()},
@@ -295,9 +296,10 @@ def main(argv=None) -> int:
     if "pair" in sections:
         # 1. the pair at the default bottle
         pair = {c: run(c) for c in CASES}
-        _json(OUT / "pair.json", {c: r.summary_dict() | {"required_friction_by_phase": phase_mu(r)} for c, r in pair.items()})
+        _json(OUT / "pair.json", {c: r.summary_dict() | {"required_friction_by_phase": phase_mu(r)}
+                                  for c, r in pair.items()})
         plot_pair(pair, OUT / "pair_joints.png", OUT / "pair_bottle.png")
-        print("pair:", {c: (r.outcome, round(r.max_slide_m * 1e3, 3), round(r.real_time_factor, 2)) for c, r in pair.items()})
+        print("pair:", {c: (r.outcome, r.slip_m, round(r.real_time_factor, 2)) for c, r in pair.items()})
 
     if "req" in sections:
         # 2. required friction (sticking bottle) per phase: gains x spacing, and the servo period

@@ -25,7 +25,8 @@ def test_gain_conversion_follows_the_e_manual():
 def test_motor_params_reproduce_the_datasheet():
     for s, lossless in ((XM540_W270, True), (XM430_W350, True), (XM540_W270, False), (XM430_W350, False)):
         p = motor_params([s], lossless_equivalent=lossless)
-        stall = p.gear_ratio[0] * p.efficiency[0] * p.torque_constant_Nm_per_A[0] * s.supply_voltage_V / p.resistance_ohm[0]
+        stall = (p.gear_ratio[0] * p.efficiency[0] * p.torque_constant_Nm_per_A[0] * s.supply_voltage_V
+                 / p.resistance_ohm[0])
         assert stall == pytest.approx(s.stall_torque_Nm, rel=1e-12)
         w0 = s.supply_voltage_V / (p.torque_constant_Nm_per_A[0] * p.gear_ratio[0])
         assert w0 == pytest.approx(s.no_load_speed_rpm * 2 * math.pi / 60, rel=1e-12)

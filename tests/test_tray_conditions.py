@@ -39,7 +39,8 @@ def test_wrench_matches_drake_inverse_dynamics_of_the_bottle_welded_on_the_tray(
             plant.SetPositions(ctx, q)
             plant.SetVelocities(ctx, qd)
             from pydrake.multibody.tree import MultibodyForces
-            tau.append(plant.CalcInverseDynamics(ctx, qdd, MultibodyForces(plant)) - plant.CalcGravityGeneralizedForces(ctx))
+            tau.append(plant.CalcInverseDynamics(ctx, qdd, MultibodyForces(plant))
+                       - plant.CalcGravityGeneralizedForces(ctx))
         w_T = contact_wrench(tray_kinematics(q, qd, qdd, [0, 0, BOTTLE.com_height_m]), BOTTLE)[0]
         plant = plants[0]
         ctx = plant.CreateDefaultContext()

@@ -4,7 +4,7 @@ and the contact force agrees with the numpy tray conditions evaluated on the exe
 import numpy as np
 import pytest
 
-from qmt_drake.systems.dynamixel_servo import SEED_GAINS_AFTER, SEED_GAINS_BEFORE
+from qmt_drake.systems.dynamixel_servo import SEED_GAINS_AFTER
 from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.conditions import contact_wrench, tray_kinematics
 from qmt_drake.tray.cosim import SEATING_S, simulate_tray

@@ -1,7 +1,6 @@
 """Seed 002 IK, URDF and waypoints: IK against Drake's forward kinematics of the URDF, the seed's
 printed joints, bad input, the waypoint spacing laws."""
 
-import math
 
 import numpy as np
 import pytest

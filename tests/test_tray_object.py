@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import SpatialInertia, UnitInertia
 from pydrake.systems.analysis import Simulator
@@ -24,7 +23,8 @@ def _run(spec, a_x, t_end=0.6, dt=1e-3):
     builder = DiagramBuilder()
     plant, sg = AddMultibodyPlant(MultibodyPlantConfig(time_step=dt, discrete_contact_approximation="lagged",
                                                        contact_model="point"), builder)
-    tray = plant.AddRigidBody("tray", SpatialInertia.MakeFromCentralInertia(0.2, np.zeros(3), UnitInertia(1e-3, 1e-3, 1e-3)))
+    tray = plant.AddRigidBody("tray", SpatialInertia.MakeFromCentralInertia(0.2, np.zeros(3),
+                                                                          UnitInertia(1e-3, 1e-3, 1e-3)))
     plant.WeldFrames(plant.world_frame(), tray.body_frame())
     add_tray_contact(plant, tray, spec)
     bottle = add_bottle(plant, spec)

@@ -185,7 +185,8 @@ class DynamixelPositionServo(LeafSystem):
             raise QmtInputError(f"servo control period must be positive, got {control_period_s} s")
         for name in ("p", "i", "d"):
             if len(getattr(gains, name)) != n:
-                raise QmtInputError(f"servo gains {name.upper()} has {len(getattr(gains, name))} entries for {n} servos")
+                raise QmtInputError(f"servo gains {name.upper()} has {len(getattr(gains, name))} entries "
+                                    f"for {n} servos")
         self.sheets, self.gains, self.period_s, self._n = sheets, gains, float(control_period_s), n
         self._kpp, self._kpi, self._kpd = (k.tolist() for k in gains.firmware())
         self._v_per_pwm = [s.supply_voltage_V / PWM_FULL_SCALE for s in sheets]

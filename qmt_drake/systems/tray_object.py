@@ -71,7 +71,8 @@ class BottleSpec:
 
     def __post_init__(self) -> None:
         if not self.friction >= 0:
-            raise QmtInputError(f"bottle friction coefficient {self.friction} must be >= 0 (dry PET on plastic: ~0.2-0.5)")
+            raise QmtInputError(f"bottle friction coefficient {self.friction} must be >= 0 "
+                                "(dry PET on plastic: ~0.2-0.5)")
         if not (self.mass_kg > 0 and self.radius_m > 0 and self.height_m > 0):
             raise QmtInputError("bottle mass, radius and height must be positive")
         if not 0 < self.contact_radius_m <= self.radius_m:
@@ -104,9 +105,9 @@ class BottleSpec:
         """One-line QmtInputError if the bottle tips or slides at rest on a tray tilted by tray_tilt_rad."""
         t = abs(math.tan(tray_tilt_rad))
         if t >= self.tip_ratio:
-            raise QmtInputError(f"bottle centre of mass {self.com_height_m:.3g} m above its base tips over at rest on a "
-                                f"tray tilted {math.degrees(tray_tilt_rad):.2f} deg (limit {self.contact_radius_m / t:.3g} m);"
-                                f" lower it or level the tray")
+            raise QmtInputError(f"bottle centre of mass {self.com_height_m:.3g} m above its base tips over at rest "
+                                f"on a tray tilted {math.degrees(tray_tilt_rad):.2f} deg (limit "
+                                f"{self.contact_radius_m / t:.3g} m); lower it or level the tray")
         if t >= self.friction:
             raise QmtInputError(f"bottle friction {self.friction} slides at rest on a tray tilted "
                                 f"{math.degrees(tray_tilt_rad):.2f} deg; use mu > {t:.3g}")
@@ -147,9 +148,11 @@ def add_bottle(plant, spec: BottleSpec, name: str = "bottle"):
     for k in range(spec.n_contact_points):
         a = 2.0 * math.pi * k / spec.n_contact_points
         p = [spec.contact_radius_m * math.cos(a), spec.contact_radius_m * math.sin(a), spec.sphere_radius_m]
-        plant.RegisterCollisionGeometry(body, RigidTransform(p), Sphere(spec.sphere_radius_m), f"{name}_foot_{k}", props)
-    plant.RegisterVisualGeometry(body, RigidTransform([0, 0, spec.height_m / 2]), Cylinder(spec.radius_m, spec.height_m),
-                                 f"{name}_visual", np.array([0.6, 0.8, 0.95, 0.6]))
+        plant.RegisterCollisionGeometry(body, RigidTransform(p), Sphere(spec.sphere_radius_m), f"{name}_foot_{k}",
+                                        props)
+    plant.RegisterVisualGeometry(body, RigidTransform([0, 0, spec.height_m / 2]),
+                                 Cylinder(spec.radius_m, spec.height_m), f"{name}_visual",
+                                 np.array([0.6, 0.8, 0.95, 0.6]))
     return body
 
 

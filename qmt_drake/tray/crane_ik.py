@@ -99,7 +99,8 @@ def tray_ik(x: float, y: float, geom: CraneGeometry = TABLE1, *, tool_offset_m: 
             k = int(bad[0])
             raise QmtInputError(
                 f"tray point ({x:.4g}, {y:.4g}) m needs joint {k + 1} at {math.degrees(theta[k]):.1f} deg, outside "
-                f"eq. 13's [{math.degrees(lo[k]):.0f}, {math.degrees(hi[k]):.0f}] deg; pick a point inside the workspace")
+                f"eq. 13's [{math.degrees(lo[k]):.0f}, {math.degrees(hi[k]):.0f}] deg; pick a point inside the "
+                "workspace")
     return theta
 
 

@@ -164,15 +164,16 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     ts = np.arange(0.0, Ts + 0.5 * stream_period_s, stream_period_s)
     ts[-1] = min(ts[-1], Ts)
     info["duration_s"] = Ts
-    return _stream(traj(ts / time_scale), ts, settle_s, tail_s, f"TOPP-RA line, margin {margin:g}, x{time_scale:g}"), info
+    label = f"TOPP-RA line, margin {margin:g}, x{time_scale:g}"
+    return _stream(traj(ts / time_scale), ts, settle_s, tail_s, label), info
 
 
 def _stream(q: np.ndarray, t: np.ndarray, settle_s: float, tail_s: float, label: str) -> GoalSchedule:
     times = np.concatenate([[0.0], settle_s + t])
     goals = np.vstack([q[:1], q])
     T = float(t[-1])
-    return GoalSchedule(times, goals, settle_s + T + tail_s, {"settle": (0.0, settle_s), "move": (settle_s, settle_s + T)},
-                        label)
+    phases = {"settle": (0.0, settle_s), "move": (settle_s, settle_s + T)}
+    return GoalSchedule(times, goals, settle_s + T + tail_s, phases, label)
 
 
 def ruckig_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, margin: float = 0.8,
