@@ -18,6 +18,27 @@ Writes out/crane_tray/:
                                 the fastest time scaling of it (and of a jerk-limited Ruckig line)
                                 that the servos execute with the bottle carried (slip < 1 mm), over
                                 friction and fill, against the seed's 5 s eased line
+
+Findings (this script, 1 ms plant step and servo period, bottle PET 500 mL with 30 g water,
+COM 44 mm, ring 29 mm; numbers from out/crane_tray/*.json):
+- IK: Table 1 gives (1.1927, -2.0705, 0.8778) / (1.3402, -0.6632, -0.6770) rad; the seed prints
+  (1.1183, -1.9650, 0.8299) / (1.2057, -0.4617, -0.7440). The printed joints put the tray 22 mm
+  above y = 0.4; a tool offset of 0.1232 m instead of L0 + L3 = 0.148 m fits them to 12 mrad
+  (the maker's joint-7 frame, 0.019 m past the wrist axis: crane_ik.py).
+- P-only (800) sags under gravity (datasheet torque per volt): at the far goal 59 / 51 pulses on
+  shoulder / elbow, the tray tilts ~10 deg for the whole hold; the retuned I gain removes the sag
+  in seconds (pair_bottle.png, top panel).
+- Required friction of a sticking bottle (required_friction.png): the return start needs 0.26
+  with P-only + linear spacing but 0.06 with PID + eased (where the seed lost the bottle), while
+  the arrival at the goal needs 0.27 vs 0.32 (eased spacing ends at 1.5x the mean speed, abruptly).
+- Friction sweep (friction_sweep.png): at mu 0.10-0.175 the P-only/linear run loses the bottle
+  (slides off the 0.24 m tray at 5.8-6.3 s, the arrival, or tips over its edge at 7.3 s) while
+  PID/eased carries it (26-82 mm of slip); at mu 0.2 both are carried but P-only slips 11 mm at
+  the start of the return (the seed's moment); from mu 0.25 neither slips. The pair hinges on mu
+  (and on the tray's size and where the bottle stands, not given in the seed). Tipping is not the
+  failure mode: with mu = 1 the bottle rocks < 0.25 deg up to a 100 mm COM (fill_sweep.png).
+- The servo period matters for the PID run only (D acts per sample): return-start requirement
+  0.06 -> 0.19 from 1 to 4 ms.
 """
 
 from __future__ import annotations
