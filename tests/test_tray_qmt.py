@@ -43,3 +43,12 @@ def test_ruckig_approaches_the_closed_form_as_jerk_grows():
     assert smooth["duration_s"] > fast["duration_s"] * 1.1
     with pytest.raises(QmtInputError):
         ruckig_line(BOTTLE, margin=1.5)
+
+
+@pytest.mark.parametrize("args", [["--mu", "-0.2"], ["--goal", "0.7", "0.4"], ["--com-height", "0.3"],
+                                  ["--mu", "0.01"]])
+def test_plan_command_bad_input_is_one_line_exit_2(args, capsys):
+    from studies.crane_tray import plan_command
+    assert plan_command(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "\n" not in err
