@@ -1,0 +1,293 @@
+"""Co-simulation of seed 002's tray transfer.
+
+    goal stream (GoalSchedule, zero-order hold) --goal_position--> DynamixelPositionServo (firmware PID,
+        sampled) --voltage_command--> DcMotorWithGear (datasheet XM540-W270 / XM430-W350)
+        --joint_torque--> MultibodyPlant(CRANE-X7 planar arm + tray, free bottle; discrete, SAP lagged,
+        point contact) --> TrayBottleMonitor (slide, tilt, lift-off, contact force)
+
+The motors drive the plant explicitly (their back-EMF damping b = eta Ke^2 / R, 3.4 / 0.85 N m s/rad,
+over the joints' inertia incl. the reflected rotor gives b h / J < 0.05 at h = 1 ms: stable).
+The arm starts at rest at the schedule's first goal, the bottle seated on the tray; the settle
+phase lets the position loops take up gravity before the move.
+
+`simulate_tray` returns a `TrayResult`; `TrayResult.outcome` classifies the run:
+    "carried"    on the tray, upright and in contact at the end
+    "slid_off"   its base centre left the tray surface
+    "tipped"     tilt beyond the angle at which its centre of mass passes the ring's edge
+    "lifted"     (reported separately as lifted_s: time with zero normal force)
+`slip_m` / `creep_m` split the bottle's path on the tray by its sliding speed (SLIP_SPEED_M_S):
+real slip vs the solver's creep; `slipped` = slip_m > SLIP_THRESHOLD_M.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.systems.dc_motor import DcMotorWithGear
+from qmt_drake.systems.dynamixel_servo import (CONTROL_PERIOD_S, CRANE_X7_PLANAR_SERVOS, DynamixelPositionServo,
+                                               ServoGains, motor_params)
+from qmt_drake.systems.tray_object import (TRAY_SIZE_M, BottleSpec, TrayBottleMonitor, add_bottle, add_tray_contact,
+                                           seated_pose_on_tray)
+from qmt_drake.tray.waypoints import GoalSchedule
+
+URDF_PATH = Path(__file__).resolve().parents[2] / "models" / "crane_x7_planar.urdf"
+JOINTS = ("shoulder_pitch", "elbow", "wrist_pitch")
+TIME_STEP_S = 1e-3
+# Real slip vs creep: SAP's regularised friction lets a sticking contact creep, faster the nearer
+# the tangential force is to the cone's edge: measured 0.06 mm/s at 0.57 of the cone (the P-only
+# hold, tray tilted by the sag; studies/crane_tray.py) and 0.2-0.3 mm/s at 0.9 of it
+# (tests/test_tray_object.py). Over a 17 s run creep alone reaches ~1 mm, so a distance threshold
+# cannot separate them; the sliding SPEED does: samples faster than SLIP_SPEED_M_S (10x the
+# creep speed at 0.9 of the cone) count as slip, the rest as creep.
+SLIP_SPEED_M_S = 3e-3
+SLIP_THRESHOLD_M = 1e-3  # slipped: the slip distance (not the creep) exceeds this
+LIFT_FORCE_N = 1e-6
+# The first samples see the bottle's feet just touching (zero force) while the contact takes up
+# its weight: statistics start after this seating time.
+SEATING_S = 0.2
+
+
+@dataclass
+class TrayDiagram:
+    diagram: object
+    plant: object
+    scene_graph: object
+    arm: object
+    tray_body: object
+    bottle_body: object
+    servo: DynamixelPositionServo
+    loggers: dict
+    schedule: GoalSchedule
+    bottle: BottleSpec
+    X_TB0: object
+    visualizer: object = None
+
+
+def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
+    t = np.append(schedule.times, max(schedule.t_end_s, schedule.times[-1]) + 1.0)
+    g = np.vstack([schedule.goals, schedule.goals[-1:]])
+    return PiecewisePolynomial.ZeroOrderHold(t, g.T)
+
+
+def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
+                       time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
+                       bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None) -> TrayDiagram:
+    """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps."""
+    if not time_step_s > 0 or not servo_period_s > 0:
+        raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
+    bottle = bottle or BottleSpec.pet_500ml()
+    bottle.check_rests(float(np.sum(schedule.q_start)))  # the tray's tilt at the start (0 = level)
+    builder = DiagramBuilder()
+    cfg = MultibodyPlantConfig(time_step=time_step_s, discrete_contact_approximation="lagged", contact_model="point",
+                               use_sampled_output_ports=False)
+    plant, scene_graph = AddMultibodyPlant(cfg, builder)
+    arm = Parser(plant).AddModels(str(URDF_PATH))[0]
+    tray = plant.GetBodyByName("tray", arm)
+    add_tray_contact(plant, tray, bottle)
+    bottle_body = add_bottle(plant, bottle)
+    plant.Finalize()
+    n = 3
+    X_TB0 = seated_pose_on_tray(bottle_offset_xy)
+
+    goal = builder.AddNamedSystem("goal_stream", TrajectorySource(_goal_trajectory(schedule)))
+    servo = builder.AddNamedSystem("servos", DynamixelPositionServo(CRANE_X7_PLANAR_SERVOS, gains,
+                                                                    control_period_s=servo_period_s))
+    motors = builder.AddNamedSystem("motors", DcMotorWithGear(motor_params(CRANE_X7_PLANAR_SERVOS)))
+    split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+    monitor = builder.AddNamedSystem("monitor", TrayBottleMonitor(plant, tray, bottle_body, X_TB0))
+    arm_state = plant.get_state_output_port(arm)
+    builder.Connect(arm_state, split.get_input_port())
+    builder.Connect(goal.get_output_port(), servo.GetInputPort("goal_position"))
+    builder.Connect(split.get_output_port(0), servo.GetInputPort("joint_position"))
+    builder.Connect(servo.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
+    builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
+    builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+    builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
+    builder.Connect(plant.get_contact_results_output_port(), monitor.GetInputPort("contact_results"))
+    ports = {"goal": goal.get_output_port(), "arm_state": arm_state,
+             "voltage": servo.GetOutputPort("voltage_command"), "current": motors.GetOutputPort("current"),
+             "joint_torque": motors.GetOutputPort("joint_torque"), "slide": monitor.GetOutputPort("slide"),
+             "tilt": monitor.GetOutputPort("tilt"), "base_height": monitor.GetOutputPort("base_height"),
+             "contact_force": monitor.GetOutputPort("contact_force")}
+    loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()} if log_period_s else {}
+    visualizer = None
+    if meshcat is not None:
+        from qmt_drake.recording import add_meshcat_visualizer
+        visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
+    diagram = builder.Build()
+    return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo, loggers, schedule, bottle, X_TB0,
+                       visualizer)
+
+
+@dataclass
+class TrayResult:
+    """One co-simulated tray run. Times are simulation time from the start of the settle phase.
+    max_slide_m: largest in-plane displacement of the bottle's base from its seat (tray frame);
+    slipped: max_slide_m > SLIP_THRESHOLD_M; lifted_s: time with zero tray normal force;
+    real_time_factor = sim_time_s / sim_wall_s. series: 5 ms samples (see build_tray_diagram)."""
+
+    label: str
+    outcome: str
+    lost_at_s: float | None
+    max_slide_m: float
+    slip_m: float  # distance slid faster than SLIP_SPEED_M_S (until lost)
+    creep_m: float  # distance slid slower than that (until lost)
+    slipped: bool
+    max_tilt_rad: float
+    lifted_s: float
+    min_normal_force_N: float
+    max_tracking_error_rad: np.ndarray
+    sim_time_s: float
+    sim_wall_s: float
+    real_time_factor: float
+    time_step_s: float
+    servo_period_s: float
+    friction: float
+    com_height_m: float
+    phases: dict
+    series: dict = field(default_factory=dict, repr=False)
+
+    def summary_dict(self) -> dict:
+        d = {k: getattr(self, k) for k in ("label", "outcome", "lost_at_s", "max_slide_m", "slip_m", "creep_m",
+                                           "slipped", "max_tilt_rad",
+                                           "lifted_s", "min_normal_force_N", "sim_time_s", "sim_wall_s",
+                                           "real_time_factor", "time_step_s", "servo_period_s", "friction",
+                                           "com_height_m", "phases")}
+        d["max_tracking_error_rad"] = [float(x) for x in self.max_tracking_error_rad]
+        return {k: (float(v) if isinstance(v, np.floating) else (bool(v) if isinstance(v, np.bool_) else v))
+                for k, v in d.items()}
+
+
+def holding_torque_Nm(plant, ctx, arm, tray_body, bottle_body, bottle: BottleSpec, X_TB0) -> np.ndarray:
+    """Joint torques [N m] that hold the arm and the seated bottle still at the context's q."""
+    from pydrake.multibody.tree import JacobianWrtVariable
+    idx = [plant.GetJointByName(j, arm).velocity_start() for j in JOINTS]
+    tau = -plant.CalcGravityGeneralizedForces(ctx)[idx]
+    p_TG = X_TB0.multiply(np.array([0.0, 0.0, bottle.com_height_m]))
+    J = plant.CalcJacobianTranslationalVelocity(ctx, JacobianWrtVariable.kV, tray_body.body_frame(), p_TG,
+                                                plant.world_frame(), plant.world_frame())
+    J = J[:, idx]
+    return tau + J.T @ np.array([0.0, 0.0, bottle.mass_kg * 9.81])
+
+
+def set_initial_state(td: TrayDiagram, root_context) -> None:
+    """Arm and servos in static equilibrium at the first goal (P-only: the sag that balances
+    gravity; with I: the integral carries the load, no error), bottle seated, all at rest: the
+    run starts without the jolt of a loop taking up its load."""
+    from qmt_drake.systems.dynamixel_servo import PULSES_PER_RAD, PWM_FULL_SCALE
+    plant = td.plant
+    ctx = plant.GetMyMutableContextFromRoot(root_context)
+    goal = td.schedule.q_start
+    mp = motor_params(CRANE_X7_PLANAR_SERVOS)
+    nm_per_pwm = mp.joint_torque_per_volt_stall() * mp.voltage_limit_V / PWM_FULL_SCALE
+    kpp, kpi, _ = td.servo.gains.firmware()
+    q = goal.copy()
+    for _ in range(4):  # gravity depends on the sag: a few fixed-point passes
+        plant.SetPositions(ctx, td.arm, q)
+        pwm = holding_torque_Nm(plant, ctx, td.arm, td.tray_body, td.bottle_body, td.bottle, td.X_TB0) / nm_per_pwm
+        e = np.where(kpi > 0, 0.0, pwm / kpp)  # pulses
+        q = goal - e / PULSES_PER_RAD
+    plant.SetPositions(ctx, td.arm, q)
+    plant.SetVelocities(ctx, td.arm, np.zeros(3))
+    X_WT = plant.EvalBodyPoseInWorld(ctx, td.tray_body)
+    plant.SetFreeBodyPose(ctx, td.bottle_body, X_WT.multiply(td.X_TB0))
+    integral = np.where(kpi > 0, pwm / np.where(kpi > 0, kpi, 1.0), 0.0)
+    td.servo.GetMyMutableContextFromRoot(root_context).SetDiscreteState(
+        np.concatenate([integral, np.round(e), pwm]))
+
+
+def split_slip_creep(series: dict, until_s: float | None = None) -> tuple[float, float]:
+    """(slip, creep) [m]: path length of the base centre on the tray, split by sliding speed, up to
+    until_s (the time the bottle was lost: after that it is falling, not sliding)."""
+    t = series["t"]
+    m = (t >= SEATING_S) & (t <= (np.inf if until_s is None else until_s))
+    xy = series["slide"][:, m]
+    step = np.hypot(np.diff(xy[0]), np.diff(xy[1]))
+    speed = step / np.maximum(np.diff(t[m]), 1e-12)
+    fast = speed > SLIP_SPEED_M_S
+    return float(np.sum(step[fast])), float(np.sum(step[~fast]))
+
+
+def required_friction(series: dict, t0: float, t1: float) -> float:
+    """max |f_t| / f_n over [t0, t1): the friction coefficient a sticking bottle needed (run with
+    a high mu so that it sticks; friction is lagged in SAP, so this can exceed the run's mu)."""
+    t = series["t"]
+    m = (t >= max(t0, SEATING_S)) & (t < t1)
+    f = series["contact_force"][:, m]
+    return float(np.max(np.hypot(f[0], f[1]) / np.maximum(f[2], 1e-9)))
+
+
+def tipping_angle_rad(bottle: BottleSpec) -> float:
+    """Tilt at which the centre of mass passes over the ring's edge: atan(r_c / h_G)."""
+    return math.atan2(bottle.contact_radius_m, bottle.com_height_m)
+
+
+def classify(series: dict, bottle: BottleSpec) -> tuple[str, float | None]:
+    """(outcome, time lost) from the logged slide and tilt (module docstring)."""
+    t = series["t"]
+    slide = series["slide"]
+    tilt = series["tilt"][0]
+    half = np.array(TRAY_SIZE_M[:2]) / 2
+    off = np.any(np.abs(slide.T + 0.0) > half, axis=1)
+    tipped = tilt > tipping_angle_rad(bottle)
+    lost = off | tipped
+    if not lost.any():
+        return "carried", None
+    k = int(np.argmax(lost))
+    return ("slid_off" if off[k] and not tipped[k] else "tipped"), float(t[k])
+
+
+def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
+                  time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
+                  keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0)) -> TrayResult:
+    """Run the diagram over the schedule; with recording_path, write a Meshcat HTML replay there."""
+    bottle = bottle or BottleSpec.pet_500ml()
+    meshcat = None
+    if recording_path is not None:
+        from qmt_drake.recording import make_headless_meshcat
+        meshcat = make_headless_meshcat()
+        meshcat.SetCameraPose(np.array([0.25, -0.9, 0.55]), np.array([0.25, 0.0, 0.4]))
+    td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
+                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy)
+    sim = Simulator(td.diagram)
+    set_initial_state(td, sim.get_mutable_context())
+    sim.Initialize()
+    if td.visualizer is not None:
+        from qmt_drake.recording import start_recording
+        start_recording(td.visualizer)
+    wall0 = time.perf_counter()
+    sim.AdvanceTo(schedule.t_end_s)
+    wall = time.perf_counter() - wall0
+    if td.visualizer is not None:
+        from qmt_drake.recording import save_recording
+        save_recording(td.visualizer, meshcat, recording_path)
+    series = {}
+    for k, lg in td.loggers.items():
+        log = lg.FindLog(sim.get_context())
+        series["t"] = log.sample_times()
+        series[k] = log.data()
+    outcome, lost_at = classify(series, bottle)
+    after = series["t"] >= SEATING_S
+    slide_norm = np.hypot(series["slide"][0], series["slide"][1])[after]
+    fn = series["contact_force"][2][after]
+    dt = np.diff(series["t"], prepend=series["t"][0])[after]
+    q = series["arm_state"][:3]
+    err = np.max(np.abs(series["goal"] - q), axis=1)
+    slip, creep = split_slip_creep(series, lost_at)
+    return TrayResult(schedule.label, outcome, lost_at, float(np.max(slide_norm)), slip, creep,
+                      bool(slip > SLIP_THRESHOLD_M), float(np.max(series["tilt"][0][after])),
+                      float(np.sum(dt[fn <= LIFT_FORCE_N])), float(np.min(fn)), err, float(schedule.t_end_s), wall,
+                      float(schedule.t_end_s / wall), time_step_s, servo_period_s, bottle.friction,
+                      bottle.com_height_m, dict(schedule.phases), series if keep_series else {})
