@@ -91,6 +91,25 @@ class EnergyObjective:
         dT = float(self.w @ h) + np.sum(gq * (q - F.theta0)) / T - np.sum(gqdd * qdd) / T
         return z, F.pack(da, db, dT)
 
+    def gauss_newton_diagonal(self, x) -> np.ndarray:
+        """diag of 2 c1 T sum_k w_k (dtau_k/dx)' (dtau_k/dx): the Jacobi metric for scaled
+        steepest descent (steepest.py, metric="diagonal")."""
+        F, B = self.family, self.B
+        _, _, T = F.unpack(x)
+        q, qd, qdd = F.evaluate_s(x, None, B)
+        tau, Jq, Jqd, Jqdd = inverse_dynamics_with_gravity(q, qd, qdd, self.arm)
+        # dtau_k/da_ij (S, n_out, n_joint, m)
+        da = (T * Jq[..., None] * B.Pa[:, None, None, :] + Jqd[..., None] * B.Va[:, None, None, :]
+              + Jqdd[..., None] * B.Aa[:, None, None, :] / T)
+        db = (T * Jq[..., None] * B.Pb[:, None, None, :] + Jqd[..., None] * B.Vb[:, None, None, :]
+              + Jqdd[..., None] * B.Ab[:, None, None, :] / T)
+        dT = np.einsum("soi,si->so", Jq, (q - F.theta0) / T) - np.einsum("soi,si->so", Jqdd, qdd / T)
+        wk = 2.0 * self.c1 * T * self.w
+        ha = np.einsum("s,soij->ij", wk, da * da)
+        hb = np.einsum("s,soij->ij", wk, db * db)
+        hT = float(wk @ np.sum(dT * dT, axis=1))
+        return F.pack(ha, hb, hT)
+
     def reduced_value_and_gradient(self, y):
         x, J = self.family.reduced_to_full(y)
         z, g = self.value_and_gradient(x)
