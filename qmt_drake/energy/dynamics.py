@@ -203,10 +203,12 @@ def drake_inverse_dynamics(q, qd, qdd, urdf: str | Path = OHSAKA_URDF, gravity_u
         plant.SetPositions(ctx, q[k])
         plant.SetVelocities(ctx, qd[k])
         forces.SetZero()
-        plant.CalcForceElementsContribution(ctx, forces)  # gravity
-        if gravity_up_sign != 1.0:
-            forces.mutable_generalized_forces()[:] *= gravity_up_sign
-        out[k] = plant.CalcInverseDynamics(ctx, qdd[k], forces)
+        if gravity_up_sign == 1.0:
+            plant.CalcForceElementsContribution(ctx, forces)  # gravity as Drake applies it
+            out[k] = plant.CalcInverseDynamics(ctx, qdd[k], forces)
+        else:  # flipped gravity: M qdd + C - sign * tau_g
+            out[k] = (plant.CalcInverseDynamics(ctx, qdd[k], forces)
+                      - gravity_up_sign * plant.CalcGravityGeneralizedForces(ctx))
     return out
 
 

@@ -73,7 +73,8 @@ def build_program(problem: EnergyProblem, counter: list):
     return prog, y
 
 
-def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e-10) -> NlpResult:
+def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e-8,
+              max_iter: int = 3000) -> NlpResult:
     """One local optimum from reduced genes y0."""
     from pydrake.solvers import IpoptSolver, SnoptSolver, SolverOptions
     if solver not in SOLVERS:
@@ -87,7 +88,7 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
         sid = s.solver_id()
         opts.SetOption(sid, "Major optimality tolerance", 1e-9)
         opts.SetOption(sid, "Major feasibility tolerance", 1e-12)
-        opts.SetOption(sid, "Major iterations limit", 3000)
+        opts.SetOption(sid, "Major iterations limit", int(max_iter))
     else:
         s = IpoptSolver()
         sid = s.solver_id()
@@ -95,7 +96,11 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
         opts.SetOption(sid, "print_level", 0)
         # z/c2 is O(0.1): the default initial barrier mu = 0.1 would outweigh it
         opts.SetOption(sid, "mu_init", 1e-6)
-        opts.SetOption(sid, "max_iter", 3000)
+        # Drake gives IPOPT no Hessian: L-BFGS. Its default first step (identity scaling) throws
+        # the coefficients so far that tau overflows; a stiff initial curvature keeps it sane.
+        opts.SetOption(sid, "limited_memory_initialization", "constant")
+        opts.SetOption(sid, "limited_memory_init_val", 1e2)
+        opts.SetOption(sid, "max_iter", int(max_iter))
     if not s.available():
         raise QmtInputError(f"{solver} is not available in this Drake build; use --method steepest")
     result = s.Solve(prog, problem.clip(np.asarray(y0, dtype=float)), opts)

@@ -90,10 +90,8 @@ def restore_endpoint(problem: EnergyProblem, x, free=None, tol_m: float = 1e-12,
         if np.linalg.norm(r) < tol_m:
             return x
         A = constraint_jacobian(problem, x)[n:, cols]
-        try:
-            x[cols] -= A.T @ np.linalg.solve(A @ A.T, r)
-        except np.linalg.LinAlgError:
-            return None
+        # minimum-norm least-squares step: also right when only some joints move (rank < 2)
+        x[cols] -= np.linalg.lstsq(A, r, rcond=None)[0]
     r = tip_position(problem.arm, F.end_posture(x)) - problem.XT
     return x if np.linalg.norm(r) < tol_m else None
 
