@@ -46,7 +46,9 @@ def signed_travel(theta0, postures, pattern) -> np.ndarray:
 def initial_end_posture(problem: EnergyProblem, pattern) -> np.ndarray:
     Q = self_motion_samples(problem.arm, problem.XT)
     d = signed_travel(problem.theta0, Q, pattern)
-    k = int(np.argmin(np.sum(np.abs(d), axis=1)))
+    # a joint that does not turn belongs to no pattern: leave such samples out
+    cost = np.where(np.all(np.abs(d) > 1e-3, axis=1), np.sum(np.abs(d), axis=1), np.inf)
+    k = int(np.argmin(cost))
     return problem.theta0 + d[k]
 
 
