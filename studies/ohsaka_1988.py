@@ -96,12 +96,22 @@ def fig3(out, res, bench):
             keep_restricted = restricted
         log(f"fig3 {label}: " + ", ".join(f"{pattern_str(r.end_pattern)} {r.z:.0f}" for r in distinct_optima(free)))
     res["fig3"] = readings
-    # IPOPT from the same 8 starts (second solver)
+    # IPOPT (second solver): cold from the same 8 starts (capped at 1000 iterations), and warm
+    # from each SNOPT optimum (does it confirm the KKT point?)
     t0 = time.perf_counter()
-    ip = run_multistart(keepP, "ipopt")
-    bench["ipopt_all8_fig3_s"] = time.perf_counter() - t0
-    bench["ipopt_one_fig3_s"] = [r.wall_s for r in ip]
-    res["fig3"]["X2_up"]["ipopt"] = [opt_record(keepP, r, keepP.with_divisions(FINE_DIVISIONS)) for r in ip]
+    ip = run_multistart(keepP, "ipopt", max_iter=1000)
+    bench["ipopt_cold_all8_fig3_s"] = time.perf_counter() - t0
+    bench["ipopt_cold_one_fig3_s"] = [r.wall_s for r in ip]
+    res["fig3"]["X2_up"]["ipopt_cold"] = [opt_record(keepP, r, keepP.with_divisions(FINE_DIVISIONS)) for r in ip]
+    warm = []
+    for r in keep:
+        w = solve_nlp(keepP, r.y, "ipopt")
+        warm.append({"end": pattern_str(r.end_pattern), "snopt_z": r.z, "ipopt_z": w.z, "success": w.success,
+                     "rel_dz": abs(w.z - r.z) / r.z, "max_dy": float(np.max(np.abs(w.y - r.y))),
+                     "wall_s": w.wall_s})
+    res["fig3"]["X2_up"]["ipopt_warm"] = warm
+    bench["ipopt_warm_confirm"] = warm
+    res["_fig3_keep"] = (keepP, keep)
     import matplotlib.pyplot as plt
     show = keep + [r for r in keep_restricted if r.end_pattern not in {k.end_pattern for k in keep}]
     fig, axs = plt.subplots(2, (len(show) + 1) // 2, figsize=(2.3 * ((len(show) + 1) // 2), 4.8))
@@ -215,6 +225,33 @@ def front(out, res, quick):
     plt.close(fig)
 
 
+def execution(out, res):
+    from qmt_drake.energy.execute import execute, plot_execution
+    P, keep = res["_fig3_keep"]
+    best = keep[0]
+    ex = execute(P.family, best.x, recording_path=out / "fig3_global_execution.html")
+    plot_execution(ex, out / "fig3_global_execution.png",
+                   f"Fig. 3 global optimum {pattern_str(best.end_pattern)} executed in Drake (ideal torque, ID controller)")
+    ex2 = execute(P.family, best.x, initial_error_rad=[0.02, -0.02, 0.02])
+    plot_execution(ex2, out / "fig3_global_execution_offset.png", "same, started 0.02 rad off on every joint")
+    res["execution"] = {"exact_start": ex.summary(), "offset_start_0.02rad": ex2.summary()}
+    log(f"execution: max error {ex.max_tracking_error_rad:.2e} rad; offset start final {ex2.summary()['final_error_rad']:.2e}")
+
+
+def collocation(out, res):
+    from qmt_drake.energy.collocation import solve_collocation
+    P, keep = res["_fig3_keep"]
+    rows = []
+    for r in keep[:1]:
+        c = solve_collocation(P, r.x)
+        rows.append({"end": pattern_str(r.end_pattern), "fourier_z": r.z, "fourier_T_s": r.T_s,
+                     "collocation_z_knots": c.z, "collocation_z_resampled": c.z_resampled,
+                     "collocation_T_s": c.T_s, "status": c.status, "wall_s": c.wall_s,
+                     "thetaT_deg": np.degrees(c.q_rad[-1])})
+        log(f"collocation {pattern_str(r.end_pattern)}: Fourier {r.z:.0f} vs free {c.z:.0f} ({c.z_resampled:.0f} resampled)")
+    res["collocation"] = rows
+
+
 def table(res) -> str:
     L = ["# Seed 001 reproduced: our numbers beside the paper's", "",
          "Grid: 40 divisions (trapezoid), z on 2000 divisions in brackets. SNOPT from the 8 pattern starts.", ""]
@@ -258,6 +295,28 @@ def table(res) -> str:
                 s = r[mtr]
                 L.append(f"| {r['start']} | {r['snopt_z']:.1f} | {mtr} | {s['z']:.1f} | {s['iterations']} ({s['stop']}) | "
                          f"{s['z_at_500']:.0f} / {s['z_at_800']:.0f} | {100 * s['rel_gap_to_snopt']:.2f} % |")
+    if "ipopt_warm" in res["fig3"]["X2_up"]:
+        L += ["", "## IPOPT beside SNOPT (Fig. 3, X2 up)", "",
+              "| optimum | SNOPT z | IPOPT warm-started there: z, rel. change, max |dy| |", "|---|---|---|"]
+        for w in res["fig3"]["X2_up"]["ipopt_warm"]:
+            L.append(f"| {w['end']} | {w['snopt_z']:.1f} | {w['ipopt_z']:.1f}, {w['rel_dz']:.1e}, {w['max_dy']:.1e} ({'ok' if w['success'] else 'failed'}) |")
+        L += ["", "IPOPT cold from the 8 pattern starts (1000 iterations cap): "
+              + ", ".join(f"{r['start']}->{r['end']} {r['z']:.0f}{'' if r['success'] else '*'}" for r in res["fig3"]["X2_up"]["ipopt_cold"])
+              + " (* = not converged)"]
+    if "collocation" in res:
+        L += ["", "## Free-form reference (DirectCollocation, 41 knots, same cost and end conditions)", ""]
+        for c in res["collocation"]:
+            L.append(f"- {c['end']}: Fourier m=5 z = {c['fourier_z']:.0f} (T {c['fourier_T_s']:.3f} s); collocation z = "
+                     f"{c['collocation_z_knots']:.0f} on its knots, {c['collocation_z_resampled']:.0f} resampled "
+                     f"(T {c['collocation_T_s']:.3f} s), {c['status']}")
+    if "execution" in res:
+        e = res["execution"]["exact_start"]
+        o = res["execution"]["offset_start_0.02rad"]
+        L += ["", "## Execution in Drake (global Fig. 3 optimum)", "",
+              f"- exact start: max tracking error {e['max_tracking_error_rad']:.2e} rad, peak torque "
+              + ", ".join(f"{v:.0f}" for v in e["peak_torque_Nm"]) + " N m (plan "
+              + ", ".join(f"{v:.0f}" for v in e["peak_planned_torque_Nm"]) + ")",
+              f"- started 0.02 rad off: error after T + 0.3 s {o['final_error_rad']:.1e} rad"]
     if "fig2" in res:
         L += ["", "## Fig. 2: z vs m (T = 4.6 s, link 1 only, c2 = 1e5)", "", "| m | z (40 div.) | z (2000 div.) |", "|---|---|---|"]
         for r in res["fig2"]:
@@ -269,7 +328,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="out/ohsaka_1988")
     ap.add_argument("--quick", action="store_true", help="fewer m values, c2 values and iterations")
-    ap.add_argument("--skip", default="", help="comma list of steps to skip: fig2,fig3,fig4,steepest,front")
+    ap.add_argument("--skip", default="", help="comma list of steps to skip: fig2,fig3,fig4,execute,"
+                    "collocation,steepest,front")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -284,11 +344,16 @@ def main(argv=None) -> int:
         fig3(out, res, bench)
     if "fig4" not in skip:
         fig4(out, res)
+    if "fig3" not in skip and "execute" not in skip:
+        execution(out, res)
+    if "fig3" not in skip and "collocation" not in skip:
+        collocation(out, res)
     if "steepest" not in skip:
         steepest_check(out, res, bench, a.quick)
     if "front" not in skip:
         front(out, res, a.quick)
     res["wall_s"] = time.perf_counter() - t0
+    res.pop("_fig3_keep", None)
     write_text_atomic(out / "results.json", json.dumps(jsonable(res), indent=1))
     write_text_atomic(out / "bench.json", json.dumps(jsonable(bench), indent=1))
     if "fig3" in res and "fig4" in res:
