@@ -46,6 +46,7 @@ class SteepestResult:
     wall_s: float
     stop_reason: str
     history_z: list = field(default_factory=list)
+    history_rel: list = field(default_factory=list)   # the paper's mean relative change per step
 
 
 def _free_mask(problem: EnergyProblem) -> np.ndarray:
@@ -123,6 +124,7 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
     ev0 = obj.evaluations
     z, g = obj.value_and_gradient(x)
     hist = [z]
+    hist_rel = []
     step = None
     good = 0
     it = 0
@@ -171,9 +173,10 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
         x = xt
         z, g = obj.value_and_gradient(x)
         hist.append(z)
+        hist_rel.append(rel)
         good = good + 1 if rel < rel_tol else 0
         if good >= streak:
             reason = "converged"
             break
     return SteepestResult(x, z, it, obj.evaluations - ev0, reason == "converged",
-                          time.perf_counter() - t0, reason, hist)
+                          time.perf_counter() - t0, reason, hist, hist_rel)
