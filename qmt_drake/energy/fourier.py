@@ -109,6 +109,33 @@ class FourierVelocityFamily:
         qdd[rest] = 0.0
         return q, qd, qdd
 
+    # ------------------------------------------------------------------ batched, like TrajectoryFamily
+    def motion_time_s(self, genes) -> np.ndarray:
+        return np.atleast_2d(np.asarray(genes, dtype=float))[:, -1].copy()
+
+    def breakpoints_s(self, genes) -> np.ndarray:
+        T = self.motion_time_s(genes)
+        return np.stack([np.zeros_like(T), T], axis=1)
+
+    def evaluate(self, genes, candidate, t_s, t_piece_s=None):
+        """q, qd, qdd (S, n) for sample s of candidate `candidate[s]` (rows of genes (K, 2nm+1))
+        at time t_s[s], the signature of qmt_drake.families.TrajectoryFamily.evaluate."""
+        g = np.atleast_2d(np.asarray(genes, dtype=float))
+        c = np.asarray(candidate, dtype=int)
+        t = np.asarray(t_s, dtype=float)
+        nm = self.n * self.m
+        a = g[c, :nm].reshape(-1, self.n, self.m)
+        b = g[c, nm:2 * nm].reshape(-1, self.n, self.m)
+        T = g[c, -1]
+        B = basis(np.clip(t / T, 0.0, 1.0), self.m)
+        q = self.theta0 + T[:, None] * (np.einsum("sm,snm->sn", B.Pa, a) + np.einsum("sm,snm->sn", B.Pb, b))
+        qd = np.einsum("sm,snm->sn", B.Va, a) + np.einsum("sm,snm->sn", B.Vb, b)
+        qdd = (np.einsum("sm,snm->sn", B.Aa, a) + np.einsum("sm,snm->sn", B.Ab, b)) / T[:, None]
+        rest = t > T
+        qd[rest] = 0.0
+        qdd[rest] = 0.0
+        return q, qd, qdd
+
     # ------------------------------------------------------------------ reduced vector y
     def reduced_to_full(self, y):
         """x (2nm+1,) and dx/dy (2nm+1, 2nm+1-n) for reduced genes y."""
