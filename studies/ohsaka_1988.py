@@ -92,6 +92,8 @@ def fig3(out, res, bench):
             bench["snopt_all8_fig3_s"] = wall_free
             bench["snopt_one_fig3_s"] = [r.wall_s for r in free]
             bench["snopt_one_fig3_evaluations"] = [r.evaluations for r in free]
+            bench["machine_load_average_1min"] = __import__("os").getloadavg()[0]
+            bench["snopt_one_fig3_cpu_s"] = [getattr(r, "cpu_s", None) for r in free]
             keepP, keep = P, distinct_optima(free)
             keep_restricted = restricted
         log(f"fig3 {label}: " + ", ".join(f"{pattern_str(r.end_pattern)} {r.z:.0f}" for r in distinct_optima(free)))

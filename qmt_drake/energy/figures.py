@@ -29,8 +29,11 @@ def stick_figure(ax, arm: VerticalArm, family, x, frames: int = 11, title: str =
     ax.plot(tip[:, 0], tip[:, 1], "k:", lw=0.8)
     ax.plot([0], [0], "ks", ms=5)
     ax.set_aspect("equal")
-    ax.set_xlim(-0.75, 0.75)
-    ax.set_ylim(-0.75, 0.75)
+    # zoom on the motion (equal axes, 5 cm margin); the base is always in view
+    lo = np.minimum(P.reshape(-1, 2).min(axis=0), 0.0) - 0.05
+    hi = np.maximum(P.reshape(-1, 2).max(axis=0), 0.0) + 0.05
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
     ax.axhline(0, color="0.8", lw=0.5)
     ax.set_title(title, fontsize=8)
     ax.tick_params(labelsize=6)

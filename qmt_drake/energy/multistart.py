@@ -71,6 +71,7 @@ class LocalOptimum:
     evaluations: int
     method: str
     iterations: int | None = None
+    cpu_s: float | None = None
 
 
 def run_multistart(problem: EnergyProblem, method: str = "snopt", T0_s: float = 1.0,
@@ -90,12 +91,14 @@ def run_multistart(problem: EnergyProblem, method: str = "snopt", T0_s: float = 
             r = steepest_descent(problem, problem.family.reduced_to_full(y0)[0], **kw)
             y, x, z, ok, wall, ev, it = (problem.family.full_to_reduced(r.x), r.x, r.z, r.converged,
                                          r.wall_s, r.evaluations, r.iterations)
+            cpu = None
         else:
             r = solve_nlp(problem, y0, method, **kw)
             y, x, z, ok, wall, ev, it = r.y, r.x, r.z, r.success, r.wall_s, r.evaluations, None
+            cpu = r.cpu_s
         out.append(LocalOptimum(p, travel_pattern(problem.theta0, problem.family.end_posture(x)),
                                 y, x, z, float(x[-1]), problem.objective.energy_integral(x), ok,
-                                wall, ev, method, it))
+                                wall, ev, method, it, cpu))
     return out
 
 

@@ -34,6 +34,7 @@ class NlpResult:
     evaluations: int
     wall_s: float
     solver: str
+    cpu_s: float = 0.0   # process CPU time: the machine is shared, wall time includes waiting
 
 
 def _ad_wrap(fun_val_grad):
@@ -81,6 +82,7 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
         raise QmtInputError(f"NLP solver '{solver}' is not one of {SOLVERS}")
     counter = [0]
     t0 = time.perf_counter()
+    c0 = time.process_time()
     prog, y = build_program(problem, counter)
     opts = SolverOptions()
     if solver == "snopt":
@@ -105,8 +107,9 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
         raise QmtInputError(f"{solver} is not available in this Drake build; use --method steepest")
     result = s.Solve(prog, problem.clip(np.asarray(y0, dtype=float)), opts)
     wall = time.perf_counter() - t0
+    cpu = time.process_time() - c0
     yv = result.GetSolution(y)
     x, _ = problem.family.reduced_to_full(yv)
     z = problem.objective.value(x)
     return NlpResult(yv, x, z, bool(result.is_success()), str(result.get_solution_result()),
-                     counter[0], wall, solver)
+                     counter[0], wall, solver, cpu)
