@@ -99,7 +99,8 @@ def make_urdf(spec: dict = SPEC) -> str:
             '    <type>transmission_interface/SimpleTransmission</type>\n'
             f'    <joint name="joint{i + 1}">\n'
             '      <hardwareInterface>EffortJointInterface</hardwareInterface>\n    </joint>\n'
-            f'    <actuator name="motor{i + 1}"/>\n  </transmission>\n')
+            f'    <actuator name="motor{i + 1}">\n      <drake:gear_ratio value="1"/>\n'
+            '    </actuator>\n  </transmission>\n')
     out.append("</robot>\n")
     return "".join(out)
 

@@ -138,7 +138,9 @@ def test_shipped_urdfs_against_pinocchio(urdf):
     (= the reflected rotor inertia N^2 J_r) against ours."""
     pin = pytest.importorskip("pinocchio")
     path = MODELS_DIR / urdf
-    arm = ArmModel.from_urdf(path)
+    hand = {"crane_x7_planar.urdf": "tray", "three_link_vertical_ohsaka.urdf": "tip"}.get(urdf, "hand")
+    arm = ArmModel.from_urdf(path, hand)
+    assert arm.planar is not None  # every shipped arm is planar: the batched backend is what is compared
     model = pin.buildModelFromUrdf(str(path))
     assert model.nq == arm.n_dof
     model.armature[:] = arm.reflected_inertia_kgm2
