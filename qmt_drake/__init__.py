@@ -1,6 +1,6 @@
 """qmt_drake: quasi-minimum-time transfer motions of robot arms that carry a payload they can lose.
 
-Entry points: `qmt_drake.scenario.load_scenario`, `qmt_drake.problem.PlanningProblem`,
+Entry points: `qmt_drake.config.scenario.load_scenario`, `qmt_drake.problem.PlanningProblem`,
 `qmt_drake.planners`, `qmt_drake.plan.Plan`; the command line is `qmt-drake` (qmt_drake/cli.py).
 """
 

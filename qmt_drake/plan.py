@@ -28,7 +28,7 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits import LimitReport
 from qmt_drake.sampling import piecewise_grid
-from qmt_drake.scenario import Scenario, load_scenario
+from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
 
 

@@ -21,7 +21,7 @@ from typing import Protocol, runtime_checkable
 from qmt_drake.families import make_family
 from qmt_drake.limits import BatchPeaks
 from qmt_drake.sampling import SampleGrid, peak_per_candidate, piecewise_grid, refine_grid
-from qmt_drake.scenario import Scenario
+from qmt_drake.config.scenario import Scenario
 
 COARSE_STRIDE = 20  # coarse samples are every 20th of the planning grid
 REFINE_MARGIN = 0.01  # refine around coarse samples within 1% of their candidate's coarse peak

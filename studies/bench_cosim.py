@@ -43,7 +43,7 @@ from qmt_drake.sim import (IMPLICIT_TIME_STEP_S, GenesPlan, build_transfer_diagr
                              run_diagram)
 from qmt_drake.errors import QmtSimulationError  # noqa: E402
 from qmt_drake.plan import write_text_atomic  # noqa: E402
-from qmt_drake.scenario import load_scenario  # noqa: E402
+from qmt_drake.config.scenario import load_scenario  # noqa: E402
 
 EXPLICIT_STEPS_S = (0.25e-3, 0.5e-3, 1e-3, 2e-3)
 IMPLICIT_STEPS_S = (1e-3, 2e-3, 3e-3, 4e-3)

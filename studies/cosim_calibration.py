@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 from qmt_drake.sim import (GenesPlan, MAGNET_EFFECTIVE_GAP_M,  # noqa: E402
                            hold_lever_m, planned_peak_moment_Nm, simulate_transfer)
-from qmt_drake.scenario import load_scenario  # noqa: E402
+from qmt_drake.config.scenario import load_scenario  # noqa: E402
 
 # The hands' data come from the scenarios' typed `hand` sections (coil, thesis slip boundary).
 _HANDS = {ch: load_scenario(name).hand for ch, name in (("ch2", "thesis-ch2"), ("ch4", "thesis-ch4"))}

@@ -30,7 +30,7 @@ def main(argv=None) -> int:
             traceback.print_exc()
             failed.append(name)
 
-    from qmt_drake.thesis_study import run_chapter
+    from qmt_drake.apps.thesis_study import run_chapter
     for ch in ("thesis-ch2", "thesis-ch3", "thesis-ch4"):
         step(ch, lambda ch=ch: run_chapter(ch, out, seeds=a.seeds, workers=a.workers,
                                            progress=_log))
@@ -43,13 +43,13 @@ def main(argv=None) -> int:
     except ImportError as exc:
         _log(f"co-simulation calibration unavailable: {exc}")
     try:
-        from qmt_drake.benchmark import run_benchmark
+        from qmt_drake.apps.benchmark import run_benchmark
         step("benchmark", lambda: run_benchmark(out_dir=out / "benchmark", progress=_log))
     except ImportError as exc:
         _log(f"benchmark unavailable: {exc}")
-    from qmt_drake.bench import run_bench
+    from qmt_drake.apps.bench import run_bench
     step("bench", lambda: run_bench(out_dir=out, progress=_log))
-    from qmt_drake.report import build_report
+    from qmt_drake.apps.report import build_report
     step("report", lambda: _log(f"report: {build_report(out)}"))
     if failed:
         _log(f"steps that failed: {', '.join(failed)}")

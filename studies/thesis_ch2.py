@@ -5,7 +5,7 @@ Run: .venv/bin/python -m studies.thesis_ch2 [--out out] [--seeds 10] [--workers 
 
 import sys
 
-from qmt_drake.thesis_study import main
+from qmt_drake.apps.thesis_study import main
 
 if __name__ == "__main__":
     sys.exit(main("thesis-ch2"))

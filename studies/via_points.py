@@ -12,8 +12,8 @@ from pathlib import Path
 
 from qmt_drake.plan import jsonable, write_text_atomic
 from qmt_drake.planners import plan_with
-from qmt_drake.scenario import load_scenario
-from qmt_drake.thesis_study import run_ga_seeds
+from qmt_drake.config.scenario import load_scenario
+from qmt_drake.apps.thesis_study import run_ga_seeds
 
 SCENARIO = "via5-ch4"
 

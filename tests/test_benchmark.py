@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import qmt_drake.sim
-from qmt_drake.benchmark import closed_form_bound_s, cosim_outcome, run_benchmark
+from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome, run_benchmark
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 
 
 def test_quick_benchmark_ch3(tmp_path, monkeypatch):

@@ -5,8 +5,8 @@ import json
 import pytest
 import yaml
 
-from qmt_drake.cli import main
-from qmt_drake.scenario import SCENARIO_DIR
+from qmt_drake.apps.cli import main
+from qmt_drake.config.scenario import SCENARIO_DIR
 
 
 def _yaml(tmp_path, name="thesis-ch4", **changes):
@@ -133,7 +133,7 @@ def test_simulate_rejects_a_bad_time_step(capsys):
 
 def test_simulate_feedforward_option(capsys):
     """--feedforward full removes the back-EMF lag: tracking error falls from ~11 to < 0.1 mrad."""
-    from qmt_drake.cli import FEEDFORWARD_CHOICES
+    from qmt_drake.apps.cli import FEEDFORWARD_CHOICES
     from qmt_drake.sim import FEEDFORWARD_OPTIONS
     assert set(FEEDFORWARD_CHOICES) == set(FEEDFORWARD_OPTIONS)
     errors = {}

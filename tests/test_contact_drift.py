@@ -4,7 +4,7 @@ independent of friction (studies/contact_drift.py)."""
 import pytest
 
 from qmt_drake.sim import GenesPlan
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 from studies.contact_drift import run_case
 
 

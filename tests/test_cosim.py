@@ -19,7 +19,7 @@ from qmt_drake.sim import (GenesPlan, build_transfer_diagram, calibrated_coil_cu
                            simulate_transfer, transfer_plant_config)
 from qmt_drake.sim.plant import seated_pose_in_hand
 from qmt_drake.errors import QmtInputError, QmtSimulationError
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.dc_motor import DcMotorWithGear
 from qmt_drake.systems.electromagnet import ElectromagnetForce, MagnetParams
 from qmt_drake.systems.joint_tracking import JointPidController
@@ -288,7 +288,7 @@ def test_cli_entry_refuses_explicit_steps_above_1ms(sc4, plan4):
 def test_scenario_without_hand_or_motor_sections_is_refused_in_one_line(tmp_path, plan4):
     import yaml
 
-    from qmt_drake.scenario import SCENARIO_DIR
+    from qmt_drake.config.scenario import SCENARIO_DIR
     raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
     raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
     for section, needle in (("hand", "has no 'hand' section"), ("actuator", "actuator.kind dc_motor_gear")):
@@ -308,7 +308,7 @@ def test_ideal_torque_actuator(tmp_path, sc4, plan4):
     share). The default-context rule holds for it too; motor-only options are refused."""
     import yaml
 
-    from qmt_drake.scenario import SCENARIO_DIR
+    from qmt_drake.config.scenario import SCENARIO_DIR
     raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
     raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
     plant = sc4.arm.plant

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from qmt_drake.sim import GenesPlan, build_transfer_diagram, run_diagram
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.transfer_monitor import TransferMonitor
 
 

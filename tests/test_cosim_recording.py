@@ -4,8 +4,8 @@ import base64
 import re
 
 from qmt_drake.sim import GenesPlan, simulate_transfer
-from qmt_drake.recording import make_headless_meshcat
-from qmt_drake.scenario import load_scenario
+from qmt_drake.sim.recording import make_headless_meshcat
+from qmt_drake.config.scenario import load_scenario
 
 
 def _embedded_bytes(html: str) -> bytes:

@@ -5,7 +5,7 @@ import pytest
 
 from qmt_drake.planners.ga import BinaryGa, run_ga
 from qmt_drake.problem import PlanningProblem
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 
 
 def test_gray_and_binary_decoding_cover_every_level(problems):
@@ -133,7 +133,7 @@ class _Sphere:
 @pytest.mark.parametrize("encoding", ["binary", "gray"])
 def test_keys_and_decoding_round_trip_for_long_chromosomes(n_genes, bits, encoding):
     """genes x bits well beyond 63: every chromosome keeps its own key and decodes back."""
-    from qmt_drake.scenario import GaSettings
+    from qmt_drake.config.scenario import GaSettings
     P = _Sphere(n_genes)
     ga = BinaryGa(P, GaSettings(bits_per_gene=bits, encoding=encoding))
     rng = np.random.default_rng(n_genes * bits)
@@ -155,7 +155,7 @@ def test_keys_and_decoding_round_trip_for_long_chromosomes(n_genes, bits, encodi
 
 def test_ga_on_a_generic_problem_returns_what_it_evaluated():
     """The reported best is the decoded genes of the best chromosome it evaluated (10 genes x 20 bits)."""
-    from qmt_drake.scenario import GaSettings
+    from qmt_drake.config.scenario import GaSettings
     P = _Sphere(10)
     s = GaSettings(population=40, bits_per_gene=20, max_generations=300, elite_count=1, selection="tournament",
                    encoding="gray")
@@ -166,7 +166,7 @@ def test_ga_on_a_generic_problem_returns_what_it_evaluated():
 
 
 def test_mutants_per_generation_flip_one_bit_in_that_many_individuals():
-    from qmt_drake.scenario import GaSettings
+    from qmt_drake.config.scenario import GaSettings
     ga = BinaryGa(_Sphere(6), GaSettings(population=200, bits_per_gene=4, mutants_per_generation=30))
     pop = np.zeros((200, 24), np.uint8)
     out = ga.mutate(pop, np.random.default_rng(0))

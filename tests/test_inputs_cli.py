@@ -8,8 +8,8 @@ import time
 import pytest
 import yaml
 
-from qmt_drake.cli import EXPLICIT_MAX_TIME_STEP_MS, main
-from qmt_drake.scenario import SCENARIO_DIR
+from qmt_drake.apps.cli import EXPLICIT_MAX_TIME_STEP_MS, main
+from qmt_drake.config.scenario import SCENARIO_DIR
 
 
 def _run(capsys, *argv):
@@ -99,7 +99,7 @@ def test_corrupt_or_foreign_checkpoint(tmp_path, capsys, content, needle):
 
 
 def test_checkpoint_of_the_same_scenario_is_accepted(tmp_path, capsys):
-    from qmt_drake.scenario import load_scenario
+    from qmt_drake.config.scenario import load_scenario
     ck = tmp_path / "ck.json"
     rc, _, err, _ = _run(capsys, "plan", "thesis-ch4", "--generations", "3", "--checkpoint", ck, "--quiet")
     assert rc == 0, err
@@ -110,7 +110,7 @@ def test_checkpoint_of_the_same_scenario_is_accepted(tmp_path, capsys):
 
 
 def test_ctrl_c_exits_130_with_one_line(monkeypatch, capsys):
-    import qmt_drake.cli as cli
+    import qmt_drake.apps.cli as cli
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt

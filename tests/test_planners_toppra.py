@@ -9,7 +9,7 @@ from qmt_drake.planners.baselines.paths import CartesianLinePath, PathTimingTraj
 from qmt_drake.planners.baselines.finish import finish_plan
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.trajectory import TimeScaledTrajectory
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from qmt_drake.scenario import (SCENARIO_DIR, DcMotorGear, MagnetHand, PayloadBody, UrdfArm, builtin_scenarios,
+from qmt_drake.config.scenario import (SCENARIO_DIR, DcMotorGear, MagnetHand, PayloadBody, UrdfArm, builtin_scenarios,
                                 load_scenario)
 from qmt_drake.systems.electromagnet import THESIS_COILS
 from qmt_drake.systems.payload import PayloadSpec

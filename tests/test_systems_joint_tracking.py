@@ -9,7 +9,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer
 
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
 from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
 

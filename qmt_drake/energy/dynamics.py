@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-MODELS_DIR = Path(__file__).resolve().parent.parent.parent / "models"
+from qmt_drake.config.scenario import MODELS_DIR  # noqa: E402
 OHSAKA_URDF = MODELS_DIR / "three_link_vertical_ohsaka.urdf"
 # Drake's default gravity (UniformGravityFieldElement); the paper does not print its g.
 GRAVITY_M_S2 = 9.81

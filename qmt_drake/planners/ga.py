@@ -34,7 +34,7 @@ from typing import Callable
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.scenario import GaSettings
+from qmt_drake.config.scenario import GaSettings
 
 
 @dataclass
@@ -253,9 +253,16 @@ def _least_violating(problem, ga, cache, batch: int = 64) -> np.ndarray:
 
 
 def _best_confirmed(problem, ga, cache, tries: int = 50):
-    feasible = sorted((c, k) for k, (f, c, _) in cache.items() if f > 0)
-    for _, k in feasible[:tries]:
-        genes = ga.genes_of_keys([k])[0]
+    """The cheapest feasible chromosome that passes the problem's final check. Equal costs are
+    ordered by their gene levels (not by their bits), so the choice does not depend on the coding."""
+    keys = [k for k, (f, _, _) in cache.items() if f > 0]
+    if not keys:
+        return None
+    levels = ga.codes(np.array([ga.chromosome(k) for k in keys], dtype=np.uint8))
+    cost = np.array([cache[k][1] for k in keys])
+    order = np.lexsort(tuple(levels[:, ::-1].T) + (cost,))  # by cost, then level of gene 1, 2, ...
+    for i in order[:tries]:
+        genes = ga.genes_of_keys([keys[i]])[0]
         if problem.confirm(genes):
             return genes
     return None

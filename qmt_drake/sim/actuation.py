@@ -61,7 +61,7 @@ def check_time_step(time_step_s: float, implicit_loop_damping: bool, *, refuse_u
 def motor_params_for(scenario, with_inductance: bool = False) -> DcMotorParams:
     """The scenario's actuator (kind dc_motor_gear: its catalogue motors and gear efficiency) behind
     the URDF's gear ratios."""
-    from qmt_drake.scenario import DcMotorGear
+    from qmt_drake.config.scenario import DcMotorGear
     act = getattr(scenario, "actuator", None)
     if not isinstance(act, DcMotorGear):
         kind = getattr(act, "kind", None)

@@ -100,7 +100,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     default step; off, the motors drive the plant directly (explicit) and time_step_s must be
     <= 1 ms (the 1 ms default; larger steps are refused). time_step_s=None picks the scheme's
     default (`default_time_step_s`)."""
-    from qmt_drake.scenario import IdealTorque
+    from qmt_drake.config.scenario import IdealTorque
     ideal = isinstance(getattr(scenario, "actuator", None), IdealTorque)
     if ideal:
         if motor_inductance or back_emf_feedforward or implicit_loop_damping is False:
@@ -210,7 +210,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
 
     visualizer = None
     if meshcat is not None:
-        from qmt_drake.recording import add_meshcat_visualizer
+        from qmt_drake.sim.recording import add_meshcat_visualizer
         visualizer = add_meshcat_visualizer(builder, tp.scene_graph, meshcat)
 
     diagram = builder.Build()

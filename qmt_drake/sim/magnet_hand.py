@@ -41,7 +41,7 @@ MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0 of the built-in scenarios' hands (hand.eff
 
 def magnet_hand_of(scenario):
     """The scenario's MagnetHand, or a one-line QmtInputError saying what to add."""
-    from qmt_drake.scenario import MagnetHand
+    from qmt_drake.config.scenario import MagnetHand
     hand = getattr(scenario, "hand", None)
     if not isinstance(hand, MagnetHand):
         raise QmtInputError(f"scenario '{scenario.name}' has no 'hand' section (kind: magnet, coil, "

@@ -34,6 +34,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.config.scenario import MODELS_DIR
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import DcMotorWithGear
 from qmt_drake.systems.dynamixel_servo import (CONTROL_PERIOD_S, CRANE_X7_PLANAR_SERVOS, DynamixelPositionServo,
@@ -42,7 +43,7 @@ from qmt_drake.systems.tray_object import (TRAY_SIZE_M, BottleSpec, TrayBottleMo
                                            seated_pose_on_tray)
 from qmt_drake.tray.waypoints import GoalSchedule
 
-URDF_PATH = Path(__file__).resolve().parents[2] / "models" / "crane_x7_planar.urdf"
+URDF_PATH = MODELS_DIR / "crane_x7_planar.urdf"
 JOINTS = ("shoulder_pitch", "elbow", "wrist_pitch")
 TIME_STEP_S = 1e-3
 # Real slip vs creep: SAP's regularised friction lets a sticking contact creep, faster the nearer
@@ -124,7 +125,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()} if log_period_s else {}
     visualizer = None
     if meshcat is not None:
-        from qmt_drake.recording import add_meshcat_visualizer
+        from qmt_drake.sim.recording import add_meshcat_visualizer
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
     return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo, loggers, schedule, bottle, X_TB0,
@@ -256,7 +257,7 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     bottle = bottle or BottleSpec.pet_500ml()
     meshcat = None
     if recording_path is not None:
-        from qmt_drake.recording import make_headless_meshcat
+        from qmt_drake.sim.recording import make_headless_meshcat
         meshcat = make_headless_meshcat()
         meshcat.SetCameraPose(np.array([0.25, -0.9, 0.55]), np.array([0.25, 0.0, 0.4]))
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
@@ -265,13 +266,13 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     set_initial_state(td, sim.get_mutable_context())
     sim.Initialize()
     if td.visualizer is not None:
-        from qmt_drake.recording import start_recording
+        from qmt_drake.sim.recording import start_recording
         start_recording(td.visualizer)
     wall0 = time.perf_counter()
     sim.AdvanceTo(schedule.t_end_s)
     wall = time.perf_counter() - wall0
     if td.visualizer is not None:
-        from qmt_drake.recording import save_recording
+        from qmt_drake.sim.recording import save_recording
         save_recording(td.visualizer, meshcat, recording_path)
     series = {}
     for k, lg in td.loggers.items():

@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake import plots
+from qmt_drake.apps import plots
 from qmt_drake.plan import load_plan, write_text_atomic
 from qmt_drake.planners import plan_with
-from qmt_drake.scenario import load_scenario
+from qmt_drake.config.scenario import load_scenario
 
 
 def _ga_worker(scenario: str, seed: int, path: str, overrides: dict | None) -> str:

@@ -69,7 +69,7 @@ def _emit_json(data: dict, target: str | None) -> None:
 
 
 def cmd_scenarios(args) -> int:
-    from qmt_drake.scenario import builtin_scenarios, load_scenario
+    from qmt_drake.config.scenario import builtin_scenarios, load_scenario
     for name in builtin_scenarios():
         sc = load_scenario(name)
         print(f"{name:12s} {sc.family.kind:20s} genes {', '.join(sc.family.gene_names):22s} "
@@ -83,7 +83,7 @@ def cmd_plan(args) -> int:
     _check_int(args.generations, "--generations", 1, "run at least one generation")
     _check_int(args.stall, "--stall", 0, "0 never stops early")
     from qmt_drake.planners import plan_with
-    from qmt_drake.scenario import load_scenario
+    from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
     if args.checkpoint is not None:
         if args.method != "ga":
@@ -140,7 +140,7 @@ def cmd_simulate(args) -> int:
                             "or less, or drop --explicit")
     from qmt_drake.plan import load_plan
     from qmt_drake.planners import plan_with
-    from qmt_drake.scenario import load_scenario
+    from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
     try:
         from qmt_drake.sim import check_simulation_inputs, run_simulate
@@ -170,9 +170,9 @@ def cmd_bench(args) -> int:
     from qmt_drake.plan import check_output_dir
     check_output_dir(args.out, "--out")
     _check_int(args.seeds, "--seeds", 1, "run at least one seed")
-    from qmt_drake.scenario import load_scenario
+    from qmt_drake.config.scenario import load_scenario
     load_scenario(args.scenario)
-    from qmt_drake.bench import run_bench
+    from qmt_drake.apps.bench import run_bench
     data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=_progress,
                      seeds=args.seeds)
     print(json.dumps(data, indent=1))
@@ -186,10 +186,10 @@ def cmd_benchmark(args) -> int:
         _check_int(seed, "--ga-seeds", 0, "seeds are non-negative integers")
     for j in args.jerk_limits:
         _check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
-    from qmt_drake.scenario import load_scenario
+    from qmt_drake.config.scenario import load_scenario
     for name in args.scenarios:
         load_scenario(name)
-    from qmt_drake.benchmark import run_benchmark
+    from qmt_drake.apps.benchmark import run_benchmark
     run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress,
                   jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
                   quick=args.quick, cosim=not args.no_cosim)

@@ -126,7 +126,7 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
     from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
     from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
     from qmt_drake.problem import PlanningProblem
-    from qmt_drake.scenario import load_scenario
+    from qmt_drake.config.scenario import load_scenario
 
     say = progress or (lambda _m: None)
     out = Path(out_dir)

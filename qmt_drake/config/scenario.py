@@ -35,7 +35,7 @@ import yaml
 
 from qmt_drake.errors import QmtInputError
 
-MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
 SCENARIO_DIR = MODELS_DIR / "scenarios"
 FAMILY_KINDS = ("line_cubic_velocity", "trapezoid_ptp", "via_cubic")
 STEEL_DENSITY_KG_M3 = 7850.0

@@ -1,0 +1,1 @@
+"""Configuration: the typed scenario (scenario.py) every other package reads."""
