@@ -1,0 +1,63 @@
+"""`qmt-drake sweep SPEC.yaml [--scheduler ADDR] [--out DIR] [--workers N]`.
+
+`add_parser(subparsers)` adds the sub-command to qmt_drake/cli.py's parser; `cmd_sweep(args)` runs
+it (exit 0: every case finished; 4: some cases failed after Dask's retries, a rerun retries only
+those; bad input raises QmtInputError, which the main CLI prints as one line with exit 2).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+EXIT_CASES_FAILED = 4  # qmt_drake.cli.EXIT_SIMULATION
+
+
+def add_parser(subparsers):
+    s = subparsers.add_parser(
+        "sweep", help="run a grid / Monte Carlo sweep of co-simulated transfers on Dask",
+        description="Run every case of SPEC.yaml (see models/sweeps/) on a Dask LocalCluster or on "
+                    "the scheduler given by --scheduler; finished cases are stored under "
+                    "OUT/<name>/cases/ and skipped by a rerun.")
+    s.add_argument("spec", metavar="SPEC.yaml", help="sweep specification (YAML)")
+    s.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="a running Dask scheduler (default: a LocalCluster on this machine)")
+    s.add_argument("--out", default="out", help="output folder (default: out); results in OUT/<name>/")
+    s.add_argument("--workers", type=int, default=None,
+                   help="LocalCluster worker processes, one thread each (default: one per core)")
+    s.add_argument("--allowed-failures", type=int, default=3,
+                   help="times a case is resubmitted after its worker died (LocalCluster only)")
+    s.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    s.add_argument("--quiet", action="store_true", help="no progress line")
+    s.add_argument("--json", metavar="PATH|-", help="also write the run's counts and summary rows as JSON")
+    s.set_defaults(func=cmd_sweep)
+    return s
+
+
+def cmd_sweep(args) -> int:
+    from qmt_drake.errors import QmtInputError
+    from qmt_drake.sweep.runner import format_table, run_sweep
+    from qmt_drake.sweep.spec import load_spec
+    if args.workers is not None and args.workers < 1:
+        raise QmtInputError(f"--workers must be >= 1, got {args.workers}")
+    if args.allowed_failures < 0:
+        raise QmtInputError(f"--allowed-failures must be >= 0, got {args.allowed_failures}")
+    spec = load_spec(args.spec)
+    out = run_sweep(spec, args.out, scheduler=args.scheduler, workers=args.workers,
+                    allowed_failures=args.allowed_failures, progress=not args.quiet,
+                    figures=not args.no_figures)
+    print(format_table(out["rows"], list(spec.grid)))
+    rate = f", {out['cases_per_min']:.1f} cases/min" if out["cases_per_min"] else ""
+    print(f"{out['cases']} cases: {out['from_store']} from the store, {out['computed']} computed, "
+          f"{out['failed']} failed{rate}; results in {out['out_dir']}/")
+    for f in out["failures"][:10]:
+        print(f"failed: {f.get('label', f.get('plan', ''))}: {f['error']}", file=sys.stderr)
+    if args.json:
+        data = {k: v for k, v in out.items() if k != "results"}
+        text = json.dumps(data, indent=1, default=str)
+        if args.json == "-":
+            print(text)
+        else:
+            from qmt_drake.plan import write_text_atomic
+            write_text_atomic(args.json, text + "\n")
+    return EXIT_CASES_FAILED if out["failed"] else 0
