@@ -65,7 +65,10 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *,
     per core) or on the scheduler at `scheduler`; closed (and the local cluster shut down) on exit."""
     import dask
     from distributed import Client, LocalCluster
+    # worker-saturation 1.0: a worker holds only the case it runs (default 1.1 rounds up to two per
+    # thread), so a worker that dies makes only that case suspicious, not an innocent queued one.
     cfg = {"distributed.scheduler.allowed-failures": int(allowed_failures),
+           "distributed.scheduler.worker-saturation": 1.0,
            "distributed.comm.timeouts.connect": f"{connect_timeout_s}s"}
     with dask.config.set(cfg):
         if scheduler:
@@ -226,13 +229,20 @@ def _plan_phase(cl, store: SweepStore, refs: dict, plan_fn, failures: list) -> d
     return docs
 
 
+def _identity(x):
+    return x
+
+
 def _describe_ref(ref) -> str:
     return ref.file or f"{ref.method} (seed {ref.seed}, options {ref.options})"
 
 
 def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failures: list, prog: Progress) -> None:
     from distributed import as_completed
-    doc_futs = {k: cl.scatter(d, hash=False) for k, d in docs.items()}
+    # Plan documents enter the graph as the result of a task, not scattered: data scattered to a
+    # worker that dies is gone for good, a task's result is recomputed from its inputs.
+    doc_futs = {k: cl.submit(_identity, d, key=f"plandoc-{k[:16]}-{uuid.uuid4().hex[:8]}", pure=False)
+                for k, d in docs.items()}
     futs = {}
     for c in pending:
         if c.plan_key not in doc_futs:
