@@ -35,12 +35,13 @@ from qmt_drake.sweep.stats import wilson_interval
 def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: float = 0.99,
                       criterion: str = "estimate", s_min: float = 1.0, s_max: float = 1.5,
                       rel_tol: float = 0.005, confidence: float = 0.95, client=None, workers=None,
-                      scheduler=None, progress=None, figures: bool = False) -> dict:
+                      scheduler=None, progress=None, figures: bool = False, **run_kw) -> dict:
     """Smallest time scale s in [s_min, s_max] (to rel_tol) at which the spec's single plan is
     carried with probability >= target under the spec's distributions.
 
     Returns {time_scale, motion_time_s, p, ci_low, ci_high, n, history: [...], found}; found=False
-    when even s_max misses the target (time_scale is then None)."""
+    when even s_max misses the target (time_scale is then None). run_kw go to run_sweep (tests
+    pass case_fn / plan_fn)."""
     from qmt_drake.sweep.runner import dask_client, run_sweep
     if not isinstance(spec, SweepSpec):
         spec = load_spec(spec)
@@ -64,7 +65,7 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
         params["time_scale"] = float(s)
         raw["parameters"] = params
         sub = load_spec(raw, name=f"{spec.name}-ts{s:.5f}")
-        out = run_sweep(sub, out_dir, client=cl, progress=False, figures=figures)
+        out = run_sweep(sub, out_dir, client=cl, progress=False, figures=figures, **run_kw)
         n = sum(r["n"] for r in out["rows"])
         k = sum(r["carried"] for r in out["rows"])
         lo, hi = wilson_interval(k, n, confidence)
