@@ -107,3 +107,13 @@ def test_planner_inputs_change_the_plan_key():
     cases, plans = build_cases(s)
     assert len(cases) == 4 and len(plans) == 4
     assert {r.seed for r in plans.values()} == {0, 1}
+
+
+def test_more_cases_extend_fewer():
+    def keys(n, extra=None):
+        params = {"friction": {"dist": "normal", "mean": 0.3, "std": 0.03},
+                  "coil_current_scale": {"dist": "uniform", "low": 0.9, "high": 1.1}}
+        params.update(extra or {})
+        return [c.key for c in build_cases(load_spec(spec(parameters=params,
+                                                         monte_carlo={"cases": n, "seed": 1})))[0]]
+    assert keys(10)[:6] == keys(6)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -152,8 +153,11 @@ class SweepSpec:
         """The Monte Carlo draws (one dict per sample; [{}] without distributions)."""
         if not self.distributions:
             return [{}]
-        rng = np.random.default_rng(self.mc_seed)
-        cols = {k: d.sample(rng, self.mc_cases, PARAMETERS[k]) for k, d in self.distributions.items()}
+        # One generator per parameter, seeded by (seed, name): the first N draws do not depend on
+        # the other parameters or on the number of cases, so a larger run extends a smaller one
+        # and reuses its stored cases.
+        cols = {k: d.sample(np.random.default_rng([self.mc_seed, zlib.crc32(k.encode())]), self.mc_cases,
+                            PARAMETERS[k]) for k, d in self.distributions.items()}
         return [{k: _plain(v[i]) for k, v in cols.items()} for i in range(self.mc_cases)]
 
     def grid_points(self) -> list[dict]:
