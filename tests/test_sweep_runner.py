@@ -42,7 +42,7 @@ def fake_case(case, plan_doc):
         with open(os.path.join(d, f"deaths-{case.key}"), "a") as fh:
             fh.write("x")
         os._exit(1)
-    time.sleep(0.2)
+    time.sleep(0.05)
     return {"key": case.key, "label": case.label, "parameters": case.parameters, "status": "ok",
             "held": fr >= 0.2, "max_slip_m": 1e-4 if fr >= 0.2 else 0.3, "motion_time_s": 1.0,
             "pid": os.getpid()}
@@ -119,3 +119,20 @@ def test_unreachable_scheduler_is_one_line_within_10_s(tmp_path):
     assert "\n" not in str(e.value) and "tcp://127.0.0.1:1" in str(e.value)
     with pytest.raises(QmtInputError, match="not an address"):
         run_sweep(spec, tmp_path, scheduler="http://x", progress=False)
+
+
+def picky_plan(ref):
+    if ref.method == "optimum":
+        raise RuntimeError("planner crashed")
+    return {"plan_key": ref.key}
+
+
+def test_a_failed_plan_fails_only_its_cases(client, tmp_path):
+    spec = load_spec({"name": "planfail", "scenario": "thesis-ch4",
+                      "plans": [{"method": "thesis"}, {"method": "optimum"}],
+                      "parameters": {"friction": [0.3, 0.25]}})
+    out = run_sweep(spec, tmp_path, client=client, case_fn=fake_case, plan_fn=picky_plan,
+                    progress=False, figures=False)
+    assert out["computed"] == 2 and out["failed"] == 2
+    assert any("planner crashed" in f["error"] for f in out["failures"])
+    assert {r["label"] for r in out["rows"]} == {"thesis"}

@@ -1,5 +1,19 @@
 """`qmt-drake sweep SPEC.yaml [--scheduler ADDR] [--out DIR] [--workers N]`.
 
+On one machine nothing is needed: a LocalCluster with one single-threaded worker process per core
+is started and stopped by the command. On several machines (each with this package installed,
+`pip install -e .`, and the same scenario files if the spec names a path instead of a built-in):
+
+    scheduler host:   dask scheduler --port 8786                # prints tcp://HOST:8786
+    each worker host: dask worker tcp://HOST:8786 --nthreads 1 --nworkers auto
+    your machine:     qmt-drake sweep SPEC.yaml --scheduler tcp://HOST:8786
+
+Only the client (your machine) writes results, so no shared file system is needed; results land in
+OUT/<name>/cases/ as they finish and a rerun submits only the missing ones. On a user's cluster
+the retry count after a worker's death is the scheduler's own `distributed.scheduler.allowed-failures`
+(set it where the scheduler starts, e.g. DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES=3), and
+`distributed.scheduler.worker-saturation: 1.0` keeps a dying worker from taking queued cases with it.
+
 `add_parser(subparsers)` adds the sub-command to qmt_drake/cli.py's parser; `cmd_sweep(args)` runs
 it (exit 0: every case finished; 4: some cases failed after Dask's retries, a rerun retries only
 those; bad input raises QmtInputError, which the main CLI prints as one line with exit 2).

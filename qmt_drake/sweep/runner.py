@@ -174,8 +174,9 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
     store.write_text("spec.json", json.dumps(jsonable({"name": spec.name, "raw": spec.raw,
                                                        "n_cases": len(cases)}), indent=1))
     prog = Progress(spec.name, len(cases), len(cases) - len(pending), enabled=progress)
-    failures: list[dict] = []
+    failures: list[dict] = []  # cases that finished nowhere (and plans that failed)
     case_wall = 0.0
+    computed = 0
     workers_used = None
     if pending:
         needed = {c.plan_key for c in pending}
@@ -186,14 +187,14 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
             docs = _plan_phase(cl, store, {k: plan_refs[k] for k in needed}, plan_fn, failures)
             prog.show(force=True)
             t_cases = time.perf_counter()
-            _case_phase(cl, store, pending, docs, case_fn, failures, prog)
+            computed = _case_phase(cl, store, pending, docs, case_fn, failures, prog)
             case_wall = time.perf_counter() - t_cases
         prog.show(force=True)
     results = [r for r in (store.read_case(c.key) for c in cases) if r is not None]
     summary = summarize(spec, store, results, failures, figures=figures)
-    computed = len(pending) - len(failures)
+    failed = sum(1 for f in failures if "key" in f)
     return dict(name=spec.name, out_dir=str(store.root), cases=len(cases), from_store=len(cases) - len(pending),
-                computed=computed, failed=len(failures), failures=failures, workers=workers_used,
+                computed=computed, failed=failed, failures=failures, workers=workers_used,
                 case_phase_wall_s=case_wall, wall_s=time.perf_counter() - t_start,
                 cases_per_min=computed / case_wall * 60 if case_wall > 0 else None,
                 rows=summary["rows"], results=results, paths=summary["paths"])
@@ -237,13 +238,14 @@ def _describe_ref(ref) -> str:
     return ref.file or f"{ref.method} (seed {ref.seed}, options {ref.options})"
 
 
-def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failures: list, prog: Progress) -> None:
+def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failures: list, prog: Progress) -> int:
+    """Submit the pending cases, store each result as it arrives; returns how many were stored."""
     from distributed import as_completed
     # Plan documents enter the graph as the result of a task, not scattered: data scattered to a
     # worker that dies is gone for good, a task's result is recomputed from its inputs.
     doc_futs = {k: cl.submit(_identity, d, key=f"plandoc-{k[:16]}-{uuid.uuid4().hex[:8]}", pure=False)
                 for k, d in docs.items()}
-    futs = {}
+    futs, stored = {}, 0
     for c in pending:
         if c.plan_key not in doc_futs:
             failures.append({"key": c.key, "label": c.label, "error": "its plan failed"})
@@ -262,8 +264,10 @@ def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failu
             prog.update(False)
             continue
         store.write_case(c.key, res)
+        stored += 1
         prog.update(True)
         fut.release()
+    return stored
 
 
 # ------------------------------------------------------------------------------------ summary
