@@ -64,6 +64,8 @@ def main(argv=None) -> int:
     ap.add_argument("--robust", nargs="*", metavar="CHAPTER",
                     help="also the robust time scale of these chapters' GA plan (P >= 0.99, bisection over sweeps)")
     ap.add_argument("--skip-carried", action="store_true", help="skip the fastest-carried search")
+    ap.add_argument("--carried-steps-ms", nargs="*", type=float, default=[1.0],
+                    help="also search the fastest carried plan at these plant steps (ms)")
     a = ap.parse_args(argv)
     from qmt_drake.scenario import load_scenario
     from qmt_drake.sweep.robust import bracket_check, plan_fastest_carried, robust_time_scale
@@ -115,6 +117,22 @@ def main(argv=None) -> int:
                                        f"success-{ch}-carried", feedforward="full"), sweeps, client=cl)
                 fc["success"] = o["rows"][0] if o["rows"] else None
                 save()
+                # At 2 ms a held part's first-order step drift (~h x acceleration) can reach the
+                # 1 mm 'held' line by itself (README, contact_drift): search again at finer steps.
+                for h_ms in a.carried_steps_ms:
+                    h = h_ms * 1e-3
+                    p2 = plan_fastest_carried(sc, "ruckig", progress=log, jerk_range_m_s3=(1.0, 300.0),
+                                              time_step_s=h)
+                    s2 = p2.extra["carried_search"]
+                    entry[f"fastest_carried_at_{h_ms:g}ms"] = {
+                        "time_step_s": h, "motion_time_s": p2.motion_time_s, "bang_bang_s": bound,
+                        "excess": p2.motion_time_s / bound - 1.0,
+                        "within_3_percent": p2.motion_time_s <= 1.03 * bound, "jerk_limit_m_s3": s2["chosen"],
+                        "lost_above_jerk_m_s3": s2["lost_above"], "search": s2["points"],
+                        "finer_steps": bracket_check(sc, p2, steps_s=(h / 2, h / 4))}
+                    log(f"{ch}: fastest carried at {h_ms:g} ms: {p2.motion_time_s:.4f} s "
+                        f"(+{(p2.motion_time_s / bound - 1) * 100:.2f}%)")
+                    save()
         for ch in (a.robust or []):
             entry = result["chapters"].setdefault(ch, {})
             spec = spec_for(ch, [GA], a.cases, f"robust-{ch}-ga")
@@ -154,6 +172,15 @@ def markdown(result: dict) -> str:
                       f"{s['time_step_s'] * 1e3:g} ms {'carried' if s['held'] else 'lost'}"
                       + (f" (slip {s['max_slip_m'] * 1e3:.3f} mm)" if s.get('max_slip_m') is not None else "")
                       for s in fc["finer_steps"]) + "."]
+        for k, v in e.items():
+            if k.startswith("fastest_carried_at_"):
+                L += ["", f"Fastest carried searched at a {v['time_step_s'] * 1e3:g} ms step: **{v['motion_time_s']:.4f} s** "
+                      f"({v['excess'] * 100:+.2f}% over {v['bang_bang_s']} s; within 3%: "
+                      f"{'met' if v['within_3_percent'] else 'not met'}; J = {v['jerk_limit_m_s3']:.3g} m/s^3). "
+                      "Same plan at finer steps: " + ", ".join(
+                          f"{s['time_step_s'] * 1e3:g} ms {'carried' if s['held'] else 'lost'}"
+                          + (f" (slip {s['max_slip_m'] * 1e3:.3f} mm)" if s.get('max_slip_m') is not None else "")
+                          for s in v["finer_steps"]) + "."]
         rb = e.get("robust_ga")
         if rb:
             if rb.get("found"):
