@@ -117,3 +117,20 @@ def test_more_cases_extend_fewer():
         return [c.key for c in build_cases(load_spec(spec(parameters=params,
                                                          monte_carlo={"cases": n, "seed": 1})))[0]]
     assert keys(10)[:6] == keys(6)
+
+
+def test_plan_file_key_ignores_wall_times(tmp_path):
+    import json
+    doc = {"scenario": "thesis-ch4", "method": "thesis", "genes": {"T1": 0.622, "T2": 0.532, "T3": 0.562},
+           "trajectory": {"kind": "family", "family": "via_cubic"}, "planner_wall_s": 1.0}
+    f = tmp_path / "p.json"
+    f.write_text(json.dumps(doc))
+    s = spec(plans=[{"file": str(f)}])
+    k1 = build_cases(load_spec(s))[0][0].key
+    f.write_text(json.dumps(dict(doc, planner_wall_s=2.0, extra={"log": [1, 2]})))
+    assert build_cases(load_spec(s))[0][0].key == k1
+    f.write_text(json.dumps(dict(doc, genes={"T1": 0.7, "T2": 0.532, "T3": 0.562})))
+    assert build_cases(load_spec(s))[0][0].key != k1
+    f.write_text("{not json")
+    with pytest.raises(QmtInputError, match="cannot be read"):
+        build_cases(load_spec(s))

@@ -150,9 +150,7 @@ def _make_case(spec, base, pdef, values, index, sample):
     # Control gains act in the co-simulation only; every other override changes the plan.
     plan_overrides = {k: v for k, v in overrides.items() if k != "control"}
     if "file" in pdef:
-        with open(pdef["file"], "rb") as fh:
-            sha = hashlib.sha256(fh.read()).hexdigest()
-        ref = PlanRef(spec.scenario, plan_overrides, file=pdef["file"], file_sha256=sha)
+        ref = PlanRef(spec.scenario, plan_overrides, file=pdef["file"], file_sha256=plan_file_hash(pdef["file"]))
     else:
         ref = PlanRef(spec.scenario, plan_overrides, method=pdef["method"],
                       seed=seed if pdef["method"] in ("ga", "optimum") else 0, options=options)
@@ -160,6 +158,20 @@ def _make_case(spec, base, pdef, values, index, sample):
                 plan_key=ref.key, payload=payload, magnet=magnet, motor_scales=motor, sim=sim,
                 parameters=dict(values), sample=sample)
     return case, ref
+
+
+def plan_file_hash(path: str) -> str:
+    """Hash of what defines a plan file's motion (scenario, method, genes, trajectory samples), not
+    of facts that differ between identical re-plans (planner wall time, search logs in 'extra')."""
+    try:
+        with open(path) as fh:
+            doc = json.load(fh)
+    except (OSError, json.JSONDecodeError) as exc:
+        raise QmtInputError(f"plan file {path} cannot be read as JSON ({exc}); write it with "
+                            "`qmt-drake plan ... --json PATH`") from None
+    if not isinstance(doc, dict) or "trajectory" not in doc:
+        raise QmtInputError(f"plan file {path} has no 'trajectory'; write it with `qmt-drake plan ... --json PATH`")
+    return stable_hash({k: doc.get(k) for k in ("scenario", "method", "genes", "trajectory")})
 
 
 # ------------------------------------------------------------------------------- worker side
