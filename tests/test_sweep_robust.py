@@ -5,7 +5,6 @@ motion-time threshold), so the expected result follows in closed form; the plann
 
 import sys
 
-import cloudpickle
 import numpy as np
 import pytest
 
@@ -13,7 +12,6 @@ from qmt_drake.sweep import robust
 from qmt_drake.sweep.runner import dask_client
 from qmt_drake.sweep.spec import load_spec
 
-cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
 
 def fake_plan(ref):

@@ -7,15 +7,14 @@ import os
 import sys
 import time
 
-import cloudpickle
 import pytest
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.sweep.runner import dask_client, run_sweep
 from qmt_drake.sweep.spec import load_spec
 
-# The workers cannot import this test module: ship the fake functions by value.
-cloudpickle.register_pickle_by_value(sys.modules[__name__])
+# The fake case functions reach the workers by name: LocalCluster workers start with this
+# process's sys.path, which pytest gave the tests folder.
 
 KILL_ONCE = 0.222  # friction values the fake case reacts to
 KILL_ALWAYS = 0.111
