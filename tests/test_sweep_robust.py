@@ -3,7 +3,6 @@
 The co-simulation is replaced by rules with a known answer (a threshold per Monte Carlo draw, a
 motion-time threshold), so the expected result follows in closed form; the planners are real."""
 
-import sys
 
 import numpy as np
 import pytest

@@ -4,7 +4,6 @@ fails alone and is the only one a rerun computes, a rerun of a finished sweep co
 and an unreachable scheduler is a one-line error within 10 s."""
 
 import os
-import sys
 import time
 
 import pytest
