@@ -17,8 +17,9 @@ def write_figures(spec, root: Path, results: list[dict], rows: list[dict]) -> di
     paths = {}
     grid = list(spec.grid)
 
-    fig, ax = plt.subplots(figsize=(max(5.0, 0.9 * len(rows) + 2), 3.6))
-    names = [r["label"] + "".join(f"\n{g}={r[g]:g}" for g in grid) for r in rows]
+    import textwrap
+    fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(rows) + 2), 3.8))
+    names = [textwrap.fill(r["label"], 16) + "".join(f"\n{g}={r[g]:g}" for g in grid) for r in rows]
     x = np.arange(len(rows))
     p = np.array([r["p"] for r in rows])
     err = np.array([[r["p"] - r["ci_low"] for r in rows], [r["ci_high"] - r["p"] for r in rows]])
