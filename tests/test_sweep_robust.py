@@ -78,3 +78,18 @@ def test_fastest_carried_time_scale_of_a_family_plan(fake_cosim, scenarios):
     assert plan.feasible
     assert 1.9 <= plan.motion_time_s <= 1.9 * 1.001
     assert plan.peak_moment_ratio == pytest.approx(0.9996 * (1.716 / plan.motion_time_s) ** 2, rel=2e-3)
+
+
+def test_plan_robust_returns_the_slowed_plan(tmp_path, problems):
+    from qmt_drake.plan import family_plan
+    P = problems["thesis-ch4"]
+    plan = family_plan(P, P.genes_vector(P.scenario.reported["genes"]), "thesis")
+    raw = {"name": "pr", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
+           "monte_carlo": {"cases": 8, "seed": 1},
+           "parameters": {"friction": {"dist": "uniform", "low": 0.3, "high": 0.4}}}
+    with dask_client(None, 1) as cl:
+        slowed, r = robust.plan_robust(plan, raw, tmp_path, target=0.99, client=cl, s_min=1.0, s_max=1.2,
+                                       rel_tol=0.01, case_fn=threshold_case, plan_fn=fake_plan)
+    assert slowed.motion_time_s == pytest.approx(plan.motion_time_s * r["time_scale"])
+    assert slowed.feasible and slowed.method == "thesis-robust"
+    assert slowed.peak_moment_ratio < plan.peak_moment_ratio

@@ -102,6 +102,27 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
                 history=sorted(history, key=lambda h: h["time_scale"]), wall_s=time.perf_counter() - t0)
 
 
+def time_scaled_plan(plan, time_scale: float, method: str, extra: dict | None = None):
+    """`plan` played time_scale times slower, as a re-checked Plan (every inertial ratio / s^2)."""
+    from qmt_drake.plan import make_plan
+    from qmt_drake.trajectory import TimeScaledTrajectory
+    traj = plan.trajectory if time_scale == 1.0 else TimeScaledTrajectory(plan.trajectory, time_scale)
+    return make_plan(plan.scenario, method, traj, genes=plan.genes,
+                     extra={"base_plan_extra": plan.extra, "time_scale": float(time_scale), **(extra or {})})
+
+
+def plan_robust(plan, spec: SweepSpec | dict | str, out_dir="out", **kw):
+    """The planner option of item 3: `plan` slowed to the robust time scale of `spec` (whose single
+    plan must be this plan, e.g. {file: PLAN.json}); returns (Plan, robust_time_scale result).
+    Raises QmtInputError when the target is not reached within s_max."""
+    r = robust_time_scale(spec, out_dir, **kw)
+    if not r["found"]:
+        raise QmtInputError(f"no time scale up to {kw.get('s_max', 1.5)} reaches success probability "
+                            f"{r['target']}; raise s_max")
+    return time_scaled_plan(plan, r["time_scale"], f"{plan.method}-robust",
+                            {"robust": {k: v for k, v in r.items() if k != "history"}}), r
+
+
 # ------------------------------------------------------------ fastest carried (nominal co-sim)
 def carried_in_cosim(scenario, plan, *, time_scale: float = 1.0, feedforward: str = "full",
                      time_step_s: float | None = None) -> dict:
@@ -130,9 +151,7 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
     (TimeScaledTrajectory, re-checked). rel_tol: relative width of the final bracket in motion time.
     Returns a Plan whose extra['carried_search'] holds every co-simulated point."""
     from qmt_drake.cosim import FEEDFORWARD_OPTIONS
-    from qmt_drake.plan import make_plan
     from qmt_drake.planners import plan_with
-    from qmt_drake.trajectory import TimeScaledTrajectory
     if feedforward not in FEEDFORWARD_OPTIONS:
         raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
     say = progress or (lambda _m: None)
@@ -191,9 +210,7 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
                 else:
                     lo = mid
         search = {"variable": "time_scale", "chosen": best_s, "lost_below": lo if best_s > lo else None}
-        traj = base.trajectory if best_s == 1.0 else TimeScaledTrajectory(base.trajectory, best_s)
-        plan = make_plan(scenario, f"{method}-carried", traj, genes=base.genes,
-                         extra={"base_plan_extra": base.extra, "time_scale": best_s})
+        plan = time_scaled_plan(base, best_s, f"{method}-carried")
     plan.method = f"{method}-carried"
     plan.planner_wall_s = time.perf_counter() - t_start
     plan.extra = dict(plan.extra or {})
