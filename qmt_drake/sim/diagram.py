@@ -81,6 +81,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                            back_emf_feedforward: bool = False, log_period_s: float = 5e-3,
                            monitor_period_s: float | None = None,
                            motor_inductance: bool = False, implicit_loop_damping: bool | None = None,
+                           motor_params: DcMotorParams | None = None, magnet_effective_gap_m: float | None = None,
                            meshcat: Meshcat | None = None) -> TransferDiagram:
     """One Diagram for the whole closed loop (see the module docstring); its default context starts
     at the plan's start with the payload seated.
@@ -93,7 +94,9 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     arm's. coil_current_A=None uses the scenario's hand (hand.coil_current_A or the calibration
     rule); lead_s of rest precedes the motion and settle_s follows it. motor_inductance=True gives
     the armature current a continuous state (L di/dt = v - R i - Ke w; L/R ~ 0.1-0.2 ms, so the
-    integrator takes small steps: slow).
+    integrator takes small steps: slow). motor_params (DcMotorParams) replaces the scenario's motors
+    and magnet_effective_gap_m [m] the hand's g0 (sweeps over motor constants and the gap; the coil
+    current is then still the one given or calibrated for the scenario).
 
     implicit_loop_damping (default: on, except with motor_inductance) steps the loop's velocity
     feedback implicitly (`add_implicit_damping_actuation`), which keeps the loop stable at the 2 ms
@@ -125,7 +128,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         gains = mp = None
     else:
         gains = pid_gains_for(scenario)
-        mp = motor_params_for(scenario, with_inductance=motor_inductance)
+        mp = motor_params or motor_params_for(scenario, with_inductance=motor_inductance)
         loop_damping = effective_joint_gains(gains, mp)[1] if implicit_loop_damping else None
     if loop_damping is not None:
         move_loop_damping_into_plant(plant, arm, loop_damping)
@@ -150,7 +153,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
             back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
         motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
         split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
-    magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current)
+    magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current, magnet_effective_gap_m)
     monitor = builder.AddNamedSystem("monitor", TransferMonitor(n, hand.index(), payload.index(),
                                                                 period_s=monitor_period_s or time_step_s))
 

@@ -84,11 +84,13 @@ def coil_current_for(scenario, payload: PayloadSpec) -> float:
 
 
 def add_magnet_hand(builder, plant, hand_body, payload_body, scenario, payload: PayloadSpec,
-                    coil_current_A: float):
-    """Add the ElectromagnetForce (the scenario's coil, g0 and the payload's face) fed by a
-    constant coil current [A], wired plant.body_poses -> magnet -> plant applied spatial forces.
-    Needs a plant whose payload and hand are the bodies given. Returns the magnet system."""
-    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(magnet_params_for(scenario, payload),
+                    coil_current_A: float, effective_gap_m: float | None = None):
+    """Add the ElectromagnetForce (the scenario's coil, g0 unless effective_gap_m [m] is given, and the
+    payload's face) fed by a constant coil current [A], wired plant.body_poses -> magnet -> plant
+    applied spatial forces. Needs a plant whose payload and hand are the bodies given. Returns the
+    magnet system."""
+    params = magnet_params_for(scenario, payload, effective_gap_m)
+    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(params,
                                                                  hand_body.index(), payload_body.index()))
     coil_src = builder.AddNamedSystem("coil_current", ConstantVectorSource([float(coil_current_A)]))
     builder.Connect(plant.get_body_poses_output_port(), magnet.GetInputPort("body_poses"))

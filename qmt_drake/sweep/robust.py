@@ -1,0 +1,234 @@
+"""Plans for what is carried, not only for what is planned (issue 13 item 3).
+
+`robust_time_scale`: the fastest time scaling s of a plan whose success probability under a stated
+uncertainty reaches a target, by bisection over sweeps. Every step is an ordinary sweep (runner.py)
+of the same Monte Carlo draws (common random numbers) with `time_scale` fixed to s, stored under
+its own name, so a rerun of the search reuses every finished case. The criterion is either the
+estimate k/n >= target or the Wilson lower bound >= target (stricter: with n = 200 and no failure
+the 95% lower bound is 0.981, so 99% cannot be certified by 200 cases).
+
+`plan_fastest_carried`: the fastest plan carried in the NOMINAL co-simulation. For Ruckig's
+jerk-limited Cartesian line the jerk limit J is chosen by bisection (in log J) between a carried
+and a lost value: a larger J makes the motion shorter and the reversal of the load harsher (the
+README's ch.2 finding: a near-limit load that swaps edges of the contact ring within ~20 ms tips
+the bolt). For any other method the time scale of its plan is bisected (s >= 1 keeps every planned
+limit). The controller's feedforward (`feedforward`, default "full": back EMF plus Drake inverse
+dynamics) is part of the result: the plan is carried with that controller.
+
+Both assume carried-ness is monotone in the searched variable; each evaluated point is kept in
+the result's history so a non-monotone case shows.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.sweep.spec import SweepSpec, load_spec
+from qmt_drake.sweep.stats import wilson_interval
+
+
+# ------------------------------------------------------------------ robust time scale (sweeps)
+def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: float = 0.99,
+                      criterion: str = "estimate", s_min: float = 1.0, s_max: float = 1.5,
+                      rel_tol: float = 0.005, confidence: float = 0.95, client=None, workers=None,
+                      scheduler=None, progress=None, figures: bool = False, **run_kw) -> dict:
+    """Smallest time scale s in [s_min, s_max] (to rel_tol) at which the spec's single plan is
+    carried with probability >= target under the spec's distributions.
+
+    Returns {time_scale, motion_time_s, p, ci_low, ci_high, n, history: [...], found}; found=False
+    when even s_max misses the target (time_scale is then None). run_kw go to run_sweep (tests
+    pass case_fn / plan_fn)."""
+    from qmt_drake.sweep.runner import dask_client, run_sweep
+    if not isinstance(spec, SweepSpec):
+        spec = load_spec(spec)
+    if len(spec.plans) != 1 or spec.grid:
+        raise QmtInputError(f"robust time scale: spec '{spec.name}' needs exactly one plan and no grid "
+                            f"parameter (it has {len(spec.plans)} plans, grid {list(spec.grid)})")
+    if "time_scale" in spec.distributions:
+        raise QmtInputError("robust time scale: time_scale is what is searched; drop it from the spec")
+    if not 0 < target < 1:
+        raise QmtInputError(f"target success probability must lie in (0, 1), got {target}")
+    if criterion not in ("estimate", "lower_bound"):
+        raise QmtInputError(f"criterion must be 'estimate' or 'lower_bound', got {criterion!r}")
+    if not 0 < s_min < s_max:
+        raise QmtInputError(f"need 0 < s_min < s_max, got {s_min}, {s_max}")
+    say = progress or (lambda _m: None)
+    history = []
+
+    def evaluate(s: float, cl) -> dict:
+        raw = dict(spec.raw)
+        params = dict(raw.get("parameters") or {})
+        params["time_scale"] = float(s)
+        raw["parameters"] = params
+        sub = load_spec(raw, name=f"{spec.name}-ts{s:.5f}")
+        out = run_sweep(sub, out_dir, client=cl, progress=False, figures=figures, **run_kw)
+        n = sum(r["n"] for r in out["rows"])
+        k = sum(r["carried"] for r in out["rows"])
+        lo, hi = wilson_interval(k, n, confidence)
+        ok = (k / n if n else 0.0) >= target if criterion == "estimate" else lo >= target
+        point = dict(time_scale=float(s), n=n, carried=k, p=k / n if n else float("nan"), ci_low=lo,
+                     ci_high=hi, meets_target=bool(ok), failed_cases=out["failed"],
+                     motion_time_s=out["rows"][0]["motion_time_s"] if out["rows"] else None)
+        history.append(point)
+        say(f"robust {spec.name}: s = {s:.5f}: {k}/{n} carried, p = {point['p']:.3f} "
+            f"[{lo:.3f}, {hi:.3f}] -> {'meets' if ok else 'misses'} {target}")
+        return point
+
+    from contextlib import nullcontext
+    ctx = nullcontext(client) if client is not None else dask_client(scheduler, workers)
+    t0 = time.perf_counter()
+    with ctx as cl:
+        hi_pt = evaluate(s_max, cl)
+        if not hi_pt["meets_target"]:
+            return dict(found=False, time_scale=None, target=target, criterion=criterion, history=history,
+                        wall_s=time.perf_counter() - t0)
+        lo_pt = evaluate(s_min, cl)
+        best = lo_pt if lo_pt["meets_target"] else hi_pt
+        lo_s, hi_s = s_min, s_max
+        while not lo_pt["meets_target"] and hi_s / lo_s - 1 > rel_tol:
+            mid = math.sqrt(lo_s * hi_s)
+            pt = evaluate(mid, cl)
+            if pt["meets_target"]:
+                hi_s, best = mid, pt
+            else:
+                lo_s = mid
+    return dict(found=True, target=target, criterion=criterion, confidence=confidence,
+                time_scale=best["time_scale"], motion_time_s=best["motion_time_s"], p=best["p"],
+                ci_low=best["ci_low"], ci_high=best["ci_high"], n=best["n"],
+                history=sorted(history, key=lambda h: h["time_scale"]), wall_s=time.perf_counter() - t0)
+
+
+def time_scaled_plan(plan, time_scale: float, method: str, extra: dict | None = None):
+    """`plan` played time_scale times slower, as a re-checked Plan (every inertial ratio / s^2)."""
+    from qmt_drake.plan import make_plan
+    from qmt_drake.trajectory import TimeScaledTrajectory
+    traj = plan.trajectory if time_scale == 1.0 else TimeScaledTrajectory(plan.trajectory, time_scale)
+    return make_plan(plan.scenario, method, traj, genes=plan.genes,
+                     extra={"base_plan_extra": plan.extra, "time_scale": float(time_scale), **(extra or {})})
+
+
+def plan_robust(plan, spec: SweepSpec | dict | str, out_dir="out", **kw):
+    """The planner option of item 3: `plan` slowed to the robust time scale of `spec` (whose single
+    plan must be this plan, e.g. {file: PLAN.json}); returns (Plan, robust_time_scale result).
+    Raises QmtInputError when the target is not reached within s_max."""
+    r = robust_time_scale(spec, out_dir, **kw)
+    if not r["found"]:
+        raise QmtInputError(f"no time scale up to {kw.get('s_max', 1.5)} reaches success probability "
+                            f"{r['target']}; raise s_max")
+    return time_scaled_plan(plan, r["time_scale"], f"{plan.method}-robust",
+                            {"robust": {k: v for k, v in r.items() if k != "history"}}), r
+
+
+# ------------------------------------------------------------ fastest carried (nominal co-sim)
+def carried_in_cosim(scenario, plan, *, time_scale: float = 1.0, feedforward: str = "full",
+                     time_step_s: float | None = None) -> dict:
+    """One nominal co-simulation: {'held', 'max_slip_m', 'detached_at_s', 'sim_wall_s'} (a failed
+    simulation counts as not carried)."""
+    from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
+    from qmt_drake.errors import QmtSimulationError
+    try:
+        r = simulate_transfer(scenario, plan, time_scale=time_scale, time_step_s=time_step_s,
+                              keep_series=False, **FEEDFORWARD_OPTIONS[feedforward])
+    except QmtSimulationError as exc:
+        return {"held": False, "max_slip_m": None, "detached_at_s": None, "error": str(exc)}
+    return {"held": bool(r.held), "max_slip_m": float(r.max_slip_m), "detached_at_s": r.detached_at_s,
+            "max_tilt_rad": float(r.max_tilt_rad), "sim_wall_s": float(r.sim_wall_s)}
+
+
+def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str = "full",
+                         jerk_range_m_s3: tuple[float, float] = (0.3, 300.0), s_max: float = 2.0,
+                         rel_tol: float = 0.002, time_step_s: float | None = None, seed: int = 0,
+                         progress=None, **planner_options):
+    """The fastest plan of `method` carried in the nominal co-simulation with `feedforward`.
+
+    method "ruckig": bisection on log J over jerk_range_m_s3 (Cartesian line unless a `mode`
+    option says otherwise); the lower end must be carried. Any other method: plan once, then
+    bisect its time scale s in [1, s_max] and return the plan played s times slower
+    (TimeScaledTrajectory, re-checked). rel_tol: relative width of the final bracket in motion time.
+    Returns a Plan whose extra['carried_search'] holds every co-simulated point."""
+    from qmt_drake.sim import FEEDFORWARD_OPTIONS
+    from qmt_drake.planners import plan_with
+    if feedforward not in FEEDFORWARD_OPTIONS:
+        raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
+    say = progress or (lambda _m: None)
+    t_start = time.perf_counter()
+    history = []
+
+    def record(var, value, plan, s=1.0):
+        out = carried_in_cosim(scenario, plan, time_scale=s, feedforward=feedforward, time_step_s=time_step_s)
+        history.append({var: float(value), "motion_time_s": float(plan.motion_time_s) * s,
+                        "plan_feasible": bool(plan.feasible), **out})
+        say(f"{scenario.name} {method} {var}={value:.6g}: T = {plan.motion_time_s * s:.4f} s, "
+            f"{'carried' if out['held'] else 'lost'}")
+        return out["held"] and plan.feasible
+
+    if method == "ruckig":
+        lo, hi = (float(x) for x in jerk_range_m_s3)
+        if not 0 < lo < hi:
+            raise QmtInputError(f"jerk_range_m_s3 must be two increasing positive numbers, got {jerk_range_m_s3}")
+        make = lambda J: plan_with("ruckig", scenario, jerk_limit=J, **planner_options)  # noqa: E731
+        best_plan = make(lo)
+        if not record("jerk_limit_m_s3", lo, best_plan):
+            raise QmtInputError(f"{scenario.name}: even the ruckig plan at the lowest jerk limit {lo:g} m/s^3 is "
+                                "lost in the co-simulation; lower jerk_range_m_s3[0]")
+        best_J = lo
+        top = make(hi)
+        if record("jerk_limit_m_s3", hi, top):
+            best_plan, best_J = top, hi
+        else:
+            # Stop when the carried and the lost plan differ by rel_tol in motion time (J itself
+            # matters only through it).
+            T_lost = top.motion_time_s
+            while best_plan.motion_time_s / T_lost - 1 > rel_tol and hi / lo > 1.0001:
+                mid = math.sqrt(lo * hi)
+                p = make(mid)
+                if record("jerk_limit_m_s3", mid, p):
+                    lo, best_plan, best_J = mid, p, mid
+                else:
+                    hi, T_lost = mid, p.motion_time_s
+        search = {"variable": "jerk_limit_m_s3", "chosen": best_J, "lost_above": hi if best_J < hi else None}
+        plan = best_plan
+    else:
+        base = plan_with(method, scenario, seed=seed, **planner_options)
+        if not base.feasible:
+            raise QmtInputError(f"{scenario.name}: the {method} plan breaks a limit; nothing to time-scale")
+        lo, hi = 1.0, float(s_max)
+        if record("time_scale", lo, base, lo):
+            best_s = lo
+        else:
+            if not record("time_scale", hi, base, hi):
+                raise QmtInputError(f"{scenario.name}: the {method} plan is lost even {hi:g}x slower; raise s_max")
+            best_s = hi
+            while hi / lo - 1 > rel_tol:
+                mid = math.sqrt(lo * hi)
+                if record("time_scale", mid, base, mid):
+                    hi = best_s = mid
+                else:
+                    lo = mid
+        search = {"variable": "time_scale", "chosen": best_s, "lost_below": lo if best_s > lo else None}
+        plan = time_scaled_plan(base, best_s, f"{method}-carried")
+    plan.method = f"{method}-carried"
+    plan.planner_wall_s = time.perf_counter() - t_start
+    plan.extra = dict(plan.extra or {})
+    plan.extra.update({"carried_search": dict(search, feedforward=feedforward,
+                                               time_step_s=time_step_s, points=history),
+                       "note_carried": f"carried in the nominal co-simulation with feedforward '{feedforward}'; "
+                                       "execute it with that controller"})
+    return plan
+
+
+def bracket_check(scenario, plan, *, feedforward: str = "full", steps_s=(1e-3, 0.5e-3)) -> list[dict]:
+    """The same plan co-simulated at finer plant steps: is 'carried' a property of the plan or of
+    the 2 ms step?"""
+    rows = []
+    for h in steps_s:
+        rows.append({"time_step_s": h, **carried_in_cosim(scenario, plan, feedforward=feedforward, time_step_s=h)})
+    return rows
+
+
+def relative_excess(t: float, bound: float) -> float:
+    return float(t / bound - 1.0) if bound and np.isfinite(t) else float("nan")

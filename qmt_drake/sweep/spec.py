@@ -1,0 +1,403 @@
+"""Sweep specifications: a grid and/or a seeded Monte Carlo over named parameters of a transfer.
+
+A spec (YAML, see models/sweeps/) names one scenario, one or more plans, and parameters:
+
+    name: ch4-ga-mc200
+    scenario: thesis-ch4                      # built-in name or a scenario YAML path
+    plans:                                    # each: method (+ seed, options) or file: PLAN.json
+      - {method: ga, seed: 0, options: {max_generations: 400, stall_generations: 100}}
+    sim: {feedforward: none}                  # optional: feedforward, time_step_s, implicit_loop_damping
+    monte_carlo: {cases: 200, seed: 1}        # needed when a parameter has a distribution
+    parameters:
+      friction: {dist: normal, mean: 0.3, std: 0.03}     # a distribution (Monte Carlo)
+      coil_current_scale: {dist: uniform, low: 0.95, high: 1.05}
+      time_scale: [1.0, 1.05]                             # a grid (list or {values: [...]})
+      time_step_s: 0.002                                  # a fixed value
+
+Cases are plans x grid points x Monte Carlo samples; the i-th sample is the same draw for every
+plan and grid point (common random numbers, so plans are compared on the same parts).
+
+Every parameter maps to exactly one place through the table `PARAMETERS`: a field of the
+co-simulation's PayloadSpec (the physical part: its mass and r_G vary, the plan does not), the
+magnet (coil current, absolute or as a multiple of the calibrated current; the equivalent gap g0),
+the motor model (multiples of torque constant and resistance), a scenario override (gains as
+multiples of the scenario's, the planning moment limit), a `simulate_transfer` keyword (time
+scale, step) or the planner (seed, Ruckig jerk limit). "scale" parameters multiply the nominal
+value. Every problem raises QmtInputError with one line naming the key and the fix.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from qmt_drake.errors import QmtInputError
+
+# Where a parameter goes (cases.py applies them):
+#   payload  -> dataclasses.replace(PayloadSpec, field=value)   (the simulated part only)
+#   magnet   -> coil current [A] / effective gap g0 [m]
+#   motor    -> DcMotorParams field multiplied by value
+#   scenario -> override in the scenario's YAML mapping (dotted path)
+#   sim      -> simulate_transfer keyword
+#   plan     -> planner input (seed, or an option of the planner)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    target: str  # payload | magnet | motor | scenario | sim | plan
+    field: str
+    scale: bool  # True: value multiplies the nominal value
+    unit: str
+    doc: str
+    lower: float = 0.0  # values must be > lower (or >= when inclusive)
+    inclusive: bool = False
+    upper: float = math.inf
+    integer: bool = False
+
+
+PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
+    Parameter("friction", "payload", "friction", False, "-", "Coulomb friction, part on face"),
+    Parameter("mass_kg", "payload", "mass_kg", False, "kg", "simulated part mass"),
+    Parameter("mass_scale", "payload", "mass_kg", True, "-", "simulated part mass / nominal"),
+    Parameter("com_offset_m", "payload", "com_offset_m", False, "m", "simulated r_G"),
+    Parameter("com_offset_scale", "payload", "com_offset_m", True, "-", "simulated r_G / nominal"),
+    Parameter("contact_stiffness_N_per_m", "payload", "point_stiffness_N_per_m", False, "N/m",
+              "contact point stiffness"),
+    Parameter("coil_current_A", "magnet", "coil_current_A", False, "A", "coil current",
+              inclusive=True),
+    Parameter("coil_current_scale", "magnet", "coil_current_A", True, "-",
+              "coil current / the calibrated current of the nominal part", inclusive=True),
+    Parameter("magnet_gap_m", "magnet", "effective_gap_m", False, "m",
+              "equivalent magnet gap g0 (coil current stays as set)"),
+    Parameter("motor_torque_constant_scale", "motor", "torque_constant_Nm_per_A", True, "-",
+              "motor torque (= back-EMF) constant / catalogue"),
+    Parameter("motor_resistance_scale", "motor", "resistance_ohm", True, "-",
+              "armature resistance / catalogue"),
+    Parameter("kp_scale", "scenario", "control.kp", True, "-", "proportional gains / scenario's",
+              inclusive=True),
+    Parameter("kd_scale", "scenario", "control.kd", True, "-", "derivative gains / scenario's",
+              inclusive=True),
+    Parameter("moment_limit_Nm", "scenario", "limits.moment_limit_Nm", False, "N*m",
+              "planning moment limit (replans)"),
+    Parameter("time_scale", "sim", "time_scale", False, "-",
+              "replay time stretch (<1 faster; moment ~ 1/s^2)"),
+    Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step"),
+    Parameter("seed", "plan", "seed", False, "-", "planner seed", lower=0.0, inclusive=True,
+              integer=True),
+    Parameter("jerk_limit_m_s3", "plan", "options.jerk_limit", False, "m/s^3",
+              "Ruckig tip jerk limit (replans)"),
+)}
+
+DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
+                 "truncnormal": ("mean", "std", "low", "high")}
+SPEC_KEYS = {"name", "description", "uncertainty", "scenario", "plan", "plans", "sim",
+             "monte_carlo", "parameters"}
+PLAN_KEYS = {"method", "seed", "options", "file", "label"}
+SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping"}
+FEEDFORWARD = ("none", "back-emf", "full")  # sim.FEEDFORWARD_OPTIONS keys
+
+
+@dataclass(frozen=True)
+class Distribution:
+    kind: str
+    args: dict
+
+    def sample(self, rng: np.random.Generator, n: int, p: Parameter) -> np.ndarray:
+        a = self.args
+        if self.kind == "uniform":
+            x = rng.uniform(a["low"], a["high"], n)
+        else:
+            # normal: truncated at the parameter's physical bound; truncnormal: at [low, high].
+            lo = a.get("low", p.lower)
+            hi = a.get("high", p.upper)
+            x = _truncated_normal(rng, a["mean"], a["std"], lo, hi, n)
+        return np.round(x).astype(int) if p.integer else x
+
+
+def _truncated_normal(rng, mean, std, lo, hi, n) -> np.ndarray:
+    if std == 0:
+        return np.full(n, float(mean))
+    from scipy.stats import truncnorm
+    a, b = (lo - mean) / std, (hi - mean) / std
+    return truncnorm.ppf(rng.uniform(size=n), a, b, loc=mean, scale=std)
+
+
+@dataclass
+class SweepSpec:
+    name: str
+    scenario: str
+    plans: list[dict]
+    sim: dict
+    fixed: dict  # name -> value
+    grid: dict  # name -> list of values
+    distributions: dict  # name -> Distribution
+    mc_cases: int = 0
+    mc_seed: int = 0
+    description: str = ""
+    uncertainty: str = ""
+    source_path: Path | None = None
+    raw: dict = field(default_factory=dict)
+
+    @property
+    def parameter_names(self) -> list[str]:
+        return list(self.fixed) + list(self.grid) + list(self.distributions)
+
+    def samples(self) -> list[dict]:
+        """The Monte Carlo draws (one dict per sample; [{}] without distributions)."""
+        if not self.distributions:
+            return [{}]
+        # One generator per parameter, seeded by (seed, name): the first N draws do not depend on
+        # the other parameters or on the number of cases, so a larger run extends a smaller one
+        # and reuses its stored cases.
+        cols = {k: d.sample(np.random.default_rng([self.mc_seed, zlib.crc32(k.encode())]), self.mc_cases,
+                            PARAMETERS[k]) for k, d in self.distributions.items()}
+        return [{k: _plain(v[i]) for k, v in cols.items()} for i in range(self.mc_cases)]
+
+    def grid_points(self) -> list[dict]:
+        keys = list(self.grid)
+        return [dict(zip(keys, combo)) for combo in itertools.product(*(self.grid[k] for k in keys))]
+
+    @property
+    def n_cases(self) -> int:
+        return len(self.plans) * len(self.grid_points()) * max(self.mc_cases, 1)
+
+
+def _plain(v):
+    return int(v) if isinstance(v, (np.integer, int)) else float(v)
+
+
+def load_spec(path_or_dict, *, name: str | None = None) -> SweepSpec:
+    """A validated SweepSpec from a YAML file path or a mapping (errors: QmtInputError)."""
+    if isinstance(path_or_dict, dict):
+        raw, where, path = path_or_dict, f"sweep spec '{name or path_or_dict.get('name', '?')}'", None
+    else:
+        path = Path(path_or_dict)
+        where = str(path)
+        if not path.is_file():
+            raise QmtInputError(f"sweep spec {path} does not exist; give the path of a YAML file "
+                                "(examples in models/sweeps/)")
+        try:
+            raw = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            raise QmtInputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        if not isinstance(raw, dict):
+            raise QmtInputError(f"{path}: a sweep spec must be a YAML mapping")
+    return spec_from_dict(raw, where, path, name)
+
+
+def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | None = None) -> SweepSpec:
+    _check_keys(raw, SPEC_KEYS, where)
+    scenario = raw.get("scenario")
+    if not isinstance(scenario, str) or not scenario:
+        raise QmtInputError(f"{where}: 'scenario' must name a built-in scenario or a scenario YAML path")
+    if path is not None and not Path(scenario).is_absolute() and Path(scenario).suffix:
+        beside = path.parent / scenario
+        if beside.is_file():
+            scenario = str(beside.resolve())
+    sweep_name = str(name or raw.get("name") or (path.stem if path else "sweep"))
+    if not sweep_name.replace("-", "").replace("_", "").replace(".", "").isalnum():
+        raise QmtInputError(f"{where}: name '{sweep_name}' must be letters, digits, '-', '_' or '.' "
+                            "(it names the output folder)")
+
+    if ("plan" in raw) == ("plans" in raw):
+        raise QmtInputError(f"{where}: give exactly one of 'plan' (a mapping) or 'plans' (a list)")
+    plans = [raw["plan"]] if "plan" in raw else raw["plans"]
+    if not isinstance(plans, list) or not plans:
+        raise QmtInputError(f"{where}: 'plans' must be a non-empty list of plan mappings")
+    plans = [_check_plan(p, f"{where}: plans[{i}]", path) for i, p in enumerate(plans)]
+    labels = [p["label"] for p in plans]
+    if len(set(labels)) != len(labels):
+        raise QmtInputError(f"{where}: two plans share the label '{_first_dup(labels)}'; give each "
+                            "a distinct 'label'")
+
+    sim = raw.get("sim") or {}
+    if not isinstance(sim, dict):
+        raise QmtInputError(f"{where}: 'sim' must be a mapping of {', '.join(sorted(SIM_KEYS))}")
+    _check_keys(sim, SIM_KEYS, f"{where}: sim")
+    sim = dict(sim)
+    if sim.setdefault("feedforward", "none") not in FEEDFORWARD:
+        raise QmtInputError(f"{where}: sim.feedforward must be one of {', '.join(FEEDFORWARD)}, "
+                            f"got {sim['feedforward']!r}")
+    if "time_step_s" in sim:
+        sim["time_step_s"] = _number(sim["time_step_s"], f"{where}: sim.time_step_s", positive=True)
+
+    params = raw.get("parameters") or {}
+    if not isinstance(params, dict):
+        raise QmtInputError(f"{where}: 'parameters' must map parameter names to a value, a list "
+                            "of values or a distribution")
+    fixed, grid, dists = {}, {}, {}
+    fields_used = {}
+    for pname, v in params.items():
+        at = f"{where}: parameters.{pname}"
+        if pname not in PARAMETERS:
+            raise QmtInputError(f"{at}: unknown parameter '{pname}'; known parameters are "
+                                f"{', '.join(PARAMETERS)}")
+        p = PARAMETERS[pname]
+        slot = (p.target, p.field)
+        if slot in fields_used:
+            raise QmtInputError(f"{at}: sets the same quantity as '{fields_used[slot]}'; keep one")
+        fields_used[slot] = pname
+        if isinstance(v, dict) and "dist" in v:
+            dists[pname] = _check_distribution(v, p, at)
+        elif isinstance(v, dict) and set(v) == {"values"}:
+            grid[pname] = _check_values(v["values"], p, at)
+        elif isinstance(v, dict):
+            raise QmtInputError(f"{at}: a mapping must be a distribution ({{dist: normal, mean: .., "
+                                "std: ..}}) or {values: [...]}")
+        elif isinstance(v, list):
+            grid[pname] = _check_values(v, p, at)
+        else:
+            fixed[pname] = _check_values([v], p, at)[0]
+    if "time_step_s" in sim and "time_step_s" in params:
+        raise QmtInputError(f"{where}: time_step_s is given both in sim and in parameters; keep one")
+
+    mc = raw.get("monte_carlo")
+    mc_cases, mc_seed = 0, 0
+    if dists:
+        if not isinstance(mc, dict) or "cases" not in mc:
+            raise QmtInputError(f"{where}: parameters {', '.join(dists)} have distributions; add "
+                                "monte_carlo: {cases: N, seed: S}")
+        _check_keys(mc, {"cases", "seed"}, f"{where}: monte_carlo")
+        mc_cases = _integer(mc["cases"], f"{where}: monte_carlo.cases", minimum=1)
+        mc_seed = _integer(mc.get("seed", 0), f"{where}: monte_carlo.seed", minimum=0)
+    elif mc is not None:
+        raise QmtInputError(f"{where}: monte_carlo is given but no parameter has a distribution; "
+                            "give one (e.g. friction: {dist: normal, mean: 0.3, std: 0.03}) or "
+                            "drop monte_carlo")
+    spec = SweepSpec(name=sweep_name, scenario=scenario, plans=plans, sim=sim, fixed=fixed, grid=grid,
+                     distributions=dists, mc_cases=mc_cases, mc_seed=mc_seed,
+                     description=str(raw.get("description", "")),
+                     uncertainty=str(raw.get("uncertainty", "")), source_path=path, raw=raw)
+    if spec.n_cases > 1_000_000:
+        raise QmtInputError(f"{where}: {spec.n_cases} cases is too many; narrow the grid")
+    return spec
+
+
+def describe_uncertainty(spec: SweepSpec) -> str:
+    """One line stating the distributions (and fixed values) the cases were drawn from."""
+    parts = []
+    for k, d in spec.distributions.items():
+        a = d.args
+        if d.kind == "uniform":
+            parts.append(f"{k} ~ U[{a['low']:g}, {a['high']:g}]")
+        else:
+            lo, hi = a.get("low"), a.get("high")
+            cut = "" if lo is None and hi is None else f" cut to [{lo:g}, {hi:g}]"
+            parts.append(f"{k} ~ N({a['mean']:g}, {a['std']:g}^2){cut}")
+    parts += [f"{k} = {v:g}" for k, v in spec.fixed.items()]
+    return "; ".join(parts) if parts else "none (nominal)"
+
+
+# ------------------------------------------------------------------------------------ checks
+def _check_plan(p, at: str, spec_path: Path | None) -> dict:
+    if not isinstance(p, dict):
+        raise QmtInputError(f"{at}: a plan must be a mapping with 'method' (+ seed, options) or 'file'")
+    _check_keys(p, PLAN_KEYS, at)
+    from qmt_drake.planners import METHODS
+    out = {"options": dict(p.get("options") or {}), "seed": 0}
+    if ("method" in p) == ("file" in p):
+        raise QmtInputError(f"{at}: give exactly one of 'method' ({', '.join(METHODS)}) or 'file'")
+    if "file" in p:
+        f = Path(str(p["file"]))
+        if not f.is_absolute() and spec_path is not None and (spec_path.parent / f).is_file():
+            f = spec_path.parent / f
+        if not f.is_file():
+            raise QmtInputError(f"{at}: plan file {f} does not exist; write one with "
+                                "`qmt-drake plan ... --json PATH`")
+        out["file"] = str(f.resolve())
+        out["label"] = str(p.get("label", f.stem))
+        return out
+    if p["method"] not in METHODS:
+        raise QmtInputError(f"{at}: unknown method '{p['method']}'; use one of {', '.join(METHODS)}")
+    out["method"] = str(p["method"])
+    out["seed"] = _integer(p.get("seed", 0), f"{at}.seed", minimum=0)
+    if not isinstance(p.get("options") or {}, dict):
+        raise QmtInputError(f"{at}.options must be a mapping of planner keyword arguments")
+    default = out["method"] + (f"-seed{out['seed']}" if out["method"] == "ga" else "")
+    out["label"] = str(p.get("label", default))
+    return out
+
+
+def _check_distribution(v: dict, p: Parameter, at: str) -> Distribution:
+    kind = v["dist"]
+    if kind not in DISTRIBUTIONS:
+        raise QmtInputError(f"{at}: unknown distribution '{kind}'; use one of {', '.join(DISTRIBUTIONS)}")
+    need = DISTRIBUTIONS[kind]
+    allowed = set(need) | {"dist"} | ({"low", "high"} if kind == "normal" else set())
+    _check_keys(v, allowed, at)
+    missing = [k for k in need if k not in v]
+    if missing:
+        raise QmtInputError(f"{at}: a {kind} distribution needs {', '.join(need)}; missing "
+                            f"{', '.join(missing)}")
+    args = {k: _number(v[k], f"{at}.{k}") for k in v if k != "dist"}
+    if "std" in args and args["std"] < 0:
+        raise QmtInputError(f"{at}: std {args['std']:g} is negative; a spread must be >= 0")
+    if "low" in args and "high" in args and not args["low"] <= args["high"]:
+        raise QmtInputError(f"{at}: low {args['low']:g} > high {args['high']:g}; a spread must be "
+                            ">= 0 (swap them)")
+    lo = args.get("low", args.get("mean"))
+    hi = args.get("high", args.get("mean"))
+    for x in (lo, hi):
+        _check_range(x, p, at)
+    if kind == "normal" and p.integer:
+        raise QmtInputError(f"{at}: '{p.name}' is an integer; give a list of values instead")
+    return Distribution(kind, args)
+
+
+def _check_values(values, p: Parameter, at: str) -> list:
+    if not isinstance(values, list) or not values:
+        raise QmtInputError(f"{at}: give a non-empty list of values")
+    out = []
+    for x in values:
+        x = _integer(x, at, minimum=0) if p.integer else _number(x, at)
+        _check_range(x, p, at)
+        out.append(x)
+    return out
+
+
+def _check_range(x: float, p: Parameter, at: str) -> None:
+    ok_lo = x >= p.lower if p.inclusive else x > p.lower
+    if not ok_lo or x > p.upper:
+        rel = ">=" if p.inclusive else ">"
+        raise QmtInputError(f"{at}: {x:g} is out of range; {p.name} ({p.doc}, {p.unit}) must be "
+                            f"{rel} {p.lower:g}")
+
+
+def _number(v, at: str, positive: bool = False) -> float:
+    if isinstance(v, bool):
+        raise QmtInputError(f"{at}: must be a number, got {v!r}")
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise QmtInputError(f"{at}: must be a number, got {v!r}") from None
+    if not math.isfinite(x) or (positive and x <= 0):
+        raise QmtInputError(f"{at}: must be a {'positive' if positive else 'finite'} number, got {v!r}")
+    return x
+
+
+def _integer(v, at: str, minimum: int = 0) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
+        raise QmtInputError(f"{at}: must be an integer >= {minimum}, got {v!r}")
+    return int(v)
+
+
+def _check_keys(d: dict, allowed: set, where: str) -> None:
+    unknown = sorted(set(d) - allowed)
+    if unknown:
+        raise QmtInputError(f"{where}: unknown key '{unknown[0]}'; allowed keys are "
+                            f"{', '.join(sorted(allowed))}")
+
+
+def _first_dup(xs):
+    seen = set()
+    for x in xs:
+        if x in seen:
+            return x
+        seen.add(x)

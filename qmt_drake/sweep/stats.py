@@ -1,0 +1,66 @@
+"""Success probability with a Wilson score interval, and the per-group tables of a sweep.
+
+Wilson (1927): for k successes in n trials and z the two-sided normal quantile,
+
+    centre = (p + z^2 / 2n) / (1 + z^2 / n),   half = z / (1 + z^2 / n) * sqrt(p (1 - p) / n + z^2 / 4n^2)
+
+with p = k / n. Unlike the normal ("Wald") interval it stays inside [0, 1] and is not empty at
+k = 0 or k = n (upper bound z^2 / (n + z^2) at k = 0). tests/test_sweep_stats.py checks it against
+scipy.stats.binomtest(...).proportion_ci(method="wilson") and the closed forms at k = 0 and n.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+
+
+def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval (lower, upper) of a success probability; (0, 1) when n = 0."""
+    if n < 0 or k < 0 or k > n:
+        raise ValueError(f"need 0 <= k <= n, got k={k}, n={n}")
+    if not 0 < confidence < 1:
+        raise ValueError(f"confidence must lie in (0, 1), got {confidence}")
+    if n == 0:
+        return 0.0, 1.0
+    from scipy.stats import norm
+    z = float(norm.ppf(0.5 + confidence / 2))
+    p = k / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z / denom * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    # k = 0 and k = n make the interval touch 0 or 1 exactly (rounding could miss it by 1e-17).
+    return (0.0 if k == 0 else max(0.0, centre - half), 1.0 if k == n else min(1.0, centre + half))
+
+
+def success_rows(results: list[dict], group_keys=("label",), confidence: float = 0.95) -> list[dict]:
+    """Per group (e.g. plan label, or label + a grid parameter): n, carried, p and its interval.
+    A case counts as carried when it held (never detached, slip < 1 mm); failed simulations count
+    as not carried."""
+    groups = defaultdict(list)
+    for r in results:
+        groups[tuple(_group_value(r, g) for g in group_keys)].append(r)
+    rows = []
+    for gk, rs in sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
+        n = len(rs)
+        k = sum(1 for r in rs if r.get("held"))
+        lo, hi = wilson_interval(k, n, confidence)
+        slips = sorted(r["max_slip_m"] for r in rs if r.get("max_slip_m") is not None)
+        row = dict(zip(group_keys, gk))
+        row.update(n=n, carried=k, p=k / n, ci_low=lo, ci_high=hi, confidence=confidence,
+                   sim_failed=sum(1 for r in rs if r.get("status") == "sim_failed"),
+                   motion_time_s=_common(r.get("motion_time_s") for r in rs),
+                   median_slip_m=slips[len(slips) // 2] if slips else None)
+        rows.append(row)
+    return rows
+
+
+def _group_value(r: dict, g: str):
+    return r[g] if g in r else (r.get("parameters") or {}).get(g)
+
+
+def _common(values):
+    vals = [v for v in values if v is not None]
+    if not vals:
+        return None
+    return vals[0] if max(vals) - min(vals) <= 1e-12 * max(1.0, abs(vals[0])) else None

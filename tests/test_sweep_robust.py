@@ -1,0 +1,95 @@
+"""Robust and carried planners: the bisections find the boundary they are built to find.
+
+The co-simulation is replaced by rules with a known answer (a threshold per Monte Carlo draw, a
+motion-time threshold), so the expected result follows in closed form; the planners are real."""
+
+
+import numpy as np
+import pytest
+
+from qmt_drake.sweep import robust
+from qmt_drake.sweep.runner import dask_client
+from qmt_drake.sweep.spec import load_spec
+
+
+
+def fake_plan(ref):
+    return {"plan_key": ref.key}
+
+
+def threshold_case(case, plan_doc):
+    """Carried iff the time scale reaches this draw's threshold 1 + (0.4 - friction)."""
+    fr, s = case.parameters["friction"], case.sim["time_scale"]
+    return {"key": case.key, "label": case.label, "parameters": case.parameters, "status": "ok",
+            "held": s >= 1.0 + (0.4 - fr), "max_slip_m": 1e-4, "motion_time_s": 2.0 * s}
+
+
+def test_robust_time_scale_finds_the_quantile(tmp_path):
+    raw = {"name": "rb", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
+           "monte_carlo": {"cases": 20, "seed": 5},
+           "parameters": {"friction": {"dist": "uniform", "low": 0.2, "high": 0.4}}}
+    spec = load_spec(raw)
+    thresholds = np.sort([1.0 + (0.4 - d["friction"]) for d in spec.samples()])
+    target = 0.9
+    # smallest s with at least 90% of the 20 thresholds <= s: the 18th smallest threshold
+    exact = thresholds[int(np.ceil(target * 20)) - 1]
+    with dask_client(None, 2) as cl:
+        r = robust.robust_time_scale(spec, tmp_path, target=target, client=cl, s_min=1.0, s_max=1.5,
+                                     rel_tol=0.01, case_fn=threshold_case, plan_fn=fake_plan)
+        assert r["found"] and r["p"] >= target
+        assert exact <= r["time_scale"] <= exact * 1.01 + 1e-12
+        pts = {h["time_scale"]: h["meets_target"] for h in r["history"]}
+        assert all(ok == (s >= exact) for s, ok in pts.items())  # monotone, as the rule is
+        # Unreachable target: every draw needs more than s_max = 1.05 for a few draws.
+        r2 = robust.robust_time_scale(spec, tmp_path, target=0.999, client=cl, s_min=1.0, s_max=1.05,
+                                      case_fn=threshold_case, plan_fn=fake_plan)
+        assert not r2["found"] and r2["time_scale"] is None
+
+
+class Rule:
+    T_star = None  # carried iff the executed motion lasts at least this long [s]
+
+
+@pytest.fixture
+def fake_cosim(monkeypatch):
+    rule = Rule()
+
+    def carried(scenario, plan, *, time_scale=1.0, feedforward="full", time_step_s=None):
+        return {"held": plan.motion_time_s * time_scale >= rule.T_star, "max_slip_m": 1e-4,
+                "detached_at_s": None}
+    monkeypatch.setattr(robust, "carried_in_cosim", carried)
+    return rule
+
+
+def test_fastest_carried_ruckig_bisects_the_jerk_limit(fake_cosim, scenarios):
+    sc = scenarios["thesis-ch2"]
+    fake_cosim.T_star = fake_cosim_T = 3.0  # carried iff the motion lasts >= 3.0 s (bang-bang: 2.981 s)
+    plan = robust.plan_fastest_carried(sc, "ruckig", jerk_range_m_s3=(1.0, 300.0), rel_tol=0.001)
+    assert plan.feasible and plan.method == "ruckig-carried"
+    assert fake_cosim_T <= plan.motion_time_s <= fake_cosim_T * 1.001
+    s = plan.extra["carried_search"]
+    assert s["lost_above"] > s["chosen"] and all(p["held"] == (p["motion_time_s"] >= 3.0) for p in s["points"])
+
+
+def test_fastest_carried_time_scale_of_a_family_plan(fake_cosim, scenarios):
+    sc = scenarios["thesis-ch4"]
+    fake_cosim.T_star = 1.9  # the thesis plan (1.716 s) must be slowed by 1.9 / 1.716
+    plan = robust.plan_fastest_carried(sc, "thesis", rel_tol=0.001)
+    assert plan.feasible
+    assert 1.9 <= plan.motion_time_s <= 1.9 * 1.001
+    assert plan.peak_moment_ratio == pytest.approx(0.9996 * (1.716 / plan.motion_time_s) ** 2, rel=2e-3)
+
+
+def test_plan_robust_returns_the_slowed_plan(tmp_path, problems):
+    from qmt_drake.plan import family_plan
+    P = problems["thesis-ch4"]
+    plan = family_plan(P, P.genes_vector(P.scenario.reported["genes"]), "thesis")
+    raw = {"name": "pr", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
+           "monte_carlo": {"cases": 8, "seed": 1},
+           "parameters": {"friction": {"dist": "uniform", "low": 0.3, "high": 0.4}}}
+    with dask_client(None, 1) as cl:
+        slowed, r = robust.plan_robust(plan, raw, tmp_path, target=0.99, client=cl, s_min=1.0, s_max=1.2,
+                                       rel_tol=0.01, case_fn=threshold_case, plan_fn=fake_plan)
+    assert slowed.motion_time_s == pytest.approx(plan.motion_time_s * r["time_scale"])
+    assert slowed.feasible and slowed.method == "thesis-robust"
+    assert slowed.peak_moment_ratio < plan.peak_moment_ratio
