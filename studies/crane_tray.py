@@ -297,6 +297,7 @@ def plan_command(argv) -> int:
 
 
 def main(argv=None) -> int:
+    global OUT
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["plan"]:
         return plan_command(argv[1:])
@@ -306,8 +307,10 @@ def main(argv=None) -> int:
     ap.add_argument("--sections", default="pair,req,friction,fill,rec,qmt",
                     help="comma list of: pair, req, friction, fill, rec, qmt")
     ap.add_argument("--rec-mu", type=float, default=0.3, help="friction of the recordings when the sweep is not run")
+    ap.add_argument("--out", default=str(OUT), help="output folder (default out/crane_tray)")
     args = ap.parse_args(argv)
     sections = set(args.sections.split(","))
+    OUT = Path(args.out)
     OUT.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     _json(OUT / "ik.json", ik_report())

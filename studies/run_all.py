@@ -49,6 +49,14 @@ def main(argv=None) -> int:
         _log(f"benchmark unavailable: {exc}")
     from qmt_drake.apps.bench import run_bench
     step("bench", lambda: run_bench(out_dir=out, progress=_log))
+    # Seeds 001-003 and the sweeps (issues 10-13).
+    from studies import ohsaka_1988
+    step("seed 001: Ohsaka & Kurahashi 1988", lambda: ohsaka_1988.main(["--out", str(out / "ohsaka_1988")]))
+    from studies import crane_tray
+    step("seed 002: CRANE-X7 tray", lambda: crane_tray.main(["--out", str(out / "crane_tray")]))
+    from studies import success_probability
+    step("success probability (Dask)", lambda: success_probability.main(
+        ["--out", str(out), "--cases", "50", "--workers", str(a.workers), "--robust", "thesis-ch4"]))
     from qmt_drake.apps.report import build_report
     step("report", lambda: _log(f"report: {build_report(out)}"))
     if failed:

@@ -263,12 +263,42 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--quick", action="store_true", help="short GA, small trajopt, one jerk limit")
     s.add_argument("--no-cosim", action="store_true", help="skip the closed-loop column")
     s.set_defaults(func=cmd_benchmark)
+
+    from qmt_drake.energy.cli import add_parser as add_energy_parser
+    add_energy_parser(sub)  # seed 001; `plan ohsaka-figN ...` is routed here (main)
+    from qmt_drake.sweep.cli import add_parser as add_sweep_parser
+    add_sweep_parser(sub)
+
+    s = sub.add_parser("reproduce", help="the main job (make run): every seed, the benchmark and out/report.html")
+    s.add_argument("--out", default="out")
+    s.set_defaults(func=cmd_reproduce)
     return p
+
+
+def cmd_reproduce(args) -> int:
+    """Runs studies/run_all.py of this checkout (the studies are scripts beside the package)."""
+    import subprocess
+    root = Path(__file__).resolve().parents[2]
+    if not (root / "studies" / "run_all.py").is_file():
+        raise QmtInputError("reproduce needs the qmt_drake source checkout (studies/ beside the package); "
+                            "run it from a clone installed with `make run`")
+    from qmt_drake.plan import check_output_path
+    check_output_path(Path(args.out) / "report.html", "--out")
+    return subprocess.call([sys.executable, "-m", "studies.run_all", "--out", str(args.out)], cwd=root)
+
+
+def _route(argv: list) -> list:
+    """`plan <seed-001 experiment> ...` is the energy-time planner (`plan-energy`)."""
+    if len(argv) >= 2 and argv[0] == "plan":
+        from qmt_drake.energy.experiments import EXPERIMENTS
+        if argv[1] in EXPERIMENTS:
+            return ["plan-energy", *argv[1:]]
+    return argv
 
 
 def main(argv=None) -> int:
     try:
-        args = build_parser().parse_args(argv)
+        args = build_parser().parse_args(_route(list(sys.argv[1:] if argv is None else argv)))
         return args.func(args)
     except QmtInputError as exc:
         print(f"qmt-drake: error: {exc}", file=sys.stderr)

@@ -56,6 +56,17 @@ SECTIONS: list[Section] = [
             ".venv/bin/qmt-drake benchmark --out out/benchmark", "benchmark", tables=("benchmark.md",)),
     Section("Planner speed", ".venv/bin/qmt-drake bench --out out", "", recordings=(), figures=(),
             raw=("bench.json",)),
+    Section("Seed 001: energy-time optimal motions of a vertical 3-link arm (Ohsaka & Kurahashi 1988)",
+            ".venv/bin/python -m studies.ohsaka_1988", "ohsaka_1988",
+            seed="Fig. 3: z = 22766 / 20266 / 18815 for the patterns (+,-,-) / (+,+,+) / (-,+,-); "
+                 "Fig. 4: T = 1.900 / 0.330 / 0.188 / 0.100 s for c2 = 1, 1e4, 1e5, 1e6; 500-800 iterations.",
+            tables=("table.md",)),
+    Section("Seed 002: a bottle on a tray carried by a CRANE-X7 arm", ".venv/bin/python -m studies.crane_tray",
+            "crane_tray", seed="P-only gains (P = 800) with linear waypoint spacing: the bottle fell as the return "
+                               "began; retuned PID with 1.5-power spacing: carried, about 5 s per move."),
+    Section("Success probability under uncertainty (Dask sweeps)",
+            ".venv/bin/python -m studies.success_probability --cases 50 --robust thesis-ch4", "",
+            tables=("success_probability.md",), figures=(), recordings=(), raw=("success_probability.json",)),
 ]
 
 
