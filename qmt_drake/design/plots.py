@@ -9,6 +9,10 @@ import numpy as np
 from qmt_drake.design.arm_types import TYPES, arm_type, forward
 
 
+_REL = {"P": "P parallel", "B": "B link on 2nd axis", "F": "F link on 1st axis",
+        "T": "T link on normal"}
+
+
 def _box_edges(c, s):
     c, h = np.asarray(c), np.asarray(s) / 2
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * h + c
@@ -45,6 +49,7 @@ def _equal(ax, pts):
     ax.set_xlim(c[0] - r, c[0] + r)
     ax.set_ylim(c[1] - r, c[1] + r)
     ax.set_zlim(c[2] - r, c[2] + r)
+    ax.set_box_aspect((1, 1, 1))
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
@@ -61,7 +66,7 @@ def plot_types(path, lengths=(0.3, 0.25, 0.25, 0.15, 0.0, 0.1), q=(0.0, 0.5, 0.9
         for i, p in enumerate(P[:6]):
             ax.text(*p, f" {i + 1}", fontsize=7)
         _equal(ax, np.vstack([P, [[0, 0, 0]]]))
-        ax.set_title(f"{T}: 1-2 {T[0]}, 2-3 {T[1]}")
+        ax.set_title(f"{T}: 1-2 {_REL[T[0]]}, 2-3 {_REL[T[1]]}", fontsize=8)
         ax.view_init(20, -60)
     fig.suptitle("The ten joint combinations (joint axes black, links coloured, tool point red); "
                  f"L1..L6 = {list(lengths)} m, q = {list(q)} rad", fontsize=10)
