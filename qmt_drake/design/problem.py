@@ -82,7 +82,8 @@ class DesignProblem:
         self._P, self._R, self._W, self._C, self._a = task.arrays()
 
     # ------------------------------------------------------------------ protocol
-    def evaluate(self, genes: np.ndarray):
+    def evaluate(self, genes: np.ndarray, exact: bool = False):
+        """exact is accepted for the protocol; this evaluation is always exact."""
         E = self.fitness_E(genes)
         return _evaluation(-E, np.zeros_like(E))
 
@@ -92,6 +93,17 @@ class DesignProblem:
     def confirm(self, genes: np.ndarray) -> bool:
         rep = self.confirm_report(genes)
         return bool(rep["ok"])
+
+    def fingerprint(self) -> str:
+        """Identifies type, level step and every number of the task (for GA checkpoints)."""
+        import hashlib
+        h = hashlib.sha256(f"{self.type.name}|{LEVEL_STEP_M}|{self.task.link_radius_m}|"
+                           f"{self.task.tool_radius_m}".encode())
+        for arr in (self._P, self._R, self._W, self._C, self._a):
+            h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
+        for c, sz in self.task.boxes:
+            h.update(np.concatenate([c, sz]).tobytes())
+        return h.hexdigest()[:16]
 
     # ------------------------------------------------------------------ batched core
     def fitness_E(self, genes: np.ndarray) -> np.ndarray:
