@@ -173,6 +173,25 @@ class DesignProblem:
                 "units": [{"name": u.name, "reachable": bool(reach[0, i]), "mu": float(mu[0, i]),
                            "q_rad": q[0, i].tolist()} for i, u in enumerate(self.task.units)]}
 
+    def breakdown(self, genes) -> list[dict]:
+        """Per unit task of one design, at the branch the evaluation chose: mu_j of the six task
+        axes (eq. 3), w, c (eq. 4-5) and mu (eq. 6); None where unreachable."""
+        g = np.atleast_2d(np.asarray(genes, dtype=float))[:1]
+        _, reach, q = self._units(g, keep_q=True)
+        o = self.type.origins(lengths6(g))[0]
+        out = []
+        for i, u in enumerate(self.task.units):
+            if not reach[0, i]:
+                out.append(None)
+                continue
+            pose = forward(self.type, o, q[0, i][None])
+            md = direction_ease(task_frame_jacobian(jacobian(pose), u.rotation))[0]
+            w = md[u.work].mean() if u.work.any() else 0.0
+            c = md[u.constrained].mean() if u.constrained.any() else 0.0
+            out.append({"name": u.name, "mu_dir": md.tolist(), "w": float(w), "c": float(c),
+                        "mu": float(w * (u.a * w + (1 - u.a) * (1 - c)))})
+        return out
+
     def confirm_report(self, genes) -> dict:
         """Independent re-check of one design with Drake (plant kinematics, spatial Jacobian,
         SceneGraph collision) at the branches the batched evaluation chose."""
