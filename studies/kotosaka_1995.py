@@ -105,10 +105,13 @@ def main(argv=None):
     ap.add_argument("--method", default="auto", help="auto: the project GA if it has landed, else stand-in")
     ap.add_argument("--generations", default="400,100", help="GA max,stall generations")
     ap.add_argument("--codesign", action="store_true", help="only the co-design of the ch.4 arm")
+    ap.add_argument("--analyse", action="store_true", help="only the w/c breakdown of results.json")
     a = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
     if a.codesign:
         return codesign()
+    if a.analyse:
+        return analyse()
     resfile = OUT / "results.json"
     results = json.loads(resfile.read_text()) if resfile.exists() else {}
     if not a.skip_search:
@@ -210,6 +213,37 @@ def main(argv=None):
         results.setdefault("exhaustive", {})[f"{T}:{tname}"] = exr
         write_text_atomic(resfile, json.dumps(jsonable(results), indent=1) + "\n")
     log("done")
+
+
+def analyse():
+    """Why the ranking is what it is: mean w (work mobility), c (constrained mobility), reach and
+    sum of lengths of every type's best design, per task variant -> analysis.md."""
+    results = json.loads((OUT / "results.json").read_text())
+    md = ["# Breakdown of each type's best design", "",
+          "w, c: means over the reachable unit tasks of eq. 4 and 5; mu_bar: eq. 7; E = mu_bar / "
+          "sum L * P_k / k. mu_x.. : mean direction ease (eq. 3) per task axis.", ""]
+    for name, entry in results.get("search", {}).items():
+        base = name.replace("-no-obstacles", "")
+        task = load_task(base)
+        if name.endswith("-no-obstacles"):
+            task = task.without_obstacles()
+        md += [f"## {name}", "", "| type | gene | E | P_k | sum L [m] | mean w | mean c | mu_bar | "
+               "mu_x | mu_y | mu_z | mu_alpha | mu_beta | mu_gamma |", "|" + "---|" * 14]
+        for T, r in sorted(entry["types"].items(), key=lambda kv: -kv[1]["E_per_m"]):
+            pr = DesignProblem(task, T)
+            g = genes_from_levels(levels_from_gene(r["gene"]))
+            b = [x for x in pr.breakdown(g) if x is not None]
+            if not b:
+                md.append(f"| {T} | {r['gene']} | 0 | 0 | | | | | | | | | | |")
+                continue
+            md_dir = np.mean([x["mu_dir"] for x in b], axis=0)
+            mub = sum(x["mu"] for x in b) / len(task.units)
+            md.append(f"| {T} | {r['gene']} | {r['E_per_m']:.4f} | {len(b)} | {lengths6(g)[0].sum():.1f} | "
+                      f"{np.mean([x['w'] for x in b]):.3f} | {np.mean([x['c'] for x in b]):.3f} | {mub:.3f} | "
+                      + " | ".join(f"{v:.3f}" for v in md_dir) + " |")
+        md.append("")
+    write_text_atomic(OUT / "analysis.md", "\n".join(md) + "\n")
+    log("analysis written")
 
 
 def codesign():
