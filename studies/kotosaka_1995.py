@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.design.arm_types import TYPES, urdf_text
+from qmt_drake.design.arm_types import TYPES, arm_type, forward, urdf_text
 from qmt_drake.design.operability import direction_ease, operability
 from qmt_drake.design.plots import plot_arm_at_task, plot_convergence, plot_types
 from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
@@ -227,18 +227,24 @@ def analyse():
         task = load_task(base)
         if name.endswith("-no-obstacles"):
             task = task.without_obstacles()
-        md += [f"## {name}", "", "| type | gene | E | P_k | sum L [m] | mean w | mean c | mu_bar | "
-               "mu_x | mu_y | mu_z | mu_alpha | mu_beta | mu_gamma |", "|" + "---|" * 14]
+        md += [f"## {name}", "", "| type | gene | E | P_k | sum L [m] | max lateral joint |y| [m] | "
+               "mean w | mean c | mu_bar | mu_x | mu_y | mu_z | mu_alpha | mu_beta | mu_gamma |",
+               "|" + "---|" * 15]
         for T, r in sorted(entry["types"].items(), key=lambda kv: -kv[1]["E_per_m"]):
             pr = DesignProblem(task, T)
             g = genes_from_levels(levels_from_gene(r["gene"]))
             b = [x for x in pr.breakdown(g) if x is not None]
             if not b:
-                md.append(f"| {T} | {r['gene']} | 0 | 0 | | | | | | | | | | |")
+                md.append(f"| {T} | {r['gene']} | 0 | 0 | | | | | | | | | | | |")
                 continue
             md_dir = np.mean([x["mu_dir"] for x in b], axis=0)
+            at = arm_type(T)
+            o = at.origins(lengths6(g)[0])
+            ymax = max(float(np.abs(forward(at, o, np.array(u["q_rad"])[None]).points[0, :5, 1]).max())
+                       for u in pr.details(g)["units"] if u["reachable"])
             mub = sum(x["mu"] for x in b) / len(task.units)
             md.append(f"| {T} | {r['gene']} | {r['E_per_m']:.4f} | {len(b)} | {lengths6(g)[0].sum():.1f} | "
+                      f"{ymax:.2f} | "
                       f"{np.mean([x['w'] for x in b]):.3f} | {np.mean([x['c'] for x in b]):.3f} | {mub:.3f} | "
                       + " | ".join(f"{v:.3f}" for v in md_dir) + " |")
         md.append("")
