@@ -106,12 +106,16 @@ def main(argv=None):
     ap.add_argument("--generations", default="400,100", help="GA max,stall generations")
     ap.add_argument("--codesign", action="store_true", help="only the co-design of the ch.4 arm")
     ap.add_argument("--analyse", action="store_true", help="only the w/c breakdown of results.json")
+    ap.add_argument("--letters", default=None, help="only: rerun both tasks under an alternative "
+                                                     "letter assignment (T-column or B-normal)")
     a = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
     if a.codesign:
         return codesign()
     if a.analyse:
         return analyse()
+    if a.letters:
+        return letters(a.letters, a.workers, tuple(int(x) for x in a.generations.split(",")))
     resfile = OUT / "results.json"
     results = json.loads(resfile.read_text()) if resfile.exists() else {}
     if not a.skip_search:
@@ -213,6 +217,28 @@ def main(argv=None):
         results.setdefault("exhaustive", {})[f"{T}:{tname}"] = exr
         write_text_atomic(resfile, json.dumps(jsonable(results), indent=1) + "\n")
     log("done")
+
+
+def letters(name, workers, gens):
+    """Sensitivity of the ranking to the reconstructed letter definitions."""
+    from qmt_drake.design.arm_types import RELATIONS_ALTERNATIVES
+    rel = RELATIONS_ALTERNATIVES[name]
+    md = [f"# Letters '{name}': {rel} (ours: B second axis, F first axis, T common normal)", ""]
+    out = {"relations": rel, "search": {}}
+    for tname in ("task1_welding_plate", "task2_welding_opening"):
+        for noobs in (False, True):
+            task = load_task(tname)
+            if noobs:
+                task = task.without_obstacles()
+            res, wall = run_all_types(task, method="auto", workers=workers, ga_generations=gens,
+                                      relations=rel)
+            log(f"letters {name} {task.name}: wall {wall:.0f} s, best "
+                f"{max(res, key=lambda r: r.E_per_m).type_name}")
+            md.append(table(tname, res, SEED[tname] if not noobs else None, f"{task.name}, letters {name}"))
+            out["search"][task.name] = {r.type_name: {"gene": r.gene_hex, "E_per_m": r.E_per_m,
+                                                      "method": r.method} for r in res}
+            write_text_atomic(OUT / f"letters_{name}.json", json.dumps(jsonable(out), indent=1) + "\n")
+            write_text_atomic(OUT / f"letters_{name}.md", "\n".join(md) + "\n")
 
 
 def analyse():

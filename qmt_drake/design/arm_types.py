@@ -108,26 +108,39 @@ class ArmType:
         return pts
 
 
-def _relation(letter: str, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+# Our reconstruction: where each perpendicular letter puts its link (see the module docstring).
+RELATIONS_DEFAULT = {"B": "second", "F": "first", "T": "normal"}
+# The other assignments that keep all ten of the seed's types non-spherical (a sensitivity check).
+RELATIONS_ALTERNATIVES = {
+    "T-column": {"B": "second", "F": "normal", "T": "first"},   # spherical TB excluded
+    "B-normal": {"B": "normal", "F": "second", "T": "first"},   # spherical TF excluded
+}
+
+
+def _relation(letter: str, a: np.ndarray, relations: dict) -> tuple[np.ndarray, np.ndarray]:
     """(next axis, link direction) for a relation from axis `a` (a is in the world YZ plane, so the
     reference direction X is always perpendicular to it)."""
     if letter == "P":
         return a.copy(), _X.copy()
+    if letter not in relations:
+        raise QmtInputError(f"relation {letter!r} unknown: use P, B, F or T")
     nxt = np.cross(_X, a)
-    if letter == "F":
+    where = relations[letter]
+    if where == "first":
         return nxt, a.copy()
-    if letter == "B":
+    if where == "second":
         return nxt, nxt.copy()
-    if letter == "T":
-        return nxt, _X.copy()  # X is perpendicular to a and nxt: their common normal
-    raise QmtInputError(f"relation {letter!r} unknown: use P, B, F or T")
+    return nxt, _X.copy()  # X is perpendicular to a and nxt: their common normal
 
 
-def arm_type(type_name: str) -> ArmType:
+def arm_type(type_name: str, relations: dict | None = None) -> ArmType:
+    """The arm type; `relations` overrides which link direction B, F, T mean (default: ours)."""
     t = check_type(type_name)
+    rel = RELATIONS_DEFAULT if relations is None else relations
     axes, dirs = [_Z.copy()], []
-    for letter in (t[0], t[1], "B"):  # 1->2, 2->3, 3->4 (forearm along the wrist-roll axis)
-        nxt, d = _relation(letter, axes[-1])
+    # 1->2, 2->3, then 3->4: the forearm along the wrist-roll axis (link along the second axis)
+    for letter, r in ((t[0], rel), (t[1], rel), ("B", RELATIONS_DEFAULT)):
+        nxt, d = _relation(letter, axes[-1], r)
         axes.append(nxt)
         dirs.append(d)
     a4 = axes[3]
@@ -219,11 +232,11 @@ def _segment_visual(p0, p1, radius, tag="visual") -> str:
             f'{yaw:.9g}"/><geometry><cylinder radius="{radius}" length="{L:.6g}"/></geometry></{tag}>')
 
 
-def urdf_text(type_name: str, lengths, link_radius_m: float = 0.04) -> str:
+def urdf_text(type_name: str, lengths, link_radius_m: float = 0.04, relations: dict | None = None) -> str:
     """URDF of the arm: links base, link1..link6, tool; every link frame is world-aligned at the zero
     configuration and sits at its joint's point; joint axes as in `arm_type`. Visuals are cylinders
     along the links (L3 and L4 both on link3/link4)."""
-    at = arm_type(type_name)
+    at = arm_type(type_name, relations)
     L = np.asarray(lengths, dtype=float)
     o = at.origins(L)
     name = f"arm_{at.name}_" + "_".join(f"{v:.3f}" for v in L)
@@ -297,7 +310,7 @@ def _rot(R):
 
 
 def build_plant(type_name: str, lengths, *, boxes=(), link_radius_m: float = 0.04,
-                tool_radius_m: float = 0.01) -> DrakeArm:
+                tool_radius_m: float = 0.01, relations: dict | None = None) -> DrakeArm:
     """Drake plant of the arm with capsule collision geometry along each link (radius
     link_radius_m; the tool L6 with tool_radius_m) and anchored boxes [(center (3,), size (3,)),
     ...] for the work and obstacles, in a diagram with a SceneGraph."""
@@ -307,7 +320,7 @@ def build_plant(type_name: str, lengths, *, boxes=(), link_radius_m: float = 0.0
     from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint, SpatialInertia, UnitInertia
     from pydrake.systems.framework import DiagramBuilder
 
-    at = arm_type(type_name)
+    at = arm_type(type_name, relations)
     L = np.asarray(lengths, dtype=float)
     o = at.origins(L)
     builder = DiagramBuilder()

@@ -70,9 +70,10 @@ def hex_gene(genes) -> str:
 
 
 class DesignProblem:
-    def __init__(self, task: Task, type_name: str) -> None:
+    def __init__(self, task: Task, type_name: str, relations: dict | None = None) -> None:
         self.task = task
-        self.type = arm_type(type_name)
+        self.relations = relations
+        self.type = arm_type(type_name, relations)
         self.name = f"design-{self.type.name}-{task.name}"
         self.gene_names = GENE_NAMES
         self.lower = np.zeros(len(GENE_NAMES))
@@ -97,7 +98,7 @@ class DesignProblem:
     def fingerprint(self) -> str:
         """Identifies type, level step and every number of the task (for GA checkpoints)."""
         import hashlib
-        h = hashlib.sha256(f"{self.type.name}|{LEVEL_STEP_M}|{self.task.link_radius_m}|"
+        h = hashlib.sha256(f"{self.type.name}|{self.relations}|{LEVEL_STEP_M}|{self.task.link_radius_m}|"
                            f"{self.task.tool_radius_m}".encode())
         for arr in (self._P, self._R, self._W, self._C, self._a):
             h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
@@ -202,7 +203,8 @@ class DesignProblem:
         det = self.details(g)
         L = lengths6(g)[0]
         arm = build_plant(self.type.name, L, boxes=self.task.boxes,
-                          link_radius_m=self.task.link_radius_m, tool_radius_m=self.task.tool_radius_m)
+                          link_radius_m=self.task.link_radius_m, tool_radius_m=self.task.tool_radius_m,
+                          relations=self.relations)
         plant = arm.plant
         dctx = arm.diagram.CreateDefaultContext()
         ctx = plant.GetMyMutableContextFromRoot(dctx)
