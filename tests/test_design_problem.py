@@ -94,6 +94,7 @@ def test_cli_design_and_bad_inputs(tmp_path, capsys):
     ap = argparse.ArgumentParser()
     add_parser(ap.add_subparsers())
     args = ap.parse_args(["design", "peg_in_hole", "--types", "BP,PB", "--budget", "40", "--workers", "1",
+                          "--method", "stand-in",
                           "--out", str(tmp_path)])
     assert cmd_design(args) == 0
     assert (tmp_path / "BP.urdf").exists() and (tmp_path / "results.json").exists()
@@ -103,3 +104,14 @@ def test_cli_design_and_bad_inputs(tmp_path, capsys):
             cmd_design(args)
     with pytest.raises(QmtInputError, match="not found"):
         cmd_design(ap.parse_args(["design", "no_such_task"]))
+
+
+def test_cli_ga_without_the_ga_is_one_line(tmp_path):
+    from qmt_drake.design.cli import add_parser, cmd_design
+    from qmt_drake.design.search import ga_available
+    ap = argparse.ArgumentParser()
+    add_parser(ap.add_subparsers())
+    if ga_available():
+        pytest.skip("the project GA takes a Problem in this build")
+    with pytest.raises(QmtInputError, match="--method ga"):
+        cmd_design(ap.parse_args(["design", "peg_in_hole", "--method", "ga", "--out", str(tmp_path)]))

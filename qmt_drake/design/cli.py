@@ -13,7 +13,7 @@ from pathlib import Path
 
 from qmt_drake.errors import QmtInputError
 
-METHODS = ("stand-in", "exhaustive", "ga")
+METHODS = ("auto", "ga", "stand-in", "exhaustive")
 
 
 def add_parser(subparsers):
@@ -21,9 +21,9 @@ def add_parser(subparsers):
                                              "operability (seed 003)")
     p.add_argument("task", help="task YAML (or a name in models/tasks/)")
     p.add_argument("--types", default="all", help="comma-separated types (BP,BB,...) or 'all'")
-    p.add_argument("--method", default="stand-in", choices=METHODS,
-                   help="ga: the project's GA (pending issue 9); exhaustive: every design; "
-                        "stand-in: random search + coordinate descent")
+    p.add_argument("--method", default="auto", choices=METHODS,
+                   help="ga: the project's GA (seed 003 settings); exhaustive: every design; "
+                        "stand-in: random search + coordinate descent; auto: ga if available")
     p.add_argument("--budget", type=int, default=12000, help="designs for the stand-in's random search")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (one type each)")
     p.add_argument("--seed", type=int, default=0)
@@ -58,6 +58,10 @@ def cmd_design(args) -> int:
     types = _types(args.types)
     if args.budget < 1 or args.workers < 1:
         raise QmtInputError("--budget and --workers must be at least 1")
+    from qmt_drake.design.search import ga_available
+    if args.method == "ga" and not ga_available():
+        raise QmtInputError("--method ga: this build's GA does not take a Problem yet (issue 9); "
+                            "use --method stand-in or exhaustive")
     out = Path(args.out or Path("out") / "design" / task.name)
     res, wall = run_all_types(task, method=args.method, workers=args.workers, seed=args.seed,
                               budget=args.budget, types=types)

@@ -47,23 +47,38 @@ class SearchResult:
     extra: dict = field(default_factory=dict)
 
 
-def run_ga_adapter(problem: DesignProblem, *, seed: int = 0, max_generations: int = 400,
-                   stall_generations: int = 150, progress=None):
-    """The single call into the project's GA. Returns its GaResult."""
+def _ga_settings_class():
+    """GaSettings of the project GA on the Problem protocol; GaPending if it has not landed."""
     import dataclasses
 
     from qmt_drake.planners import ga
     Settings = getattr(ga, "GaSettings", None)
     if Settings is None:
         from qmt_drake.scenario import GaSettings as Settings
-    names = {f.name for f in dataclasses.fields(Settings)}
     try:
         from qmt_drake.problem import Evaluation  # noqa: F401  (the protocol's marker)
     except ImportError:
         raise GaPending("qmt_drake.problem.Evaluation is missing: the GA on the Problem protocol "
                         "(issue 9) has not landed in this branch")
-    if "mutants_per_generation" not in names:
+    if "mutants_per_generation" not in {f.name for f in dataclasses.fields(Settings)}:
         raise GaPending("GaSettings has no mutants_per_generation: GA of issue 9 not landed")
+    return ga, Settings
+
+
+def ga_available() -> bool:
+    try:
+        _ga_settings_class()
+        return True
+    except GaPending:
+        return False
+
+
+def run_ga_adapter(problem: DesignProblem, *, seed: int = 0, max_generations: int = 400,
+                   stall_generations: int = 150, progress=None):
+    """The single call into the project's GA. Returns its GaResult."""
+    import dataclasses
+    ga, Settings = _ga_settings_class()
+    names = {f.name for f in dataclasses.fields(Settings)}
     settings = Settings(**{k: v for k, v in SEED_GA.items() if k in names},
                         max_generations=max_generations, stall_generations=stall_generations)
     return ga.run_ga(problem, settings, seed=seed, progress=progress)
