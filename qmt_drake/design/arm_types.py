@@ -270,7 +270,8 @@ def urdf_text(type_name: str, lengths, link_radius_m: float = 0.04, relations: d
 @dataclass
 class DrakeArm:
     """A MultibodyPlant (+ SceneGraph) of one arm type. `joint_frames[i]` is joint i's parent frame
-    (a FixedOffsetFrame whose translation holds the lengths), `tool_frame` the tool frame."""
+    (a FixedOffsetFrame whose translation holds the lengths), `tool_frame` the tool frame;
+    `visualizer` the MeshcatVisualizer if one was asked for."""
     type: ArmType
     diagram: object
     plant: object
@@ -278,6 +279,7 @@ class DrakeArm:
     joint_frames: list
     tool_frame: object
     env_geometry_ids: list
+    visualizer: object = None
 
     def set_lengths(self, plant_context, lengths) -> None:
         """Move the joint frames for new link lengths in this context (no rebuild). Collision
@@ -310,7 +312,8 @@ def _rot(R):
 
 
 def build_plant(type_name: str, lengths, *, boxes=(), link_radius_m: float = 0.04,
-                tool_radius_m: float = 0.01, relations: dict | None = None) -> DrakeArm:
+                tool_radius_m: float = 0.01, relations: dict | None = None,
+                meshcat=None) -> DrakeArm:
     """Drake plant of the arm with capsule collision geometry along each link (radius
     link_radius_m; the tool L6 with tool_radius_m) and anchored boxes [(center (3,), size (3,)),
     ...] for the work and obstacles, in a diagram with a SceneGraph."""
@@ -358,5 +361,10 @@ def build_plant(type_name: str, lengths, *, boxes=(), link_radius_m: float = 0.0
                                      np.array([0.6, 0.6, 0.7, 0.5]))
         env.append(gid)
     plant.Finalize()
+    vis = None
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role
+        vis = MeshcatVisualizer.AddToBuilder(builder, sg, meshcat,
+                                             MeshcatVisualizerParams(role=Role.kIllustration))
     diagram = builder.Build()
-    return DrakeArm(at, diagram, plant, sg, frames, tool, env)
+    return DrakeArm(at, diagram, plant, sg, frames, tool, env, vis)

@@ -117,3 +117,36 @@ def plot_convergence(path, histories: dict, xlabel="batch of 200 designs", title
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def meshcat_arm_at_task(path, task, type_name, lengths, q_units, dwell_s: float = 1.0,
+                        relations: dict | None = None):
+    """Fig. 6 in Meshcat: a static HTML animation visiting the reachable unit tasks in order
+    (dwell_s each), with the work and obstacle boxes. Returns the path."""
+    from pathlib import Path
+
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    from qmt_drake.design.arm_types import build_plant
+    meshcat = Meshcat(MeshcatParams(host="localhost", port=0))
+    arm = build_plant(type_name, lengths, boxes=task.boxes, link_radius_m=task.link_radius_m,
+                      tool_radius_m=task.tool_radius_m, relations=relations, meshcat=meshcat)
+    ctx = arm.diagram.CreateDefaultContext()
+    pctx = arm.plant.GetMyMutableContextFromRoot(ctx)
+    arm.visualizer.StartRecording(set_transforms_while_recording=False)
+    t = 0.0
+    for q in q_units:
+        if q is None or not np.all(np.isfinite(q)):
+            continue
+        for _ in range(2):  # hold the pose for dwell_s
+            ctx.SetTime(t)
+            arm.plant.SetPositions(pctx, np.asarray(q))
+            arm.diagram.ForcedPublish(ctx)
+            t += dwell_s / 2
+    arm.visualizer.StopRecording()
+    arm.visualizer.PublishRecording()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    from qmt_drake.plan import write_text_atomic
+    write_text_atomic(path, meshcat.StaticHtml())
+    return path
