@@ -54,6 +54,10 @@ def main(argv=None) -> int:
     step("seed 001: Ohsaka & Kurahashi 1988", lambda: ohsaka_1988.main(["--out", str(out / "ohsaka_1988")]))
     from studies import crane_tray
     step("seed 002: CRANE-X7 tray", lambda: crane_tray.main(["--out", str(out / "crane_tray")]))
+    from studies import kotosaka_1995
+    step("seed 003: Kotosaka et al. 1995", lambda: kotosaka_1995.main(["--out", str(out / "kotosaka_1995")]))
+    step("seed 003: co-design of the ch.4 arm",
+         lambda: kotosaka_1995.main(["--out", str(out / "kotosaka_1995"), "--codesign"]))
     from studies import success_probability
     step("success probability (Dask)", lambda: success_probability.main(
         ["--out", str(out), "--cases", "50", "--workers", str(a.workers), "--robust", "thesis-ch4"]))

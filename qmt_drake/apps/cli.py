@@ -268,6 +268,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_energy_parser(sub)  # seed 001; `plan ohsaka-figN ...` is routed here (main)
     from qmt_drake.sweep.cli import add_parser as add_sweep_parser
     add_sweep_parser(sub)
+    from qmt_drake.design.cli import add_parser as add_design_parser
+    add_design_parser(sub)
 
     s = sub.add_parser("reproduce", help="the main job (make run): every seed, the benchmark and out/report.html")
     s.add_argument("--out", default="out")

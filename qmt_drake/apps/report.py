@@ -64,6 +64,11 @@ SECTIONS: list[Section] = [
     Section("Seed 002: a bottle on a tray carried by a CRANE-X7 arm", ".venv/bin/python -m studies.crane_tray",
             "crane_tray", seed="P-only gains (P = 800) with linear waypoint spacing: the bottle fell as the return "
                                "began; retuned PID with 1.5-power spacing: carried, about 5 s per move."),
+    Section("Seed 003: task-oriented structural design by operability (Kotosaka et al. 1995)",
+            ".venv/bin/python -m studies.kotosaka_1995", "kotosaka_1995",
+            seed="Task-1: PB, PF, PT best (E = 1.2027, second link 0), BP 1.1884; Task-2: BF best (E = 2.0107), "
+                 "BP 1.9951; without obstacles BP is best; about 60 generations (some 360).",
+            tables=("*.md",)),
     Section("Success probability under uncertainty (Dask sweeps)",
             ".venv/bin/python -m studies.success_probability --cases 50 --robust thesis-ch4", "",
             tables=("success_probability.md",), figures=(), recordings=(), raw=("success_probability.json",)),

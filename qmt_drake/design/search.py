@@ -1,0 +1,204 @@
+"""Searches over link lengths for each arm type (seed 003, sec. 3.1 and 4.2).
+
+- `run_ga_adapter`: the ONE call into the project's GA (qmt_drake.planners.ga.run_ga on the Problem
+  protocol, being generalised on main, issue 9) with the seed's settings: population 200, 30 mutants
+  per generation, fitness-proportional selection with elitism, single-point crossover, 4 bits per
+  gene (levels 0-15).
+- `exhaustive`: every design of the type, as the certificate of the GA's answer. The seed quotes
+  ~8.38 million combinations = 16^5 designs (L5 is always 0) x 8 unit tasks. Because L3 and L4 are
+  collinear (arm_types), E depends on L3 + L4 only, so the 16^5 designs collapse to
+  16 x 16 x 31 x 16 = 126,976 distinct arms, which are all evaluated.
+- `random_search` + `coordinate_descent`: a stand-in written while the GA was pending (method
+  `stand-in`, labelled as such in the outputs); the exhaustive search measures how far it is from the optimum.
+- `run_all_types`: one search per type, all ten types in parallel worker processes.
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from qmt_drake.design.arm_types import LEVEL_STEP_M, N_LEVELS, TYPES
+from qmt_drake.design.problem import DesignProblem, hex_gene
+from qmt_drake.design.tasks import Task
+
+SEED_GA = dict(population=200, mutants_per_generation=30, bits_per_gene=4, elite_count=1,
+               selection="roulette", encoding="binary", crossover_rate=1.0)
+
+
+class GaPending(RuntimeError):
+    """The project's GA does not yet take a Problem (issue 9 on main)."""
+
+
+@dataclass
+class SearchResult:
+    type_name: str
+    method: str
+    genes: np.ndarray            # (5,) lengths in m
+    gene_hex: str
+    E_per_m: float
+    evaluations: int             # designs evaluated
+    unit_evaluations: int        # designs x unit tasks
+    wall_s: float
+    history_best_E: list = field(default_factory=list)   # per generation / per batch
+    extra: dict = field(default_factory=dict)
+
+
+def _ga_settings_class():
+    """The project GA (planners/ga.py) and its settings class (config/scenario.py)."""
+    from qmt_drake.config.scenario import GaSettings
+    from qmt_drake.planners import ga
+    return ga, GaSettings
+
+
+def ga_available() -> bool:
+    try:
+        _ga_settings_class()
+        return True
+    except GaPending:
+        return False
+
+
+def run_ga_adapter(problem: DesignProblem, *, seed: int = 0, max_generations: int = 400,
+                   stall_generations: int = 150, progress=None):
+    """The single call into the project's GA. Returns its GaResult."""
+    import dataclasses
+    ga, Settings = _ga_settings_class()
+    names = {f.name for f in dataclasses.fields(Settings)}
+    settings = Settings(**{k: v for k, v in SEED_GA.items() if k in names},
+                        max_generations=max_generations, stall_generations=stall_generations)
+    return ga.run_ga(problem, settings, seed=seed, progress=progress)
+
+
+def ga_search(problem: DesignProblem, seed: int = 0, **kw) -> SearchResult:
+    t0 = time.perf_counter()
+    res = run_ga_adapter(problem, seed=seed, **kw)
+    E = float(-res.cost)
+    hist = [-float(c) for c in res.history.best_cost] if hasattr(res.history, "best_cost") else []
+    return SearchResult(problem.type.name, "ga", np.asarray(res.genes), hex_gene(res.genes), E,
+                        int(res.evaluations), int(res.evaluations) * len(problem.task.units),
+                        time.perf_counter() - t0, hist, {"generations": int(res.generations),
+                                                         "stop_reason": str(res.stop_reason)})
+
+
+def reduced_grid() -> np.ndarray:
+    """All distinct arms as genes in m (126976, 5): L1, L2 in 0..15, S = L3 + L4 in 0..30 levels
+    (L3 = min(S, 15), L4 = S - L3), L6 in 0..15."""
+    a = np.arange(N_LEVELS)
+    s = np.arange(2 * N_LEVELS - 1)
+    L1, L2, S, L6 = np.meshgrid(a, a, s, a, indexing="ij")
+    L3 = np.minimum(S, N_LEVELS - 1)
+    lv = np.stack([L1, L2, L3, S - L3, L6], axis=-1).reshape(-1, 5)
+    return lv * LEVEL_STEP_M
+
+
+def exhaustive(problem: DesignProblem, *, genes: np.ndarray | None = None, batch: int = 2000,
+               progress=None) -> SearchResult:
+    """Evaluate every design of `genes` (default: the whole reduced grid)."""
+    G = reduced_grid() if genes is None else np.atleast_2d(genes)
+    t0 = time.perf_counter()
+    E = np.empty(G.shape[0])
+    u0 = problem.unit_evaluations
+    hist = []
+    for s in range(0, G.shape[0], batch):
+        E[s:s + batch] = problem.fitness_E(G[s:s + batch])
+        hist.append(float(E[:s + batch].max()))
+        if progress:
+            progress(f"{problem.type.name}: {min(s + batch, G.shape[0])}/{G.shape[0]} designs, best "
+                     f"E {hist[-1]:.4f} 1/m, {time.perf_counter() - t0:.0f} s")
+    i = int(np.argmax(E))
+    top = np.argsort(-E)[:10]
+    return SearchResult(problem.type.name, "exhaustive", G[i], hex_gene(G[i]), float(E[i]), G.shape[0],
+                        problem.unit_evaluations - u0, time.perf_counter() - t0, hist,
+                        {"top10": [(hex_gene(G[j]), float(E[j])) for j in top],
+                         "ties_within_1e-12": int(np.sum(E >= E[i] - 1e-12))})
+
+
+def random_search(problem: DesignProblem, n: int, *, seed: int = 0, batch: int = 200) -> SearchResult:
+    """n random level designs in batches of `batch` (one 'generation' each for the history)."""
+    rng = np.random.default_rng(seed)
+    t0 = time.perf_counter()
+    u0 = problem.unit_evaluations
+    best_E, best_g, hist = -1.0, None, []
+    for s in range(0, n, batch):
+        G = rng.integers(0, N_LEVELS, (min(batch, n - s), 5)) * LEVEL_STEP_M
+        E = problem.fitness_E(G)
+        i = int(np.argmax(E))
+        if E[i] > best_E:
+            best_E, best_g = float(E[i]), G[i]
+        hist.append(best_E)
+    return SearchResult(problem.type.name, "random", best_g, hex_gene(best_g), best_E, n,
+                        problem.unit_evaluations - u0, time.perf_counter() - t0, hist)
+
+
+def coordinate_descent(problem: DesignProblem, start: SearchResult, max_sweeps: int = 10) -> SearchResult:
+    """Improve a design one gene at a time over all 16 levels until no gene improves it."""
+    t0 = time.perf_counter()
+    u0 = problem.unit_evaluations
+    g, E = np.array(start.genes, dtype=float), start.E_per_m
+    hist = list(start.history_best_E)
+    n = 0
+    for _ in range(max_sweeps):
+        improved = False
+        for j in range(5):
+            C = np.repeat(g[None], N_LEVELS, axis=0)
+            C[:, j] = np.arange(N_LEVELS) * LEVEL_STEP_M
+            Ec = problem.fitness_E(C)
+            n += N_LEVELS
+            i = int(np.argmax(Ec))
+            if Ec[i] > E + 1e-15:
+                g, E, improved = C[i], float(Ec[i]), True
+            hist.append(E)
+        if not improved:
+            break
+    return SearchResult(problem.type.name, start.method + "+coordinate", g, hex_gene(g), E,
+                        start.evaluations + n, start.unit_evaluations + problem.unit_evaluations - u0,
+                        start.wall_s + time.perf_counter() - t0, hist)
+
+
+GA_GENERATIONS = (400, 100)  # (max, stall): the seed saw convergence by ~60, some types ~360
+
+
+def search_type(task: Task, type_name: str, method: str = "stand-in", seed: int = 0,
+                budget: int = 12_000, ga_generations: tuple = GA_GENERATIONS,
+                relations: dict | None = None) -> SearchResult:
+    """One type's search: 'ga' (the project's GA), 'exhaustive', 'stand-in' (random search with
+    `budget` designs, then coordinate descent), or 'auto' (ga if it has landed, else stand-in)."""
+    pr = DesignProblem(task, type_name, relations)
+    if method == "auto":
+        try:
+            return ga_search(pr, seed=seed, max_generations=ga_generations[0],
+                             stall_generations=ga_generations[1])
+        except GaPending:
+            method = "stand-in"
+    if method == "ga":
+        return ga_search(pr, seed=seed, max_generations=ga_generations[0],
+                         stall_generations=ga_generations[1])
+    if method == "exhaustive":
+        return exhaustive(pr)
+    if method == "stand-in":
+        return coordinate_descent(pr, random_search(pr, budget, seed=seed))
+    raise ValueError(f"unknown search method {method!r}")
+
+
+def _search_star(args):
+    return search_type(*args)
+
+
+def run_all_types(task: Task, *, method: str = "stand-in", workers: int = 2, seed: int = 0,
+                  budget: int = 12_000, types=TYPES,
+                  ga_generations: tuple = GA_GENERATIONS,
+                  relations: dict | None = None) -> tuple[list[SearchResult], float]:
+    """Search every type (in `workers` processes; 1 = in this process). Returns the results in
+    TYPES order and the wall time in s."""
+    t0 = time.perf_counter()
+    jobs = [(task, t, method, seed, budget, ga_generations, relations) for t in types]
+    if workers <= 1:
+        res = [_search_star(j) for j in jobs]
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as ex:
+            res = list(ex.map(_search_star, jobs))
+    return res, time.perf_counter() - t0

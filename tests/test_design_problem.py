@@ -1,0 +1,117 @@
+"""Task YAML validation, the design Problem (protocol, batching, Drake re-check), the exhaustive
+search as certificate on a sub-grid, the `design` CLI and its bad inputs."""
+
+import argparse
+
+import numpy as np
+import pytest
+
+from qmt_drake.design.arm_types import LEVEL_STEP_M
+from qmt_drake.design.problem import DesignProblem, genes_from_levels
+from qmt_drake.design.search import (GaPending, coordinate_descent, exhaustive, random_search,
+                                     reduced_grid, run_ga_adapter)
+from qmt_drake.design.tasks import load_task, task_from_dict
+from qmt_drake.errors import QmtInputError
+
+UNIT = {"name": "P", "position_m": [0.5, 0.0, 0.0], "rpy_deg": [180, 0, 0], "work": ["x"],
+        "constrained": ["z"]}
+
+
+def test_task_files_load():
+    for n in ("task1_welding_plate", "task2_welding_opening", "peg_in_hole"):
+        t = load_task(n)
+        P, R, W, C, a = t.arrays()
+        np.testing.assert_allclose(R @ np.swapaxes(R, 1, 2), np.broadcast_to(np.eye(3), R.shape), atol=1e-12)
+        assert np.all(W.sum(axis=1) > 0) and not np.any(W & C)
+    t1 = load_task("task1_welding_plate")
+    assert len(t1.units) == 8 and len(t1.obstacles) == 2 and len(t1.without_obstacles().obstacles) == 0
+
+
+@pytest.mark.parametrize("change,match", [
+    ({"work": ["w"]}, "not a unit axis"),
+    ({"constrained": ["x"]}, "more than one"),
+    ({"position_m": [9.0, 0, 0]}, "no design reaches"),
+    ({"position_m": [0.5, 0, -0.3]}, "inside box"),
+    ({"a": 1.5}, r"\[0, 1\]"),
+])
+def test_bad_unit_tasks(change, match):
+    u = dict(UNIT, **change)
+    d = {"units": [u], "work_boxes": [{"name": "table", "center_m": [0.5, 0, -0.3], "size_m": [0.4, 0.4, 0.1]}]}
+    with pytest.raises(QmtInputError, match=match):
+        task_from_dict(d)
+
+
+def test_problem_protocol_batching_and_drake_recheck():
+    task = load_task("task1_welding_plate")
+    pr = DesignProblem(task, "BP")
+    assert pr.lower.shape == pr.upper.shape == (len(pr.gene_names),)
+    G = np.random.default_rng(0).integers(0, 16, (40, 5)) * LEVEL_STEP_M
+    ev = pr.evaluate(G)
+    assert ev.cost.shape == (40,) and np.all(ev.violation == 0)
+    fit = pr.fitness(ev)
+    assert np.all(fit >= 0) and fit.max() > 0
+    # batched == one at a time (chunking, broadcasting)
+    single = np.array([pr.fitness_E(g[None])[0] for g in G[:8]])
+    np.testing.assert_allclose(single, fit[:8], rtol=0, atol=0)
+    # the best of them re-checked independently with Drake (plant, Jacobian, SceneGraph)
+    rep = pr.confirm_report(G[int(np.argmax(fit))])
+    assert rep["ok"], rep
+    assert all(d > 0 for d in rep["min_env_distance_m"])
+
+
+def test_obstacles_can_only_lower_E():
+    task = load_task("task1_welding_plate")
+    G = np.random.default_rng(1).integers(0, 16, (60, 5)) * LEVEL_STEP_M
+    e_obs = DesignProblem(task, "FF").fitness_E(G)
+    e_free = DesignProblem(task.without_obstacles(), "FF").fitness_E(G)
+    assert np.all(e_obs <= e_free + 1e-15) and np.any(e_obs < e_free)
+
+
+def test_exhaustive_certifies_on_a_subgrid_and_search_stand_in():
+    task = load_task("task2_welding_opening")
+    pr = DesignProblem(task, "BF")
+    grid = reduced_grid()
+    assert grid.shape == (16 * 16 * 31 * 16, 5)
+    rng = np.random.default_rng(2)
+    sub = grid[rng.choice(grid.shape[0], 200, replace=False)]
+    ex = exhaustive(pr, genes=sub, batch=128)
+    assert ex.E_per_m == pytest.approx(pr.fitness_E(sub).max(), rel=1e-12)
+    rs = random_search(pr, 100, seed=3, batch=50)
+    cd = coordinate_descent(pr, rs, max_sweeps=1)
+    assert cd.E_per_m >= rs.E_per_m and len(rs.history_best_E) == 2
+
+
+def test_ga_adapter_is_the_one_seam():
+    pr = DesignProblem(load_task("peg_in_hole"), "BP")
+    try:
+        run_ga_adapter(pr, max_generations=1)
+    except GaPending:
+        pass  # the GA on the Problem protocol (issue 9) has not landed in this branch
+
+
+def test_cli_design_and_bad_inputs(tmp_path, capsys):
+    from qmt_drake.design.cli import add_parser, cmd_design
+    ap = argparse.ArgumentParser()
+    add_parser(ap.add_subparsers())
+    args = ap.parse_args(["design", "peg_in_hole", "--types", "BP,PB", "--budget", "40", "--workers", "1",
+                          "--method", "stand-in",
+                          "--out", str(tmp_path)])
+    assert cmd_design(args) == 0
+    assert (tmp_path / "BP.urdf").exists() and (tmp_path / "results.json").exists()
+    for bad, match in ((["--types", "XX"], "unknown"), (["--types", "FB"], "not among")):
+        args = ap.parse_args(["design", "peg_in_hole", "--out", str(tmp_path)] + bad)
+        with pytest.raises(QmtInputError, match=match):
+            cmd_design(args)
+    with pytest.raises(QmtInputError, match="not found"):
+        cmd_design(ap.parse_args(["design", "no_such_task"]))
+
+
+def test_cli_ga_without_the_ga_is_one_line(tmp_path):
+    from qmt_drake.design.cli import add_parser, cmd_design
+    from qmt_drake.design.search import ga_available
+    ap = argparse.ArgumentParser()
+    add_parser(ap.add_subparsers())
+    if ga_available():
+        pytest.skip("the project GA takes a Problem in this build")
+    with pytest.raises(QmtInputError, match="--method ga"):
+        cmd_design(ap.parse_args(["design", "peg_in_hole", "--method", "ga", "--out", str(tmp_path)]))
