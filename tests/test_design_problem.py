@@ -8,7 +8,7 @@ import pytest
 
 from qmt_drake.design.arm_types import LEVEL_STEP_M
 from qmt_drake.design.problem import DesignProblem, genes_from_levels
-from qmt_drake.design.search import (GaPending, coordinate_descent, exhaustive, random_search,
+from qmt_drake.design.search import (coordinate_descent, exhaustive, random_search,
                                      reduced_grid, run_ga_adapter)
 from qmt_drake.design.tasks import load_task, task_from_dict
 from qmt_drake.errors import QmtInputError
@@ -81,12 +81,13 @@ def test_exhaustive_certifies_on_a_subgrid_and_search_stand_in():
     assert cd.E_per_m >= rs.E_per_m and len(rs.history_best_E) == 2
 
 
-def test_ga_adapter_is_the_one_seam():
+def test_ga_adapter_runs_the_project_ga_on_the_design_problem():
     pr = DesignProblem(load_task("peg_in_hole"), "BP")
-    try:
-        run_ga_adapter(pr, max_generations=1)
-    except GaPending:
-        pass  # the GA on the Problem protocol (issue 9) has not landed in this branch
+    res = run_ga_adapter(pr, max_generations=5, stall_generations=0)
+    assert res.generations == 5 and res.feasible
+    # The reported cost is -E of the returned genes, re-evaluated independently.
+    assert -res.cost == pytest.approx(pr.fitness_E(res.genes[None])[0], rel=1e-12) and -res.cost > 0
+    assert np.all(np.diff(res.history.best_cost) <= 1e-15)
 
 
 def test_cli_design_and_bad_inputs(tmp_path, capsys):
@@ -104,14 +105,3 @@ def test_cli_design_and_bad_inputs(tmp_path, capsys):
             cmd_design(args)
     with pytest.raises(QmtInputError, match="not found"):
         cmd_design(ap.parse_args(["design", "no_such_task"]))
-
-
-def test_cli_ga_without_the_ga_is_one_line(tmp_path):
-    from qmt_drake.design.cli import add_parser, cmd_design
-    from qmt_drake.design.search import ga_available
-    ap = argparse.ArgumentParser()
-    add_parser(ap.add_subparsers())
-    if ga_available():
-        pytest.skip("the project GA takes a Problem in this build")
-    with pytest.raises(QmtInputError, match="--method ga"):
-        cmd_design(ap.parse_args(["design", "peg_in_hole", "--method", "ga", "--out", str(tmp_path)]))

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from qmt_drake.energy.cli import main
+from qmt_drake.apps.cli import main
 
 
 @pytest.mark.parametrize("argv,msg", [

@@ -2,7 +2,6 @@
 the time-scaling shortcut, the toppra rows bound what the columns bound."""
 
 import numpy as np
-import pytest
 
 from qmt_drake.limits import PayloadMomentTerm
 

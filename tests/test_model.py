@@ -3,7 +3,6 @@ base offsets and yaws, vertical planes with gravity), Pinocchio on every shipped
 on arms nobody here wrote whose tips are checked on every task point by Drake forward kinematics."""
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -16,7 +16,7 @@ from __future__ import annotations
 import datetime as _dt
 import html
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from qmt_drake.plan import write_text_atomic
@@ -83,7 +83,7 @@ def register(section: Section) -> None:
 
 def build_report(out_dir: Path, sections: list[Section] | None = None) -> Path:
     out = Path(out_dir)
-    parts = [_HEAD, f"<h1>qmt_drake: everything <code>make run</code> made</h1>",
+    parts = [_HEAD, "<h1>qmt_drake: everything <code>make run</code> made</h1>",
              f"<p class=meta>Written {_dt.datetime.now().isoformat(timespec='seconds')} from <code>{html.escape(str(out))}"
              "</code>. Each section names the command that made it; figures are the PNG files beside this page.</p>",
              "<nav><ol>"]

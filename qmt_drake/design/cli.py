@@ -58,10 +58,6 @@ def cmd_design(args) -> int:
     types = _types(args.types)
     if args.budget < 1 or args.workers < 1:
         raise QmtInputError("--budget and --workers must be at least 1")
-    from qmt_drake.design.search import ga_available
-    if args.method == "ga" and not ga_available():
-        raise QmtInputError("--method ga: this build's GA does not take a Problem yet (issue 9); "
-                            "use --method stand-in or exhaustive")
     out = Path(args.out or Path("out") / "design" / task.name)
     res, wall = run_all_types(task, method=args.method, workers=args.workers, seed=args.seed,
                               budget=args.budget, types=types)

@@ -16,7 +16,7 @@ from SceneGraph signed distances, and requires the same E.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+
 
 import numpy as np
 

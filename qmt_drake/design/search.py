@@ -29,10 +29,6 @@ SEED_GA = dict(population=200, mutants_per_generation=30, bits_per_gene=4, elite
                selection="roulette", encoding="binary", crossover_rate=1.0)
 
 
-class GaPending(RuntimeError):
-    """The project's GA does not yet take a Problem (issue 9 on main)."""
-
-
 @dataclass
 class SearchResult:
     type_name: str
@@ -52,14 +48,6 @@ def _ga_settings_class():
     from qmt_drake.config.scenario import GaSettings
     from qmt_drake.planners import ga
     return ga, GaSettings
-
-
-def ga_available() -> bool:
-    try:
-        _ga_settings_class()
-        return True
-    except GaPending:
-        return False
 
 
 def run_ga_adapter(problem: DesignProblem, *, seed: int = 0, max_generations: int = 400,
@@ -166,15 +154,9 @@ def search_type(task: Task, type_name: str, method: str = "stand-in", seed: int 
                 budget: int = 12_000, ga_generations: tuple = GA_GENERATIONS,
                 relations: dict | None = None) -> SearchResult:
     """One type's search: 'ga' (the project's GA), 'exhaustive', 'stand-in' (random search with
-    `budget` designs, then coordinate descent), or 'auto' (ga if it has landed, else stand-in)."""
+    `budget` designs, then coordinate descent), or 'auto' (= ga)."""
     pr = DesignProblem(task, type_name, relations)
-    if method == "auto":
-        try:
-            return ga_search(pr, seed=seed, max_generations=ga_generations[0],
-                             stall_generations=ga_generations[1])
-        except GaPending:
-            method = "stand-in"
-    if method == "ga":
+    if method in ("auto", "ga"):
         return ga_search(pr, seed=seed, max_generations=ga_generations[0],
                          stall_generations=ga_generations[1])
     if method == "exhaustive":

@@ -2,7 +2,7 @@
 
 `add_parser(subparsers)` adds the sub-command `plan-energy` (the lead wires it, or its options,
 into `qmt-drake plan SCENARIO --method steepest|snopt|ipopt|collocation`); `cmd_plan_energy(args)`
-runs it. Standalone: `python -m qmt_drake.energy.cli plan-energy ohsaka-fig3 --method snopt`.
+runs it: `qmt-drake plan-energy ohsaka-fig3 --method snopt` (or `qmt-drake plan ohsaka-fig3 ...`).
 
 SCENARIO is one of the built-in experiments (ohsaka-fig2, ohsaka-fig3, ohsaka-fig4; see
 experiments.py); `--coords X1 X2 X1 X2` replaces its coordinate vector. `--pattern` picks one
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 
 from qmt_drake.errors import QmtInputError
 
@@ -124,18 +123,3 @@ def cmd_plan_energy(args) -> int:
         else:
             write_text_atomic(args.json, text + "\n")
     return 0 if good else 3
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="qmt-drake-energy")
-    add_parser(ap.add_subparsers(dest="cmd", required=True))
-    args = ap.parse_args(argv)
-    try:
-        return args.func(args)
-    except QmtInputError as exc:
-        print(f"qmt-drake: error: {exc}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

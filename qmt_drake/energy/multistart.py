@@ -15,7 +15,6 @@ local optimum it ended in (a solver may cross over), and distinct optima are lis
 from __future__ import annotations
 
 import itertools
-import time
 from dataclasses import dataclass
 
 import numpy as np

@@ -101,10 +101,7 @@ class ArmModel:
                                 "(relative paths are taken from the scenario file's folder)")
         gear_declared = _actuators_declaring_gear_ratio(path)
         plant = MultibodyPlant(time_step=0.0)
-        try:
-            Parser(plant).AddModels(str(path))
-        except RuntimeError as exc:
-            raise QmtInputError(f"{path}: Drake cannot parse this URDF ({_first_line(exc)})") from None
+        add_arm(plant, path)
         if carried_inertia is not None:
             hand = _frame_or_error(plant, hand_frame, path)
             body = plant.AddRigidBody("carried_part", plant.AddModelInstance("carried_part"), carried_inertia)
@@ -218,6 +215,19 @@ class ArmModel:
     def drake_tip_position(self, q) -> np.ndarray:
         p = self.drake_chain.hand_pose(q)[0][0]
         return p @ self.planar.plane_axes if self.planar is not None else p
+
+
+def add_arm(plant, urdf_path):
+    """Parse the arm's URDF into `plant` (the one plant builder: the planning plant here, the
+    co-simulation's discrete plant in sim/plant.py); returns its model instance. A file Drake
+    cannot parse is one QmtInputError line."""
+    path = Path(urdf_path)
+    if not path.is_file():
+        raise QmtInputError(f"URDF file not found: {path}; check arm.urdf in the scenario")
+    try:
+        return Parser(plant).AddModels(str(path))[0]
+    except RuntimeError as exc:
+        raise QmtInputError(f"{path}: Drake cannot parse this URDF ({_first_line(exc)})") from None
 
 
 def _all_frames(plant):

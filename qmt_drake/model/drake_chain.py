@@ -55,6 +55,10 @@ class DrakeChain:
         V = np.einsum("sij,sj->si", J, np.atleast_2d(qd))
         return V[:, 3:], V[:, :3]
 
+    def dynamics(self, q, qd, qdd) -> dict:
+        lin, ang, tau, _ = self.hand_acceleration_and_joint_torque(q, qd, qdd)
+        return {"linear_acceleration_m_s2": lin, "angular_acceleration_rad_s2": ang, "joint_torque_Nm": tau}
+
     def hand_acceleration_and_joint_torque(self, q, qd, qdd):
         q, qd, qdd = np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd)
         S = q.shape[0]

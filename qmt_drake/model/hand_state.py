@@ -24,9 +24,9 @@ import numpy as np
 class HandState:
     def __init__(self, backend, q, qd, qdd) -> None:
         self.backend = backend
-        self.q = np.atleast_2d(np.asarray(q, dtype=float))
-        self.qd = np.atleast_2d(np.asarray(qd, dtype=float))
-        self.qdd = np.atleast_2d(np.asarray(qdd, dtype=float))
+        self.q = np.atleast_2d(q)
+        self.qd = np.atleast_2d(qd)
+        self.qdd = np.atleast_2d(qdd)
 
     @property
     def n_samples(self) -> int:
@@ -57,23 +57,30 @@ class HandState:
         return self._velocity[1]
 
     @cached_property
-    def _dynamics(self):
-        """One pass: (linear accel (S,3), angular accel (S,3), joint torque (S,n), extras)."""
-        return self.backend.hand_acceleration_and_joint_torque(self.q, self.qd, self.qdd)
+    def _dynamics(self) -> dict:
+        """One inverse-dynamics pass (the backend's `dynamics`); world-frame accelerations are
+        added on first use (planar backends compute them from the in-plane ones)."""
+        return self.backend.dynamics(self.q, self.qd, self.qdd)
+
+    def _world_accelerations(self):
+        d = self._dynamics
+        if "linear_acceleration_m_s2" not in d:
+            d.update(self.backend.world_accelerations(self.qdd, d))
+        return d
 
     @property
     def linear_acceleration_m_s2(self) -> np.ndarray:
-        return self._dynamics[0]
+        return self._world_accelerations()["linear_acceleration_m_s2"]
 
     @property
     def angular_acceleration_rad_s2(self) -> np.ndarray:
-        return self._dynamics[1]
+        return self._world_accelerations()["angular_acceleration_rad_s2"]
 
     @property
     def joint_torque_Nm(self) -> np.ndarray:
-        return self._dynamics[2]
+        return self._dynamics["joint_torque_Nm"]
 
     @property
     def planar_acceleration_m_s2(self) -> np.ndarray:
         """(S, 2) in-plane hand acceleration (planar backends only)."""
-        return self._dynamics[3]["planar_acceleration_m_s2"]
+        return self._dynamics["planar_acceleration_m_s2"]

@@ -230,10 +230,22 @@ class PlanarChain:
         w = np.sum(np.asarray(qd, float) * self.joint_signs, axis=-1)[..., None] * self.normal
         return v, w
 
-    def hand_acceleration_and_joint_torque(self, q, qd, qdd):
+    def dynamics(self, q, qd, qdd) -> dict:
+        """HandState's inverse-dynamics pass: in-plane hand acceleration and joint torques."""
         a2, tau = self.acceleration_and_torque(q, qd, qdd)
+        return {"planar_acceleration_m_s2": a2, "joint_torque_Nm": tau}
+
+    def world_accelerations(self, qdd, dyn: dict) -> dict:
+        """World-frame linear and angular hand accelerations from the in-plane ones."""
         alpha = np.sum(np.asarray(qdd, float) * self.joint_signs, axis=-1)[..., None] * self.normal
-        return a2 @ self.plane_axes.T, alpha, tau, {"planar_acceleration_m_s2": a2}
+        return {"linear_acceleration_m_s2": dyn["planar_acceleration_m_s2"] @ self.plane_axes.T,
+                "angular_acceleration_rad_s2": alpha}
+
+    def hand_acceleration_and_joint_torque(self, q, qd, qdd):
+        """(linear, angular hand acceleration in world (S, 3), joint torque (S, n), extras)."""
+        d = self.dynamics(q, qd, qdd)
+        d.update(self.world_accelerations(qdd, d))
+        return d["linear_acceleration_m_s2"], d["angular_acceleration_rad_s2"], d["joint_torque_Nm"], d
 
     # ------------------------------------------------------------------ inverse kinematics
     def inverse_kinematics(self, uv, tool_angle_rad: float | None = None,

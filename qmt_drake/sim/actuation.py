@@ -113,17 +113,8 @@ def add_ideal_torque_actuation(builder, plant, arm_instance, desired_state_port,
     builder.Connect(state_port, from_state.get_input_port())
     builder.Connect(from_desired.get_output_port(), actuation.get_input_port(0))
     builder.Connect(from_state.get_output_port(), actuation.get_input_port(1))
-    builder.Connect(actuation.get_output_port(), plant.get_actuation_input_port(arm_instance))
-    latch = builder.AddNamedSystem("actuation_latch", ZeroOrderHold(time_step_s, n))
-    damping_now = builder.AddNamedSystem("damping_now", MatrixGain(-D))
-    applied = builder.AddNamedSystem("applied_joint_torque", Adder(2, n))
-    builder.Connect(actuation.get_output_port(), latch.get_input_port())
-    builder.Connect(joint_velocity_port, damping_now.get_input_port())
-    builder.Connect(latch.get_output_port(), applied.get_input_port(0))
-    builder.Connect(damping_now.get_output_port(), applied.get_input_port(1))
-    signals = builder.AddNamedSystem("applied_motor_signals", IdealActuatorSignals(gear_ratio))
-    builder.Connect(applied.get_output_port(), signals.GetInputPort("applied_joint_torque"))
-    builder.Connect(joint_velocity_port, signals.GetInputPort("joint_velocity"))
+    signals = _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation, joint_velocity_port, D,
+                                                 time_step_s, IdealActuatorSignals(gear_ratio))
     return signals, actuation.get_input_port(2)
 
 
@@ -151,6 +142,16 @@ def add_implicit_damping_actuation(builder, plant, arm_instance, motors, joint_v
     builder.Connect(joint_velocity_port, add_back.get_input_port())
     builder.Connect(motors.GetOutputPort("joint_torque"), actuation.get_input_port(0))
     builder.Connect(add_back.get_output_port(), actuation.get_input_port(1))
+    return _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation, joint_velocity_port, D,
+                                              time_step_s, AppliedMotorSignals(motor_params))
+
+
+def _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation, joint_velocity_port, D, time_step_s,
+                                       signals_system):
+    """Shared by both actuators: `actuation` drives the plant (whose joints carry the damping D);
+    the torque applied over each step, the latched actuation u_n minus D qd_{n+1}, goes to
+    `signals_system` (inputs applied_joint_torque, joint_velocity), which is returned."""
+    n = D.shape[0]
     builder.Connect(actuation.get_output_port(), plant.get_actuation_input_port(arm_instance))
     latch = builder.AddNamedSystem("actuation_latch", ZeroOrderHold(time_step_s, n))
     damping_now = builder.AddNamedSystem("damping_now", MatrixGain(-D))
@@ -159,7 +160,7 @@ def add_implicit_damping_actuation(builder, plant, arm_instance, motors, joint_v
     builder.Connect(joint_velocity_port, damping_now.get_input_port())
     builder.Connect(latch.get_output_port(), applied.get_input_port(0))
     builder.Connect(damping_now.get_output_port(), applied.get_input_port(1))
-    signals = builder.AddNamedSystem("applied_motor_signals", AppliedMotorSignals(motor_params))
+    signals = builder.AddNamedSystem("applied_motor_signals", signals_system)
     builder.Connect(applied.get_output_port(), signals.GetInputPort("applied_joint_torque"))
     builder.Connect(joint_velocity_port, signals.GetInputPort("joint_velocity"))
     return signals

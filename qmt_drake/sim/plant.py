@@ -25,11 +25,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import JointActuatorIndex
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.arm import add_arm
 from qmt_drake.systems.payload import PayloadSpec, add_payload, seated_pose_in_hand
 
 
@@ -61,7 +61,7 @@ def add_transfer_plant(builder, scenario, time_step_s: float, *, payload_spec: P
     The plant is NOT finalised: add joint damping etc., then call `finalize_transfer_plant`.
     n_dof_expected (a plan's joint count) is checked against the arm: one-line QmtInputError."""
     plant, scene_graph = AddMultibodyPlant(transfer_plant_config(time_step_s), builder)
-    arm = Parser(plant).AddModels(str(scenario.urdf_path))[0]
+    arm = add_arm(plant, scenario.urdf_path)
     n = sum(plant.get_joint(j).num_velocities() for j in plant.GetJointIndices(arm))
     if n_dof_expected is not None and int(n_dof_expected) != n:
         raise QmtInputError(f"plan has {int(n_dof_expected)} joints but scenario '{scenario.name}' arm "

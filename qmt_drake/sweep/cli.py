@@ -75,22 +75,3 @@ def cmd_sweep(args) -> int:
             from qmt_drake.plan import write_text_atomic
             write_text_atomic(args.json, text + "\n")
     return EXIT_CASES_FAILED if out["failed"] else 0
-
-
-def main(argv=None) -> int:
-    """`python -m qmt_drake.sweep.cli SPEC.yaml ...`: the same command before it is wired into
-    qmt_drake/cli.py (bad input: one line on stderr, exit 2)."""
-    import argparse
-    from qmt_drake.errors import QmtInputError
-    p = argparse.ArgumentParser(prog="qmt-drake")
-    add_parser(p.add_subparsers(dest="command", required=True))
-    args = p.parse_args(["sweep", *(sys.argv[1:] if argv is None else argv)])
-    try:
-        return args.func(args)
-    except QmtInputError as exc:
-        print(f"qmt-drake: error: {exc}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())
