@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.design.arm_types import TYPES, arm_type, forward, urdf_text
+from qmt_drake.design.arm_types import arm_type, forward, urdf_text
 from qmt_drake.design.operability import direction_ease, operability
 from qmt_drake.design.plots import (meshcat_arm_at_task, plot_arm_at_task, plot_convergence,
                                     plot_types)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from qmt_drake.design.arm_types import LEVEL_STEP_M
-from qmt_drake.design.problem import DesignProblem, genes_from_levels
+from qmt_drake.design.problem import DesignProblem
 from qmt_drake.design.search import (coordinate_descent, exhaustive, random_search,
                                      reduced_grid, run_ga_adapter)
 from qmt_drake.design.tasks import load_task, task_from_dict

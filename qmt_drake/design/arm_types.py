@@ -240,11 +240,11 @@ def urdf_text(type_name: str, lengths, link_radius_m: float = 0.04, relations: d
     L = np.asarray(lengths, dtype=float)
     o = at.origins(L)
     name = f"arm_{at.name}_" + "_".join(f"{v:.3f}" for v in L)
-    out = [f'<?xml version="1.0"?>', f'<robot name="{name}">',
+    out = ['<?xml version="1.0"?>', f'<robot name="{name}">',
            f'  <!-- qmt_drake.design.arm_types: type {at.name}, lengths L1..L6 [m] = {L.tolist()} -->',
-           f'  <link name="world"/>',
+           '  <link name="world"/>',
            f'  <link name="base">{_link_inertial()}</link>',
-           f'  <joint name="base_weld" type="fixed"><parent link="world"/><child link="base"/></joint>']
+           '  <joint name="base_weld" type="fixed"><parent link="world"/><child link="base"/></joint>']
     parent = "base"
     for i in range(6):
         child = f"link{i + 1}"

@@ -62,6 +62,11 @@ class VerticalArm:
     def gravity_vector(self) -> np.ndarray:
         return np.array([0.0, -self.gravity_up_sign * self.gravity_m_s2])
 
+    @property
+    def chain(self):
+        """The project's PlanarChain of this arm's URDF (kinematics: one implementation)."""
+        return _planar_chain(str(self.urdf_path or OHSAKA_URDF))
+
     def with_gravity_sign(self, sign: float) -> "VerticalArm":
         from dataclasses import replace
         return replace(self, gravity_up_sign=float(sign))
@@ -97,6 +102,12 @@ def make_plant(urdf: str):
     Parser(plant).AddModels(urdf)
     plant.Finalize()
     return plant
+
+
+@lru_cache(maxsize=4)
+def _planar_chain(urdf: str):
+    from qmt_drake.model.arm import ArmModel
+    return ArmModel.from_urdf(urdf, "tip").planar
 
 
 @lru_cache(maxsize=1)

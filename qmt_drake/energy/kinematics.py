@@ -27,21 +27,14 @@ from qmt_drake.errors import QmtInputError
 
 
 def tip_position(arm: VerticalArm, q) -> np.ndarray:
-    """(..., 2) tip point X of eq. (4) for joint angles (..., n)."""
-    phi = np.cumsum(np.asarray(q, dtype=float), axis=-1)
-    return np.stack([np.sum(arm.length_m * np.cos(phi), axis=-1),
-                     np.sum(arm.length_m * np.sin(phi), axis=-1)], axis=-1)
+    """(..., 2) tip point X of eq. (4) for joint angles (..., n): the project's planar chain of the
+    arm's URDF (model/planar.py; its plane coordinates are (x, z) = (X1, X2))."""
+    return arm.chain.tip_position(np.asarray(q, dtype=float))
 
 
 def tip_jacobian(arm: VerticalArm, q) -> np.ndarray:
-    """(..., 2, n) dX/dq."""
-    phi = np.cumsum(np.asarray(q, dtype=float), axis=-1)
-    cx = arm.length_m * np.cos(phi)
-    cy = arm.length_m * np.sin(phi)
-    # dX/dq_j sums the links from j on (reverse cumulative sums)
-    jx = -np.flip(np.cumsum(np.flip(cy, -1), -1), -1)
-    jy = np.flip(np.cumsum(np.flip(cx, -1), -1), -1)
-    return np.stack([jx, jy], axis=-2)
+    """(..., 2, n) dX/dq (model/planar.py)."""
+    return arm.chain.jacobian(np.asarray(q, dtype=float))
 
 
 def cog_height_m(arm: VerticalArm, q) -> np.ndarray:

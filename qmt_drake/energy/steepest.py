@@ -111,7 +111,7 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
                      metric: str = "euclidean") -> SteepestResult:
     if metric not in ("euclidean", "diagonal"):
         raise QmtInputError(f"steepest-descent metric '{metric}' must be 'euclidean' or 'diagonal'")
-    F, obj = problem.family, problem.objective
+    obj = problem.objective
     free = _free_mask(problem)
     t0 = time.perf_counter()
     x = enforce_accel_condition(problem, np.asarray(x0, dtype=float))

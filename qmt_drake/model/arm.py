@@ -32,7 +32,7 @@ from pydrake.multibody.tree import JointIndex
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.drake_chain import DrakeChain
 from qmt_drake.model.hand_state import HandState
-from qmt_drake.model.planar import IK_BRANCHES, PlanarChain  # noqa: F401  (IK_BRANCHES re-exported)
+from qmt_drake.model.planar import IK_BRANCHES, PlanarChain  # noqa: F401  (IK_BRANCHES is re-exported)
 
 LOAD_CHECK_RTOL = 1e-9
 
