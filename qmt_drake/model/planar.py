@@ -177,13 +177,15 @@ class PlanarChain:
         (gravity enters as an inertial force) and g is added back to the hand's acceleration."""
         q, qd, qdd = np.asarray(q), np.asarray(qd), np.asarray(qdd)
         sg = self.joint_signs
-        gx, gy = self.gravity_in_plane_m_s2 if gravity else (0.0, 0.0)
+        gx, gy = (float(v) for v in self.gravity_in_plane_m_s2) if gravity else (0.0, 0.0)
         ax, ay = -gx, -gy  # acceleration of joint i
         phi = w = al = 0.0
         links = []
         for i in range(self.n_dof):
-            s_i = sg[i]
-            phi, w, al = phi + s_i * q[..., i], w + s_i * qd[..., i], al + s_i * qdd[..., i]
+            if sg[i] > 0:  # the usual +n axis: no sign multiplications on the hot path
+                phi, w, al = phi + q[..., i], w + qd[..., i], al + qdd[..., i]
+            else:
+                phi, w, al = phi - q[..., i], w - qd[..., i], al - qdd[..., i]
             c, s = np.cos(phi), np.sin(phi)
             w2 = w * w
             cu, cv = self._cuv[i]
@@ -193,7 +195,9 @@ class PlanarChain:
             links.append((rcx, rcy, dx, dy, ax - al * rcy - w2 * rcx, ay + al * rcx - w2 * rcy, al))
             ax = ax - al * dy - w2 * dx
             ay = ay + al * dx - w2 * dy
-        return links, np.stack(np.broadcast_arrays(ax + gx, ay + gy), axis=-1)
+        if gx or gy:
+            ax, ay = ax + gx, ay + gy
+        return links, np.stack(np.broadcast_arrays(ax, ay), axis=-1)
 
     def acceleration_and_torque(self, q, qd, qdd):
         """(in-plane hand acceleration (..., 2) m/s^2, joint torque (..., n) N*m) in one pass:
@@ -208,7 +212,7 @@ class PlanarChain:
             mx, my = m * acx, m * acy
             nz = self.izz_about_com_kgm2[i] * ali + rcx * my - rcy * mx + nz + dx * fy - dy * fx
             fx, fy = mx + fx, my + fy
-            tau[..., i] = self.joint_signs[i] * nz
+            tau[..., i] = nz if self.joint_signs[i] > 0 else -nz
         return a_hand, tau + self.reflected_inertia_kgm2 * qdd
 
     # ------------------------------------------------------------------ 3-D hand state
