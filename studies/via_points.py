@@ -1,7 +1,9 @@
 """Any number of vias: the GA on a five-via task (via5-ch4, 6 genes x 12 bits) over 10 seeds
 against the family optimum -> out/via5-ch4/summary.json (+ the plans).
 
-Run: .venv/bin/python -m studies.via_points [--out out] [--seeds 10] [--workers 2]
+Run: .venv/bin/python -m studies.via_points [--out out] [--seeds 10] [--workers 2] [--plain]
+The scenario's GA plays each chromosome at its tight time scale (ga.tight_timing); --plain runs the
+thesis's GA instead (into OUT/via5-ch4-plain).
 Each GA run is written as it finishes and reused by a rerun (thesis_study.run_ga_seeds).
 """
 
@@ -23,13 +25,15 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="out")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--plain", action="store_true", help="the thesis's GA (ga.tight_timing false)")
     a = ap.parse_args(argv)
-    out = Path(a.out) / SCENARIO
+    overrides = {"ga": {"tight_timing": False}} if a.plain else None
+    out = Path(a.out) / (SCENARIO + ("-plain" if a.plain else ""))
     out.mkdir(parents=True, exist_ok=True)
     progress = lambda m: print(m, file=sys.stderr, flush=True)  # noqa: E731
     opt = plan_with("optimum", load_scenario(SCENARIO), seed=0)
     opt.write_json(out / "optimum.json")
-    ga = run_ga_seeds(SCENARIO, out, a.seeds, a.workers, progress)
+    ga = run_ga_seeds(SCENARIO, out, a.seeds, a.workers, progress, overrides=overrides)
     rows = [{"seed": s, "motion_time_s": p.motion_time_s, "vs_optimum": p.motion_time_s / opt.motion_time_s - 1,
              "feasible": p.feasible, "generations": p.generations, "evaluations": p.evaluations,
              "planner_wall_s": p.planner_wall_s} for s, p in enumerate(ga)]

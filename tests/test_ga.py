@@ -198,3 +198,15 @@ def test_bad_ga_arguments_are_one_line_errors(problems, kw, needle):
     from qmt_drake.errors import QmtInputError
     with pytest.raises(QmtInputError, match=needle):
         run_ga(problems["thesis-ch4"], **{"seed": 0, **kw})
+
+
+def test_tight_timing_ga_returns_motions_on_their_limits():
+    """ga.tight_timing: each chromosome is played at the scale that puts it on its limits, so the
+    returned plan is feasible on the refined check and touches its worst limit."""
+    from qmt_drake.planners import plan_with
+    sc = load_scenario("thesis-ch4", overrides={"ga": {"tight_timing": True}})
+    plan = plan_with("ga", sc, seed=0, max_generations=60)
+    assert plan.feasible
+    assert 0.999 < plan.check.worst_ratio <= 1.0
+    plain = plan_with("ga", load_scenario("thesis-ch4"), seed=0, max_generations=60)
+    assert plan.motion_time_s < plain.motion_time_s

@@ -157,6 +157,10 @@ class GaSettings:
     # Seed 003's operator: if > 0, that many individuals get one random bit flipped per
     # generation (instead of flipping each bit with mutation_rate).
     mutants_per_generation: int = 0
+    # Not in the thesis: play each chromosome at the time scale that puts it exactly on its limits
+    # (the family optimum's tight motion), so the GA searches the shape of the motion and never its
+    # feasibility boundary. Off reproduces the thesis's GA.
+    tight_timing: bool = False
 
 
 @dataclass(frozen=True)
@@ -497,8 +501,11 @@ def _ga(g: dict, where: str) -> GaSettings:
     kw = {}
     for k in ("population", "bits_per_gene", "max_generations"):
         kw[k] = _int(g, k, where, minimum=1, default=getattr(d, k))
-    for k in ("elite_count", "stall_generations"):
+    for k in ("elite_count", "stall_generations", "mutants_per_generation"):
         kw[k] = _int(g, k, where, minimum=0, default=getattr(d, k))
+    kw["tight_timing"] = g.get("tight_timing", d.tight_timing)
+    if not isinstance(kw["tight_timing"], bool):
+        raise QmtInputError(f"{where}.tight_timing must be true or false, got {_show(kw['tight_timing'])}")
     for k in ("crossover_rate", "mutation_rate"):
         kw[k] = _num(g, k, where, default=getattr(d, k))
         if not 0.0 <= kw[k] <= 1.0:

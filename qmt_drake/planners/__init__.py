@@ -20,9 +20,12 @@ def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options)
 
     if method == "ga":
         from qmt_drake.planners.ga import run_ga
+        from qmt_drake.planners.optimum import TightTimingProblem
         problem = PlanningProblem(scenario)
-        r = run_ga(problem, seed=seed, progress=progress, **options)
-        return family_plan(problem, r.genes, "ga", planner_wall_s=r.wall_s,
+        searched = TightTimingProblem(problem) if scenario.ga.tight_timing else problem
+        r = run_ga(searched, seed=seed, progress=progress, **options)
+        genes = searched.realize(r.genes) if scenario.ga.tight_timing and r.feasible else r.genes
+        return family_plan(problem, genes, "ga", planner_wall_s=r.wall_s,
                            evaluations=r.evaluations, generations=r.generations,
                            extra={"seed": seed, "stop_reason": r.stop_reason,
                                   "ga_settings": scenario.ga.__dict__,

@@ -58,6 +58,42 @@ def tight_scale(problem: PlanningProblem, genes: np.ndarray, *, lam_max: float =
     return np.where(ok & feasible_hi, np.exp(hi), np.nan)
 
 
+class TightTimingProblem:
+    """A PlanningProblem whose every candidate is played at its tight time scale (`tight_motion`):
+    the GA with `ga.tight_timing` searches motion shapes and each is timed exactly to its limits.
+    Problem protocol (problem.py); `realize(genes)` gives the family genes of the tight motion."""
+
+    def __init__(self, base: PlanningProblem) -> None:
+        self.base = base
+        self.scenario, self.family, self.limit_set = base.scenario, base.family, base.limit_set
+        self.name, self.gene_names = base.name, base.gene_names
+        self.lower, self.upper = base.lower, base.upper
+
+    def evaluate(self, genes, exact: bool = False):
+        from qmt_drake.problem import Evaluation
+        y, T0, viol = tight_motion(self.base, genes)
+        ok = np.isfinite(T0)
+        return Evaluation(np.where(ok & (viol <= 0), T0, np.inf), np.where(ok, viol, np.inf))
+
+    def fitness(self, ev):
+        return self.base.fitness(ev)
+
+    def realize(self, genes) -> np.ndarray:
+        """(G,) family genes of the tight motion of `genes` (inside the bounds: `evaluate` gives a
+        tight motion that leaves them a violation), slowed further if the refined re-check needs it."""
+        y = tight_motion(self.base, np.atleast_2d(genes))[0][0]
+        if not self.base.confirm(y):
+            y = _slow_until_confirmed(self.base, y)
+        return y
+
+    def confirm(self, genes) -> bool:
+        y = tight_motion(self.base, np.atleast_2d(genes))[0][0]
+        return bool(np.all(np.isfinite(y))) and self.base.confirm(_slow_until_confirmed(self.base, y))
+
+    def fingerprint(self) -> str:
+        return self.base.fingerprint() + ":tight_timing"
+
+
 def plan_family_optimum(problem: PlanningProblem, *, starts: int = 24, polished: int = 6,
                         seed: int = 0, progress=None) -> Plan:
     """Best gene vector of the family (see module docstring); returns a re-checked Plan."""
