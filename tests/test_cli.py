@@ -3,24 +3,13 @@
 import json
 
 import pytest
-import yaml
 
 from qmt_drake.apps.cli import main
 from qmt_drake.config.scenario import SCENARIO_DIR
+from tests.scenario_files import scenario_yaml
 
 
-def _yaml(tmp_path, name="thesis-ch4", **changes):
-    raw = yaml.safe_load((SCENARIO_DIR / f"{name}.yaml").read_text())
-    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
-    for path, value in changes.items():
-        d = raw
-        keys = path.split("__")
-        for k in keys[:-1]:
-            d = d[k]
-        d[keys[-1]] = value
-    p = tmp_path / "s.yaml"
-    p.write_text(yaml.safe_dump(raw))
-    return str(p)
+_yaml = scenario_yaml
 
 
 def _run(capsys, *argv):

@@ -6,10 +6,9 @@ import json
 import time
 
 import pytest
-import yaml
 
 from qmt_drake.apps.cli import EXPLICIT_MAX_TIME_STEP_MS, main
-from qmt_drake.config.scenario import SCENARIO_DIR
+from tests.scenario_files import scenario_yaml
 
 
 def _run(capsys, *argv):
@@ -25,18 +24,7 @@ def _one_line(err: str) -> str:
     return lines[0]
 
 
-def _yaml(tmp_path, _base="thesis-ch4", **changes):
-    raw = yaml.safe_load((SCENARIO_DIR / f"{_base}.yaml").read_text())
-    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
-    for path, value in changes.items():
-        d = raw
-        keys = path.split("__")
-        for k in keys[:-1]:
-            d = d[k]
-        d[keys[-1]] = value
-    p = tmp_path / f"s{abs(hash(repr(changes))) % 10**8}.yaml"
-    p.write_text(yaml.safe_dump(raw))
-    return str(p)
+_yaml = scenario_yaml
 
 
 @pytest.fixture()
