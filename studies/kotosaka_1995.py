@@ -105,7 +105,7 @@ def main(argv=None):
     ap.add_argument("--skip-search", action="store_true")
     ap.add_argument("--skip-exhaustive", action="store_true")
     ap.add_argument("--scaling-budget", type=int, default=400)
-    ap.add_argument("--method", default="auto", help="auto: the project GA if it has landed, else stand-in")
+    ap.add_argument("--method", default="auto", help="auto (= ga): the project GA; stand-in: random search + coordinate descent")
     ap.add_argument("--generations", default="400,100", help="GA max,stall generations")
     ap.add_argument("--codesign", action="store_true", help="only the co-design of the ch.4 arm")
     ap.add_argument("--analyse", action="store_true", help="only the w/c breakdown of results.json")
@@ -132,8 +132,8 @@ def main(argv=None):
         md = ["# Seed 003 reproduced (qmt_drake.design)", "",
               f"Search method {a.method} (auto = the project GA, population 200, 30 mutants per "
               f"generation, roulette + 1 elite, single-point crossover, 4 bits/gene, max/stall "
-              f"generations {gens}; if the GA has not landed, the stand-in: {a.budget} random "
-              f"designs then coordinate descent); {a.workers} worker processes. E = mu_bar / sum(L) * P_k / k "
+              f"generations {gens}; --method stand-in: {a.budget} random designs then coordinate "
+              f"descent); {a.workers} worker processes. E = mu_bar / sum(L) * P_k / k "
               f"in 1/m.", ""]
         results["search"] = {}
         for tname, noobs in (("task1_welding_plate", False), ("task1_welding_plate", True),
