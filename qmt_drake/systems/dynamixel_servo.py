@@ -30,10 +30,10 @@ co-simulation uses the lossless equivalent with the same torque-speed line (`mot
 Datasheet values (ROBOTIS e-Manual specifications, at 12.0 V, the recommended supply):
 - XM540-W270 (emanual.robotis.com/docs/en/dxl/x/xm540-w270, read via search): gear ratio 272.5:1,
   stall torque 10.6 N m at 4.4 A, no-load speed 30 rev/min; Current Limit default 2047 (5.51 A).
-- XM430-W350 (emanual.robotis.com/docs/en/dxl/x/xm430-w350): gear ratio 353.5:1, stall torque
-  4.1 N m at 2.3 A, no-load speed 46 rev/min; Current Limit default 1193 (3.21 A). These were
-  written from the e-Manual page as remembered: the page was not in the searchable corpus, so
-  check them against it.
+- XM430-W350 (emanual.robotis.com/docs/en/dxl/x/xm430-w350; checked against the page's source,
+  github.com/ROBOTIS-GIT/emanual docs/en/dxl/x/xm430-w350.md): gear ratio 353.5:1, stall torque
+  4.1 N m at 12.0 V and 2.3 A, no-load speed 46 rev/min; Current Limit(38) initial value 1193 x
+  about 2.69 mA (3.21 A).
 
 Ports (n servos)
     inputs
