@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import yaml
 
-from qmt_drake.config.scenario import (SCENARIO_DIR, DcMotorGear, MagnetHand, PayloadBody, UrdfArm, builtin_scenarios,
-                                load_scenario)
+from qmt_drake.config.scenario import (SCENARIO_DIR, DcMotorGear, DynamixelServos, MagnetHand, PayloadBody, TrayHand,
+                                       UrdfArm, builtin_scenarios, load_scenario)
 from qmt_drake.systems.electromagnet import THESIS_COILS
 from qmt_drake.systems.payload import PayloadSpec
 
@@ -33,8 +33,12 @@ def _raw(name="thesis-ch4"):
 def test_builtins_have_explicit_typed_sections(name):
     sc = load_scenario(name)
     assert isinstance(sc.arm_spec, UrdfArm) and sc.arm_spec.urdf_path == sc.urdf_path
-    assert isinstance(sc.hand, MagnetHand) and sc.hand.slip_boundary_Nm is not None
-    assert isinstance(sc.actuator, DcMotorGear) and len(sc.actuator.motors) == sc.arm.n_dof
+    if isinstance(sc.hand, TrayHand):  # seed 002: a tray with Dynamixel servos
+        assert isinstance(sc.actuator, DynamixelServos) and len(sc.actuator.servos) == sc.arm.n_dof
+        assert sc.bottle.mass_kg == sc.payload.mass_kg and sc.bottle.com_height_m == sc.payload.com_offset_m
+    else:
+        assert isinstance(sc.hand, MagnetHand) and sc.hand.slip_boundary_Nm is not None
+        assert isinstance(sc.actuator, DcMotorGear) and len(sc.actuator.motors) == sc.arm.n_dof
     assert isinstance(sc.payload.body, PayloadBody)
     raw = yaml.safe_load((SCENARIO_DIR / f"{name}.yaml").read_text())
     assert {"hand", "actuator"} <= set(raw) and "body" in raw["payload"]  # written out, not inferred

@@ -1,12 +1,20 @@
 """Scenarios: a typed description of one transfer task, loaded from YAML and validated.
 
 A scenario names the arm (`arm`: a URDF), the hand (`hand`: an electromagnet with its coil, how its
-current is set, and the contact it makes with the part), the motors (`actuator`: DC motors with
-gears, or ideal torque sources), the payload (mass, r_G, the rigid body the co-simulation uses),
+current is set, and the contact it makes with the part; or a tray on which the part rests unfixed,
+seed 002), the motors (`actuator`: DC motors with gears, ideal torque sources, or Dynamixel position
+servos), the payload (mass, r_G, the rigid body the co-simulation uses),
 the task points and IK branch, the planning limits, the trajectory family with its genes and
 bounds, the GA settings, the joint control gains and what the thesis reported. Built-in scenarios
-live in `models/scenarios/` and are loaded by name (`thesis-ch2`, `thesis-ch3`, `thesis-ch4`); any
-other YAML file by path.
+live in `models/scenarios/` and are loaded by name (`thesis-ch2`, `thesis-ch3`, `thesis-ch4`,
+`crane-tray`, ...); any other YAML file by path.
+
+Tray scenarios (`hand: {kind: tray}`): the payload is the bottle standing on the tray (mass, its
+centre-of-mass height as `com_offset_m`, `body: {kind: bottle}` with its size); the hand frame is
+the tray frame (z the surface normal); the limits are the tray terms (no slide, no tip, no lift-off;
+limits/tray.py) plus motor torques, joint speeds and ranges. Checked at load, one line each: every
+task point inside the joint ranges (tray level), the bottle standing at rest on the tray tilted by
+`hand.rest_tilt_rad`, friction positive.
 
 Each section is a small frozen dataclass with its own validation, in the spirit of Drake's
 hardware_sim scenario (`yaml_load_typed`), written out here so that every bad key gets its own
@@ -60,6 +68,7 @@ class PayloadBody:
     length_m: float  # along the face normal
     radius_m: float
     face_radius_m: float  # radius of the part's attraction face (>= the core radius)
+    shell_mass_kg: float = 0.0  # kind bottle: the empty bottle (thin-walled); the rest is water
 
 
 @dataclass(frozen=True)
@@ -116,12 +125,52 @@ class IdealTorque:
 
 
 @dataclass(frozen=True)
+class TrayHand:
+    """hand.kind 'tray' (seed 002): the payload rests unfixed on a tray held by the hand frame
+    (z up when level). friction: bottle-tray Coulomb coefficient; contact_radius_m: radius of the
+    ring the bottle stands on (its feet); plan_margin (0, 1]: friction and ring radius are scaled
+    by it for planning (the servos lag the plan); rest_tilt_rad: the tray's tilt at rest that the
+    bottle must survive (default: the seed's printed start joints sum to -0.0168 rad);
+    tray_mass_kg: tray plus attachment (seed: 208 g; the URDF's tray link carries it)."""
+
+    friction: float = 0.3
+    contact_radius_m: float = 0.029
+    plan_margin: float = 0.8
+    rest_tilt_rad: float = 0.0168
+    tray_mass_kg: float = 0.208
+    n_contact_points: int = 16
+    kind: str = "tray"
+
+
+@dataclass(frozen=True)
+class DynamixelServos:
+    """actuator.kind 'dynamixel': one Dynamixel position servo per joint (systems/dynamixel_servo.py
+    datasheets), firmware PID gains in control-table units, sampled every control_period_s."""
+
+    servos: tuple[str, ...]
+    p: tuple[float, ...]
+    i: tuple[float, ...]
+    d: tuple[float, ...]
+    control_period_s: float = 1e-3
+    kind: str = "dynamixel"
+
+    def gains(self):
+        from qmt_drake.systems.dynamixel_servo import ServoGains
+        return ServoGains(tuple(self.p), tuple(self.i), tuple(self.d))
+
+    def datasheets(self):
+        from qmt_drake.systems.dynamixel_servo import SERVO_CATALOG
+        return tuple(SERVO_CATALOG[s] for s in self.servos)
+
+
+@dataclass(frozen=True)
 class Limits:
     """Planning limits. Moment |tau_M| = m_o * r_G * |a_tip| (eq. 2-24, 3-10, 4-33); motor torque
     is motor side (joint torque / N, eq. 2-34)."""
 
     moment_limit_Nm: float
     motor_torque_limit_Nm: np.ndarray
+    joint_speed_fraction: float | None = None  # tray scenarios: |qd| <= fraction * URDF velocity limit
 
 
 @dataclass(frozen=True)
@@ -186,15 +235,33 @@ class Scenario:
     reported: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     arm_spec: UrdfArm | None = None
-    hand: MagnetHand | None = None
-    actuator: DcMotorGear | IdealTorque | None = None
+    hand: MagnetHand | TrayHand | None = None
+    actuator: DcMotorGear | IdealTorque | DynamixelServos | None = None
+
+    @property
+    def is_tray(self) -> bool:
+        return isinstance(self.hand, TrayHand)
+
+    @property
+    def bottle(self):
+        """Tray scenarios: the BottleSpec (systems/tray_object.py) of the payload and the hand."""
+        if not self.is_tray:
+            return None
+        from qmt_drake.systems.tray_object import BottleSpec
+        b = self.payload.body
+        return BottleSpec(self.payload.name, float(self.payload.mass_kg), b.radius_m, b.length_m,
+                          float(self.payload.com_offset_m), b.shell_mass_kg, self.hand.contact_radius_m,
+                          friction=self.hand.friction, n_contact_points=self.hand.n_contact_points)
 
     @cached_property
     def arm(self):
         """The ArmModel built from the URDF with the carried part welded to the hand (loaded once
         per scenario object; not pickled)."""
-        from qmt_drake.systems.payload import PayloadSpec
-        carried = PayloadSpec.for_scenario(self).spatial_inertia_about_origin()
+        if self.is_tray:  # the bottle seated at the tray centre, its base at the tray frame's origin
+            carried = self.bottle.spatial_inertia()
+        else:
+            from qmt_drake.systems.payload import PayloadSpec
+            carried = PayloadSpec.for_scenario(self).spatial_inertia_about_origin()
         return _load_arm(self.urdf_path, self.hand_frame, str(self.source_path), carried_inertia=carried,
                          require_gear_ratio=not isinstance(self.actuator, IdealTorque))
 
@@ -210,7 +277,8 @@ class Scenario:
 
     @property
     def moment_per_accel_kgm(self) -> float:
-        """m_o * r_G: payload moment per unit tip acceleration."""
+        """m_o * r_G: payload moment per unit tip acceleration (tray: the bottle's tipping moment
+        about its base per unit horizontal tray acceleration, m h_G)."""
         return self.payload.mass_kg * self.payload.com_offset_m
 
     def __getstate__(self):
@@ -277,7 +345,7 @@ _SECTION_KEYS = {
     "arm": {"kind", "urdf", "hand_frame"},
     "payload": {"name", "mass_kg", "com_offset_m", "length_m", "body"},
     "task": {"points_m", "tool_angle_rad", "ik_branch"},
-    "limits": {"moment_limit_Nm", "motor_torque_limit_Nm"},
+    "limits": {"moment_limit_Nm", "motor_torque_limit_Nm", "joint_speed_fraction"},
     "family": {"kind", "genes"},
     "ga": {f.name for f in fields(GaSettings)},
     "sampling": {f.name for f in fields(Sampling)},
@@ -351,9 +419,33 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     task = _task(raw["task"], f"{where}: task")
 
     lim = raw["limits"]
-    limits = Limits(moment_limit_Nm=_num(lim, "moment_limit_Nm", f"{where}: limits", positive=True),
+    h = raw.get("hand")
+    if isinstance(h, dict) and h.get("kind") == "tray" and (payload.body is None or payload.body.shell_mass_kg <= 0):
+        raise QmtInputError(f"{where}: hand.kind 'tray' is not available for this payload: a tray carries a "
+                            "bottle; give payload.body kind 'bottle' (radius_m, height_m, shell_mass_kg)")
+    hand = _hand(h, f"{where}: hand")
+    tray = isinstance(hand, TrayHand)
+    if tray:
+        if lim.get("moment_limit_Nm") is not None:
+            raise QmtInputError(f"{where}: limits.moment_limit_Nm does not apply to a tray hand (its limits "
+                                "are no slide, no tip, no lift-off from hand.friction and hand.contact_radius_m); "
+                                "remove it")
+        # Not a planning limit here: the bottle's tipping moment m g r_c (with the planning margin),
+        # so that moment_limit / moment_per_accel = g r_c / h_G is the level tray's tipping
+        # acceleration, the starting acceleration scale of the Ruckig baseline.
+        moment = payload.mass_kg * 9.81 * hand.contact_radius_m * hand.plan_margin
+    else:
+        moment = _num(lim, "moment_limit_Nm", f"{where}: limits", positive=True)
+    speed = lim.get("joint_speed_fraction")
+    if speed is not None:
+        speed = _num(lim, "joint_speed_fraction", f"{where}: limits", positive=True)
+        if speed > 1:
+            raise QmtInputError(f"{where}: limits.joint_speed_fraction {speed} must lie in (0, 1] (a fraction of "
+                                "the URDF's joint velocity limits)")
+    limits = Limits(moment_limit_Nm=moment,
                     motor_torque_limit_Nm=_vector(lim, "motor_torque_limit_Nm", f"{where}: limits",
-                                                  positive=True, what="motor torque limits [N*m]"))
+                                                  positive=True, what="motor torque limits [N*m]"),
+                    joint_speed_fraction=speed)
     family = _family(raw["family"], f"{where}: family")
     ga = _ga(raw.get("ga") or {}, f"{where}: ga")
     sm = raw.get("sampling") or {}
@@ -386,9 +478,11 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         hand_frame=arm_spec.hand_frame, payload=payload, task=task, limits=limits, family=family,
         ga=ga, sampling=sampling, control=control, reported=reported,
         notes=tuple(notes), arm_spec=arm_spec,
-        hand=_hand(raw.get("hand"), f"{where}: hand"),
+        hand=hand,
         actuator=_actuator(raw.get("actuator"), limits, f"{where}: actuator"))
     _check_against_arm(sc, where)
+    if tray:
+        _check_tray(sc, where)
     return sc
 
 
@@ -437,14 +531,27 @@ def _payload(p: dict, where: str) -> Payload:
         blen = 2.0 * r_g
         rad = math.sqrt(mass / (STEEL_DENSITY_KG_M3 * math.pi * blen))
         body = PayloadBody(str(b.get("name", "steel part")), blen, rad, rad)
+    elif kind == "bottle":
+        # An unfixed bottle on a tray (seed 002): com_offset_m is its centre of mass above its base.
+        _check_keys(b, {"kind", "name", "radius_m", "height_m", "shell_mass_kg"}, bw)
+        height = _num(b, "height_m", bw, positive=True)
+        shell = _num(b, "shell_mass_kg", bw, positive=True)
+        if r_g >= height:
+            raise QmtInputError(f"{where}.com_offset_m {r_g} m (the bottle's centre of mass above its base) must "
+                                f"lie inside the bottle (below height_m {height} m)")
+        if shell > mass:
+            raise QmtInputError(f"{bw}.shell_mass_kg {shell} kg exceeds the bottle's mass {mass} kg")
+        body = PayloadBody(str(b.get("name", name)), height, _num(b, "radius_m", bw, positive=True),
+                           _num(b, "radius_m", bw, positive=True), shell)
     elif kind == "cylinder":
         _check_keys(b, {"kind", "name", "length_m", "radius_m", "face_radius_m"}, bw)
         body = PayloadBody(str(b.get("name", name)), _num(b, "length_m", bw, positive=True),
                            _num(b, "radius_m", bw, positive=True),
                            _num(b, "face_radius_m", bw, positive=True))
     else:
-        raise QmtInputError(f"{bw}.kind must be 'steel_cylinder' (sized from mass and r_G) or "
-                            f"'cylinder' (length_m, radius_m, face_radius_m), got {_show(kind)}")
+        raise QmtInputError(f"{bw}.kind must be 'steel_cylinder' (sized from mass and r_G), "
+                            f"'cylinder' (length_m, radius_m, face_radius_m) or 'bottle' (radius_m, height_m, "
+                            f"shell_mass_kg), got {_show(kind)}")
     return Payload(name=name, mass_kg=mass, com_offset_m=r_g, length_m=length, body=body)
 
 
@@ -529,9 +636,10 @@ def _hand(h, where: str) -> MagnetHand | None:
     if not isinstance(h, dict):
         raise QmtInputError(f"{where} must be a mapping with kind: magnet, got {_show(h)}")
     kind = h.get("kind", "magnet")
+    if kind == "tray":
+        return _tray_hand(h, where)
     if kind != "magnet":
-        raise QmtInputError(f"{where}.kind {_show(kind)} is not available; use 'magnet' "
-                            "(tray hands are not implemented yet)")
+        raise QmtInputError(f"{where}.kind {_show(kind)} is not available; use 'magnet' or 'tray'")
     _check_keys(h, _HAND_KEYS, where)
     from qmt_drake.systems.electromagnet import THESIS_COILS, CoilSpec
     c = _need(h, "coil", where)
@@ -571,17 +679,61 @@ def _hand(h, where: str) -> MagnetHand | None:
     return MagnetHand(coil=coil, coil_name=coil_name, slip_boundary_Nm=boundary, coil_current_A=current, **kw)
 
 
+_TRAY_KEYS = {f.name for f in fields(TrayHand)}
+
+
+def _tray_hand(h: dict, where: str) -> TrayHand:
+    _check_keys(h, _TRAY_KEYS, where)
+    d = TrayHand()
+    fr = h.get("friction", d.friction)
+    if not _is_number(fr) or not math.isfinite(fr) or fr <= 0:
+        raise QmtInputError(f"{where}.friction {_show(fr)} must be a positive number (the bottle-tray Coulomb "
+                            "coefficient; dry PET on plastic is about 0.2-0.5)")
+    kw = {k: _num(h, k, where, positive=True, default=getattr(d, k))
+          for k in ("contact_radius_m", "plan_margin", "tray_mass_kg")}
+    if kw["plan_margin"] > 1:
+        raise QmtInputError(f"{where}.plan_margin {kw['plan_margin']} must lie in (0, 1]; it scales friction and "
+                            "ring radius for planning")
+    kw["rest_tilt_rad"] = abs(_num(h, "rest_tilt_rad", where, default=d.rest_tilt_rad))
+    kw["n_contact_points"] = _int(h, "n_contact_points", where, minimum=3, default=d.n_contact_points)
+    return TrayHand(friction=float(fr), **kw)
+
+
+def _check_tray(sc: Scenario, where: str) -> None:
+    """The task's tray points inside the joint ranges (tray level: task.tool_angle_rad) and the
+    bottle standing at rest: one line each, before any planning."""
+    b = sc.payload.body
+    if sc.hand.contact_radius_m > b.radius_m:
+        raise QmtInputError(f"{where}: hand.contact_radius_m {sc.hand.contact_radius_m} m is wider than the bottle "
+                            f"(payload.body.radius_m {b.radius_m} m)")
+    bottle = sc.bottle
+    try:
+        bottle.check_rests(sc.hand.rest_tilt_rad)
+    except QmtInputError as exc:
+        raise QmtInputError(f"{where}: payload: {exc} (hand.rest_tilt_rad {sc.hand.rest_tilt_rad:.4g} rad; "
+                            f"tipping limit r_c / tan(tilt) = "
+                            f"{bottle.contact_radius_m / max(math.tan(sc.hand.rest_tilt_rad), 1e-300):.3g} m)") from None
+    for i, p in enumerate(sc.task.points_m):
+        try:
+            sc.arm.inverse_kinematics(p, sc.task.tool_angle_rad, sc.task.ik_branch, what=f"tray point {i + 1}")
+        except QmtInputError as exc:
+            raise QmtInputError(f"{where}: task.points_m[{i}] ({p[0]:g}, {p[1]:g}) m: {exc}") from None
+
+
 def _actuator(a, limits: Limits, where: str):
     if a is None:
         return None
     if not isinstance(a, dict):
-        raise QmtInputError(f"{where} must be a mapping with kind dc_motor_gear or ideal, got {_show(a)}")
+        raise QmtInputError(f"{where} must be a mapping with kind dc_motor_gear, ideal or dynamixel, got {_show(a)}")
     kind = a.get("kind")
+    if kind == "dynamixel":
+        return _dynamixel(a, where)
     if kind == "ideal":
         _check_keys(a, {"kind"}, where)
         return IdealTorque()
     if kind != "dc_motor_gear":
-        raise QmtInputError(f"{where}.kind must be 'dc_motor_gear' or 'ideal', got {_show(kind)}")
+        raise QmtInputError(f"{where}.kind must be 'dc_motor_gear' or 'ideal' (motor models) or 'dynamixel' "
+                            f"(position servos), got {_show(kind)}")
     _check_keys(a, {"kind", "motors", "efficiency"}, where)
     from qmt_drake.systems.dc_motor import HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, motor_for_rated_torque
     motors = a.get("motors", "by_rated_torque")
@@ -601,6 +753,28 @@ def _actuator(a, limits: Limits, where: str):
     return DcMotorGear(motors=tuple(motors), efficiency=eff)
 
 
+def _dynamixel(a: dict, where: str) -> DynamixelServos:
+    _check_keys(a, {"kind", "servos", "p", "i", "d", "control_period_s"}, where)
+    from qmt_drake.systems.dynamixel_servo import SERVO_CATALOG
+    servos = _need(a, "servos", where)
+    if not isinstance(servos, list) or not all(isinstance(x, str) for x in servos):
+        raise QmtInputError(f"{where}.servos must be a list of servo models ({', '.join(SERVO_CATALOG)}), "
+                            f"got {_show(servos)}")
+    for x in servos:
+        if x not in SERVO_CATALOG:
+            raise QmtInputError(f"{where}.servos: {x!r} is not one of {', '.join(SERVO_CATALOG)}")
+    gains = {}
+    for k in ("p", "i", "d"):
+        v = _vector(a, k, where, nonnegative=True, what="control-table gains, one per servo")
+        if np.any(v > 16383) or np.any(v != np.round(v)):
+            raise QmtInputError(f"{where}.{k} {v.tolist()} must be integers in the control table's range 0..16383")
+        if len(v) != len(servos):
+            raise QmtInputError(f"{where}.{k} has {len(v)} entries for {len(servos)} servos; give one per servo")
+        gains[k] = tuple(float(x) for x in v)
+    period = _num(a, "control_period_s", where, positive=True, default=1e-3)
+    return DynamixelServos(servos=tuple(servos), control_period_s=period, **gains)
+
+
 def _check_against_arm(sc: Scenario, where: str) -> None:
     """Lists that go one per joint must match the arm's joint count (loads the arm once)."""
     n = sc.arm.n_dof
@@ -608,6 +782,8 @@ def _check_against_arm(sc: Scenario, where: str) -> None:
     checks += [(f"control.{k}", v) for k, v in sc.control.items()]
     if isinstance(sc.actuator, DcMotorGear):
         checks.append(("actuator.motors", sc.actuator.motors))
+    if isinstance(sc.actuator, DynamixelServos):
+        checks.append(("actuator.servos", sc.actuator.servos))
     for key, v in checks:
         if len(v) != n:
             raise QmtInputError(f"{where}: {key} has {len(v)} entries but the arm "

@@ -4,6 +4,13 @@ The set computes the hand state of all samples once and stacks every term's colu
 those columns come the GA's feasibility (`BatchPeaks`), the re-check report of every plan
 (`limit_report`) and, through the terms' toppra rows, the TOPP-RA constraint.
 
+TOPP-RA (`toppra_constraint`): every term with a linear form gives w (affine in qdd, quadratic in
+qd) and rows F w <= g; one toppra SecondOrderConstraint stacks them (F block diagonal) and computes
+its parameters a, b, c for ALL grid points at once from three batched hand states (w at
+(qd, qdd) = (0, 0), (0, q'), (q', q'')), instead of toppra's default of three Python inverse-dynamics
+calls per grid point (`batched=False`, kept to measure the difference: studies/crane_tray.py
+`toppra_timing`).
+
 "Feasible" holds between the samples too: `limit_report` refines every sampled local maximum that
 comes near its column's peak or near the limit by a batched golden-section search on the
 trajectory itself (within the sample's piece, between its neighbours), so the reported peak is
@@ -25,6 +32,12 @@ JOINT_EXCESS_TOL_RAD = 1e-12
 REFINE_RELATIVE_MARGIN = 0.02  # refine local maxima within 2% of their column's sampled peak ...
 REFINE_NEAR_LIMIT = 0.98  # ... or above 98% of the limit (ratio columns) / within 0.02 rad (excess)
 GOLDEN_ITERATIONS = 60  # bracket of one sample step shrinks by 0.618^60 ~ 3e-13
+# A long plateau (the tray's slide ratio over a constant-acceleration phase) makes every sample a
+# "local maximum" within the margin (rounding bumps): thousands, each refined for 60 iterations.
+# Only the highest sampled ones per column are refined; between samples a maximum can gain only
+# O(step^2 f''), so a sample far down the list cannot overtake them. The report says how many
+# were refined and how many were skipped.
+REFINE_MAX_PER_COLUMN = 64
 
 
 class LimitSet:
@@ -41,8 +54,19 @@ class LimitSet:
 
     @classmethod
     def for_scenario(cls, scenario) -> "LimitSet":
-        """The thesis's limits: payload moment, motor torques, joint ranges."""
+        """The thesis's limits: payload moment, motor torques, joint ranges. A tray scenario
+        (seed 002): no slide, no tip, no lift-off of the bottle (limits/tray.py) instead of the
+        payload moment, plus joint speeds when limits.joint_speed_fraction is given."""
         arm = scenario.arm
+        if getattr(scenario, "is_tray", False):
+            from qmt_drake.limits.tray import JointSpeedTerm, tray_terms
+            terms = tray_terms(scenario.bottle, scenario.hand.plan_margin)
+            terms.append(MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm))
+            if scenario.limits.joint_speed_fraction is not None:
+                sheets = getattr(scenario.actuator, "datasheets", None)
+                v = [s.no_load_speed_rad_s for s in sheets()] if sheets else None
+                terms.append(JointSpeedTerm(arm, scenario.limits.joint_speed_fraction, v))
+            return cls(arm, terms + [JointRangeTerm(arm)])
         return cls(arm, [PayloadMomentTerm(arm, scenario.moment_per_accel_kgm, scenario.limits.moment_limit_Nm),
                          MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm),
                          JointRangeTerm(arm)])
@@ -59,6 +83,63 @@ class LimitSet:
     def columns(self, q, qd, qdd) -> np.ndarray:
         state = self.arm.hand_state(q, qd, qdd)
         return np.concatenate([t.columns(state) for t in self.terms], axis=1)
+
+    # ------------------------------------------------------------------ TOPP-RA
+    def toppra_rows(self, **row_options):
+        """(terms, F, g): the terms with a linear form and their stacked rows F w <= g (F block
+        diagonal in term order). row_options go to every term's toppra_rows."""
+        from scipy.linalg import block_diag
+        terms, blocks = [], []
+        for t in self.terms:
+            rows = t.toppra_rows(**row_options)
+            if rows is not None:
+                terms.append(t)
+                blocks.append(rows)
+        return terms, block_diag(*[b[0] for b in blocks]), np.concatenate([b[1] for b in blocks])
+
+    def toppra_w(self, terms, q, qd, qdd) -> np.ndarray:
+        """(S, k) the stacked w of `terms` at joint samples (S, n)."""
+        from qmt_drake.errors import QmtInputError
+        state = self.arm.hand_state(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd))
+        parts = [t.toppra_w(state) for t in terms]
+        if any(p is None for p in parts):
+            raise QmtInputError("TOPP-RA: a limit of this scenario has no linear form on this arm; use the GA or ruckig")
+        return np.concatenate(parts, axis=-1)
+
+    def toppra_constraint(self, *, batched: bool = True, **row_options):
+        """One toppra SecondOrderConstraint of every term with a linear form (module docstring).
+        batched=False leaves the parameters to toppra (three w calls per grid point)."""
+        from toppra.constraint import DiscretizationType, SecondOrderConstraint
+        from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
+
+        terms, F, g = self.toppra_rows(**row_options)
+
+        def w(q, qd, qdd):
+            return self.toppra_w(terms, q, qd, qdd)[0]
+
+        if not batched:
+            return SecondOrderConstraint(w, lambda q: F, lambda q: g, self.arm.n_dof,
+                                         discretization_scheme=DiscretizationType.Interpolation)
+        limit_set = self
+
+        class _Batched(SecondOrderConstraint):
+            def compute_constraint_params(self, path, gridpoints):
+                s = np.asarray(gridpoints, dtype=float)
+                q, qs, qss = path(s), path(s, 1), path(s, 2)
+                zero = np.zeros_like(q)
+                c = limit_set.toppra_w(terms, q, zero, zero)
+                a = limit_set.toppra_w(terms, q, zero, qs) - c
+                b = limit_set.toppra_w(terms, q, qs, qss) - c
+                # F and g are the same at every grid point: toppra then keeps one (k, m) matrix
+                # instead of an (N, k, m) stack (`identical`, as its own JointTorqueConstraint).
+                if self.discretization_type == DiscretizationType.Interpolation:
+                    return canlinear_colloc_to_interpolate(a, b, c, F, g, None, None, s, identical=True)
+                return a, b, c, F, g, None, None
+
+        constraint = _Batched(w, lambda q: F, lambda q: g, self.arm.n_dof,
+                              discretization_scheme=DiscretizationType.Interpolation)
+        constraint.identical = True
+        return constraint
 
     # ------------------------------------------------------------------ batched peaks (planners)
     def batch_peaks(self, motion_time_s, valid, peaks) -> "BatchPeaks":
@@ -95,6 +176,13 @@ class LimitSet:
         k, c = np.nonzero(wanted)
         if k.size == 0:
             return peak, t_peak, 0
+        counts = np.bincount(c, minlength=cols.shape[1])
+        if counts.max() > REFINE_MAX_PER_COLUMN:
+            order = np.lexsort((-cols[k, c], c))  # by column, highest sample first
+            k, c = k[order], c[order]
+            rank = np.arange(k.size) - np.searchsorted(c, c)  # position within its column
+            keep = rank < REFINE_MAX_PER_COLUMN
+            k, c = k[keep], c[keep]
         a, b = grid.t_s[prev[k]], grid.t_s[nxt[k]]
         tp = grid.t_piece_s[k]
         inv_phi = (np.sqrt(5.0) - 1.0) / 2.0

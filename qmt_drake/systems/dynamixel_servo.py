@@ -78,6 +78,10 @@ class ServoDatasheet:
     current_limit_A: float
 
     @property
+    def no_load_speed_rad_s(self) -> float:
+        return self.no_load_speed_rpm * RPM
+
+    @property
     def back_emf_V_s_per_rad(self) -> float:
         """Output-side back-EMF constant V / w0 [V*s/rad]."""
         return self.supply_voltage_V / (self.no_load_speed_rpm * RPM)
@@ -99,6 +103,7 @@ XM430_W350 = ServoDatasheet("XM430-W350", "ROBOTIS e-Manual XM430-W350 specifica
 # CRANE-X7: XM540-W270 on joints 1-2, XM430-W350 on joints 3-7 (effort limits 10 / 4 N m in the
 # maker's description); the planar arm uses joints 2, 4, 6.
 CRANE_X7_PLANAR_SERVOS = (XM540_W270, XM430_W350, XM430_W350)
+SERVO_CATALOG = {s.model: s for s in (XM540_W270, XM430_W350)}  # scenario actuator.servos names
 
 
 def motor_params(sheets, *, lossless_equivalent: bool = True) -> DcMotorParams:

@@ -16,13 +16,14 @@ Ratio columns (<= 1 feasible, for the GA and sampling checks): slide |F_t| / (mu
 |p_zmp| / r_c, lift 1 - F_n / (m g) (> 1 when the tray pulls).
 
 Linear form for TOPP-RA: the wrench w = (M_O, F) in T is linear in qdd and quadratic in qd on a
-fixed path; with the cone and the ring replaced by inscribed K-gons the limits are F w <= g with
-constant F (K + K + 1 rows) and g (`linear_form`). `toppra_constraint` wraps them as a toppra
-SecondOrderConstraint whose inverse dynamics is `contact_wrench` of `tray_kinematics`.
+fixed path; with the cone and the ring replaced by K-gons (`slide_rows`, `tip_rows`) the limits are
+F w <= g with constant F (K + K + 1 rows) and g (`linear_form`). The limits/ terms
+(qmt_drake/limits/tray.py) use these functions for the GA, the re-check and TOPP-RA.
 
-`tray_kinematics` is the ONE adapter to Drake (CalcJacobianSpatialVelocity,
-CalcBiasSpatialAcceleration on models/crane_x7_planar.urdf); the lead swaps it for the batched
-hand-state backend (qmt_drake/model/ hand_state).
+Kinematics: `kinematics_from_hand_state` reads the batched HandState of the planning arm (the
+project's planar backend; what the limits/ terms use). `tray_kinematics` computes the same with
+Drake's own algorithms sample by sample (CalcJacobianSpatialVelocity, CalcBiasSpatialAcceleration
+on models/crane_x7_planar.urdf): the independent reference for tests and the co-simulation checks.
 """
 
 from __future__ import annotations
@@ -103,84 +104,79 @@ def contact_wrench(kin: TrayKinematics, bottle: BottleSpec, gravity_W=GRAVITY_W)
     return np.concatenate([np.einsum("sij,sj->si", RT, M_O), np.einsum("sij,sj->si", RT, F_W)], axis=1)
 
 
-def tray_ratios(wrench: np.ndarray, bottle: BottleSpec) -> dict:
-    """Ratio columns (S,) each, <= 1 feasible: slide, tip, lift (module docstring)."""
+def slide_ratio(wrench: np.ndarray, friction: float) -> np.ndarray:
+    """|F_t| / (mu F_n) (S,): <= 1 while the bottle can stick; inf without normal force."""
+    w = np.atleast_2d(wrench)
+    fn, ft = w[:, 5], np.hypot(w[:, 3], w[:, 4])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = ft / (friction * fn) if friction > 0 else np.where(ft > 0, np.inf, 0.0)
+    return np.where(fn > 0, r, np.inf)
+
+
+def tip_ratio(wrench: np.ndarray, contact_radius_m: float) -> np.ndarray:
+    """|p_zmp| / r_c (S,): <= 1 while the centre of pressure is inside the base ring."""
     w = np.atleast_2d(wrench)
     fn = w[:, 5]
-    ft = np.hypot(w[:, 3], w[:, 4])
-    safe = np.where(fn > 0, fn, np.nan)
-    zmp = np.hypot(w[:, 0], w[:, 1]) / safe
-    mu = bottle.friction
-    slide = np.where(fn > 0, ft / (mu * safe) if mu > 0 else np.where(ft > 0, np.inf, 0.0), np.inf)
-    tip = np.where(fn > 0, zmp / bottle.contact_radius_m, np.inf)
-    lift = 1.0 - fn / (bottle.mass_kg * GRAVITY_M_S2)
-    return {"slide": slide, "tip": tip, "lift": lift}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.hypot(w[:, 0], w[:, 1]) / (fn * contact_radius_m)
+    return np.where(fn > 0, r, np.inf)
 
 
-def linear_form(bottle: BottleSpec, sides: int = 16, min_normal_force_N: float = 0.0):
-    """(F (2 sides + 1, 6), g) with F w <= g for w = (M_O, F) in the tray frame: inscribed polygons
-    of the friction cone (radius mu cos(pi/K) F_n) and of the ring (r_c cos(pi/K)), and F_n >= f_min."""
-    a = 2.0 * math.pi * np.arange(sides) / sides
-    c, s = np.cos(a), np.sin(a)
-    k = math.cos(math.pi / sides)
-    rows = []
-    for ci, si in zip(c, s):  # slide: d . F_t - mu k F_n <= 0
-        rows.append([0, 0, 0, ci, si, -bottle.friction * k])
-    for ci, si in zip(c, s):  # tip: d . p F_n = ci (-M_y) + si M_x <= r k F_n
-        rows.append([si, -ci, 0, 0, 0, -bottle.contact_radius_m * k])
-    rows.append([0, 0, 0, 0, 0, -1.0])  # lift: -F_n <= -f_min
-    F = np.array(rows, float)
-    g = np.zeros(len(rows))
+def lift_ratio(wrench: np.ndarray, mass_kg: float) -> np.ndarray:
+    """1 - F_n / (m g) (S,): <= 1 while the tray pushes (> 1 when it would have to pull)."""
+    return 1.0 - np.atleast_2d(wrench)[:, 5] / (mass_kg * GRAVITY_M_S2)
+
+
+def tray_ratios(wrench: np.ndarray, bottle: BottleSpec) -> dict:
+    """Ratio columns (S,) each, <= 1 feasible: slide, tip, lift (module docstring)."""
+    return {"slide": slide_ratio(wrench, bottle.friction), "tip": tip_ratio(wrench, bottle.contact_radius_m),
+            "lift": lift_ratio(wrench, bottle.mass_kg)}
+
+
+def _polygon(sides: int, inscribed: bool, vertex_on_x: bool):
+    """Unit normals (cos, sin) of a regular K-gon about the unit circle and its apothem factor:
+    inscribed (apothem cos(pi/K): never allows more than the circle) or circumscribed (1). With
+    vertex_on_x a vertex lies on +x (and, K even, on -x): exact for forces in the arm's plane."""
+    if sides < 3:
+        raise ValueError(f"polygon needs at least 3 sides, got {sides}")
+    a = 2.0 * math.pi * np.arange(sides) / sides + (math.pi / sides if vertex_on_x else 0.0)
+    return np.cos(a), np.sin(a), (math.cos(math.pi / sides) if inscribed else 1.0)
+
+
+def slide_rows(friction: float, sides: int = 16, inscribed: bool = True, vertex_on_x: bool = False) -> np.ndarray:
+    """(K, 3) rows R with R (F_x, F_y, F_n) <= 0: the friction cone as a K-sided pyramid."""
+    c, s, k = _polygon(sides, inscribed, vertex_on_x)
+    return np.stack([c, s, np.full(sides, -friction * k)], axis=1)
+
+
+def tip_rows(contact_radius_m: float, sides: int = 16, inscribed: bool = True, vertex_on_x: bool = False) -> np.ndarray:
+    """(K, 3) rows R with R (M_x, M_y, F_n) <= 0: the centre of pressure p = (-M_y, M_x) / F_n in a
+    K-gon of the ring (d . p F_n <= r_c k F_n)."""
+    c, s, k = _polygon(sides, inscribed, vertex_on_x)
+    return np.stack([s, -c, np.full(sides, -contact_radius_m * k)], axis=1)
+
+
+def linear_form(bottle: BottleSpec, sides: int = 16, min_normal_force_N: float = 0.0, *, inscribed: bool = True,
+                vertex_on_x: bool = False):
+    """(F (2 sides + 1, 6), g) with F w <= g for w = (M_O, F) in the tray frame: the polygons of
+    the friction cone (`slide_rows`) and of the ring (`tip_rows`), and F_n >= f_min."""
+    S = slide_rows(bottle.friction, sides, inscribed, vertex_on_x)
+    T = tip_rows(bottle.contact_radius_m, sides, inscribed, vertex_on_x)
+    F = np.zeros((2 * sides + 1, 6))
+    F[:sides, 3:6] = S
+    F[sides:2 * sides, [0, 1, 5]] = T
+    F[-1, 5] = -1.0
+    g = np.zeros(2 * sides + 1)
     g[-1] = -min_normal_force_N
     return F, g
 
 
-def toppra_constraint(bottle: BottleSpec, sides: int = 16, p_TG=None):
-    """toppra SecondOrderConstraint of the tray limits (the bottle seated at the tray centre)."""
-    import toppra.constraint as tc
-    p = np.array([0.0, 0.0, bottle.com_height_m]) if p_TG is None else np.asarray(p_TG, float)
-    F, g = linear_form(bottle, sides)
-
-    def inv_dyn(q, qd, qdd):
-        return contact_wrench(tray_kinematics(q, qd, qdd, p), bottle)[0]
-
-    return tc.SecondOrderConstraint(inv_dyn, lambda q: F, lambda q: g, dof=3,
-                                    discretization_scheme=tc.DiscretizationType.Interpolation)
-
-
-def _tray_constraint_class():
-    import toppra.constraint as tc
-    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
-
-    class TrayConstraint(tc.SecondOrderConstraint):
-        """SecondOrderConstraint whose a, b, c come from three batched `contact_wrench` calls
-        instead of 3 (gridpoints) Python calls of inv_dyn."""
-
-        def __init__(self, bottle: BottleSpec, sides: int, p_TG):
-            F, g = linear_form(bottle, sides)
-            self._bottle, self._p = bottle, p_TG
-            super().__init__(lambda q, qd, qdd: contact_wrench(tray_kinematics(q, qd, qdd, p_TG), bottle)[0],
-                             lambda q: F, lambda q: g, dof=3,
-                             discretization_scheme=tc.DiscretizationType.Interpolation)
-            self._F, self._g = F, g
-
-        def compute_constraint_params(self, path, gridpoints):
-            p, ps, pss = path(gridpoints), path(gridpoints, 1), path(gridpoints, 2)
-            z = np.zeros_like(p)
-            w = lambda qd, qdd: contact_wrench(tray_kinematics(p, qd, qdd, self._p), self._bottle)  # noqa: E731
-            c = w(z, z)
-            a = w(z, ps) - c
-            b = w(ps, pss) - c
-            n = len(gridpoints)
-            F = np.broadcast_to(self._F, (n, *self._F.shape)).copy()
-            g = np.broadcast_to(self._g, (n, len(self._g))).copy()
-            return canlinear_colloc_to_interpolate(a, b, c, F, g, None, None, gridpoints)
-
-    return TrayConstraint
-
-
-def tray_constraint(bottle: BottleSpec, sides: int = 16, p_TG=None):
-    """The tray limits as a (batched) toppra SecondOrderConstraint; same physics as
-    `toppra_constraint`, a and b from three batched kinematics passes."""
-    p = np.array([0.0, 0.0, bottle.com_height_m]) if p_TG is None else np.asarray(p_TG, float)
-    return _tray_constraint_class()(bottle, sides, p)
+def kinematics_from_hand_state(state, p_TG) -> TrayKinematics:
+    """TrayKinematics of the point G fixed in the hand (tray) frame at p_TG [m], from a batched
+    HandState (model/hand_state.py; the hand frame is the tray frame): rigid-body transport
+    a_G = a_O + al x r + w x (w x r), r = R_WT p_TG."""
+    R = state.rotation
+    r = np.einsum("sij,j->si", R, np.asarray(p_TG, float))
+    w, al = state.angular_velocity_rad_s, state.angular_acceleration_rad_s2
+    a_G = state.linear_acceleration_m_s2 + np.cross(al, r) + np.cross(w, np.cross(w, r))
+    return TrayKinematics(R, a_G, w, al)

@@ -105,41 +105,43 @@ def seed_motion(exponent: float, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_
 
 def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: int = SEED_WAYPOINTS,
                 margin: float = 0.8, speed_fraction: float = 0.8, settle_s: float = 1.0, tail_s: float = 1.5,
-                stream_period_s: float = 1e-3, time_scale: float = 1.0, geom: CraneGeometry = TABLE1):
+                stream_period_s: float = 1e-3, time_scale: float = 1.0, geom: CraneGeometry = TABLE1,
+                batched: bool = True, polygon_sides: int = 16):
     """The fastest time scaling of the seed's IK line that keeps the bottle (TOPP-RA).
 
-    Path: a cubic spline through the n + 1 IK waypoints (linear spacing) over s in [0, 1].
-    Constraints: the tray limits (conditions.py) with friction and ring radius scaled by `margin`
-    (the servos lag the plan, so the plan keeps room), and joint speeds within speed_fraction of
-    each servo's no-load speed. The plan is re-checked by sampling it at the stream period (also
-    between grid points) with the true mu and ring; the goal stream is that sampling (ZOH).
-    time_scale > 1 streams the same plan slowed down (q(t / time_scale)) for execution studies.
-    Returns (GoalSchedule, info dict) or (None, info) when TOPP-RA finds no parametrisation."""
+    Path: a cubic spline through the n + 1 IK waypoints (linear spacing) over s in [0, 1]; the grid
+    is the waypoints. Constraint: the crane-tray scenario's LimitSet for this bottle
+    (tray/planning.py: no slide, no tip, no lift-off with friction and ring radius x `margin` (the
+    servos lag the plan, so the plan keeps room), motor torques, joint speeds within
+    speed_fraction of each servo's no-load speed) as ONE toppra constraint
+    (LimitSet.toppra_constraint; batched=False: toppra's per-grid-point evaluation, for timing).
+    The plan is re-checked by sampling it at the stream period (also between grid points) with the
+    true mu and ring, through Drake's own kinematics (conditions.tray_kinematics); the goal stream
+    is that sampling (ZOH). time_scale > 1 streams the same plan slowed down (q(t / time_scale)).
+    Returns (GoalSchedule, info dict) or (None, info) when TOPP-RA finds no parametrisation;
+    info["solve_s"] is the TOPP-RA wall time (constraint parameters + solve + parametrisation)."""
     import time as _time
     import toppra as ta
     import toppra.algorithm as algo
-    import toppra.constraint as tc
-    from dataclasses import replace as _replace
 
-    from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
-    from qmt_drake.tray.conditions import contact_wrench, tray_constraint, tray_kinematics, tray_ratios
+    from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
+    from qmt_drake.tray.planning import tray_scenario
 
     if not 0 < margin <= 1:
         raise QmtInputError(f"planning margin {margin} must be in (0, 1]")
+    if not time_scale >= 1.0:
+        raise QmtInputError(f"time scale {time_scale} must be >= 1 (1 = the TOPP-RA timing)")
     _, theta = line_waypoints(start_xy, goal_xy, n, 1.0, geom)
     ss = np.linspace(0.0, 1.0, n + 1)
     path = ta.SplineInterpolator(ss, theta)
-    vmax = np.array([s.no_load_speed_rpm * RPM * speed_fraction for s in CRANE_X7_PLANAR_SERVOS])
-    plan_bottle = _replace(bottle, friction=bottle.friction * margin,
-                           contact_radius_m=bottle.contact_radius_m * margin)
+    ls = tray_scenario(bottle, margin, speed_fraction).limit_set
     t0 = _time.perf_counter()
-    instance = algo.TOPPRA([tc.JointVelocityConstraint(np.stack([-vmax, vmax], axis=1)),
-                            tray_constraint(plan_bottle)], path, gridpoints=ss,
-                           parametrizer="ParametrizeConstAccel")
+    constraint = ls.toppra_constraint(batched=batched, polygon_sides=polygon_sides)
+    instance = algo.TOPPRA([constraint], path, gridpoints=ss, parametrizer="ParametrizeConstAccel")
     traj = instance.compute_trajectory(0.0, 0.0)
     solve_s = _time.perf_counter() - t0
-    info = {"solve_s": solve_s, "margin": margin, "gridpoints": n + 1, "friction": bottle.friction,
-            "com_height_m": bottle.com_height_m}
+    info = {"solve_s": solve_s, "batched": batched, "margin": margin, "gridpoints": n + 1,
+            "friction": bottle.friction, "com_height_m": bottle.com_height_m}
     if traj is None:
         info["feasible"] = False
         return None, info
@@ -149,7 +151,9 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     q, qd, qdd = traj(t), traj(t, 1), traj(t, 2)
     info["planned_duration_s"] = T
     r = tray_ratios(contact_wrench(tray_kinematics(q, qd, qdd, [0, 0, bottle.com_height_m]), bottle), bottle)
+    from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
     from qmt_drake.tray.crane_ik import tray_fk
+    vmax = np.array([s.no_load_speed_rad_s * speed_fraction for s in CRANE_X7_PLANAR_SERVOS])
     fk = np.array([tray_fk(x, geom) for x in q])
     a, b = np.asarray(start_xy, float), np.asarray(goal_xy, float)
     d = b - a
@@ -158,8 +162,6 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
                 max_tip_ratio=float(np.max(r["tip"])), max_lift_ratio=float(np.max(r["lift"])),
                 max_speed_ratio=float(np.max(np.abs(qd) / vmax)), max_off_line_m=float(np.max(off_line)),
                 max_tray_tilt_rad=float(np.max(np.abs(fk[:, 2]))))
-    if not time_scale >= 1.0:
-        raise QmtInputError(f"time scale {time_scale} must be >= 1 (1 = the TOPP-RA timing)")
     Ts = T * time_scale
     ts = np.arange(0.0, Ts + 0.5 * stream_period_s, stream_period_s)
     ts[-1] = min(ts[-1], Ts)
