@@ -20,11 +20,14 @@ CAMERA_IN_WORLD_M = np.array([0.0, -0.42, 0.38])
 CAMERA_TARGET_IN_WORLD_M = np.array([0.0, 0.10, -0.03])
 
 
-def make_headless_meshcat() -> Meshcat:
-    """A Meshcat server on localhost with an OS-chosen port (no clashes in CI), its camera on
-    the arm's work area."""
+def make_headless_meshcat(camera_in_world_m=None, target_in_world_m=None) -> Meshcat:
+    """A Meshcat server on localhost with an OS-chosen port (no clashes in CI), its camera at
+    camera_in_world_m [m] looking at target_in_world_m [m] (default: the thesis arms' work area;
+    e.g. the CRANE-X7 tray study looks at its vertical plane from the side)."""
     meshcat = Meshcat(MeshcatParams(host="localhost", port=0))
-    meshcat.SetCameraPose(CAMERA_IN_WORLD_M, CAMERA_TARGET_IN_WORLD_M)
+    meshcat.SetCameraPose(np.asarray(CAMERA_IN_WORLD_M if camera_in_world_m is None else camera_in_world_m, float),
+                          np.asarray(CAMERA_TARGET_IN_WORLD_M if target_in_world_m is None else target_in_world_m,
+                                     float))
     return meshcat
 
 

@@ -57,6 +57,8 @@ LIFT_FORCE_N = 1e-6
 # The first samples see the bottle's feet just touching (zero force) while the contact takes up
 # its weight: statistics start after this seating time.
 SEATING_S = 0.2
+# Recordings look at the arm's vertical plane (x-z) from the side, at the tray line's height.
+RECORDING_CAMERA_M = ((0.25, -0.9, 0.55), (0.25, 0.0, 0.4))  # (camera, target) in world [m]
 
 
 @dataclass
@@ -257,8 +259,7 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     meshcat = None
     if recording_path is not None:
         from qmt_drake.sim.recording import make_headless_meshcat
-        meshcat = make_headless_meshcat()
-        meshcat.SetCameraPose(np.array([0.25, -0.9, 0.55]), np.array([0.25, 0.0, 0.4]))
+        meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
                             meshcat=meshcat, bottle_offset_xy=bottle_offset_xy)
     sim = Simulator(td.diagram)

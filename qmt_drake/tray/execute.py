@@ -1,0 +1,62 @@
+"""Execute a plan of a tray scenario through the CRANE-X7 servos with the bottle free on the tray.
+
+`plan_schedule(plan)` streams the plan's joint positions to the servos as goal positions every
+servo period (zero-order hold, as the seed streams its waypoints), after a settle phase at the
+start and followed by a tail at the goal; `simulate_tray_plan(scenario, plan)` runs the tray
+co-simulation (tray/cosim.py) with the scenario's bottle, servo gains and servo period and returns
+the summary the shared CLI prints (`held`, `max_slip_m`, `max_tracking_error_rad`,
+`real_time_factor`) plus the tray outcome (carried / slid_off / tipped), slip vs creep, tilt and
+lift-off time.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.tray.waypoints import GoalSchedule, _stream
+
+SETTLE_S = 1.0
+TAIL_S = 1.5
+
+
+def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, settle_s: float = SETTLE_S,
+                  tail_s: float = TAIL_S) -> GoalSchedule:
+    """Goal stream of `plan` played time_scale times slower, one goal per period_s [s]."""
+    if not (np.isfinite(time_scale) and time_scale > 0):
+        raise QmtInputError(f"time scale {time_scale} must be a positive number")
+    T = float(plan.motion_time_s) * time_scale
+    t = np.arange(0.0, T + 0.5 * period_s, period_s)
+    t[-1] = min(t[-1], T)
+    q = plan.sample(t / time_scale)[0]
+    return _stream(q, t, settle_s, tail_s, f"{plan.method} x{time_scale:g}")
+
+
+def check_tray_simulation(scenario) -> None:
+    """One-line QmtInputError unless the tray co-simulation models this scenario's hardware."""
+    from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
+    from qmt_drake.tray.cosim import URDF_PATH
+    if scenario.urdf_path.resolve() != URDF_PATH.resolve():
+        raise QmtInputError(f"{scenario.source_path}: the tray co-simulation models {URDF_PATH.name} only, "
+                            f"not {scenario.urdf_path.name}")
+    act = scenario.actuator
+    if getattr(act, "kind", None) != "dynamixel" or act.datasheets() != CRANE_X7_PLANAR_SERVOS:
+        raise QmtInputError(f"{scenario.source_path}: the tray co-simulation needs actuator kind 'dynamixel' with "
+                            "servos [XM540-W270, XM430-W350, XM430-W350] (the CRANE-X7's)")
+
+
+def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
+                       time_step_s: float | None = None) -> dict:
+    from qmt_drake.tray.cosim import TIME_STEP_S, simulate_tray
+    check_tray_simulation(scenario)
+    act = scenario.actuator
+    sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s)
+    r = simulate_tray(sched, act.gains(), scenario.bottle, time_step_s=time_step_s or TIME_STEP_S,
+                      servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path)
+    d = r.summary_dict()
+    d.update(held=bool(r.outcome == "carried" and not r.slipped), max_slip_m=float(r.slip_m),
+             max_tracking_error_rad=float(np.max(r.max_tracking_error_rad)),
+             per_joint_tracking_error_rad=[float(x) for x in r.max_tracking_error_rad],
+             motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),
+             method=plan.method, plan_feasible=bool(plan.feasible))
+    return d
