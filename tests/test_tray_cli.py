@@ -1,0 +1,91 @@
+"""The crane-tray scenario through the shared CLI (`qmt-drake plan|simulate crane-tray ...`): bad tray
+inputs give one line and exit 2 before any planning, a plan that cannot carry the bottle gives
+`feasible: false` and exit 3, a carried plan runs through the servos."""
+
+import json
+
+import pytest
+import yaml
+
+from qmt_drake.apps.cli import main
+from qmt_drake.config.scenario import SCENARIO_DIR
+
+
+def _yaml(tmp_path, **changes):
+    raw = yaml.safe_load((SCENARIO_DIR / "crane-tray.yaml").read_text())
+    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
+    for key, value in changes.items():
+        d = raw
+        *path, last = key.split("__")
+        for p in path:
+            d = d[p]
+        d[last] = value
+    p = tmp_path / "tray.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    return str(p)
+
+
+def _run(capsys, *argv):
+    rc = main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+@pytest.mark.parametrize("changes, needle", [
+    # a tray point outside the joint ranges (reachable, but the shoulder would need 159 deg)
+    ({"task__points_m": [[0.04, 0.4], [0.3, 0.05]]}, "task.points_m[1] (0.3, 0.05) m"),
+    # a bottle taller than the tipping limit allows at rest (tray tilted 0.0168 rad: 1.73 m)
+    ({"payload__com_offset_m": 2.0, "payload__body__height_m": 2.5}, "tips over at rest"),
+    # ... or a shorter one on a tray resting 0.2 rad off level (limit 0.143 m)
+    ({"payload__com_offset_m": 0.16, "hand__rest_tilt_rad": 0.2}, "tips over at rest"),
+    ({"hand__friction": -0.3}, "hand.friction -0.3 must be a positive number"),
+    ({"hand__friction": 0.0}, "hand.friction 0.0 must be a positive number"),
+    ({"payload__com_offset_m": 0.3}, "must lie inside the bottle"),
+    ({"hand__plan_margin": 1.5}, "plan_margin 1.5 must lie in (0, 1]"),
+    ({"limits__moment_limit_Nm": 0.01}, "does not apply to a tray hand"),
+    ({"actuator__servos": ["XM540-W270", "XM999"]}, "'XM999' is not one of"),
+    ({"actuator__p": [1000, 1040]}, "actuator.p has 2 entries for 3 servos"),
+])
+@pytest.mark.parametrize("method", ["toppra", "ga"])
+def test_bad_tray_input_is_one_line_exit_2(tmp_path, capsys, changes, needle, method):
+    rc, out, err = _run(capsys, "plan", _yaml(tmp_path, **changes), "--method", method, "--quiet")
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0] and "Traceback" not in err
+
+
+def test_a_plan_that_cannot_carry_the_bottle_is_infeasible_exit_3(tmp_path, capsys):
+    # mu = 0.0005 on a level tray: the gentlest carried line takes 2 sqrt(L / (0.8 mu g)) = 19 s,
+    # longer than the family's slowest motion (15 s): no plan carries it.
+    path = _yaml(tmp_path, hand__friction=0.0005, hand__rest_tilt_rad=0.0)
+    out_json = tmp_path / "plan.json"
+    rc, out, err = _run(capsys, "plan", path, "--method", "toppra", "--json", str(out_json), "--quiet")
+    assert rc == 3
+    d = json.loads(out_json.read_text())
+    assert d["feasible"] is False and "longer than the slowest allowed motion" in d["extra"]["infeasible"]
+    assert d["extra"]["found_motion_time_s"] == pytest.approx(2 * (0.36 / (0.8 * 0.0005 * 9.81)) ** 0.5, rel=0.01)
+    # the seed's 5 s line breaks the slide limit there: feasible false, exit 3, its peaks reported
+    rc, out, err = _run(capsys, "plan", path, "--method", "thesis", "--json", str(out_json), "--quiet")
+    assert rc == 3
+    d = json.loads(out_json.read_text())
+    assert d["feasible"] is False and d["extra"]["peak_ratios"]["tray_slide"] > 1
+
+
+def test_plan_and_simulate_crane_tray_through_the_cli(tmp_path, capsys):
+    rc, out, err = _run(capsys, "plan", "crane-tray", "--method", "ruckig", "--json", "-", "--quiet")
+    assert rc == 0
+    d = json.loads(out)
+    assert d["feasible"] and set(d["extra"]["peak_ratios"]) >= {"tray_slide", "tray_tip", "tray_lift"}
+    # the seed's 5 s move (family member T0 = 5 s) through the servos: carried
+    res = tmp_path / "sim.json"
+    rc, out, err = _run(capsys, "simulate", "crane-tray", "--method", "thesis", "--json", str(res), "--quiet")
+    assert rc == 0
+    r = json.loads(res.read_text())
+    assert r["held"] and r["outcome"] == "carried" and r["max_slip_m"] < 1e-3
+    assert r["motion_time_s"] == pytest.approx(5.0) and r["real_time_factor"] > 0
+    assert "held (carried)" in out
+
+
+def test_dc_motor_options_are_refused_for_the_tray(capsys):
+    rc, out, err = _run(capsys, "simulate", "crane-tray", "--method", "thesis", "--explicit", "--quiet")
+    assert rc == 2 and "drop them" in err
