@@ -710,9 +710,8 @@ def _check_tray(sc: Scenario, where: str) -> None:
     try:
         bottle.check_rests(sc.hand.rest_tilt_rad)
     except QmtInputError as exc:
-        raise QmtInputError(f"{where}: payload: {exc} (hand.rest_tilt_rad {sc.hand.rest_tilt_rad:.4g} rad; "
-                            f"tipping limit r_c / tan(tilt) = "
-                            f"{bottle.contact_radius_m / max(math.tan(sc.hand.rest_tilt_rad), 1e-300):.3g} m)") from None
+        raise QmtInputError(f"{where}: payload: {exc} (the tray at rest: hand.rest_tilt_rad "
+                            f"{sc.hand.rest_tilt_rad:.4g} rad)") from None
     for i, p in enumerate(sc.task.points_m):
         try:
             sc.arm.inverse_kinematics(p, sc.task.tool_angle_rad, sc.task.ik_branch, what=f"tray point {i + 1}")
