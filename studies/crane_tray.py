@@ -46,6 +46,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -197,6 +198,11 @@ def carried_ok(r) -> bool:
     return r.outcome == "carried" and not r.slipped
 
 
+def fill_bottle(water_kg: float, mu: float) -> BottleSpec:
+    """The assumed PET bottle (20 g shell) with `water_kg` of water: fill sets mass and COM height."""
+    return BottleSpec.pet_500ml(mass_kg=0.020 + water_kg, friction=mu)
+
+
 def fastest_executed(make, bottle, k_hi: float = 8.0, iters: int = 4) -> dict:
     """Smallest time scale k (geometric bisection on [1, k_hi]) at which the streamed plan make(k),
     executed through the servos (seed's retuned PID), carries the bottle without slip."""
@@ -204,7 +210,7 @@ def fastest_executed(make, bottle, k_hi: float = 8.0, iters: int = 4) -> dict:
 
     def ok(k):
         sched, info = make(k)
-        r = simulate_tray(sched, SEED_GAINS_AFTER, bottle)
+        r = simulate_tray(sched, SEED_GAINS_AFTER, bottle, keep_series=False)
         runs.append({"time_scale": k, "duration_s": info["duration_s"], "outcome": r.outcome, "slip_m": r.slip_m,
                      "creep_m": r.creep_m, "rtf": r.real_time_factor})
         return carried_ok(r), info["duration_s"]
@@ -226,48 +232,177 @@ def fastest_executed(make, bottle, k_hi: float = 8.0, iters: int = 4) -> dict:
     return {"duration_s": d_best, "time_scale": hi, "time_scale_failing": lo, "runs": runs}
 
 
-def qmt_section(quick: bool) -> dict:
-    mus = (0.3,) if quick else (0.2, 0.3, 0.4, 0.6)
-    coms = (0.044, 0.08)
-    out = {"cases": []}
-    for h in coms:
-        for mu in mus if h == coms[0] else (0.3,):
-            bottle = BottleSpec.pet_500ml(friction=mu).with_com_height(h)
-            sched, info = toppra_line(bottle)
-            case = {"friction": mu, "com_height_m": h, "toppra": info}
-            if sched is not None:
-                case["toppra_executed"] = fastest_executed(lambda k: toppra_line(bottle, time_scale=k), bottle)
-            seed = run("after", mu=mu, com_height=h)
-            case["seed_eased_5s"] = {"outcome": seed.outcome, "slip_m": seed.slip_m, "move_s": 5.0}
-            if h == coms[0] and mu == 0.3:
-                case["ruckig_executed"] = fastest_executed(
-                    lambda k: ruckig_line(bottle, jerk_m_s3=5.0, time_scale=k), bottle)
-            out["cases"].append(case)
-            print("qmt", mu, h, {k: (v.get("duration_s") if isinstance(v, dict) else v) for k, v in case.items()})
+def _plan_summary(plan) -> dict:
+    return {"method": plan.method, "feasible": plan.feasible, "planned_duration_s": plan.motion_time_s,
+            "recheck_rate_hz": plan.check.rate_hz, "peak_ratios": dict(plan.check.peak_ratios),
+            "planner_wall_s": plan.planner_wall_s, "genes": plan.genes}
+
+
+def _plan_maker(plan):
+    from qmt_drake.tray.execute import plan_schedule
+    return lambda k: (plan_schedule(plan, time_scale=k, settle_s=SETTLE_S),
+                      {"duration_s": plan.motion_time_s * k})
+
+
+def qmt_section(quick: bool, jerk_m_s3: float = 5.0, ga_seed: int = 0) -> dict:
+    """Fastest carried straight-line transfer at the default bottle (mu 0.3, 30 g water): TOPP-RA on
+    the 1000-waypoint IK line, the GA over the thesis's line family and Ruckig with a jerk limit, all
+    with the tray terms (plan margin 0.8, re-checked by sampling), each executed through the servos
+    at the fastest time scaling that carries the bottle; against the seed's 5 s eased line."""
+    from qmt_drake.planners import plan_with
+    from qmt_drake.tray.planning import tray_scenario
+    bottle = fill_bottle(0.030, 0.3)
+    sc = tray_scenario(bottle)
+    out = {"friction": 0.3, "com_height_m": bottle.com_height_m, "plan_margin": sc.hand.plan_margin, "methods": {}}
+    k_iters = 3 if quick else 5
+    sched, info = toppra_line(bottle)
+    out["methods"]["toppra"] = {"plan": info, "executed": fastest_executed(
+        lambda k: toppra_line(bottle, time_scale=k), bottle, iters=k_iters)}
+    print("qmt toppra", info["duration_s"], out["methods"]["toppra"]["executed"]["duration_s"], flush=True)
+    for method, kw in (("ruckig", {"jerk_limit": jerk_m_s3}),
+                       ("ga", {"max_generations": 60, "stall_generations": 20} if quick else {})):
+        plan = plan_with(method, sc, seed=ga_seed, **kw)
+        entry = {"plan": _plan_summary(plan) | kw}
+        if method == "ga":
+            entry["plan"].update(generations=plan.generations, evaluations=plan.evaluations,
+                                 family_optimum_s=math.sqrt(1.5) * 2 * math.sqrt(
+                                     0.36 / (sc.hand.plan_margin * bottle.friction * 9.81)))
+        entry["executed"] = fastest_executed(_plan_maker(plan), bottle, iters=k_iters)
+        out["methods"][method] = entry
+        print("qmt", method, plan.motion_time_s, entry["executed"]["duration_s"], flush=True)
+    seed = run("after", mu=0.3)
+    out["methods"]["seed_eased_5s"] = {"executed": {"duration_s": 5.0, "outcome": seed.outcome,
+                                                    "slip_m": seed.slip_m, "carried": carried_ok(seed),
+                                                    "rtf": seed.real_time_factor}}
     return out
 
 
 def plot_qmt(q: dict, path: Path) -> None:
-    cases = [c for c in q["cases"] if abs(c["com_height_m"] - 0.044) < 1e-9]
-    mus = [c["friction"] for c in cases]
-    fig, ax = plt.subplots(figsize=(7, 4))
-    ax.plot(mus, [c["toppra"].get("duration_s", np.nan) for c in cases], "-o", label="TOPP-RA plan (tray limits x0.8)")
-    ax.plot(mus, [c.get("toppra_executed", {}).get("duration_s") or np.nan for c in cases], "-s",
-            label="fastest TOPP-RA time scaling carried through the servos")
-    rk = [c for c in cases if "ruckig_executed" in c]
-    if rk:
-        ax.plot([c["friction"] for c in rk], [c["ruckig_executed"].get("duration_s") or np.nan for c in rk], "^",
-                ms=9, label="fastest Ruckig (jerk 5 m/s^3) carried")
+    names = {"toppra": "TOPP-RA (1000-waypoint line)", "ga": "GA (line family)", "ruckig": "Ruckig (jerk 5 m/s^3)",
+             "seed_eased_5s": "seed: 5 s eased line"}
+    fig, ax = plt.subplots(figsize=(8, 4))
+    y = np.arange(len(names))
+    for i, (k, label) in enumerate(names.items()):
+        m = q["methods"].get(k)
+        if m is None:
+            continue
+        planned = m.get("plan", {}).get("duration_s", m.get("plan", {}).get("planned_duration_s"))
+        done = m["executed"].get("duration_s")
+        if planned is not None:
+            ax.barh(i + 0.2, planned, 0.38, color="C0", label="planned (tray limits x0.8, re-checked)" if i == 0 else None)
+            ax.text(planned, i + 0.2, f" {planned:.2f} s", va="center", fontsize=8)
+        if done is not None:
+            ax.barh(i - 0.2, done, 0.38, color="C2", label="fastest carried through the servos" if i == 0 else None)
+            ax.text(done, i - 0.2, f" {done:.2f} s", va="center", fontsize=8)
+    ax.set_yticks(y, list(names.values()), fontsize=8)
+    ax.set_xlabel("start-to-goal time [s]")
+    ax.set_xlim(0, 7.0)
+    ax.grid(alpha=0.3, axis="x")
+    ax.legend(fontsize=8, loc="center right")
+    ax.set_title(f"Fastest carried tray transfer, 0.36 m line, mu {q['friction']}, bottle COM "
+                 f"{1e3 * q['com_height_m']:.0f} mm", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+SWEEP_MUS = (0.2, 0.3, 0.4, 0.5, 0.6)
+SWEEP_WATER_KG = (0.030, 0.150, 0.300)  # 30 g: the seed's 50 g bottle
+
+
+def sweep_section(quick: bool) -> dict:
+    """Success over friction x fill: (a) the nominal fastest carried transfer (TOPP-RA at mu 0.3, 30 g
+    water, at its fastest carried time scale) executed unchanged on every bottle; (b) per bottle the
+    fastest carried TOPP-RA transfer (planned for that bottle, time scale searched)."""
+    mus = (0.2, 0.4, 0.6) if quick else SWEEP_MUS
+    waters = SWEEP_WATER_KG
+    nominal = fill_bottle(0.030, 0.3)
+    best = fastest_executed(lambda k: toppra_line(nominal, time_scale=k), nominal, iters=3 if quick else 5)
+    k_nom = best["time_scale"]
+    nominal_sched, nominal_info = toppra_line(nominal, time_scale=k_nom)
+    out = {"mu": list(mus), "water_kg": list(waters), "nominal": {"time_scale": k_nom,
+                                                                  "duration_s": nominal_info["duration_s"]},
+           "cells": []}
+    for w in waters:
+        for mu in mus:
+            b = fill_bottle(w, mu)
+            r = simulate_tray(nominal_sched, SEED_GAINS_AFTER, b, keep_series=False)
+            cell = {"mu": mu, "water_kg": w, "mass_kg": b.mass_kg, "com_height_m": b.com_height_m,
+                    "nominal_plan": {"outcome": r.outcome, "slip_m": r.slip_m, "carried": carried_ok(r),
+                                     "max_tilt_rad": r.max_tilt_rad}}
+            _, info = toppra_line(b)
+            cell["toppra_plan_s"] = info.get("duration_s")
+            cell["binding"] = ("tip" if info.get("max_tip_ratio", 0) > info.get("max_slide_ratio", 0) else "slide")
+            cell["fastest"] = fastest_executed(lambda k, b=b: toppra_line(b, time_scale=k), b, iters=3)
+            out["cells"].append(cell)
+            print("sweep", w, mu, cell["nominal_plan"]["outcome"], cell["toppra_plan_s"],
+                  cell["fastest"]["duration_s"], flush=True)
+    return out
+
+
+def plot_sweep(sw: dict, path: Path) -> None:
+    mus, waters = sw["mu"], sw["water_kg"]
+    cells = {(c["water_kg"], c["mu"]): c for c in sw["cells"]}
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.4))
+    ax = axes[0]
+    img = np.array([[1.0 if cells[(w, m)]["nominal_plan"]["carried"] else 0.0 for m in mus] for w in waters])
+    ax.imshow(img, cmap="RdYlGn", vmin=0, vmax=1, aspect="auto", origin="lower")
+    for i, w in enumerate(waters):
+        for j, m in enumerate(mus):
+            c = cells[(w, m)]["nominal_plan"]
+            ax.text(j, i, f"{c['outcome']}\nslip {1e3 * c['slip_m']:.1f} mm", ha="center", va="center", fontsize=7)
+    ax.set_xticks(range(len(mus)), [f"{m:g}" for m in mus])
+    ax.set_yticks(range(len(waters)), [f"{1e3 * w:.0f} g water\nCOM {1e3 * cells[(w, mus[0])]['com_height_m']:.0f} mm"
+                                       for w in waters], fontsize=8)
+    ax.set_xlabel("friction coefficient mu")
+    ax.set_title(f"nominal fastest carried transfer ({sw['nominal']['duration_s']:.2f} s, planned for mu 0.3, 30 g)\n"
+                 "executed unchanged on each bottle", fontsize=9)
+    ax = axes[1]
+    for w in waters:
+        d = [cells[(w, m)]["fastest"]["duration_s"] or np.nan for m in mus]
+        p = [cells[(w, m)]["toppra_plan_s"] or np.nan for m in mus]
+        line, = ax.plot(mus, d, "-o", label=f"{1e3 * w:.0f} g water: fastest carried (servos)")
+        ax.plot(mus, p, ":", color=line.get_color(), label=f"{1e3 * w:.0f} g water: TOPP-RA plan (x0.8 limits)")
     ax.axhline(5.0, color="k", ls="--", lw=0.8, label="seed: 5 s eased line")
     ax.set_xlabel("friction coefficient mu")
     ax.set_ylabel("start-to-goal time [s]")
     ax.set_yscale("log")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
-    ax.set_title("Fastest straight-line tray transfer (0.36 m), bottle COM 44 mm", fontsize=9)
+    ax.set_title("fastest carried TOPP-RA transfer planned for each bottle", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def timing_section(repeats: int = 7) -> dict:
+    """TOPP-RA solve time with the tray limits on the 1000-waypoint line, constraint parameters
+    batched (LimitSet.toppra_constraint) vs toppra's per-grid-point evaluation, interleaved in one
+    run (the machine's load hits both alike); and the tray co-simulation's real-time factor."""
+    bottle = fill_bottle(0.030, 0.3)
+    toppra_line(bottle)  # warm-up: imports, scenario load
+    t = {True: [], False: []}
+    cpu = {True: [], False: []}
+    dur = {}
+    for _ in range(repeats):
+        for batched in (True, False):
+            _, info = toppra_line(bottle, batched=batched)
+            t[batched].append(info["solve_s"])
+            cpu[batched].append(info["solve_cpu_s"])
+            dur[batched] = info["planned_duration_s"]
+    seed = run("after", mu=0.3)
+    return {"gridpoints": 1001, "repeats": repeats,
+            "batched_s": {"min": min(t[True]), "median": float(np.median(t[True])), "all": t[True]},
+            "per_gridpoint_s": {"min": min(t[False]), "median": float(np.median(t[False])), "all": t[False]},
+            "batched_cpu_s": {"min": min(cpu[True]), "median": float(np.median(cpu[True]))},
+            "per_gridpoint_cpu_s": {"min": min(cpu[False]), "median": float(np.median(cpu[False]))},
+            "speedup_min": min(t[False]) / min(t[True]),
+            "load_average_1min": os.getloadavg()[0],
+            "planned_duration_s": {"batched": dur[True], "per_gridpoint": dur[False]},
+            "last_session_s": "0.17-0.21 (tray_constraint: Drake kinematics per sample, batched parameters)",
+            "cosim": {"time_step_s": seed.time_step_s, "servo_period_s": seed.servo_period_s,
+                      "sim_time_s": seed.sim_time_s, "wall_s": seed.sim_wall_s,
+                      "real_time_factor": seed.real_time_factor, "run": "seed eased 5 s line, PID, mu 0.3"}}
 
 
 def plan_command(argv) -> int:
@@ -304,8 +439,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer sweep points")
     ap.add_argument("--no-recordings", action="store_true")
-    ap.add_argument("--sections", default="pair,req,friction,fill,rec,qmt",
-                    help="comma list of: pair, req, friction, fill, rec, qmt")
+    ap.add_argument("--sections", default="pair,req,friction,fill,rec,qmt,sweep,timing",
+                    help="comma list of: pair, req, friction, fill, rec, qmt, sweep, timing")
     ap.add_argument("--rec-mu", type=float, default=0.3, help="friction of the recordings when the sweep is not run")
     ap.add_argument("--out", default=str(OUT), help="output folder (default out/crane_tray)")
     args = ap.parse_args(argv)
@@ -408,6 +543,14 @@ def main(argv=None) -> int:
         q = qmt_section(args.quick)
         _json(OUT / "qmt.json", q)
         plot_qmt(q, OUT / "qmt.png")
+    if "sweep" in sections:
+        sw = sweep_section(args.quick)
+        _json(OUT / "sweep.json", sw)
+        plot_sweep(sw, OUT / "sweep.png")
+    if "timing" in sections:
+        tm = timing_section(3 if args.quick else 7)
+        _json(OUT / "toppra_timing.json", tm)
+        print("timing", tm["batched_s"]["min"], tm["per_gridpoint_s"]["min"], tm["cosim"]["real_time_factor"])
     print(f"done in {time.perf_counter() - t0:.0f} s -> {OUT}")
     return 0
 

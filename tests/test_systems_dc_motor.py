@@ -143,3 +143,55 @@ def test_applied_signals_invert_the_motor_model():
         v_f, i_f, tau_m_f, p_f = motor_signals_from_joint_torque(p, out["joint_torque"], qd)
         np.testing.assert_allclose(v_f, v, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(p_f, out["electrical_power"], rtol=1e-9, atol=1e-15)
+
+
+def _holding_torque(p, qd):
+    """Joint torque of a motor at a fixed positive voltage (holding a load up) at joint speed qd."""
+    return _outputs(DcMotorWithGear(p), np.array([1.0, 1.0]), np.array([qd, qd]))["joint_torque"][0]
+
+
+def test_switched_gain_jumps_by_one_over_eta_when_a_held_load_dithers():
+    # The default (switched) model: the same motor torque gives N eta Kt i when the joint creeps
+    # forward and N Kt i when it creeps back: a jump of 1/eta across qd = 0.
+    p = _params(efficiency=0.7)
+    eps = 1e-9
+    up, down = _holding_torque(p, eps), _holding_torque(p, -eps)
+    assert down / up == pytest.approx(1 / 0.7, rel=1e-6)
+
+
+def test_smooth_efficiency_is_continuous_and_matches_the_switched_model_away_from_rest():
+    p = _params(efficiency=0.7)
+    p.back_drive_efficiency = 0.8
+    p.efficiency_blend_speed_rad_s = 1e-3
+    kt_i = p.torque_constant_Nm_per_A[0] * 1.0 / p.resistance_ohm[0]  # stall current at 1 V
+    # continuous at rest: the mean of the motoring and back-driven gains, no jump
+    eps = 1e-9
+    up, down = _holding_torque(p, eps), _holding_torque(p, -eps)
+    assert up == pytest.approx(down, rel=1e-5)
+    assert _holding_torque(p, 0.0) == pytest.approx(100 * kt_i * (0.7 + 1 / 0.8) / 2, rel=1e-12)
+    # monotone between the two gains, and the switched values beyond a few w_b
+    qd = np.linspace(-5e-3, 5e-3, 41)
+    g = np.array([_holding_torque(p, w) for w in qd])
+    assert np.all(np.diff(g) < 0)  # more motoring (qd > 0) -> less joint torque per motor torque
+    ref = _params(efficiency=0.7)
+    ref.back_drive_efficiency = 0.8
+    for w in (-0.02, 0.02):  # 20 w_b: tanh(20) = 1 - 8e-18
+        # the back EMF differs by qd but is the same for both models: compare joint/motor torque
+        o1 = _outputs(DcMotorWithGear(p), np.array([1.0, 1.0]), np.array([w, w]))
+        o2 = _outputs(DcMotorWithGear(ref), np.array([1.0, 1.0]), np.array([w, w]))
+        np.testing.assert_allclose(o1["joint_torque"], o2["joint_torque"], rtol=1e-12)
+
+
+def test_smooth_efficiency_inverse_round_trips():
+    from qmt_drake.systems.dc_motor import motor_signals_from_joint_torque
+    p = _params(efficiency=0.7)
+    p.back_drive_efficiency = 0.8
+    p.efficiency_blend_speed_rad_s = 0.05
+    for qd in (-0.1, -0.01, 0.0, 0.02, 0.3):
+        v = np.array([2.0, -1.5])
+        out = _outputs(DcMotorWithGear(p), v, np.array([qd, qd]))
+        v2, i2, tau_m2, _ = motor_signals_from_joint_torque(p, out["joint_torque"], [qd, qd])
+        np.testing.assert_allclose(i2, out["current"], rtol=1e-10)
+        np.testing.assert_allclose(v2, v, rtol=1e-10)
+    with pytest.raises(ValueError):
+        _params(efficiency=0.7).__class__(**{**_params().__dict__, "efficiency_blend_speed_rad_s": 0.0})

@@ -16,6 +16,16 @@ eta is the forward (motoring) efficiency. The back-driving efficiency eta_b defa
 (no loss): a torque gain that jumps from eta to 1/eta at zero speed made the stiff 1 ms
 position loop chatter at rest (a limit cycle at the Nyquist rate), so only the motoring loss
 is modelled unless `back_drive_efficiency` is set.
+
+Smooth efficiency (optional, `efficiency_blend_speed_rad_s` = w_b > 0, joint side): the switch
+above still makes a load held against gravity (tau_m of one sign, qd dithering about zero) see
+its joint torque jump by the factor 1/(eta eta_b) each time qd changes sign. With w_b the gain
+moves continuously from the back-driven to the motoring value over |qd| ~ w_b:
+    tau_j  = N tau_m (1/eta_b + (eta - 1/eta_b) s),   s = (1 + tanh(sign(tau_m) qd / w_b)) / 2
+(s = 1 motoring, 0 back-driven, 1/2 at rest: the mean of the two gains), a regularised
+(tanh) version of the switch, like the usual regularisation of Coulomb friction at zero speed.
+Beyond a few w_b the model equals the switched one (|s - step| < 2.5e-3 at 3 w_b). None (the
+default) keeps the switched model, which every study so far used.
     P_el   = v * i                                            electrical power [W]
 
 Ke = Kt in SI (V*s/rad = N*m/A). The rotor inertia is NOT in this system: it stays in the plant as
@@ -61,6 +71,7 @@ rated torque and 1000-2000 rpm input is about 0.65-0.75.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -134,6 +145,7 @@ class DcMotorParams:
     efficiency: np.ndarray
     inductance_H: np.ndarray | None = None  # None: quasi-static armature
     back_drive_efficiency: float = 1.0
+    efficiency_blend_speed_rad_s: float | None = None  # None: switched gain; > 0: smooth (docstring)
     names: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -148,6 +160,8 @@ class DcMotorParams:
             self.inductance_H = np.atleast_1d(np.asarray(self.inductance_H, dtype=float))
         if np.any(self.efficiency <= 0) or np.any(self.efficiency > 1):
             raise ValueError("gearbox efficiency must be in (0, 1]")
+        if self.efficiency_blend_speed_rad_s is not None and not self.efficiency_blend_speed_rad_s > 0:
+            raise ValueError("efficiency_blend_speed_rad_s must be positive (or None for the switched gain)")
 
     @property
     def n(self) -> int:
@@ -179,21 +193,29 @@ class DcMotorParams:
         return self.gear_ratio * self.efficiency * self.torque_constant_Nm_per_A / self.resistance_ohm
 
 
-def _motor_side(tau_j, qd, gear_ratio, efficiency, back_drive_efficiency, kt, resistance):
-    """One joint, plain floats: (v, i, tau_m, P_el) of a motor delivering tau_j [N*m] at qd [rad/s]."""
-    if tau_j * qd >= 0.0:  # motoring
-        tau_m = tau_j / (gear_ratio * efficiency)
-    else:
-        tau_m = tau_j * back_drive_efficiency / gear_ratio
+def gear_gain(tau_m, qd, efficiency, back_drive_efficiency, blend_speed_rad_s=None) -> float:
+    """tau_j / (N tau_m) for one joint (plain floats): eta while motoring (tau_m qd >= 0), 1/eta_b
+    while back-driven; with blend_speed_rad_s the smooth blend of the module docstring."""
+    if blend_speed_rad_s is None:
+        return efficiency if tau_m * qd >= 0.0 else 1.0 / back_drive_efficiency
+    x = qd / blend_speed_rad_s if tau_m >= 0.0 else -qd / blend_speed_rad_s
+    s = 0.5 * (1.0 + math.tanh(x))
+    return 1.0 / back_drive_efficiency + (efficiency - 1.0 / back_drive_efficiency) * s
+
+
+def _motor_side(tau_j, qd, gear_ratio, efficiency, back_drive_efficiency, kt, resistance, blend=None):
+    """One joint, plain floats: (v, i, tau_m, P_el) of a motor delivering tau_j [N*m] at qd [rad/s]
+    (tau_m has the sign of tau_j: the gain is positive)."""
+    tau_m = tau_j / (gear_ratio * gear_gain(tau_j, qd, efficiency, back_drive_efficiency, blend))
     i = tau_m / kt
     v = resistance * i + kt * gear_ratio * qd
     return v, i, tau_m, v * i
 
 
 def _inverse_rows(params: DcMotorParams) -> list[tuple]:
-    """Per joint: (N, eta, eta_b, Kt, R) as floats, the arguments of `_motor_side` after (tau_j, qd)."""
+    """Per joint: (N, eta, eta_b, Kt, R, w_b) as floats, the arguments of `_motor_side` after (tau_j, qd)."""
     p = params
-    return [tuple(float(x) for x in row) for row in zip(
+    return [tuple(float(x) for x in row) + (p.efficiency_blend_speed_rad_s,) for row in zip(
         p.gear_ratio, p.efficiency, np.broadcast_to(p.back_drive_efficiency, (p.n,)), p.torque_constant_Nm_per_A,
         p.resistance_ohm)]
 
@@ -201,7 +223,7 @@ def _inverse_rows(params: DcMotorParams) -> list[tuple]:
 def motor_signals_from_joint_torque(params: DcMotorParams, joint_torque_Nm, joint_velocity_rad_s):
     """(v [V], i [A], tau_m [N*m], P_el [W]) arrays of motors that deliver joint_torque_Nm at
     joint_velocity_rad_s: tau_m = tau_j / (N eta) while motoring (tau_j * qd >= 0), tau_j * eta_b / N
-    while back-driven; i = tau_m / Kt; v = R i + Ke N qd (quasi-static armature; L di/dt,
+    while back-driven (or the smooth gain, `gear_gain`); i = tau_m / Kt; v = R i + Ke N qd (quasi-static armature; L di/dt,
     ~0.1-0.2 ms, is left out); P_el = v i. No limit is applied: the result says what the motors had
     to do."""
     tau = np.broadcast_to(np.asarray(joint_torque_Nm, float), (params.n,)).tolist()
@@ -268,6 +290,8 @@ class DcMotorWithGear(LeafSystem):
         self._Ke_N = self._Kt * self._N  # back EMF per joint speed [V*s/rad] (Ke = Kt in SI)
         self._gain_motoring = self._N * self._eta
         self._gain_backdriven = self._N / p.back_drive_efficiency
+        self._blend = p.efficiency_blend_speed_rad_s
+        self._eta_b = float(p.back_drive_efficiency)
         self._per_joint = [tuple(float(x) for x in row) for row in zip(
             self._Vmax, self._R, self._Ke_N, self._Imax, self._Kt, self._gain_motoring,
             np.broadcast_to(self._gain_backdriven, (n,)))]
@@ -319,7 +343,10 @@ class DcMotorWithGear(LeafSystem):
                 i = min(max(i, -i_max), i_max)
             tau_m = kt * i
             out[k], out[n + k], out[2 * n + k] = v, i, tau_m
-            out[3 * n + k] = tau_m * (g_motoring if tau_m * qd[k] >= 0.0 else g_backdriven)
+            if self._blend is None:
+                out[3 * n + k] = tau_m * (g_motoring if tau_m * qd[k] >= 0.0 else g_backdriven)
+            else:
+                out[3 * n + k] = tau_m * self._N[k] * gear_gain(tau_m, qd[k], self._eta[k], self._eta_b, self._blend)
             out[4 * n + k] = v * i
         return out
 
