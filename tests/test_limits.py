@@ -55,3 +55,26 @@ def test_joint_range_columns(scenarios):
     np.testing.assert_allclose(cols[:, :2], q - sc.arm.joint_upper_rad)
     np.testing.assert_allclose(cols[:, 2:], sc.arm.joint_lower_rad - q)
     assert cols[0, 1] > 0 and cols[1, 2] > 0 and cols[0, 0] < 0
+
+
+def test_refined_peak_on_a_plateau_bounds_a_ten_times_finer_sampling():
+    """A jerk-limited line on the tray holds the slide ratio on a plateau (constant acceleration):
+    hundreds of sampled 'local maxima' there; only the highest REFINE_MAX_PER_COLUMN are refined,
+    and the refined peak still bounds a 10x finer sampling of the trajectory."""
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.limits.limit_set import REFINE_MAX_PER_COLUMN
+    from qmt_drake.planners import plan_with
+    sc = load_scenario("crane-tray")
+    plan = plan_with("ruckig", sc, jerk_limit=50.0)
+    ls = sc.limit_set
+    rep = ls.report(plan.trajectory, 1000.0)
+    t = np.linspace(0.0, plan.motion_time_s, int(plan.motion_time_s * 10000) + 1)
+    q, qd, qdd = plan.sample(t)
+    cols = ls.columns(q, qd, qdd)
+    slide = cols[::10, ls.slices["tray_slide"]][:, 0]  # the 1 kHz samples
+    assert np.sum(slide >= 0.98 * slide.max()) > 2 * REFINE_MAX_PER_COLUMN  # a plateau: the cap acts
+    dense = cols.max(axis=0)
+    for name in ("tray_slide", "tray_tip", "joint_speed"):
+        s = ls.slices[name]
+        assert np.max(dense[s]) <= rep.peak_ratios[name] + 1e-9
+    assert rep.peak_ratios["tray_slide"] > 0.99  # the plateau is at the limit
