@@ -375,6 +375,34 @@ def plot_sweep(sw: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def efficiency_section() -> dict:
+    """The servo motors' gear efficiency at the hold: the lossless equivalent (default), the
+    datasheet's eta switched at zero speed, and the smooth (tanh) blend (dc_motor.py), on the seed's
+    PID eased run: the normal force and joint-speed dither over the hold (from 1 s after arrival)."""
+    from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, motor_params
+    sched = seed_motion(1.5, settle_s=SETTLE_S)
+    bottle = fill_bottle(0.030, 0.3)
+    out = {"weight_N": bottle.mass_kg * 9.81, "cases": {}}
+    for name, kw in (("lossless equivalent (default)", {}),
+                     ("datasheet eta, switched at qd = 0", {"lossless_equivalent": False}),
+                     ("datasheet eta, smooth w_b = 0.05 rad/s", {"lossless_equivalent": False,
+                                                                 "efficiency_blend_speed_rad_s": 0.05}),
+                     ("datasheet eta, smooth w_b = 0.01 rad/s", {"lossless_equivalent": False,
+                                                                 "efficiency_blend_speed_rad_s": 0.01})):
+        r = simulate_tray(sched, SEED_GAINS_AFTER, bottle, motor=motor_params(CRANE_X7_PLANAR_SERVOS, **kw))
+        t = r.series["t"]
+        h0, h1 = r.phases["hold"]
+        m = (t > h0 + 1.0) & (t < h1)
+        fn = r.series["contact_force"][2][m]
+        qd = r.series["arm_state"][3:6][:, m]
+        out["cases"][name] = {"outcome": r.outcome, "slip_m": r.slip_m, "hold_normal_force_N": [float(fn.min()),
+                                                                                               float(fn.max())],
+                              "hold_max_joint_speed_rad_s": np.abs(qd).max(axis=1).tolist(),
+                              "real_time_factor": r.real_time_factor}
+        print("efficiency", name, out["cases"][name]["hold_normal_force_N"], flush=True)
+    return out
+
+
 def timing_section(repeats: int = 7) -> dict:
     """TOPP-RA solve time with the tray limits on the 1000-waypoint line, constraint parameters
     batched (LimitSet.toppra_constraint) vs toppra's per-grid-point evaluation, interleaved in one
@@ -439,8 +467,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer sweep points")
     ap.add_argument("--no-recordings", action="store_true")
-    ap.add_argument("--sections", default="pair,req,friction,fill,rec,qmt,sweep,timing",
-                    help="comma list of: pair, req, friction, fill, rec, qmt, sweep, timing")
+    ap.add_argument("--sections", default="pair,req,friction,fill,rec,qmt,sweep,efficiency,timing",
+                    help="comma list of: pair, req, friction, fill, rec, qmt, sweep, efficiency, timing")
     ap.add_argument("--rec-mu", type=float, default=0.3, help="friction of the recordings when the sweep is not run")
     ap.add_argument("--out", default=str(OUT), help="output folder (default out/crane_tray)")
     args = ap.parse_args(argv)
@@ -547,6 +575,8 @@ def main(argv=None) -> int:
         sw = sweep_section(args.quick)
         _json(OUT / "sweep.json", sw)
         plot_sweep(sw, OUT / "sweep.png")
+    if "efficiency" in sections:
+        _json(OUT / "efficiency.json", efficiency_section())
     if "timing" in sections:
         tm = timing_section(3 if args.quick else 7)
         _json(OUT / "toppra_timing.json", tm)

@@ -106,7 +106,8 @@ CRANE_X7_PLANAR_SERVOS = (XM540_W270, XM430_W350, XM430_W350)
 SERVO_CATALOG = {s.model: s for s in (XM540_W270, XM430_W350)}  # scenario actuator.servos names
 
 
-def motor_params(sheets, *, lossless_equivalent: bool = True) -> DcMotorParams:
+def motor_params(sheets, *, lossless_equivalent: bool = True,
+                 efficiency_blend_speed_rad_s: float | None = None) -> DcMotorParams:
     """DcMotorParams for the servos' motors.
 
     lossless_equivalent=True (default): eta = 1 and R = Ke V / tau_s, which reproduces the
@@ -117,7 +118,8 @@ def motor_params(sheets, *, lossless_equivalent: bool = True) -> DcMotorParams:
     joint speed changes sign: at the hold the 1 ms loop chattered (joint speeds +-0.02 rad/s
     flipping every few ms, the bottle's normal force swinging 0.42-0.62 N).
     lossless_equivalent=False: R = V / I_s, eta = tau_s / (Ke I_s) (stall current exact, with the
-    motoring/back-driving asymmetry)."""
+    motoring/back-driving asymmetry); efficiency_blend_speed_rad_s makes that asymmetry continuous
+    at zero speed (dc_motor.py, smooth efficiency)."""
     if lossless_equivalent:
         r = [s.back_emf_V_s_per_rad * s.supply_voltage_V / s.stall_torque_Nm for s in sheets]
         i_limit = [s.current_limit_A * (s.supply_voltage_V / ri) / s.stall_current_A for s, ri in zip(sheets, r)]
@@ -134,6 +136,7 @@ def motor_params(sheets, *, lossless_equivalent: bool = True) -> DcMotorParams:
         current_limit_A=i_limit,
         efficiency=eta,
         names=[s.model for s in sheets],
+        efficiency_blend_speed_rad_s=efficiency_blend_speed_rad_s,
     )
 
 

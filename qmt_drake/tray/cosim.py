@@ -75,6 +75,7 @@ class TrayDiagram:
     bottle: BottleSpec
     X_TB0: object
     visualizer: object = None
+    motor: object = None
 
 
 def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
@@ -85,8 +86,11 @@ def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
 
 def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                        time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
-                       bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None) -> TrayDiagram:
-    """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps."""
+                       bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None,
+                       motor=None) -> TrayDiagram:
+    """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps.
+    motor: DcMotorParams of the three servos' motors (default motor_params(CRANE_X7_PLANAR_SERVOS),
+    the lossless equivalent)."""
     if not time_step_s > 0 or not servo_period_s > 0:
         raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
     bottle = bottle or BottleSpec.pet_500ml()
@@ -106,7 +110,8 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     goal = builder.AddNamedSystem("goal_stream", TrajectorySource(_goal_trajectory(schedule)))
     servo = builder.AddNamedSystem("servos", DynamixelPositionServo(CRANE_X7_PLANAR_SERVOS, gains,
                                                                     control_period_s=servo_period_s))
-    motors = builder.AddNamedSystem("motors", DcMotorWithGear(motor_params(CRANE_X7_PLANAR_SERVOS)))
+    motor = motor or motor_params(CRANE_X7_PLANAR_SERVOS)
+    motors = builder.AddNamedSystem("motors", DcMotorWithGear(motor))
     split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
     monitor = builder.AddNamedSystem("monitor", TrayBottleMonitor(plant, tray, bottle_body, X_TB0))
     arm_state = plant.get_state_output_port(arm)
@@ -130,7 +135,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
     return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo, loggers, schedule, bottle, X_TB0,
-                       visualizer)
+                       visualizer, motor)
 
 
 @dataclass
@@ -192,7 +197,7 @@ def set_initial_state(td: TrayDiagram, root_context) -> None:
     plant = td.plant
     ctx = plant.GetMyMutableContextFromRoot(root_context)
     goal = td.schedule.q_start
-    mp = motor_params(CRANE_X7_PLANAR_SERVOS)
+    mp = td.motor
     nm_per_pwm = mp.joint_torque_per_volt_stall() * mp.voltage_limit_V / PWM_FULL_SCALE
     kpp, kpi, _ = td.servo.gains.firmware()
     q = goal.copy()
@@ -253,7 +258,7 @@ def classify(series: dict, bottle: BottleSpec) -> tuple[str, float | None]:
 
 def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                   time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
-                  keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0)) -> TrayResult:
+                  keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None) -> TrayResult:
     """Run the diagram over the schedule; with recording_path, write a Meshcat HTML replay there."""
     bottle = bottle or BottleSpec.pet_500ml()
     meshcat = None
@@ -261,7 +266,7 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
         from qmt_drake.sim.recording import make_headless_meshcat
         meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
-                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy)
+                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor)
     sim = Simulator(td.diagram)
     set_initial_state(td, sim.get_mutable_context())
     sim.Initialize()
