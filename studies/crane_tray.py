@@ -307,7 +307,9 @@ def plot_qmt(q: dict, path: Path) -> None:
 
 
 SWEEP_MUS = (0.2, 0.3, 0.4, 0.5, 0.6)
-SWEEP_WATER_KG = (0.030, 0.150, 0.300)  # 30 g: the seed's 50 g bottle
+# Water in the 20 g bottle: 30 g (the seed's 50 g bottle, COM 44 mm), 150 g (COM 32 mm: water at the
+# bottom lowers it), 300 g (49 mm), 480 g (nearly full, 74 mm: tipping binds before sliding from mu 0.4).
+SWEEP_WATER_KG = (0.030, 0.150, 0.300, 0.480)
 
 
 def sweep_section(quick: bool) -> dict:
@@ -315,7 +317,7 @@ def sweep_section(quick: bool) -> dict:
     water, at its fastest carried time scale) executed unchanged on every bottle; (b) per bottle the
     fastest carried TOPP-RA transfer (planned for that bottle, time scale searched)."""
     mus = (0.2, 0.4, 0.6) if quick else SWEEP_MUS
-    waters = SWEEP_WATER_KG
+    waters = (0.030, 0.480) if quick else SWEEP_WATER_KG
     nominal = fill_bottle(0.030, 0.3)
     best = fastest_executed(lambda k: toppra_line(nominal, time_scale=k), nominal, iters=3 if quick else 5)
     k_nom = best["time_scale"]
@@ -333,7 +335,9 @@ def sweep_section(quick: bool) -> dict:
             _, info = toppra_line(b)
             cell["toppra_plan_s"] = info.get("duration_s")
             cell["binding"] = ("tip" if info.get("max_tip_ratio", 0) > info.get("max_slide_ratio", 0) else "slide")
-            cell["fastest"] = fastest_executed(lambda k, b=b: toppra_line(b, time_scale=k), b, iters=3)
+            cell["toppra_peak_ratios"] = {k: info.get(k) for k in ("max_slide_ratio", "max_tip_ratio",
+                                                                    "max_speed_ratio")}
+            cell["fastest"] = fastest_executed(lambda k, b=b: toppra_line(b, time_scale=k), b, iters=3 if quick else 4)
             out["cells"].append(cell)
             print("sweep", w, mu, cell["nominal_plan"]["outcome"], cell["toppra_plan_s"],
                   cell["fastest"]["duration_s"], flush=True)

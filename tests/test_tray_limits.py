@@ -87,7 +87,7 @@ def test_toppra_rows_hold_exactly_when_the_columns_do():
     cols = LS.columns(q, qd, qdd)
     for name in ("tray_slide", "tray_tip", "tray_lift"):
         term = LS.term(name)
-        F, g = term.toppra_rows(polygon_sides=16)
+        F, g = term.toppra_rows(tray_polygon_sides=4)
         viol = np.max(term.toppra_w(state) @ F.T - g, axis=1)
         col = cols[:, LS.slices[name]][:, 0]
         clear = np.abs(col - 1.0) > 1e-9
@@ -101,8 +101,8 @@ def test_batched_toppra_parameters_equal_toppras_per_gridpoint_evaluation():
     _, theta = line_waypoints((0.04, 0.4), (0.4, 0.4), 40)
     s = np.linspace(0.0, 1.0, 41)
     path = ta.SplineInterpolator(s, theta)
-    batched = LS.toppra_constraint(polygon_sides=8).compute_constraint_params(path, s)
-    plain = LS.toppra_constraint(polygon_sides=8, batched=False).compute_constraint_params(path, s)
+    batched = LS.toppra_constraint(tray_polygon_sides=8).compute_constraint_params(path, s)
+    plain = LS.toppra_constraint(tray_polygon_sides=8, batched=False).compute_constraint_params(path, s)
     for x, y in zip(batched[:3], plain[:3]):  # a, b, c
         np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-12)
     for i in range(len(s)):  # F, g: one matrix for all grid points vs toppra's per-point stack

@@ -106,7 +106,7 @@ def seed_motion(exponent: float, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_
 def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: int = SEED_WAYPOINTS,
                 margin: float = 0.8, speed_fraction: float = 0.8, settle_s: float = 1.0, tail_s: float = 1.5,
                 stream_period_s: float = 1e-3, time_scale: float = 1.0, geom: CraneGeometry = TABLE1,
-                batched: bool = True, polygon_sides: int = 16):
+                batched: bool = True, polygon_sides: int = 4):
     """The fastest time scaling of the seed's IK line that keeps the bottle (TOPP-RA).
 
     Path: a cubic spline through the n + 1 IK waypoints (linear spacing) over s in [0, 1]; the grid
@@ -137,7 +137,7 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     path = ta.SplineInterpolator(ss, theta)
     ls = tray_scenario(bottle, margin, speed_fraction).limit_set
     t0, c0 = _time.perf_counter(), _time.process_time()
-    constraint = ls.toppra_constraint(batched=batched, polygon_sides=polygon_sides)
+    constraint = ls.toppra_constraint(batched=batched, tray_polygon_sides=polygon_sides)
     instance = algo.TOPPRA([constraint], path, gridpoints=ss, parametrizer="ParametrizeConstAccel")
     traj = instance.compute_trajectory(0.0, 0.0)
     solve_s, solve_cpu_s = _time.perf_counter() - t0, _time.process_time() - c0
