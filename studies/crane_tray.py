@@ -1,10 +1,11 @@
 """Seed 002 study: the CRANE-X7 tray transfer, the fall/carry pair and what its outcome hinges on.
 
-    PYTHONPATH=. python studies/crane_tray.py [--quick] [--no-recordings] [--sections ...]
-    PYTHONPATH=. python studies/crane_tray.py plan [--start X Y] [--goal X Y] [--mu MU] [--com-height H]
-        (fastest TOPP-RA tray line as JSON; exit 2 on bad input, 3 when infeasible)
+    PYTHONPATH=. python -m studies.crane_tray [--quick] [--no-recordings] [--sections ...] [--out DIR]
+    PYTHONPATH=. python -m studies.crane_tray plan [--start X Y] [--goal X Y] [--mu MU] [--com-height H]
+        (fastest TOPP-RA tray line as JSON; exit 2 on bad input, 3 when infeasible; the shared CLI
+        does the same with `qmt-drake plan crane-tray --method toppra|ruckig|ga|thesis`)
 
-Writes out/crane_tray/:
+Writes out/crane_tray/ (sections: pair, req, friction, fill, rec, qmt, sweep, efficiency, timing):
     ik.json                     our IK vs the seed's printed joints, the fitted tool offset
     pair.json, pair_*.png       the two seed runs (P-only + linear, PID + eased) at the default
                                 bottle (mu 0.3): outcome, slide, tilt, normal force, RTF;
@@ -14,10 +15,19 @@ Writes out/crane_tray/:
     friction_sweep.json/png     max slide and outcome over mu for both seed runs
     fill_sweep.json/png         max tilt over the bottle's centre-of-mass height (fill)
     fall.html, carry.html       Meshcat replays of the pair at the friction where it splits
-    qmt.json, qmt.png           fastest line: TOPP-RA with the tray limits (planned, re-checked), and
-                                the fastest time scaling of it (and of a jerk-limited Ruckig line)
-                                that the servos execute with the bottle carried (slip < 1 mm), over
-                                friction and fill, against the seed's 5 s eased line
+    qmt.json, qmt.png           fastest carried transfer at mu 0.3, 30 g water: TOPP-RA on the
+                                1000-waypoint IK line, the GA over the thesis's line family
+                                (families/line.py) and Ruckig (jerk 5 m/s^3), all with the tray
+                                terms (limits/tray.py, plan margin 0.8) and re-checked by sampling;
+                                each executed through the servos at the fastest time scaling that
+                                carries the bottle without slip (> 1 mm); the seed's 5 s eased line
+    sweep.json, sweep.png       success over friction 0.2-0.6 x fill (30/150/300/480 g water): the
+                                nominal fastest carried transfer executed unchanged on each bottle,
+                                and the fastest carried TOPP-RA transfer planned for each bottle
+    efficiency.json             gear efficiency models at the hold (lossless / switched / smooth)
+    toppra_timing.json          TOPP-RA solve time on the 1000-waypoint line with the tray limits,
+                                batched constraint parameters vs toppra's per-grid-point evaluation,
+                                interleaved in one run; the co-simulation's real-time factor
 
 Findings (this script, 1 ms plant step and servo period, bottle PET 500 mL with 30 g water,
 COM 44 mm, ring 29 mm; numbers from out/crane_tray/*.json):
@@ -39,6 +49,28 @@ COM 44 mm, ring 29 mm; numbers from out/crane_tray/*.json):
   failure mode: with mu = 1 the bottle rocks < 0.25 deg up to a 100 mm COM (fill_sweep.png).
 - The servo period matters for the PID run only (D acts per sample): return-start requirement
   0.06 -> 0.19 from 1 to 4 ms.
+- Fastest carried transfer (qmt.png; mu 0.3, 30 g water, time scale found by 5 geometric bisection
+  steps on [1, 8]: resolution x1.07): TOPP-RA plans 0.782 s (= the bang-bang closed form
+  2 sqrt(L / (0.8 mu g))) and is carried at 2.69 s (x3.44; x3.22 slips); the GA over the line
+  family plans 0.958 s (= the family optimum sqrt(1.5) x 0.782 s, found in 68 generations) and is
+  carried at 3.09 s; Ruckig with jerk 5 m/s^3 plans 1.32 s and is carried at 3.07 s; the seed's
+  eased line takes 5 s. The plans keep the tray limits x0.8; the servos lag them (tracking error
+  ~0.13 rad at x1), so each must be played 2.3-3.4x slower to keep the bottle: the executed speed
+  is set by the servos, not by the bottle's limits.
+- Sweep (sweep.png, 4 bisection steps per cell: resolution x1.14): the nominal 2.69 s transfer
+  keeps the bottle from mu 0.3 up for 30-300 g of water, fails at mu 0.2 for every fill (slips
+  31-49 mm, the 300 g bottle tips, the 480 g one slides off) and slips 18 mm with 480 g at mu 0.3.
+  Planned per bottle, the fastest carried transfer shortens with mu (30 g: 3.51 s at 0.2 to 1.31 s
+  at 0.6); the nearly full bottle (COM 74 mm, r_c / h_G = 0.39) is tip-limited from mu 0.4 up
+  (2.52 s at 0.4-0.6). Water at the bottom lowers the COM (150 g: 32 mm) and that bottle is the
+  fastest at most frictions.
+- Gear efficiency (efficiency.json): with the datasheet's eta switched at zero speed the hold
+  chatters (bottle normal force 0.42-0.71 N for a 0.49 N weight); the smooth blend (w_b 0.01-0.05
+  rad/s) keeps it at 0.46-0.52 N like the lossless equivalent (0.47-0.51 N).
+- TOPP-RA on the 1000-waypoint line with the tray limits (toppra_timing.json, load ~3.5 on 2
+  cores): 48 ms (min of 7; median 54 ms) with the batched LimitSet constraint vs 0.96 s with
+  toppra's per-grid-point evaluation (x20); same 0.782 s. Co-simulation real-time factor 5.0 at a
+  1 ms plant step and servo period (3.5 s wall for 17.5 s, seed eased run).
 """
 
 from __future__ import annotations
@@ -55,6 +87,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.colors  # noqa: E402,F401
+import matplotlib.ticker  # noqa: E402,F401
 import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -350,11 +384,13 @@ def plot_sweep(sw: dict, path: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.4))
     ax = axes[0]
     img = np.array([[1.0 if cells[(w, m)]["nominal_plan"]["carried"] else 0.0 for m in mus] for w in waters])
-    ax.imshow(img, cmap="RdYlGn", vmin=0, vmax=1, aspect="auto", origin="lower")
+    ax.imshow(img, cmap=matplotlib.colors.ListedColormap(["#f2a8a8", "#b5e3b0"]), vmin=0, vmax=1, aspect="auto",
+              origin="lower")
     for i, w in enumerate(waters):
         for j, m in enumerate(mus):
             c = cells[(w, m)]["nominal_plan"]
-            ax.text(j, i, f"{c['outcome']}\nslip {1e3 * c['slip_m']:.1f} mm", ha="center", va="center", fontsize=7)
+            word = c["outcome"] if c["outcome"] != "carried" else ("carried" if c["carried"] else "slipped")
+            ax.text(j, i, f"{word}\nslip {1e3 * c['slip_m']:.1f} mm", ha="center", va="center", fontsize=7)
     ax.set_xticks(range(len(mus)), [f"{m:g}" for m in mus])
     ax.set_yticks(range(len(waters)), [f"{1e3 * w:.0f} g water\nCOM {1e3 * cells[(w, mus[0])]['com_height_m']:.0f} mm"
                                        for w in waters], fontsize=8)
@@ -365,14 +401,22 @@ def plot_sweep(sw: dict, path: Path) -> None:
     for w in waters:
         d = [cells[(w, m)]["fastest"]["duration_s"] or np.nan for m in mus]
         p = [cells[(w, m)]["toppra_plan_s"] or np.nan for m in mus]
-        line, = ax.plot(mus, d, "-o", label=f"{1e3 * w:.0f} g water: fastest carried (servos)")
-        ax.plot(mus, p, ":", color=line.get_color(), label=f"{1e3 * w:.0f} g water: TOPP-RA plan (x0.8 limits)")
+        tip = [m for m in mus if cells[(w, m)]["binding"] == "tip"]
+        line, = ax.plot(mus, d, "-o", label=f"{1e3 * w:.0f} g water (COM {1e3 * cells[(w, mus[0])]['com_height_m']:.0f} mm)"
+                        + (f", tip binds at mu {', '.join(f'{m:g}' for m in tip)}" if tip else ""))
+        ax.plot(mus, p, ":", color=line.get_color())
+    ax.plot([], [], "k-o", label="fastest carried through the servos (time scale searched)")
+    ax.plot([], [], "k:", label="TOPP-RA plan (tray limits x0.8)")
     ax.axhline(5.0, color="k", ls="--", lw=0.8, label="seed: 5 s eased line")
     ax.set_xlabel("friction coefficient mu")
     ax.set_ylabel("start-to-goal time [s]")
     ax.set_yscale("log")
+    ax.set_ylim(0.5, 12)
+    ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_yticks([0.5, 1, 2, 3, 5, 10])
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper right")
     ax.set_title("fastest carried TOPP-RA transfer planned for each bottle", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -484,6 +528,9 @@ def main(argv=None) -> int:
 
     if "replot" in sections:  # figures from the JSON already written
         plot_req(json.loads((OUT / "required_friction.json").read_text()), OUT / "required_friction.png")
+        for name, plot in (("qmt", plot_qmt), ("sweep", plot_sweep)):
+            if (OUT / f"{name}.json").is_file():
+                plot(json.loads((OUT / f"{name}.json").read_text()), OUT / f"{name}.png")
     if "pair" in sections:
         # 1. the pair at the default bottle
         pair = {c: run(c) for c in CASES}
