@@ -89,3 +89,10 @@ def test_plan_and_simulate_crane_tray_through_the_cli(tmp_path, capsys):
 def test_dc_motor_options_are_refused_for_the_tray(capsys):
     rc, out, err = _run(capsys, "simulate", "crane-tray", "--method", "thesis", "--explicit", "--quiet")
     assert rc == 2 and "drop them" in err
+
+
+@pytest.mark.parametrize("command", ["plan", "simulate"])
+def test_optimum_is_refused_for_the_tray_in_one_line(capsys, command):
+    # its gravity path would sample every start played up to 1000x slower (killed for memory)
+    rc, out, err = _run(capsys, command, "crane-tray", "--method", "optimum", "--quiet")
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "use ga, toppra, ruckig or thesis" in err

@@ -85,6 +85,7 @@ def cmd_plan(args) -> int:
     from qmt_drake.planners import plan_with
     from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
+    _check_tray_method(sc, args.method)
     if args.checkpoint is not None:
         if args.method != "ga":
             raise QmtInputError(f"--checkpoint is for --method ga, not {args.method}; drop it")
@@ -133,6 +134,17 @@ def cmd_plan(args) -> int:
               f"{'feasible' if plan.feasible else 'INFEASIBLE (least-violating plan)'}, "
               f"{plan.planner_wall_s:.2f} s")
     return 0 if plan.feasible else EXIT_INFEASIBLE
+
+
+# Methods whose gravity path (planners/optimum.tight_scale) samples every start played up to 1000x
+# slower: a 15 s tray motion becomes millions of samples per candidate (measured: killed for memory).
+TRAY_REFUSED_METHODS = ("optimum",)
+
+
+def _check_tray_method(sc, method: str) -> None:
+    if getattr(sc, "is_tray", False) and method in TRAY_REFUSED_METHODS:
+        raise QmtInputError(f"--method {method} is not available for the tray scenario '{sc.name}' (its time-scaling "
+                            "search with gravity samples motions up to 1000x slower); use ga, toppra, ruckig or thesis")
 
 
 def cmd_simulate(args) -> int:
@@ -185,6 +197,8 @@ def _simulate_tray(args, sc) -> int:
     from qmt_drake.planners import plan_with
     from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
     check_tray_simulation(sc)
+    if not args.plan:
+        _check_tray_method(sc, args.method)
     plan = load_plan(args.plan, scenario=sc) if args.plan else plan_with(
         args.method, sc, seed=args.seed, progress=None if args.quiet else _progress)
     result = simulate_tray_plan(sc, plan, time_scale=args.time_scale, record_path=args.record,
