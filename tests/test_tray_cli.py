@@ -92,7 +92,8 @@ def test_dc_motor_options_are_refused_for_the_tray(capsys):
 
 
 @pytest.mark.parametrize("command", ["plan", "simulate"])
-def test_optimum_is_refused_for_the_tray_in_one_line(capsys, command):
-    # its gravity path would sample every start played up to 1000x slower (killed for memory)
-    rc, out, err = _run(capsys, command, "crane-tray", "--method", "optimum", "--quiet")
+@pytest.mark.parametrize("method", ["optimum", "trajopt"])
+def test_planners_that_cannot_serve_the_tray_are_refused_in_one_line(capsys, command, method):
+    # both ran out of memory on crane-tray instead of answering (cli.TRAY_REFUSED_METHODS)
+    rc, out, err = _run(capsys, command, "crane-tray", "--method", method, "--quiet")
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "use ga, toppra, ruckig or thesis" in err

@@ -136,15 +136,20 @@ def cmd_plan(args) -> int:
     return 0 if plan.feasible else EXIT_INFEASIBLE
 
 
-# Methods whose gravity path (planners/optimum.tight_scale) samples every start played up to 1000x
-# slower: a 15 s tray motion becomes millions of samples per candidate (measured: killed for memory).
-TRAY_REFUSED_METHODS = ("optimum",)
+# Planners that cannot serve a tray scenario (measured: both ran out of memory instead of answering):
+TRAY_REFUSED_METHODS = {
+    # planners/optimum.tight_scale with gravity samples every start played up to 1000x slower
+    "optimum": "its time-scaling search with gravity samples motions up to 1000x slower",
+    # its B-spline path does not hold the tray level and its constraints have no tray terms: the
+    # re-check's slow-down search (finish.py) then never finds a slow enough motion
+    "trajopt": "its path does not hold the tray level and its constraints have no tray terms",
+}
 
 
 def _check_tray_method(sc, method: str) -> None:
     if getattr(sc, "is_tray", False) and method in TRAY_REFUSED_METHODS:
-        raise QmtInputError(f"--method {method} is not available for the tray scenario '{sc.name}' (its time-scaling "
-                            "search with gravity samples motions up to 1000x slower); use ga, toppra, ruckig or thesis")
+        raise QmtInputError(f"--method {method} is not available for the tray scenario '{sc.name}' "
+                            f"({TRAY_REFUSED_METHODS[method]}); use ga, toppra, ruckig or thesis")
 
 
 def cmd_simulate(args) -> int:
