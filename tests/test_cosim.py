@@ -152,10 +152,10 @@ def test_why_the_plant_config_matters(sc4, plan4, carried_explicit_1ms):
 def test_default_context_of_the_built_diagram_reproduces_the_runner(sc4, plan4, carried):
     """Simulator(td.diagram) on a fresh default context, advanced in one call, gives the runner's
     summary (the runner advances in chunks and checks the state between them)."""
-    td = build_transfer_diagram(sc4, plan4, log_period_s=0)
+    td = build_transfer_diagram(sc4, plan4, log_period_s=0, step_logs=True)
     sim = Simulator(td.diagram)
     sim.AdvanceTo(td.t_final_s)
-    mine = TransferMonitor.unpack(td.diagram.GetOutputPort("summary").Eval(sim.get_context()))
+    mine = TransferMonitor.unpack(td.summary(sim.get_context()))
     assert math.isnan(mine["detached_at_s"]) and carried.detached_at_s is None
     assert mine["max_slip_m"] == pytest.approx(carried.max_slip_m, rel=1e-9)
     assert mine["max_tracking_error_rad"] == pytest.approx(carried.max_tracking_error_rad, rel=1e-9)
@@ -167,6 +167,25 @@ def test_default_context_of_the_built_diagram_reproduces_the_runner(sc4, plan4, 
     X_HP = td.plant.EvalBodyPoseInWorld(pc, td.hand_body).InvertAndCompose(
         td.plant.EvalBodyPoseInWorld(pc, td.payload_body))
     assert X_HP.IsNearlyEqualTo(seated_pose_in_hand(), 1e-12)
+
+
+@pytest.mark.parametrize("time_scale", [1.0, 0.8])
+def test_step_logs_give_the_per_step_monitors_summary(sc4, plan4, time_scale):
+    """step_logs=True (simulate_transfer's choice) computes the summary after the run from per-step
+    C++ logs (sim.posthoc); the per-step Python TransferMonitor (the diagram's default) on the same
+    run must give the same numbers, held (x1.0) and lost (x0.8, falling part: the last samples count)."""
+    from qmt_drake.sim import run_diagram
+    logs = build_transfer_diagram(sc4, plan4, time_scale=time_scale, log_period_s=0, step_logs=True)
+    per_step = build_transfer_diagram(sc4, plan4, time_scale=time_scale, log_period_s=0)
+    assert logs.step_logs is not None and per_step.step_logs is None
+    a = TransferMonitor.unpack(run_diagram(per_step)[0])
+    b = TransferMonitor.unpack(run_diagram(logs)[0])
+    assert math.isnan(a["detached_at_s"]) == (time_scale == 1.0) == math.isnan(b["detached_at_s"])
+    for k in ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_error_rad", "energy_J", "max_gap_m"):
+        assert b[k] == pytest.approx(a[k], rel=1e-12, nan_ok=True), k
+    np.testing.assert_allclose(b["peak_motor_torque_Nm"], a["peak_motor_torque_Nm"], rtol=1e-12)
+    names = {logs.diagram.get_output_port(i).get_name() for i in range(logs.diagram.num_output_ports())}
+    assert "summary" not in names  # no port that would read a summary the monitor never made
 
 
 def test_unseated_start_is_an_error_not_a_detachment(sc4, plan4):
