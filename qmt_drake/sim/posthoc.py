@@ -10,7 +10,8 @@ in C++ (VectorLogSink), the plant state, the reference and the joint torque appl
     detached_at_s     first sample with gap > detach_gap_m or slip > detach_slip_m
     tracking          max over samples and joints of |q_des - q|
     motor peaks, energy  the delivered system's motor_torque / electrical_power of each sample
-                      (AppliedMotorSignals: `dc_motor.motor_signals_from_joint_torque`; any other
+                      (AppliedMotorSignals: dc_motor's per-joint kernel `_motor_side`, as the system
+                      and `motor_signals_from_joint_torque` run it; any other
                       signals system, e.g. the ideal source's: its own output ports on a scratch
                       context), energy = sum of h * P over the samples (the monitor's rectangle rule)
 
@@ -30,7 +31,7 @@ import math
 import numpy as np
 from pydrake.systems.primitives import LogVectorOutput
 
-from qmt_drake.systems.dc_motor import AppliedMotorSignals, motor_signals_from_joint_torque
+from qmt_drake.systems.dc_motor import AppliedMotorSignals, _inverse_rows, _motor_side
 from qmt_drake.systems.transfer_monitor import SUMMARY_FIELDS, motion_in_hand
 
 STEP_LOGS = ("plant_state", "desired_state", "applied_joint_torque")
@@ -46,9 +47,12 @@ def _delivered_signals(delivered, tau: np.ndarray, qd: np.ndarray) -> tuple[np.n
     """(motor_torque, electrical_power), each (K, n), of the signals system for applied joint
     torques tau and joint speeds qd, both (K, n)."""
     if isinstance(delivered, AppliedMotorSignals):
-        p = delivered.params
-        rows = [motor_signals_from_joint_torque(p, t, w) for t, w in zip(tau, qd)]
-        return np.array([r[2] for r in rows]), np.array([r[3] for r in rows])
+        # dc_motor's per-joint kernel (what motor_signals_from_joint_torque and AppliedMotorSignals
+        # run), its per-joint constants taken once.
+        rows = _inverse_rows(delivered.params)
+        out = [[_motor_side(t, w, *r) for t, w, r in zip(tk, wk, rows)] for tk, wk in zip(tau.tolist(), qd.tolist())]
+        arr = np.array(out)  # (K, n, 4): v, i, tau_m, P_el
+        return arr[:, :, 2], arr[:, :, 3]
     ctx = delivered.CreateDefaultContext()
     tau_port, qd_port = delivered.GetInputPort("applied_joint_torque"), delivered.GetInputPort("joint_velocity")
     tm_port, pw_port = delivered.GetOutputPort("motor_torque"), delivered.GetOutputPort("electrical_power")
