@@ -44,7 +44,7 @@ from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, mo
 from qmt_drake.sim.reference import plan_start, reference_trajectories
 from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
 from qmt_drake.systems.electromagnet import ElectromagnetForce
-from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains
+from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains, primitive_pd_controller
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.transfer_monitor import TransferMonitor
 
@@ -60,7 +60,7 @@ class TransferDiagram:
     payload_body: object
     hand_body: object
     motors: DcMotorWithGear | None  # None with actuator.kind 'ideal'
-    controller: JointPidController | None
+    controller: object  # JointPidController or its Drake-primitives Diagram (PD); None: ideal
     magnet: ElectromagnetForce
     monitor: TransferMonitor
     loggers: dict
@@ -97,6 +97,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                            payload_spec: PayloadSpec | None = None, inverse_dynamics_feedforward: bool = False,
                            back_emf_feedforward: bool = False, log_period_s: float = 5e-3,
                            monitor_period_s: float | None = None, step_logs: bool = False,
+                           primitive_controller: bool = True,
                            motor_inductance: bool = False, implicit_loop_damping: bool | None = None,
                            motor_params: DcMotorParams | None = None, magnet_effective_gap_m: float | None = None,
                            meshcat: Meshcat | None = None) -> TransferDiagram:
@@ -121,7 +122,9 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     <= 1 ms (the 1 ms default; larger steps are refused). time_step_s=None picks the scheme's
     default (`default_time_step_s`). step_logs=True (implicit loop only) replaces the per-step
     monitor by per-step C++ logs and TransferDiagram.summary (module docstring); the diagram then
-    has no `summary` output port. monitor_period_s samples the per-step monitor more sparsely."""
+    has no `summary` output port. monitor_period_s samples the per-step monitor more sparsely.
+    primitive_controller: a PD law (no integral term) runs as Drake primitives
+    (joint_tracking.primitive_pd_controller; False: the Python JointPidController, the same law)."""
     from qmt_drake.config.scenario import IdealTorque
     ideal = isinstance(getattr(scenario, "actuator", None), IdealTorque)
     if ideal:
@@ -167,9 +170,12 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
             builder, plant, arm, ref.get_output_port(), arm_state, split.get_output_port(1), kp, loop_damping,
             scenario.gear_ratio, time_step_s)
     else:
-        ctrl = builder.AddNamedSystem("controller", JointPidController(
-            gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
-            back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
+        pid = JointPidController(gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
+                                 back_emf_feedforward=back_emf_feedforward,
+                                 torque_feedforward=inverse_dynamics_feedforward)
+        # A PD law (no integral) runs as Drake primitives: the same numbers, no Python per step.
+        prim = primitive_pd_controller(pid) if primitive_controller else None
+        ctrl = builder.AddNamedSystem("controller", prim or pid)
         motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
         split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
     magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current, magnet_effective_gap_m)
