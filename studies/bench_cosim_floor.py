@@ -7,8 +7,8 @@ and what a sweep gains from a second worker (issue 13 item 5).
              motors, implicit loop damping, electromagnet; the monitor's summary from per-step C++
              logs after the run, step_logs=True, its cost included; no 5 ms series), run by
              sim.run_diagram;
-     ours, per-step monitor = the same with the Python TransferMonitor called every step (the
-             previous default, kept in the same alternation: the before/after of the logs);
+     ours, per-step monitor = the same with the Python TransferMonitor and the Python PID called
+             every step (the previous co-simulation, kept in the same alternation: before/after);
      floor = Drake primitives only, around the SAME plant (arm URDF + payload on its eight
              contact spheres, kLagged contact, the same joint damping D stepped implicitly, the
              same 2 ms step): TrajectorySource -> PidController(K, 0, D) -> Adder(+ D qd) ->
@@ -176,8 +176,9 @@ def cost_ratio(repeats: int, time_step_s: float) -> dict:
     held, offsets, posthoc_s, summaries = [], [], [], {}
     load_before = os.getloadavg()
 
-    def ours(step_logs: bool, key: str):
-        td = build_transfer_diagram(sc, plan, time_step_s=time_step_s, log_period_s=0, step_logs=step_logs)
+    def ours(now: bool, key: str):
+        td = build_transfer_diagram(sc, plan, time_step_s=time_step_s, log_period_s=0, step_logs=now,
+                                    primitive_controller=now)
         c0 = time.process_time()
         summary, wall = run_diagram(td)
         runs[key]["cpu"].append(time.process_time() - c0)
@@ -221,10 +222,10 @@ def cost_ratio(repeats: int, time_step_s: float) -> dict:
                 floor_real_time_factor_median=h["t_final"] / fw,
                 ours_held=all(held), logs_summary_equals_per_step_monitor=same,
                 floor_final_offset_m=max(offsets), floor_pull_N=h["pull_N"], target_ratio=1.3,
-                breakdown_note="ours over the floor: the electromagnet (floor + our magnet row), the PID and "
-                               "DC-motor Python systems, the implicit-damping ZeroOrderHold, three per-step C++ "
-                               "loggers, the summary from the logs (posthoc_summary_s) and run_diagram's "
-                               "per-chunk checks")
+                breakdown_note="ours over the floor: the Python electromagnet (floor + our magnet row), the "
+                               "Python DC-motor model (joint torque per step), the PD law as primitives, the "
+                               "implicit-damping ZeroOrderHold, three per-step C++ loggers, the summary from the "
+                               "logs (posthoc_summary_s) and run_diagram's per-chunk checks")
 
 
 def throughput(cases: int, workers_list=(1, 2)) -> dict:
