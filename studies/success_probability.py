@@ -145,25 +145,20 @@ def markdown(result: dict) -> str:
          f"(seed {result['monte_carlo_seed']}, the same draws for every plan). Carried = "
          f"{result['carried_means']}. Interval: {result['interval']}. Controller: the thesis's PID "
          "(no feedforward) unless stated.", ""]
-    L += ["| chapter | plan | motion time [s] | carried | P(carried) | 95% interval |", "|---|---|---|---|---|---|"]
+    L += ["| chapter | plan | motion time [s] | carried | P(carried) | 95% interval | lost: detached / slip only |",
+          "|---|---|---|---|---|---|---|"]
     for ch, e in result["chapters"].items():
-        rows = list(e.get("plans", []))
-        fc = e.get("fastest_carried")
-        if fc and fc.get("success"):
-            rows.append(fc["success"])
-        for r in rows:
+        for r in _ordered_rows(e):
             T = "—" if r.get("motion_time_s") is None else f"{r['motion_time_s']:.4f}"
             L.append(f"| {ch} | {r['label']} | {T} | {r['carried']}/{r['n']} | {r['p']:.3f} | "
-                     f"[{r['ci_low']:.3f}, {r['ci_high']:.3f}] |")
-    L.append("")
+                     f"[{r['ci_low']:.3f}, {r['ci_high']:.3f}] | {_lost(r)} |")
+    L += ["", "Lost 'slip only': slip >= 1 mm without detaching, which at a coarse step can be the step's "
+          "drift rather than the hold (studies/contact_drift.py); 'detached': the part left the hand.", ""]
     for ch, e in result["chapters"].items():
         L += [f"## {ch}", "", "| plan | motion time [s] | carried | P(carried) | 95% interval | median slip [mm] |",
               "|---|---|---|---|---|---|"]
-        rows = list(e.get("plans", []))
         fc = e.get("fastest_carried")
-        if fc and fc.get("success"):
-            rows.append(fc["success"])
-        for r in rows:
+        for r in _ordered_rows(e):
             T = "—" if r.get("motion_time_s") is None else f"{r['motion_time_s']:.4f}"
             slip = "—" if r.get("median_slip_m") is None else f"{r['median_slip_m'] * 1e3:.3f}"
             L.append(f"| {r['label']} | {T} | {r['carried']}/{r['n']} | {r['p']:.3f} | "
@@ -192,6 +187,20 @@ def markdown(result: dict) -> str:
                 L += ["", f"Robust GA plan: target {rb['target']} not reached up to the largest time scale tried."]
         L.append("")
     return "\n".join(L) + "\n"
+
+
+def _ordered_rows(entry: dict) -> list[dict]:
+    """The chapter's rows in PLANS order (thesis, GA, optimum, time-optimal), then the fastest carried."""
+    order = {p["label"]: i for i, p in enumerate(PLANS)}
+    rows = sorted(entry.get("plans", []), key=lambda r: order.get(r["label"], len(order)))
+    fc = entry.get("fastest_carried")
+    return rows + ([fc["success"]] if fc and fc.get("success") else [])
+
+
+def _lost(r: dict) -> str:
+    if r.get("detached") is None:
+        return "—"
+    return f"{r['detached']} / {r['lost_by_slip_only']}"
 
 
 if __name__ == "__main__":
