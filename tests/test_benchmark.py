@@ -81,6 +81,7 @@ def test_quick_benchmark_ch3(tmp_path, monkeypatch):
     assert "| TOPP-RA cartesian_line | yes |" in md
     assert "co-simulation failed" in md
     assert "**Fastest carried**" in md and "over the bang-bang bound" in md
+    assert "2 ms: " in md and "at 1 ms carried" in md  # the step-convergence clause
     assert "| fastest carried (Ruckig line" in md
     assert res["scenarios"]["thesis-ch3"]["closed_form_bound_s"] == pytest.approx(
         closed_form_bound_s(sc))

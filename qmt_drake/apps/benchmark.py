@@ -270,7 +270,7 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
                           k: fc_row[k] for k in ("label", "motion_time_s", "bang_bang_s", "excess_over_bang_bang",
                                                  "held", "max_slip_m", "feedforward", "cosim_time_step_s",
                                                  "search_variable", "search_chosen", "step_converged",
-                                                 "carried_wall_s")}})
+                                                 "step_convergence", "carried_wall_s")}})
         plans_by_scenario[name] = plans
         carried_by_scenario[name] = [r["held"] for r in rows]
     result["settings"]["fastest_carried_wall_s"] = sum(
@@ -307,6 +307,19 @@ def _fmt(v, spec=".4f"):
     if isinstance(v, bool):
         return "yes" if v else "no"
     return format(v, spec)
+
+
+def _convergence_text(rows: list[dict]) -> str:
+    """One clause per plant step tried by plan_fastest_carried_converged."""
+    out = []
+    for c in rows:
+        t = (f"{c['time_step_s'] * 1e3:g} ms: {c['motion_time_s']:.4f} s, at {c['check_step_s'] * 1e3:g} ms "
+             f"{'carried' if c['chosen_at_check_step']['held'] else 'lost'}")
+        if c.get("lost_neighbour_at_check_step") is not None:
+            t += (f", the faster lost neighbour ({c['lost_neighbour_motion_time_s']:.4f} s) "
+                  f"{'carried' if c['lost_neighbour_at_check_step']['held'] else 'lost'}")
+        out.append(t)
+    return "; ".join(out)
 
 
 def benchmark_markdown(result: dict) -> str:
@@ -364,8 +377,8 @@ def benchmark_markdown(result: dict) -> str:
             lines += ["", f"**Fastest carried**: {fc['motion_time_s']:.4f} s, {vs}; carried in the nominal "
                       f"co-simulation with feedforward '{fc['feedforward']}' at a {fc['cosim_time_step_s'] * 1e3:g} ms "
                       f"step ({fc['search_variable']} = {fc['search_chosen']:.4g}); the verdict is "
-                      f"{'converged' if fc['step_converged'] else 'NOT converged'} in the step (the bracket's "
-                      f"carried and lost plans keep their verdicts at half the step). Search added "
+                      f"{'converged' if fc['step_converged'] else 'NOT converged'} in the step "
+                      f"({_convergence_text(fc.get('step_convergence') or [])}). Search added "
                       f"{fc['carried_wall_s']:.1f} s of wall time."]
         if e.get("ratios"):
             lines += [""] + [f"- {k}: {v:.4g}" for k, v in e["ratios"].items()]
