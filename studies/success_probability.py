@@ -83,7 +83,8 @@ def main(argv=None) -> int:
     log = lambda m: print(m, file=sys.stderr, flush=True)  # noqa: E731
     result = {"uncertainty": UNCERTAINTY_TEXT, "uncertainty_spec": UNCERTAINTY, "cases_per_plan": a.cases,
               "monte_carlo_seed": 2026, "interval": "Wilson score, 95%",
-              "carried_means": "never detached and slip < 1 mm (co-simulation, 2 ms default step)",
+              "carried_means": "never detached and slip < 1 mm (co-simulation at the 2 ms default step; the "
+                               "fastest-carried rows at the step their search settled on)",
               "chapters": {}, "when": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
 
     def save():
