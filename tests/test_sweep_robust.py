@@ -120,6 +120,8 @@ def test_fastest_carried_converged_refines_the_step_until_verdicts_agree(monkeyp
     assert 1.8 <= plan.motion_time_s <= 1.8 * 1.002 + 1e-9
     assert conv[1]["lost_neighbour_motion_time_s"] < 1.8 <= plan.motion_time_s
     assert 0.5e-3 in calls and 0.25e-3 not in calls  # stopped at the first converged step
+    # warm start: the 1 ms search's slow end is the 2 ms bracket's lost neighbour (carried at 1 ms)
+    assert s["points"][1]["motion_time_s"] == pytest.approx(conv[0]["lost_neighbour_motion_time_s"], rel=1e-12)
 
 
 def test_fastest_carried_converged_says_when_no_step_converges(monkeypatch, scenarios):

@@ -233,7 +233,10 @@ def plan_fastest_carried_converged(scenario, method: str = "ruckig", *,
     acceleration) per second with the first-order step (studies/contact_drift.py), so at a coarse
     step the 1 mm 'held' line can be crossed by the step's drift alone; the 1 mm line itself is not
     changed. The result's extra['carried_search']['convergence'] lists every step tried with the
-    re-simulated verdicts ('converged' False on the last step means no step in steps_s converged)."""
+    re-simulated verdicts ('converged' False on the last step means no step in steps_s converged).
+    A finer search starts from the coarser bracket's lost neighbour when that is carried at the
+    finer step (as the lowest jerk limit / the largest time scale), not from the whole range."""
+    kw = dict(kw)
     say = progress or (lambda _m: None)
     t0 = time.perf_counter()
     tried = []
@@ -254,6 +257,13 @@ def plan_fastest_carried_converged(scenario, method: str = "ruckig", *,
             ok = ok and not lost_fine["held"]
         row["converged"] = bool(ok)
         tried.append(row)
+        if nb is not None and lost_fine["held"]:
+            # Warm start of the finer search (carried-ness is assumed monotone, as in the search):
+            # the lost neighbour is carried at the finer step, so the bracket starts there.
+            if s["variable"] == "jerk_limit_m_s3":
+                kw["jerk_range_m_s3"] = (s["lost_above"], kw.get("jerk_range_m_s3", (0.3, 300.0))[1])
+            else:
+                kw["s_max"] = s["lost_below"]
         say(f"{scenario.name} {method}: step {h * 1e3:g} ms -> {plan.motion_time_s:.4f} s; verdicts at "
             f"{h2 * 1e3:g} ms {'agree' if ok else 'differ'}")
         if ok:
