@@ -20,6 +20,10 @@ acceleration) (studies/contact_drift.py), and on ch.3's straight lines that drif
 the 1 mm 'held' line at 2 ms; the 1 mm line is not changed. Its success probability is swept at
 the step it was found at.
 
+The benchmark runs the same search just before in `make run` and writes the plan
+(OUT/benchmark/fastest_carried_<chapter>.json): it is reused when it was searched the same way
+(--carried-from DIR; the JSON says 'reused_from'), else searched here.
+
 Writes OUT/success_probability.{json,md} (atomically) and the sweeps under OUT/sweeps/.
 Run: .venv/bin/python -m studies.success_probability [--cases 100] [--workers 2] [--robust thesis-ch4]
 """
@@ -73,12 +77,16 @@ def main(argv=None) -> int:
     ap.add_argument("--robust", nargs="*", metavar="CHAPTER",
                     help="also the robust time scale of these chapters' GA plan (P >= 0.99, bisection over sweeps)")
     ap.add_argument("--skip-carried", action="store_true", help="skip the fastest-carried search")
+    ap.add_argument("--carried-from", default=None, metavar="DIR",
+                    help="reuse the benchmark's fastest_carried_<chapter>.json from DIR when it was searched "
+                         "the same way (default: OUT/benchmark, where `make run` puts the benchmark)")
     a = ap.parse_args(argv)
     from qmt_drake.config.scenario import load_scenario
-    from qmt_drake.apps.benchmark import fastest_carried
+    from qmt_drake.apps.benchmark import fastest_carried, reusable_fastest_carried
     from qmt_drake.sweep.robust import robust_time_scale
     from qmt_drake.sweep.runner import dask_client, run_sweep
     out = Path(a.out)
+    a.carried_from = a.carried_from or str(out / "benchmark")
     sweeps = out / "sweeps"
     log = lambda m: print(m, file=sys.stderr, flush=True)  # noqa: E731
     result = {"uncertainty": UNCERTAINTY_TEXT, "uncertainty_spec": UNCERTAINTY, "cases_per_plan": a.cases,
@@ -106,7 +114,13 @@ def main(argv=None) -> int:
             entry = result["chapters"][ch]
             if ch in BANG_BANG_S and not a.skip_carried:
                 sc = load_scenario(ch)
-                plan, row = fastest_carried(sc, progress=log)
+                # The benchmark (run just before by `make run`) searched the same plan: reuse it.
+                reused = reusable_fastest_carried(Path(a.carried_from) / f"fastest_carried_{ch}.json", sc)
+                if reused:
+                    plan, row = reused
+                    log(f"{ch}: fastest carried plan reused from {a.carried_from}")
+                else:
+                    plan, row = fastest_carried(sc, progress=log)
                 path = sweeps / f"fastest-carried-{ch}.json"
                 plan.write_json(path)
                 bound = BANG_BANG_S[ch]
@@ -118,7 +132,8 @@ def main(argv=None) -> int:
                       "feedforward": search["feedforward"], "time_step_s": search["time_step_s"],
                       "step_converged": search["converged"], "convergence": search["convergence"],
                       "held": row["held"], "max_slip_m": row["max_slip_m"], "search": search["points"],
-                      "plan_file": str(path), "planner_wall_s": plan.planner_wall_s}
+                      "plan_file": str(path), "planner_wall_s": plan.planner_wall_s,
+                      "reused_from": str(Path(a.carried_from) / f"fastest_carried_{ch}.json") if reused else None}
                 entry["fastest_carried"] = fc
                 log(f"{ch}: fastest carried {plan.motion_time_s:.4f} s vs bang-bang {bound} s "
                     f"(+{fc['excess'] * 100:.2f}%), J = {search['chosen']:.3g} m/s^3 at "
@@ -176,7 +191,8 @@ def markdown(result: dict) -> str:
                   f"{fc['feedforward']}, {fc['time_step_s'] * 1e3:g} ms step): **{fc['motion_time_s']:.4f} s** against "
                   f"the bang-bang bound {fc['bang_bang_s']} s: {fc['excess'] * 100:+.2f}% (target within 3%: "
                   f"{'met' if fc['within_3_percent'] else 'not met'}). Step convergence of the verdict: {conv}. "
-                  "Its row above is swept at that step with that feedforward."]
+                  "Its row above is swept at that step with that feedforward."
+                  + (f" (Search reused from {fc['reused_from']}.)" if fc.get("reused_from") else "")]
         rb = e.get("robust_ga")
         if rb:
             if rb.get("found"):

@@ -11,7 +11,7 @@ import pytest
 
 import qmt_drake.sim
 from qmt_drake.sweep import robust
-from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome, run_benchmark
+from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome, reusable_fastest_carried, run_benchmark
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra
 from qmt_drake.config.scenario import load_scenario
 
@@ -72,6 +72,9 @@ def test_quick_benchmark_ch3(tmp_path, monkeypatch):
     assert fc[0]["feedforward"] == "full" and fc[0]["cosim_time_step_s"] == 2e-3 and fc[0]["step_converged"]
     assert fc[0]["excess_over_bang_bang"] == pytest.approx(fc[0]["motion_time_s"] / closed_form_bound_s(sc) - 1)
     assert set(carried_steps) == {2e-3, 1e-3}
+    plan, again = reusable_fastest_carried(tmp_path / "fastest_carried_thesis-ch3.json", sc)
+    assert plan.motion_time_s == pytest.approx(fc[0]["motion_time_s"], rel=1e-9) and again["held"] is True
+    assert reusable_fastest_carried(tmp_path / "missing.json", sc) is None
     summary = data["scenarios"]["thesis-ch3"]["fastest_carried"]
     assert summary["motion_time_s"] == fc[0]["motion_time_s"] and summary["carried_wall_s"] > 0
     assert data["settings"]["fastest_carried_wall_s"] == pytest.approx(summary["carried_wall_s"])

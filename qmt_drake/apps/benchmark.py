@@ -5,7 +5,8 @@
   benchmark.md    one table per scenario and the GA / TOPP-RA ratios;
   benchmark_<scenario>_moment.png  tip acceleration |a_tip| and payload moment against the limit
                   over time, every method;
-  benchmark_times.png  motion times per scenario and method (bar chart).
+  benchmark_times.png  motion times per scenario and method (bar chart);
+  fastest_carried_<scenario>.json  the fastest carried plan (studies/success_probability.py reuses it).
 
 Rows per scenario: the thesis's reported genes, the GA (one row per seed), the family optimum,
 TOPP-RA on the family path, the GA's path, the straight joint path and the straight Cartesian path,
@@ -129,7 +130,7 @@ def fastest_carried(scenario, *, quick: bool = False, steps_s=CARRIED_STEPS_S, p
     plan = plan_fastest_carried_converged(scenario, method, steps_s=steps_s, rel_tol=rel_tol,
                                           progress=progress, **opts)
     s = plan.extra["carried_search"]
-    at = [p for p in s["points"] if p[s["variable"]] == s["chosen"] and p["held"]]
+    at = _chosen_points(s)
     h = s["time_step_s"]
     label = f"{CARRIED_LABEL} ({what}, ff full, {h * 1e3:g} ms)"
     row = _row(scenario, label, plan, cosim=False)
@@ -143,6 +144,27 @@ def fastest_carried(scenario, *, quick: bool = False, steps_s=CARRIED_STEPS_S, p
                 "bang_bang_s": bound, "excess_over_bang_bang": (plan.motion_time_s / bound - 1.0) if bound else None,
                 "carried_wall_s": time.perf_counter() - t0})
     return plan, row
+
+
+def _chosen_points(search: dict) -> list[dict]:
+    """The co-simulated points of a carried search at its chosen value that were carried."""
+    return [p for p in search["points"] if p[search["variable"]] == search["chosen"] and p["held"]]
+
+
+def reusable_fastest_carried(path, scenario):
+    """(Plan, row-like dict) of a fastest-carried plan the benchmark wrote (`fastest_carried_<name>.json`)
+    if it was searched as `fastest_carried` searches now (steps, feedforward), else None."""
+    from pathlib import Path as _P
+    from qmt_drake.plan import load_plan
+    if not _P(path).is_file():
+        return None
+    plan = load_plan(path, scenario)
+    s = (plan.extra or {}).get("carried_search") or {}
+    steps = [c["time_step_s"] for c in s.get("convergence", [])]
+    if s.get("feedforward") != "full" or not steps or steps != list(CARRIED_STEPS_S[:len(steps)]):
+        return None
+    at = _chosen_points(s)
+    return plan, {"held": bool(at[0]["held"]) if at else None, "max_slip_m": at[0]["max_slip_m"] if at else None}
 
 
 def _series(scenario, plan: Plan, rate_hz: float = 1000.0):
@@ -254,6 +276,8 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
             else:
                 plans.append((fc_row["label"], fc_plan))
                 rows.append(fc_row)
+                # studies/success_probability.py reuses it (the same search) instead of repeating it
+                fc_plan.write_json(out / f"fastest_carried_{name}.json")
                 say(f"{name}: {fc_row['label']}: {fc_plan.motion_time_s:.4f} s, carried "
                     f"{fc_row['held']} ({fc_row['carried_wall_s']:.1f} s added)")
         feas = [r["motion_time_s"] for r in rows if r["feasible"]]
