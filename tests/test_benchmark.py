@@ -103,3 +103,24 @@ def test_closed_form_bound():
     A = sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm
     assert closed_form_bound_s(sc) == pytest.approx(2 * np.sqrt(0.2 / A))
     assert closed_form_bound_s(load_scenario("thesis-ch4")) is None
+
+
+def test_fastest_carried_with_vias_time_scales_the_fastest_limit_keeping_candidate(monkeypatch):
+    """ch.4 has via points (no Ruckig line): the search time-scales the fastest candidate that keeps
+    every limit (the raw TOPP-RA spline, faster but over the limit, is skipped)."""
+    from qmt_drake.apps.benchmark import fastest_carried
+    from qmt_drake.planners import plan_with
+    sc = load_scenario("thesis-ch4")
+    thesis = plan_with("thesis", sc)
+    family = plan_toppra(sc, path="family", measure_polygon_cost=False)
+    raw = plan_toppra(sc, path="family", parametrizer="ParametrizeSpline", slow_to_limits=False,
+                      measure_polygon_cost=False)
+    assert not raw.feasible and family.feasible and family.motion_time_s < thesis.motion_time_s
+
+    def fake_carried(scenario, plan, *, time_scale=1.0, feedforward="full", time_step_s=None):
+        return {"held": plan.motion_time_s * time_scale >= 1.6, "max_slip_m": 2e-4, "detached_at_s": None}
+    monkeypatch.setattr(robust, "carried_in_cosim", fake_carried)
+    plan, row = fastest_carried(sc, candidates=[("thesis", thesis), ("family", family), ("raw", raw)])
+    assert row["label"].startswith("fastest carried (family time-scaled") and row["held"] is True
+    assert 1.6 <= plan.motion_time_s <= 1.6 * 1.002 + 1e-9 and plan.feasible
+    assert row["bang_bang_s"] is None and row["search_variable"] == "time_scale"

@@ -135,3 +135,13 @@ def test_fastest_carried_converged_says_when_no_step_converges(monkeypatch, scen
     s = plan.extra["carried_search"]
     assert s["converged"] is False and [c["converged"] for c in s["convergence"]] == [False, False]
     assert s["time_step_s"] == 1e-3  # the finest step tried is what is returned
+
+
+def test_fastest_carried_time_scales_a_given_plan(fake_cosim, scenarios):
+    """base_plan: the time-scale search runs on a plan the caller already has (no planning)."""
+    from qmt_drake.planners import plan_with
+    base = plan_with("thesis", scenarios["thesis-ch4"])
+    fake_cosim.T_star = 1.8
+    plan = robust.plan_fastest_carried(scenarios["thesis-ch4"], "mine", base_plan=base, rel_tol=0.001)
+    assert plan.method == "mine-carried" and 1.8 <= plan.motion_time_s <= 1.8 * 1.001
+    assert plan.extra["carried_search"]["chosen"] == pytest.approx(plan.motion_time_s / base.motion_time_s)

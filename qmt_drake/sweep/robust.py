@@ -142,13 +142,14 @@ def carried_in_cosim(scenario, plan, *, time_scale: float = 1.0, feedforward: st
 def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str = "full",
                          jerk_range_m_s3: tuple[float, float] = (0.3, 300.0), s_max: float = 2.0,
                          rel_tol: float = 0.002, time_step_s: float | None = None, seed: int = 0,
-                         progress=None, **planner_options):
+                         progress=None, base_plan=None, **planner_options):
     """The fastest plan of `method` carried in the nominal co-simulation with `feedforward`.
 
     method "ruckig": bisection on log J over jerk_range_m_s3 (Cartesian line unless a `mode`
     option says otherwise); the lower end must be carried. Any other method: plan once, then
     bisect its time scale s in [1, s_max] and return the plan played s times slower
-    (TimeScaledTrajectory, re-checked). rel_tol: relative width of the final bracket in motion time.
+    (TimeScaledTrajectory, re-checked); base_plan: time-scale this plan instead of planning one
+    (method is then only its name). rel_tol: relative width of the final bracket in motion time.
     Returns a Plan whose extra['carried_search'] holds every co-simulated point."""
     from qmt_drake.sim import FEEDFORWARD_OPTIONS
     from qmt_drake.planners import plan_with
@@ -193,7 +194,7 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
         search = {"variable": "jerk_limit_m_s3", "chosen": best_J, "lost_above": hi if best_J < hi else None}
         plan = best_plan
     else:
-        base = plan_with(method, scenario, seed=seed, **planner_options)
+        base = base_plan if base_plan is not None else plan_with(method, scenario, seed=seed, **planner_options)
         if not base.feasible:
             raise QmtInputError(f"{scenario.name}: the {method} plan breaks a limit; nothing to time-scale")
         lo, hi = 1.0, float(s_max)
@@ -289,7 +290,7 @@ def _neighbour(scenario, plan, method, kw):
     return time_scaled_plan(plan, s["lost_below"] / s["chosen"], plan.method)
 
 
-_SEARCH_KW = ("jerk_range_m_s3", "s_max", "rel_tol", "seed")
+_SEARCH_KW = ("jerk_range_m_s3", "s_max", "rel_tol", "seed", "base_plan")
 
 
 def bracket_check(scenario, plan, *, feedforward: str = "full", steps_s=(1e-3, 0.5e-3)) -> list[dict]:
