@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import qmt_drake.sim
-from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome, run_benchmark
+from qmt_drake.sweep import robust
+from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome, reusable_fastest_carried, run_benchmark
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra
 from qmt_drake.config.scenario import load_scenario
 
@@ -25,6 +26,13 @@ def test_quick_benchmark_ch3(tmp_path, monkeypatch):
         return {"held": True, "max_slip_m": 1e-4, "sim_wall_s": 0.0}
 
     monkeypatch.setattr(qmt_drake.sim, "run_simulate", fake_simulate)
+    carried_steps = []
+
+    def fake_carried(scenario, plan, *, time_scale=1.0, feedforward="full", time_step_s=None):
+        # carried iff the motion lasts >= 1.70 s (bang-bang 1.674 s), at every step
+        carried_steps.append(time_step_s)
+        return {"held": plan.motion_time_s * time_scale >= 1.70, "max_slip_m": 2e-4, "detached_at_s": None}
+    monkeypatch.setattr(robust, "carried_in_cosim", fake_carried)
     res = run_benchmark(scenarios=("thesis-ch3",), out_dir=tmp_path, quick=True, progress=None)
     for f in ("benchmark.json", "benchmark.md", "benchmark_thesis-ch3_moment.png",
               "benchmark_times.png"):
@@ -50,16 +58,34 @@ def test_quick_benchmark_ch3(tmp_path, monkeypatch):
         assert r["peak_moment_ratio"] is not None and r["peak_motor_torque_ratio"] is not None
         if r["feasible"]:
             assert max(r["peak_moment_ratio"], r["peak_motor_torque_ratio"]) <= 1.0
+        if r["label"].startswith("fastest carried"):
+            continue
         if r["method"] == "ruckig":
             assert r["held"] is None and "failed" in r["cosim_note"]
         else:
             assert r["held"] is True
-    assert len(calls) == len(rows)
+    assert len(calls) == len(rows) - 1  # the carried row is simulated by its own search
+    # the fastest carried row: a feasible Ruckig line just above the rule's 1.70 s, converged at 2 ms
+    fc = [r for r in rows if r["label"].startswith("fastest carried")]
+    assert len(fc) == 1 and fc[0]["held"] is True and fc[0]["feasible"]
+    assert 1.70 <= fc[0]["motion_time_s"] <= 1.70 * 1.01 + 1e-9
+    assert fc[0]["feedforward"] == "full" and fc[0]["cosim_time_step_s"] == 2e-3 and fc[0]["step_converged"]
+    assert fc[0]["excess_over_bang_bang"] == pytest.approx(fc[0]["motion_time_s"] / closed_form_bound_s(sc) - 1)
+    assert set(carried_steps) == {2e-3, 1e-3}
+    plan, again = reusable_fastest_carried(tmp_path / "fastest_carried_thesis-ch3.json", sc)
+    assert plan.motion_time_s == pytest.approx(fc[0]["motion_time_s"], rel=1e-9) and again["held"] is True
+    assert reusable_fastest_carried(tmp_path / "missing.json", sc) is None
+    summary = data["scenarios"]["thesis-ch3"]["fastest_carried"]
+    assert summary["motion_time_s"] == fc[0]["motion_time_s"] and summary["carried_wall_s"] > 0
+    assert data["settings"]["fastest_carried_wall_s"] == pytest.approx(summary["carried_wall_s"])
     ratios = data["scenarios"]["thesis-ch3"]["ratios"]
     assert "GA / TOPP-RA ga_path: motion time" in ratios
     md = (tmp_path / "benchmark.md").read_text()
     assert "| TOPP-RA cartesian_line | yes |" in md
     assert "co-simulation failed" in md
+    assert "**Fastest carried**" in md and "over the bang-bang bound" in md
+    assert "2 ms: " in md and "at 1 ms carried" in md  # the step-convergence clause
+    assert "| fastest carried (Ruckig line" in md
     assert res["scenarios"]["thesis-ch3"]["closed_form_bound_s"] == pytest.approx(
         closed_form_bound_s(sc))
 
@@ -77,3 +103,24 @@ def test_closed_form_bound():
     A = sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm
     assert closed_form_bound_s(sc) == pytest.approx(2 * np.sqrt(0.2 / A))
     assert closed_form_bound_s(load_scenario("thesis-ch4")) is None
+
+
+def test_fastest_carried_with_vias_time_scales_the_fastest_limit_keeping_candidate(monkeypatch):
+    """ch.4 has via points (no Ruckig line): the search time-scales the fastest candidate that keeps
+    every limit (the raw TOPP-RA spline, faster but over the limit, is skipped)."""
+    from qmt_drake.apps.benchmark import fastest_carried
+    from qmt_drake.planners import plan_with
+    sc = load_scenario("thesis-ch4")
+    thesis = plan_with("thesis", sc)
+    family = plan_toppra(sc, path="family", measure_polygon_cost=False)
+    raw = plan_toppra(sc, path="family", parametrizer="ParametrizeSpline", slow_to_limits=False,
+                      measure_polygon_cost=False)
+    assert not raw.feasible and family.feasible and family.motion_time_s < thesis.motion_time_s
+
+    def fake_carried(scenario, plan, *, time_scale=1.0, feedforward="full", time_step_s=None):
+        return {"held": plan.motion_time_s * time_scale >= 1.6, "max_slip_m": 2e-4, "detached_at_s": None}
+    monkeypatch.setattr(robust, "carried_in_cosim", fake_carried)
+    plan, row = fastest_carried(sc, candidates=[("thesis", thesis), ("family", family), ("raw", raw)])
+    assert row["label"].startswith("fastest carried (family time-scaled") and row["held"] is True
+    assert 1.6 <= plan.motion_time_s <= 1.6 * 1.002 + 1e-9 and plan.feasible
+    assert row["bang_bang_s"] is None and row["search_variable"] == "time_scale"

@@ -152,10 +152,10 @@ def test_why_the_plant_config_matters(sc4, plan4, carried_explicit_1ms):
 def test_default_context_of_the_built_diagram_reproduces_the_runner(sc4, plan4, carried):
     """Simulator(td.diagram) on a fresh default context, advanced in one call, gives the runner's
     summary (the runner advances in chunks and checks the state between them)."""
-    td = build_transfer_diagram(sc4, plan4, log_period_s=0)
+    td = build_transfer_diagram(sc4, plan4, log_period_s=0, step_logs=True)
     sim = Simulator(td.diagram)
     sim.AdvanceTo(td.t_final_s)
-    mine = TransferMonitor.unpack(td.diagram.GetOutputPort("summary").Eval(sim.get_context()))
+    mine = TransferMonitor.unpack(td.summary(sim.get_context()))
     assert math.isnan(mine["detached_at_s"]) and carried.detached_at_s is None
     assert mine["max_slip_m"] == pytest.approx(carried.max_slip_m, rel=1e-9)
     assert mine["max_tracking_error_rad"] == pytest.approx(carried.max_tracking_error_rad, rel=1e-9)
@@ -167,6 +167,57 @@ def test_default_context_of_the_built_diagram_reproduces_the_runner(sc4, plan4, 
     X_HP = td.plant.EvalBodyPoseInWorld(pc, td.hand_body).InvertAndCompose(
         td.plant.EvalBodyPoseInWorld(pc, td.payload_body))
     assert X_HP.IsNearlyEqualTo(seated_pose_in_hand(), 1e-12)
+
+
+@pytest.mark.parametrize("time_scale,feedforward", [(1.0, "none"), (0.8, "none"), (1.0, "full")])
+def test_step_logs_and_primitive_pd_give_the_python_systems_summary(sc4, plan4, time_scale, feedforward):
+    """What simulate_transfer runs (step_logs=True: the summary from per-step C++ logs, sim.posthoc;
+    the PD law as Drake primitives) against the Python systems called every step (per-step
+    TransferMonitor, JointPidController): the same numbers, held (x1.0), lost (x0.8, falling part:
+    the last samples count) and with the full feedforward (both feedforward inputs of the law)."""
+    from qmt_drake.sim import FEEDFORWARD_OPTIONS, run_diagram
+    ff = FEEDFORWARD_OPTIONS[feedforward]
+    logs = build_transfer_diagram(sc4, plan4, time_scale=time_scale, log_period_s=0, step_logs=True, **ff)
+    per_step = build_transfer_diagram(sc4, plan4, time_scale=time_scale, log_period_s=0,
+                                      primitive_controller=False, **ff)
+    assert isinstance(per_step.controller, JointPidController)
+    assert not isinstance(logs.controller, JointPidController)  # the primitives' Diagram
+    assert logs.step_logs is not None and per_step.step_logs is None
+    a = TransferMonitor.unpack(run_diagram(per_step)[0])
+    b = TransferMonitor.unpack(run_diagram(logs)[0])
+    assert (not math.isnan(a["detached_at_s"])) == (time_scale == 0.8) == (not math.isnan(b["detached_at_s"]))
+    for k in ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_error_rad", "energy_J", "max_gap_m"):
+        assert b[k] == pytest.approx(a[k], rel=1e-12, nan_ok=True), k
+    np.testing.assert_allclose(b["peak_motor_torque_Nm"], a["peak_motor_torque_Nm"], rtol=1e-12)
+    names = {logs.diagram.get_output_port(i).get_name() for i in range(logs.diagram.num_output_ports())}
+    assert "summary" not in names  # no port that would read a summary the monitor never made
+
+
+def test_primitive_pd_controller_is_the_python_law(sc4):
+    """joint_tracking.primitive_pd_controller against JointPidController on random inputs, saturated
+    or not, with and without both feedforward terms; with an integral term there is none."""
+    from qmt_drake.systems.joint_tracking import PidGains, primitive_pd_controller
+    mp = motor_params_for(sc4)
+    rng = np.random.default_rng(3)
+    for kw in ({}, {"back_emf_feedforward": True, "torque_feedforward": True}):
+        pid = JointPidController(pid_gains_for(sc4), mp.gear_ratio, mp.voltage_limit_V, motor=mp, **kw)
+        prim = primitive_pd_controller(pid)
+        c1, c2 = pid.CreateDefaultContext(), prim.CreateDefaultContext()
+        saturated = 0
+        for _ in range(100):
+            xd, x, ff = rng.normal(size=4) * 0.05, rng.normal(size=4) * 0.05, rng.normal(size=2) * 0.02
+            for system, c in ((pid, c1), (prim, c2)):
+                system.GetInputPort("desired_state").FixValue(c, xd)
+                system.GetInputPort("estimated_state").FixValue(c, x)
+                if kw:
+                    system.GetInputPort("feedforward_torque").FixValue(c, ff)
+            a = pid.GetOutputPort("voltage_command").Eval(c1)
+            np.testing.assert_array_equal(prim.GetOutputPort("voltage_command").Eval(c2), a)
+            saturated += int(np.any(np.abs(a) >= mp.voltage_limit_V))
+        assert 0 < saturated < 100  # both branches of the limit were exercised
+    with_integral = JointPidController(PidGains([1.0, 1.0], [0.0, 1e-3], [0.1, 0.1]), mp.gear_ratio,
+                                       mp.voltage_limit_V)
+    assert primitive_pd_controller(with_integral) is None
 
 
 def test_unseated_start_is_an_error_not_a_detachment(sc4, plan4):

@@ -93,3 +93,55 @@ def test_plan_robust_returns_the_slowed_plan(tmp_path, problems):
     assert slowed.motion_time_s == pytest.approx(plan.motion_time_s * r["time_scale"])
     assert slowed.feasible and slowed.method == "thesis-robust"
     assert slowed.peak_moment_ratio < plan.peak_moment_ratio
+
+
+
+def test_fastest_carried_converged_refines_the_step_until_verdicts_agree(monkeypatch, scenarios):
+    """A rule whose verdict depends on the step as drift does: at 2 ms a plan must last >= 1.9 s to
+    be 'carried', at 1 ms and finer >= 1.8 s (the ch.4 thesis plan lasts 1.716 s). The 2 ms
+    bracket's lost neighbour (~1.9 s) is carried at 1 ms, so 2 ms is not converged; the 1 ms
+    bracket keeps its verdicts at 0.5 ms."""
+    calls = []
+
+    def carried(scenario, plan, *, time_scale=1.0, feedforward="full", time_step_s=None):
+        calls.append(time_step_s)
+        T_star = 1.9 if time_step_s >= 2e-3 else 1.8
+        return {"held": plan.motion_time_s * time_scale >= T_star, "max_slip_m": 1e-4, "detached_at_s": None}
+    monkeypatch.setattr(robust, "carried_in_cosim", carried)
+    plan = robust.plan_fastest_carried_converged(scenarios["thesis-ch4"], "thesis", rel_tol=0.002)
+    s = plan.extra["carried_search"]
+    conv = s["convergence"]
+    assert [c["time_step_s"] for c in conv] == [2e-3, 1e-3]
+    assert not conv[0]["converged"] and conv[0]["lost_neighbour_at_check_step"]["held"]
+    assert conv[0]["chosen_at_check_step"]["held"]
+    assert 1.9 <= conv[0]["motion_time_s"] <= 1.9 * 1.002 + 1e-9
+    assert conv[1]["converged"] and s["converged"] and s["time_step_s"] == 1e-3
+    assert not conv[1]["lost_neighbour_at_check_step"]["held"]
+    assert 1.8 <= plan.motion_time_s <= 1.8 * 1.002 + 1e-9
+    assert conv[1]["lost_neighbour_motion_time_s"] < 1.8 <= plan.motion_time_s
+    assert 0.5e-3 in calls and 0.25e-3 not in calls  # stopped at the first converged step
+    # warm start: the 1 ms search's slow end is the 2 ms bracket's lost neighbour (carried at 1 ms)
+    assert s["points"][1]["motion_time_s"] == pytest.approx(conv[0]["lost_neighbour_motion_time_s"], rel=1e-12)
+
+
+def test_fastest_carried_converged_says_when_no_step_converges(monkeypatch, scenarios):
+    def carried(scenario, plan, *, time_scale=1.0, feedforward="full", time_step_s=None):
+        # the threshold keeps falling with the step: never converged
+        return {"held": plan.motion_time_s * time_scale >= 1.75 + 100 * time_step_s, "max_slip_m": 1e-4,
+                "detached_at_s": None}
+    monkeypatch.setattr(robust, "carried_in_cosim", carried)
+    plan = robust.plan_fastest_carried_converged(scenarios["thesis-ch4"], "thesis", steps_s=(2e-3, 1e-3),
+                                                 rel_tol=0.002)
+    s = plan.extra["carried_search"]
+    assert s["converged"] is False and [c["converged"] for c in s["convergence"]] == [False, False]
+    assert s["time_step_s"] == 1e-3  # the finest step tried is what is returned
+
+
+def test_fastest_carried_time_scales_a_given_plan(fake_cosim, scenarios):
+    """base_plan: the time-scale search runs on a plan the caller already has (no planning)."""
+    from qmt_drake.planners import plan_with
+    base = plan_with("thesis", scenarios["thesis-ch4"])
+    fake_cosim.T_star = 1.8
+    plan = robust.plan_fastest_carried(scenarios["thesis-ch4"], "mine", base_plan=base, rel_tol=0.001)
+    assert plan.method == "mine-carried" and 1.8 <= plan.motion_time_s <= 1.8 * 1.001
+    assert plan.extra["carried_search"]["chosen"] == pytest.approx(plan.motion_time_s / base.motion_time_s)

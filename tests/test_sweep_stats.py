@@ -40,3 +40,12 @@ def test_rows_group_and_count_failed_simulations_as_lost():
         ("a", 1.0, 4, 3, 1), ("b", 2.0, 1, 1, 0)]
     assert rows[0]["p"] == 0.75 and rows[0]["ci_low"] < 0.75 < rows[0]["ci_high"]
     assert not math.isnan(rows[0]["median_slip_m"])
+
+
+def test_rows_tell_detachment_from_slip_only_losses():
+    rs = [{"label": "a", "held": True, "max_slip_m": 1e-4, "detached_at_s": None},
+          {"label": "a", "held": False, "max_slip_m": 0.3, "detached_at_s": 0.4},
+          {"label": "a", "held": False, "max_slip_m": 1.2e-3, "detached_at_s": None},
+          {"label": "a", "held": False, "status": "sim_failed"}]
+    (row,) = success_rows(rs)
+    assert (row["n"], row["carried"], row["detached"], row["lost_by_slip_only"], row["sim_failed"]) == (4, 1, 1, 1, 1)

@@ -5,14 +5,20 @@
   benchmark.md    one table per scenario and the GA / TOPP-RA ratios;
   benchmark_<scenario>_moment.png  tip acceleration |a_tip| and payload moment against the limit
                   over time, every method;
-  benchmark_times.png  motion times per scenario and method (bar chart).
+  benchmark_times.png  motion times per scenario and method (bar chart);
+  fastest_carried_<scenario>.json  the fastest carried plan (studies/success_probability.py reuses it).
 
 Rows per scenario: the thesis's reported genes, the GA (one row per seed), the family optimum,
 TOPP-RA on the family path, the GA's path, the straight joint path and the straight Cartesian path,
 TOPP-RA's spline output on the family path unslowed (to show its overshoot), Drake's Toppra,
 Ruckig along the Cartesian line at each jerk limit and in joint space at the middle one, and the
-free-path trajectory optimization. Every number comes from the plan's 10 kHz re-check
-(`Plan.check`) and from the co-simulation, never from the planner's own claim.
+free-path trajectory optimization, and the fastest plan CARRIED in the nominal co-simulation
+(`fastest_carried`: Ruckig's jerk-limited line for a task without vias, otherwise the fastest
+limit-keeping plan of the table time-scaled; the controller's full feedforward; the jerk limit
+or time scale chosen by bisection on the co-simulation at the coarsest plant step whose verdict
+is converged, see sweep.robust.plan_fastest_carried_converged), against the bang-bang bound.
+Every number comes from the plan's 10 kHz re-check (`Plan.check`) and from the co-simulation,
+never from the planner's own claim.
 
 Peak jerk: the tip jerk |d a_tip / dt| by finite differences of the tip acceleration sampled at
 10 kHz (m/s^3). Where the 50 kHz value exceeds the 10 kHz value three times over, the acceleration
@@ -103,6 +109,72 @@ def _row(scenario, label: str, plan: Plan, cosim: bool) -> dict:
     return row
 
 
+CARRIED_STEPS_S = (2e-3, 1e-3, 0.5e-3)  # plant steps tried, coarsest first (converged verdict)
+CARRIED_LABEL = "fastest carried"
+
+
+def fastest_carried(scenario, *, quick: bool = False, steps_s=CARRIED_STEPS_S, progress=None,
+                    candidates=None) -> tuple:
+    """(Plan, row) of the fastest plan carried in the nominal co-simulation with the controller's
+    full feedforward. Task without vias: Ruckig's jerk-limited Cartesian line, J by bisection on
+    log J in [1, 300] m/s^3; with vias (Ruckig stops at every via): the time scale, by bisection,
+    of the fastest limit-keeping plan among `candidates` ((label, Plan) pairs, e.g. the
+    benchmark's rows), or of the TOPP-RA family path without them. The row's held / slip are the
+    co-simulation at the step the search settled on (the plan's own verdict), with its
+    feedforward; 'carried_wall_s' is what the search added to the benchmark."""
+    from qmt_drake.sweep.robust import plan_fastest_carried_converged
+    t0 = time.perf_counter()
+    bound = closed_form_bound_s(scenario)
+    rel_tol = 0.01 if quick else 0.002
+    if bound is not None:
+        method, opts, what = "ruckig", {"jerk_range_m_s3": (1.0, 300.0)}, "Ruckig line"
+    else:
+        feas = [(lb, p) for lb, p in (candidates or []) if p.feasible and p.motion_time_s > 0]
+        if feas:
+            lb, base = min(feas, key=lambda lp: lp[1].motion_time_s)
+            method, opts, what = base.method, {"base_plan": base}, f"{lb} time-scaled"
+        else:
+            method, opts, what = "toppra", {"path": "family"}, "TOPP-RA family time-scaled"
+    plan = plan_fastest_carried_converged(scenario, method, steps_s=steps_s, rel_tol=rel_tol,
+                                          progress=progress, **opts)
+    s = plan.extra["carried_search"]
+    at = _chosen_points(s)
+    h = s["time_step_s"]
+    label = f"{CARRIED_LABEL} ({what}, ff full, {h * 1e3:g} ms)"
+    row = _row(scenario, label, plan, cosim=False)
+    row.update({"held": bool(at[0]["held"]) if at else None,
+                "max_slip_m": at[0]["max_slip_m"] if at else None,
+                "detached_at_s": at[0]["detached_at_s"] if at else None, "cosim_note": None,
+                "carried_search_method": method, "feedforward": s["feedforward"], "cosim_time_step_s": h,
+                "search_variable": s["variable"], "search_chosen": s["chosen"],
+                "search_points": len(s["points"]), "step_converged": s.get("converged"),
+                "step_convergence": s.get("convergence"),
+                "bang_bang_s": bound, "excess_over_bang_bang": (plan.motion_time_s / bound - 1.0) if bound else None,
+                "carried_wall_s": time.perf_counter() - t0})
+    return plan, row
+
+
+def _chosen_points(search: dict) -> list[dict]:
+    """The co-simulated points of a carried search at its chosen value that were carried."""
+    return [p for p in search["points"] if p[search["variable"]] == search["chosen"] and p["held"]]
+
+
+def reusable_fastest_carried(path, scenario):
+    """(Plan, row-like dict) of a fastest-carried plan the benchmark wrote (`fastest_carried_<name>.json`)
+    if it was searched as `fastest_carried` searches now (steps, feedforward), else None."""
+    from pathlib import Path as _P
+    from qmt_drake.plan import load_plan
+    if not _P(path).is_file():
+        return None
+    plan = load_plan(path, scenario)
+    s = (plan.extra or {}).get("carried_search") or {}
+    steps = [c["time_step_s"] for c in s.get("convergence", [])]
+    if s.get("feedforward") != "full" or not steps or steps != list(CARRIED_STEPS_S[:len(steps)]):
+        return None
+    at = _chosen_points(s)
+    return plan, {"held": bool(at[0]["held"]) if at else None, "max_slip_m": at[0]["max_slip_m"] if at else None}
+
+
 def _series(scenario, plan: Plan, rate_hz: float = 1000.0):
     T = plan.motion_time_s
     if T <= 0:
@@ -117,10 +189,12 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
                   jerk_limits=DEFAULT_JERK_LIMITS, progress: Callable[[str], None] | None = print,
                   ga_seeds=(0,), quick: bool = False, cosim: bool = True,
                   ga_max_generations: int | None = None, ga_stall_generations: int | None = None,
-                  figures: bool = True) -> dict:
+                  figures: bool = True, carried: bool = True) -> dict:
     """Plan every scenario with every method, write benchmark.json/.md and figures; return the
     JSON dict. quick=True: a 30-generation GA, a smaller trajopt (10 control points, 40 samples),
-    one jerk limit. cosim=False skips the co-simulation (rows then say so)."""
+    one jerk limit, a 1% bracket for the fastest carried plan. cosim=False skips the
+    co-simulation (rows then say so) and the fastest-carried search; carried=False skips only the
+    search."""
     from qmt_drake.planners.optimum import plan_family_optimum
     from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
     from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
@@ -137,7 +211,7 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
     trajopt_kw = {"num_control_points": 10, "constraint_samples": 40} if quick else {}
     result = {"settings": {"ga_seeds": list(ga_seeds), "ga_max_generations": gmax,
                            "ga_stall_generations": gstall, "jerk_limits_m_s3": list(jerks),
-                           "quick": quick, "cosim": cosim,
+                           "quick": quick, "cosim": cosim, "fastest_carried": bool(cosim and carried),
                            "check": "every row re-checked at the scenario's check rate (10 kHz)",
                            "peak_jerk": "tip jerk, finite differences of the tip acceleration "
                                         "at 10 kHz (m/s^3); 'jump' where it is discontinuous"},
@@ -198,6 +272,22 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
             if cosim:
                 say(f"{name}: co-simulating {label}")
             rows.append(_row(sc, label, plan, cosim))
+        fc_row = None
+        if cosim and carried:
+            say(f"{name}: searching the fastest plan carried in the co-simulation")
+            try:
+                fc_plan, fc_row = fastest_carried(sc, quick=quick, progress=say, candidates=list(plans))
+            except Exception as exc:  # noqa: BLE001 - a failed search is a note, not a crash
+                say(f"{name}: fastest carried raised {type(exc).__name__}: {exc}")
+                result["scenarios"].setdefault(name, {}).setdefault("errors", []).append(
+                    {"label": CARRIED_LABEL, "error": f"{type(exc).__name__}: {exc}"})
+            else:
+                plans.append((fc_row["label"], fc_plan))
+                rows.append(fc_row)
+                # studies/success_probability.py reuses it (the same search) instead of repeating it
+                fc_plan.write_json(out / f"fastest_carried_{name}.json")
+                say(f"{name}: {fc_row['label']}: {fc_plan.motion_time_s:.4f} s, carried "
+                    f"{fc_row['held']} ({fc_row['carried_wall_s']:.1f} s added)")
         feas = [r["motion_time_s"] for r in rows if r["feasible"]]
         fastest = min(feas) if feas else None
         for r in rows:
@@ -207,9 +297,16 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
         entry.update({"rows": rows, "fastest_feasible_s": fastest,
                       "closed_form_bound_s": closed_form_bound_s(sc),
                       "A_m_s2": sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm,
-                      "ratios": _ga_ratios(rows)})
+                      "ratios": _ga_ratios(rows),
+                      "fastest_carried": None if fc_row is None else {
+                          k: fc_row[k] for k in ("label", "motion_time_s", "bang_bang_s", "excess_over_bang_bang",
+                                                 "held", "max_slip_m", "feedforward", "cosim_time_step_s",
+                                                 "search_variable", "search_chosen", "step_converged",
+                                                 "step_convergence", "carried_wall_s")}})
         plans_by_scenario[name] = plans
         carried_by_scenario[name] = [r["held"] for r in rows]
+    result["settings"]["fastest_carried_wall_s"] = sum(
+        (e.get("fastest_carried") or {}).get("carried_wall_s") or 0.0 for e in result["scenarios"].values())
     write_text_atomic(out / "benchmark.json", json.dumps(jsonable(result), indent=1))
     write_text_atomic(out / "benchmark.md", benchmark_markdown(result))
     if figures:
@@ -242,6 +339,19 @@ def _fmt(v, spec=".4f"):
     if isinstance(v, bool):
         return "yes" if v else "no"
     return format(v, spec)
+
+
+def _convergence_text(rows: list[dict]) -> str:
+    """One clause per plant step tried by plan_fastest_carried_converged."""
+    out = []
+    for c in rows:
+        t = (f"{c['time_step_s'] * 1e3:g} ms: {c['motion_time_s']:.4f} s, at {c['check_step_s'] * 1e3:g} ms "
+             f"{'carried' if c['chosen_at_check_step']['held'] else 'lost'}")
+        if c.get("lost_neighbour_at_check_step") is not None:
+            t += (f", the faster lost neighbour ({c['lost_neighbour_motion_time_s']:.4f} s) "
+                  f"{'carried' if c['lost_neighbour_at_check_step']['held'] else 'lost'}")
+        out.append(t)
+    return "; ".join(out)
 
 
 def benchmark_markdown(result: dict) -> str:
@@ -292,6 +402,16 @@ def benchmark_markdown(result: dict) -> str:
         notes += [f"- {x['label']}: raised {x['error']}" for x in e.get("errors", [])]
         if notes:
             lines += ["", *notes]
+        fc = e.get("fastest_carried")
+        if fc:
+            vs = (f"{fc['excess_over_bang_bang'] * 100:+.2f}% over the bang-bang bound {fc['bang_bang_s']:.4f} s"
+                  if fc.get("bang_bang_s") else "no closed-form bound (via points)")
+            lines += ["", f"**Fastest carried**: {fc['motion_time_s']:.4f} s, {vs}; carried in the nominal "
+                      f"co-simulation with feedforward '{fc['feedforward']}' at a {fc['cosim_time_step_s'] * 1e3:g} ms "
+                      f"step ({fc['search_variable']} = {fc['search_chosen']:.4g}); the verdict is "
+                      f"{'converged' if fc['step_converged'] else 'NOT converged'} in the step "
+                      f"({_convergence_text(fc.get('step_convergence') or [])}). Search added "
+                      f"{fc['carried_wall_s']:.1f} s of wall time."]
         if e.get("ratios"):
             lines += [""] + [f"- {k}: {v:.4g}" for k, v in e["ratios"].items()]
         lines.append("")
@@ -363,12 +483,20 @@ def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict 
         for yi, (tt, (_, p), c) in enumerate(zip(times, plans, carried)):
             notes = ([] if p.feasible else ["breaks a limit"]) + (["not carried in co-simulation"] if c is False else [])
             ax.text(tt, yi, f" {tt:.3f}" + (f" ({'; '.join(notes)})" if notes else ""), va="center", fontsize=7)
+        bound = closed_form_bound_s(plans[0][1].scenario) if plans else None
+        if bound:
+            ax.axvline(bound, color="k", ls="--", lw=1.0)
+            ax.text(bound, -0.6, f" bang-bang bound {bound:.3f} s", fontsize=7, va="bottom")
+        for yi, lb in enumerate(labels):
+            if lb.startswith(CARRIED_LABEL):
+                bars[yi].set_color("tab:blue")
         ax.set_yticks(y, labels, fontsize=7)
-        ax.invert_yaxis()
         ax.set_xlabel("motion time [s]")
-        ax.set_title(f"{name}: motion time (green: keeps every limit on the 10 kHz re-check; "
-                     "hatched: payload not carried in the co-simulation)", fontsize=10)
-        ax.set_xlim(0, max(times) * 1.25 if times else 1)
+        ax.set_title(f"{name}: motion time. Green: keeps every limit on the 10 kHz re-check; blue: fastest "
+                     "carried;\nhatched: payload not carried in the co-simulation (thesis PID; the blue row: "
+                     "its own search, full feedforward)", fontsize=9)
+        ax.set_xlim(0, max(times) * 1.45 if times else 1)
+        ax.set_ylim(len(plans) - 0.5, -1.2)  # room above the first bar for the bound's label
         ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()
     path = out / "benchmark_times.png"

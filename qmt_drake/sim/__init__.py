@@ -7,6 +7,7 @@
     reference.py    the plan as time-scaled Drake trajectories; GenesPlan
     diagram.py      build_transfer_diagram -> TransferDiagram (default context ready to simulate)
     runner.py       run_diagram, simulate_transfer -> TransferResult, run_simulate (the CLI's)
+    posthoc.py      the monitor's summary from per-step C++ logs after the run (step_logs=True)
 
 The names below are re-exported so user code can `from qmt_drake.sim import ...`.
 """

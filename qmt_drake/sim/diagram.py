@@ -6,6 +6,13 @@
     plant.body_poses --> ElectromagnetForce --spatial_forces--> plant (pull on the payload, reaction on hand)
     everything --> TransferMonitor (slip, tilt, detachment, tracking error, motor peaks, energy)
 
+The monitor only observes. With step_logs=True (what simulate_transfer / run_simulate / the sweeps
+use) and the implicitly stepped loop it is not called per step: C++ loggers record the plant
+state, the reference and the applied joint torque every step and `TransferDiagram.summary` computes
+the monitor's summary after the run (`sim.posthoc`; the same numbers, tests/test_cosim.py). Without
+it (the default, which keeps the `summary` output port that user code such as
+studies/contact_drift.py reads), or with the explicit scheme, the TransferMonitor runs every step.
+
 `build_transfer_diagram` returns a `TransferDiagram` (the Diagram plus handles) whose DEFAULT context
 is ready to simulate: the plant's default state is the plan's start with the payload seated, so
 `Simulator(td.diagram)` run to td.t_final_s gives the runner's numbers (tests/test_cosim.py).
@@ -37,7 +44,7 @@ from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, mo
 from qmt_drake.sim.reference import plan_start, reference_trajectories
 from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
 from qmt_drake.systems.electromagnet import ElectromagnetForce
-from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains
+from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains, primitive_pd_controller
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.transfer_monitor import TransferMonitor
 
@@ -53,7 +60,7 @@ class TransferDiagram:
     payload_body: object
     hand_body: object
     motors: DcMotorWithGear | None  # None with actuator.kind 'ideal'
-    controller: JointPidController | None
+    controller: object  # JointPidController or its Drake-primitives Diagram (PD); None: ideal
     magnet: ElectromagnetForce
     monitor: TransferMonitor
     loggers: dict
@@ -67,6 +74,16 @@ class TransferDiagram:
     implicit_loop_damping: bool
     visualizer: object = None
     simulator: object = None  # set by run_diagram (its context holds the loggers' data)
+    step_logs: dict | None = None  # per-step C++ logs (sim.posthoc); None: the per-step monitor
+    delivered: object = None  # the system whose motor_torque / electrical_power are reported
+
+    def summary(self, root_context) -> np.ndarray:
+        """The monitor's summary (TransferMonitor.SUMMARY_FIELDS + peak motor torques) of the run
+        simulated in root_context: from the per-step logs, or the per-step monitor's state."""
+        if self.step_logs is not None:
+            from qmt_drake.sim.posthoc import summary_from_logs
+            return summary_from_logs(self, root_context)
+        return np.asarray(self.diagram.GetOutputPort("summary").Eval(root_context))
 
     def set_initial_state(self, root_context) -> None:
         """Arm at the plan's start, payload seated on the face, everything at rest (what the
@@ -79,7 +96,8 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                            lead_s: float = 0.2, settle_s: float = 0.5, coil_current_A: float | None = None,
                            payload_spec: PayloadSpec | None = None, inverse_dynamics_feedforward: bool = False,
                            back_emf_feedforward: bool = False, log_period_s: float = 5e-3,
-                           monitor_period_s: float | None = None,
+                           monitor_period_s: float | None = None, step_logs: bool = False,
+                           primitive_controller: bool = True,
                            motor_inductance: bool = False, implicit_loop_damping: bool | None = None,
                            motor_params: DcMotorParams | None = None, magnet_effective_gap_m: float | None = None,
                            meshcat: Meshcat | None = None) -> TransferDiagram:
@@ -89,8 +107,8 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     Exported output ports (units as in the systems' docstrings): desired_state (2n) [rad, rad/s],
     arm_state (2n), voltage_command (n) [V], joint_torque (n) [N*m], motor_torque (n) [N*m],
     current (n) [A], electrical_power (n) [W], attraction_force (1) [N], slip (1) [m], tilt (1) [rad],
-    gap (1) [m], summary (TransferMonitor.SUMMARY_FIELDS + peak motor torques), body_poses,
-    contact_results. Raises QmtInputError (one line) when the plan's joint count differs from the
+    gap (1) [m], summary (TransferMonitor.SUMMARY_FIELDS + peak motor torques; only with the
+    per-step monitor, otherwise TransferDiagram.summary(context)), body_poses, contact_results. Raises QmtInputError (one line) when the plan's joint count differs from the
     arm's. coil_current_A=None uses the scenario's hand (hand.coil_current_A or the calibration
     rule); lead_s of rest precedes the motion and settle_s follows it. motor_inductance=True gives
     the armature current a continuous state (L di/dt = v - R i - Ke w; L/R ~ 0.1-0.2 ms, so the
@@ -102,7 +120,11 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     feedback implicitly (`add_implicit_damping_actuation`), which keeps the loop stable at the 2 ms
     default step; off, the motors drive the plant directly (explicit) and time_step_s must be
     <= 1 ms (the 1 ms default; larger steps are refused). time_step_s=None picks the scheme's
-    default (`default_time_step_s`)."""
+    default (`default_time_step_s`). step_logs=True (implicit loop only) replaces the per-step
+    monitor by per-step C++ logs and TransferDiagram.summary (module docstring); the diagram then
+    has no `summary` output port. monitor_period_s samples the per-step monitor more sparsely.
+    primitive_controller: a PD law (no integral term) runs as Drake primitives
+    (joint_tracking.primitive_pd_controller; False: the Python JointPidController, the same law)."""
     from qmt_drake.config.scenario import IdealTorque
     ideal = isinstance(getattr(scenario, "actuator", None), IdealTorque)
     if ideal:
@@ -148,14 +170,20 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
             builder, plant, arm, ref.get_output_port(), arm_state, split.get_output_port(1), kp, loop_damping,
             scenario.gear_ratio, time_step_s)
     else:
-        ctrl = builder.AddNamedSystem("controller", JointPidController(
-            gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
-            back_emf_feedforward=back_emf_feedforward, torque_feedforward=inverse_dynamics_feedforward))
+        pid = JointPidController(gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
+                                 back_emf_feedforward=back_emf_feedforward,
+                                 torque_feedforward=inverse_dynamics_feedforward)
+        # A PD law (no integral) runs as Drake primitives: the same numbers, no Python per step.
+        prim = primitive_pd_controller(pid) if primitive_controller else None
+        ctrl = builder.AddNamedSystem("controller", prim or pid)
         motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
         split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
     magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current, magnet_effective_gap_m)
-    monitor = builder.AddNamedSystem("monitor", TransferMonitor(n, hand.index(), payload.index(),
-                                                                period_s=monitor_period_s or time_step_s))
+    # Per-step logs instead of a per-step Python monitor when the loop is stepped implicitly (the
+    # applied torque is then latched, see sim.posthoc); an explicit monitor_period_s keeps the monitor.
+    log_steps = bool(step_logs) and bool(implicit_loop_damping) and monitor_period_s is None
+    monitor = builder.AddNamedSystem("monitor", TransferMonitor(
+        n, hand.index(), payload.index(), period_s=None if log_steps else (monitor_period_s or time_step_s)))
 
     if not ideal:
         feedforward_input = ctrl.GetInputPort("feedforward_torque") if inverse_dynamics_feedforward else None
@@ -172,6 +200,11 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         else:
             delivered = add_implicit_damping_actuation(builder, plant, arm, motors, split.get_output_port(1),
                                                        loop_damping, time_step_s, mp)
+    step_logs = None
+    if log_steps:
+        from qmt_drake.sim.posthoc import add_step_logs
+        step_logs = add_step_logs(builder, plant, ref.get_output_port(),
+                                  builder.GetSubsystemByName("applied_joint_torque").get_output_port(), time_step_s)
     builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
     builder.Connect(arm_state, monitor.GetInputPort("arm_state"))
     builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
@@ -197,7 +230,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         "slip": monitor.GetOutputPort("slip"),
         "tilt": monitor.GetOutputPort("tilt"),
         "gap": monitor.GetOutputPort("gap"),
-        "summary": monitor.GetOutputPort("summary"),
+        "summary": None if log_steps else monitor.GetOutputPort("summary"),  # logs: TransferDiagram.summary
         "body_poses": plant.get_body_poses_output_port(),
         "contact_results": plant.get_contact_results_output_port(),
     }
@@ -220,4 +253,4 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     diagram.set_name(f"transfer[{scenario.name}]")
     return TransferDiagram(diagram, plant, tp.scene_graph, arm, payload, hand, motors, ctrl, magnet, monitor,
                            loggers, q0, t_end, t_end + settle_s, current, spec, mp, time_step_s,
-                           bool(implicit_loop_damping), visualizer)
+                           bool(implicit_loop_damping), visualizer, step_logs=step_logs, delivered=delivered)

@@ -22,6 +22,10 @@ Ports
         voltage_command      (n,)  [V]            to DcMotorWithGear.voltage_command
     state (only if any Ki != 0): discrete z (n,) [rad*s], the motor-side error integral.
 
+`primitive_pd_controller(pid)` builds the same law for a controller without integral term from
+Drake primitives (MatrixGain, Adder, Saturation: no Python call per step), with the same ports
+and the gains read from the JointPidController itself; the co-simulation uses it when it can.
+
 Thesis gains (seed 000, Tables 2.1/4.1): Kp = [29.7, 5.5, 0.9], Ki = [0, 0, 0.45e-5],
 Kd = [104, 19.3, 0.45], printed as "Nm", "Nm*s", "Nm/s" on the joint angle error.
 
@@ -152,3 +156,45 @@ class JointPidController(LeafSystem):
         z = context.get_discrete_state(self._z).get_value()
         pushing_out = ((u > self._Vmax) & (e > 0)) | ((u < -self._Vmax) & (e < 0))
         discrete_state.get_mutable_vector(self._z).SetFromVector(np.where(pushing_out, z, z + self._Tc * e))
+
+
+def primitive_pd_controller(pid: JointPidController):
+    """`pid`'s law, u = PD (x_des - x) [+ Ke N qd_des] [+ tau_ff R / (N eta Kt)], v = clip(u, +-V_max),
+    as a Diagram of Drake primitives with JointPidController's port names (desired_state,
+    estimated_state[, feedforward_torque] -> voltage_command); None when pid has an integral term
+    (its anti-windup is a conditional update). Equal to pid's output up to rounding
+    (tests/test_systems_joint_tracking.py)."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import Adder, MatrixGain, Saturation
+    if pid._has_integral:
+        return None
+    n = pid._n
+    b = DiagramBuilder()
+    # The Python law's order of operations (err = x_des - x, then PD err, then each feedforward
+    # added): the same rounding, which matters where a motor starts from rest (dc_motor's
+    # motoring / back-driven switch at qd = 0 sees the sign of a 1e-21 residue).
+    neg = b.AddNamedSystem("minus_estimated", MatrixGain(-np.eye(2 * n)))
+    err = b.AddNamedSystem("error", Adder(2, 2 * n))
+    pd = b.AddNamedSystem("pd", MatrixGain(pid._pd_gain))
+    terms = [pd.get_output_port()]
+    b.Connect(neg.get_output_port(), err.get_input_port(1))
+    b.Connect(err.get_output_port(), pd.get_input_port())
+    b.ExportInput(err.get_input_port(0), "desired_state")
+    b.ExportInput(neg.get_input_port(), "estimated_state")
+    if pid._ke is not None:  # back-EMF feedforward Ke N qd_des
+        emf = b.AddNamedSystem("back_emf_feedforward", MatrixGain(np.hstack([np.zeros((n, n)), np.diag(pid._ke)])))
+        b.ConnectInput("desired_state", emf.get_input_port())
+        terms.append(emf.get_output_port())
+    if pid._v_per_Nm is not None:
+        ff = b.AddNamedSystem("torque_feedforward", MatrixGain(np.diag(pid._v_per_Nm)))
+        b.ExportInput(ff.get_input_port(), "feedforward_torque")
+        terms.append(ff.get_output_port())
+    add = b.AddNamedSystem("sum", Adder(len(terms), n))
+    for k, port in enumerate(terms):
+        b.Connect(port, add.get_input_port(k))
+    sat = b.AddNamedSystem("voltage_limit", Saturation(-pid._Vmax, pid._Vmax))
+    b.Connect(add.get_output_port(), sat.get_input_port())
+    b.ExportOutput(sat.get_output_port(), "voltage_command")
+    d = b.Build()
+    d.set_name("pd_controller")
+    return d

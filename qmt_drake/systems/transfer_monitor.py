@@ -1,6 +1,11 @@
 """Transfer monitor: payload slip, tilt, gap and detachment; tracking error; motor peaks; energy.
 
 Sampled every `period_s` (a periodic discrete update; the running extrema live in the state).
+With period_s=None there is no per-step update and no summary port: the monitor then only checks
+the seated start and serves slip / tilt / gap on demand, and the summary is computed after the run
+from per-step C++ logs (`sim.posthoc.summary_from_logs`, the co-simulation's default: same numbers,
+no Python call per plant step). `motion_in_hand` is the one implementation of slip / tilt / gap,
+for one pose or a stack of them.
 
 Needs: a plant built with `sim.plant.transfer_plant_config` (live output ports: with sampled ones
 the monitor pairs the next plant state with this step's reference) and a context that starts with
@@ -54,18 +59,27 @@ def relative_payload_motion(X_WH: RigidTransform, X_WP: RigidTransform, X_HP0: R
                            X_HP0.rotation().matrix()[:, 2].tolist())
 
 
+def motion_in_hand(M_HP: np.ndarray, p_HP0, z_HP0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(slip [m], tilt [rad], gap [m]) arrays from payload poses in the hand frame X_HP stacked as
+    (K, 3, 4) arrays ([R | p]) and the seated pose's origin p_HP0 and z axis z_HP0 (in H).
+    slip: in-plane distance of the face centre from its seated point; tilt: angle between the
+    payload's z axis and the seated one; gap: how far the face centre is below its seated height."""
+    M = np.asarray(M_HP, float).reshape(-1, 3, 4)
+    d = M[:, :, 3] - np.asarray(p_HP0, float)
+    z_cos = M[:, :, 2] @ np.asarray(z_HP0, float)  # payload z vs seated z, both in H
+    return np.hypot(d[:, 0], d[:, 1]), np.arccos(np.clip(z_cos, -1.0, 1.0)), np.maximum(-d[:, 2], 0.0)
+
+
 def _motion_in_hand(M_HP, p_HP0, z_HP0):
-    """slip, tilt, gap from X_HP as a 3x4 array and the seated pose's origin and z axis (lists, in H)."""
-    x, y, z = M_HP[:, 3].tolist()
-    dx, dy, dz = x - p_HP0[0], y - p_HP0[1], z - p_HP0[2]
-    z_cos = sum(a * b for a, b in zip(M_HP[:, 2].tolist(), z_HP0))  # payload z vs seated z, both in H
-    return math.hypot(dx, dy), math.acos(max(-1.0, min(1.0, z_cos))), max(-dz, 0.0)
+    """slip, tilt, gap as floats for one X_HP (a 3x4 array): `motion_in_hand` of one pose."""
+    slip, tilt, gap = motion_in_hand(M_HP, p_HP0, z_HP0)
+    return float(slip[0]), float(tilt[0]), float(gap[0])
 
 
 class TransferMonitor(LeafSystem):
     """See the module docstring for quantities, ports and units."""
 
-    def __init__(self, n_joints: int, hand_body_index, payload_body_index, *, period_s: float = 1e-3,
+    def __init__(self, n_joints: int, hand_body_index, payload_body_index, *, period_s: float | None = 1e-3,
                  seated_pose_in_hand: RigidTransform | None = None, detach_gap_m: float = 2e-3,
                  detach_slip_m: float = 5e-3, check_seated_at_start: bool = True,
                  seated_tolerance_m: float = 1e-4, seated_tolerance_rad: float = 1e-2):
@@ -74,7 +88,7 @@ class TransferMonitor(LeafSystem):
         self._n = n
         self._hand = int(hand_body_index)
         self._payload = int(payload_body_index)
-        self._T = float(period_s)
+        self._T = None if period_s is None else float(period_s)
         X_HP0 = seated_pose_in_hand or RigidTransform()
         self._p_HP0 = X_HP0.translation().tolist()
         self._z_HP0 = X_HP0.rotation().matrix()[:, 2].tolist()
@@ -88,14 +102,26 @@ class TransferMonitor(LeafSystem):
         init = np.zeros(len(SUMMARY_FIELDS) + n)
         init[2] = np.nan
         self._s = self.DeclareDiscreteState(init)
-        self.DeclarePeriodicDiscreteUpdateEvent(self._T, 0.0, self._update)
+        if self._T is not None:
+            self.DeclarePeriodicDiscreteUpdateEvent(self._T, 0.0, self._update)
         self._seat_tol = (float(seated_tolerance_m), float(seated_tolerance_rad))
         if check_seated_at_start:
             self.DeclareInitializationDiscreteUpdateEvent(self._check_seated)
         self.DeclareVectorOutputPort("slip", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[0]))
         self.DeclareVectorOutputPort("tilt", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[1]))
         self.DeclareVectorOutputPort("gap", 1, lambda c, o: o.SetAtIndex(0, self._motion(c)[2]))
-        self.DeclareStateOutputPort("summary", self._s)
+        if self._T is not None:  # without the per-step update the state holds no summary
+            self.DeclareStateOutputPort("summary", self._s)
+
+    @property
+    def seated_axes(self) -> tuple[list, list]:
+        """(p_HP0, z_HP0): the seated payload's origin and z axis in the hand frame."""
+        return self._p_HP0, self._z_HP0
+
+    @property
+    def detach_thresholds_m(self) -> tuple[float, float]:
+        """(detach_gap_m, detach_slip_m)."""
+        return self._detach_gap, self._detach_slip
 
     def _motion(self, context):
         poses = self._poses_in.Eval(context)
