@@ -90,6 +90,7 @@ class Plan:
             "motor_torque_limit_Nm": c.motor_torque_limit_Nm,
             "peak_motor_torque_ratio": c.peak_motor_torque_ratio,
             "joint_range_ok": c.joint_range_ok,
+            "peak_ratios": dict(c.peak_ratios),  # every ratio limit term's peak / limit, by name
             "check_rate_hz": c.rate_hz,
             "payload_mass_kg": sc.payload.mass_kg,
             "payload_com_offset_m": sc.payload.com_offset_m,

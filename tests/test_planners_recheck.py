@@ -46,3 +46,37 @@ def test_refinement_finds_a_peak_between_samples(scenarios):
     assert refined.peak_moment_ratio == pytest.approx(fine.peak_moment_ratio, rel=1e-6)
     assert refined.peak_moment_ratio >= fine.peak_moment_ratio * (1 - 1e-12)
     np.testing.assert_allclose(refined.peak_motor_torque_ratio, fine.peak_motor_torque_ratio, rtol=1e-6)
+
+
+def test_gravity_time_scale_search_stays_within_the_family_budget():
+    """With gravity the family optimum bisects the time scale; it must not sample motions slower
+    than the family's slowest (all genes at their upper bounds): such samples once cost the
+    crane-tray optimum all the machine's memory. Rows with no feasible scale within the budget
+    are nan."""
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.planners.optimum import tight_scale
+    from qmt_drake.problem import PlanningProblem
+    sc = load_scenario("crane-tray")
+    problem = PlanningProblem(sc)
+    assert not problem.limit_set.time_scaling_is_exact
+    genes = np.array([[0.05, 0.001], [0.3, 0.2], [1.0, 1.0]])
+    lam = tight_scale(problem, genes)
+    slowest = problem.family.motion_time_s(problem.upper[None])[0]
+    T = problem.family.motion_time_s(genes) * lam
+    assert np.all(np.isfinite(lam)) and np.all(T <= slowest * (1 + 1e-12))
+    # tight: slightly faster breaks a limit, the found scale keeps them all
+    assert np.all(problem.peaks(problem.family.time_scaled(genes, lam)).feasible)
+    assert not np.any(problem.peaks(problem.family.time_scaled(genes, lam * (1 - 1e-6))).feasible)
+
+
+def test_slow_down_search_stops_at_the_time_budget():
+    """trajopt's path tilts the tray (it has no tray terms): no slowing within the family's time
+    budget keeps the bottle, so the plan is infeasible, quickly, instead of re-checking ever
+    slower motions (finish.slow_to_limits_factor's cap)."""
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.planners.baselines.finish import slowest_allowed_motion_s
+    sc = load_scenario("crane-tray")
+    plan = plan_with("trajopt", sc)
+    assert not plan.feasible
+    assert plan.motion_time_s <= slowest_allowed_motion_s(sc) * (1 + 1e-9)
+    assert plan.extra["slowdown_factor"] * plan.extra["raw_check"]["motion_time_s"] <= slowest_allowed_motion_s(sc) * (1 + 1e-9)

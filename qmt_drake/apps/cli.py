@@ -114,8 +114,6 @@ def cmd_plan(args) -> int:
                                 f"({str(exc).splitlines()[0]}); see the planner's docstring") from None
         raise
     summary = plan.summary()
-    if getattr(sc, "is_tray", False):  # the tray terms' peaks (slide, tip, lift, ...) in the JSON
-        plan.extra["peak_ratios"] = dict(plan.check.peak_ratios)
     if args.json and args.json != "-":
         plan.write_json(args.json)
     elif args.json == "-":
@@ -136,12 +134,10 @@ def cmd_plan(args) -> int:
     return 0 if plan.feasible else EXIT_INFEASIBLE
 
 
-# Planners that cannot serve a tray scenario (measured: both ran out of memory instead of answering):
+# Planners that cannot serve a tray scenario.
 TRAY_REFUSED_METHODS = {
-    # planners/optimum.tight_scale with gravity samples every start played up to 1000x slower
-    "optimum": "its time-scaling search with gravity samples motions up to 1000x slower",
     # its B-spline path does not hold the tray level and its constraints have no tray terms: the
-    # re-check's slow-down search (finish.py) then never finds a slow enough motion
+    # re-check's slow-down search (finish.py) cannot make it keep the tray limits
     "trajopt": "its path does not hold the tray level and its constraints have no tray terms",
 }
 
@@ -149,7 +145,7 @@ TRAY_REFUSED_METHODS = {
 def _check_tray_method(sc, method: str) -> None:
     if getattr(sc, "is_tray", False) and method in TRAY_REFUSED_METHODS:
         raise QmtInputError(f"--method {method} is not available for the tray scenario '{sc.name}' "
-                            f"({TRAY_REFUSED_METHODS[method]}); use ga, toppra, ruckig or thesis")
+                            f"({TRAY_REFUSED_METHODS[method]}); use ga, optimum, toppra, ruckig or thesis")
 
 
 def cmd_simulate(args) -> int:

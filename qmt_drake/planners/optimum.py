@@ -42,15 +42,19 @@ def tight_scale(problem: PlanningProblem, genes: np.ndarray, *, lam_max: float =
     """(K,) smallest lam with the motion played lam times slower on every limit (nan: none).
 
     Exact (lam = sqrt(worst ratio)) when the limit set allows the time-scaling shortcut; otherwise
-    a batched bisection in log(lam) over [1/lam_max, lam_max] (40 halvings: lam to 1.3e-11
-    relative)."""
+    a batched bisection in log(lam) over [1/lam_max, lam_hi] (40 halvings), where lam_hi is
+    lam_max or, if smaller, the slowing that makes the motion as long as the family's slowest
+    motion (all genes at their upper bounds; slower ones lie outside the family, and sampling
+    them would cost memory in proportion to their length)."""
     g = np.atleast_2d(genes)
     peaks = problem.peaks(g)
     ok = peaks.valid & peaks.joint_range_ok & np.isfinite(peaks.worst_ratio)
     if problem.limit_set.time_scaling_is_exact:
         return np.sqrt(np.where(ok, peaks.worst_ratio, np.nan))
+    slowest_s = problem.family.motion_time_s(problem.upper[None])[0]
+    lam_hi = np.clip(slowest_s / problem.family.motion_time_s(g), 1.0, lam_max)
     lo = np.full(len(g), -np.log(lam_max))
-    hi = np.full(len(g), np.log(lam_max))
+    hi = np.log(lam_hi)
     feasible_hi = problem.peaks(problem.family.time_scaled(g, np.exp(hi))).feasible
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)

@@ -52,11 +52,14 @@ def worst_ratio(check) -> float:
     return check.worst_ratio
 
 
-def slow_to_limits_factor(scenario, trajectory, check, tries: int = 40):
+def slow_to_limits_factor(scenario, trajectory, check, tries: int = 40, *,
+                          max_motion_time_s: float = float("inf"), rel_tol: float = 1e-4):
     """(factor, slowed trajectory, its check): the motion played `factor` times slower until every
     limit holds on the refined re-check. Exact (factor = sqrt(worst ratio), repeated for the refined
-    peaks) when the limit set allows the time-scaling shortcut; with gravity, a doubling then a
-    bisection on the factor (each step a re-check)."""
+    peaks) when the limit set allows the time-scaling shortcut; with gravity, a growth by 1.5 then a
+    bisection on the factor to `rel_tol` (each step a re-check). The growth stops once the motion
+    would exceed `max_motion_time_s` (a re-check of a very slow motion takes millions of samples):
+    then the slowest factor within the budget is returned with its failing check."""
     if scenario.limit_set.time_scaling_is_exact:
         factor, traj = 1.0, trajectory
         for _ in range(4):
@@ -66,15 +69,17 @@ def slow_to_limits_factor(scenario, trajectory, check, tries: int = 40):
             if worst_ratio(check) <= 1.0:
                 break
         return factor, traj, check
-    lo, hi = 1.0, 1.0
-    for _ in range(tries):  # find a slow enough factor
-        hi *= 1.5
+    factor_cap = max_motion_time_s / trajectory.duration_s
+    lo, hi, c = 1.0, 1.0, check
+    for _ in range(tries):  # find a slow enough factor within the time budget
+        if hi >= factor_cap:
+            return hi, TimeScaledTrajectory(trajectory, hi), c
+        hi = min(hi * 1.5, factor_cap)
         c = recheck(scenario, TimeScaledTrajectory(trajectory, hi))
         if worst_ratio(c) <= 1.0:
             break
-    for _ in range(30):  # then the fastest within 1e-6 relative
-        if hi / lo - 1 < 1e-6:
-            break
+        lo = hi
+    while hi / lo - 1 > rel_tol:  # then the fastest within rel_tol
         mid = np.sqrt(lo * hi)
         c = recheck(scenario, TimeScaledTrajectory(trajectory, mid))
         lo, hi = (lo, mid) if worst_ratio(c) <= 1.0 else (mid, hi)
@@ -107,7 +112,8 @@ def finish_plan(scenario, method: str, trajectory: JointTrajectory, *, planner_w
                           "joint_range_ok": raw.joint_range_ok}
     traj, factor = trajectory, 1.0
     if slow_to_limits and raw.joint_range_ok and worst_ratio(raw) > 1.0:
-        factor, traj, _ = slow_to_limits_factor(scenario, trajectory, raw)
+        factor, traj, _ = slow_to_limits_factor(scenario, trajectory, raw,
+                                                 max_motion_time_s=limit_T)
         extra["slowdown_factor"] = factor
         extra["note_slowdown"] = (f"the planner's own output broke a limit on the re-check (peak "
                                   f"moment ratio {raw.peak_moment_ratio:.5f}, motor "
