@@ -47,6 +47,7 @@ class SteepestResult:
     stop_reason: str
     history_z: list = field(default_factory=list)
     history_rel: list = field(default_factory=list)   # the paper's mean relative change per step
+    history_decrease: list = field(default_factory=list)  # -g.d / z per step (first-order decrease)
 
 
 def _free_mask(problem: EnergyProblem) -> np.ndarray:
@@ -108,9 +109,12 @@ def enforce_accel_condition(problem: EnergyProblem, x) -> np.ndarray:
 
 def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol: float = 1e-4,
                      streak: int = 5, max_wall_s: float = 120.0,
-                     metric: str = "euclidean") -> SteepestResult:
+                     metric: str = "euclidean", rule: str = "paper",
+                     grad_tol: float = 1e-7) -> SteepestResult:
     if metric not in ("euclidean", "diagonal"):
         raise QmtInputError(f"steepest-descent metric '{metric}' must be 'euclidean' or 'diagonal'")
+    if rule not in ("paper", "gradient"):
+        raise QmtInputError(f"steepest-descent stopping rule '{rule}' must be 'paper' or 'gradient'")
     obj = problem.objective
     free = _free_mask(problem)
     t0 = time.perf_counter()
@@ -125,6 +129,7 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
     z, g = obj.value_and_gradient(x)
     hist = [z]
     hist_rel = []
+    hist_dec = []
     step = None
     good = 0
     it = 0
@@ -146,6 +151,10 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
         d = np.zeros_like(x)
         d[free] = -Dinv * (gf - C.T @ lam)
         slope = float(g @ d)
+        hist_dec.append(-slope / abs(z))
+        if rule == "gradient" and -slope <= grad_tol * abs(z):
+            reason = "converged"
+            break
         if not slope < 0.0:
             reason = "stationary"
             break
@@ -175,8 +184,8 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
         hist.append(z)
         hist_rel.append(rel)
         good = good + 1 if rel < rel_tol else 0
-        if good >= streak:
+        if rule == "paper" and good >= streak:
             reason = "converged"
             break
     return SteepestResult(x, z, it, obj.evaluations - ev0, reason == "converged",
-                          time.perf_counter() - t0, reason, hist, hist_rel)
+                          time.perf_counter() - t0, reason, hist, hist_rel, hist_dec)

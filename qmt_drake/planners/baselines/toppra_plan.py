@@ -96,10 +96,32 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
             Fv = np.broadcast_to(F, (len(q),) + F.shape).copy()
             gv = np.broadcast_to(g, (len(q),) + g.shape).copy()
             if self.discretization_type == DiscretizationType.Interpolation:
-                return canlinear_colloc_to_interpolate(a, b, c, Fv, gv, None, None, gridpoints)
+                a, b, c, Fv, gv, _, _ = canlinear_colloc_to_interpolate(a, b, c, Fv, gv, None, None, gridpoints)
+            Fv, gv = unit_rows(a, b, Fv, gv)
             return a, b, c, Fv, gv, None, None
 
     return _Rows(w, lambda q: F, lambda q: g, n, discretization_scheme=DiscretizationType.Interpolation)
+
+
+def unit_rows(a, b, F, g):
+    """Each row k of F w <= g at gridpoint i divided by |(F_ik . a_i, F_ik . b_i)|, the norm of
+    its coefficients of (u, x) = (sddot, sdot^2); rows with zero coefficients are left as they are.
+
+    Why: toppra's Seidel LP (cy_seidel_solverwrapper) starts each stage at the corner of its
+    +-1e8 box, and when a row is violated there it solves a 1-D LP along that row's line, whose
+    abscissa is measured in units of 1/|(a, b)| and bounded by +-1e10. A row with |(a, b)| below
+    about 1e-2 (e.g. a torque row that barely depends on u and x: with gravity its constant part
+    dominates) puts the box corners beyond 1e10; the 1-D LP then ends on that bound with no active
+    row (index -1/-2), which the Cython code compares against an unsigned counter and reports as
+    "infeasible": the stage's controllable set becomes NaN and TOPP-RA fails "not controllable"
+    on a feasible path (seen on joint lines of a vertical arm; which rows trigger it depends on
+    the warm-started row order). A row's set is unchanged by a positive factor, so scaling
+    (a, b) to unit norm removes the trigger without changing the problem."""
+    A = np.einsum("nkm,nm->nk", F, a)
+    B = np.einsum("nkm,nm->nk", F, b)
+    nrm = np.hypot(A, B)
+    scale = np.where(nrm > 0.0, 1.0 / np.where(nrm > 0.0, nrm, 1.0), 1.0)
+    return F * scale[:, :, None], g * scale
 
 
 class _ToppraPath:
