@@ -22,6 +22,10 @@ from qmt_drake.energy.problem import EnergyProblem
 from qmt_drake.errors import QmtInputError
 
 SOLVERS = ("snopt", "ipopt")
+# IPOPT from a cold start (measured in studies/ohsaka_1988.py, README "IPOPT"): a longer L-BFGS
+# memory than the default 6 pairs is what helps; variable scaling by the Gauss-Newton curvature at
+# the start (full or diagonal) made it diverge towards T -> 0 and was dropped.
+IPOPT_COLD_OPTIONS = {"limited_memory_max_history": 50}
 
 
 @dataclass
@@ -54,65 +58,37 @@ def _ad_wrap(fun_val_grad):
     return f
 
 
-def gauss_newton_scaling(problem: EnergyProblem, y0) -> np.ndarray:
-    """S with S' H S = I for the Gauss-Newton Hessian H of the scaled cost z/c2 in the reduced genes
-    at y0 (objective.gauss_newton mapped through d x / d y), regularised by 1e-9 of its largest
-    eigenvalue: the change of variables y = y0 + S u makes the curvature of z about unit in u."""
-    x, J = problem.family.reduced_to_full(np.asarray(y0, dtype=float))
-    H = J.T @ problem.objective.gauss_newton(x) @ J / max(problem.c2, 1e-300)
-    w, V = np.linalg.eigh(0.5 * (H + H.T))
-    w = np.maximum(w, 1e-9 * w.max())
-    return V / np.sqrt(w)
-
-
-def build_program(problem: EnergyProblem, counter: list, y_ref=None, S=None):
-    """The program in the reduced genes y, or (with S) in u for y = y_ref + S u."""
+def build_program(problem: EnergyProblem, counter: list):
     from pydrake.solvers import MathematicalProgram
     prog = MathematicalProgram()
-    n_y = problem.family.n_reduced
-    v = prog.NewContinuousVariables(n_y, "y" if S is None else "u")
+    y = prog.NewContinuousVariables(problem.family.n_reduced, "y")
     obj = problem.objective
     # SNOPT/IPOPT work best near unit scale: divide z by c2 (z/c2 = T + (c1/c2) int tau'tau).
     scale = 1.0 / max(problem.c2, 1e-300)
-    to_y = (lambda w: w) if S is None else (lambda w: y_ref + S @ w)
-    chain = (lambda g: g) if S is None else (lambda g: g @ S)
 
-    def cost(w):
+    def cost(v):
         counter[0] += 1
-        z, g = obj.reduced_value_and_gradient(to_y(w))
-        return z * scale, chain(g) * scale
+        z, g = obj.reduced_value_and_gradient(v)
+        return z * scale, g * scale
 
-    def endpoint(w):
-        y = to_y(w)
-        return problem.endpoint_residual(y), chain(problem.endpoint_jacobian(y))
-
-    prog.AddCost(_ad_wrap(cost), vars=v)
-    prog.AddConstraint(_ad_wrap(endpoint), lb=np.zeros(2), ub=np.zeros(2), vars=v)
-    if S is None:
-        prog.AddBoundingBoxConstraint(problem.lower, problem.upper, v)
-    else:
-        rows = np.isfinite(problem.lower) | np.isfinite(problem.upper)
-        if rows.any():
-            prog.AddLinearConstraint(S[rows], problem.lower[rows] - y_ref[rows],
-                                     problem.upper[rows] - y_ref[rows], v)
-    return prog, v
+    prog.AddCost(_ad_wrap(cost), vars=y)
+    prog.AddConstraint(_ad_wrap(lambda v: (problem.endpoint_residual(v), problem.endpoint_jacobian(v))),
+                       lb=np.zeros(2), ub=np.zeros(2), vars=y)
+    prog.AddBoundingBoxConstraint(problem.lower, problem.upper, y)
+    return prog, y
 
 
 def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e-8,
-              max_iter: int = 3000, scaling: str | None = None, options: dict | None = None) -> NlpResult:
-    """One local optimum from reduced genes y0. scaling="gauss_newton": solve in u, y = y0 + S u
-    (`gauss_newton_scaling`). `options`: extra solver options (name -> value)."""
+              max_iter: int = 3000, options: dict | None = None) -> NlpResult:
+    """One local optimum from reduced genes y0. `options`: extra solver options (name -> value),
+    e.g. IPOPT_COLD_OPTIONS."""
     from pydrake.solvers import IpoptSolver, SnoptSolver, SolverOptions
     if solver not in SOLVERS:
         raise QmtInputError(f"NLP solver '{solver}' is not one of {SOLVERS}")
-    if scaling not in (None, "gauss_newton"):
-        raise QmtInputError(f"NLP scaling '{scaling}' must be None or 'gauss_newton'")
     counter = [0]
     t0 = time.perf_counter()
     c0 = time.process_time()
-    y_ref = problem.clip(np.asarray(y0, dtype=float))
-    S = gauss_newton_scaling(problem, y_ref) if scaling else None
-    prog, v = build_program(problem, counter, y_ref, S)
+    prog, y = build_program(problem, counter)
     opts = SolverOptions()
     if solver == "snopt":
         s = SnoptSolver()
@@ -136,10 +112,10 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
         opts.SetOption(sid, k, val)
     if not s.available():
         raise QmtInputError(f"{solver} is not available in this Drake build; use --method steepest")
-    result = s.Solve(prog, y_ref if S is None else np.zeros(y_ref.size), opts)
+    result = s.Solve(prog, problem.clip(np.asarray(y0, dtype=float)), opts)
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0
-    yv = result.GetSolution(v) if S is None else y_ref + S @ result.GetSolution(v)
+    yv = result.GetSolution(y)
     x, _ = problem.family.reduced_to_full(yv)
     z = problem.objective.value(x)
     return NlpResult(yv, x, z, bool(result.is_success()), str(result.get_solution_result()),

@@ -106,15 +106,8 @@ class EnergyObjective:
         dT = np.einsum("soi,si->so", Jq, (q - F.theta0) / T) - np.einsum("soi,si->so", Jqdd, qdd / T)
         return np.concatenate([da.reshape(S, n, -1), db.reshape(S, n, -1), dT[..., None]], axis=2)
 
-    def gauss_newton(self, x) -> np.ndarray:
-        """2 c1 T sum_k w_k (dtau_k/dx)' (dtau_k/dx), (2nm+1, 2nm+1): the Gauss-Newton part of the
-        Hessian of z (curvature for scaling IPOPT, nlp.py)."""
-        Jx = self._tau_jacobian(x)
-        wk = 2.0 * self.c1 * self.family.unpack(x)[2] * self.w
-        return np.einsum("s,soi,soj->ij", wk, Jx, Jx)
-
     def gauss_newton_diagonal(self, x) -> np.ndarray:
-        """diag of `gauss_newton`: the Jacobi metric for scaled steepest descent (steepest.py,
+        """diag of 2 c1 T sum_k w_k (dtau_k/dx)' (dtau_k/dx): the Jacobi metric for scaled steepest descent (steepest.py,
         metric="diagonal")."""
         Jx = self._tau_jacobian(x)
         wk = 2.0 * self.c1 * self.family.unpack(x)[2] * self.w

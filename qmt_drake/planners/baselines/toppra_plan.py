@@ -63,8 +63,6 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
     the payload moment's rows are the polygon described in the module docstring.
     vertex_on_chord: a vertex (else an edge normal) points along angle0."""
     from scipy.linalg import block_diag
-    from toppra.constraint import DiscretizationType, SecondOrderConstraint
-    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
 
     arm = scenario.arm
     n = arm.n_dof
@@ -86,6 +84,17 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
                                 "payload face is not in the arm's plane); use the GA or ruckig")
         return np.concatenate(parts, axis=-1)
 
+    return rows_constraint(w, F, g, n)
+
+
+def rows_constraint(w, F, g, n_dof: int):
+    """A toppra SecondOrderConstraint F w(q, qd, qdd) <= g for a w that is affine in qdd and
+    quadratic in qd (a batched function of (S, n) arrays, e.g. scaled joint torques with gravity),
+    F (k, m), g (k,) the same at every gridpoint; Interpolation discretisation, unit-norm rows
+    (`unit_rows`)."""
+    from toppra.constraint import DiscretizationType, SecondOrderConstraint
+    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
+
     class _Rows(SecondOrderConstraint):
         def compute_constraint_params(self, path, gridpoints):
             q, qs, qss = path.derivatives(np.asarray(gridpoints, dtype=float))
@@ -100,7 +109,7 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
             Fv, gv = unit_rows(a, b, Fv, gv)
             return a, b, c, Fv, gv, None, None
 
-    return _Rows(w, lambda q: F, lambda q: g, n, discretization_scheme=DiscretizationType.Interpolation)
+    return _Rows(w, lambda q: F, lambda q: g, n_dof, discretization_scheme=DiscretizationType.Interpolation)
 
 
 def unit_rows(a, b, F, g):
