@@ -44,6 +44,12 @@ def test_steepest_descent_reaches_snopts_optimum_fig2():
     sd = steepest_descent(P, x0, max_iter=2000)
     assert sd.converged, sd.stop_reason
     assert abs(sd.z - sn.z) <= 1e-3 * sn.z
+    assert sd.paper_rule_iteration == sd.iterations and sd.paper_rule_z == sd.z
+    # a stricter rule of the same kind runs on from there (same iterates) and gets closer
+    strict = steepest_descent(P, x0, max_iter=4000, rel_tol=1e-6)
+    assert strict.converged and strict.iterations > sd.iterations
+    assert strict.paper_rule_iteration == sd.iterations and strict.paper_rule_z == sd.z
+    assert abs(strict.z - sn.z) <= abs(sd.z - sn.z)
     np.testing.assert_allclose(P.family.end_posture(sd.x), [np.pi / 2, 0, 0], atol=1e-9)
 
 

@@ -177,3 +177,31 @@ def test_spatial_arm_hand_state_against_pinocchio(tmp_path):
         np.testing.assert_allclose(hs.linear_acceleration_m_s2[k], a.linear, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(hs.angular_acceleration_rad_s2[k], a.angular, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(hs.position_m[k], data.oMf[fid].translation, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["axis_minus_z", "vertical_plane", "base_yaw_pi"])
+def test_planar_torque_derivatives_equal_drake_autodiff(tmp_path, name):
+    """PlanarChain.torque_and_derivatives (the recursion run on tangents) against Drake's
+    MultibodyPlant<AutoDiffXd> inverse dynamics with gravity and rotor inertia."""
+    from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
+    from pydrake.multibody.tree import MultibodyForces_
+    path = tmp_path / "v.urdf"
+    path.write_text(PLANNED[name][0])
+    arm = ArmModel.from_urdf(path)
+    n = arm.n_dof
+    rng = np.random.default_rng(8)
+    q, qd, qdd = rng.normal(size=(3, 7, n)) * [[[1.0]], [[3.0]], [[20.0]]]
+    tau, Jq, Jqd, Jqdd = arm.planar.torque_and_derivatives(q, qd, qdd)
+    np.testing.assert_allclose(tau, arm.joint_torque(q, qd, qdd), rtol=1e-12, atol=1e-12)
+    plant = arm.plant.ToAutoDiffXd()
+    ctx = plant.CreateDefaultContext()
+    forces = MultibodyForces_[AutoDiffXd](plant)
+    for k in range(len(q)):
+        x = InitializeAutoDiff(np.concatenate([q[k], qd[k], qdd[k]])).ravel()
+        plant.SetPositions(ctx, x[:n])
+        plant.SetVelocities(ctx, x[n:2 * n])
+        forces.SetZero()
+        plant.CalcForceElementsContribution(ctx, forces)
+        ref = ExtractGradient(plant.CalcInverseDynamics(ctx, x[2 * n:], forces))
+        mine = np.concatenate([Jq[k], Jqd[k], Jqdd[k]], axis=1)
+        np.testing.assert_allclose(mine, ref, rtol=1e-9, atol=1e-9 * np.max(np.abs(ref)))

@@ -24,7 +24,7 @@ METHODS = ("snopt", "ipopt", "steepest", "collocation")
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("plan-energy", help="seed 001: energy-time optimal Fourier trajectory "
                               "of the vertical 3-link arm")
-    p.add_argument("scenario", help="ohsaka-fig2 | ohsaka-fig3 | ohsaka-fig4")
+    p.add_argument("scenario", help="ohsaka-fig2 | ohsaka-fig3 | ohsaka-fig4, or a YAML file of kind energy_time")
     p.add_argument("--method", choices=METHODS, default="snopt")
     p.add_argument("--c1", type=float, default=None, help="weight of tau'tau (default: the experiment's)")
     p.add_argument("--c2", type=float, default=None, help="weight of time, > 0 (default: the experiment's)")

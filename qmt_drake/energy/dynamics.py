@@ -6,13 +6,14 @@ the plane (X1 horizontal, X2 up; gravity along -X2, see README.md) with point/ro
 optional point mass at the tip. The numbers come from the URDF through a Drake MultibodyPlant
 (`VerticalArm.from_urdf`), so the plant is the single source of the parameters.
 
-`inverse_dynamics_with_gravity(q, qd, qdd)` is the ONE adapter the planners call. Today it is a
-closed-form planar recursive Newton-Euler recursion carried out with forward-mode dual numbers
-(values and 3n derivative directions) in numpy, vectorised over samples; tests/test_energy_dynamics.py
-checks tau against Drake's `CalcInverseDynamics` and the derivatives against Drake's
-`MultibodyPlant<AutoDiffXd>` (`drake_inverse_dynamics`, `drake_inverse_dynamics_jacobians`) to 1e-9
-relative on random states. When the batched hand-state backend (qmt_drake/model/) lands, only this
-function's body changes.
+`inverse_dynamics_with_gravity(q, qd, qdd)` is the ONE adapter the planners call. It calls the
+project's planar recursion (`PlanarChain` in model/planar.py, read from the same URDF), which gives
+the exact derivatives too by running the same recursion on forward-mode tangents
+(`PlanarChain.torque_and_derivatives`); tests/test_energy_dynamics.py checks tau against Drake's
+`CalcInverseDynamics` and the derivatives against Drake's `MultibodyPlant<AutoDiffXd>`
+(`drake_inverse_dynamics`, `drake_inverse_dynamics_jacobians`) to 1e-9 relative on random states.
+`VerticalArm` keeps the paper's per-link parameters (lengths, rods, tip mass) for the kinematic
+helpers (centre of gravity, stick figures).
 
 Units: rad, rad/s, rad/s^2, N m. Shapes: q, qd, qdd (S, n); tau (S, n); jacobians (S, n, n),
 entry [s, i, j] = d tau_i / d x_j at sample s.
@@ -115,90 +116,28 @@ def ohsaka_arm() -> VerticalArm:
     return VerticalArm.from_urdf(OHSAKA_URDF)
 
 
-# ------------------------------------------------------------------ forward-mode dual numbers
-class _Dual:
-    """value (S,) and derivatives (S, D): just enough arithmetic for the planar recursion."""
-
-    __slots__ = ("v", "d")
-
-    def __init__(self, v, d):
-        self.v, self.d = v, d
-
-    def __add__(self, o):
-        if isinstance(o, _Dual):
-            return _Dual(self.v + o.v, self.d + o.d)
-        return _Dual(self.v + o, self.d)
-
-    __radd__ = __add__
-
-    def __sub__(self, o):
-        if isinstance(o, _Dual):
-            return _Dual(self.v - o.v, self.d - o.d)
-        return _Dual(self.v - o, self.d)
-
-    def __neg__(self):
-        return _Dual(-self.v, -self.d)
-
-    def __mul__(self, o):
-        if isinstance(o, _Dual):
-            return _Dual(self.v * o.v, self.v[:, None] * o.d + o.v[:, None] * self.d)
-        return _Dual(self.v * o, self.d * o)
-
-    __rmul__ = __mul__
-
-
-def _sincos(x: _Dual):
-    s, c = np.sin(x.v), np.cos(x.v)
-    return _Dual(s, c[:, None] * x.d), _Dual(c, -s[:, None] * x.d)
-
-
 def inverse_dynamics_with_gravity(q, qd, qdd, arm: VerticalArm | None = None, derivatives: bool = True):
     """tau (S, n) of eq. (1) with gravity; with `derivatives`, also (dtau/dq, dtau/dqd, dtau/dqdd),
-    each (S, n, n). THE adapter to swap for the batched hand-state backend later."""
-    arm = arm or ohsaka_arm()
+    each (S, n, n). Computed by the project's PlanarChain (model/planar.py), the one planar
+    recursion; its `torque_and_derivatives` carries the tangents."""
+    chain = _dynamics_chain(arm or ohsaka_arm())
+    if derivatives:
+        return chain.torque_and_derivatives(q, qd, qdd)
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
-    S, n = q.shape
-    D = 3 * n
-    eye = np.eye(D)
+    return chain.acceleration_and_torque(q, qd, qdd)[1]
 
-    def var(x, k):
-        return _Dual(x, np.broadcast_to(eye[k], (S, D)).copy())
 
-    zero = _Dual(np.zeros(S), np.zeros((S, D)))
-    gx, gy = arm.gravity_vector
-    phi, w, al = zero, zero, zero
-    ax, ay = zero, zero  # acceleration of the current joint
-    links = []
-    for i in range(n):
-        phi = phi + var(q[:, i], i)
-        w = w + var(qd[:, i], n + i)
-        al = al + var(qdd[:, i], 2 * n + i)
-        s, c = _sincos(phi)
-        w2 = w * w
-        # acceleration of a point at distance r along the link: a_joint + r (al n - w^2 u)
-        ex = -(al * s) - w2 * c
-        ey = al * c - w2 * s
-        rc = arm.com_m[i]
-        acx, acy = ax + rc * ex, ay + rc * ey
-        links.append((c, s, al, acx, acy))
-        ax, ay = ax + arm.length_m[i] * ex, ay + arm.length_m[i] * ey
-    # backward: force f carried beyond joint i+1 and moment about joint i (world z)
-    fx = (ax - gx) * arm.tip_mass_kg
-    fy = (ay - gy) * arm.tip_mass_kg
-    nz = zero
-    taus = [None] * n
-    for i in reversed(range(n)):
-        c, s, al, acx, acy = links[i]
-        L, rc, m = arm.length_m[i], arm.com_m[i], arm.mass_kg[i]
-        gcx, gcy = (acx - gx) * m, (acy - gy) * m
-        nz = nz + L * (c * fy - s * fx) + rc * (c * gcy - s * gcx) + arm.izz_com_kgm2[i] * al
-        fx, fy = fx + gcx, fy + gcy
-        taus[i] = nz
-    tau = np.stack([t.v for t in taus], axis=1)
-    if not derivatives:
-        return tau
-    J = np.stack([t.d for t in taus], axis=1)  # (S, n, 3n)
-    return tau, J[:, :, :n], J[:, :, n:2 * n], J[:, :, 2 * n:]
+def _dynamics_chain(arm: VerticalArm):
+    """The arm's PlanarChain under the arm's gravity reading (gravity_up_sign)."""
+    chain = arm.chain
+    if np.allclose(chain.gravity_in_plane_m_s2, arm.gravity_vector, rtol=0, atol=1e-12):
+        return chain
+    return _flipped_chain(str(arm.urdf_path or OHSAKA_URDF), tuple(arm.gravity_vector))
+
+
+@lru_cache(maxsize=4)
+def _flipped_chain(urdf: str, g: tuple):
+    return _planar_chain(urdf).with_gravity(np.array(g))
 
 
 # ------------------------------------------------------------------ Drake references (tests)

@@ -1,20 +1,20 @@
-"""Seed 001's three numerical experiments (section 3) as definitions, and the paper's numbers.
-
-They live here, not in models/scenarios/*.yaml, because the scenario loader (qmt_drake/scenario.py)
-requires a payload, moment/motor limits, a family kind from FAMILY_KINDS and GA settings, none of
-which this problem has (see README.md for what the schema would need).
+"""Seed 001's three numerical experiments (section 3) and the paper's numbers, read from the
+scenario files models/scenarios/energy/ohsaka-fig{2,3,4}.yaml (the one source of truth; loader:
+scenario.py). A user's own file of that kind works wherever a built-in name does.
 
 Coordinate vector (X(0)', X(T)')' in metres, X2 up. c1, c2 as printed. m = 5, 40 divisions.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
 from qmt_drake.energy.problem import EnergyProblem
-from qmt_drake.errors import QmtInputError
 
 
 @dataclass(frozen=True)
@@ -28,44 +28,59 @@ class Experiment:
     divisions: int = 40
     T_init_s: float = 1.0
     fixed_T_s: float | None = None
-    moving_joints: tuple[int, ...] | None = None
+    moving_joints: tuple[int, ...] | None = None   # 0-based here (1-based in the YAML)
     paper_initial_a: dict = field(default_factory=dict)   # {(i, j): value}, 1-based as printed
     reported: dict = field(default_factory=dict)
+    torque_limit_Nm: tuple[float, ...] | None = None     # |tau_i| bound for the time-optimal end
+    arm: object = None                                   # VerticalArm (None: the Ohsaka arm)
+    source_path: Path | None = None
 
     def problem(self, **over) -> EnergyProblem:
         kw = dict(X0=self.coordinate_vector_m[:2], XT=self.coordinate_vector_m[2:], c1=self.c1,
                   c2=self.c2, m=self.m, divisions=self.divisions, fixed_T_s=self.fixed_T_s,
                   moving_joints=self.moving_joints)
+        if self.arm is not None:
+            kw["arm"] = self.arm
         kw.update(over)
         return EnergyProblem(**kw)
 
 
-EXPERIMENTS = {
-    "ohsaka-fig2": Experiment(
-        "ohsaka-fig2",
-        "Fig. 2: T fixed at 4.6 s, only link 1 moves, z against the number of Fourier terms m; "
-        "initial a_ij, b_ij all 0",
-        (0.7, 0.0, 0.0, 0.7), c1=1.0, c2=1e5, fixed_T_s=4.6, moving_joints=(0,),
-        reported={"z_stops_changing_for_m_ge": 5}),
-    "ohsaka-fig3": Experiment(
-        "ohsaka-fig3",
-        "Fig. 3: eight end postures give eight local optima; X(0) is singular (stretched arm)",
-        (0.7, 0.0, 0.0, 0.2), c1=1.0, c2=1e5,
-        reported={"z": {"(+,-,-)": 22766.0, "(+,+,+)": 20266.0, "(-,+,-)": 18815.0},
-                  "global": "(-,+,-)"}),
-    "ohsaka-fig4": Experiment(
-        "ohsaka-fig4",
-        "Fig. 4: c1 = 1, c2 = 1, 1e4, 1e5, 1e6; initial vector a31 = 0.575, all else 0, T = 1",
-        (0.68, 0.075, 0.100, 0.600), c1=1.0, c2=1e5, paper_initial_a={(3, 1): 0.575},
-        reported={"T_s": {1.0: 1.900, 1e4: 0.330, 1e5: 0.188, 1e6: 0.100},
-                  "c2_zero": "no stable solution"}),
-}
+class _Experiments(Mapping):
+    """Built-in experiments by name (loaded on first use). `x in EXPERIMENTS` is also true for a
+    path to a YAML file of kind energy_time, so `qmt-drake plan FILE` routes it here."""
+
+    def __getitem__(self, name):
+        from qmt_drake.energy.scenario import builtin_energy_scenarios
+        if name not in builtin_energy_scenarios():
+            raise KeyError(name)
+        return _load(name)
+
+    def __iter__(self):
+        from qmt_drake.energy.scenario import builtin_energy_scenarios
+        return iter(builtin_energy_scenarios())
+
+    def __len__(self):
+        from qmt_drake.energy.scenario import builtin_energy_scenarios
+        return len(builtin_energy_scenarios())
+
+    def __contains__(self, name) -> bool:
+        from qmt_drake.energy.scenario import is_energy_scenario
+        return is_energy_scenario(name)
 
 
-def get_experiment(name: str) -> Experiment:
-    if name not in EXPERIMENTS:
-        raise QmtInputError(f"experiment '{name}' is not one of {sorted(EXPERIMENTS)}")
-    return EXPERIMENTS[name]
+EXPERIMENTS = _Experiments()
+
+
+@lru_cache(maxsize=16)
+def _load(name_or_path: str) -> Experiment:
+    from qmt_drake.energy.scenario import load_energy_scenario
+    return load_energy_scenario(name_or_path)
+
+
+def get_experiment(name_or_path) -> Experiment:
+    """A built-in experiment by name (ohsaka-fig2/3/4) or a user's energy scenario file by path."""
+    from qmt_drake.energy.scenario import resolve
+    return _load(str(resolve(name_or_path).resolve()))
 
 
 def paper_initial_x(problem: EnergyProblem, initial_a: dict, T_s: float) -> np.ndarray:

@@ -93,7 +93,7 @@ def run_multistart(problem: EnergyProblem, method: str = "snopt", T0_s: float = 
             cpu = None
         else:
             r = solve_nlp(problem, y0, method, **kw)
-            y, x, z, ok, wall, ev, it = r.y, r.x, r.z, r.success, r.wall_s, r.evaluations, None
+            y, x, z, ok, wall, ev, it = r.y, r.x, r.z, r.success, r.wall_s, r.evaluations, r.iterations
             cpu = r.cpu_s
         out.append(LocalOptimum(p, travel_pattern(problem.theta0, problem.family.end_posture(x)),
                                 y, x, z, float(x[-1]), problem.objective.energy_integral(x), ok,

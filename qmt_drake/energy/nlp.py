@@ -6,9 +6,9 @@ end point FK(theta_T) = X(T) is a nonlinear equality. Cost and constraint are Py
 that receive AutoDiffXd vectors and return the value with the exact gradient (objective.py) mapped
 onto the incoming derivative directions, so no Drake autodiff runs through the dynamics.
 
-Iteration counts: Drake does not expose SNOPT's or IPOPT's iteration counters, so `evaluations`
-counts gradient evaluations of the cost (one per SNOPT function call; IPOPT calls once per trial
-point).
+Iteration counts: Drake does not expose SNOPT's iteration counter (its print file stays empty
+through Drake), so `evaluations` counts gradient evaluations of the cost (one per SNOPT function
+call); IPOPT's own count is read from its output file (`iterations`).
 """
 
 from __future__ import annotations
@@ -22,6 +22,10 @@ from qmt_drake.energy.problem import EnergyProblem
 from qmt_drake.errors import QmtInputError
 
 SOLVERS = ("snopt", "ipopt")
+# IPOPT from a cold start (measured in studies/ohsaka_1988.py, README "IPOPT"): a longer L-BFGS
+# memory than the default 6 pairs is what helps; variable scaling by the Gauss-Newton curvature at
+# the start (full or diagonal) made it diverge towards T -> 0 and was dropped.
+IPOPT_COLD_OPTIONS = {"limited_memory_max_history": 50}
 
 
 @dataclass
@@ -35,6 +39,7 @@ class NlpResult:
     wall_s: float
     solver: str
     cpu_s: float = 0.0   # process CPU time: the machine is shared, wall time includes waiting
+    iterations: int | None = None   # IPOPT's own count (its output file); Drake gives none for SNOPT
 
 
 def _ad_wrap(fun_val_grad):
@@ -75,8 +80,9 @@ def build_program(problem: EnergyProblem, counter: list):
 
 
 def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e-8,
-              max_iter: int = 3000) -> NlpResult:
-    """One local optimum from reduced genes y0."""
+              max_iter: int = 3000, options: dict | None = None) -> NlpResult:
+    """One local optimum from reduced genes y0. `options`: extra solver options (name -> value),
+    e.g. IPOPT_COLD_OPTIONS."""
     from pydrake.solvers import IpoptSolver, SnoptSolver, SolverOptions
     if solver not in SOLVERS:
         raise QmtInputError(f"NLP solver '{solver}' is not one of {SOLVERS}")
@@ -103,13 +109,30 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
         opts.SetOption(sid, "limited_memory_initialization", "constant")
         opts.SetOption(sid, "limited_memory_init_val", 1e2)
         opts.SetOption(sid, "max_iter", int(max_iter))
+        import tempfile
+        log = tempfile.NamedTemporaryFile(prefix="qmt_ipopt_", suffix=".out", delete=False)
+        log.close()
+        opts.SetOption(sid, "output_file", log.name)
+        opts.SetOption(sid, "file_print_level", 3)
+    for k, val in (options or {}).items():
+        opts.SetOption(sid, k, val)
     if not s.available():
         raise QmtInputError(f"{solver} is not available in this Drake build; use --method steepest")
     result = s.Solve(prog, problem.clip(np.asarray(y0, dtype=float)), opts)
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0
     yv = result.GetSolution(y)
+    iterations = None
+    if solver == "ipopt":
+        import os
+        import re
+        try:
+            with open(log.name, encoding="utf-8", errors="replace") as f:
+                found = re.findall(r"Number of Iterations\.*:\s*(\d+)", f.read())
+            iterations = int(found[-1]) if found else None
+        finally:
+            os.unlink(log.name)
     x, _ = problem.family.reduced_to_full(yv)
     z = problem.objective.value(x)
     return NlpResult(yv, x, z, bool(result.is_success()), str(result.get_solution_result()),
-                     counter[0], wall, solver, cpu)
+                     counter[0], wall, solver, cpu, iterations)

@@ -91,24 +91,27 @@ class EnergyObjective:
         dT = float(self.w @ h) + np.sum(gq * (q - F.theta0)) / T - np.sum(gqdd * qdd) / T
         return z, F.pack(da, db, dT)
 
-    def gauss_newton_diagonal(self, x) -> np.ndarray:
-        """diag of 2 c1 T sum_k w_k (dtau_k/dx)' (dtau_k/dx): the Jacobi metric for scaled
-        steepest descent (steepest.py, metric="diagonal")."""
+    def _tau_jacobian(self, x):
+        """dtau_k/dx on the grid, (S, n, 2nm+1), in the gene order of `family.pack`."""
         F, B = self.family, self.B
         _, _, T = F.unpack(x)
         q, qd, qdd = F.evaluate_s(x, None, B)
         tau, Jq, Jqd, Jqdd = inverse_dynamics_with_gravity(q, qd, qdd, self.arm)
+        S, n = q.shape
         # dtau_k/da_ij (S, n_out, n_joint, m)
         da = (T * Jq[..., None] * B.Pa[:, None, None, :] + Jqd[..., None] * B.Va[:, None, None, :]
               + Jqdd[..., None] * B.Aa[:, None, None, :] / T)
         db = (T * Jq[..., None] * B.Pb[:, None, None, :] + Jqd[..., None] * B.Vb[:, None, None, :]
               + Jqdd[..., None] * B.Ab[:, None, None, :] / T)
         dT = np.einsum("soi,si->so", Jq, (q - F.theta0) / T) - np.einsum("soi,si->so", Jqdd, qdd / T)
-        wk = 2.0 * self.c1 * T * self.w
-        ha = np.einsum("s,soij->ij", wk, da * da)
-        hb = np.einsum("s,soij->ij", wk, db * db)
-        hT = float(wk @ np.sum(dT * dT, axis=1))
-        return F.pack(ha, hb, hT)
+        return np.concatenate([da.reshape(S, n, -1), db.reshape(S, n, -1), dT[..., None]], axis=2)
+
+    def gauss_newton_diagonal(self, x) -> np.ndarray:
+        """diag of 2 c1 T sum_k w_k (dtau_k/dx)' (dtau_k/dx): the Jacobi metric for scaled steepest descent (steepest.py,
+        metric="diagonal")."""
+        Jx = self._tau_jacobian(x)
+        wk = 2.0 * self.c1 * self.family.unpack(x)[2] * self.w
+        return np.einsum("s,soi->i", wk, Jx * Jx)
 
     def reduced_value_and_gradient(self, y):
         x, J = self.family.reduced_to_full(y)

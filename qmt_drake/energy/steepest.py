@@ -36,6 +36,10 @@ from qmt_drake.energy.problem import T_MIN_S, EnergyProblem
 from qmt_drake.errors import QmtInputError
 
 
+PAPER_REL_TOL = 1e-4   # step IV: mean relative change of the trajectory vector ...
+PAPER_STREAK = 5       # ... below 1e-4 five times in a row
+
+
 @dataclass
 class SteepestResult:
     x: np.ndarray
@@ -47,6 +51,10 @@ class SteepestResult:
     stop_reason: str
     history_z: list = field(default_factory=list)
     history_rel: list = field(default_factory=list)   # the paper's mean relative change per step
+    history_decrease: list = field(default_factory=list)  # -g.d / z per step (first-order decrease)
+    paper_rule_iteration: int | None = None   # where the paper's rule (1e-4 x 5) fired, if it did
+    paper_rule_z: float | None = None
+    paper_rule_x: np.ndarray | None = None
 
 
 def _free_mask(problem: EnergyProblem) -> np.ndarray:
@@ -106,9 +114,12 @@ def enforce_accel_condition(problem: EnergyProblem, x) -> np.ndarray:
     return F.pack(a, b, T)
 
 
-def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol: float = 1e-4,
-                     streak: int = 5, max_wall_s: float = 120.0,
+def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol: float = PAPER_REL_TOL,
+                     streak: int = PAPER_STREAK, max_wall_s: float = 120.0,
                      metric: str = "euclidean") -> SteepestResult:
+    """rel_tol = 1e-4 and streak = 5 are the paper's stopping rule; a smaller rel_tol is a stricter
+    rule of the same kind (the result then also says where the paper's rule would have stopped:
+    `paper_rule_iteration`, `paper_rule_z`, `paper_rule_x`; the iterates are the same up to there)."""
     if metric not in ("euclidean", "diagonal"):
         raise QmtInputError(f"steepest-descent metric '{metric}' must be 'euclidean' or 'diagonal'")
     obj = problem.objective
@@ -125,6 +136,8 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
     z, g = obj.value_and_gradient(x)
     hist = [z]
     hist_rel = []
+    hist_dec = []
+    paper_good, paper_it, paper_z, paper_x = 0, None, None, None
     step = None
     good = 0
     it = 0
@@ -146,6 +159,7 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
         d = np.zeros_like(x)
         d[free] = -Dinv * (gf - C.T @ lam)
         slope = float(g @ d)
+        hist_dec.append(-slope / abs(z))
         if not slope < 0.0:
             reason = "stationary"
             break
@@ -175,8 +189,12 @@ def steepest_descent(problem: EnergyProblem, x0, max_iter: int = 20000, rel_tol:
         hist.append(z)
         hist_rel.append(rel)
         good = good + 1 if rel < rel_tol else 0
+        paper_good = paper_good + 1 if rel < PAPER_REL_TOL else 0
+        if paper_it is None and paper_good >= PAPER_STREAK:
+            paper_it, paper_z, paper_x = it, z, x.copy()
         if good >= streak:
             reason = "converged"
             break
     return SteepestResult(x, z, it, obj.evaluations - ev0, reason == "converged",
-                          time.perf_counter() - t0, reason, hist, hist_rel)
+                          time.perf_counter() - t0, reason, hist, hist_rel, hist_dec,
+                          paper_it, paper_z, paper_x)

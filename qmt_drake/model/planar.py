@@ -19,7 +19,10 @@ their x axis all come out right without assumptions about the URDF's conventions
 Inverse dynamics is a planar recursive Newton-Euler written on u and v components separately
 (no small-array stacking: it is the hot path of planning), forward for link accelerations with the
 base accelerating at -g, backward for forces and moments; joint torque tau_i = s_i * moment about
-the normal + N_i^2 J_r,i qdd_i (the reflected rotor inertia, as Drake adds it).
+the normal + N_i^2 J_r,i qdd_i (the reflected rotor inertia, as Drake adds it). The same recursion
+run on `Tangent`s (forward-mode derivatives, one tangent per entry of q, qd, qdd) gives the exact
+partials d tau / d q, d qd, d qdd for gradient planners (`torque_and_derivatives`; tested against
+Drake's MultibodyPlant<AutoDiffXd> in tests/test_model.py and tests/test_energy_dynamics.py).
 `ArmModel` (model/arm.py) checks all of this against Drake at load time.
 
 Shapes: joint arrays (..., n); in-plane vectors (..., 2). Units: rad, rad/s, rad/s^2, m, m/s,
@@ -158,7 +161,7 @@ class PlanarChain:
     def tip_acceleration(self, q, qd, qdd) -> np.ndarray:
         """In-plane hand-origin acceleration (..., 2) m/s^2 (kinematics only, no gravity). Works on
         float arrays and on Drake AutoDiffXd object arrays (trajectory optimisation gradients)."""
-        return self._forward(q, qd, qdd, gravity=False)[1]
+        return np.stack(np.broadcast_arrays(*self._forward(q, qd, qdd, gravity=False)[1]), axis=-1)
 
     def jacobian(self, q) -> np.ndarray:
         """d(tip u, tip v)/dq, (..., 2, n)."""
@@ -172,10 +175,13 @@ class PlanarChain:
 
     # ------------------------------------------------------------------ dynamics (hot path)
     def _forward(self, q, qd, qdd, gravity: bool = True):
-        """Forward pass of the recursion: per link (joint->COM, joint->next joint, COM acceleration,
-        angular acceleration) and the hand's acceleration. With gravity the base accelerates at -g
-        (gravity enters as an inertial force) and g is added back to the hand's acceleration."""
-        q, qd, qdd = np.asarray(q), np.asarray(qd), np.asarray(qdd)
+        """Forward pass of the recursion: per link (cos, sin of its absolute angle, COM
+        acceleration, angular acceleration) and the hand's acceleration (u, v). With gravity the
+        base accelerates at -g (gravity enters as an inertial force) and g is added back to the
+        hand's acceleration. q, qd, qdd are float arrays, Drake AutoDiffXd object arrays or
+        `Tangent`s (exact derivatives, `torque_and_derivatives`)."""
+        if not isinstance(q, Tangent):
+            q, qd, qdd = np.asarray(q), np.asarray(qd), np.asarray(qdd)
         sg = self.joint_signs
         gx, gy = (float(v) for v in self.gravity_in_plane_m_s2) if gravity else (0.0, 0.0)
         ax, ay = -gx, -gy  # acceleration of joint i
@@ -186,18 +192,39 @@ class PlanarChain:
                 phi, w, al = phi + q[..., i], w + qd[..., i], al + qdd[..., i]
             else:
                 phi, w, al = phi - q[..., i], w - qd[..., i], al - qdd[..., i]
-            c, s = np.cos(phi), np.sin(phi)
+            c, s = phi.cos_sin() if isinstance(phi, Tangent) else (np.cos(phi), np.sin(phi))
             w2 = w * w
-            cu, cv = self._cuv[i]
-            du, dv = self._uv[i]
-            rcx, rcy = c * cu - s * cv, s * cu + c * cv  # joint -> COM
-            dx, dy = c * du - s * dv, s * du + c * dv  # joint -> next joint
-            links.append((rcx, rcy, dx, dy, ax - al * rcy - w2 * rcx, ay + al * rcx - w2 * rcy, al))
-            ax = ax - al * dy - w2 * dx
-            ay = ay + al * dx - w2 * dy
+            # Relative acceleration per metre of a point along the link's unit vector u = (c, s);
+            # a point r = a u + b n (n = u turned +90 deg) accelerates by a (ex, ey) + b (-ey, ex).
+            ex = -(al * s) - w2 * c
+            ey = al * c - w2 * s
+            acx, acy = _point(ax, ay, ex, ey, *self._cuv[i])
+            links.append((c, s, acx, acy, al))
+            ax, ay = _point(ax, ay, ex, ey, *self._uv[i])
         if gx or gy:
             ax, ay = ax + gx, ay + gy
-        return links, np.stack(np.broadcast_arrays(ax, ay), axis=-1)
+        return links, (ax, ay)
+
+    def _backward(self, links) -> list:
+        """Backward pass: joint torques (without rotor inertia), one entry per joint, from the
+        forces and moments each link passes to the one before it."""
+        taus = [None] * self.n_dof
+        fx = fy = nz = 0.0  # force and moment link i+1 takes from link i (at the next joint)
+        for i in range(self.n_dof - 1, -1, -1):
+            c, s, acx, acy, ali = links[i]
+            m = float(self.mass_kg[i])
+            mx, my = m * acx, m * acy
+            (cu, cv), (du, dv) = self._cuv[i], self._uv[i]
+            # Moments about joint i of m a_c at r_c and of f at r_d: r x F = a (u x F) - b (u . F)
+            # for r = a u + b n, summed before the products with c and s.
+            gx, gy = cu * mx + du * fx, cu * my + du * fy
+            nz = float(self.izz_about_com_kgm2[i]) * ali + (c * gy - s * gx) + nz
+            if cv or dv:
+                hx, hy = cv * mx + dv * fx, cv * my + dv * fy
+                nz = nz - (c * hx + s * hy)
+            fx, fy = mx + fx, my + fy
+            taus[i] = nz if self.joint_signs[i] > 0 else -nz
+        return taus
 
     def acceleration_and_torque(self, q, qd, qdd):
         """(in-plane hand acceleration (..., 2) m/s^2, joint torque (..., n) N*m) in one pass:
@@ -205,15 +232,34 @@ class PlanarChain:
         links, a_hand = self._forward(q, qd, qdd)
         qdd = np.asarray(qdd, float)
         tau = np.empty(np.broadcast_shapes(np.shape(q), np.shape(qd), qdd.shape))
-        fx = fy = nz = 0.0  # force and moment link i+1 takes from link i (at the next joint)
-        for i in range(self.n_dof - 1, -1, -1):
-            rcx, rcy, dx, dy, acx, acy, ali = links[i]
-            m = self.mass_kg[i]
-            mx, my = m * acx, m * acy
-            nz = self.izz_about_com_kgm2[i] * ali + rcx * my - rcy * mx + nz + dx * fy - dy * fx
-            fx, fy = mx + fx, my + fy
-            tau[..., i] = nz if self.joint_signs[i] > 0 else -nz
-        return a_hand, tau + self.reflected_inertia_kgm2 * qdd
+        for i, t in enumerate(self._backward(links)):
+            tau[..., i] = t
+        return np.stack(np.broadcast_arrays(*a_hand), axis=-1), tau + self.reflected_inertia_kgm2 * qdd
+
+    def torque_and_derivatives(self, q, qd, qdd):
+        """Joint torque with gravity and its exact partial derivatives, batched: the same
+        recursion as `acceleration_and_torque`, carried out on `Tangent`s with one tangent
+        direction per entry of (q, qd, qdd).
+
+        q, qd, qdd (S, n). Returns (tau (S, n), dtau/dq, dtau/dqd, dtau/dqdd), each Jacobian
+        (S, n, n) with entry [s, i, j] = d tau_i / d x_j at sample s."""
+        q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
+        S, n = np.broadcast_shapes(q.shape, qd.shape, qdd.shape)
+        q, qd, qdd = (np.broadcast_to(x, (S, n)) for x in (q, qd, qdd))
+        seeds = np.eye(3 * n).reshape(3, n, 3 * n)  # tangent of x_j = unit vector j
+        args = [Tangent(x, np.broadcast_to(seeds[k], (S, n, 3 * n))) for k, x in enumerate((q, qd, qdd))]
+        taus = self._backward(self._forward(*args)[0])
+        tau = np.stack([t.v for t in taus], axis=1) + self.reflected_inertia_kgm2 * qdd
+        J = np.stack([t.d for t in taus], axis=1)  # (S, n, 3n)
+        J[:, :, 2 * n:] += np.diag(self.reflected_inertia_kgm2)
+        return tau, J[:, :, :n], J[:, :, n:2 * n], J[:, :, 2 * n:]
+
+    def with_gravity(self, gravity_in_plane_m_s2) -> "PlanarChain":
+        """A copy of this chain under another in-plane gravity vector (m/s^2)."""
+        import copy
+        other = copy.copy(self)
+        other.gravity_in_plane_m_s2 = np.asarray(gravity_in_plane_m_s2, float)
+        return other
 
     # ------------------------------------------------------------------ 3-D hand state
     def _rotation_about_normal(self, angle) -> np.ndarray:
@@ -314,6 +360,63 @@ class PlanarChain:
         if self.n_dof == 3:
             rhs_a = np.concatenate([rhs_a, np.zeros(rhs_a.shape[:-1] + (1,))], axis=-1)
         return q, qd, solve_small(J, rhs_a)
+
+
+class Tangent:
+    """Forward-mode derivative carrier for the planar recursion: value v (...,) and tangents
+    d (..., D), one per seeded input direction. Only the arithmetic the recursion uses (+, -, *,
+    unary -, cos/sin) is defined; numpy defers to these operators (`__array_ufunc__ = None`)."""
+
+    __slots__ = ("v", "d")
+    __array_ufunc__ = None
+
+    def __init__(self, v, d) -> None:
+        self.v, self.d = v, d
+
+    def __getitem__(self, key):  # key indexes the value's axes: q[..., i]
+        return Tangent(self.v[key], self.d[key + (slice(None),) if isinstance(key, tuple) else (key, slice(None))])
+
+    # A link offset of 0 (a rod along its x axis) multiplies to the constant 0: kept as a plain
+    # 0.0 so the tangents skip the work (no tangent array is ever changed in place).
+    def __add__(self, o):
+        if isinstance(o, Tangent):
+            return Tangent(self.v + o.v, self.d + o.d)
+        return self if _is_zero(o) else Tangent(self.v + o, self.d)
+
+    __radd__ = __add__
+
+    def __sub__(self, o):
+        if isinstance(o, Tangent):
+            return Tangent(self.v - o.v, self.d - o.d)
+        return self if _is_zero(o) else Tangent(self.v - o, self.d)
+
+    def __rsub__(self, o):
+        return Tangent(o - self.v, -self.d)
+
+    def __neg__(self):
+        return Tangent(-self.v, -self.d)
+
+    def __mul__(self, o):
+        if isinstance(o, Tangent):
+            return Tangent(self.v * o.v, self.v[..., None] * o.d + o.v[..., None] * self.d)
+        return 0.0 if _is_zero(o) else Tangent(self.v * o, self.d * o)
+
+    __rmul__ = __mul__
+
+    def cos_sin(self):
+        c, s = np.cos(self.v), np.sin(self.v)
+        return Tangent(c, -s[..., None] * self.d), Tangent(s, c[..., None] * self.d)
+
+
+def _point(ax, ay, ex, ey, a: float, b: float):
+    """Acceleration of the point a u + b n of a link whose joint accelerates at (ax, ay)."""
+    if b == 0.0:
+        return ax + a * ex, ay + a * ey
+    return ax + a * ex - b * ey, ay + a * ey + b * ex
+
+
+def _is_zero(x) -> bool:
+    return isinstance(x, float) and x == 0.0
 
 
 def solve_small(A, b) -> np.ndarray:

@@ -63,8 +63,6 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
     the payload moment's rows are the polygon described in the module docstring.
     vertex_on_chord: a vertex (else an edge normal) points along angle0."""
     from scipy.linalg import block_diag
-    from toppra.constraint import DiscretizationType, SecondOrderConstraint
-    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
 
     arm = scenario.arm
     n = arm.n_dof
@@ -86,6 +84,17 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
                                 "payload face is not in the arm's plane); use the GA or ruckig")
         return np.concatenate(parts, axis=-1)
 
+    return rows_constraint(w, F, g, n)
+
+
+def rows_constraint(w, F, g, n_dof: int):
+    """A toppra SecondOrderConstraint F w(q, qd, qdd) <= g for a w that is affine in qdd and
+    quadratic in qd (a batched function of (S, n) arrays, e.g. scaled joint torques with gravity),
+    F (k, m), g (k,) the same at every gridpoint; Interpolation discretisation, unit-norm rows
+    (`unit_rows`)."""
+    from toppra.constraint import DiscretizationType, SecondOrderConstraint
+    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
+
     class _Rows(SecondOrderConstraint):
         def compute_constraint_params(self, path, gridpoints):
             q, qs, qss = path.derivatives(np.asarray(gridpoints, dtype=float))
@@ -96,10 +105,32 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
             Fv = np.broadcast_to(F, (len(q),) + F.shape).copy()
             gv = np.broadcast_to(g, (len(q),) + g.shape).copy()
             if self.discretization_type == DiscretizationType.Interpolation:
-                return canlinear_colloc_to_interpolate(a, b, c, Fv, gv, None, None, gridpoints)
+                a, b, c, Fv, gv, _, _ = canlinear_colloc_to_interpolate(a, b, c, Fv, gv, None, None, gridpoints)
+            Fv, gv = unit_rows(a, b, Fv, gv)
             return a, b, c, Fv, gv, None, None
 
-    return _Rows(w, lambda q: F, lambda q: g, n, discretization_scheme=DiscretizationType.Interpolation)
+    return _Rows(w, lambda q: F, lambda q: g, n_dof, discretization_scheme=DiscretizationType.Interpolation)
+
+
+def unit_rows(a, b, F, g):
+    """Each row k of F w <= g at gridpoint i divided by |(F_ik . a_i, F_ik . b_i)|, the norm of
+    its coefficients of (u, x) = (sddot, sdot^2); rows with zero coefficients are left as they are.
+
+    Why: toppra's Seidel LP (cy_seidel_solverwrapper) starts each stage at the corner of its
+    +-1e8 box, and when a row is violated there it solves a 1-D LP along that row's line, whose
+    abscissa is measured in units of 1/|(a, b)| and bounded by +-1e10. A row with |(a, b)| below
+    about 1e-2 (e.g. a torque row that barely depends on u and x: with gravity its constant part
+    dominates) puts the box corners beyond 1e10; the 1-D LP then ends on that bound with no active
+    row (index -1/-2), which the Cython code compares against an unsigned counter and reports as
+    "infeasible": the stage's controllable set becomes NaN and TOPP-RA fails "not controllable"
+    on a feasible path (seen on joint lines of a vertical arm; which rows trigger it depends on
+    the warm-started row order). A row's set is unchanged by a positive factor, so scaling
+    (a, b) to unit norm removes the trigger without changing the problem."""
+    A = np.einsum("nkm,nm->nk", F, a)
+    B = np.einsum("nkm,nm->nk", F, b)
+    nrm = np.hypot(A, B)
+    scale = np.where(nrm > 0.0, 1.0 / np.where(nrm > 0.0, nrm, 1.0), 1.0)
+    return F * scale[:, :, None], g * scale
 
 
 class _ToppraPath:
