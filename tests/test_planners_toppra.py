@@ -184,7 +184,7 @@ def test_gravity_paths_are_controllable(vertical_ch4, path):
 
 
 def test_unit_rows_keep_the_constraint_set():
-    from qmt_drake.planners.baselines.toppra_plan import unit_rows
+    from qmt_drake.limits.toppra_form import unit_rows
     rng = np.random.default_rng(3)
     a, b = rng.normal(size=(2, 5, 4)) * [[1e-4], [1.0], [1e2], [1e-3], [3.0]]
     F, g = rng.normal(size=(5, 6, 4)), rng.normal(size=(5, 6))

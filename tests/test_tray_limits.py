@@ -105,9 +105,22 @@ def test_batched_toppra_parameters_equal_toppras_per_gridpoint_evaluation():
     plain = LS.toppra_constraint(tray_polygon_sides=8, batched=False).compute_constraint_params(path, s)
     for x, y in zip(batched[:3], plain[:3]):  # a, b, c
         np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-12)
-    for i in range(len(s)):  # F, g: one matrix for all grid points vs toppra's per-point stack
-        np.testing.assert_array_equal(batched[3], plain[3][i])
-        np.testing.assert_array_equal(batched[4], plain[4][i])
+    # the same rows F w <= g at every grid point, the batched ones scaled to unit norm in (u, x)
+    # (limits/toppra_form.unit_rows): equal after normalising each row of both
+    a, b, c = batched[:3]
+
+    def normalised(F, g):
+        F = np.broadcast_to(F, (len(a),) + np.shape(F)[-2:])
+        g = np.broadcast_to(g, (len(a),) + np.shape(g)[-1:])
+        A, B = np.einsum("nkm,nm->nk", F, a), np.einsum("nkm,nm->nk", F, b)
+        C = np.einsum("nkm,nm->nk", F, c) - g
+        nrm = np.hypot(A, B)
+        return np.stack([A, B, C]) / np.where(nrm > 0, nrm, 1.0)
+
+    np.testing.assert_allclose(normalised(*batched[3:5]), normalised(*plain[3:5]), rtol=1e-10, atol=1e-12)
+    A, B = np.einsum("nkm,nm->nk", batched[3], a), np.einsum("nkm,nm->nk", batched[3], b)
+    nrm = np.hypot(A, B)
+    np.testing.assert_allclose(nrm[nrm > 1e-9], 1.0, rtol=1e-12)
 
 
 def _bang_bang_s():

@@ -5,8 +5,8 @@ an energy-time optimum, under the joint torque limits |tau_i| <= tau_max,i that 
 Path: q(s) = the Fourier trajectory at t = s T, s in [0, 1] (q_s = T qd, q_ss = T^2 qdd; both
 vanish at the ends by eq. 6, so the ends are rest points of the path itself). Constraint rows:
 tau(q, qd, qdd) / tau_max in [-1, 1], tau by `inverse_dynamics_with_gravity` (the project's
-PlanarChain), through the project's toppra constraint builder (planners/baselines/toppra_plan.py
-`rows_constraint`, unit-norm rows: the fix for toppra's Seidel LP with gravity).
+PlanarChain), through the project's toppra constraint builder (`limits.toppra_form.rows_constraint`,
+unit-norm rows: the fix for toppra's Seidel LP with gravity).
 
 The result is checked by sampling (default 20001 points, also between toppra's gridpoints): its
 peak |tau_i| / tau_max,i is reported as it is; when it is above 1 (toppra enforces the limits at
@@ -80,7 +80,7 @@ def time_optimal_on_path(problem, x, torque_limit_Nm, grid_points: int = 400,
     """TOPP-RA on the path of the Fourier trajectory x of `problem` (module docstring)."""
     from toppra.algorithm import TOPPRA
 
-    from qmt_drake.planners.baselines.toppra_plan import rows_constraint
+    from qmt_drake.limits.toppra_form import rows_constraint
     lim = np.asarray(torque_limit_Nm, dtype=float)
     n = problem.family.n
     if lim.shape != (n,) or not np.all(np.isfinite(lim)) or np.any(lim <= 0):

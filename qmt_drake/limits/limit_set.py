@@ -9,7 +9,7 @@ qd) and rows F w <= g; one toppra SecondOrderConstraint stacks them (F block dia
 its parameters a, b, c for ALL grid points at once from three batched hand states (w at
 (qd, qdd) = (0, 0), (0, q'), (q', q'')), instead of toppra's default of three Python inverse-dynamics
 calls per grid point (`batched=False`, kept to measure the difference: studies/crane_tray.py
-`toppra_timing`).
+`toppra_timing`); its rows are scaled to unit norm (limits/toppra_form.py says why).
 
 "Feasible" holds between the samples too: `limit_report` refines every sampled local maximum that
 comes near its column's peak or near the limit by a batched golden-section search on the
@@ -103,43 +103,25 @@ class LimitSet:
         state = self.arm.hand_state(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd))
         parts = [t.toppra_w(state) for t in terms]
         if any(p is None for p in parts):
-            raise QmtInputError("TOPP-RA: a limit of this scenario has no linear form on this arm; use the GA or ruckig")
+            raise QmtInputError("TOPP-RA: a limit of this scenario has no linear form on this arm (e.g. the "
+                                "payload face is not in the arm's plane); use the GA or ruckig")
         return np.concatenate(parts, axis=-1)
 
     def toppra_constraint(self, *, batched: bool = True, **row_options):
-        """One toppra SecondOrderConstraint of every term with a linear form (module docstring).
-        batched=False leaves the parameters to toppra (three w calls per grid point)."""
+        """One toppra SecondOrderConstraint of every term with a linear form (module docstring;
+        limits/toppra_form.py: parameters of all grid points in one batch, unit-norm rows).
+        batched=False leaves the parameters to toppra (three w calls per grid point), to measure
+        the difference. row_options go to every term's toppra_rows."""
         from toppra.constraint import DiscretizationType, SecondOrderConstraint
-        from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
+
+        from qmt_drake.limits.toppra_form import rows_constraint
 
         terms, F, g = self.toppra_rows(**row_options)
-
-        def w(q, qd, qdd):
-            return self.toppra_w(terms, q, qd, qdd)[0]
-
-        if not batched:
-            return SecondOrderConstraint(w, lambda q: F, lambda q: g, self.arm.n_dof,
-                                         discretization_scheme=DiscretizationType.Interpolation)
-        limit_set = self
-
-        class _Batched(SecondOrderConstraint):
-            def compute_constraint_params(self, path, gridpoints):
-                s = np.asarray(gridpoints, dtype=float)
-                q, qs, qss = path(s), path(s, 1), path(s, 2)
-                zero = np.zeros_like(q)
-                c = limit_set.toppra_w(terms, q, zero, zero)
-                a = limit_set.toppra_w(terms, q, zero, qs) - c
-                b = limit_set.toppra_w(terms, q, qs, qss) - c
-                # F and g are the same at every grid point: toppra then keeps one (k, m) matrix
-                # instead of an (N, k, m) stack (`identical`, as its own JointTorqueConstraint).
-                if self.discretization_type == DiscretizationType.Interpolation:
-                    return canlinear_colloc_to_interpolate(a, b, c, F, g, None, None, s, identical=True)
-                return a, b, c, F, g, None, None
-
-        constraint = _Batched(w, lambda q: F, lambda q: g, self.arm.n_dof,
-                              discretization_scheme=DiscretizationType.Interpolation)
-        constraint.identical = True
-        return constraint
+        if batched:
+            return rows_constraint(lambda q, qd, qdd: self.toppra_w(terms, q, qd, qdd), F, g, self.arm.n_dof)
+        return SecondOrderConstraint(lambda q, qd, qdd: self.toppra_w(terms, q, qd, qdd)[0],
+                                     lambda q: F, lambda q: g, self.arm.n_dof,
+                                     discretization_scheme=DiscretizationType.Interpolation)
 
     # ------------------------------------------------------------------ batched peaks (planners)
     def batch_peaks(self, motion_time_s, valid, peaks) -> "BatchPeaks":

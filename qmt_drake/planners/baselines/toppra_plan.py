@@ -58,79 +58,12 @@ from qmt_drake.trajectory import CallableTrajectory, ConcatenatedTrajectory, Joi
 
 def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
                 vertex_on_chord: bool = True):
-    """The scenario's limit terms as one vectorised toppra SecondOrderConstraint: each term gives
-    w (affine in qdd, quadratic in qd; gravity in its constant part) and rows F w <= g (limits/);
-    the payload moment's rows are the polygon described in the module docstring.
+    """The scenario's limit terms as one toppra constraint (LimitSet.toppra_constraint): each
+    term gives w (affine in qdd, quadratic in qd; gravity in its constant part) and rows F w <= g
+    (limits/); the payload moment's rows are the polygon described in the module docstring.
     vertex_on_chord: a vertex (else an edge normal) points along angle0."""
-    from scipy.linalg import block_diag
-
-    arm = scenario.arm
-    n = arm.n_dof
-    options = dict(polygon_sides=sides, angle0_rad=angle0_rad, inscribed=inscribed, vertex_on_chord=vertex_on_chord)
-    terms, blocks = [], []
-    for term in scenario.limit_set.terms:
-        rows = term.toppra_rows(**options)
-        if rows is not None:
-            terms.append(term)
-            blocks.append(rows)
-    F = block_diag(*[b[0] for b in blocks])
-    g = np.concatenate([b[1] for b in blocks])
-
-    def w(q, qd, qdd):
-        state = arm.hand_state(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd))
-        parts = [t.toppra_w(state) for t in terms]
-        if any(p is None for p in parts):
-            raise QmtInputError("TOPP-RA: a limit of this scenario has no linear form on this arm (the "
-                                "payload face is not in the arm's plane); use the GA or ruckig")
-        return np.concatenate(parts, axis=-1)
-
-    return rows_constraint(w, F, g, n)
-
-
-def rows_constraint(w, F, g, n_dof: int):
-    """A toppra SecondOrderConstraint F w(q, qd, qdd) <= g for a w that is affine in qdd and
-    quadratic in qd (a batched function of (S, n) arrays, e.g. scaled joint torques with gravity),
-    F (k, m), g (k,) the same at every gridpoint; Interpolation discretisation, unit-norm rows
-    (`unit_rows`)."""
-    from toppra.constraint import DiscretizationType, SecondOrderConstraint
-    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
-
-    class _Rows(SecondOrderConstraint):
-        def compute_constraint_params(self, path, gridpoints):
-            q, qs, qss = path.derivatives(np.asarray(gridpoints, dtype=float))
-            zero = np.zeros_like(q)
-            c = w(q, zero, zero)
-            a = w(q, zero, qs) - c
-            b = w(q, qs, qss) - c
-            Fv = np.broadcast_to(F, (len(q),) + F.shape).copy()
-            gv = np.broadcast_to(g, (len(q),) + g.shape).copy()
-            if self.discretization_type == DiscretizationType.Interpolation:
-                a, b, c, Fv, gv, _, _ = canlinear_colloc_to_interpolate(a, b, c, Fv, gv, None, None, gridpoints)
-            Fv, gv = unit_rows(a, b, Fv, gv)
-            return a, b, c, Fv, gv, None, None
-
-    return _Rows(w, lambda q: F, lambda q: g, n_dof, discretization_scheme=DiscretizationType.Interpolation)
-
-
-def unit_rows(a, b, F, g):
-    """Each row k of F w <= g at gridpoint i divided by |(F_ik . a_i, F_ik . b_i)|, the norm of
-    its coefficients of (u, x) = (sddot, sdot^2); rows with zero coefficients are left as they are.
-
-    Why: toppra's Seidel LP (cy_seidel_solverwrapper) starts each stage at the corner of its
-    +-1e8 box, and when a row is violated there it solves a 1-D LP along that row's line, whose
-    abscissa is measured in units of 1/|(a, b)| and bounded by +-1e10. A row with |(a, b)| below
-    about 1e-2 (e.g. a torque row that barely depends on u and x: with gravity its constant part
-    dominates) puts the box corners beyond 1e10; the 1-D LP then ends on that bound with no active
-    row (index -1/-2), which the Cython code compares against an unsigned counter and reports as
-    "infeasible": the stage's controllable set becomes NaN and TOPP-RA fails "not controllable"
-    on a feasible path (seen on joint lines of a vertical arm; which rows trigger it depends on
-    the warm-started row order). A row's set is unchanged by a positive factor, so scaling
-    (a, b) to unit norm removes the trigger without changing the problem."""
-    A = np.einsum("nkm,nm->nk", F, a)
-    B = np.einsum("nkm,nm->nk", F, b)
-    nrm = np.hypot(A, B)
-    scale = np.where(nrm > 0.0, 1.0 / np.where(nrm > 0.0, nrm, 1.0), 1.0)
-    return F * scale[:, :, None], g * scale
+    return scenario.limit_set.toppra_constraint(polygon_sides=sides, angle0_rad=angle0_rad,
+                                                inscribed=inscribed, vertex_on_chord=vertex_on_chord)
 
 
 class _ToppraPath:
