@@ -69,11 +69,16 @@ def _emit_json(data: dict, target: str | None) -> None:
 
 
 def cmd_scenarios(args) -> int:
-    from qmt_drake.config.scenario import builtin_scenarios, load_scenario
+    from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
     for name in builtin_scenarios():
         sc = load_scenario(name)
         print(f"{name:12s} {sc.family.kind:20s} genes {', '.join(sc.family.gene_names):22s} "
               f"{sc.arm.n_dof}-link arm, payload {sc.payload.mass_kg * 1e3:.0f} g")
+    from qmt_drake.energy.experiments import get_experiment
+    for name in builtin_scenarios(ENERGY_TIME_KIND):
+        ex = get_experiment(name)
+        print(f"{name:12s} {'fourier_velocity':20s} energy-time (seed 001), c2 = {ex.c2:g}, m = {ex.m}; "
+              f"plan with --method snopt|steepest|ipopt|collocation")
     return 0
 
 
@@ -339,8 +344,8 @@ def cmd_reproduce(args) -> int:
 def _route(argv: list) -> list:
     """`plan <seed-001 experiment> ...` is the energy-time planner (`plan-energy`)."""
     if len(argv) >= 2 and argv[0] == "plan":
-        from qmt_drake.energy.experiments import EXPERIMENTS
-        if argv[1] in EXPERIMENTS:
+        from qmt_drake.energy.scenario import is_energy_scenario
+        if is_energy_scenario(argv[1]):
             return ["plan-energy", *argv[1:]]
     return argv
 

@@ -358,8 +358,42 @@ _HAND_KEYS = {"kind", "coil", "slip_boundary_Nm", "coil_current_A", "effective_g
 _COIL_KEYS = {"name", "turns", "resistance_ohm", "core_diameter_m", "outer_diameter_m", "length_m"}
 
 
-def builtin_scenarios() -> list[str]:
-    return sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
+ENERGY_TIME_KIND = "energy_time"  # seed 001's scenarios (qmt_drake/energy/scenario.py) share the folder
+
+
+def scenario_kind(path: Path) -> str:
+    """A scenario file's top-level `kind` (transfer scenarios have none: 'transfer'); '' if the
+    file cannot be read as a YAML mapping (load_scenario then says why)."""
+    try:
+        raw = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return ""
+    return str(raw.get("kind", "transfer")) if isinstance(raw, dict) else ""
+
+
+def builtin_scenarios(kind: str = "transfer") -> list[str]:
+    """Names of the built-in scenarios of one kind ('transfer': the planners' and co-simulation's;
+    ENERGY_TIME_KIND: seed 001's energy-time experiments)."""
+    return sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml") if scenario_kind(p) == kind)
+
+
+def read_scenario_yaml(path: Path, example: str = "thesis-ch4") -> dict:
+    """The YAML mapping of a scenario file; QmtInputError (one line) if it is not one."""
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise QmtInputError(f"{path}: not a UTF-8 text file; a scenario is a YAML text file") from None
+    except OSError as exc:
+        raise QmtInputError(f"{path}: cannot be read ({exc.strerror})") from None
+    except yaml.YAMLError as exc:
+        raise QmtInputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if raw is None:
+        raise QmtInputError(f"{path}: the file is empty; a scenario is a YAML mapping (see "
+                            f"{SCENARIO_DIR / (example + '.yaml')})")
+    if not isinstance(raw, dict):
+        raise QmtInputError(f"{path}: a scenario file must be a YAML mapping (see "
+                            f"{SCENARIO_DIR / (example + '.yaml')})")
+    return raw
 
 
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
@@ -374,19 +408,11 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     if not path.is_file():
         raise QmtInputError(f"scenario '{name_or_path}' is neither a built-in "
                             f"({', '.join(builtin_scenarios())}) nor a YAML file that exists")
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise QmtInputError(f"{path}: not a UTF-8 text file; a scenario is a YAML text file") from None
-    except OSError as exc:
-        raise QmtInputError(f"{path}: cannot be read ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise QmtInputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if raw is None:
-        raise QmtInputError(f"{path}: the file is empty; a scenario is a YAML mapping (see "
-                            f"{SCENARIO_DIR / 'thesis-ch4.yaml'})")
-    if not isinstance(raw, dict):
-        raise QmtInputError(f"{path}: a scenario file must be a YAML mapping")
+    raw = read_scenario_yaml(path)
+    if raw.get("kind") == ENERGY_TIME_KIND:
+        raise QmtInputError(f"scenario '{name_or_path}' is a seed-001 energy-time scenario: plan it with "
+                            f"`qmt-drake plan {name_or_path} --method snopt|steepest|ipopt|collocation`; "
+                            "simulate, benchmark and sweeps take transfer scenarios")
     if overrides:
         raw = _merge(raw, overrides)
     return scenario_from_dict(raw, path)

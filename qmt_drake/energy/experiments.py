@@ -1,5 +1,5 @@
 """Seed 001's three numerical experiments (section 3) and the paper's numbers, read from the
-scenario files models/scenarios/energy/ohsaka-fig{2,3,4}.yaml (the one source of truth; loader:
+scenario files models/scenarios/ohsaka-fig{2,3,4}.yaml (the one source of truth; loader:
 scenario.py). A user's own file of that kind works wherever a built-in name does.
 
 Coordinate vector (X(0)', X(T)')' in metres, X2 up. c1, c2 as printed. m = 5, 40 divisions.

@@ -1,11 +1,11 @@
 """Loader of energy-time scenario files (`kind: energy_time`): seed 001's experiments as YAML.
 
-The built-in ones are models/scenarios/energy/ohsaka-fig2.yaml, -fig3, -fig4 (the one source of
-truth of the experiments: experiments.py reads them); a user's own file of the same kind is loaded
-by path. The shared scenario loader (qmt_drake/config/scenario.py) needs a payload, moment/motor
-limits and a GA family, none of which this problem has, so this kind has its own small loader here
-(README.md: what the shared schema would need). The built-ins sit in a sub-folder so the shared
-loader's `builtin_scenarios()` (every models/scenarios/*.yaml) does not pick them up.
+The built-in ones are models/scenarios/ohsaka-fig2.yaml, -fig3, -fig4 (the one source of truth
+of the experiments: experiments.py reads them); a user's own file of the same kind is loaded by
+path. A transfer scenario (qmt_drake/config/scenario.py) needs a payload, moment/motor limits and a
+GA family, none of which this problem has, so this kind has its own small loader here; both kinds
+share the folder, the YAML reading and its errors, and are told apart by the top-level `kind`
+(config.scenario.builtin_scenarios(kind)).
 
 Schema (SI; every key below, nothing else; `#` = optional with default):
 
@@ -29,11 +29,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from qmt_drake.config.scenario import SCENARIO_DIR
+from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, builtin_scenarios, read_scenario_yaml
 from qmt_drake.errors import QmtInputError
 
-KIND = "energy_time"
-ENERGY_SCENARIO_DIR = SCENARIO_DIR / "energy"
+KIND = ENERGY_TIME_KIND
+ENERGY_SCENARIO_DIR = SCENARIO_DIR  # beside the transfer scenarios, told apart by `kind`
 
 _KEYS = {"name", "kind", "description", "source", "arm", "task", "family", "objective", "limits", "paper"}
 _SECTIONS = {
@@ -49,16 +49,19 @@ _REQUIRED = {"arm": {"urdf"}, "task": {"coordinate_vector_m"}, "family": {"kind"
 
 
 def builtin_energy_scenarios() -> list[str]:
-    return sorted(p.stem for p in ENERGY_SCENARIO_DIR.glob("*.yaml"))
+    return builtin_scenarios(KIND)
 
 
 def resolve(name_or_path: str | Path) -> Path:
     """The YAML file of a built-in name or a path; QmtInputError if neither."""
     p = Path(name_or_path)
-    if not p.suffix and (ENERGY_SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
+    if not p.suffix and str(name_or_path) in builtin_energy_scenarios():
         return ENERGY_SCENARIO_DIR / f"{name_or_path}.yaml"
     if p.is_file():
         return p
+    if str(name_or_path) in builtin_scenarios():
+        raise QmtInputError(f"scenario '{name_or_path}' is a transfer scenario, not an energy-time one; "
+                            f"plan it with `qmt-drake plan {name_or_path} --method ga|optimum|toppra|...`")
     raise QmtInputError(f"energy scenario '{name_or_path}' is neither a built-in "
                         f"({', '.join(builtin_energy_scenarios())}) nor a YAML file that exists")
 
@@ -80,18 +83,7 @@ def is_energy_scenario(name_or_path) -> bool:
 
 def read_raw(name_or_path) -> tuple[dict, Path]:
     path = resolve(name_or_path)
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise QmtInputError(f"{path}: not a UTF-8 text file; a scenario is a YAML text file") from None
-    except OSError as exc:
-        raise QmtInputError(f"{path}: cannot be read ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise QmtInputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if not isinstance(raw, dict):
-        raise QmtInputError(f"{path}: an energy scenario is a YAML mapping (see "
-                            f"{ENERGY_SCENARIO_DIR / 'ohsaka-fig3.yaml'})")
-    return raw, path
+    return read_scenario_yaml(path, example="ohsaka-fig3"), path
 
 
 def _number(path, key, v, *, lo=None, lo_open=False, integer=False):
