@@ -21,8 +21,24 @@ def test_builtins_are_the_papers_experiments():
     assert f3.coordinate_vector_m == (0.7, 0.0, 0.0, 0.2) and (f3.c1, f3.c2, f3.m, f3.divisions) == (1, 1e5, 5, 40)
     assert f4.paper_initial_a == {(3, 1): 0.575} and f4.reported["T_s"][1e4] == 0.330
     assert f3.torque_limit_Nm == (200.0, 200.0, 200.0)
-    # the shared loader's built-in list does not see them (it would refuse the kind)
+    # they share models/scenarios/ with the transfer scenarios, told apart by their `kind`
     assert not set(EXPERIMENTS) & set(builtin_scenarios())
+    assert sorted(builtin_scenarios("energy_time")) == sorted(EXPERIMENTS)
+
+
+def test_the_two_kinds_refuse_each_others_commands_in_one_line(capsys):
+    assert main(["simulate", "ohsaka-fig3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "energy-time scenario" in err and "qmt-drake plan ohsaka-fig3" in err
+    assert main(["plan-energy", "thesis-ch4"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "transfer scenario" in err
+
+
+def test_scenarios_lists_both_kinds(capsys):
+    assert main(["scenarios"]) == 0
+    names = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert set(names) == set(builtin_scenarios()) | set(EXPERIMENTS)
 
 
 def _user_file(tmp_path, **changes):
