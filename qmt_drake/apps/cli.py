@@ -211,8 +211,14 @@ def _simulate_tray(args, sc) -> int:
                                 time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3)
     _emit_json(result, args.json)
     if args.json != "-":
-        print(f"{sc.name} {plan.method} x{args.time_scale}: {'held' if result['held'] else 'LOST'} "
-              f"({result['outcome']}), slip {result['max_slip_m'] * 1e3:.3f} mm, creep {result['creep_m'] * 1e3:.3f} "
+        if result["held"]:
+            verdict = "held (carried)"
+        elif result["outcome"] == "carried":  # on the tray and upright at the end, but it slid
+            verdict = "LOST (slipped, still on the tray)"
+        else:
+            verdict = f"LOST ({result['outcome'].replace('_', ' ')} at {result['lost_at_s']:.3f} s)"
+        print(f"{sc.name} {plan.method} x{args.time_scale}: {verdict}"
+              f", slip {result['max_slip_m'] * 1e3:.3f} mm, creep {result['creep_m'] * 1e3:.3f} "
               f"mm, tilt {result['max_tilt_rad']:.2e} rad, tracking error {result['max_tracking_error_rad']:.2e} rad, "
               f"real-time factor {result['real_time_factor']:.2f}")
     return 0
