@@ -5,6 +5,7 @@ GA runs); a step that fails is reported and the others still run."""
 
 import argparse
 import sys
+import time
 import traceback
 from pathlib import Path
 
@@ -24,11 +25,13 @@ def main(argv=None) -> int:
 
     def step(name, fn):
         _log(f"=== {name}")
+        t0 = time.perf_counter()
         try:
             fn()
         except Exception:
             traceback.print_exc()
             failed.append(name)
+        _log(f"--- {name}: {time.perf_counter() - t0:.0f} s")
 
     from qmt_drake.apps.thesis_study import run_chapter
     for ch in ("thesis-ch2", "thesis-ch3", "thesis-ch4"):
