@@ -59,6 +59,37 @@ def test_problem_protocol_batching_and_drake_recheck():
     assert all(d > 0 for d in rep["min_env_distance_m"])
 
 
+def test_task_wide_branch_choice():
+    """One branch label for the whole task (the seed's choice) never beats the best branch per
+    point, equals it for a single unit task, uses one label at every unit, and E is the best over
+    the labels of eq. 8 with the label's unreachable units counted 0."""
+    from qmt_drake.design import ik
+    from qmt_drake.design.operability import fitness_E
+    from qmt_drake.design.problem import lengths6
+    task = load_task("task1_welding_plate")
+    G = np.random.default_rng(4).integers(0, 16, (80, 5)) * LEVEL_STEP_M
+    for T in ("BP", "PB", "FF"):
+        pt = DesignProblem(task, T, branch="task")
+        pp = DesignProblem(task, T, branch="point")
+        et, ep = pt.fitness_E(G), pp.fitness_E(G)
+        assert np.all(et <= ep + 1e-15) and np.any(et < ep - 1e-6)
+        # E by label recomputed from the per-label unit values
+        mu_l, r_l, _ = pt._units(G)
+        EL = np.stack([fitness_E(mu_l[..., b], r_l[..., b], lengths6(G).sum(axis=1)) for b in range(4)], 1)
+        np.testing.assert_allclose(et, EL.max(axis=1), rtol=0, atol=0)
+        # the chosen configurations all carry the chosen label
+        g = G[int(np.argmax(et))]
+        det = pt.details(g)
+        qs = np.array([u["q_rad"] for u in det["units"] if u["reachable"]])
+        o = pt.type.origins(lengths6(g)[0])
+        assert set(ik.labels_of(pt.type, o, qs).tolist()) == {det["branch_label"]}
+    one = task_from_dict({"units": [UNIT]})
+    np.testing.assert_array_equal(DesignProblem(one, "BP").fitness_E(G),
+                                  DesignProblem(one, "BP", branch="point").fitness_E(G))
+    with pytest.raises(QmtInputError, match="branch"):
+        DesignProblem(task, "BP", branch="each")
+
+
 def test_obstacles_can_only_lower_E():
     task = load_task("task1_welding_plate")
     G = np.random.default_rng(1).integers(0, 16, (60, 5)) * LEVEL_STEP_M

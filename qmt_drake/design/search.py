@@ -152,10 +152,11 @@ GA_GENERATIONS = (400, 100)  # (max, stall): the seed saw convergence by ~60, so
 
 def search_type(task: Task, type_name: str, method: str = "stand-in", seed: int = 0,
                 budget: int = 12_000, ga_generations: tuple = GA_GENERATIONS,
-                relations: dict | None = None) -> SearchResult:
+                relations: dict | None = None, branch: str = "task") -> SearchResult:
     """One type's search: 'ga' (the project's GA), 'exhaustive', 'stand-in' (random search with
-    `budget` designs, then coordinate descent), or 'auto' (= ga)."""
-    pr = DesignProblem(task, type_name, relations)
+    `budget` designs, then coordinate descent), or 'auto' (= ga). branch: DesignProblem's branch
+    choice ("task": one IK branch label for the whole task, the seed's; "point")."""
+    pr = DesignProblem(task, type_name, relations, branch)
     if method in ("auto", "ga"):
         return ga_search(pr, seed=seed, max_generations=ga_generations[0],
                          stall_generations=ga_generations[1])
@@ -173,11 +174,12 @@ def _search_star(args):
 def run_all_types(task: Task, *, method: str = "stand-in", workers: int = 2, seed: int = 0,
                   budget: int = 12_000, types=TYPES,
                   ga_generations: tuple = GA_GENERATIONS,
-                  relations: dict | None = None) -> tuple[list[SearchResult], float]:
+                  relations: dict | None = None,
+                  branch: str = "task") -> tuple[list[SearchResult], float]:
     """Search every type (in `workers` processes; 1 = in this process). Returns the results in
     TYPES order and the wall time in s."""
     t0 = time.perf_counter()
-    jobs = [(task, t, method, seed, budget, ga_generations, relations) for t in types]
+    jobs = [(task, t, method, seed, budget, ga_generations, relations, branch) for t in types]
     if workers <= 1:
         res = [_search_star(j) for j in jobs]
     else:
