@@ -8,8 +8,7 @@ import pytest
 
 from qmt_drake.design.arm_types import LEVEL_STEP_M
 from qmt_drake.design.problem import DesignProblem
-from qmt_drake.design.search import (coordinate_descent, exhaustive, random_search,
-                                     reduced_grid, run_ga_adapter)
+from qmt_drake.design.search import exhaustive, reduced_grid, run_ga_adapter
 from qmt_drake.design.tasks import load_task, task_from_dict
 from qmt_drake.errors import QmtInputError
 
@@ -98,7 +97,7 @@ def test_obstacles_can_only_lower_E():
     assert np.all(e_obs <= e_free + 1e-15) and np.any(e_obs < e_free)
 
 
-def test_exhaustive_certifies_on_a_subgrid_and_search_stand_in():
+def test_exhaustive_certifies_on_a_subgrid():
     task = load_task("task2_welding_opening")
     pr = DesignProblem(task, "BF")
     grid = reduced_grid()
@@ -107,9 +106,7 @@ def test_exhaustive_certifies_on_a_subgrid_and_search_stand_in():
     sub = grid[rng.choice(grid.shape[0], 200, replace=False)]
     ex = exhaustive(pr, genes=sub, batch=128)
     assert ex.E_per_m == pytest.approx(pr.fitness_E(sub).max(), rel=1e-12)
-    rs = random_search(pr, 100, seed=3, batch=50)
-    cd = coordinate_descent(pr, rs, max_sweeps=1)
-    assert cd.E_per_m >= rs.E_per_m and len(rs.history_best_E) == 2
+    assert ex.gene_hex == ex.extra["top10"][0][0] and ex.evaluations == 200
 
 
 def test_ga_adapter_runs_the_project_ga_on_the_design_problem():
@@ -125,11 +122,19 @@ def test_cli_design_and_bad_inputs(tmp_path, capsys):
     from qmt_drake.design.cli import add_parser, cmd_design
     ap = argparse.ArgumentParser()
     add_parser(ap.add_subparsers())
-    args = ap.parse_args(["design", "peg_in_hole", "--types", "BP,PB", "--budget", "40", "--workers", "1",
-                          "--method", "stand-in",
-                          "--out", str(tmp_path)])
+    args = ap.parse_args(["design", "peg_in_hole", "--types", "BP,PB", "--generations", "2,0",
+                          "--workers", "1", "--out", str(tmp_path)])
     assert cmd_design(args) == 0
     assert (tmp_path / "BP.urdf").exists() and (tmp_path / "results.json").exists()
+    import json
+    res = json.loads((tmp_path / "results.json").read_text())
+    assert res["branch"] == "task" and {r["type"] for r in res["results"]} == {"BP", "PB"}
+    # one design evaluated: the same E as the Problem gives
+    assert cmd_design(ap.parse_args(["design", "peg_in_hole", "--design", "BP:0,5,1,0,0,0",
+                                     "--out", str(tmp_path)])) == 0
+    det = json.loads((tmp_path / "BP_051000.json").read_text())
+    pr = DesignProblem(load_task("peg_in_hole"), "BP")
+    assert det["E_per_m"] == pytest.approx(pr.fitness_E(np.array([[0, .5, .1, 0, 0]]))[0], rel=1e-12)
     for bad, match in ((["--types", "XX"], "unknown"), (["--types", "FB"], "not among")):
         args = ap.parse_args(["design", "peg_in_hole", "--out", str(tmp_path)] + bad)
         with pytest.raises(QmtInputError, match=match):
