@@ -437,20 +437,22 @@ def codesign(max_layout_evaluations: int = 60):
                    ["task"]["points_m"])
     ax2.plot(pts[:, 0], pts[:, 1], "ko", label="task points (start, vias, goal)")
     th = np.linspace(0, 2 * np.pi, 200)
-    for tag, col in (("thesis_arm", "r"), ("codesigned_lengths", "b"), ("codesigned_layout", "g")):
+    for tag, col, mk, ms in (("thesis_arm", "r", "s", 13), ("codesigned_lengths", "b", "o", 7),
+                             ("codesigned_layout", "g", "D", 7)):
         sm = sims[tag]
         b = np.array(sm["base_m"])
         R = sm["l1_m"] + sm["l2_m"]
         ax2.plot(b[0] + R * np.cos(th), b[1] + R * np.sin(th), col + ":", lw=0.8)
-        ax2.plot(*b, col + "s", label=f"{tag}: l1 {sm['l1_m']:.3f}, l2 {sm['l2_m']:.3f} m, "
-                                       f"T0 {sm['motion_time_s']:.3f} s")
+        ax2.plot(*b, col + mk, ms=ms, mfc="none" if tag == "thesis_arm" else col,
+                 label=f"{tag}: base ({b[0]:+.3f}, {b[1]:+.3f}), l1 {sm['l1_m']:.3f}, "
+                       f"l2 {sm['l2_m']:.3f} m, T0 {sm['motion_time_s']:.3f} s")
     ax2.set_aspect("equal")
     ax2.set_xlim(-0.35, 0.35)
     ax2.set_ylim(-0.2, 0.35)
     ax2.set_xlabel("x [m]")
     ax2.set_ylabel("y [m]")
     ax2.legend(fontsize=7, loc="lower center")
-    ax2.set_title("joint layout: base (square) and reach (dotted)", fontsize=9)
+    ax2.set_title("joint layout: base (marker) and reach l1 + l2 (dotted)", fontsize=9)
     fig.tight_layout()
     fig.savefig(OUT / "codesign.png", dpi=110)
     plt.close(fig)
