@@ -249,6 +249,7 @@ def main(argv=None):
                              title=f"{task.name}: best E per generation (GA, branch {a.branch})")
             write_text_atomic(resfile, json.dumps(jsonable(results), indent=1) + "\n")
         write_text_atomic(OUT / "tables.md", "\n".join(md) + "\n")
+        analyse()
         if cmp_rows:
             write_text_atomic(OUT / "branches.md", branch_table(cmp_rows, a.branch, other))
 
@@ -344,7 +345,7 @@ def analyse():
                "mean w | mean c | mu_bar | mu_x | mu_y | mu_z | mu_alpha | mu_beta | mu_gamma |",
                "|" + "---|" * 15]
         for T, r in sorted(entry["types"].items(), key=lambda kv: -kv[1]["E_per_m"]):
-            pr = DesignProblem(task, T)
+            pr = DesignProblem(task, T, branch=results.get("branch", "task"))
             g = genes_from_levels(levels_from_gene(r["gene"]))
             b = [x for x in pr.breakdown(g) if x is not None]
             if not b:
