@@ -149,10 +149,15 @@ def main(argv=None):
                     help="with --exhaustive: also run the GA of that type with seeds 1..N and record "
                          "the generation each reaches the exhaustive optimum")
     ap.add_argument("--skip-search", action="store_true")
+    ap.add_argument("--tasks", default=None,
+                    help="only these task variants, comma-separated names as in results.json "
+                         "(e.g. task1_welding_plate,task2_welding_opening-no-obstacles)")
     ap.add_argument("--skip-exhaustive", action="store_true")
     ap.add_argument("--skip-scaling", action="store_true", help="skip the 1-worker full run")
     ap.add_argument("--branch", default="task", choices=("task", "point"),
                     help="IK branch choice: one label for the whole task (the seed's) or per point")
+    ap.add_argument("--restarts", type=int, default=1,
+                    help="GA runs per type (seeds 0..N-1), the best kept (robustness of the ranking)")
     ap.add_argument("--compare-branch", action="store_true",
                     help="also run the other branch choice and write branches.md")
     ap.add_argument("--generations", default="400,100", help="GA max,stall generations")
@@ -186,19 +191,28 @@ def main(argv=None):
               + ("one branch label for every unit task, the best over the whole task: the seed's"
                  if a.branch == "task" else "the best branch at each point") +
               "). E = mu_bar / sum(L) * P_k / k in 1/m.", ""]
-        results["search"] = {}
+        if a.tasks:   # a subset: keep the other variants' entries
+            results.setdefault("search", {})
+        else:
+            results["search"] = {}
         results["branch"] = a.branch
+        results["restarts"] = a.restarts
         cmp_rows = {}
+        only = set(a.tasks.split(",")) if a.tasks else None
         for tname, noobs in TASK_VARIANTS:
+            if only and (tname + ("-no-obstacles" if noobs else "")) not in only:
+                continue
             task = load_task(tname)
             if noobs:
                 task = task.without_obstacles()
             log(f"{task.name}: 10 types, branch {a.branch} ...")
-            res, wall = run_all_types(task, workers=a.workers, ga_generations=gens, branch=a.branch)
+            res, wall = run_all_types(task, workers=a.workers, ga_generations=gens, branch=a.branch,
+                                      restarts=a.restarts)
             log(f"{task.name}: wall {wall:.1f} s, best {max(res, key=lambda r: r.E_per_m).type_name}")
             md.append(table(tname, res, SEED.get(tname) if not noobs else None,
                             f"{task.name} (wall {wall:.0f} s on {a.workers} workers)"))
-            entry = {"wall_s": wall, "workers": a.workers, "branch": a.branch, "types": {}}
+            entry = {"wall_s": wall, "workers": a.workers, "branch": a.branch, "restarts": a.restarts,
+                     "types": {}}
             for r in res:
                 pr = DesignProblem(task, r.type_name, branch=a.branch)
                 det = pr.details(r.genes)
@@ -223,7 +237,8 @@ def main(argv=None):
             log(f"{task.name}: winner {best.type_name} {best.gene_hex} E {best.E_per_m:.5f}, Drake "
                 f"re-check ok={conf['ok']} E={conf['E_drake_per_m']:.5f}")
             if a.compare_branch:
-                res_o, wall_o = run_all_types(task, workers=a.workers, ga_generations=gens, branch=other)
+                res_o, wall_o = run_all_types(task, workers=a.workers, ga_generations=gens, branch=other,
+                                              restarts=a.restarts)
                 log(f"{task.name}: branch {other}: wall {wall_o:.1f} s, best "
                     f"{max(res_o, key=lambda r: r.E_per_m).type_name}")
                 entry["other_branch"] = {"branch": other, "wall_s": wall_o, "types": {
@@ -254,13 +269,15 @@ def main(argv=None):
             write_text_atomic(OUT / "branches.md", branch_table(cmp_rows, a.branch, other))
 
         # the full 10-type run of Task-1 on 1 worker, beside the 2-worker run above
-        if not a.skip_scaling:
+        if not a.skip_scaling and "task1_welding_plate" in results["search"]:
             task = load_task("task1_welding_plate")
-            _, wall1 = run_all_types(task, workers=1, ga_generations=gens, branch=a.branch)
+            _, wall1 = run_all_types(task, workers=1, ga_generations=gens, branch=a.branch,
+                                     restarts=a.restarts)
             walls = {"1": wall1, str(a.workers): results["search"][task.name]["wall_s"]}
             log(f"scaling: full 10-type run of {task.name}: {wall1:.1f} s on 1 worker, "
                 f"{walls[str(a.workers)]:.1f} s on {a.workers}")
             results["scaling"] = {"task": task.name, "ga_generations": gens, "branch": a.branch,
+                                  "restarts": a.restarts,
                                   "wall_s_by_workers": walls, "cpu_count": os.cpu_count(),
                                   "loadavg_1min": os.getloadavg()[0]}
             write_text_atomic(resfile, json.dumps(jsonable(results), indent=1) + "\n")

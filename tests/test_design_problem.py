@@ -141,3 +141,14 @@ def test_cli_design_and_bad_inputs(tmp_path, capsys):
             cmd_design(args)
     with pytest.raises(QmtInputError, match="not found"):
         cmd_design(ap.parse_args(["design", "no_such_task"]))
+
+
+def test_ga_restarts_keep_the_best_run():
+    from qmt_drake.design.search import search_type
+    task = load_task("peg_in_hole")
+    r = search_type(task, "PB", "ga", seed=3, ga_generations=(3, 0), restarts=2)
+    runs = r.extra["restarts"]
+    assert [x["seed"] for x in runs] == [3, 4]
+    assert r.E_per_m == max(x["E_per_m"] for x in runs)
+    single = search_type(task, "PB", "ga", seed=4, ga_generations=(3, 0))
+    assert single.E_per_m == runs[1]["E_per_m"]     # seeded: a restart is the same run

@@ -112,14 +112,24 @@ METHODS = ("auto", "ga", "exhaustive")
 
 def search_type(task: Task, type_name: str, method: str = "ga", seed: int = 0,
                 ga_generations: tuple = GA_GENERATIONS,
-                relations: dict | None = None, branch: str = "task") -> SearchResult:
+                relations: dict | None = None, branch: str = "task", restarts: int = 1) -> SearchResult:
     """One type's search: 'ga' (the project's GA; 'auto' is the same) or 'exhaustive'. branch:
     DesignProblem's branch choice ("task": one IK branch label for the whole task, the seed's;
-    "point")."""
+    "point"). restarts: GA runs with seeds seed, seed + 1, ...; the best is returned (the seed
+    ran one GA per type; one run can stall below the type's optimum, see README)."""
     pr = DesignProblem(task, type_name, relations, branch)
     if method in ("auto", "ga"):
-        return ga_search(pr, seed=seed, max_generations=ga_generations[0],
-                         stall_generations=ga_generations[1])
+        runs = [ga_search(pr, seed=seed + i, max_generations=ga_generations[0],
+                          stall_generations=ga_generations[1]) for i in range(max(1, restarts))]
+        best = max(runs, key=lambda r: r.E_per_m)
+        if len(runs) > 1:   # the best run's history; every run's E and the total effort
+            best.extra["restarts"] = [{"seed": seed + i, "gene": r.gene_hex, "E_per_m": r.E_per_m,
+                                       "generations": r.extra.get("generations")}
+                                      for i, r in enumerate(runs)]
+            best.evaluations = sum(r.evaluations for r in runs)
+            best.unit_evaluations = sum(r.unit_evaluations for r in runs)
+            best.wall_s = sum(r.wall_s for r in runs)
+        return best
     if method == "exhaustive":
         return exhaustive(pr)
     raise ValueError(f"unknown search method {method!r}")
@@ -133,13 +143,13 @@ def run_all_types(task: Task, *, method: str = "ga", workers: int = 2, seed: int
                   types=TYPES,
                   ga_generations: tuple = GA_GENERATIONS,
                   relations: dict | None = None,
-                  branch: str = "task") -> tuple[list[SearchResult], float]:
+                  branch: str = "task", restarts: int = 1) -> tuple[list[SearchResult], float]:
     """Search every type (in `workers` processes; 1 = in this process). Returns the results in
     TYPES order and the wall time in s."""
     t0 = time.perf_counter()
     if method not in METHODS:
         raise QmtInputError(f"search method {method!r}: use one of {', '.join(METHODS)}")
-    jobs = [(task, t, method, seed, ga_generations, relations, branch) for t in types]
+    jobs = [(task, t, method, seed, ga_generations, relations, branch, restarts) for t in types]
     if workers <= 1:
         res = [_search_star(j) for j in jobs]
     else:
