@@ -92,6 +92,24 @@ TASK_VARIANTS = (("task1_welding_plate", False), ("task1_welding_plate", True),
                  ("peg_in_hole", False))
 
 
+def scaling(workers: int, gens: tuple, branch: str, restarts: int) -> dict:
+    """The full 10-type design run of Task-1 (GA to convergence) on `workers` and on 1 worker,
+    back to back (the machine is shared: the load is recorded before each run)."""
+    task = load_task("task1_welding_plate")
+    runs = []
+    for w in dict.fromkeys((workers, 1)):
+        load = os.getloadavg()[0]
+        res, wall = run_all_types(task, workers=w, ga_generations=gens, branch=branch, restarts=restarts)
+        runs.append({"workers": w, "wall_s": wall, "loadavg_1min_before": load,
+                     "designs": sum(r.evaluations for r in res),
+                     "best": max(res, key=lambda r: r.E_per_m).type_name})
+        log(f"scaling: full 10-type run of {task.name} on {w} worker(s): {wall:.1f} s "
+            f"(load {load:.1f} before)")
+    return {"task": task.name, "ga_generations": gens, "branch": branch, "restarts": restarts,
+            "cpu_count": os.cpu_count(), "runs": runs,
+            "wall_s_by_workers": {str(r["workers"]): r["wall_s"] for r in runs}}
+
+
 def first_generation_reaching(history, E, rel=1e-12):
     """Index of the first generation whose best E is within rel of E (None if never)."""
     for i, h in enumerate(history):
@@ -153,7 +171,9 @@ def main(argv=None):
                     help="only these task variants, comma-separated names as in results.json "
                          "(e.g. task1_welding_plate,task2_welding_opening-no-obstacles)")
     ap.add_argument("--skip-exhaustive", action="store_true")
-    ap.add_argument("--skip-scaling", action="store_true", help="skip the 1-worker full run")
+    ap.add_argument("--skip-scaling", action="store_true",
+                    help="skip the full Task-1 run on --workers and on 1 worker")
+    ap.add_argument("--scaling-only", action="store_true", help="only that scaling measurement")
     ap.add_argument("--branch", default="task", choices=("task", "point"),
                     help="IK branch choice: one label for the whole task (the seed's) or per point")
     ap.add_argument("--restarts", type=int, default=1,
@@ -178,6 +198,8 @@ def main(argv=None):
         return letters(a.letters, a.workers, tuple(int(x) for x in a.generations.split(",")))
     resfile = OUT / "results.json"
     results = json.loads(resfile.read_text()) if resfile.exists() else {}
+    if a.scaling_only:
+        a.skip_search, a.exhaustive = True, None
     if not a.skip_search:
         plot_types(OUT / "types.png")
         results["perf"] = {}
@@ -268,19 +290,10 @@ def main(argv=None):
         if cmp_rows:
             write_text_atomic(OUT / "branches.md", branch_table(cmp_rows, a.branch, other))
 
-        # the full 10-type run of Task-1 on 1 worker, beside the 2-worker run above
-        if not a.skip_scaling and "task1_welding_plate" in results["search"]:
-            task = load_task("task1_welding_plate")
-            _, wall1 = run_all_types(task, workers=1, ga_generations=gens, branch=a.branch,
-                                     restarts=a.restarts)
-            walls = {"1": wall1, str(a.workers): results["search"][task.name]["wall_s"]}
-            log(f"scaling: full 10-type run of {task.name}: {wall1:.1f} s on 1 worker, "
-                f"{walls[str(a.workers)]:.1f} s on {a.workers}")
-            results["scaling"] = {"task": task.name, "ga_generations": gens, "branch": a.branch,
-                                  "restarts": a.restarts,
-                                  "wall_s_by_workers": walls, "cpu_count": os.cpu_count(),
-                                  "loadavg_1min": os.getloadavg()[0]}
-            write_text_atomic(resfile, json.dumps(jsonable(results), indent=1) + "\n")
+    if a.scaling_only or (not a.skip_search and not a.skip_scaling):
+        results["scaling"] = scaling(a.workers, tuple(int(x) for x in a.generations.split(",")),
+                                     a.branch, a.restarts)
+        write_text_atomic(resfile, json.dumps(jsonable(results), indent=1) + "\n")
 
     if a.exhaustive and not a.skip_exhaustive:
         T, tname = a.exhaustive.split(":")
