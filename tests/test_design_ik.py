@@ -57,3 +57,38 @@ def test_numpy_collision_agrees_with_scenegraph():
     assert np.all(hit[dmin < -0.005])
     # numpy collision -> Drake distance below the grown box's corner excess r (sqrt(3) - 1)
     assert np.all(dmin[hit] < task.link_radius_m * (np.sqrt(3) - 1) + 1e-9)
+
+
+@pytest.mark.parametrize("T", A.TYPES)
+def test_branch_labels_separate_roots_and_change_only_at_singularities(T):
+    """The four labels name distinct roots at regular points, and along a continuous joint path a
+    label changes only where the positioning Jacobian is (near) singular."""
+    rng = np.random.default_rng(5)
+    at = A.arm_type(T)
+    L = rng.integers(1, 16, (120, 6)) * A.LEVEL_STEP_M
+    L[:, 4] = 0
+    o = at.origins(L)
+    q = rng.uniform(-np.pi, np.pi, (120, 6))
+    pose = A.forward(at, o, q)
+    sol = ik.solve(at, o, pose.tool_position, pose.tool_rotation)
+    Jp = np.cross(pose.axes[:, :3], pose.points[:, 4][:, None] - pose.points[:, :3])
+    regular = np.abs(np.linalg.det(Jp)) > 1e-2
+    distinct = np.array([len(set(sol.label[n, sol.ok[n]])) == sol.ok[n].sum() for n in range(120)])
+    assert distinct[regular].mean() >= 0.97
+    # the label solve() gives each root is the label of that configuration
+    n, b = np.nonzero(sol.ok)
+    np.testing.assert_array_equal(ik.labels_of(at, o[n], sol.q[n, b]), sol.label[n, b])
+    # paths: 60 arms x 300 steps of a straight joint-space segment
+    t = np.linspace(0, 1, 300)
+    changes_regular = 0
+    for k in range(60):
+        qa, qb = q[k], q[k] + rng.uniform(-1.5, 1.5, 6)
+        qp = qa + t[:, None] * (qb - qa)
+        lab = ik.labels_of(at, o[k], qp)
+        P = A.forward(at, np.broadcast_to(o[k], (300, 7, 3)), qp)
+        d = np.linalg.det(np.cross(P.axes[:, :3], P.points[:, 4][:, None] - P.points[:, :3]))
+        ch = np.flatnonzero(lab[1:] != lab[:-1])
+        scale = np.median(np.abs(d))
+        changes_regular += sum(1 for i in ch if np.sign(d[i]) == np.sign(d[i + 1])
+                               and min(abs(d[i]), abs(d[i + 1])) > 1e-2 * scale)
+    assert changes_regular == 0

@@ -8,8 +8,7 @@ import pytest
 
 from qmt_drake.design.arm_types import LEVEL_STEP_M
 from qmt_drake.design.problem import DesignProblem
-from qmt_drake.design.search import (coordinate_descent, exhaustive, random_search,
-                                     reduced_grid, run_ga_adapter)
+from qmt_drake.design.search import exhaustive, reduced_grid, run_ga_adapter
 from qmt_drake.design.tasks import load_task, task_from_dict
 from qmt_drake.errors import QmtInputError
 
@@ -59,6 +58,37 @@ def test_problem_protocol_batching_and_drake_recheck():
     assert all(d > 0 for d in rep["min_env_distance_m"])
 
 
+def test_task_wide_branch_choice():
+    """One branch label for the whole task (the seed's choice) never beats the best branch per
+    point, equals it for a single unit task, uses one label at every unit, and E is the best over
+    the labels of eq. 8 with the label's unreachable units counted 0."""
+    from qmt_drake.design import ik
+    from qmt_drake.design.operability import fitness_E
+    from qmt_drake.design.problem import lengths6
+    task = load_task("task1_welding_plate")
+    G = np.random.default_rng(4).integers(0, 16, (80, 5)) * LEVEL_STEP_M
+    for T in ("BP", "PB", "FF"):
+        pt = DesignProblem(task, T, branch="task")
+        pp = DesignProblem(task, T, branch="point")
+        et, ep = pt.fitness_E(G), pp.fitness_E(G)
+        assert np.all(et <= ep + 1e-15) and np.any(et < ep - 1e-6)
+        # E by label recomputed from the per-label unit values
+        mu_l, r_l, _ = pt._units(G)
+        EL = np.stack([fitness_E(mu_l[..., b], r_l[..., b], lengths6(G).sum(axis=1)) for b in range(4)], 1)
+        np.testing.assert_allclose(et, EL.max(axis=1), rtol=0, atol=0)
+        # the chosen configurations all carry the chosen label
+        g = G[int(np.argmax(et))]
+        det = pt.details(g)
+        qs = np.array([u["q_rad"] for u in det["units"] if u["reachable"]])
+        o = pt.type.origins(lengths6(g)[0])
+        assert set(ik.labels_of(pt.type, o, qs).tolist()) == {det["branch_label"]}
+    one = task_from_dict({"units": [UNIT]})
+    np.testing.assert_array_equal(DesignProblem(one, "BP").fitness_E(G),
+                                  DesignProblem(one, "BP", branch="point").fitness_E(G))
+    with pytest.raises(QmtInputError, match="branch"):
+        DesignProblem(task, "BP", branch="each")
+
+
 def test_obstacles_can_only_lower_E():
     task = load_task("task1_welding_plate")
     G = np.random.default_rng(1).integers(0, 16, (60, 5)) * LEVEL_STEP_M
@@ -67,7 +97,7 @@ def test_obstacles_can_only_lower_E():
     assert np.all(e_obs <= e_free + 1e-15) and np.any(e_obs < e_free)
 
 
-def test_exhaustive_certifies_on_a_subgrid_and_search_stand_in():
+def test_exhaustive_certifies_on_a_subgrid():
     task = load_task("task2_welding_opening")
     pr = DesignProblem(task, "BF")
     grid = reduced_grid()
@@ -76,9 +106,7 @@ def test_exhaustive_certifies_on_a_subgrid_and_search_stand_in():
     sub = grid[rng.choice(grid.shape[0], 200, replace=False)]
     ex = exhaustive(pr, genes=sub, batch=128)
     assert ex.E_per_m == pytest.approx(pr.fitness_E(sub).max(), rel=1e-12)
-    rs = random_search(pr, 100, seed=3, batch=50)
-    cd = coordinate_descent(pr, rs, max_sweeps=1)
-    assert cd.E_per_m >= rs.E_per_m and len(rs.history_best_E) == 2
+    assert ex.gene_hex == ex.extra["top10"][0][0] and ex.evaluations == 200
 
 
 def test_ga_adapter_runs_the_project_ga_on_the_design_problem():
@@ -94,14 +122,33 @@ def test_cli_design_and_bad_inputs(tmp_path, capsys):
     from qmt_drake.design.cli import add_parser, cmd_design
     ap = argparse.ArgumentParser()
     add_parser(ap.add_subparsers())
-    args = ap.parse_args(["design", "peg_in_hole", "--types", "BP,PB", "--budget", "40", "--workers", "1",
-                          "--method", "stand-in",
-                          "--out", str(tmp_path)])
+    args = ap.parse_args(["design", "peg_in_hole", "--types", "BP,PB", "--generations", "2,0",
+                          "--workers", "1", "--out", str(tmp_path)])
     assert cmd_design(args) == 0
     assert (tmp_path / "BP.urdf").exists() and (tmp_path / "results.json").exists()
+    import json
+    res = json.loads((tmp_path / "results.json").read_text())
+    assert res["branch"] == "task" and {r["type"] for r in res["results"]} == {"BP", "PB"}
+    # one design evaluated: the same E as the Problem gives
+    assert cmd_design(ap.parse_args(["design", "peg_in_hole", "--design", "BP:0,5,1,0,0,0",
+                                     "--out", str(tmp_path)])) == 0
+    det = json.loads((tmp_path / "BP_051000.json").read_text())
+    pr = DesignProblem(load_task("peg_in_hole"), "BP")
+    assert det["E_per_m"] == pytest.approx(pr.fitness_E(np.array([[0, .5, .1, 0, 0]]))[0], rel=1e-12)
     for bad, match in ((["--types", "XX"], "unknown"), (["--types", "FB"], "not among")):
         args = ap.parse_args(["design", "peg_in_hole", "--out", str(tmp_path)] + bad)
         with pytest.raises(QmtInputError, match=match):
             cmd_design(args)
     with pytest.raises(QmtInputError, match="not found"):
         cmd_design(ap.parse_args(["design", "no_such_task"]))
+
+
+def test_ga_restarts_keep_the_best_run():
+    from qmt_drake.design.search import search_type
+    task = load_task("peg_in_hole")
+    r = search_type(task, "PB", "ga", seed=3, ga_generations=(3, 0), restarts=2)
+    runs = r.extra["restarts"]
+    assert [x["seed"] for x in runs] == [3, 4]
+    assert r.E_per_m == max(x["E_per_m"] for x in runs)
+    single = search_type(task, "PB", "ga", seed=4, ga_generations=(3, 0))
+    assert single.E_per_m == runs[1]["E_per_m"]     # seeded: a restart is the same run

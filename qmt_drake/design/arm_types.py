@@ -81,7 +81,9 @@ def check_levels(levels) -> np.ndarray:
     if lv.shape[-1] != N_JOINTS:
         raise QmtInputError(f"link levels {lv.tolist()} must have {N_JOINTS} entries (L1..L6)")
     if np.any(lv != np.round(lv)) or np.any(lv < 0) or np.any(lv > N_LEVELS - 1):
-        raise QmtInputError(f"link levels {lv.tolist()} must be integers 0-15")
+        shown = [int(v) if float(v).is_integer() else float(v) for v in np.ravel(lv)]
+        raise QmtInputError(f"link levels {shown} must be integers 0-15 (L1..L6, "
+                            f"{LEVEL_STEP_M} m per level)")
     return lv.astype(int)
 
 

@@ -15,6 +15,10 @@ perpendicular, so R4 R5 R6 = W Rz(q4) Ry(q5) Rz(q6) W^T: a ZYZ decomposition wit
 the joint axes' lines), so it changes neither operability nor collision: the search uses one wrist
 branch; `solve(..., both_wrists=True)` returns both.
 
+Branch labels (`branch_label`): each root gets one of four labels from two signs that change only
+through a singularity, so that one label can be used for a whole task (the seed's branch choice,
+problem.py).
+
 Collision. Links are capsules (segments between joint points with a radius) tested against
 axis-aligned boxes: a segment sampled at N_SAMPLES points, each tested against the box grown by the
 radius. The grown box contains the exact capsule-box contact set (conservative by at most
@@ -55,10 +59,11 @@ def _rot_apply(axis, q, v, c=None, s=None):
     return v * c[:, None] + _cross(axis, v) * s[:, None] + np.outer(av * (1 - c), axis)
 
 
-def position_roots(at: ArmType, origins: np.ndarray, p_w: np.ndarray):
+def position_roots(at: ArmType, origins: np.ndarray, p_w: np.ndarray, with_labels: bool = False):
     """Roots (q1, q2, q3) placing the wrist centre at p_w. origins (N, 7, 3) zero-config points,
     p_w (N, 3). Returns q (N, S, 3) and ok (N, S): S = N_START^2 start slots, ok marks converged
-    distinct roots (duplicates and failures False)."""
+    distinct roots (duplicates and failures False); with_labels also the branch label (N, S) of
+    each slot (see `branch_label`)."""
     N = p_w.shape[0]
     S = N_START * N_START
     grid = (np.arange(N_START) + 0.5) * 2 * np.pi / N_START - np.pi
@@ -121,7 +126,52 @@ def position_roots(at: ArmType, origins: np.ndarray, p_w: np.ndarray):
     for s in range(1, S):  # drop roots already found by an earlier start
         d = np.abs(_wrap(q[:, :s] - q[:, s:s + 1])).max(axis=2)
         ok[:, s] &= ~np.any(ok[:, :s] & (d < DUP_TOL_RAD), axis=1)
-    return q, ok
+    if not with_labels:
+        return q, ok
+    dg2 = _cross(a2, g - o2)
+    dg3 = _rot_apply(a2, q2, _cross(a3, hu))
+    return q, ok, branch_label(at, g, dg2, dg3).reshape(N, S)
+
+
+N_LABELS = 4
+
+
+def branch_label(at: ArmType, g: np.ndarray, dg2: np.ndarray, dg3: np.ndarray) -> np.ndarray:
+    """Branch label 0..3 of position roots from the wrist centre g (M, 3) at q1 = 0 and its
+    derivatives dg/dq2, dg/dq3 (M, 3). The roots solve F(q2, q3) = (rho^2, z) = (g_x^2 + g_y^2, g_z)
+    = target; label = 2 [det dF/d(q2, q3) > 0] + [s > 0] with
+      s = g_x (the wrist centre in front of / behind the arm's vertical plane at q1 = 0: the PUMA's
+          right / left arm) when axes 1 and 2 are perpendicular (B-, F-first types),
+      s = d rho^2 / d q2 (the SCARA's elbow left / right) when they are parallel (P-first types).
+
+    Why: the seed labels its closed-form solutions by the formulas' sign choices (elbow up/down,
+    shoulder front/back, wrist flip). det dF changes sign only through a singularity (elbow
+    up/down); the second sign was chosen among ten candidates (signs of g_x, g_y, the four partials,
+    sin and cos of q2, q3) as the one that, for these types, separates the up to four roots of a
+    regular point and never changes along a joint-space path except where det dF vanishes
+    (measured on 200 random paths and points per type: no such change; roots separated at 99-100 %
+    of random points, the rest near-singular; tests/test_design_ik.py). So a label is a set of
+    configurations the arm can move between without a singularity, as the seed's labels are. On
+    arms with a zero link the roots form a continuum at det = 0 and may share a label; the best
+    root of a label then stands for it. The wrist flip is not labelled: it changes neither
+    operability nor any link position (module docstring)."""
+    f12 = 2 * (g[:, 0] * dg2[:, 0] + g[:, 1] * dg2[:, 1])
+    f13 = 2 * (g[:, 0] * dg3[:, 0] + g[:, 1] * dg3[:, 1])
+    det = f12 * dg3[:, 2] - f13 * dg2[:, 2]
+    parallel_12 = abs(float(np.dot(at.axes[0], at.axes[1]))) > 0.5
+    s = f12 if parallel_12 else g[:, 0]
+    return 2 * (det > 0).astype(int) + (s > 0).astype(int)
+
+
+def labels_of(at: ArmType, origins: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Branch labels (M,) of configurations q (M, >= 3) of arms with zero-config points origins
+    (M, 7, 3) or (7, 3) (the label of the root each configuration is)."""
+    q = np.atleast_2d(q)
+    o = np.broadcast_to(origins, (q.shape[0], 7, 3))
+    a2, a3 = at.axes[1], at.axes[2]
+    hu = _rot_apply(a3, q[:, 2], o[:, 4] - o[:, 2])
+    gv = _rot_apply(a2, q[:, 1], o[:, 2] + hu - o[:, 1])
+    return branch_label(at, o[:, 1] + gv, _cross(a2, gv), _rot_apply(a2, q[:, 1], _cross(a3, hu)))
 
 
 def _wrap(a):
@@ -153,9 +203,11 @@ def wrist_angles(at: ArmType, q123: np.ndarray, R_tool: np.ndarray, flip: bool =
 @dataclass
 class IkSolutions:
     """q (N, B, 6) joint angles of B branch slots per target, ok (N, B) valid distinct solutions
-    (reachable; collision not yet applied)."""
+    (reachable; collision not yet applied), label (N, B) the branch label 0..N_LABELS-1 of each
+    slot (`branch_label`; both wrist flips of a root share it)."""
     q: np.ndarray
     ok: np.ndarray
+    label: np.ndarray
 
 
 def solve(at: ArmType, origins: np.ndarray, p_tool: np.ndarray, R_tool: np.ndarray,
@@ -171,7 +223,7 @@ def solve(at: ArmType, origins: np.ndarray, p_tool: np.ndarray, R_tool: np.ndarr
     L6 = np.linalg.norm(o[:, 6] - o[:, 5], axis=1)
     R_tool = np.broadcast_to(R_tool, (N, 3, 3))
     p_w = p_tool - L6[:, None] * R_tool[:, :, 2]
-    q3, ok = position_roots(at, o, p_w)
+    q3, ok, lab = position_roots(at, o, p_w, with_labels=True)
     S = q3.shape[1]
     flips = (False, True) if both_wrists else (False,)
     qs, oks = [], []
@@ -193,7 +245,7 @@ def solve(at: ArmType, origins: np.ndarray, p_tool: np.ndarray, R_tool: np.ndarr
         flat = okk.ravel()
         flat[idx[bad]] = False
         okk = flat.reshape(okk.shape)
-    return IkSolutions(q, okk)
+    return IkSolutions(q, okk, np.concatenate([lab] * len(flips), axis=1))
 
 
 def boxes_array(boxes) -> tuple[np.ndarray, np.ndarray]:

@@ -2,12 +2,17 @@
 Problem protocol (INTERFACES.md): genes = the lengths L1, L2, L3, L4, L6 in m (L5 = 0: spherical
 wrist), evaluate() batched over candidates -> cost = -E (eq. 8, 1/m), violation 0, fitness = E.
 
-Per unit task every IK branch is computed (ik.solve), branches whose links touch the work or an
-obstacle are dropped, and the unit's operability is the best over the remaining branches; a unit
-with none is unreachable (mu = 0, not counted in P_k). The seed picks one joint solution "that
-gives the maximum fitness over the whole task"; branches found numerically carry no labels that
-persist from point to point, so we take the best branch per point (an upper bound of the seed's
-choice, equal whenever one branch is best at every point; `details` reports the branch per point).
+Per unit task every IK branch is computed (ik.solve) and labelled (ik.branch_label: the sign of the
+positioning Jacobian's determinant and of d rho^2 / d q2, four labels, the wrist flip not labelled
+because it changes neither operability nor collision); branches whose links touch the work or an
+obstacle are dropped. Branch choice (`branch`):
+
+- "task" (default, the seed's sec. 4.1: "every joint solution is evaluated and the joint solution
+  giving the maximum fitness over the whole task is chosen"): one label for all unit tasks; E is
+  computed per label with units where that label is unreachable or colliding counted 0 (eq. 8),
+  and the best label wins.
+- "point": the best collision-free branch at each unit task separately (an upper bound of "task";
+  equal when one label is best everywhere). Kept to show what the task-wide choice costs.
 
 `confirm(genes)` re-evaluates one design independently with Drake: the tool pose at each chosen
 branch from the MultibodyPlant, the spatial Jacobian from CalcJacobianSpatialVelocity, collisions
@@ -26,6 +31,7 @@ from qmt_drake.design.arm_types import (LEVEL_STEP_M, N_LEVELS, arm_type, forwar
 from qmt_drake.design.operability import (direction_ease, fitness_E, operability,
                                           task_frame_jacobian)
 from qmt_drake.design.tasks import Task
+from qmt_drake.errors import QmtInputError
 from qmt_drake.problem import Evaluation
 
 GENE_NAMES = ("L1_m", "L2_m", "L3_m", "L4_m", "L6_m")
@@ -54,8 +60,15 @@ def hex_gene(genes) -> str:
     return gene_from_levels(lv)
 
 
+BRANCH_MODES = ("task", "point")
+
+
 class DesignProblem:
-    def __init__(self, task: Task, type_name: str, relations: dict | None = None) -> None:
+    def __init__(self, task: Task, type_name: str, relations: dict | None = None,
+                 branch: str = "task") -> None:
+        if branch not in BRANCH_MODES:
+            raise QmtInputError(f"branch choice {branch!r}: use one of {', '.join(BRANCH_MODES)}")
+        self.branch = branch
         self.task = task
         self.relations = relations
         self.type = arm_type(type_name, relations)
@@ -84,7 +97,7 @@ class DesignProblem:
         """Identifies type, level step and every number of the task (for GA checkpoints)."""
         import hashlib
         h = hashlib.sha256(f"{self.type.name}|{self.relations}|{LEVEL_STEP_M}|{self.task.link_radius_m}|"
-                           f"{self.task.tool_radius_m}".encode())
+                           f"{self.task.tool_radius_m}|{self.branch}".encode())
         for arr in (self._P, self._R, self._W, self._C, self._a):
             h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
         for c, sz in self.task.boxes:
@@ -94,18 +107,40 @@ class DesignProblem:
     # ------------------------------------------------------------------ batched core
     def fitness_E(self, genes: np.ndarray) -> np.ndarray:
         """E (K,) of candidates genes (K, 5) in m."""
-        mu, reach, _ = self._units(genes)
+        return self._choose(genes)[0]
+
+    def _choose(self, genes: np.ndarray, keep_q: bool = False):
+        """E (K,), mu (K, k), reach (K, k), the chosen label (K,) (-1 for "point") and, with keep_q,
+        the joint angles (K, k, 6) at the chosen branches (nan where unreachable)."""
+        mu_l, reach_l, q_l = self._units(genes, keep_q)          # (K, k, NL), (K, k, NL, 6)
         L = lengths6(genes).sum(axis=1)
-        return fitness_E(mu, reach, L)
+        K, k, NL = mu_l.shape
+        if self.branch == "point":
+            lab = np.where(reach_l, mu_l, -1.0).argmax(axis=2)          # (K, k)
+            label = np.full(K, -1)
+        else:
+            # E of each label over the whole task (eq. 8), the best label wins
+            EL = np.stack([fitness_E(mu_l[:, :, b], reach_l[:, :, b], L) for b in range(NL)], axis=1)
+            label = EL.argmax(axis=1)
+            lab = np.repeat(label[:, None], k, axis=1)
+        ii, jj = np.meshgrid(np.arange(K), np.arange(k), indexing="ij")
+        mu, reach = mu_l[ii, jj, lab], reach_l[ii, jj, lab]
+        q = q_l[ii, jj, lab] if keep_q else None
+        if keep_q:
+            q[~reach] = np.nan
+        return fitness_E(mu, reach, L), mu, reach, label, q
 
     def _units(self, genes: np.ndarray, keep_q: bool = False):
+        """Per candidate, unit task and branch label: the best collision-free operability mu
+        (K, k, N_LABELS) (0 where none), reachable (K, k, N_LABELS) and optionally its joint angles
+        (K, k, N_LABELS, 6)."""
         g = np.atleast_2d(np.asarray(genes, dtype=float))
-        K, k = g.shape[0], len(self.task.units)
+        K, k, NL = g.shape[0], len(self.task.units), ik.N_LABELS
         S = ik.N_START ** 2
         per = max(1, CHUNK_ROWS // (k * S))
-        mu = np.zeros((K, k))
-        reach = np.zeros((K, k), dtype=bool)
-        qbest = np.full((K, k, 6), np.nan) if keep_q else None
+        mu = np.zeros((K, k, NL))
+        reach = np.zeros((K, k, NL), dtype=bool)
+        qbest = np.full((K, k, NL, 6), np.nan) if keep_q else None
         for s in range(0, K, per):
             gs = g[s:s + per]
             m, r, qb = self._units_chunk(gs, keep_q)
@@ -117,14 +152,14 @@ class DesignProblem:
         return mu, reach, qbest
 
     def _units_chunk(self, g, keep_q):
-        K, k = g.shape[0], len(self.task.units)
+        K, k, NL = g.shape[0], len(self.task.units), ik.N_LABELS
         o = self.type.origins(lengths6(g))                     # (K, 7, 3)
         orep = np.repeat(o, k, axis=0)                           # (K k, 7, 3)
         p = np.tile(self._P, (K, 1))
         R = np.tile(self._R, (K, 1, 1))
         sol = ik.solve(self.type, orep, p, R)
         N, B = sol.ok.shape
-        mu = np.zeros((N, B))
+        mu = np.full(N * B, -1.0)                                # -1: no valid branch in this slot
         idx = np.flatnonzero(sol.ok.ravel())
         if idx.size:
             n_of = idx // B
@@ -134,28 +169,26 @@ class DesignProblem:
             J = task_frame_jacobian(jacobian(pose), R[n_of])
             unit = n_of % k
             m = operability(direction_ease(J), self._W[unit], self._C[unit], self._a[unit])
-            flat = mu.ravel()
-            flat[idx] = np.where(free, m, -1.0)
-            valid = np.zeros(N * B, dtype=bool)
-            valid[idx] = free
-        else:
-            valid = np.zeros(N * B, dtype=bool)
-        mu = np.where(valid.reshape(N, B), mu, -1.0)
-        best = mu.argmax(axis=1)
-        reach = valid.reshape(N, B).any(axis=1)
-        mub = np.where(reach, mu[np.arange(N), best], 0.0)
-        qb = sol.q[np.arange(N), best].reshape(K, k, 6) if keep_q else None
+            mu[idx] = np.where(free, m, -1.0)
+        mu = mu.reshape(N, B)
+        # best slot of each label (several slots share a label only on degenerate arms)
+        mlab = np.where(sol.label[:, :, None] == np.arange(NL), mu[:, :, None], -1.0)   # (N, B, NL)
+        best = mlab.argmax(axis=1)                                                         # (N, NL)
+        mub = np.take_along_axis(mlab, best[:, None, :], axis=1)[:, 0]                     # (N, NL)
+        reach = mub >= 0.0
+        mub = np.where(reach, mub, 0.0)
+        qb = None
         if keep_q:
-            qb[~reach.reshape(K, k)] = np.nan
-        return mub.reshape(K, k), reach.reshape(K, k), qb
+            qb = sol.q[np.arange(N)[:, None], best].reshape(K, k, NL, 6)
+        return mub.reshape(K, k, NL), reach.reshape(K, k, NL), qb
 
     # ------------------------------------------------------------------ reporting / checks
     def details(self, genes) -> dict:
         g = np.atleast_2d(np.asarray(genes, dtype=float))[:1]
-        mu, reach, q = self._units(g, keep_q=True)
+        E, mu, reach, label, q = self._choose(g, keep_q=True)
         L = lengths6(g)
         return {"type": self.type.name, "gene": hex_gene(g[0]), "lengths_m": L[0].tolist(),
-                "E_per_m": float(fitness_E(mu, reach, L.sum(axis=1))[0]),
+                "E_per_m": float(E[0]), "branch": self.branch, "branch_label": int(label[0]),
                 "units": [{"name": u.name, "reachable": bool(reach[0, i]), "mu": float(mu[0, i]),
                            "q_rad": q[0, i].tolist()} for i, u in enumerate(self.task.units)]}
 
@@ -163,7 +196,7 @@ class DesignProblem:
         """Per unit task of one design, at the branch the evaluation chose: mu_j of the six task
         axes (eq. 3), w, c (eq. 4-5) and mu (eq. 6); None where unreachable."""
         g = np.atleast_2d(np.asarray(genes, dtype=float))[:1]
-        _, reach, q = self._units(g, keep_q=True)
+        _, _, reach, _, q = self._choose(g, keep_q=True)
         o = self.type.origins(lengths6(g))[0]
         out = []
         for i, u in enumerate(self.task.units):

@@ -8,8 +8,6 @@
   ~8.38 million combinations = 16^5 designs (L5 is always 0) x 8 unit tasks. Because L3 and L4 are
   collinear (arm_types), E depends on L3 + L4 only, so the 16^5 designs collapse to
   16 x 16 x 31 x 16 = 126,976 distinct arms, which are all evaluated.
-- `random_search` + `coordinate_descent`: a stand-in written while the GA was pending (method
-  `stand-in`, labelled as such in the outputs); the exhaustive search measures how far it is from the optimum.
 - `run_all_types`: one search per type, all ten types in parallel worker processes.
 """
 
@@ -24,6 +22,7 @@ import numpy as np
 from qmt_drake.design.arm_types import LEVEL_STEP_M, N_LEVELS, TYPES
 from qmt_drake.design.problem import DesignProblem, hex_gene
 from qmt_drake.design.tasks import Task
+from qmt_drake.errors import QmtInputError
 
 SEED_GA = dict(population=200, mutants_per_generation=30, bits_per_gene=4, elite_count=1,
                selection="roulette", encoding="binary", crossover_rate=1.0)
@@ -105,64 +104,34 @@ def exhaustive(problem: DesignProblem, *, genes: np.ndarray | None = None, batch
                          "ties_within_1e-12": int(np.sum(E >= E[i] - 1e-12))})
 
 
-def random_search(problem: DesignProblem, n: int, *, seed: int = 0, batch: int = 200) -> SearchResult:
-    """n random level designs in batches of `batch` (one 'generation' each for the history)."""
-    rng = np.random.default_rng(seed)
-    t0 = time.perf_counter()
-    u0 = problem.unit_evaluations
-    best_E, best_g, hist = -1.0, None, []
-    for s in range(0, n, batch):
-        G = rng.integers(0, N_LEVELS, (min(batch, n - s), 5)) * LEVEL_STEP_M
-        E = problem.fitness_E(G)
-        i = int(np.argmax(E))
-        if E[i] > best_E:
-            best_E, best_g = float(E[i]), G[i]
-        hist.append(best_E)
-    return SearchResult(problem.type.name, "random", best_g, hex_gene(best_g), best_E, n,
-                        problem.unit_evaluations - u0, time.perf_counter() - t0, hist)
-
-
-def coordinate_descent(problem: DesignProblem, start: SearchResult, max_sweeps: int = 10) -> SearchResult:
-    """Improve a design one gene at a time over all 16 levels until no gene improves it."""
-    t0 = time.perf_counter()
-    u0 = problem.unit_evaluations
-    g, E = np.array(start.genes, dtype=float), start.E_per_m
-    hist = list(start.history_best_E)
-    n = 0
-    for _ in range(max_sweeps):
-        improved = False
-        for j in range(5):
-            C = np.repeat(g[None], N_LEVELS, axis=0)
-            C[:, j] = np.arange(N_LEVELS) * LEVEL_STEP_M
-            Ec = problem.fitness_E(C)
-            n += N_LEVELS
-            i = int(np.argmax(Ec))
-            if Ec[i] > E + 1e-15:
-                g, E, improved = C[i], float(Ec[i]), True
-            hist.append(E)
-        if not improved:
-            break
-    return SearchResult(problem.type.name, start.method + "+coordinate", g, hex_gene(g), E,
-                        start.evaluations + n, start.unit_evaluations + problem.unit_evaluations - u0,
-                        start.wall_s + time.perf_counter() - t0, hist)
-
-
 GA_GENERATIONS = (400, 100)  # (max, stall): the seed saw convergence by ~60, some types ~360
 
 
-def search_type(task: Task, type_name: str, method: str = "stand-in", seed: int = 0,
-                budget: int = 12_000, ga_generations: tuple = GA_GENERATIONS,
-                relations: dict | None = None) -> SearchResult:
-    """One type's search: 'ga' (the project's GA), 'exhaustive', 'stand-in' (random search with
-    `budget` designs, then coordinate descent), or 'auto' (= ga)."""
-    pr = DesignProblem(task, type_name, relations)
+METHODS = ("auto", "ga", "exhaustive")
+
+
+def search_type(task: Task, type_name: str, method: str = "ga", seed: int = 0,
+                ga_generations: tuple = GA_GENERATIONS,
+                relations: dict | None = None, branch: str = "task", restarts: int = 1) -> SearchResult:
+    """One type's search: 'ga' (the project's GA; 'auto' is the same) or 'exhaustive'. branch:
+    DesignProblem's branch choice ("task": one IK branch label for the whole task, the seed's;
+    "point"). restarts: GA runs with seeds seed, seed + 1, ...; the best is returned (the seed
+    ran one GA per type; one run can stall below the type's optimum, see README)."""
+    pr = DesignProblem(task, type_name, relations, branch)
     if method in ("auto", "ga"):
-        return ga_search(pr, seed=seed, max_generations=ga_generations[0],
-                         stall_generations=ga_generations[1])
+        runs = [ga_search(pr, seed=seed + i, max_generations=ga_generations[0],
+                          stall_generations=ga_generations[1]) for i in range(max(1, restarts))]
+        best = max(runs, key=lambda r: r.E_per_m)
+        if len(runs) > 1:   # the best run's history; every run's E and the total effort
+            best.extra["restarts"] = [{"seed": seed + i, "gene": r.gene_hex, "E_per_m": r.E_per_m,
+                                       "generations": r.extra.get("generations")}
+                                      for i, r in enumerate(runs)]
+            best.evaluations = sum(r.evaluations for r in runs)
+            best.unit_evaluations = sum(r.unit_evaluations for r in runs)
+            best.wall_s = sum(r.wall_s for r in runs)
+        return best
     if method == "exhaustive":
         return exhaustive(pr)
-    if method == "stand-in":
-        return coordinate_descent(pr, random_search(pr, budget, seed=seed))
     raise ValueError(f"unknown search method {method!r}")
 
 
@@ -170,14 +139,17 @@ def _search_star(args):
     return search_type(*args)
 
 
-def run_all_types(task: Task, *, method: str = "stand-in", workers: int = 2, seed: int = 0,
-                  budget: int = 12_000, types=TYPES,
+def run_all_types(task: Task, *, method: str = "ga", workers: int = 2, seed: int = 0,
+                  types=TYPES,
                   ga_generations: tuple = GA_GENERATIONS,
-                  relations: dict | None = None) -> tuple[list[SearchResult], float]:
+                  relations: dict | None = None,
+                  branch: str = "task", restarts: int = 1) -> tuple[list[SearchResult], float]:
     """Search every type (in `workers` processes; 1 = in this process). Returns the results in
     TYPES order and the wall time in s."""
     t0 = time.perf_counter()
-    jobs = [(task, t, method, seed, budget, ga_generations, relations) for t in types]
+    if method not in METHODS:
+        raise QmtInputError(f"search method {method!r}: use one of {', '.join(METHODS)}")
+    jobs = [(task, t, method, seed, ga_generations, relations, branch, restarts) for t in types]
     if workers <= 1:
         res = [_search_star(j) for j in jobs]
     else:
