@@ -59,6 +59,9 @@ def main(argv=None) -> int:
     step("seed 002: CRANE-X7 tray", lambda: crane_tray.main(["--out", str(out / "crane_tray")]))
     from studies import kotosaka_1995
     step("seed 003: Kotosaka et al. 1995", lambda: kotosaka_1995.main(["--out", str(out / "kotosaka_1995")]))
+    step("seed 003: exhaustive certificate of the GA (BP, Task-1)",
+         lambda: kotosaka_1995.main(["--out", str(out / "kotosaka_1995"), "--skip-search",
+                                     "--exhaustive", "BP:task1_welding_plate"]))
     step("seed 003: co-design of the ch.4 arm",
          lambda: kotosaka_1995.main(["--out", str(out / "kotosaka_1995"), "--codesign"]))
     from studies import success_probability
