@@ -96,3 +96,24 @@ def test_trajopt_is_refused_for_the_tray_in_one_line(capsys, command):
     # its path does not hold the tray level and it has no tray terms (cli.TRAY_REFUSED_METHODS)
     rc, out, err = _run(capsys, command, "crane-tray", "--method", "trajopt", "--quiet")
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "use ga, optimum, toppra, ruckig or thesis" in err
+
+
+def test_benchmark_serves_the_tray(tmp_path):
+    """The benchmark's bound is the level tray's bang-bang time (slide at the planning friction),
+    and its co-simulation column runs the bottle through the servos (not the magnet hand)."""
+    from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.planners import plan_with
+    sc = load_scenario("crane-tray")
+    A = min(0.8 * 0.3 * 9.81, 9.81 * 0.8 * 0.029 / 0.04371222624913998)
+    assert closed_form_bound_s(sc) == pytest.approx(2 * (0.36 / A) ** 0.5, rel=1e-12)
+    assert plan_with("toppra", sc).motion_time_s == pytest.approx(closed_form_bound_s(sc), rel=2e-3)
+    r = cosim_outcome(sc, plan_with("thesis", sc))  # the seed's 5 s move: carried
+    assert r["cosim_note"] is None and r["held"] is True and r["max_slip_m"] < 1e-3
+
+
+def test_sweep_of_a_tray_scenario_is_one_line(tmp_path, capsys):
+    spec = tmp_path / "tray.yaml"
+    spec.write_text("scenario: crane-tray\nplans:\n  - {method: thesis}\nparameters:\n  friction: [0.25, 0.35]\n")
+    rc, out, err = _run(capsys, "sweep", str(spec), "--out", str(tmp_path / "sw"))
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "tray hand" in err

@@ -61,13 +61,23 @@ def tip_jerk_peak(scenario, plan: Plan) -> dict:
             "acceleration_jumps": bool(out[50000.0] > 3.0 * out[10000.0])}
 
 
+def bang_bang_acceleration_m_s2(scenario) -> float:
+    """The largest tip acceleration the payload limit allows on a level straight line, m/s^2:
+    moment limit / (m_o r_G) for the magnet hand; for a tray, the smaller of the planning
+    friction's mu g (no slide) and g r_c / h_G (no tip; both with the plan margin)."""
+    A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
+    if getattr(scenario, "is_tray", False):
+        h = scenario.hand
+        A = min(A, h.plan_margin * h.friction * 9.81)
+    return float(A)
+
+
 def closed_form_bound_s(scenario) -> float | None:
     """2*sqrt(L/A) for a task without vias (None with vias)."""
     pts = scenario.task.points_m
     if len(pts) != 2:
         return None
-    A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
-    return float(2 * np.sqrt(np.hypot(*(pts[1] - pts[0])) / A))
+    return float(2 * np.sqrt(np.hypot(*(pts[1] - pts[0])) / bang_bang_acceleration_m_s2(scenario)))
 
 
 def cosim_outcome(scenario, plan: Plan) -> dict:
@@ -79,7 +89,11 @@ def cosim_outcome(scenario, plan: Plan) -> dict:
     except Exception as exc:  # noqa: BLE001 - the co-simulation is optional here
         return {"held": None, "max_slip_m": None, "cosim_note": f"co-simulation unavailable: {exc}"}
     try:
-        r = run_simulate(scenario, plan)
+        if getattr(scenario, "is_tray", False):  # the bottle on the tray, through the servos
+            from qmt_drake.tray.execute import simulate_tray_plan
+            r = simulate_tray_plan(scenario, plan)
+        else:
+            r = run_simulate(scenario, plan)
     except Exception as exc:  # noqa: BLE001
         return {"held": None, "max_slip_m": None,
                 "cosim_note": f"co-simulation failed: {type(exc).__name__}: {exc}"}
@@ -273,7 +287,12 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
                 say(f"{name}: co-simulating {label}")
             rows.append(_row(sc, label, plan, cosim))
         fc_row = None
-        if cosim and carried:
+        if cosim and carried and getattr(sc, "is_tray", False):
+            # the search (sweep/robust.py) co-simulates the magnet hand; studies/crane_tray.py
+            # searches the tray's time scales through the servos
+            result["scenarios"].setdefault(name, {})["fastest_carried_note"] = (
+                "not searched here for a tray scenario: python -m studies.crane_tray --sections qmt")
+        elif cosim and carried:
             say(f"{name}: searching the fastest plan carried in the co-simulation")
             try:
                 fc_plan, fc_row = fastest_carried(sc, quick=quick, progress=say, candidates=list(plans))
@@ -296,7 +315,7 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
         entry = result["scenarios"].setdefault(name, {})
         entry.update({"rows": rows, "fastest_feasible_s": fastest,
                       "closed_form_bound_s": closed_form_bound_s(sc),
-                      "A_m_s2": sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm,
+                      "A_m_s2": bang_bang_acceleration_m_s2(sc),
                       "ratios": _ga_ratios(rows),
                       "fastest_carried": None if fc_row is None else {
                           k: fc_row[k] for k in ("label", "motion_time_s", "bang_bang_s", "excess_over_bang_bang",
@@ -428,12 +447,23 @@ def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict 
         if not plans:
             continue
         sc = plans[0][1].scenario
-        A = sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm
+        A = bang_bang_acceleration_m_s2(sc)
+        tray = getattr(sc, "is_tray", False)
+        if tray:  # the bottle's limits: the worst of slide / tip / lift / motors / speeds
+            def peak_of(p):
+                return p.check.worst_ratio
+            limit_text = (f"the level tray's bang-bang acceleration A = {A:.4g} m/s² (slide or tip at the "
+                          "planning margin); titles: worst limit ratio")
+        else:
+            def peak_of(p):
+                return p.check.peak_moment_ratio
+            limit_text = f"the limit A = {A:.4g} m/s² = {sc.limits.moment_limit_Nm*1e3:.4g} mN·m"
         X = sc.moment_per_accel_kgm
         shown = [(lb, p) for lb, p in plans if p.motion_time_s > 0]
         cols = 3
         rows = int(np.ceil(len(shown) / cols))
-        T_all = max(p.motion_time_s for _, p in shown)
+        # the time axis of the feasible plans (an infeasible one may rest at the family's slowest)
+        T_all = max([p.motion_time_s for _, p in shown if p.feasible] or [p.motion_time_s for _, p in shown])
         fig, axes = plt.subplots(rows, cols, figsize=(13, 2.1 * rows + 0.8), sharex=True,
                                  sharey=True, squeeze=False)
         for ax, (label, plan) in zip(axes.ravel(), shown):
@@ -442,25 +472,25 @@ def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict 
             ax.plot(t, a, color=color, lw=1.0)
             ax.axhline(A, color="k", lw=1.0, ls="--")
             ax.set_title(f"{label}: {plan.motion_time_s:.3f} s, peak "
-                         f"{plan.check.peak_moment_ratio:.4f}", fontsize=8)
+                         f"{peak_of(plan):.4f}", fontsize=8)
             ax.set_xlim(0, T_all * 1.02)
             ax.set_ylim(0, 1.2 * A)
             ax.grid(alpha=0.3)
             ax.tick_params(labelsize=7)
-            sec = ax.secondary_yaxis("right", functions=(lambda v: v * X * 1e3,
-                                                         lambda m: m / (X * 1e3)))
-            sec.tick_params(labelsize=7)
-            if ax in axes[:, -1]:
-                sec.set_ylabel("moment [mN·m]", fontsize=8)
+            if not tray:
+                sec = ax.secondary_yaxis("right", functions=(lambda v: v * X * 1e3,
+                                                             lambda m: m / (X * 1e3)))
+                sec.tick_params(labelsize=7)
+                if ax in axes[:, -1]:
+                    sec.set_ylabel("moment [mN·m]", fontsize=8)
         for ax in axes.ravel()[len(shown):]:
             ax.set_visible(False)
         for ax in axes[:, 0]:
             ax.set_ylabel("|a_tip| [m/s²]", fontsize=8)
         for ax in axes[-1]:
             ax.set_xlabel("time [s]", fontsize=8)
-        fig.suptitle(f"{name}: tip acceleration (left axis) = payload moment (right axis) over "
-                     f"time; dashed: the limit A = {A:.4g} m/s² = {sc.limits.moment_limit_Nm*1e3:.4g} "
-                     "mN·m; red: breaks a limit on the re-check", fontsize=9)
+        fig.suptitle(f"{name}: tip acceleration{'' if tray else ' (left axis) = payload moment (right axis)'} "
+                     f"over time; dashed: {limit_text}; red: breaks a limit on the re-check", fontsize=9)
         fig.tight_layout()
         path = out / f"benchmark_{name}_moment.png"
         fig.savefig(path, dpi=110)

@@ -97,6 +97,11 @@ def build_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]]:
     """All cases of a spec (plans x grid points x samples) and the distinct plans they need."""
     from qmt_drake.config.scenario import load_scenario
     base = load_scenario(spec.scenario)  # also validates the scenario before any long work
+    if getattr(base, "is_tray", False):
+        from qmt_drake.errors import QmtInputError
+        raise QmtInputError(f"sweep scenario '{spec.scenario}' has a tray hand: sweeps co-simulate the "
+                            "magnet hand (coil, part, motor parameters); sweep the tray with "
+                            "`python -m studies.crane_tray --sections sweep`")
     samples = spec.samples()
     cases, plans = [], {}
     index = 0
