@@ -129,10 +129,16 @@ def inverse_dynamics_with_gravity(q, qd, qdd, arm: VerticalArm | None = None, de
 
 def _dynamics_chain(arm: VerticalArm):
     """The arm's PlanarChain under the arm's gravity reading (gravity_up_sign)."""
-    chain = arm.chain
-    if np.allclose(chain.gravity_in_plane_m_s2, arm.gravity_vector, rtol=0, atol=1e-12):
+    return _chain_under_gravity(str(arm.urdf_path or OHSAKA_URDF), tuple(arm.gravity_vector.tolist()))
+
+
+@lru_cache(maxsize=8)
+def _chain_under_gravity(urdf: str, g: tuple):
+    # cached: the planners call this once per cost evaluation
+    chain = _planar_chain(urdf)
+    if np.allclose(chain.gravity_in_plane_m_s2, g, rtol=0, atol=1e-12):
         return chain
-    return _flipped_chain(str(arm.urdf_path or OHSAKA_URDF), tuple(arm.gravity_vector))
+    return _flipped_chain(urdf, g)
 
 
 @lru_cache(maxsize=4)

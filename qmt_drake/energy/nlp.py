@@ -73,7 +73,7 @@ def build_program(problem: EnergyProblem, counter: list):
         return z * scale, g * scale
 
     prog.AddCost(_ad_wrap(cost), vars=y)
-    prog.AddConstraint(_ad_wrap(lambda v: (problem.endpoint_residual(v), problem.endpoint_jacobian(v))),
+    prog.AddConstraint(_ad_wrap(problem.endpoint_residual_and_jacobian),
                        lb=np.zeros(2), ub=np.zeros(2), vars=y)
     prog.AddBoundingBoxConstraint(problem.lower, problem.upper, y)
     return prog, y

@@ -93,6 +93,14 @@ class EnergyProblem:
     def endpoint_residual(self, y) -> np.ndarray:
         return tip_position(self.arm, np.asarray(y)[:self.family.n]) - self.XT
 
+    def endpoint_residual_and_jacobian(self, y) -> tuple[np.ndarray, np.ndarray]:
+        """(endpoint_residual, endpoint_jacobian) from one kinematics pass (the NLP's callback)."""
+        n = self.family.n
+        tip, Jq = self.arm.chain.tip_position_and_jacobian(np.asarray(y, dtype=float)[:n])
+        J = np.zeros((2, self.family.n_reduced))
+        J[:, :n] = Jq
+        return tip - self.XT, J
+
     def endpoint_jacobian(self, y) -> np.ndarray:
         J = np.zeros((2, self.family.n_reduced))
         J[:, :self.family.n] = tip_jacobian(self.arm, np.asarray(y)[:self.family.n])

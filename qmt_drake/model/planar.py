@@ -165,13 +165,17 @@ class PlanarChain:
 
     def jacobian(self, q) -> np.ndarray:
         """d(tip u, tip v)/dq, (..., 2, n)."""
+        return self.tip_position_and_jacobian(q)[1]
+
+    def tip_position_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """(hand origin (..., 2) m, d(tip u, tip v)/dq (..., 2, n)) from one pass over the joints."""
         q = np.asarray(q, float)
         pts = self.joint_positions(q)
         r = pts[..., -1:, :] - pts[..., :-1, :]  # joint i -> hand, (..., n, 2)
         J = np.empty(q.shape[:-1] + (2, self.n_dof))
         J[..., 0, :] = -r[..., 1] * self.joint_signs
         J[..., 1, :] = r[..., 0] * self.joint_signs
-        return J
+        return pts[..., -1, :], J
 
     # ------------------------------------------------------------------ dynamics (hot path)
     def _forward(self, q, qd, qdd, gravity: bool = True):
