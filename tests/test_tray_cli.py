@@ -117,3 +117,8 @@ def test_sweep_of_a_tray_scenario_is_one_line(tmp_path, capsys):
     spec.write_text("scenario: crane-tray\nplans:\n  - {method: thesis}\nparameters:\n  friction: [0.25, 0.35]\n")
     rc, out, err = _run(capsys, "sweep", str(spec), "--out", str(tmp_path / "sw"))
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "tray hand" in err
+
+
+def test_a_plant_step_coarser_than_the_servo_loop_is_refused(capsys):
+    rc, out, err = _run(capsys, "simulate", "crane-tray", "--method", "thesis", "--time-step-ms", "5", "--quiet")
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "control period" in err

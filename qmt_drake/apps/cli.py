@@ -203,6 +203,12 @@ def _simulate_tray(args, sc) -> int:
     from qmt_drake.planners import plan_with
     from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
     check_tray_simulation(sc)
+    period_ms = sc.actuator.control_period_s * 1e3
+    if args.time_step_ms is not None and args.time_step_ms > period_ms * (1 + 1e-9):
+        # a coarser plant step than the servo loop changes the verdict (5 ms: the seed's 5 s move
+        # "slips" 2.6 mm; 1 ms: carried), so it would be a silent wrong answer
+        raise QmtInputError(f"--time-step-ms {args.time_step_ms:g}: the tray co-simulation's plant step must not "
+                            f"exceed the servos' control period ({period_ms:g} ms); use {period_ms:g} or less")
     if not args.plan:
         _check_tray_method(sc, args.method)
     plan = load_plan(args.plan, scenario=sc) if args.plan else plan_with(
