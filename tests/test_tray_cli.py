@@ -122,3 +122,16 @@ def test_sweep_of_a_tray_scenario_is_one_line(tmp_path, capsys):
 def test_a_plant_step_coarser_than_the_servo_loop_is_refused(capsys):
     rc, out, err = _run(capsys, "simulate", "crane-tray", "--method", "thesis", "--time-step-ms", "5", "--quiet")
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "control period" in err
+
+
+def test_the_library_refuses_a_coarse_tray_step_too():
+    """The step check lives in the tray co-simulation itself, not only in the CLI."""
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.errors import QmtInputError
+    from qmt_drake.planners import plan_with
+    from qmt_drake.sim import run_simulate
+    sc = load_scenario("crane-tray")
+    with pytest.raises(QmtInputError, match="control period"):
+        run_simulate(sc, plan_with("thesis", sc), time_step_s=5e-3)
+    with pytest.raises(QmtInputError, match="drop them"):
+        run_simulate(sc, plan_with("thesis", sc), feedforward="full")

@@ -67,8 +67,9 @@ def bang_bang_acceleration_m_s2(scenario) -> float:
     friction's mu g (no slide) and g r_c / h_G (no tip; both with the plan margin)."""
     A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
     if getattr(scenario, "is_tray", False):
+        from qmt_drake.systems.tray_object import GRAVITY_M_S2
         h = scenario.hand
-        A = min(A, h.plan_margin * h.friction * 9.81)
+        A = min(A, h.plan_margin * h.friction * GRAVITY_M_S2)
     return float(A)
 
 
@@ -89,11 +90,7 @@ def cosim_outcome(scenario, plan: Plan) -> dict:
     except Exception as exc:  # noqa: BLE001 - the co-simulation is optional here
         return {"held": None, "max_slip_m": None, "cosim_note": f"co-simulation unavailable: {exc}"}
     try:
-        if getattr(scenario, "is_tray", False):  # the bottle on the tray, through the servos
-            from qmt_drake.tray.execute import simulate_tray_plan
-            r = simulate_tray_plan(scenario, plan)
-        else:
-            r = run_simulate(scenario, plan)
+        r = run_simulate(scenario, plan)  # a tray scenario: the bottle through the servos
     except Exception as exc:  # noqa: BLE001
         return {"held": None, "max_slip_m": None,
                 "cosim_note": f"co-simulation failed: {type(exc).__name__}: {exc}"}

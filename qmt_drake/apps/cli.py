@@ -196,25 +196,17 @@ def cmd_simulate(args) -> int:
 def _simulate_tray(args, sc) -> int:
     """simulate for a tray scenario (seed 002): the plan streamed to the Dynamixel servos, the bottle
     free on the tray (qmt_drake/tray/execute.py)."""
-    if args.explicit or args.feedforward != "none":
-        raise QmtInputError("--explicit and --feedforward are options of the DC-motor co-simulation; the tray "
-                            "co-simulation drives the servos' own firmware loop: drop them")
     from qmt_drake.plan import load_plan
     from qmt_drake.planners import plan_with
-    from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
-    check_tray_simulation(sc)
-    period_ms = sc.actuator.control_period_s * 1e3
-    if args.time_step_ms is not None and args.time_step_ms > period_ms * (1 + 1e-9):
-        # a coarser plant step than the servo loop changes the verdict (5 ms: the seed's 5 s move
-        # "slips" 2.6 mm; 1 ms: carried), so it would be a silent wrong answer
-        raise QmtInputError(f"--time-step-ms {args.time_step_ms:g}: the tray co-simulation's plant step must not "
-                            f"exceed the servos' control period ({period_ms:g} ms); use {period_ms:g} or less")
+    from qmt_drake.sim import run_simulate
+    from qmt_drake.tray.execute import check_tray_simulation
+    time_step_s = None if args.time_step_ms is None else args.time_step_ms * 1e-3
+    check_tray_simulation(sc, time_step_s, args.feedforward, not args.explicit)  # before any planning
     if not args.plan:
         _check_tray_method(sc, args.method)
     plan = load_plan(args.plan, scenario=sc) if args.plan else plan_with(
         args.method, sc, seed=args.seed, progress=None if args.quiet else _progress)
-    result = simulate_tray_plan(sc, plan, time_scale=args.time_scale, record_path=args.record,
-                                time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3)
+    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s)
     _emit_json(result, args.json)
     if args.json != "-":
         if result["held"]:

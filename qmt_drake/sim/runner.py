@@ -230,7 +230,13 @@ def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time
     """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict).
     feedforward: a FEEDFORWARD_OPTIONS key (the controller's feedforward terms). Refuses (one line)
     bad options, and explicit steps above the loop's known stable limit, before building anything
-    (`check_simulation_inputs`)."""
+    (`check_simulation_inputs`). A tray scenario (seed 002) runs the bottle through the Dynamixel
+    servos instead (tray/execute.py; it has no DC-motor options)."""
+    if getattr(scenario, "is_tray", False):
+        from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
+        check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
+        return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path,
+                                  time_step_s=time_step_s)
     kw = check_simulation_inputs(scenario, time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
                                  feedforward=feedforward)
     res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,

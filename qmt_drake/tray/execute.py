@@ -32,8 +32,14 @@ def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, sett
     return _stream(q, t, settle_s, tail_s, f"{plan.method} x{time_scale:g}")
 
 
-def check_tray_simulation(scenario) -> None:
-    """One-line QmtInputError unless the tray co-simulation models this scenario's hardware."""
+def check_tray_simulation(scenario, time_step_s: float | None = None, feedforward: str = "none",
+                          implicit_loop_damping: bool | None = None) -> None:
+    """One-line QmtInputError unless the tray co-simulation models this scenario's hardware, the
+    plant step (None: the default) is no coarser than the servos' control period, and no DC-motor
+    option (feedforward, the explicit loop: implicit_loop_damping False) is asked for."""
+    if feedforward != "none" or implicit_loop_damping is False:
+        raise QmtInputError("--explicit and --feedforward are options of the DC-motor co-simulation; the tray "
+                            "co-simulation drives the servos' own firmware loop: drop them")
     from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
     from qmt_drake.tray.cosim import URDF_PATH
     if scenario.urdf_path.resolve() != URDF_PATH.resolve():
@@ -43,12 +49,18 @@ def check_tray_simulation(scenario) -> None:
     if getattr(act, "kind", None) != "dynamixel" or act.datasheets() != CRANE_X7_PLANAR_SERVOS:
         raise QmtInputError(f"{scenario.source_path}: the tray co-simulation needs actuator kind 'dynamixel' with "
                             "servos [XM540-W270, XM430-W350, XM430-W350] (the CRANE-X7's)")
+    period_ms = act.control_period_s * 1e3
+    if time_step_s is not None and time_step_s * 1e3 > period_ms * (1 + 1e-9):
+        # a plant step coarser than the servo loop changes the verdict (5 ms: the seed's 5 s move
+        # "slips" 2.6 mm; 1 ms: carried), so it would be a silent wrong answer
+        raise QmtInputError(f"--time-step-ms {time_step_s * 1e3:g}: the tray co-simulation's plant step must not "
+                            f"exceed the servos' control period ({period_ms:g} ms); use {period_ms:g} or less")
 
 
 def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
                        time_step_s: float | None = None) -> dict:
     from qmt_drake.tray.cosim import TIME_STEP_S, simulate_tray
-    check_tray_simulation(scenario)
+    check_tray_simulation(scenario, time_step_s)
     act = scenario.actuator
     sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s)
     r = simulate_tray(sched, act.gains(), scenario.bottle, time_step_s=time_step_s or TIME_STEP_S,
