@@ -57,73 +57,81 @@ from qmt_drake.plan import jsonable, write_text_atomic  # noqa: E402
 THESIS_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 Table 4.3 (the scenario's reported genes)
 
 
-def build_floor(sc, plan, time_step_s: float, *, our_magnet: bool = False, our_monitor: bool = False):
+def build_floor(sc, plan, time_step_s: float, *, our_magnet: bool = False, our_monitor: bool = False,
+                free_payload: bool = False):
     """The floor diagram (module docstring); returns (diagram, plant, handles) ready to simulate.
     our_magnet / our_monitor put back our ElectromagnetForce (fed the calibrated current) / our
-    TransferMonitor (motor inputs zero) to attribute the cost ratio."""
+    TransferMonitor (motor inputs zero) to attribute the cost ratio. free_payload: the previous
+    plant, the payload floating in the world frame (its constant pull as spatial forces)."""
     from pydrake.common.value import AbstractValue
     from pydrake.multibody.math import SpatialForce
-    from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import AddMultibodyPlant, ExternallyAppliedSpatialForce
-    from pydrake.systems.controllers import PidController
+    from pydrake.multibody.parsing import Parser
     from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Adder, ConstantValueSource, Demultiplexer, MatrixGain, TrajectorySource
+    from pydrake.systems.primitives import Adder, ConstantValueSource, ConstantVectorSource, MatrixGain, TrajectorySource
 
-    from qmt_drake.sim import (coil_current_for, magnet_params_for, motor_params_for, move_loop_damping_into_plant,
-                               pid_gains_for, reference_trajectories, set_initial_state, transfer_plant_config)
+    from qmt_drake.sim import (add_magnet_hand, add_transfer_plant, coil_current_for, finalize_transfer_plant,
+                               magnet_params_for, motor_params_for, move_loop_damping_into_plant, pid_gains_for,
+                               plan_start, reference_trajectories, set_initial_state, transfer_plant_config)
     from qmt_drake.systems.joint_tracking import effective_joint_gains
-    from qmt_drake.systems.payload import PayloadSpec, add_payload
+    from qmt_drake.systems.payload import PayloadSpec, add_payload, payload_joint
 
     b = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(transfer_plant_config(time_step_s), b)
-    arm = Parser(plant).AddModels(str(sc.urdf_path))[0]
-    hand = plant.GetBodyByName(sc.hand_frame, arm)
-    spec = PayloadSpec.for_scenario(sc)
-    payload = add_payload(plant, spec, hand)
     K, D = effective_joint_gains(pid_gains_for(sc), motor_params_for(sc))
-    move_loop_damping_into_plant(plant, arm, D)
-    plant.Finalize()
+    q0 = plan_start(plan)
+    if free_payload:
+        plant, _ = AddMultibodyPlant(transfer_plant_config(time_step_s), b)
+        arm = Parser(plant).AddModels(str(sc.urdf_path))[0]
+        hand = plant.GetBodyByName(sc.hand_frame, arm)
+        spec = PayloadSpec.for_scenario(sc)
+        payload = add_payload(plant, spec, hand, attach_to_hand=False)
+        move_loop_damping_into_plant(plant, arm, D)
+        plant.Finalize()
+    else:  # the transfer plant itself, as build_transfer_diagram makes it
+        tp = add_transfer_plant(b, sc, time_step_s)
+        plant, arm, hand, payload, spec = tp.plant, tp.arm_instance, tp.hand_body, tp.payload_body, tp.payload_spec
+        move_loop_damping_into_plant(plant, arm, D)
+        finalize_transfer_plant(tp, q0)
     n = len(K)
     pp_q, _, t_end = reference_trajectories(plan)
+    # The joint PD with its damping in the plant (stepped implicitly), as stateless gains: actuation
+    # = K (q_des - q) + D qd_des; the plant's joint damping supplies -D qd.
     ref = b.AddSystem(TrajectorySource(pp_q, output_derivative_order=1))
-    pid = b.AddSystem(PidController(K, np.zeros(n), D))
-    split = b.AddSystem(Demultiplexer([n, n]))
-    add_back = b.AddSystem(MatrixGain(np.diag(D)))
+    from_desired = b.AddSystem(MatrixGain(np.hstack([np.diag(K), np.diag(D)])))
+    from_state = b.AddSystem(MatrixGain(np.hstack([-np.diag(K), np.zeros((n, n))])))
     act = b.AddSystem(Adder(2, n))
     state = plant.get_state_output_port(arm)
-    b.Connect(ref.get_output_port(), pid.get_input_port_desired_state())
-    b.Connect(state, pid.get_input_port_estimated_state())
-    b.Connect(state, split.get_input_port())
-    b.Connect(split.get_output_port(1), add_back.get_input_port())
-    b.Connect(pid.get_output_port_control(), act.get_input_port(0))
-    b.Connect(add_back.get_output_port(), act.get_input_port(1))
+    b.Connect(ref.get_output_port(), from_desired.get_input_port())
+    b.Connect(state, from_state.get_input_port())
+    b.Connect(from_desired.get_output_port(), act.get_input_port(0))
+    b.Connect(from_state.get_output_port(), act.get_input_port(1))
     b.Connect(act.get_output_port(), plant.get_actuation_input_port(arm))
 
-    # The magnet's pull at zero gap and full overlap, along the hand's face normal, which a planar
-    # arm turning about vertical joints never tilts.
+    # The magnet's pull at zero gap and full overlap along the hand's face normal: on the relative
+    # plant one generalized-force entry of the payload's joint (the hand's reaction is the joint's);
+    # on the free plant a spatial force on the payload and its reaction on the hand, whose face
+    # normal a planar arm turning about vertical joints never tilts.
     current = coil_current_for(sc, spec)
     f0 = magnet_params_for(sc, spec).force_N(current)
-    ctx = plant.CreateDefaultContext()
-    q0 = np.asarray(plan.sample(np.array([0.0]))[0], float).reshape(-1)
-    plant.SetPositions(ctx, arm, q0)
-    z = plant.EvalBodyPoseInWorld(ctx, hand).rotation().col(2)
-    if abs(abs(z[2]) - 1.0) > 1e-9:
-        raise RuntimeError("floor: the hand's face normal is not vertical; a constant pull would be wrong")
-    on_p, on_h = ExternallyAppliedSpatialForce(), ExternallyAppliedSpatialForce()
-    on_p.body_index, on_p.p_BoBq_B, on_p.F_Bq_W = payload.index(), np.zeros(3), SpatialForce(np.zeros(3), f0 * z)
-    on_h.body_index, on_h.p_BoBq_B, on_h.F_Bq_W = hand.index(), np.zeros(3), SpatialForce(np.zeros(3), -f0 * z)
     if our_magnet:
-        from pydrake.systems.primitives import ConstantVectorSource
-        from qmt_drake.systems.electromagnet import ElectromagnetForce
-        mag = b.AddSystem(ElectromagnetForce(magnet_params_for(sc, spec), hand.index(), payload.index()))
-        b.Connect(plant.get_body_poses_output_port(), mag.GetInputPort("body_poses"))
-        b.Connect(b.AddSystem(ConstantVectorSource([current])).get_output_port(), mag.GetInputPort("coil_current"))
-        b.Connect(mag.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
-    else:
+        add_magnet_hand(b, plant, hand, payload, sc, spec, current)
+    elif free_payload:
+        ctx = plant.CreateDefaultContext()
+        plant.SetPositions(ctx, arm, q0)
+        z = plant.EvalBodyPoseInWorld(ctx, hand).rotation().col(2)
+        if abs(abs(z[2]) - 1.0) > 1e-9:
+            raise RuntimeError("floor: the hand's face normal is not vertical; a constant pull would be wrong")
+        on_p, on_h = ExternallyAppliedSpatialForce(), ExternallyAppliedSpatialForce()
+        on_p.body_index, on_p.p_BoBq_B, on_p.F_Bq_W = payload.index(), np.zeros(3), SpatialForce(np.zeros(3), f0 * z)
+        on_h.body_index, on_h.p_BoBq_B, on_h.F_Bq_W = hand.index(), np.zeros(3), SpatialForce(np.zeros(3), -f0 * z)
         pull = b.AddSystem(ConstantValueSource(AbstractValue.Make([on_p, on_h])))
         b.Connect(pull.get_output_port(), plant.get_applied_spatial_force_input_port())
+    else:
+        tau = np.zeros(plant.num_velocities())
+        tau[payload_joint(plant, payload).velocity_start() + 5] = f0
+        pull = b.AddSystem(ConstantVectorSource(tau))
+        b.Connect(pull.get_output_port(), plant.get_applied_generalized_force_input_port())
     if our_monitor:
-        from pydrake.systems.primitives import ConstantVectorSource
         from qmt_drake.systems.transfer_monitor import TransferMonitor
         mon = b.AddSystem(TransferMonitor(n, hand.index(), payload.index(), period_s=time_step_s))
         zeros = b.AddSystem(ConstantVectorSource(np.zeros(n)))
@@ -135,7 +143,12 @@ def build_floor(sc, plan, time_step_s: float, *, our_magnet: bool = False, our_m
     diagram = b.Build()
 
     def init(root_ctx):
-        set_initial_state(plant, plant.GetMyMutableContextFromRoot(root_ctx), arm, hand, payload, q0)
+        pc = plant.GetMyMutableContextFromRoot(root_ctx)
+        if free_payload:
+            plant.SetPositions(pc, arm, q0)
+            plant.SetFreeBodyPose(pc, payload, plant.EvalBodyPoseInWorld(pc, hand))
+        else:
+            set_initial_state(plant, pc, arm, hand, payload, q0)
     return diagram, plant, dict(init=init, t_final=t_end + 0.5, arm=arm, hand=hand, payload=payload,
                                 pull_N=f0, coil_current_A=current)
 

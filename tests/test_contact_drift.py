@@ -1,5 +1,5 @@
-"""The README's account of held-part 'slip': a stepping drift proportional to the plant step,
-independent of friction (studies/contact_drift.py)."""
+"""The README's account of held-part 'slip': friction creep, converged in the plant step (the
+payload's coordinates are relative to the hand; studies/contact_drift.py)."""
 
 import pytest
 
@@ -14,14 +14,14 @@ def ch4():
     return sc, GenesPlan(sc, (0.622, 0.532, 0.562))
 
 
-def test_held_part_drift_scales_with_step_not_friction(ch4):
+def test_held_part_creep_does_not_depend_on_the_step_but_on_friction(ch4):
     sc, plan = ch4
     fine = run_case(sc, plan, 1e-3, {})
     coarse = run_case(sc, plan, 2e-3, {})
     grippy = run_case(sc, plan, 2e-3, {"friction": 0.6})
-    # Relative speed of a stuck part ~ step: doubling the step doubles it (within 10%).
-    assert coarse["peak_relative_speed_m_s"] / fine["peak_relative_speed_m_s"] == pytest.approx(2.0, rel=0.1)
-    assert coarse["max_slip_m"] / fine["max_slip_m"] == pytest.approx(2.0, rel=0.15)
-    # Doubling the friction coefficient leaves it almost unchanged: the part is not sliding on friction.
-    assert grippy["peak_relative_speed_m_s"] == pytest.approx(coarse["peak_relative_speed_m_s"], rel=0.03)
-    assert grippy["max_slip_m"] == pytest.approx(coarse["max_slip_m"], rel=0.05)
+    # Halving the step leaves the slip and the slid distance the same (within 2%): no stepping drift.
+    assert coarse["max_slip_m"] == pytest.approx(fine["max_slip_m"], rel=0.02)
+    assert coarse["slid_distance_m"] == pytest.approx(fine["slid_distance_m"], rel=0.02)
+    # Doubling the friction coefficient at least halves it: the part creeps on friction.
+    assert grippy["max_slip_m"] < 0.6 * coarse["max_slip_m"]
+    assert coarse["max_slip_m"] < 0.1e-3  # a held part: a twentieth of a millimetre

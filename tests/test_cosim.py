@@ -23,7 +23,7 @@ from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.dc_motor import DcMotorWithGear
 from qmt_drake.systems.electromagnet import ElectromagnetForce, MagnetParams
 from qmt_drake.systems.joint_tracking import JointPidController
-from qmt_drake.systems.payload import PayloadSpec, add_payload
+from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_hand_contact, payload_joint
 from qmt_drake.systems.transfer_monitor import TransferMonitor
 
 GA_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 section 4.4
@@ -87,10 +87,10 @@ def _compose_by_hand(sc4, plan4, config):
     spec = PayloadSpec.for_scenario(sc4)
     payload = add_payload(plant, spec, hand)
     plant.Finalize()
+    allow_hand_contact(plant, scene_graph, hand, payload)
     q0 = plan4.sample(np.array([0.0]))[0][0]
     plant.SetDefaultPositions(arm, q0)
-    X_WH = plant.EvalBodyPoseInWorld(plant.CreateDefaultContext(), hand)
-    plant.SetDefaultFloatingBaseBodyPose(payload, X_WH.multiply(seated_pose_in_hand()))
+    payload_joint(plant, payload).SetDefaultPose(seated_pose_in_hand())
     motor_params = motor_params_for(sc4)
     pp_q, _, t_end = reference_trajectories(plan4, 1.0, lead_s=0.2)
     ref = builder.AddSystem(TrajectorySource(pp_q, output_derivative_order=1))
@@ -99,7 +99,7 @@ def _compose_by_hand(sc4, plan4, config):
     motors = builder.AddSystem(DcMotorWithGear(motor_params))
     split = builder.AddSystem(Demultiplexer([2, 2]))
     magnet = builder.AddSystem(ElectromagnetForce(
-        MagnetParams(sc4.hand.coil, sc4.hand.effective_gap_m, spec.face_radius_m), hand.index(), payload.index()))
+        MagnetParams(sc4.hand.coil, sc4.hand.effective_gap_m, spec.face_radius_m), plant, payload_joint(plant, payload)))
     coil = builder.AddSystem(ConstantVectorSource([calibrated_coil_current_A(sc4, spec)]))
     monitor = builder.AddSystem(TransferMonitor(2, hand.index(), payload.index()))
     x = plant.get_state_output_port(arm)
@@ -109,9 +109,9 @@ def _compose_by_hand(sc4, plan4, config):
     builder.Connect(x, split.get_input_port())
     builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
     builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
-    builder.Connect(plant.get_body_poses_output_port(), magnet.GetInputPort("body_poses"))
+    builder.Connect(plant.get_state_output_port(), magnet.GetInputPort("plant_state"))
     builder.Connect(coil.get_output_port(), magnet.GetInputPort("coil_current"))
-    builder.Connect(magnet.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
+    builder.Connect(magnet.GetOutputPort("generalized_force"), plant.get_applied_generalized_force_input_port())
     builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
     builder.Connect(x, monitor.GetInputPort("arm_state"))
     builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
@@ -224,7 +224,7 @@ def test_unseated_start_is_an_error_not_a_detachment(sc4, plan4):
     td = build_transfer_diagram(sc4, plan4, log_period_s=0)
     sim = Simulator(td.diagram)
     pc = td.plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
-    td.plant.SetFreeBodyPose(pc, td.payload_body, RigidTransform([0.0, 0.0, -0.3]))  # a user's slip
+    payload_joint(td.plant, td.payload_body).SetPose(pc, RigidTransform([0.0, 0.0, -0.3]))  # a user's slip
     with pytest.raises(QmtSimulationError, match="payload not seated on the hand at t = 0 s") as exc:
         sim.Initialize()
     assert "\n" not in str(exc.value)

@@ -17,7 +17,8 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from qmt_drake.sim import GRAVITY_M_S2, hold_lever_m
 from qmt_drake.systems.electromagnet import THESIS_COILS, ElectromagnetForce, MagnetParams
-from qmt_drake.systems.payload import STEEL_DENSITY_KG_M3, PayloadSpec, add_payload
+from qmt_drake.systems.payload import (STEEL_DENSITY_KG_M3, PayloadSpec, add_payload, allow_hand_contact,
+                                      payload_joint, pose_matrices)
 from qmt_drake.systems.transfer_monitor import relative_payload_motion
 
 
@@ -33,11 +34,10 @@ def test_inertia_and_shape():
 
 
 class _SidewaysRamp(LeafSystem):
-    """Appends a force -m*a(t) x_W at the payload's COM, a(t) ramping to a_max over ramp_s."""
+    """A force -m*a(t) x_W at the payload's COM, a(t) ramping to a_max over ramp_s."""
 
     def __init__(self, body_index, mass, com_offset, a_max, ramp_s):
         super().__init__()
-        self._in = self.DeclareAbstractInputPort("forces", AbstractValue.Make([ExternallyAppliedSpatialForce()]))
         self.DeclareAbstractOutputPort("out", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]),
                                        self._calc)
         self._f = ExternallyAppliedSpatialForce()
@@ -48,31 +48,57 @@ class _SidewaysRamp(LeafSystem):
     def _calc(self, context, output):
         a = self._a * min(1.0, context.get_time() / self._T)
         self._f.F_Bq_W = SpatialForce(np.zeros(3), np.array([-self._m * a, 0.0, 0.0]))
-        output.set_value(list(self._in.Eval(context)) + [self._f])
+        output.set_value([self._f])
 
 
 def _bench(spec, coil, current, a_max, g0=0.5e-3):
     b = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=1e-3, discrete_contact_approximation="lagged",
-                                                      contact_model="point", use_sampled_output_ports=False), b)
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(
+        time_step=1e-3, discrete_contact_approximation="lagged", contact_model="point",
+        use_sampled_output_ports=False), b)
     hand = plant.AddRigidBody("hand", plant.AddModelInstance("bench"), SpatialInertia.SolidSphereWithMass(1.0, 0.01))
     plant.WeldFrames(plant.world_frame(), hand.body_frame())
     payload = add_payload(plant, spec, hand)
     plant.Finalize()
-    magnet = b.AddSystem(ElectromagnetForce(MagnetParams(coil, g0, spec.face_radius_m), hand.index(), payload.index()))
+    allow_hand_contact(plant, scene_graph, hand, payload)
+    magnet = b.AddSystem(ElectromagnetForce(MagnetParams(coil, g0, spec.face_radius_m), plant,
+                                            payload_joint(plant, payload)))
     src = b.AddSystem(ConstantVectorSource([current]))
     ramp = b.AddSystem(_SidewaysRamp(payload.index(), spec.mass_kg, spec.com_offset_m, a_max, 1.0))
     b.Connect(src.get_output_port(), magnet.GetInputPort("coil_current"))
-    b.Connect(plant.get_body_poses_output_port(), magnet.GetInputPort("body_poses"))
-    b.Connect(magnet.GetOutputPort("spatial_forces"), ramp.get_input_port())
+    b.Connect(plant.get_state_output_port(), magnet.GetInputPort("plant_state"))
+    b.Connect(magnet.GetOutputPort("generalized_force"), plant.get_applied_generalized_force_input_port())
     b.Connect(ramp.get_output_port(), plant.get_applied_spatial_force_input_port())
-    sim = Simulator(b.Build())
+    sim = Simulator(b.Build())  # the joint's default pose: seated
     pc = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
-    plant.SetFreeBodyPose(pc, payload, RigidTransform())
     sim.AdvanceTo(1.5)
     X_WP = plant.EvalBodyPoseInWorld(pc, payload)
     slip, tilt, gap = relative_payload_motion(RigidTransform(), X_WP, RigidTransform())
     return slip < 1e-3 and gap < 1e-3
+
+
+def test_the_payload_hangs_on_the_hand_by_a_joint_and_still_touches_it():
+    """Its coordinates are its pose in the hand frame, and the face contact is not filtered out."""
+    b = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=1e-3, contact_model="point"), b)
+    hand = plant.AddRigidBody("hand", plant.AddModelInstance("bench"), SpatialInertia.SolidSphereWithMass(1.0, 0.01))
+    plant.WeldFrames(plant.world_frame(), hand.body_frame(), RigidTransform([0.1, 0.2, 0.3]))
+    payload = add_payload(plant, PayloadSpec.m8_bolt(), hand)
+    plant.Finalize()
+    allow_hand_contact(plant, scene_graph, hand, payload)
+    joint = payload_joint(plant, payload)
+    assert joint.parent_body().index() == hand.index() and joint.num_velocities() == 6
+    ctx = plant.CreateDefaultContext()
+    X_HP = RigidTransform([1e-3, -2e-3, -3e-3])
+    joint.SetPose(ctx, X_HP)
+    X_WP = plant.EvalBodyPoseInWorld(ctx, payload)
+    np.testing.assert_allclose(X_WP.translation(), [0.101, 0.198, 0.297], atol=1e-15)
+    np.testing.assert_allclose(pose_matrices(plant.GetPositions(ctx, payload.model_instance())[None, :])[0],
+                               X_HP.GetAsMatrix34(), atol=1e-15)
+    inspector = scene_graph.model_inspector()
+    for g_hand in plant.GetCollisionGeometriesForBody(hand):
+        for g_part in plant.GetCollisionGeometriesForBody(payload):
+            assert not inspector.CollisionFiltered(g_hand, g_part)
 
 
 @pytest.mark.parametrize("spec, coil, hold_moment_Nm", [

@@ -3,7 +3,7 @@
     TrajectorySource(plan, time-scaled) --desired_state--> JointPidController --voltage--> DcMotorWithGear
         --joint_torque (+ D qd, implicit loop damping)--> MultibodyPlant(arm + free payload, discrete,
         kLagged contact; settings: plant.transfer_plant_config)
-    plant.body_poses --> ElectromagnetForce --spatial_forces--> plant (pull on the payload, reaction on hand)
+    plant.state --> ElectromagnetForce --generalized_force--> plant (pull on the payload's joint to the hand)
     everything --> TransferMonitor (slip, tilt, detachment, tracking error, motor peaks, energy)
 
 The monitor only observes. With step_logs=True (what simulate_transfer / run_simulate / the sweeps
@@ -178,7 +178,8 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         ctrl = builder.AddNamedSystem("controller", prim or pid)
         motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
         split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
-    magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current, magnet_effective_gap_m)
+    magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current, magnet_effective_gap_m,
+                             host_has_continuous_state=bool(motor_inductance))
     # Per-step logs instead of a per-step Python monitor when the loop is stepped implicitly (the
     # applied torque is then latched, see sim.posthoc); an explicit monitor_period_s keeps the monitor.
     log_steps = bool(step_logs) and bool(implicit_loop_damping) and monitor_period_s is None

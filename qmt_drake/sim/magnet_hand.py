@@ -33,7 +33,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.electromagnet import ElectromagnetForce, MagnetParams
-from qmt_drake.systems.payload import PayloadSpec
+from qmt_drake.systems.payload import PayloadSpec, payload_joint
 
 GRAVITY_M_S2 = 9.81
 MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0 of the built-in scenarios' hands (hand.effective_gap_m)
@@ -84,16 +84,18 @@ def coil_current_for(scenario, payload: PayloadSpec) -> float:
 
 
 def add_magnet_hand(builder, plant, hand_body, payload_body, scenario, payload: PayloadSpec,
-                    coil_current_A: float, effective_gap_m: float | None = None):
+                    coil_current_A: float, effective_gap_m: float | None = None, *,
+                    host_has_continuous_state: bool = False):
     """Add the ElectromagnetForce (the scenario's coil, g0 unless effective_gap_m [m] is given, and the
-    payload's face) fed by a constant coil current [A], wired plant.body_poses -> magnet -> plant
-    applied spatial forces. Needs a plant whose payload and hand are the bodies given. Returns the
-    magnet system."""
+    payload's face) fed by a constant coil current [A], wired plant.state -> magnet -> plant applied
+    generalized force. Needs the FINALISED plant with the payload on its joint to `hand_body`
+    (sim.plant.finalize_transfer_plant); host_has_continuous_state as in ElectromagnetForce.
+    Returns the magnet system."""
     params = magnet_params_for(scenario, payload, effective_gap_m)
-    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(params,
-                                                                 hand_body.index(), payload_body.index()))
+    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(
+        params, plant, payload_joint(plant, payload_body), host_has_continuous_state=host_has_continuous_state))
     coil_src = builder.AddNamedSystem("coil_current", ConstantVectorSource([float(coil_current_A)]))
-    builder.Connect(plant.get_body_poses_output_port(), magnet.GetInputPort("body_poses"))
+    builder.Connect(plant.get_state_output_port(), magnet.GetInputPort("plant_state"))
     builder.Connect(coil_src.get_output_port(), magnet.GetInputPort("coil_current"))
-    builder.Connect(magnet.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
+    builder.Connect(magnet.GetOutputPort("generalized_force"), plant.get_applied_generalized_force_input_port())
     return magnet

@@ -1,4 +1,5 @@
-"""The transfer plant: the arm from the scenario's URDF plus the free payload in contact with the hand.
+"""The transfer plant: the arm from the scenario's URDF plus the payload on its 6-DOF joint to the hand
+(systems.payload: its coordinates are its pose in the hand frame), in contact with the hand.
 
 `transfer_plant_config(time_step_s)` is the ONE place the plant settings the co-simulation systems
 rely on are chosen; user code that composes the systems by hand calls it (or `add_transfer_plant`)
@@ -30,7 +31,7 @@ from pydrake.multibody.tree import JointActuatorIndex
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.arm import add_arm
-from qmt_drake.systems.payload import PayloadSpec, add_payload, seated_pose_in_hand
+from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_hand_contact, payload_joint, seated_pose_in_hand
 
 
 def transfer_plant_config(time_step_s: float) -> MultibodyPlantConfig:
@@ -52,6 +53,7 @@ class TransferPlant:
     payload_body: object
     payload_spec: PayloadSpec
     n_dof: int
+    payload_joint: object = None  # set by finalize_transfer_plant
 
 
 def add_transfer_plant(builder, scenario, time_step_s: float, *, payload_spec: PayloadSpec | None = None,
@@ -80,21 +82,20 @@ def finalize_transfer_plant(tp: TransferPlant, q_start) -> None:
     rest, the payload seated on the hand's face (`seated_pose_in_hand`) at rest."""
     plant = tp.plant
     plant.Finalize()
-    q_start = np.asarray(q_start, float).reshape(-1)
-    plant.SetDefaultPositions(tp.arm_instance, q_start)
-    ctx = plant.CreateDefaultContext()
-    X_WH = plant.EvalBodyPoseInWorld(ctx, tp.hand_body)
-    plant.SetDefaultFloatingBaseBodyPose(tp.payload_body, X_WH.multiply(seated_pose_in_hand()))
+    allow_hand_contact(plant, tp.scene_graph, tp.hand_body, tp.payload_body)
+    plant.SetDefaultPositions(tp.arm_instance, np.asarray(q_start, float).reshape(-1))
+    tp.payload_joint = payload_joint(plant, tp.payload_body)
+    tp.payload_joint.SetDefaultPose(seated_pose_in_hand())
 
 
 def set_initial_state(plant, plant_context, arm_instance, hand_body, payload_body, q_start) -> None:
     """In an existing plant context: arm at q_start at rest, payload seated at rest."""
-    from pydrake.multibody.math import SpatialVelocity
     plant.SetPositions(plant_context, arm_instance, q_start)
     plant.SetVelocities(plant_context, arm_instance, np.zeros(len(q_start)))
-    X_WH = plant.EvalBodyPoseInWorld(plant_context, hand_body)
-    plant.SetFreeBodyPose(plant_context, payload_body, X_WH.multiply(seated_pose_in_hand()))
-    plant.SetFreeBodySpatialVelocity(plant_context, payload_body, SpatialVelocity(np.zeros(3), np.zeros(3)))
+    joint = payload_joint(plant, payload_body)
+    joint.SetPose(plant_context, seated_pose_in_hand())
+    joint.set_angular_velocity(plant_context, np.zeros(3))
+    joint.set_translational_velocity(plant_context, np.zeros(3))
 
 
 def move_loop_damping_into_plant(plant, arm_instance, loop_damping) -> None:

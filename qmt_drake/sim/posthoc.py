@@ -5,8 +5,10 @@ system called every plant step (TransferMonitor with a period), the diagram logs
 in C++ (VectorLogSink), the plant state, the reference and the joint torque applied over the step
 (`add_step_logs`), and `summary_from_logs` computes afterwards what the monitor would have:
 
-    slip, tilt, gap   per sample from the payload's pose in the hand frame (Drake's kinematics on a
-                      scratch plant context, then `transfer_monitor.motion_in_hand` on the stack)
+    slip, tilt, gap   per sample from the payload's pose in the hand frame, which its joint's logged
+                      coordinates are (`payload.pose_matrices`), then `transfer_monitor.motion_in_hand`
+                      on the stack. The per-step monitor gets the same pose through world coordinates
+                      (X_WH^-1 X_WP), so the two agree to rounding of world positions (~1e-16 m)
     detached_at_s     first sample with gap > detach_gap_m or slip > detach_slip_m
     tracking          max over samples and joints of |q_des - q|
     motor peaks, energy  the delivered system's motor_torque / electrical_power of each sample
@@ -32,6 +34,7 @@ import numpy as np
 from pydrake.systems.primitives import LogVectorOutput
 
 from qmt_drake.systems.dc_motor import AppliedMotorSignals, _inverse_rows, _motor_side
+from qmt_drake.systems.payload import payload_joint, pose_matrices
 from qmt_drake.systems.transfer_monitor import SUMMARY_FIELDS, motion_in_hand
 
 STEP_LOGS = ("plant_state", "desired_state", "applied_joint_torque")
@@ -88,13 +91,9 @@ def summary_from_logs(td, root_context) -> np.ndarray:
     q_arm_idx = plant.GetPositionsFromArray(td.arm_instance, np.arange(nq, dtype=float)).astype(int)
     v_arm_idx = plant.GetVelocitiesFromArray(td.arm_instance, np.arange(plant.num_velocities(), dtype=float)).astype(int)
     q_arm, qd_arm = x[:, q_arm_idx], x[:, nq + v_arm_idx]
-    # Payload pose in the hand frame per sample: Drake's kinematics on a scratch context.
-    pc = plant.CreateDefaultContext()
-    F_H, F_P = td.hand_body.body_frame(), td.payload_body.body_frame()
-    M = np.empty((len(x), 3, 4))
-    for k, qk in enumerate(x[:, :nq]):
-        plant.SetPositions(pc, qk)
-        M[k] = plant.CalcRelativeTransform(pc, F_H, F_P).GetAsMatrix34()
+    # Payload pose in the hand frame per sample: its joint's coordinates (quaternion, p_HP).
+    joint = payload_joint(plant, td.payload_body)
+    M = pose_matrices(x[:, joint.position_start():joint.position_start() + 7])
     p0, z0 = td.monitor.seated_axes
     slip, tilt, gap = motion_in_hand(M, p0, z0)
     gap_lim, slip_lim = td.monitor.detach_thresholds_m

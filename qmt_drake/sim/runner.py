@@ -102,13 +102,13 @@ def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.05, max_tracking_erro
     # run thousands of times per simulated second for nothing (the arrays form no cycles).
     gc_was_enabled = gc.isenabled()
     gc.disable()
+    td.simulator = sim
     try:
         _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad)
+        summary = td.summary(ctx)  # with per-step logs: computed here, part of the run's cost
     finally:
         if gc_was_enabled:
             gc.enable()
-    td.simulator = sim
-    summary = td.summary(ctx)  # with per-step logs: computed here, part of the run's cost
     wall = time.perf_counter() - t_wall
     return np.asarray(summary), wall
 

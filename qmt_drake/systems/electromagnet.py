@@ -19,20 +19,30 @@ Model (lumped magnetic circuit of an iron-cored coil facing an iron part; Maxwel
 The pull acts at the payload's attraction-face centre along the hand's face normal (towards the
 hand); the equal and opposite force acts on the hand body at the same point.
 
-Needs: body_poses from the same MultibodyPlant that holds the hand and payload bodies whose
-indices it was built with, and its spatial_forces connected to that plant's
-applied_spatial_force input (`sim.magnet_hand.add_magnet_hand` does both). The plant's default
-state should have the payload seated (`sim.plant.finalize_transfer_plant`).
+How it enters the plant. `payload.add_payload` hangs the payload on the hand by a 6-DOF joint
+(a QuaternionFloatingJoint from the hand frame H to the payload's face frame P), so the joint's
+translation coordinates ARE p_HP [m], the face centre in the hand frame: gap = max(-z, 0),
+slide d = |(x, y)|. A force along z_H on P at its origin, with the opposite force on H at the same
+point, is exactly the generalized force of the joint's translational z velocity. The magnet is
+therefore a function of three state coordinates and the current, giving one generalized-force
+entry, and runs as Drake primitives (no Python per step):
 
-Ports
+    plant state --MatrixGain (picks x, y, z)--+
+                                               Multiplexer -> SymbolicVectorSystem (pull, gap) -> ...
+    coil_current -----------------------------+
+        ... -> Demultiplexer -> attraction_force, gap; MatrixGain (pull -> joint z entry) -> generalized_force
+
+`pull_N` is the one implementation of the formula: MagnetParams.force_N evaluates it on floats,
+ElectromagnetForce on drake symbolic Expressions (compiled once, evaluated in C++).
+
+Ports of ElectromagnetForce (a Diagram)
     inputs
-        body_poses       abstract, MultibodyPlant.get_body_poses_output_port()
-        coil_current     (1,) [A]
+        plant_state       (nq + nv,) MultibodyPlant.get_state_output_port() of the plant holding the joint
+        coil_current      (1,) [A]
     outputs
-        spatial_forces   abstract list[ExternallyAppliedSpatialForce] (payload and hand), to
-                         MultibodyPlant.get_applied_spatial_force_input_port()
-        attraction_force (1,) [N]   pull magnitude
-        gap              (1,) [m]
+        generalized_force (nv,) [N, N*m] to MultibodyPlant.get_applied_generalized_force_input_port()
+        attraction_force  (1,) [N]   pull magnitude
+        gap               (1,) [m]
 """
 
 from __future__ import annotations
@@ -41,11 +51,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.math import RigidTransform
-from pydrake.multibody.math import SpatialForce
-from pydrake.multibody.plant import ExternallyAppliedSpatialForce
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake import symbolic
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import Demultiplexer, MatrixGain, Multiplexer, SymbolicVectorSystem
 
 MU0 = 4e-7 * math.pi
 
@@ -79,82 +87,110 @@ class MagnetParams:
     payload_face_radius_m: float  # radius of the payload's attraction face (>= core radius)
 
     def force_N(self, current_A, gap_m=0.0, slide_m=0.0):
-        """Pull [N] for current [A], gap [m] and sideways slide [m] (scalars)."""
-        g = max(float(gap_m), 0.0)
-        base = MU0 * self.coil.core_area_m2 * (self.coil.turns * float(current_A)) ** 2 / (
-            2.0 * (g + self.effective_gap_m) ** 2)
-        return base * covered_fraction(slide_m, self.coil.core_diameter_m / 2, self.payload_face_radius_m)
+        """Pull [N] for current [A], gap [m] (negative: penetration, counts as 0) and sideways slide [m]."""
+        return pull_N(self, float(current_A), max(float(gap_m), 0.0), abs(float(slide_m)))
 
     def current_for_force_A(self, force_N: float) -> float:
         """Inverse at zero gap and zero slide: the coil current [A] giving pull force_N [N]."""
         return math.sqrt(2.0 * force_N / (MU0 * self.coil.core_area_m2)) * self.effective_gap_m / self.coil.turns
 
 
-def covered_fraction(d: float, a: float, b: float) -> float:
-    """Fraction of a disc of radius a [m] covered by a disc of radius b [m] at centre distance d [m]."""
-    d = abs(float(d))
-    if d <= abs(b - a):
-        return 1.0 if b >= a else (b / a) ** 2
-    if d >= a + b:
-        return 0.0
-    ca = (d * d + a * a - b * b) / (2 * d * a)
-    cb = (d * d + b * b - a * a) / (2 * d * b)
-    area = (a * a * math.acos(max(-1.0, min(1.0, ca))) + b * b * math.acos(max(-1.0, min(1.0, cb)))
-            - 0.5 * math.sqrt(max(0.0, (-d + a + b) * (d + a - b) * (d - a + b) * (d + a + b))))
-    return area / (math.pi * a * a)
+class _FloatOps:
+    """`pull_N` on floats: a branch is evaluated only when taken (the area formula divides by d)."""
+
+    sqrt, acos = staticmethod(math.sqrt), staticmethod(math.acos)
+
+    @staticmethod
+    def where(condition, then_value, else_value):
+        return then_value() if condition else else_value()
+
+    @staticmethod
+    def clip(v, lo, hi):
+        return min(max(v, lo), hi)
 
 
-class ElectromagnetForce(LeafSystem):
-    """Pull of the hand's electromagnet on the payload; see module docstring for model and ports."""
+class _SymbolicOps:
+    """`pull_N` on drake symbolic Expressions: both branches are built, if_then_else picks at evaluation."""
 
-    def __init__(self, params: MagnetParams, hand_body_index, payload_body_index):
+    sqrt, acos = staticmethod(symbolic.sqrt), staticmethod(symbolic.acos)
+
+    @staticmethod
+    def where(condition, then_value, else_value):
+        return symbolic.if_then_else(condition, then_value(), else_value())
+
+    @staticmethod
+    def clip(v, lo, hi):
+        return symbolic.min(symbolic.max(v, lo), hi)
+
+
+def pull_N(params: MagnetParams, current_A, gap_m, slide_m, ops=_FloatOps):
+    """F(I, g, d) of the module docstring [N]: current [A], gap g >= 0 [m], slide d >= 0 [m], as
+    floats or (ops=_SymbolicOps) drake symbolic Expressions."""
+    coil = params.coil
+    full = MU0 * coil.core_area_m2 * (coil.turns * current_A) ** 2 / (2.0 * (gap_m + params.effective_gap_m) ** 2)
+    return full * covered_fraction(slide_m, coil.core_diameter_m / 2, params.payload_face_radius_m, ops)
+
+
+def covered_fraction(d, a: float, b: float, ops=_FloatOps):
+    """Fraction of a disc of radius a [m] covered by a disc of radius b [m] at centre distance d >= 0 [m]."""
+    inside = 1.0 if b >= a else (b / a) ** 2
+
+    def lens():  # circle-circle intersection area over pi a^2, for |b - a| < d < a + b
+        ca = (d * d + a * a - b * b) / (2 * d * a)
+        cb = (d * d + b * b - a * a) / (2 * d * b)
+        area = (a * a * ops.acos(ops.clip(ca, -1.0, 1.0)) + b * b * ops.acos(ops.clip(cb, -1.0, 1.0))
+                - 0.5 * ops.sqrt(ops.clip((-d + a + b) * (d + a - b) * (d - a + b) * (d + a + b), 0.0, math.inf)))
+        return area / (math.pi * a * a)
+
+    return ops.where(d <= abs(b - a), lambda: inside, lambda: ops.where(d >= a + b, lambda: 0.0, lens))
+
+
+def payload_translation_indices(payload_joint) -> list[int]:
+    """Indices of the joint's translation coordinates (x, y, z of p_HP [m]) in the plant's state."""
+    if payload_joint.type_name() != "quaternion_floating":
+        raise ValueError(f"the magnet needs the payload's 6-DOF joint to the hand (payload.add_payload); "
+                         f"joint '{payload_joint.name()}' is a {payload_joint.type_name()} joint")
+    start = payload_joint.position_start()
+    return [start + 4, start + 5, start + 6]  # positions: quaternion (w, x, y, z), then translation
+
+
+class ElectromagnetForce(Diagram):
+    """Pull of the hand's electromagnet on the payload hanging on the hand by `payload_joint`;
+    see the module docstring for the model, the wiring and the ports. Needs a finalised plant.
+
+    host_has_continuous_state: pass True when the diagram this goes into has continuous state (an
+    integrator, a PidController, motors with inductance). Drake 1.51's SymbolicVectorSystem without
+    state aborts when a simulator asks every subsystem for time derivatives ("dynamics_.size() > 0"
+    failed); True gives the law one constant continuous state (d/dt = 0) so it can answer."""
+
+    def __init__(self, params: MagnetParams, plant, payload_joint, *, host_has_continuous_state: bool = False):
         super().__init__()
         self.params = params
-        self._hand_i = int(hand_body_index)
-        self._payload_i = int(payload_body_index)
-        coil = params.coil
-        self._k = MU0 * coil.core_area_m2 * coil.turns**2 / 2.0  # F = k I^2 / (g + g0)^2 at full overlap
-        self._g0 = params.effective_gap_m
-        self._a = coil.core_diameter_m / 2
-        self._b = params.payload_face_radius_m
-        self._zero3 = np.zeros(3)
-        self._on_payload = ExternallyAppliedSpatialForce()
-        self._on_payload.body_index = payload_body_index
-        self._on_payload.p_BoBq_B = np.zeros(3)
-        self._on_hand = ExternallyAppliedSpatialForce()
-        self._on_hand.body_index = hand_body_index
-        self._pair = [self._on_payload, self._on_hand]
-        self._poses_in = self.DeclareAbstractInputPort("body_poses", AbstractValue.Make([RigidTransform()]))
-        self._i_in = self.DeclareVectorInputPort("coil_current", 1)
-        self.DeclareAbstractOutputPort("spatial_forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]),
-                                       self._calc_forces)
-        self.DeclareVectorOutputPort("attraction_force", 1, self._calc_force_magnitude)
-        self.DeclareVectorOutputPort("gap", 1, self._calc_gap)
+        nq, nv = plant.num_positions(), plant.num_velocities()
+        pick = np.zeros((3, nq + nv))
+        pick[[0, 1, 2], payload_translation_indices(payload_joint)] = 1.0
+        x, y, z, current = (symbolic.Variable(v) for v in ("x", "y", "z", "current"))
+        gap = symbolic.if_then_else(z < 0.0, -z, 0.0)
+        pull = pull_N(params, current, gap, symbolic.sqrt(x * x + y * y), _SymbolicOps)
+        on_joint = np.zeros((nv, 1))
+        on_joint[payload_joint.velocity_start() + 5, 0] = 1.0  # velocities: angular (3), then translational
 
-    def _geometry(self, context):
-        """Payload face centre in the hand frame p_HP [m] (3 floats), hand face normal in world
-        z_WH (3 floats), pull [N], gap [m]."""
-        poses = self._poses_in.Eval(context)
-        X_WH = poses[self._hand_i]
-        x, y, z = X_WH.InvertAndCompose(poses[self._payload_i]).translation().tolist()
-        gap = -z if z < 0.0 else 0.0
-        slide = math.hypot(x, y)
-        i = float(self._i_in.Eval(context)[0])
-        f = self._k * i * i / (gap + self._g0) ** 2
-        if slide > self._b - self._a:
-            f *= covered_fraction(slide, self._a, self._b)
-        return (x, y, z), X_WH.rotation().col(2), f, gap
-
-    def _calc_forces(self, context, output):
-        p_HP, z_WH, f, _ = self._geometry(context)
-        fz = f * z_WH
-        self._on_payload.F_Bq_W = SpatialForce(self._zero3, fz)
-        self._on_hand.p_BoBq_B = p_HP
-        self._on_hand.F_Bq_W = SpatialForce(self._zero3, -fz)
-        output.set_value(self._pair)
-
-    def _calc_force_magnitude(self, context, output: BasicVector):
-        output.SetAtIndex(0, self._geometry(context)[2])
-
-    def _calc_gap(self, context, output: BasicVector):
-        output.SetAtIndex(0, self._geometry(context)[3])
+        b = DiagramBuilder()
+        select = b.AddNamedSystem("payload_translation", MatrixGain(pick))
+        inputs = b.AddNamedSystem("inputs", Multiplexer([3, 1]))
+        idle = [symbolic.Variable("idle")] if host_has_continuous_state else []
+        law = b.AddNamedSystem("pull_law", SymbolicVectorSystem(state=idle, dynamics=[symbolic.Expression(0.0)] * len(idle),
+                                                                input=[x, y, z, current], output=[pull, gap]))
+        split = b.AddNamedSystem("pull_and_gap", Demultiplexer(2, 1))
+        to_joint = b.AddNamedSystem("on_joint", MatrixGain(on_joint))
+        b.Connect(select.get_output_port(), inputs.get_input_port(0))
+        b.Connect(inputs.get_output_port(), law.get_input_port())
+        b.Connect(law.get_output_port(), split.get_input_port())
+        b.Connect(split.get_output_port(0), to_joint.get_input_port())
+        b.ExportInput(select.get_input_port(), "plant_state")
+        b.ExportInput(inputs.get_input_port(1), "coil_current")
+        b.ExportOutput(to_joint.get_output_port(), "generalized_force")
+        b.ExportOutput(split.get_output_port(0), "attraction_force")
+        b.ExportOutput(split.get_output_port(1), "gap")
+        b.BuildInto(self)
+        self.set_name("magnet")

@@ -1,11 +1,24 @@
-"""The carried part as a free body in friction contact with the hand's attraction face.
+"""The carried part: a rigid body free to move against the hand's attraction face, in friction contact.
 
 Not a LeafSystem: `add_payload` adds to a MultibodyPlant (before Finalize)
   * on the hand body: a thin box whose lower face is the hand's attraction face (hand frame z = 0,
     face normal -z), the contact partner;
-  * the payload: a free rigid body whose frame P has its origin at the centre of the payload's
+  * the payload: a rigid body whose frame P has its origin at the centre of the payload's
     attraction face, z_P pointing out of the face (towards the hand when seated); its centre of mass
     sits r_G below the face, at (0, 0, -r_G) in P;
+  * its six degrees of freedom: a QuaternionFloatingJoint from the hand frame H to P (named
+    "<name>_on_hand", `payload_joint`), so the part's generalized coordinates are its pose in the
+    hand frame (quaternion, then p_HP [m]) and its velocities w_HP, v_HP expressed in H. Nothing
+    constrains it: it slides, tips and falls away as a free body would. Two reasons for relative
+    coordinates: a seated part is at rest in them, so the first-order discrete step no longer
+    shows as a slip drift (with the part floating in the world frame the held ch.4 move "slipped"
+    0.67 mm at 2 ms and 0.35 mm at 1 ms, in proportion to the step; relative: 0.035 mm at every
+    step from 2 to 0.25 ms, which is the part's real creep); and the magnet's pull becomes a
+    generalized force on the joint computed by Drake primitives (`electromagnet.ElectromagnetForce`).
+    The hand and the part still collide: Drake filters collisions between the bodies of a joint,
+    but not across a floating joint, and `allow_hand_contact` declares the pair explicitly after
+    Finalize (tests/test_systems_payload.py checks it). attach_to_hand=False adds a body floating
+    in the world instead (the benchmark's floor of the previous plant; no magnet system for it);
   * contact: `n_contact_points` small spheres whose tops lie in the payload's face plane, on a ring
     of radius `contact_radius_m` (the core end's radius: the part touches the core only), so the part
     can slide along the face and tip about the ring's edge. Point contact with per-geometry stiffness
@@ -31,9 +44,10 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.geometry import Box, Cylinder, ProximityProperties, Sphere
 from pydrake.geometry import AddContactMaterial
+from scipy.spatial.transform import Rotation
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
-from pydrake.multibody.tree import SpatialInertia, UnitInertia
+from pydrake.multibody.tree import QuaternionFloatingJoint, SpatialInertia, UnitInertia
 
 STEEL_DENSITY_KG_M3 = 7850.0
 
@@ -106,10 +120,13 @@ def _proximity(spec: PayloadSpec) -> ProximityProperties:
     return props
 
 
-def add_payload(plant, spec: PayloadSpec, hand_body, *, name: str = "payload", model_instance=None):
-    """Add the hand's face geometry and the free payload body; returns the payload RigidBody.
+def add_payload(plant, spec: PayloadSpec, hand_body, *, name: str = "payload", model_instance=None,
+                attach_to_hand: bool = True):
+    """Add the hand's face geometry and the payload body on its 6-DOF joint to the hand (module
+    docstring; attach_to_hand=False: floating in the world); returns the payload RigidBody.
 
-    The seated pose of the payload in the hand frame is the identity (`seated_pose_in_hand`)."""
+    The seated pose of the payload in the hand frame is the identity (`seated_pose_in_hand`), the
+    joint's default pose."""
     if model_instance is None:
         model_instance = plant.AddModelInstance(name)
     props = _proximity(spec)
@@ -126,7 +143,39 @@ def add_payload(plant, spec: PayloadSpec, hand_body, *, name: str = "payload", m
     plant.RegisterVisualGeometry(body, RigidTransform([0.0, 0.0, -spec.length_m / 2]),
                                  Cylinder(spec.radius_m, spec.length_m), f"{name}_visual",
                                  np.array([0.55, 0.55, 0.6, 1.0]))
+    if attach_to_hand:
+        plant.AddJoint(QuaternionFloatingJoint(f"{name}_on_hand", hand_body.body_frame(), body.body_frame()))
     return body
+
+
+def payload_joint(plant, payload_body):
+    """The payload's 6-DOF joint to the hand (`add_payload`); ValueError if it has none."""
+    for index in plant.GetJointIndices(payload_body.model_instance()):
+        joint = plant.get_joint(index)
+        if joint.child_body().index() == payload_body.index() and joint.type_name() == "quaternion_floating" \
+                and joint.parent_body().index() != plant.world_body().index():
+            return joint
+    raise ValueError(f"payload '{payload_body.name()}' has no 6-DOF joint to the hand; add it with "
+                     "add_payload(..., attach_to_hand=True)")
+
+
+def pose_matrices(joint_positions) -> np.ndarray:
+    """X_HP as (K, 3, 4) arrays [R | p] from (K, 7) payload-joint positions (quaternion w, x, y, z
+    (normalised here, as Drake's mobilizer does), then p_HP [m]); scipy's rotation conversion."""
+    q = np.asarray(joint_positions, float).reshape(-1, 7)
+    M = np.empty((len(q), 3, 4))
+    M[:, :, :3] = Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix()
+    M[:, :, 3] = q[:, 4:]
+    return M
+
+
+def allow_hand_contact(plant, scene_graph, hand_body, payload_body) -> None:
+    """After Finalize: make sure the hand's and the payload's collision geometries may collide
+    (Drake's filter between a joint's bodies must not hide the face contact)."""
+    from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+    hand = GeometrySet(plant.GetCollisionGeometriesForBody(hand_body))
+    part = GeometrySet(plant.GetCollisionGeometriesForBody(payload_body))
+    scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().AllowBetween(hand, part))
 
 
 def seated_pose_in_hand() -> RigidTransform:

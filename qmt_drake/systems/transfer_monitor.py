@@ -66,8 +66,10 @@ def motion_in_hand(M_HP: np.ndarray, p_HP0, z_HP0) -> tuple[np.ndarray, np.ndarr
     payload's z axis and the seated one; gap: how far the face centre is below its seated height."""
     M = np.asarray(M_HP, float).reshape(-1, 3, 4)
     d = M[:, :, 3] - np.asarray(p_HP0, float)
-    z_cos = M[:, :, 2] @ np.asarray(z_HP0, float)  # payload z vs seated z, both in H
-    return np.hypot(d[:, 0], d[:, 1]), np.arccos(np.clip(z_cos, -1.0, 1.0)), np.maximum(-d[:, 2], 0.0)
+    z, z0 = M[:, :, 2], np.asarray(z_HP0, float)  # payload z and seated z, both in H
+    # atan2(|z x z0|, z . z0): well conditioned at small tilts, where arccos(z . z0) loses half the digits.
+    tilt = np.arctan2(np.linalg.norm(np.cross(z, z0), axis=1), z @ z0)
+    return np.hypot(d[:, 0], d[:, 1]), tilt, np.maximum(-d[:, 2], 0.0)
 
 
 def _motion_in_hand(M_HP, p_HP0, z_HP0):
