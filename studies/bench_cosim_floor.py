@@ -60,7 +60,7 @@ THESIS_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 Table 4.3 (the scenario's r
 def build_floor(sc, plan, time_step_s: float, *, our_magnet: bool = False, our_monitor: bool = False,
                 free_payload: bool = False):
     """The floor diagram (module docstring); returns (diagram, plant, handles) ready to simulate.
-    our_magnet / our_monitor put back our ElectromagnetForce (fed the calibrated current) / our
+    our_magnet / our_monitor put back our electromagnet_force (fed the calibrated current) / our
     TransferMonitor (motor inputs zero) to attribute the cost ratio. free_payload: the previous
     plant, the payload floating in the world frame (its constant pull as spatial forces)."""
     from pydrake.common.value import AbstractValue

@@ -21,7 +21,7 @@ from qmt_drake.sim.plant import seated_pose_in_hand
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.dc_motor import DcMotorWithGear
-from qmt_drake.systems.electromagnet import ElectromagnetForce, MagnetParams
+from qmt_drake.systems.electromagnet import electromagnet_force, MagnetParams
 from qmt_drake.systems.joint_tracking import JointPidController
 from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_hand_contact, payload_joint
 from qmt_drake.systems.transfer_monitor import TransferMonitor
@@ -98,7 +98,7 @@ def _compose_by_hand(sc4, plan4, config):
                                                motor_params.voltage_limit_V))
     motors = builder.AddSystem(DcMotorWithGear(motor_params))
     split = builder.AddSystem(Demultiplexer([2, 2]))
-    magnet = builder.AddSystem(ElectromagnetForce(
+    magnet = builder.AddSystem(electromagnet_force(
         MagnetParams(sc4.hand.coil, sc4.hand.effective_gap_m, spec.face_radius_m), plant, payload_joint(plant, payload)))
     coil = builder.AddSystem(ConstantVectorSource([calibrated_coil_current_A(sc4, spec)]))
     monitor = builder.AddSystem(TransferMonitor(2, hand.index(), payload.index()))
@@ -181,12 +181,19 @@ def test_step_logs_and_primitive_pd_give_the_python_systems_summary(sc4, plan4, 
     per_step = build_transfer_diagram(sc4, plan4, time_scale=time_scale, log_period_s=0,
                                       primitive_controller=False, **ff)
     assert isinstance(per_step.controller, JointPidController)
-    assert not isinstance(logs.controller, JointPidController)  # the primitives' Diagram
+    assert logs.controller.get_name() == "motor_actuation"  # the composed law
     assert logs.step_logs is not None and per_step.step_logs is None
     a = TransferMonitor.unpack(run_diagram(per_step)[0])
     b = TransferMonitor.unpack(run_diagram(logs)[0])
     assert (not math.isnan(a["detached_at_s"])) == (time_scale == 0.8) == (not math.isnan(b["detached_at_s"]))
-    for k in ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_error_rad", "energy_J", "max_gap_m"):
+    # Two routes to the same numbers, equal up to rounding: the per-step monitor gets the payload's
+    # pose through world coordinates (X_WH^-1 X_WP, ~0.5 m: ~1e-16 m rounding), the logs from its
+    # joint coordinates; the composed motor_actuation law and the separate controller and motors
+    # round differently in the last bit, which a falling part's tilt amplifies (x0.8: 1e-11 measured).
+    for k in ("max_slip_m", "max_gap_m"):
+        assert b[k] == pytest.approx(a[k], rel=1e-11, abs=1e-15), k
+    assert b["max_tilt_rad"] == pytest.approx(a["max_tilt_rad"], rel=1e-10)
+    for k in ("detached_at_s", "max_tracking_error_rad", "energy_J"):
         assert b[k] == pytest.approx(a[k], rel=1e-12, nan_ok=True), k
     np.testing.assert_allclose(b["peak_motor_torque_Nm"], a["peak_motor_torque_Nm"], rtol=1e-12)
     names = {logs.diagram.get_output_port(i).get_name() for i in range(logs.diagram.num_output_ports())}
@@ -212,7 +219,8 @@ def test_primitive_pd_controller_is_the_python_law(sc4):
                 if kw:
                     system.GetInputPort("feedforward_torque").FixValue(c, ff)
             a = pid.GetOutputPort("voltage_command").Eval(c1)
-            np.testing.assert_array_equal(prim.GetOutputPort("voltage_command").Eval(c2), a)
+            # Drake's symbolic arithmetic may round the last bit differently (volts of order 1-24).
+            np.testing.assert_allclose(prim.GetOutputPort("voltage_command").Eval(c2), a, rtol=0, atol=1e-14)
             saturated += int(np.any(np.abs(a) >= mp.voltage_limit_V))
         assert 0 < saturated < 100  # both branches of the limit were exercised
     with_integral = JointPidController(PidGains([1.0, 1.0], [0.0, 1e-3], [0.1, 0.1]), mp.gear_ratio,

@@ -1,4 +1,4 @@
-"""ElectromagnetForce: Maxwell pull vs gap, along the hand's normal with the reaction on the hand
+"""electromagnet_force: Maxwell pull vs gap, along the hand's normal with the reaction on the hand
 (as the generalized force of the payload's joint), covered area; the float and symbolic forms of
 the one formula agree; the continuous-state guard."""
 
@@ -13,7 +13,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
-from qmt_drake.systems.electromagnet import (MU0, THESIS_COILS, ElectromagnetForce, MagnetParams,
+from qmt_drake.systems.electromagnet import (MU0, THESIS_COILS, electromagnet_force, MagnetParams,
                                              covered_fraction)
 from qmt_drake.systems.payload import PayloadSpec, add_payload, payload_joint
 
@@ -34,7 +34,7 @@ def _hand_and_part(face_radius_m=5e-3):
 def _magnet_outputs(params, X_WH, X_HP, current):
     """(generalized force vector, pull, gap, plant, context) for the hand at X_WH and the part at X_HP."""
     _, plant, hand, payload, joint = _hand_and_part(params.payload_face_radius_m)
-    magnet = ElectromagnetForce(params, plant, joint)
+    magnet = electromagnet_force(params, plant, joint)
     pc = plant.CreateDefaultContext()
     plant.SetFreeBodyPose(pc, hand, X_WH)
     joint.SetPose(pc, X_HP)
@@ -109,7 +109,7 @@ def test_in_a_diagram_with_continuous_state_needs_the_guard():
     """With host_has_continuous_state=True the magnet runs beside an Integrator (Drake 1.51's
     stateless SymbolicVectorSystem would abort the simulation)."""
     b, plant, hand, payload, joint = _hand_and_part()
-    magnet = b.AddSystem(ElectromagnetForce(MagnetParams(COIL, 0.5e-3, 5e-3), plant, joint,
+    magnet = b.AddSystem(electromagnet_force(MagnetParams(COIL, 0.5e-3, 5e-3), plant, joint,
                                             host_has_continuous_state=True))
     b.Connect(plant.get_state_output_port(), magnet.GetInputPort("plant_state"))
     b.Connect(b.AddSystem(ConstantVectorSource([0.5])).get_output_port(), magnet.GetInputPort("coil_current"))

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from pydrake.common.value import AbstractValue
-from pydrake.math import RigidTransform
+from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import AddMultibodyPlant, ExternallyAppliedSpatialForce, MultibodyPlantConfig
 from pydrake.multibody.tree import SpatialInertia
@@ -16,9 +16,10 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
 from qmt_drake.sim import GRAVITY_M_S2, hold_lever_m
-from qmt_drake.systems.electromagnet import THESIS_COILS, ElectromagnetForce, MagnetParams
+from qmt_drake.systems.electromagnet import THESIS_COILS, electromagnet_force, MagnetParams
 from qmt_drake.systems.payload import (STEEL_DENSITY_KG_M3, PayloadSpec, add_payload, allow_hand_contact,
-                                      payload_joint, pose_matrices)
+                                      payload_joint)
+from qmt_drake.systems.transfer_monitor import motion_from_joint
 from qmt_drake.systems.transfer_monitor import relative_payload_motion
 
 
@@ -61,7 +62,7 @@ def _bench(spec, coil, current, a_max, g0=0.5e-3):
     payload = add_payload(plant, spec, hand)
     plant.Finalize()
     allow_hand_contact(plant, scene_graph, hand, payload)
-    magnet = b.AddSystem(ElectromagnetForce(MagnetParams(coil, g0, spec.face_radius_m), plant,
+    magnet = b.AddSystem(electromagnet_force(MagnetParams(coil, g0, spec.face_radius_m), plant,
                                             payload_joint(plant, payload)))
     src = b.AddSystem(ConstantVectorSource([current]))
     ramp = b.AddSystem(_SidewaysRamp(payload.index(), spec.mass_kg, spec.com_offset_m, a_max, 1.0))
@@ -93,8 +94,12 @@ def test_the_payload_hangs_on_the_hand_by_a_joint_and_still_touches_it():
     joint.SetPose(ctx, X_HP)
     X_WP = plant.EvalBodyPoseInWorld(ctx, payload)
     np.testing.assert_allclose(X_WP.translation(), [0.101, 0.198, 0.297], atol=1e-15)
-    np.testing.assert_allclose(pose_matrices(plant.GetPositions(ctx, payload.model_instance())[None, :])[0],
-                               X_HP.GetAsMatrix34(), atol=1e-15)
+    X_HP = RigidTransform(RollPitchYaw(0.02, -0.01, 0.3), [1e-3, -2e-3, -3e-3])
+    joint.SetPose(ctx, X_HP)
+    slip, tilt, gap = motion_from_joint(plant.GetPositions(ctx, payload.model_instance()))
+    expected = relative_payload_motion(plant.EvalBodyPoseInWorld(ctx, hand), plant.EvalBodyPoseInWorld(ctx, payload),
+                                       RigidTransform())
+    np.testing.assert_allclose([slip, tilt, gap], expected, rtol=1e-12, atol=1e-17)
     inspector = scene_graph.model_inspector()
     for g_hand in plant.GetCollisionGeometriesForBody(hand):
         for g_part in plant.GetCollisionGeometriesForBody(payload):

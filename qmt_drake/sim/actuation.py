@@ -19,7 +19,7 @@ from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.primitives import Adder, MatrixGain, TrajectorySource, ZeroOrderHold
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.systems.dc_motor import MOTOR_CATALOG, AppliedMotorSignals, DcMotorParams
+from qmt_drake.systems.dc_motor import MOTOR_CATALOG, DcMotorParams, applied_motor_signals_as_primitives
 from qmt_drake.systems.ideal_torque import IdealActuatorSignals
 from qmt_drake.systems.joint_tracking import PidGains
 
@@ -113,8 +113,8 @@ def add_ideal_torque_actuation(builder, plant, arm_instance, desired_state_port,
     builder.Connect(state_port, from_state.get_input_port())
     builder.Connect(from_desired.get_output_port(), actuation.get_input_port(0))
     builder.Connect(from_state.get_output_port(), actuation.get_input_port(1))
-    signals = _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation, joint_velocity_port, D,
-                                                 time_step_s, IdealActuatorSignals(gear_ratio))
+    signals = _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation.get_output_port(),
+                                                 joint_velocity_port, D, time_step_s, IdealActuatorSignals(gear_ratio))
     return signals, actuation.get_input_port(2)
 
 
@@ -132,9 +132,9 @@ def add_implicit_damping_actuation(builder, plant, arm_instance, motors, joint_v
     exactly the motors' torque in their linear range, and stable at steps where the explicit loop is
     not (ch.4 poles to -900 rad/s). The torque actually applied over step n is known after it:
     a zero-order hold keeps u_n, and u_n - D qd_{n+1} goes through the motor model backwards
-    (`AppliedMotorSignals`) for the current, motor torque and power that are reported; the motors'
+    (`applied_motor_signals_as_primitives`) for the current, motor torque and power that are reported; the motors'
     own outputs, evaluated at x_n, overstate the torque by about D h / J. Returns the
-    AppliedMotorSignals system."""
+    applied-signals system (Drake primitives)."""
     n = len(loop_damping)
     D = np.diag(np.asarray(loop_damping, float))
     add_back = builder.AddNamedSystem("damping_add_back", MatrixGain(D))
@@ -142,21 +142,33 @@ def add_implicit_damping_actuation(builder, plant, arm_instance, motors, joint_v
     builder.Connect(joint_velocity_port, add_back.get_input_port())
     builder.Connect(motors.GetOutputPort("joint_torque"), actuation.get_input_port(0))
     builder.Connect(add_back.get_output_port(), actuation.get_input_port(1))
-    return _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation, joint_velocity_port, D,
-                                              time_step_s, AppliedMotorSignals(motor_params))
+    return _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation.get_output_port(),
+                                              joint_velocity_port, D, time_step_s,
+                                              applied_motor_signals_as_primitives(motor_params))
 
 
-def _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation, joint_velocity_port, D, time_step_s,
-                                       signals_system):
-    """Shared by both actuators: `actuation` drives the plant (whose joints carry the damping D);
+def add_motor_actuation_law(builder, plant, arm_instance, law, joint_velocity_port, loop_damping, time_step_s,
+                            motor_params):
+    """Like add_implicit_damping_actuation, for the composed `motor_actuation_law` (already in the
+    builder, its inputs connected): its actuation output drives the plant. Returns the
+    applied-signals system."""
+    D = np.diag(np.asarray(loop_damping, float))
+    return _drive_plant_with_implicit_damping(builder, plant, arm_instance, law.GetOutputPort("actuation"),
+                                              joint_velocity_port, D, time_step_s,
+                                              applied_motor_signals_as_primitives(motor_params))
+
+
+def _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation_port, joint_velocity_port, D,
+                                       time_step_s, signals_system):
+    """Shared by the actuators: `actuation_port` drives the plant (whose joints carry the damping D);
     the torque applied over each step, the latched actuation u_n minus D qd_{n+1}, goes to
     `signals_system` (inputs applied_joint_torque, joint_velocity), which is returned."""
     n = D.shape[0]
-    builder.Connect(actuation.get_output_port(), plant.get_actuation_input_port(arm_instance))
+    builder.Connect(actuation_port, plant.get_actuation_input_port(arm_instance))
     latch = builder.AddNamedSystem("actuation_latch", ZeroOrderHold(time_step_s, n))
     damping_now = builder.AddNamedSystem("damping_now", MatrixGain(-D))
     applied = builder.AddNamedSystem("applied_joint_torque", Adder(2, n))
-    builder.Connect(actuation.get_output_port(), latch.get_input_port())
+    builder.Connect(actuation_port, latch.get_input_port())
     builder.Connect(joint_velocity_port, damping_now.get_input_port())
     builder.Connect(latch.get_output_port(), applied.get_input_port(0))
     builder.Connect(damping_now.get_output_port(), applied.get_input_port(1))
@@ -175,3 +187,41 @@ def add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, desired_state_po
     builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
     builder.Connect(acc.get_output_port(), inv.get_input_port_desired_acceleration())
     builder.Connect(inv.get_output_port_generalized_force(), feedforward_input)
+
+
+def motor_actuation_law(pid, motor_params: DcMotorParams, loop_damping):
+    """The PD controller, the quasi-static motors and the implicit scheme's damping add-back composed
+    into one compiled law, what the plant's actuation input gets every step with implicit loop
+    damping: u = tau_j(pd_voltage(x_des, x), qd) + D qd (joint_tracking.pd_voltage,
+    dc_motor.motor_forward: each formula where its concept lives, composed symbolically). One
+    SymbolicVectorSystem instead of a dozen primitives (per-step cost: studies/bench_cosim_floor.py).
+    A Diagram: inputs desired_state (2n), estimated_state (2n)[, feedforward_torque (n)]; outputs
+    actuation (n) [N*m] and voltage_command (n) [V] (evaluated only when read). None when pid has an
+    integral term or the motors an inductance (those run as their own systems)."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import Multiplexer
+
+    from qmt_drake.systems.dc_motor import motor_forward, motor_joints
+    from qmt_drake.systems.joint_tracking import pd_law_inputs, pd_voltage
+    from qmt_drake.systems.scalar_ops import SYMBOLIC, symbolic_law
+    if pid._has_integral or motor_params.inductance_H is not None:
+        return None
+    n = pid._n
+    x_des, x, ff = pd_law_inputs(pid)
+    voltage = pd_voltage(pid, x_des, x, ff, SYMBOLIC)
+    qd = x[n:]
+    actuation = [motor_forward(v, w, joint, SYMBOLIC)[3] + float(d) * w
+                 for v, w, joint, d in zip(voltage, qd, motor_joints(motor_params), loop_damping)]
+    b = DiagramBuilder()
+    widths = [2 * n, 2 * n] + ([n] if ff is not None else [])
+    inputs = b.AddNamedSystem("inputs", Multiplexer(widths))
+    variables = x_des + x + (ff or [])
+    for name, expressions in (("actuation", actuation), ("voltage_command", voltage)):
+        law = b.AddNamedSystem(name, symbolic_law(variables, expressions))
+        b.Connect(inputs.get_output_port(), law.get_input_port())
+        b.ExportOutput(law.get_output_port(), name)
+    for k, name in enumerate(("desired_state", "estimated_state", "feedforward_torque")[:len(widths)]):
+        b.ExportInput(inputs.get_input_port(k), name)
+    d = b.Build()
+    d.set_name("motor_actuation")
+    return d

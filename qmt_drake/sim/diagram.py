@@ -3,7 +3,7 @@
     TrajectorySource(plan, time-scaled) --desired_state--> JointPidController --voltage--> DcMotorWithGear
         --joint_torque (+ D qd, implicit loop damping)--> MultibodyPlant(arm + free payload, discrete,
         kLagged contact; settings: plant.transfer_plant_config)
-    plant.state --> ElectromagnetForce --generalized_force--> plant (pull on the payload's joint to the hand)
+    plant.state --> electromagnet_force --generalized_force--> plant (pull on the payload's joint to the hand)
     everything --> TransferMonitor (slip, tilt, detachment, tracking error, motor peaks, energy)
 
 The monitor only observes. With step_logs=True (what simulate_transfer / run_simulate / the sweeps
@@ -35,18 +35,19 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_damping_actuation,
+from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_damping_actuation, add_motor_actuation_law,
+                                     motor_actuation_law,
                                      add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
                                      ideal_joint_gains, motor_params_for, pid_gains_for)
 from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
 from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, move_loop_damping_into_plant,
                                  set_initial_state)
 from qmt_drake.sim.reference import plan_start, reference_trajectories
-from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
-from qmt_drake.systems.electromagnet import ElectromagnetForce
+from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear, dc_motors_as_primitives
+from qmt_drake.systems.electromagnet import electromagnet_force
 from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains, primitive_pd_controller
 from qmt_drake.systems.payload import PayloadSpec
-from qmt_drake.systems.transfer_monitor import TransferMonitor
+from qmt_drake.systems.transfer_monitor import TransferMonitor, payload_motion_as_primitives
 
 
 @dataclass
@@ -59,10 +60,10 @@ class TransferDiagram:
     arm_instance: object
     payload_body: object
     hand_body: object
-    motors: DcMotorWithGear | None  # None with actuator.kind 'ideal'
-    controller: object  # JointPidController or its Drake-primitives Diagram (PD); None: ideal
-    magnet: ElectromagnetForce
-    monitor: TransferMonitor
+    motors: object  # the motors (dc_motors_as_primitives' Diagram, or DcMotorWithGear with inductance); None: ideal
+    controller: object  # JointPidController, its PD law as primitives, or the composed motor_actuation law; None: ideal
+    magnet: object  # electromagnet_force's Diagram
+    monitor: TransferMonitor | None  # None with per-step logs (payload_motion serves slip / tilt / gap)
     loggers: dict
     q_start: np.ndarray
     t_motion_end_s: float
@@ -173,30 +174,52 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         pid = JointPidController(gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
                                  back_emf_feedforward=back_emf_feedforward,
                                  torque_feedforward=inverse_dynamics_feedforward)
-        # A PD law (no integral) runs as Drake primitives: the same numbers, no Python per step.
-        prim = primitive_pd_controller(pid) if primitive_controller else None
-        ctrl = builder.AddNamedSystem("controller", prim or pid)
-        motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp))
+        # With implicit loop damping, a PD law (no integral) and quasi-static motors, controller, motors
+        # and damping add-back are one compiled law (sim.actuation.motor_actuation_law); otherwise the
+        # controller (a PD law as Drake primitives, or the Python PID) and the motors (primitives, or
+        # the LeafSystem whose armature current is a continuous state with inductance) run apart.
+        law = motor_actuation_law(pid, mp, loop_damping) if (primitive_controller and loop_damping is not None) \
+            else None
+        if law is not None:
+            ctrl = motors = builder.AddNamedSystem("motor_actuation", law)
+        else:
+            prim = primitive_pd_controller(pid, host_has_continuous_state=bool(motor_inductance)) \
+                if primitive_controller else None
+            ctrl = builder.AddNamedSystem("controller", prim or pid)
+            motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp) if mp.inductance_H is not None
+                                            else dc_motors_as_primitives(mp))
         split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
     magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current, magnet_effective_gap_m,
                              host_has_continuous_state=bool(motor_inductance))
     # Per-step logs instead of a per-step Python monitor when the loop is stepped implicitly (the
     # applied torque is then latched, see sim.posthoc); an explicit monitor_period_s keeps the monitor.
     log_steps = bool(step_logs) and bool(implicit_loop_damping) and monitor_period_s is None
-    monitor = builder.AddNamedSystem("monitor", TransferMonitor(
-        n, hand.index(), payload.index(), period_s=None if log_steps else (monitor_period_s or time_step_s)))
+    # With per-step logs nothing in Python runs during the simulation: slip / tilt / gap come from the
+    # payload's joint coordinates through primitives, and run_diagram checks the seated start.
+    monitor = motion = None
+    if log_steps:
+        motion = builder.AddNamedSystem("payload_motion", payload_motion_as_primitives(plant, tp.payload_joint))
+        builder.Connect(plant.get_state_output_port(), motion.GetInputPort("plant_state"))
+    else:
+        monitor = builder.AddNamedSystem("monitor", TransferMonitor(
+            n, hand.index(), payload.index(), period_s=monitor_period_s or time_step_s))
+        motion = monitor
 
     if not ideal:
         feedforward_input = ctrl.GetInputPort("feedforward_torque") if inverse_dynamics_feedforward else None
         builder.Connect(ref.get_output_port(), ctrl.GetInputPort("desired_state"))
         builder.Connect(arm_state, ctrl.GetInputPort("estimated_state"))
-        builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
         builder.Connect(arm_state, split.get_input_port())
-        builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
+        if law is None:
+            builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
+            builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
         # What the motors deliver: their own outputs when stepped explicitly; with implicit loop
         # damping, the torque applied over the last step, read back through the motor model.
         delivered = motors
-        if loop_damping is None:
+        if law is not None:
+            delivered = add_motor_actuation_law(builder, plant, arm, law, split.get_output_port(1), loop_damping,
+                                                time_step_s, mp)
+        elif loop_damping is None:
             builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
         else:
             delivered = add_implicit_damping_actuation(builder, plant, arm, motors, split.get_output_port(1),
@@ -206,11 +229,12 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         from qmt_drake.sim.posthoc import add_step_logs
         step_logs = add_step_logs(builder, plant, ref.get_output_port(),
                                   builder.GetSubsystemByName("applied_joint_torque").get_output_port(), time_step_s)
-    builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
-    builder.Connect(arm_state, monitor.GetInputPort("arm_state"))
-    builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
-    builder.Connect(delivered.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
-    builder.Connect(delivered.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
+    if monitor is not None:
+        builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
+        builder.Connect(arm_state, monitor.GetInputPort("arm_state"))
+        builder.Connect(ref.get_output_port(), monitor.GetInputPort("desired_state"))
+        builder.Connect(delivered.GetOutputPort("motor_torque"), monitor.GetInputPort("motor_torque"))
+        builder.Connect(delivered.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
 
     if inverse_dynamics_feedforward:
         add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(), feedforward_input)
@@ -228,9 +252,9 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         "current": delivered.GetOutputPort("current"),
         "electrical_power": delivered.GetOutputPort("electrical_power"),
         "attraction_force": magnet.GetOutputPort("attraction_force"),
-        "slip": monitor.GetOutputPort("slip"),
-        "tilt": monitor.GetOutputPort("tilt"),
-        "gap": monitor.GetOutputPort("gap"),
+        "slip": motion.GetOutputPort("slip"),
+        "tilt": motion.GetOutputPort("tilt"),
+        "gap": motion.GetOutputPort("gap"),
         "summary": None if log_steps else monitor.GetOutputPort("summary"),  # logs: TransferDiagram.summary
         "body_poses": plant.get_body_poses_output_port(),
         "contact_results": plant.get_contact_results_output_port(),

@@ -32,7 +32,7 @@ import math
 from pydrake.systems.primitives import ConstantVectorSource
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.systems.electromagnet import ElectromagnetForce, MagnetParams
+from qmt_drake.systems.electromagnet import electromagnet_force, MagnetParams
 from qmt_drake.systems.payload import PayloadSpec, payload_joint
 
 GRAVITY_M_S2 = 9.81
@@ -86,13 +86,13 @@ def coil_current_for(scenario, payload: PayloadSpec) -> float:
 def add_magnet_hand(builder, plant, hand_body, payload_body, scenario, payload: PayloadSpec,
                     coil_current_A: float, effective_gap_m: float | None = None, *,
                     host_has_continuous_state: bool = False):
-    """Add the ElectromagnetForce (the scenario's coil, g0 unless effective_gap_m [m] is given, and the
+    """Add the electromagnet_force (the scenario's coil, g0 unless effective_gap_m [m] is given, and the
     payload's face) fed by a constant coil current [A], wired plant.state -> magnet -> plant applied
     generalized force. Needs the FINALISED plant with the payload on its joint to `hand_body`
-    (sim.plant.finalize_transfer_plant); host_has_continuous_state as in ElectromagnetForce.
+    (sim.plant.finalize_transfer_plant); host_has_continuous_state as in electromagnet_force.
     Returns the magnet system."""
     params = magnet_params_for(scenario, payload, effective_gap_m)
-    magnet = builder.AddNamedSystem("magnet", ElectromagnetForce(
+    magnet = builder.AddNamedSystem("magnet", electromagnet_force(
         params, plant, payload_joint(plant, payload_body), host_has_continuous_state=host_has_continuous_state))
     coil_src = builder.AddNamedSystem("coil_current", ConstantVectorSource([float(coil_current_A)]))
     builder.Connect(plant.get_state_output_port(), magnet.GetInputPort("plant_state"))

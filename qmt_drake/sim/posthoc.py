@@ -5,17 +5,17 @@ system called every plant step (TransferMonitor with a period), the diagram logs
 in C++ (VectorLogSink), the plant state, the reference and the joint torque applied over the step
 (`add_step_logs`), and `summary_from_logs` computes afterwards what the monitor would have:
 
-    slip, tilt, gap   per sample from the payload's pose in the hand frame, which its joint's logged
-                      coordinates are (`payload.pose_matrices`), then `transfer_monitor.motion_in_hand`
-                      on the stack. The per-step monitor gets the same pose through world coordinates
-                      (X_WH^-1 X_WP), so the two agree to rounding of world positions (~1e-16 m)
+    slip, tilt, gap   per sample from the payload's joint coordinates, its pose in the hand frame
+                      (`transfer_monitor.motion_from_joint` on numpy columns). The per-step monitor
+                      gets the same quantities from body poses through world coordinates
+                      (X_WH^-1 X_WP, `motion_in_hand`), an independent route: the two agree to the
+                      rounding of world positions (~1e-16 m, tests/test_cosim.py)
     detached_at_s     first sample with gap > detach_gap_m or slip > detach_slip_m
     tracking          max over samples and joints of |q_des - q|
-    motor peaks, energy  the delivered system's motor_torque / electrical_power of each sample
-                      (AppliedMotorSignals: dc_motor's per-joint kernel `_motor_side`, as the system
-                      and `motor_signals_from_joint_torque` run it; any other
-                      signals system, e.g. the ideal source's: its own output ports on a scratch
-                      context), energy = sum of h * P over the samples (the monitor's rectangle rule)
+    motor peaks, energy  the delivered motor_torque / electrical_power of each sample (DC motors:
+                      dc_motor's `motor_inverse`, the formula the applied-signals system runs, on
+                      numpy columns; the ideal source: its own output ports on a scratch context),
+                      energy = sum of h * P over the samples (the monitor's rectangle rule)
 
 Samples: the monitor's periodic update at t_k = k h sees the state reached at t_k, paired with the
 actuation latched over the step into t_k; a periodic publish at t_k (the logs) sees the same. The
@@ -33,29 +33,35 @@ import math
 import numpy as np
 from pydrake.systems.primitives import LogVectorOutput
 
-from qmt_drake.systems.dc_motor import AppliedMotorSignals, _inverse_rows, _motor_side
-from qmt_drake.systems.payload import payload_joint, pose_matrices
-from qmt_drake.systems.transfer_monitor import SUMMARY_FIELDS, motion_in_hand
+from qmt_drake.systems.dc_motor import motor_inverse, motor_joints
+from qmt_drake.systems.payload import payload_joint
+from qmt_drake.systems.scalar_ops import NUMPY
+from qmt_drake.systems.transfer_monitor import DETACH_GAP_M, DETACH_SLIP_M, SUMMARY_FIELDS, motion_from_joint
 
 STEP_LOGS = ("plant_state", "desired_state", "applied_joint_torque")
 
 
 def add_step_logs(builder, plant, desired_state_port, applied_joint_torque_port, time_step_s: float) -> dict:
-    """C++ loggers sampling every plant step: {name: VectorLogSink} for STEP_LOGS."""
+    """One C++ logger sampling every plant step the STEP_LOGS signals side by side (a Multiplexer in
+    front: one publish per step instead of three). Returns {"logger": VectorLogSink, "widths": {name: size}}."""
+    from pydrake.systems.primitives import Multiplexer
     ports = dict(zip(STEP_LOGS, (plant.get_state_output_port(), desired_state_port, applied_joint_torque_port)))
-    return {name: LogVectorOutput(port, builder, time_step_s) for name, port in ports.items()}
+    widths = {name: port.size() for name, port in ports.items()}
+    mux = builder.AddNamedSystem("step_log_signals", Multiplexer(list(widths.values())))
+    for k, port in enumerate(ports.values()):
+        builder.Connect(port, mux.get_input_port(k))
+    return {"logger": LogVectorOutput(mux.get_output_port(), builder, time_step_s), "widths": widths}
 
 
-def _delivered_signals(delivered, tau: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(motor_torque, electrical_power), each (K, n), of the signals system for applied joint
-    torques tau and joint speeds qd, both (K, n)."""
-    if isinstance(delivered, AppliedMotorSignals):
-        # dc_motor's per-joint kernel (what motor_signals_from_joint_torque and AppliedMotorSignals
-        # run), its per-joint constants taken once.
-        rows = _inverse_rows(delivered.params)
-        out = [[_motor_side(t, w, *r) for t, w, r in zip(tk, wk, rows)] for tk, wk in zip(tau.tolist(), qd.tolist())]
-        arr = np.array(out)  # (K, n, 4): v, i, tau_m, P_el
-        return arr[:, :, 2], arr[:, :, 3]
+def _delivered_signals(td, tau: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(motor_torque, electrical_power), each (K, n), of the delivered signals for applied joint
+    torques tau and joint speeds qd, both (K, n): with DC motors dc_motor's `motor_inverse` (what the
+    applied-signals system runs) on whole columns; otherwise the signals system's own output ports
+    on a scratch context."""
+    if td.motor_params is not None:
+        cols = [motor_inverse(tau[:, k], qd[:, k], joint, NUMPY) for k, joint in enumerate(motor_joints(td.motor_params))]
+        return np.column_stack([c[2] for c in cols]), np.column_stack([c[3] for c in cols])
+    delivered = td.delivered
     ctx = delivered.CreateDefaultContext()
     tau_port, qd_port = delivered.GetInputPort("applied_joint_torque"), delivered.GetInputPort("joint_velocity")
     tm_port, pw_port = delivered.GetOutputPort("motor_torque"), delivered.GetOutputPort("electrical_power")
@@ -71,12 +77,15 @@ def _delivered_signals(delivered, tau: np.ndarray, qd: np.ndarray) -> tuple[np.n
 def step_samples(td, root_context) -> dict:
     """The logged samples the monitor would have seen: {'t_s': (K,), 'plant_state': (K, nx),
     'desired_state': (K, 2n), 'applied_joint_torque': (K, n)} (a sample at the final time left out)."""
-    logs = {name: td.step_logs[name].FindLog(root_context) for name in STEP_LOGS}
-    t = logs["plant_state"].sample_times()
+    log = td.step_logs["logger"].FindLog(root_context)
+    t = log.sample_times()
     keep = t < td.t_final_s  # the monitor updates at every sample time before the final time (exactly)
+    data = log.data().T[keep]
     out = {"t_s": t[keep].copy()}
-    for name, log in logs.items():
-        out[name] = log.data().T[keep].copy()
+    start = 0
+    for name, width in td.step_logs["widths"].items():
+        out[name] = data[:, start:start + width].copy()
+        start += width
     return out
 
 
@@ -93,12 +102,10 @@ def summary_from_logs(td, root_context) -> np.ndarray:
     q_arm, qd_arm = x[:, q_arm_idx], x[:, nq + v_arm_idx]
     # Payload pose in the hand frame per sample: its joint's coordinates (quaternion, p_HP).
     joint = payload_joint(plant, td.payload_body)
-    M = pose_matrices(x[:, joint.position_start():joint.position_start() + 7])
-    p0, z0 = td.monitor.seated_axes
-    slip, tilt, gap = motion_in_hand(M, p0, z0)
-    gap_lim, slip_lim = td.monitor.detach_thresholds_m
+    slip, tilt, gap = motion_from_joint(x[:, joint.position_start():joint.position_start() + 7].T, NUMPY)
+    gap_lim, slip_lim = DETACH_GAP_M, DETACH_SLIP_M
     lost = np.flatnonzero((gap > gap_lim) | (slip > slip_lim))
-    tm, pw = _delivered_signals(td.delivered, s["applied_joint_torque"], qd_arm)
+    tm, pw = _delivered_signals(td, s["applied_joint_torque"], qd_arm)
     out = np.empty(len(SUMMARY_FIELDS) + n)
     out[0] = slip.max()
     out[1] = tilt.max()

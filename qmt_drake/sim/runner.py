@@ -15,7 +15,7 @@ from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.sim.actuation import (FEEDFORWARD_OPTIONS, check_time_step, default_time_step_s,
                                      explicit_step_known_unstable)
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
-from qmt_drake.systems.transfer_monitor import TransferMonitor
+from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
 
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
 
@@ -91,6 +91,9 @@ def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.05, max_tracking_erro
     state finite, so this is how divergence shows)."""
     sim = Simulator(td.diagram)
     ctx = sim.get_mutable_context()
+    if td.monitor is None:  # no Python monitor in the diagram to check the seated start at Initialize
+        check_seated(*(float(td.diagram.GetOutputPort(k).Eval(ctx)[0]) for k in ("slip", "tilt", "gap")),
+                     ctx.get_time())
     sim.Initialize()
     if on_start is not None:
         on_start(sim)

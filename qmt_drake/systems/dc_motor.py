@@ -73,9 +73,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+
+from qmt_drake.systems.scalar_ops import FLOAT
 
 
 @dataclass(frozen=True)
@@ -193,31 +196,60 @@ class DcMotorParams:
         return self.gear_ratio * self.efficiency * self.torque_constant_Nm_per_A / self.resistance_ohm
 
 
-def gear_gain(tau_m, qd, efficiency, back_drive_efficiency, blend_speed_rad_s=None) -> float:
-    """tau_j / (N tau_m) for one joint (plain floats): eta while motoring (tau_m qd >= 0), 1/eta_b
-    while back-driven; with blend_speed_rad_s the smooth blend of the module docstring."""
+class MotorJoint(NamedTuple):
+    """One joint's motor and gear constants (SI, motor side unless noted), as the per-joint laws take them."""
+
+    voltage_limit_V: float
+    resistance_ohm: float
+    back_emf_per_joint_speed: float  # Ke N [V*s/rad]
+    current_limit_A: float
+    torque_constant_Nm_per_A: float
+    gear_ratio: float
+    efficiency: float
+    back_drive_efficiency: float
+    blend_speed_rad_s: float | None
+
+
+def motor_joints(params: DcMotorParams) -> list[MotorJoint]:
+    p = params
+    return [MotorJoint(*(float(x) for x in row), p.efficiency_blend_speed_rad_s) for row in zip(
+        p.voltage_limit_V, p.resistance_ohm, p.torque_constant_Nm_per_A * p.gear_ratio, p.current_limit_A,
+        p.torque_constant_Nm_per_A, p.gear_ratio, p.efficiency, np.broadcast_to(p.back_drive_efficiency, (p.n,)))]
+
+
+def gear_gain(tau_m, qd, efficiency, back_drive_efficiency, blend_speed_rad_s=None, ops=FLOAT):
+    """tau_j / (N tau_m) for one joint: eta while motoring (tau_m qd >= 0), 1/eta_b while
+    back-driven; with blend_speed_rad_s the smooth blend of the module docstring. Floats, or drake
+    symbolic Expressions with ops=SYMBOLIC (systems.scalar_ops)."""
     if blend_speed_rad_s is None:
-        return efficiency if tau_m * qd >= 0.0 else 1.0 / back_drive_efficiency
-    x = qd / blend_speed_rad_s if tau_m >= 0.0 else -qd / blend_speed_rad_s
-    s = 0.5 * (1.0 + math.tanh(x))
+        return ops.where(tau_m * qd >= 0.0, lambda: efficiency, lambda: 1.0 / back_drive_efficiency)
+    x = ops.where(tau_m >= 0.0, lambda: qd / blend_speed_rad_s, lambda: -qd / blend_speed_rad_s)
+    s = 0.5 * (1.0 + ops.tanh(x))
     return 1.0 / back_drive_efficiency + (efficiency - 1.0 / back_drive_efficiency) * s
 
 
-def _motor_side(tau_j, qd, gear_ratio, efficiency, back_drive_efficiency, kt, resistance, blend=None):
-    """One joint, plain floats: (v, i, tau_m, P_el) of a motor delivering tau_j [N*m] at qd [rad/s]
-    (tau_m has the sign of tau_j: the gain is positive)."""
-    tau_m = tau_j / (gear_ratio * gear_gain(tau_j, qd, efficiency, back_drive_efficiency, blend))
-    i = tau_m / kt
-    v = resistance * i + kt * gear_ratio * qd
+def motor_forward(command_V, qd, joint: MotorJoint, ops=FLOAT, armature_current_A=None):
+    """One joint driven by a terminal-voltage command [V] at joint speed qd [rad/s]: (v [V], i [A],
+    tau_m [N*m], tau_j [N*m], P_el [W]) of the module docstring's model (quasi-static armature, or
+    the given armature current with inductance). Floats, or symbolic Expressions with ops=SYMBOLIC."""
+    j = joint
+    v = ops.clip(command_V, -j.voltage_limit_V, j.voltage_limit_V)
+    i = (v - j.back_emf_per_joint_speed * qd) / j.resistance_ohm if armature_current_A is None else armature_current_A
+    i = ops.clip(i, -j.current_limit_A, j.current_limit_A)
+    tau_m = j.torque_constant_Nm_per_A * i
+    gain = gear_gain(tau_m, qd, j.efficiency, j.back_drive_efficiency, j.blend_speed_rad_s, ops)
+    return v, i, tau_m, tau_m * (j.gear_ratio * gain), v * i
+
+
+def motor_inverse(tau_j, qd, joint: MotorJoint, ops=FLOAT):
+    """One joint, the model backwards: (v [V], i [A], tau_m [N*m], P_el [W]) of a motor delivering
+    tau_j [N*m] at qd [rad/s] (tau_m has the sign of tau_j: the gain is positive; no limits)."""
+    j = joint
+    tau_m = tau_j / (j.gear_ratio * gear_gain(tau_j, qd, j.efficiency, j.back_drive_efficiency, j.blend_speed_rad_s,
+                                                ops))
+    i = tau_m / j.torque_constant_Nm_per_A
+    v = j.resistance_ohm * i + j.torque_constant_Nm_per_A * j.gear_ratio * qd
     return v, i, tau_m, v * i
-
-
-def _inverse_rows(params: DcMotorParams) -> list[tuple]:
-    """Per joint: (N, eta, eta_b, Kt, R, w_b) as floats, the arguments of `_motor_side` after (tau_j, qd)."""
-    p = params
-    return [tuple(float(x) for x in row) + (p.efficiency_blend_speed_rad_s,) for row in zip(
-        p.gear_ratio, p.efficiency, np.broadcast_to(p.back_drive_efficiency, (p.n,)), p.torque_constant_Nm_per_A,
-        p.resistance_ohm)]
 
 
 def motor_signals_from_joint_torque(params: DcMotorParams, joint_torque_Nm, joint_velocity_rad_s):
@@ -228,7 +260,7 @@ def motor_signals_from_joint_torque(params: DcMotorParams, joint_torque_Nm, join
     to do."""
     tau = np.broadcast_to(np.asarray(joint_torque_Nm, float), (params.n,)).tolist()
     qd = np.broadcast_to(np.asarray(joint_velocity_rad_s, float), (params.n,)).tolist()
-    rows = [_motor_side(t, w, *r) for t, w, r in zip(tau, qd, _inverse_rows(params))]
+    rows = [motor_inverse(t, w, j) for t, w, j in zip(tau, qd, motor_joints(params))]
     return tuple(np.array(col) for col in zip(*rows))
 
 
@@ -252,7 +284,7 @@ class AppliedMotorSignals(LeafSystem):
         self.params = params
         n = params.n
         self._n = n
-        self._rows = _inverse_rows(params)
+        self._joints = motor_joints(params)
         self._tau_in = self.DeclareVectorInputPort("applied_joint_torque", n)
         self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
         self.DeclareVectorOutputPort("joint_torque", n, lambda c, o: o.SetFromVector(self._tau_in.Eval(c)))
@@ -263,8 +295,8 @@ class AppliedMotorSignals(LeafSystem):
     def _rows_now(self, context) -> list[tuple]:
         # Plain floats per joint, recomputed per output (the monitor reads two per step): without a
         # cache entry, one Python call and one array allocation fewer per output evaluation.
-        return [_motor_side(t, w, *r) for t, w, r in zip(self._tau_in.Eval(context).tolist(),
-                                                          self._qd_in.Eval(context).tolist(), self._rows)]
+        return [motor_inverse(t, w, j) for t, w, j in zip(self._tau_in.Eval(context).tolist(),
+                                                           self._qd_in.Eval(context).tolist(), self._joints)]
 
 
 class DcMotorWithGear(LeafSystem):
@@ -288,13 +320,9 @@ class DcMotorWithGear(LeafSystem):
         self._Imax = p.current_limit_A
         self._L = p.inductance_H
         self._Ke_N = self._Kt * self._N  # back EMF per joint speed [V*s/rad] (Ke = Kt in SI)
-        self._gain_motoring = self._N * self._eta
-        self._gain_backdriven = self._N / p.back_drive_efficiency
         self._blend = p.efficiency_blend_speed_rad_s
         self._eta_b = float(p.back_drive_efficiency)
-        self._per_joint = [tuple(float(x) for x in row) for row in zip(
-            self._Vmax, self._R, self._Ke_N, self._Imax, self._Kt, self._gain_motoring,
-            np.broadcast_to(self._gain_backdriven, (n,)))]
+        self._joints = motor_joints(p)
         self._v_in = self.DeclareVectorInputPort(f"{command}_command", n)
         self._qd_in = self.DeclareVectorInputPort("joint_velocity", n)
         if self._L is not None:
@@ -331,25 +359,87 @@ class DcMotorWithGear(LeafSystem):
         i_state = context.get_continuous_state_vector().CopyToVector().tolist() if self._L is not None else None
         n = self._n
         out = [0.0] * (5 * n)
-        for k, (v_max, r, ke_n, i_max, kt, g_motoring, g_backdriven) in enumerate(self._per_joint):
+        for k, joint in enumerate(self._joints):
             if self._current_mode:
+                v_max, r, ke_n = joint.voltage_limit_V, joint.resistance_ohm, joint.back_emf_per_joint_speed
                 emf = ke_n * qd[k]
                 i = min(max(cmd[k], (-v_max - emf) / r), (v_max - emf) / r)
-                i = min(max(i, -i_max), i_max)
+                i = min(max(i, -joint.current_limit_A), joint.current_limit_A)
                 v = r * i + emf
+                tau_m = joint.torque_constant_Nm_per_A * i
+                tau_j = tau_m * (joint.gear_ratio * gear_gain(tau_m, qd[k], joint.efficiency,
+                                                              joint.back_drive_efficiency, joint.blend_speed_rad_s))
+                p_el = v * i
             else:
-                v = min(max(cmd[k], -v_max), v_max)
-                i = (v - ke_n * qd[k]) / r if i_state is None else i_state[k]
-                i = min(max(i, -i_max), i_max)
-            tau_m = kt * i
-            out[k], out[n + k], out[2 * n + k] = v, i, tau_m
-            if self._blend is None:
-                out[3 * n + k] = tau_m * (g_motoring if tau_m * qd[k] >= 0.0 else g_backdriven)
-            else:
-                out[3 * n + k] = tau_m * self._N[k] * gear_gain(tau_m, qd[k], self._eta[k], self._eta_b, self._blend)
-            out[4 * n + k] = v * i
+                v, i, tau_m, tau_j, p_el = motor_forward(cmd[k], qd[k], joint, FLOAT,
+                                                         None if i_state is None else i_state[k])
+            out[k], out[n + k], out[2 * n + k], out[3 * n + k], out[4 * n + k] = v, i, tau_m, tau_j, p_el
         return out
 
     def _signal(self, context, k: int) -> list[float]:
         n = self._n
         return self._signals(context)[k * n:(k + 1) * n]
+
+
+def _laws_diagram(name: str, input_names: tuple[str, str], n: int, laws: dict, host_has_continuous_state: bool,
+                  pass_through_first: str | None = None):
+    """A Diagram whose two (n,) inputs feed stateless symbolic laws {output name: (input variables,
+    output expressions)}; pass_through_first exports the first input again under that name."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import Multiplexer, PassThrough
+
+    from qmt_drake.systems.scalar_ops import symbolic_law
+    b = DiagramBuilder()
+    inputs = b.AddNamedSystem("inputs", Multiplexer([n, n]))
+    b.ExportInput(inputs.get_input_port(0), input_names[0])
+    b.ExportInput(inputs.get_input_port(1), input_names[1])
+    for out_name, (variables, expressions) in laws.items():
+        law = b.AddNamedSystem(out_name, symbolic_law(variables, expressions,
+                                                      host_has_continuous_state=host_has_continuous_state))
+        b.Connect(inputs.get_output_port(), law.get_input_port())
+        b.ExportOutput(law.get_output_port(), out_name)
+    if pass_through_first is not None:
+        through = b.AddNamedSystem("pass_through", PassThrough(n))
+        b.ConnectInput(input_names[0], through.get_input_port())
+        b.ExportOutput(through.get_output_port(), pass_through_first)
+    diagram = b.Build()
+    diagram.set_name(name)
+    return diagram
+
+
+def dc_motors_as_primitives(params: DcMotorParams, *, host_has_continuous_state: bool = False):
+    """DcMotorWithGear in its default mode (voltage command, quasi-static armature; switched or
+    blended gear efficiency) as a Diagram of Drake primitives with the same ports: the model's one
+    formula (`motor_forward`) compiled into SymbolicVectorSystems, no Python per step. Each output is
+    its own law, so evaluating joint_torque (what the plant reads every step) computes nothing else.
+    host_has_continuous_state: see scalar_ops.symbolic_law."""
+    from pydrake import symbolic
+
+    from qmt_drake.systems.scalar_ops import SYMBOLIC
+    if params.inductance_H is not None:
+        raise ValueError("dc_motors_as_primitives models the quasi-static armature; use DcMotorWithGear with "
+                         "inductance_H")
+    n = params.n
+    cmd = [symbolic.Variable(f"voltage_command_{k}") for k in range(n)]
+    qd = [symbolic.Variable(f"joint_velocity_{k}") for k in range(n)]
+    rows = [motor_forward(c, w, j, SYMBOLIC) for c, w, j in zip(cmd, qd, motor_joints(params))]
+    x = cmd + qd
+    laws = {name: (x, [row[k] for row in rows]) for name, k in (
+        ("joint_torque", 3), ("motor_torque", 2), ("current", 1), ("electrical_power", 4))}
+    return _laws_diagram("motors", ("voltage_command", "joint_velocity"), n, laws, host_has_continuous_state)
+
+
+def applied_motor_signals_as_primitives(params: DcMotorParams, *, host_has_continuous_state: bool = False):
+    """AppliedMotorSignals (`motor_inverse`) as a Diagram of Drake primitives with the same ports."""
+    from pydrake import symbolic
+
+    from qmt_drake.systems.scalar_ops import SYMBOLIC
+    n = params.n
+    tau = [symbolic.Variable(f"applied_joint_torque_{k}") for k in range(n)]
+    qd = [symbolic.Variable(f"joint_velocity_{k}") for k in range(n)]
+    rows = [motor_inverse(t, w, j, SYMBOLIC) for t, w, j in zip(tau, qd, motor_joints(params))]
+    x = tau + qd
+    laws = {name: (x, [row[k] for row in rows]) for name, k in (
+        ("voltage", 0), ("current", 1), ("motor_torque", 2), ("electrical_power", 3))}
+    return _laws_diagram("applied_motor_signals", ("applied_joint_torque", "joint_velocity"), n, laws,
+                         host_has_continuous_state, pass_through_first="joint_torque")

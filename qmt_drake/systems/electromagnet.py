@@ -33,9 +33,9 @@ entry, and runs as Drake primitives (no Python per step):
         ... -> Demultiplexer -> attraction_force, gap; MatrixGain (pull -> joint z entry) -> generalized_force
 
 `pull_N` is the one implementation of the formula: MagnetParams.force_N evaluates it on floats,
-ElectromagnetForce on drake symbolic Expressions (compiled once, evaluated in C++).
+electromagnet_force on drake symbolic Expressions (compiled once, evaluated in C++).
 
-Ports of ElectromagnetForce (a Diagram)
+Ports of electromagnet_force's Diagram
     inputs
         plant_state       (nq + nv,) MultibodyPlant.get_state_output_port() of the plant holding the joint
         coil_current      (1,) [A]
@@ -52,8 +52,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake import symbolic
-from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer, MatrixGain, Multiplexer, SymbolicVectorSystem
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Demultiplexer, MatrixGain, Multiplexer
+
+from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
 MU0 = 4e-7 * math.pi
 
@@ -95,43 +97,15 @@ class MagnetParams:
         return math.sqrt(2.0 * force_N / (MU0 * self.coil.core_area_m2)) * self.effective_gap_m / self.coil.turns
 
 
-class _FloatOps:
-    """`pull_N` on floats: a branch is evaluated only when taken (the area formula divides by d)."""
-
-    sqrt, acos = staticmethod(math.sqrt), staticmethod(math.acos)
-
-    @staticmethod
-    def where(condition, then_value, else_value):
-        return then_value() if condition else else_value()
-
-    @staticmethod
-    def clip(v, lo, hi):
-        return min(max(v, lo), hi)
-
-
-class _SymbolicOps:
-    """`pull_N` on drake symbolic Expressions: both branches are built, if_then_else picks at evaluation."""
-
-    sqrt, acos = staticmethod(symbolic.sqrt), staticmethod(symbolic.acos)
-
-    @staticmethod
-    def where(condition, then_value, else_value):
-        return symbolic.if_then_else(condition, then_value(), else_value())
-
-    @staticmethod
-    def clip(v, lo, hi):
-        return symbolic.min(symbolic.max(v, lo), hi)
-
-
-def pull_N(params: MagnetParams, current_A, gap_m, slide_m, ops=_FloatOps):
+def pull_N(params: MagnetParams, current_A, gap_m, slide_m, ops=FLOAT):
     """F(I, g, d) of the module docstring [N]: current [A], gap g >= 0 [m], slide d >= 0 [m], as
-    floats or (ops=_SymbolicOps) drake symbolic Expressions."""
+    floats or (ops=SYMBOLIC) drake symbolic Expressions (systems.scalar_ops)."""
     coil = params.coil
     full = MU0 * coil.core_area_m2 * (coil.turns * current_A) ** 2 / (2.0 * (gap_m + params.effective_gap_m) ** 2)
     return full * covered_fraction(slide_m, coil.core_diameter_m / 2, params.payload_face_radius_m, ops)
 
 
-def covered_fraction(d, a: float, b: float, ops=_FloatOps):
+def covered_fraction(d, a: float, b: float, ops=FLOAT):
     """Fraction of a disc of radius a [m] covered by a disc of radius b [m] at centre distance d >= 0 [m]."""
     inside = 1.0 if b >= a else (b / a) ** 2
 
@@ -154,43 +128,40 @@ def payload_translation_indices(payload_joint) -> list[int]:
     return [start + 4, start + 5, start + 6]  # positions: quaternion (w, x, y, z), then translation
 
 
-class ElectromagnetForce(Diagram):
-    """Pull of the hand's electromagnet on the payload hanging on the hand by `payload_joint`;
-    see the module docstring for the model, the wiring and the ports. Needs a finalised plant.
+def electromagnet_force(params: MagnetParams, plant, payload_joint, *, host_has_continuous_state: bool = False):
+    """The pull of the hand's electromagnet on the payload hanging on the hand by `payload_joint`, as
+    a Diagram of Drake primitives (a plain Diagram, not a Python subclass: pydrake 1.51 never frees a
+    diagram holding a Python-derived system); see the module docstring for the model, the wiring and
+    the ports. Needs a finalised plant.
 
-    host_has_continuous_state: pass True when the diagram this goes into has continuous state (an
-    integrator, a PidController, motors with inductance). Drake 1.51's SymbolicVectorSystem without
-    state aborts when a simulator asks every subsystem for time derivatives ("dynamics_.size() > 0"
-    failed); True gives the law one constant continuous state (d/dt = 0) so it can answer."""
+    host_has_continuous_state: pass True when the diagram this goes into has continuous state
+    (see scalar_ops.symbolic_law: Drake 1.51 aborts otherwise)."""
 
-    def __init__(self, params: MagnetParams, plant, payload_joint, *, host_has_continuous_state: bool = False):
-        super().__init__()
-        self.params = params
-        nq, nv = plant.num_positions(), plant.num_velocities()
-        pick = np.zeros((3, nq + nv))
-        pick[[0, 1, 2], payload_translation_indices(payload_joint)] = 1.0
-        x, y, z, current = (symbolic.Variable(v) for v in ("x", "y", "z", "current"))
-        gap = symbolic.if_then_else(z < 0.0, -z, 0.0)
-        pull = pull_N(params, current, gap, symbolic.sqrt(x * x + y * y), _SymbolicOps)
-        on_joint = np.zeros((nv, 1))
-        on_joint[payload_joint.velocity_start() + 5, 0] = 1.0  # velocities: angular (3), then translational
+    nq, nv = plant.num_positions(), plant.num_velocities()
+    pick = np.zeros((3, nq + nv))
+    pick[[0, 1, 2], payload_translation_indices(payload_joint)] = 1.0
+    x, y, z, current = (symbolic.Variable(v) for v in ("x", "y", "z", "current"))
+    gap = symbolic.if_then_else(z < 0.0, -z, 0.0)
+    pull = pull_N(params, current, gap, symbolic.sqrt(x * x + y * y), SYMBOLIC)
+    on_joint = np.zeros((nv, 1))
+    on_joint[payload_joint.velocity_start() + 5, 0] = 1.0  # velocities: angular (3), then translational
 
-        b = DiagramBuilder()
-        select = b.AddNamedSystem("payload_translation", MatrixGain(pick))
-        inputs = b.AddNamedSystem("inputs", Multiplexer([3, 1]))
-        idle = [symbolic.Variable("idle")] if host_has_continuous_state else []
-        law = b.AddNamedSystem("pull_law", SymbolicVectorSystem(state=idle, dynamics=[symbolic.Expression(0.0)] * len(idle),
-                                                                input=[x, y, z, current], output=[pull, gap]))
-        split = b.AddNamedSystem("pull_and_gap", Demultiplexer(2, 1))
-        to_joint = b.AddNamedSystem("on_joint", MatrixGain(on_joint))
-        b.Connect(select.get_output_port(), inputs.get_input_port(0))
-        b.Connect(inputs.get_output_port(), law.get_input_port())
-        b.Connect(law.get_output_port(), split.get_input_port())
-        b.Connect(split.get_output_port(0), to_joint.get_input_port())
-        b.ExportInput(select.get_input_port(), "plant_state")
-        b.ExportInput(inputs.get_input_port(1), "coil_current")
-        b.ExportOutput(to_joint.get_output_port(), "generalized_force")
-        b.ExportOutput(split.get_output_port(0), "attraction_force")
-        b.ExportOutput(split.get_output_port(1), "gap")
-        b.BuildInto(self)
-        self.set_name("magnet")
+    b = DiagramBuilder()
+    select = b.AddNamedSystem("payload_translation", MatrixGain(pick))
+    inputs = b.AddNamedSystem("inputs", Multiplexer([3, 1]))
+    law = b.AddNamedSystem("pull_law", symbolic_law([x, y, z, current], [pull, gap],
+                                                     host_has_continuous_state=host_has_continuous_state))
+    split = b.AddNamedSystem("pull_and_gap", Demultiplexer(2, 1))
+    to_joint = b.AddNamedSystem("on_joint", MatrixGain(on_joint))
+    b.Connect(select.get_output_port(), inputs.get_input_port(0))
+    b.Connect(inputs.get_output_port(), law.get_input_port())
+    b.Connect(law.get_output_port(), split.get_input_port())
+    b.Connect(split.get_output_port(0), to_joint.get_input_port())
+    b.ExportInput(select.get_input_port(), "plant_state")
+    b.ExportInput(inputs.get_input_port(1), "coil_current")
+    b.ExportOutput(to_joint.get_output_port(), "generalized_force")
+    b.ExportOutput(split.get_output_port(0), "attraction_force")
+    b.ExportOutput(split.get_output_port(1), "gap")
+    diagram = b.Build()
+    diagram.set_name("magnet")
+    return diagram

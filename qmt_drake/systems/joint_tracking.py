@@ -69,6 +69,8 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
+
 THESIS_DERIVATIVE_SAMPLE_S = 1e-3
 
 
@@ -158,43 +160,52 @@ class JointPidController(LeafSystem):
         discrete_state.get_mutable_vector(self._z).SetFromVector(np.where(pushing_out, z, z + self._Tc * e))
 
 
-def primitive_pd_controller(pid: JointPidController):
-    """`pid`'s law, u = PD (x_des - x) [+ Ke N qd_des] [+ tau_ff R / (N eta Kt)], v = clip(u, +-V_max),
-    as a Diagram of Drake primitives with JointPidController's port names (desired_state,
-    estimated_state[, feedforward_torque] -> voltage_command); None when pid has an integral term
-    (its anti-windup is a conditional update). Equal to pid's output up to rounding
-    (tests/test_systems_joint_tracking.py)."""
+def pd_voltage(pid: JointPidController, x_des, x, feedforward_torque=None, ops=FLOAT) -> list:
+    """`pid`'s law without the integral, per joint: v = clip(Kp N (q_des - q) + Kd N (qd_des - qd)
+    [+ Ke N qd_des] [+ tau_ff R / (N eta Kt)], +-V_max) [V]; x_des, x: the 2n desired / estimated
+    states (floats or drake symbolic Expressions with ops=SYMBOLIC, systems.scalar_ops)."""
+    n = pid._n
+    out = []
+    for k in range(n):
+        u = pid._pd_gain[k, k] * (x_des[k] - x[k]) + pid._pd_gain[k, n + k] * (x_des[n + k] - x[n + k])
+        if pid._ke is not None:
+            u = u + pid._ke[k] * x_des[n + k]
+        if pid._v_per_Nm is not None:
+            u = u + pid._v_per_Nm[k] * feedforward_torque[k]
+        out.append(ops.clip(u, -pid._Vmax[k], pid._Vmax[k]))
+    return out
+
+
+def pd_law_inputs(pid: JointPidController):
+    """Symbolic variables of the PD law's inputs: (x_des (2n), x (2n), feedforward torque (n) or None)."""
+    from pydrake import symbolic
+    n = pid._n
+    x_des = [symbolic.Variable(f"desired_state_{k}") for k in range(2 * n)]
+    x = [symbolic.Variable(f"estimated_state_{k}") for k in range(2 * n)]
+    ff = [symbolic.Variable(f"feedforward_torque_{k}") for k in range(n)] if pid._v_per_Nm is not None else None
+    return x_des, x, ff
+
+
+def primitive_pd_controller(pid: JointPidController, *, host_has_continuous_state: bool = False):
+    """`pid`'s law (`pd_voltage`) compiled into a SymbolicVectorSystem, as a Diagram with
+    JointPidController's port names (desired_state, estimated_state[, feedforward_torque] ->
+    voltage_command); None when pid has an integral term (its anti-windup is a conditional update).
+    Equal to pid's output up to rounding (tests/test_cosim.py)."""
     from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Adder, MatrixGain, Saturation
+    from pydrake.systems.primitives import Multiplexer
     if pid._has_integral:
         return None
     n = pid._n
+    x_des, x, ff = pd_law_inputs(pid)
     b = DiagramBuilder()
-    # The Python law's order of operations (err = x_des - x, then PD err, then each feedforward
-    # added): the same rounding, which matters where a motor starts from rest (dc_motor's
-    # motoring / back-driven switch at qd = 0 sees the sign of a 1e-21 residue).
-    neg = b.AddNamedSystem("minus_estimated", MatrixGain(-np.eye(2 * n)))
-    err = b.AddNamedSystem("error", Adder(2, 2 * n))
-    pd = b.AddNamedSystem("pd", MatrixGain(pid._pd_gain))
-    terms = [pd.get_output_port()]
-    b.Connect(neg.get_output_port(), err.get_input_port(1))
-    b.Connect(err.get_output_port(), pd.get_input_port())
-    b.ExportInput(err.get_input_port(0), "desired_state")
-    b.ExportInput(neg.get_input_port(), "estimated_state")
-    if pid._ke is not None:  # back-EMF feedforward Ke N qd_des
-        emf = b.AddNamedSystem("back_emf_feedforward", MatrixGain(np.hstack([np.zeros((n, n)), np.diag(pid._ke)])))
-        b.ConnectInput("desired_state", emf.get_input_port())
-        terms.append(emf.get_output_port())
-    if pid._v_per_Nm is not None:
-        ff = b.AddNamedSystem("torque_feedforward", MatrixGain(np.diag(pid._v_per_Nm)))
-        b.ExportInput(ff.get_input_port(), "feedforward_torque")
-        terms.append(ff.get_output_port())
-    add = b.AddNamedSystem("sum", Adder(len(terms), n))
-    for k, port in enumerate(terms):
-        b.Connect(port, add.get_input_port(k))
-    sat = b.AddNamedSystem("voltage_limit", Saturation(-pid._Vmax, pid._Vmax))
-    b.Connect(add.get_output_port(), sat.get_input_port())
-    b.ExportOutput(sat.get_output_port(), "voltage_command")
+    widths = [2 * n, 2 * n] + ([n] if ff is not None else [])
+    inputs = b.AddNamedSystem("inputs", Multiplexer(widths))
+    law = b.AddNamedSystem("pd", symbolic_law(x_des + x + (ff or []), pd_voltage(pid, x_des, x, ff, SYMBOLIC),
+                                              host_has_continuous_state=host_has_continuous_state))
+    b.Connect(inputs.get_output_port(), law.get_input_port())
+    for k, name in enumerate(("desired_state", "estimated_state", "feedforward_torque")[:len(widths)]):
+        b.ExportInput(inputs.get_input_port(k), name)
+    b.ExportOutput(law.get_output_port(), "voltage_command")
     d = b.Build()
     d.set_name("pd_controller")
     return d

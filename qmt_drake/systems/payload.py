@@ -14,7 +14,7 @@ Not a LeafSystem: `add_payload` adds to a MultibodyPlant (before Finalize)
     shows as a slip drift (with the part floating in the world frame the held ch.4 move "slipped"
     0.67 mm at 2 ms and 0.35 mm at 1 ms, in proportion to the step; relative: 0.035 mm at every
     step from 2 to 0.25 ms, which is the part's real creep); and the magnet's pull becomes a
-    generalized force on the joint computed by Drake primitives (`electromagnet.ElectromagnetForce`).
+    generalized force on the joint computed by Drake primitives (`electromagnet.electromagnet_force`).
     The hand and the part still collide: Drake filters collisions between the bodies of a joint,
     but not across a floating joint, and `allow_hand_contact` declares the pair explicitly after
     Finalize (tests/test_systems_payload.py checks it). attach_to_hand=False adds a body floating
@@ -44,7 +44,6 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.geometry import Box, Cylinder, ProximityProperties, Sphere
 from pydrake.geometry import AddContactMaterial
-from scipy.spatial.transform import Rotation
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import QuaternionFloatingJoint, SpatialInertia, UnitInertia
@@ -157,16 +156,6 @@ def payload_joint(plant, payload_body):
             return joint
     raise ValueError(f"payload '{payload_body.name()}' has no 6-DOF joint to the hand; add it with "
                      "add_payload(..., attach_to_hand=True)")
-
-
-def pose_matrices(joint_positions) -> np.ndarray:
-    """X_HP as (K, 3, 4) arrays [R | p] from (K, 7) payload-joint positions (quaternion w, x, y, z
-    (normalised here, as Drake's mobilizer does), then p_HP [m]); scipy's rotation conversion."""
-    q = np.asarray(joint_positions, float).reshape(-1, 7)
-    M = np.empty((len(q), 3, 4))
-    M[:, :, :3] = Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix()
-    M[:, :, 3] = q[:, 4:]
-    return M
 
 
 def allow_hand_contact(plant, scene_graph, hand_body, payload_body) -> None:

@@ -48,9 +48,63 @@ from pydrake.math import RigidTransform
 from pydrake.systems.framework import LeafSystem
 
 from qmt_drake.errors import QmtSimulationError
+from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
 SUMMARY_FIELDS = ("max_slip_m", "max_tilt_rad", "detached_at_s", "max_tracking_error_rad", "energy_J",
                   "max_gap_m")
+DETACH_GAP_M = 2e-3  # a payload is detached once its gap exceeds this [m] ...
+DETACH_SLIP_M = 5e-3  # ... or its slip this [m]
+
+
+def motion_from_joint(q, ops=FLOAT):
+    """(slip [m], tilt [rad], gap [m]) of a payload seated at the identity of its 6-DOF joint to the
+    hand (payload.add_payload), from the joint's positions q = (w, x, y, z, px, py, pz): quaternion
+    (any norm; it cancels), then p_HP [m]. tilt = atan2(|z_P x z_H|, z_P . z_H) with z_P's components
+    in H (twice the quaternion's rotation of e_z, times |q|^2). Floats, numpy arrays (ops=NUMPY, q as
+    seven arrays) or drake symbolic Expressions (ops=SYMBOLIC); the same quantities `motion_in_hand`
+    computes from poses."""
+    w, x, y, z, px, py, pz = q
+    zx, zy = x * z + w * y, y * z - w * x  # in-plane components of z_P (halved)
+    tilt = ops.atan2(2.0 * ops.sqrt(zx * zx + zy * zy), w * w - x * x - y * y + z * z)
+    return ops.sqrt(px * px + py * py), tilt, ops.clip(-pz, 0.0, math.inf)
+
+
+SEATED_TOLERANCE_M, SEATED_TOLERANCE_RAD = 1e-4, 1e-2
+
+
+def check_seated(slip_m: float, tilt_rad: float, gap_m: float, t_s: float, tol_m: float = SEATED_TOLERANCE_M,
+                 tol_rad: float = SEATED_TOLERANCE_RAD) -> None:
+    """One-line QmtSimulationError when the payload is not seated at the start (module docstring)."""
+    if slip_m > tol_m or gap_m > tol_m or tilt_rad > tol_rad:
+        raise QmtSimulationError(
+            f"payload not seated on the hand at t = {t_s:g} s (slip {slip_m * 1e3:.3g} mm, "
+            f"gap {gap_m * 1e3 + 0.0:.3g} mm, tilt {tilt_rad:.3g} rad); start from the diagram's default context or "
+            "call TransferDiagram.set_initial_state")
+
+
+def payload_motion_as_primitives(plant, payload_joint, *, host_has_continuous_state: bool = False):
+    """slip, tilt and gap (`motion_from_joint`) of the payload on `payload_joint` as a Diagram of Drake
+    primitives: input plant_state (nq + nv) of the finalised plant; outputs slip (1) [m], tilt (1)
+    [rad], gap (1) [m]. host_has_continuous_state: see scalar_ops.symbolic_law."""
+    from pydrake import symbolic
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import Demultiplexer, MatrixGain
+    q = [symbolic.Variable(v) for v in ("w", "x", "y", "z", "px", "py", "pz")]
+    pick = np.zeros((7, plant.num_positions() + plant.num_velocities()))
+    pick[np.arange(7), payload_joint.position_start() + np.arange(7)] = 1.0
+    b = DiagramBuilder()
+    select = b.AddNamedSystem("payload_pose", MatrixGain(pick))
+    law = b.AddNamedSystem("motion", symbolic_law(q, list(motion_from_joint(q, SYMBOLIC)),
+                                                  host_has_continuous_state=host_has_continuous_state))
+    split = b.AddNamedSystem("split", Demultiplexer(3, 1))
+    b.Connect(select.get_output_port(), law.get_input_port())
+    b.Connect(law.get_output_port(), split.get_input_port())
+    b.ExportInput(select.get_input_port(), "plant_state")
+    for k, name in enumerate(("slip", "tilt", "gap")):
+        b.ExportOutput(split.get_output_port(k), name)
+    diagram = b.Build()
+    diagram.set_name("payload_motion")
+    return diagram
 
 
 def relative_payload_motion(X_WH: RigidTransform, X_WP: RigidTransform, X_HP0: RigidTransform):
@@ -82,9 +136,9 @@ class TransferMonitor(LeafSystem):
     """See the module docstring for quantities, ports and units."""
 
     def __init__(self, n_joints: int, hand_body_index, payload_body_index, *, period_s: float | None = 1e-3,
-                 seated_pose_in_hand: RigidTransform | None = None, detach_gap_m: float = 2e-3,
-                 detach_slip_m: float = 5e-3, check_seated_at_start: bool = True,
-                 seated_tolerance_m: float = 1e-4, seated_tolerance_rad: float = 1e-2):
+                 seated_pose_in_hand: RigidTransform | None = None, detach_gap_m: float = DETACH_GAP_M,
+                 detach_slip_m: float = DETACH_SLIP_M, check_seated_at_start: bool = True,
+                 seated_tolerance_m: float = SEATED_TOLERANCE_M, seated_tolerance_rad: float = SEATED_TOLERANCE_RAD):
         super().__init__()
         n = n_joints
         self._n = n
@@ -132,13 +186,7 @@ class TransferMonitor(LeafSystem):
                                self._p_HP0, self._z_HP0)
 
     def _check_seated(self, context, discrete_state):
-        slip, tilt, gap = self._motion(context)
-        tol_m, tol_rad = self._seat_tol
-        if slip > tol_m or gap > tol_m or tilt > tol_rad:
-            raise QmtSimulationError(
-                f"payload not seated on the hand at t = {context.get_time():g} s (slip {slip * 1e3:.3g} mm, "
-                f"gap {gap * 1e3 + 0.0:.3g} mm, tilt {tilt:.3g} rad); start from the diagram's default context or "
-                "call TransferDiagram.set_initial_state")
+        check_seated(*self._motion(context), context.get_time(), *self._seat_tol)
         discrete_state.set_value(self._s, context.get_discrete_state(self._s).get_value())
 
     def _update(self, context, discrete_state):
