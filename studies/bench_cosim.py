@@ -11,9 +11,9 @@ explicitly at 0.25 ms: held or not, slip, tracking error, peak motor torques.
     their current limits and shake the part off), so 1 ms is its largest usable step.
   * implicit loop damping (the default, cosim.add_implicit_damping_actuation): the loop's velocity
     feedback is stepped implicitly by the plant; stable at 2-4 ms with the same motion and motor
-    torques. What limits the step is the drift of held parts in the first-order discrete step,
-    which grows in proportion to the step (0.35 mm at 1 ms, 0.67 mm at 2 ms, 1.3 mm at 4 ms for
-    this move against the 1 mm 'held' line; studies/contact_drift.py): 2 ms is the default.
+    torques. With the payload's coordinates relative to the hand a held part no longer drifts with
+    the step (studies/contact_drift.py); what limits the step is the accuracy of the motor torques
+    and energy against the 0.25 ms reference (the table's last columns): 2 ms is the default.
 
 Writes out/bench_cosim.json. Run: .venv/bin/python -m studies.bench_cosim [--repeats 5]
 """

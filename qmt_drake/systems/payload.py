@@ -147,24 +147,34 @@ def add_payload(plant, spec: PayloadSpec, hand_body, *, name: str = "payload", m
     return body
 
 
-def payload_joint(plant, payload_body):
-    """The payload's 6-DOF joint to the hand (`add_payload`); ValueError if it has none."""
-    for index in plant.GetJointIndices(payload_body.model_instance()):
+def six_dof_joint_of(plant, body):
+    """The QuaternionFloatingJoint that connects `body` to another body (not the world); ValueError if none."""
+    for index in plant.GetJointIndices(body.model_instance()):
         joint = plant.get_joint(index)
-        if joint.child_body().index() == payload_body.index() and joint.type_name() == "quaternion_floating" \
+        if joint.child_body().index() == body.index() and joint.type_name() == "quaternion_floating" \
                 and joint.parent_body().index() != plant.world_body().index():
             return joint
-    raise ValueError(f"payload '{payload_body.name()}' has no 6-DOF joint to the hand; add it with "
-                     "add_payload(..., attach_to_hand=True)")
+    raise ValueError(f"body '{body.name()}' has no 6-DOF joint to a carrying body; add it with "
+                     "add_payload(..., attach_to_hand=True) (add_bottle(..., tray_body=tray))")
+
+
+def payload_joint(plant, payload_body):
+    """The payload's 6-DOF joint to the hand (`add_payload`); ValueError if it has none."""
+    return six_dof_joint_of(plant, payload_body)
+
+
+def allow_contact(plant, scene_graph, body_a, body_b) -> None:
+    """After Finalize: make sure the two bodies' collision geometries may collide (Drake's filter
+    between a joint's bodies must not hide the contact of a carried part with its carrier)."""
+    from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+    a = GeometrySet(plant.GetCollisionGeometriesForBody(body_a))
+    b = GeometrySet(plant.GetCollisionGeometriesForBody(body_b))
+    scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().AllowBetween(a, b))
 
 
 def allow_hand_contact(plant, scene_graph, hand_body, payload_body) -> None:
-    """After Finalize: make sure the hand's and the payload's collision geometries may collide
-    (Drake's filter between a joint's bodies must not hide the face contact)."""
-    from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
-    hand = GeometrySet(plant.GetCollisionGeometriesForBody(hand_body))
-    part = GeometrySet(plant.GetCollisionGeometriesForBody(payload_body))
-    scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().AllowBetween(hand, part))
+    """allow_contact for the hand's face and the payload."""
+    allow_contact(plant, scene_graph, hand_body, payload_body)
 
 
 def seated_pose_in_hand() -> RigidTransform:

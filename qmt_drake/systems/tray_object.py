@@ -140,10 +140,18 @@ def add_tray_contact(plant, tray_body, spec: BottleSpec, size_m=TRAY_SIZE_M) -> 
                                     _proximity(spec))
 
 
-def add_bottle(plant, spec: BottleSpec, name: str = "bottle"):
-    """The bottle as a free body with its contact ring and a visual; returns the RigidBody."""
+def add_bottle(plant, spec: BottleSpec, name: str = "bottle", *, tray_body=None):
+    """The bottle, free to move, with its contact ring and a visual; returns the RigidBody. With
+    tray_body its six degrees of freedom are a QuaternionFloatingJoint from the tray frame T
+    ("<name>_on_tray"): its coordinates are its pose on the tray, so a bottle at rest on a moving
+    tray is at rest in them and the first-order discrete step adds no drift to its slide (see
+    systems/payload.py, which measured it for the magnet hand's part); without, it floats in the
+    world frame (a tray welded to the world, as in tests/test_tray_object.py, is the same)."""
+    from pydrake.multibody.tree import QuaternionFloatingJoint
     instance = plant.AddModelInstance(name)
     body = plant.AddRigidBody(name, instance, spec.spatial_inertia())
+    if tray_body is not None:
+        plant.AddJoint(QuaternionFloatingJoint(f"{name}_on_tray", tray_body.body_frame(), body.body_frame()))
     props = _proximity(spec)
     for k in range(spec.n_contact_points):
         a = 2.0 * math.pi * k / spec.n_contact_points

@@ -2,7 +2,7 @@
 
     goal stream (GoalSchedule, zero-order hold) --goal_position--> DynamixelPositionServo (firmware PID,
         sampled) --voltage_command--> DcMotorWithGear (datasheet XM540-W270 / XM430-W350)
-        --joint_torque--> MultibodyPlant(CRANE-X7 planar arm + tray, free bottle; discrete, SAP lagged,
+        --joint_torque--> MultibodyPlant(CRANE-X7 planar arm + tray, bottle on its 6-DOF joint to the tray; discrete, SAP lagged,
         point contact) --> TrayBottleMonitor (slide, tilt, lift-off, contact force)
 
 The motors drive the plant explicitly (their back-EMF damping b = eta Ke^2 / R, 3.4 / 0.85 N m s/rad,
@@ -36,6 +36,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from qmt_drake.config.scenario import MODELS_DIR
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import DcMotorWithGear
+from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.dynamixel_servo import (CONTROL_PERIOD_S, CRANE_X7_PLANAR_SERVOS, DynamixelPositionServo,
                                                ServoGains, motor_params)
 from qmt_drake.systems.tray_object import (TRAY_SIZE_M, BottleSpec, TrayBottleMonitor, add_bottle, add_tray_contact,
@@ -102,10 +103,12 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     arm = Parser(plant).AddModels(str(URDF_PATH))[0]
     tray = plant.GetBodyByName("tray", arm)
     add_tray_contact(plant, tray, bottle)
-    bottle_body = add_bottle(plant, bottle)
+    bottle_body = add_bottle(plant, bottle, tray_body=tray)
     plant.Finalize()
+    allow_contact(plant, scene_graph, tray, bottle_body)
     n = 3
     X_TB0 = seated_pose_on_tray(bottle_offset_xy)
+    bottle_joint(plant, bottle_body).SetDefaultPose(X_TB0)
 
     goal = builder.AddNamedSystem("goal_stream", TrajectorySource(_goal_trajectory(schedule)))
     servo = builder.AddNamedSystem("servos", DynamixelPositionServo(CRANE_X7_PLANAR_SERVOS, gains,
@@ -189,6 +192,11 @@ def holding_torque_Nm(plant, ctx, arm, tray_body, bottle_body, bottle: BottleSpe
     return tau + J.T @ np.array([0.0, 0.0, bottle.mass_kg * 9.81])
 
 
+def bottle_joint(plant, bottle_body):
+    """The bottle's 6-DOF joint to the tray (add_bottle with tray_body)."""
+    return six_dof_joint_of(plant, bottle_body)
+
+
 def set_initial_state(td: TrayDiagram, root_context) -> None:
     """Arm and servos in static equilibrium at the first goal (P-only: the sag that balances
     gravity; with I: the integral carries the load, no error), bottle seated, all at rest: the
@@ -208,8 +216,10 @@ def set_initial_state(td: TrayDiagram, root_context) -> None:
         q = goal - e / PULSES_PER_RAD
     plant.SetPositions(ctx, td.arm, q)
     plant.SetVelocities(ctx, td.arm, np.zeros(3))
-    X_WT = plant.EvalBodyPoseInWorld(ctx, td.tray_body)
-    plant.SetFreeBodyPose(ctx, td.bottle_body, X_WT.multiply(td.X_TB0))
+    joint = bottle_joint(plant, td.bottle_body)
+    joint.SetPose(ctx, td.X_TB0)
+    joint.set_angular_velocity(ctx, np.zeros(3))
+    joint.set_translational_velocity(ctx, np.zeros(3))
     integral = np.where(kpi > 0, pwm / np.where(kpi > 0, kpi, 1.0), 0.0)
     td.servo.GetMyMutableContextFromRoot(root_context).SetDiscreteState(
         np.concatenate([integral, np.round(e), pwm]))
