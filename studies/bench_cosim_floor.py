@@ -10,7 +10,8 @@ and what a sweep gains from a second worker (issue 13 item 5).
              run, its cost included; no 5 ms series), run by sim.run_diagram (its seated check,
              per-chunk checks and summary included);
      ours, simulation only = the same diagram advanced by the floor's loop (no checks, no summary);
-     ours, per-step monitor = the Python TransferMonitor and the Python PID called every step;
+     ours, per-step monitor = the Python TransferMonitor and the Python PID called every step
+             (after all the others, repeats // 3 times: see cost_ratio);
      floor = Drake primitives only, around the SAME plant (sim.add_transfer_plant: arm URDF +
              payload on its joint, eight contact spheres, kLagged contact, the same joint damping D
              stepped implicitly, the same 2 ms step): TrajectorySource -> two MatrixGains + Adder
@@ -22,7 +23,7 @@ and what a sweep gains from a second worker (issue 13 item 5).
              session 5; its pull as spatial forces), for the record;
      floor + our magnet = the floor with our electromagnet in place of the constant pull.
    Every diagram is built afresh for each repeat (as a sweep case is) and all are simulated
-   `--repeats` times alternately; each run's wall and CPU time is kept; ratio = median(ours) /
+   `--repeats` times alternately, their order rotating from repeat to repeat; each run's wall and CPU time is kept; ratio = median(ours) /
    median(floor). Target <= 1.3. os.getloadavg() is recorded before and after (the machine is
    shared: only ratios measured side by side mean anything).
 2. Sweep throughput: the same 2 x `--sweep-cases` real ch.4 cases (thesis and GA-free family
@@ -32,7 +33,7 @@ and what a sweep gains from a second worker (issue 13 item 5).
    shared: os.getloadavg() before each run is recorded.
 
 Writes OUT/bench_cosim_floor.json atomically. Run:
-  .venv/bin/python -m studies.bench_cosim_floor [--repeats 7] [--sweep-cases 24]
+  .venv/bin/python -m studies.bench_cosim_floor [--repeats 10] [--sweep-cases 120]
 """
 
 from __future__ import annotations
@@ -157,10 +158,11 @@ def build_floor(sc, plan, time_step_s: float, *, our_magnet: bool = False, our_m
                                 pull_N=f0, coil_current_A=current)
 
 
-def run_floor(diagram, plant, h, chunk_s: float = 0.05):
-    """Simulate the floor to its end in the same 50 ms chunks as cosim.run_diagram; returns
+def run_floor(diagram, plant, h, chunk_s: float = 0.25):
+    """Simulate the floor to its end in the same 250 ms chunks as sim.run_diagram; returns
     (wall s, cpu s, final payload offset from the face centre [m])."""
     from pydrake.systems.analysis import Simulator
+    gc.collect(1)  # as run_diagram does before a run: earlier diagrams' reference cycles freed
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()
     h["init"](ctx)
@@ -212,21 +214,36 @@ def cost_ratio(repeats: int, time_step_s: float) -> dict:
         record(key, w, c)
         return hh, off
 
-    for _ in range(repeats):
+    def run_ours():
         td, summary, wall = ours(True, "ours")
         held.append(make_result(sc, plan, td, summary, wall, 1.0, {}).held)
         t0 = time.perf_counter()
         td.summary(td.simulator.get_context())  # what computing the summary from the logs costs
         posthoc_s.append(time.perf_counter() - t0)
-        h, off = floor("floor")
-        offsets.append(off)
+
+    def run_floor_row():
+        offsets.append(floor("floor")[1])
+
+    def run_ours_simulation_only():
         td = build_transfer_diagram(sc, plan, time_step_s=time_step_s, log_period_s=0, step_logs=True)
         w, c, _ = run_floor(td.diagram, td.plant, dict(init=lambda ctx: None, t_final=td.t_final_s,
                                                        hand=td.hand_body, payload=td.payload_body))
         record("ours_simulation_only", w, c)
-        floor("floor_previous_plant", free_payload=True)
+
+    # The order rotates from repeat to repeat: a run's cost depends a little on what ran before it
+    # in the process, so every configuration takes every position equally often when repeats is a
+    # multiple of their number. (Before run_diagram collected the young garbage generations before
+    # each run, every configuration slowed by 30-50% over this loop: uncollected diagrams.) The per-step Python monitor runs after them all: its
+    # diagrams hold Python systems, which pydrake never frees (README), and the memory they pin
+    # slowed every later run of the process by up to 50% when it ran among them.
+    rows = [run_ours, run_floor_row, run_ours_simulation_only, lambda: floor("floor_previous_plant", free_payload=True),
+            lambda: floor("floor_our_magnet", our_magnet=True)]
+    for r in range(repeats):
+        for row in rows[r % len(rows):] + rows[:r % len(rows)]:
+            row()
+    for _ in range(max(1, repeats // 3)):
         ours(False, "ours_per_step_monitor")
-        floor("floor_our_magnet", our_magnet=True)
+    h = build_floor(sc, plan, time_step_s)[2]
     steps = h["t_final"] / time_step_s
     med = lambda x: float(np.median(x))  # noqa: E731
     fw, fc = med(runs["floor"]["wall"]), med(runs["floor"]["cpu"])
@@ -267,8 +284,10 @@ def throughput(cases: int, workers_list=(1, 2)) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=7)
-    ap.add_argument("--sweep-cases", type=int, default=24, help="0: skip the throughput part")
+    ap.add_argument("--repeats", type=int, default=10, help="best a multiple of 5 (the configurations rotate)")
+    ap.add_argument("--sweep-cases", type=int, default=120,
+                    help="0: skip the throughput part. A case takes ~0.15 s: with fewer than ~100 the ratio "
+                         "measures the sweep's start and tail more than its throughput")
     ap.add_argument("--time-step-ms", type=float, default=2.0)
     ap.add_argument("--out", default=str(ROOT / "out"))
     a = ap.parse_args(argv)

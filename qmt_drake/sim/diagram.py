@@ -20,9 +20,8 @@ Everything about the hand, the motors and the payload comes from the scenario's 
 With actuator.kind 'ideal' the PID and the motors are replaced by a joint-side PD torque source
 (`add_ideal_torque_actuation`; control.kp/kd in N*m/rad, N*m*s/rad), its damping stepped implicitly.
 
-Held payloads show a drift of the first-order discrete step as slip; it grows in proportion to the
-plant step and does not depend on friction or contact stiffness (ch.4 GA move: 0.35 mm at 1 ms,
-0.67 mm at 2 ms; studies/contact_drift.py).
+The payload's coordinates are its pose in the hand frame (systems/payload.py): a held part creeps
+only by friction (ch.4 GA move: 0.035 mm at 0.5-2 ms; studies/contact_drift.py).
 """
 
 from __future__ import annotations

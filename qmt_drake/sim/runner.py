@@ -82,13 +82,18 @@ def planned_peak_motor_torque_Nm(scenario, plan, time_scale: float = 1.0, rate_h
     return np.max(np.abs(tau), axis=0)
 
 
-def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.05, max_tracking_error_rad: float = 0.5,
+def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.25, max_tracking_error_rad: float = 0.5,
                 on_start=None) -> tuple[np.ndarray, float]:
     """Simulate from the diagram's default context (the plan's start, payload seated) to
     td.t_final_s; returns (monitor summary, wall seconds). Raises QmtSimulationError naming the
     failure time when the state becomes non-finite, Drake's solver fails, or the arm leaves its
     reference by more than max_tracking_error_rad (an unstable loop: the voltage limit keeps the
     state finite, so this is how divergence shows)."""
+    # Free the reference cycles of earlier diagrams (pydrake's port <-> system cycles) before this
+    # run allocates: left to the automatic collector they piled up in a long-lived process and
+    # slowed every later run by up to 50% (studies/bench_cosim_floor.py). The young generations
+    # hold them; collecting those costs ~1.5 ms.
+    gc.collect(1)
     sim = Simulator(td.diagram)
     ctx = sim.get_mutable_context()
     if td.monitor is None:  # no Python monitor in the diagram to check the seated start at Initialize

@@ -230,10 +230,10 @@ def plan_fastest_carried_converged(scenario, method: str = "ruckig", *,
     At a step h the search ends with a bracket: the chosen (carried) plan and its lost neighbour
     (rel_tol faster). Both are co-simulated again at h/2; if both verdicts stay the same, h's
     verdict is converged at this bracket and the plan is returned. Otherwise the search is repeated
-    at the next (finer) step of steps_s. Why: a held part drifts on the hand by ~h x (hand
-    acceleration) per second with the first-order step (studies/contact_drift.py), so at a coarse
-    step the 1 mm 'held' line can be crossed by the step's drift alone; the 1 mm line itself is not
-    changed. The result's extra['carried_search']['convergence'] lists every step tried with the
+    at the next (finer) step of steps_s. Why: near the limit a verdict can change with the step
+    (ch.2's jerk-limited line is lost at 2 ms and carried at 0.5 ms; session 5, with the part
+    floating in the world frame, also saw a step drift of held parts, since removed:
+    systems/payload.py); the 1 mm 'held' line itself is not changed. The result's extra['carried_search']['convergence'] lists every step tried with the
     re-simulated verdicts ('converged' False on the last step means no step in steps_s converged).
     A finer search starts from the coarser bracket's lost neighbour when that is carried at the
     finer step (as the lowest jerk limit / the largest time scale), not from the whole range."""

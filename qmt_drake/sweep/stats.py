@@ -49,8 +49,7 @@ def success_rows(results: list[dict], group_keys=("label",), confidence: float =
         row = dict(zip(group_keys, gk))
         row.update(n=n, carried=k, p=k / n, ci_low=lo, ci_high=hi, confidence=confidence,
                    sim_failed=sum(1 for r in rs if r.get("status") == "sim_failed"),
-                   # lost without detaching: slip >= 1 mm only (at a coarse step possibly the step's
-                   # drift, studies/contact_drift.py), told apart from real losses
+                   # lost without detaching (slip >= 1 mm only), told apart from parts that fell
                    detached=sum(1 for r in rs if r.get("detached_at_s") is not None),
                    lost_by_slip_only=sum(1 for r in rs if not r.get("held") and r.get("detached_at_s") is None
                                          and r.get("status") != "sim_failed"),
