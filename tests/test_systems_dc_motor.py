@@ -195,3 +195,35 @@ def test_smooth_efficiency_inverse_round_trips():
         np.testing.assert_allclose(v2, v, rtol=1e-10)
     with pytest.raises(ValueError):
         _params(efficiency=0.7).__class__(**{**_params().__dict__, "efficiency_blend_speed_rad_s": 0.0})
+
+
+@pytest.mark.parametrize("blend", [None, 0.05])
+def test_primitives_are_the_python_model(blend):
+    """dc_motors_as_primitives / applied_motor_signals_as_primitives (the same formulas compiled into
+    SymbolicVectorSystems) against DcMotorWithGear / motor_signals_from_joint_torque on random
+    inputs: saturated and not, motoring and back-driven."""
+    from qmt_drake.systems.dc_motor import (DcMotorWithGear, applied_motor_signals_as_primitives,
+                                            dc_motors_as_primitives, motor_signals_from_joint_torque)
+    p = DcMotorParams.from_datasheets([MOTOR_CATALOG["maxon_RE30_60W_24V"], MOTOR_CATALOG["maxon_RE25_20W_24V"]],
+                                      [100, 100])
+    p.efficiency_blend_speed_rad_s = blend
+    py, prim, inv = DcMotorWithGear(p), dc_motors_as_primitives(p), applied_motor_signals_as_primitives(p)
+    c1, c2, c3 = py.CreateDefaultContext(), prim.CreateDefaultContext(), inv.CreateDefaultContext()
+    rng = np.random.default_rng(5)
+    signs = set()
+    for _ in range(200):
+        v, qd, tau = rng.normal(size=2) * 20.0, rng.normal(size=2) * 0.5, rng.normal(size=2) * 2.0
+        for system, c in ((py, c1), (prim, c2)):
+            system.GetInputPort("voltage_command").FixValue(c, v)
+            system.GetInputPort("joint_velocity").FixValue(c, qd)
+        for name in ("joint_torque", "motor_torque", "current", "electrical_power"):
+            np.testing.assert_allclose(prim.GetOutputPort(name).Eval(c2), py.GetOutputPort(name).Eval(c1),
+                                       rtol=1e-13, atol=1e-15)
+        signs.add(tuple(np.sign(py.GetOutputPort("motor_torque").Eval(c1) * qd)))
+        inv.GetInputPort("applied_joint_torque").FixValue(c3, tau)
+        inv.GetInputPort("joint_velocity").FixValue(c3, qd)
+        expected = motor_signals_from_joint_torque(p, tau, qd)
+        for name, k in (("voltage", 0), ("current", 1), ("motor_torque", 2), ("electrical_power", 3)):
+            np.testing.assert_allclose(inv.GetOutputPort(name).Eval(c3), expected[k], rtol=1e-13, atol=1e-15)
+        np.testing.assert_array_equal(inv.GetOutputPort("joint_torque").Eval(c3), tau)
+    assert {1.0, -1.0} <= {s for pair in signs for s in pair}  # motoring and back-driven both seen

@@ -381,23 +381,30 @@ class DcMotorWithGear(LeafSystem):
         return self._signals(context)[k * n:(k + 1) * n]
 
 
-def _laws_diagram(name: str, input_names: tuple[str, str], n: int, laws: dict, host_has_continuous_state: bool,
-                  pass_through_first: str | None = None):
-    """A Diagram whose two (n,) inputs feed stateless symbolic laws {output name: (input variables,
-    output expressions)}; pass_through_first exports the first input again under that name."""
+def _per_joint_laws_diagram(name: str, params: DcMotorParams, law, input_names: tuple[str, str], outputs: dict,
+                            host_has_continuous_state: bool, pass_through_first: str | None = None):
+    """A Diagram of Drake primitives: its two (n,) inputs (input_names) feed, per joint, the scalar
+    law(input_0, input_1, MotorJoint, SYMBOLIC), whose results' entries outputs {port name: index}
+    are each compiled into their own stateless SymbolicVectorSystem (evaluating one output computes
+    nothing else); pass_through_first exports the first input again under that name."""
+    from pydrake import symbolic
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import Multiplexer, PassThrough
 
-    from qmt_drake.systems.scalar_ops import symbolic_law
+    from qmt_drake.systems.scalar_ops import SYMBOLIC, symbolic_law
+    n = params.n
+    u = [symbolic.Variable(f"{input_names[0]}_{k}") for k in range(n)]
+    qd = [symbolic.Variable(f"{input_names[1]}_{k}") for k in range(n)]
+    rows = [law(a, w, joint, SYMBOLIC) for a, w, joint in zip(u, qd, motor_joints(params))]
     b = DiagramBuilder()
     inputs = b.AddNamedSystem("inputs", Multiplexer([n, n]))
     b.ExportInput(inputs.get_input_port(0), input_names[0])
     b.ExportInput(inputs.get_input_port(1), input_names[1])
-    for out_name, (variables, expressions) in laws.items():
-        law = b.AddNamedSystem(out_name, symbolic_law(variables, expressions,
-                                                      host_has_continuous_state=host_has_continuous_state))
-        b.Connect(inputs.get_output_port(), law.get_input_port())
-        b.ExportOutput(law.get_output_port(), out_name)
+    for out_name, k in outputs.items():
+        system = b.AddNamedSystem(out_name, symbolic_law(u + qd, [row[k] for row in rows],
+                                                         host_has_continuous_state=host_has_continuous_state))
+        b.Connect(inputs.get_output_port(), system.get_input_port())
+        b.ExportOutput(system.get_output_port(), out_name)
     if pass_through_first is not None:
         through = b.AddNamedSystem("pass_through", PassThrough(n))
         b.ConnectInput(input_names[0], through.get_input_port())
@@ -410,36 +417,19 @@ def _laws_diagram(name: str, input_names: tuple[str, str], n: int, laws: dict, h
 def dc_motors_as_primitives(params: DcMotorParams, *, host_has_continuous_state: bool = False):
     """DcMotorWithGear in its default mode (voltage command, quasi-static armature; switched or
     blended gear efficiency) as a Diagram of Drake primitives with the same ports: the model's one
-    formula (`motor_forward`) compiled into SymbolicVectorSystems, no Python per step. Each output is
-    its own law, so evaluating joint_torque (what the plant reads every step) computes nothing else.
+    formula (`motor_forward`) compiled into SymbolicVectorSystems, no Python per step.
     host_has_continuous_state: see scalar_ops.symbolic_law."""
-    from pydrake import symbolic
-
-    from qmt_drake.systems.scalar_ops import SYMBOLIC
     if params.inductance_H is not None:
         raise ValueError("dc_motors_as_primitives models the quasi-static armature; use DcMotorWithGear with "
                          "inductance_H")
-    n = params.n
-    cmd = [symbolic.Variable(f"voltage_command_{k}") for k in range(n)]
-    qd = [symbolic.Variable(f"joint_velocity_{k}") for k in range(n)]
-    rows = [motor_forward(c, w, j, SYMBOLIC) for c, w, j in zip(cmd, qd, motor_joints(params))]
-    x = cmd + qd
-    laws = {name: (x, [row[k] for row in rows]) for name, k in (
-        ("joint_torque", 3), ("motor_torque", 2), ("current", 1), ("electrical_power", 4))}
-    return _laws_diagram("motors", ("voltage_command", "joint_velocity"), n, laws, host_has_continuous_state)
+    return _per_joint_laws_diagram(
+        "motors", params, motor_forward, ("voltage_command", "joint_velocity"),
+        {"joint_torque": 3, "motor_torque": 2, "current": 1, "electrical_power": 4}, host_has_continuous_state)
 
 
 def applied_motor_signals_as_primitives(params: DcMotorParams, *, host_has_continuous_state: bool = False):
     """AppliedMotorSignals (`motor_inverse`) as a Diagram of Drake primitives with the same ports."""
-    from pydrake import symbolic
-
-    from qmt_drake.systems.scalar_ops import SYMBOLIC
-    n = params.n
-    tau = [symbolic.Variable(f"applied_joint_torque_{k}") for k in range(n)]
-    qd = [symbolic.Variable(f"joint_velocity_{k}") for k in range(n)]
-    rows = [motor_inverse(t, w, j, SYMBOLIC) for t, w, j in zip(tau, qd, motor_joints(params))]
-    x = tau + qd
-    laws = {name: (x, [row[k] for row in rows]) for name, k in (
-        ("voltage", 0), ("current", 1), ("motor_torque", 2), ("electrical_power", 3))}
-    return _laws_diagram("applied_motor_signals", ("applied_joint_torque", "joint_velocity"), n, laws,
-                         host_has_continuous_state, pass_through_first="joint_torque")
+    return _per_joint_laws_diagram(
+        "applied_motor_signals", params, motor_inverse, ("applied_joint_torque", "joint_velocity"),
+        {"voltage": 0, "current": 1, "motor_torque": 2, "electrical_power": 3}, host_has_continuous_state,
+        pass_through_first="joint_torque")
