@@ -1,9 +1,10 @@
-"""The few operations a model formula needs, for floats and for drake symbolic Expressions, so that
-each formula is written once and runs both in Python and compiled into a SymbolicVectorSystem (C++).
+"""The few operations a model formula needs, for floats, numpy arrays and drake symbolic Expressions,
+so that each formula is written once and runs in Python, on whole logged series, and compiled into a
+SymbolicVectorSystem (evaluated in C++ every plant step, no Python call).
 
 `FLOAT` evaluates a branch only when it is taken (a formula may divide by zero in the other);
-`SYMBOLIC` builds both branches and lets if_then_else choose at evaluation. Branches are passed as
-zero-argument callables for that reason.
+`NUMPY` computes both branches element-wise; `SYMBOLIC` builds both and lets if_then_else choose at
+evaluation. Branches are passed as zero-argument callables for that reason.
 """
 
 from __future__ import annotations
