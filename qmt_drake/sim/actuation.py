@@ -20,7 +20,7 @@ from pydrake.systems.primitives import Adder, MatrixGain, TrajectorySource, Zero
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import MOTOR_CATALOG, DcMotorParams, applied_motor_signals_as_primitives
-from qmt_drake.systems.ideal_torque import IdealActuatorSignals
+from qmt_drake.systems.ideal_torque import ideal_actuator_signals
 from qmt_drake.systems.joint_tracking import PidGains
 
 # Plant steps: the implicitly damped loop (default) is stable and accurate at 2 ms; the explicit
@@ -102,7 +102,7 @@ def add_ideal_torque_actuation(builder, plant, arm_instance, desired_state_port,
     stepped implicitly), so any step is stable. Reported: the torque applied over each step (the
     latched actuation minus Kd qd_{n+1}), the motor-side torque tau / N (an ideal gear) and the
     mechanical power tau * qd [W], which the monitor integrates as the energy. Returns
-    (IdealActuatorSignals system, the actuation Adder's feedforward input port [N*m])."""
+    (the ideal_actuator_signals Diagram, the actuation Adder's feedforward input port [N*m])."""
     kp, kd = np.asarray(kp, float), np.asarray(kd, float)
     n = len(kp)
     K, D = np.diag(kp), np.diag(kd)
@@ -114,7 +114,7 @@ def add_ideal_torque_actuation(builder, plant, arm_instance, desired_state_port,
     builder.Connect(from_desired.get_output_port(), actuation.get_input_port(0))
     builder.Connect(from_state.get_output_port(), actuation.get_input_port(1))
     signals = _drive_plant_with_implicit_damping(builder, plant, arm_instance, actuation.get_output_port(),
-                                                 joint_velocity_port, D, time_step_s, IdealActuatorSignals(gear_ratio))
+                                                 joint_velocity_port, D, time_step_s, ideal_actuator_signals(gear_ratio))
     return signals, actuation.get_input_port(2)
 
 
