@@ -110,6 +110,13 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", default=str(ROOT / "out"))
     args = ap.parse_args(argv)
+    from qmt_drake.errors import QmtInputError
+    from qmt_drake.plan import check_output_dir
+    try:  # before any simulation: a folder that cannot be written stops here, in one line
+        check_output_dir(args.out, "--out")
+    except QmtInputError as exc:
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
+        return 2
     rows = [bench(dt, args.repeats, implicit=False) for dt in EXPLICIT_STEPS_S[:1]]
     ref = rows[0]
     print(describe(ref), flush=True)
@@ -137,4 +144,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -233,9 +233,10 @@ def cost_ratio(repeats: int, time_step_s: float) -> dict:
     # The order rotates from repeat to repeat: a run's cost depends a little on what ran before it
     # in the process, so every configuration takes every position equally often when repeats is a
     # multiple of their number. (Before run_diagram collected the young garbage generations before
-    # each run, every configuration slowed by 30-50% over this loop: uncollected diagrams.) The per-step Python monitor runs after them all: its
-    # diagrams hold Python systems, which pydrake never frees (README), and the memory they pin
-    # slowed every later run of the process by up to 50% when it ran among them.
+    # each run, every configuration slowed by 30-50% over this loop: uncollected diagrams.) The
+    # per-step Python monitor runs after them all: its diagrams hold Python systems, which pydrake
+    # never frees (README), and the memory they pin slowed every later run of the process by up to
+    # 50% when it ran among them.
     rows = [run_ours, run_floor_row, run_ours_simulation_only, lambda: floor("floor_previous_plant", free_payload=True),
             lambda: floor("floor_our_magnet", our_magnet=True)]
     for r in range(repeats):
@@ -291,6 +292,13 @@ def main(argv=None) -> int:
     ap.add_argument("--time-step-ms", type=float, default=2.0)
     ap.add_argument("--out", default=str(ROOT / "out"))
     a = ap.parse_args(argv)
+    from qmt_drake.errors import QmtInputError
+    from qmt_drake.plan import check_output_dir
+    try:  # before any simulation: a folder that cannot be written stops here, in one line
+        check_output_dir(a.out, "--out")
+    except QmtInputError as exc:
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
+        return 2
     data = dict(machine=platform.platform(), cpus=os.cpu_count(), python=platform.python_version(),
                 when=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), loadavg_start=os.getloadavg(),
                 note="shared machine: wall times vary run to run; medians of alternating runs")

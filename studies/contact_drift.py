@@ -86,6 +86,13 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(ROOT / "out"))
     args = ap.parse_args(argv)
+    from qmt_drake.errors import QmtInputError
+    from qmt_drake.plan import check_output_dir
+    try:  # before any simulation: a folder that cannot be written stops here, in one line
+        check_output_dir(args.out, "--out")
+    except QmtInputError as exc:
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
+        return 2
     sc = load_scenario("thesis-ch4")
     plan = GenesPlan(sc, (0.622, 0.532, 0.562), method="thesis_ga")
     peak_tip_accel = planned_peak_moment_Nm(sc, plan) / sc.moment_per_accel_kgm
@@ -107,4 +114,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -23,7 +23,7 @@ from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.dc_motor import DcMotorWithGear
 from qmt_drake.systems.electromagnet import electromagnet_force, MagnetParams
 from qmt_drake.systems.joint_tracking import JointPidController
-from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_hand_contact, payload_joint
+from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_contact, payload_joint
 from qmt_drake.systems.transfer_monitor import TransferMonitor
 
 GA_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 section 4.4
@@ -87,7 +87,7 @@ def _compose_by_hand(sc4, plan4, config):
     spec = PayloadSpec.for_scenario(sc4)
     payload = add_payload(plant, spec, hand)
     plant.Finalize()
-    allow_hand_contact(plant, scene_graph, hand, payload)
+    allow_contact(plant, scene_graph, hand, payload)
     q0 = plan4.sample(np.array([0.0]))[0][0]
     plant.SetDefaultPositions(arm, q0)
     payload_joint(plant, payload).SetDefaultPose(seated_pose_in_hand())

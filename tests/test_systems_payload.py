@@ -17,7 +17,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from qmt_drake.sim import GRAVITY_M_S2, hold_lever_m
 from qmt_drake.systems.electromagnet import THESIS_COILS, electromagnet_force, MagnetParams
-from qmt_drake.systems.payload import (STEEL_DENSITY_KG_M3, PayloadSpec, add_payload, allow_hand_contact,
+from qmt_drake.systems.payload import (STEEL_DENSITY_KG_M3, PayloadSpec, add_payload, allow_contact,
                                       payload_joint)
 from qmt_drake.systems.transfer_monitor import motion_from_joint
 from qmt_drake.systems.transfer_monitor import relative_payload_motion
@@ -61,7 +61,7 @@ def _bench(spec, coil, current, a_max, g0=0.5e-3):
     plant.WeldFrames(plant.world_frame(), hand.body_frame())
     payload = add_payload(plant, spec, hand)
     plant.Finalize()
-    allow_hand_contact(plant, scene_graph, hand, payload)
+    allow_contact(plant, scene_graph, hand, payload)
     magnet = b.AddSystem(electromagnet_force(MagnetParams(coil, g0, spec.face_radius_m), plant,
                                             payload_joint(plant, payload)))
     src = b.AddSystem(ConstantVectorSource([current]))
@@ -86,7 +86,7 @@ def test_the_payload_hangs_on_the_hand_by_a_joint_and_still_touches_it():
     plant.WeldFrames(plant.world_frame(), hand.body_frame(), RigidTransform([0.1, 0.2, 0.3]))
     payload = add_payload(plant, PayloadSpec.m8_bolt(), hand)
     plant.Finalize()
-    allow_hand_contact(plant, scene_graph, hand, payload)
+    allow_contact(plant, scene_graph, hand, payload)
     joint = payload_joint(plant, payload)
     assert joint.parent_body().index() == hand.index() and joint.num_velocities() == 6
     ctx = plant.CreateDefaultContext()

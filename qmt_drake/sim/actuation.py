@@ -198,30 +198,15 @@ def motor_actuation_law(pid, motor_params: DcMotorParams, loop_damping):
     A Diagram: inputs desired_state (2n), estimated_state (2n)[, feedforward_torque (n)]; outputs
     actuation (n) [N*m] and voltage_command (n) [V] (evaluated only when read). None when pid has an
     integral term or the motors an inductance (those run as their own systems)."""
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Multiplexer
-
     from qmt_drake.systems.dc_motor import motor_forward, motor_joints
-    from qmt_drake.systems.joint_tracking import pd_law_inputs, pd_voltage
-    from qmt_drake.systems.scalar_ops import SYMBOLIC, symbolic_law
+    from qmt_drake.systems.joint_tracking import pd_law_diagram
+    from qmt_drake.systems.scalar_ops import SYMBOLIC
     if pid._has_integral or motor_params.inductance_H is not None:
         return None
     n = pid._n
-    x_des, x, ff = pd_law_inputs(pid)
-    voltage = pd_voltage(pid, x_des, x, ff, SYMBOLIC)
-    qd = x[n:]
-    actuation = [motor_forward(v, w, joint, SYMBOLIC)[3] + float(d) * w
-                 for v, w, joint, d in zip(voltage, qd, motor_joints(motor_params), loop_damping)]
-    b = DiagramBuilder()
-    widths = [2 * n, 2 * n] + ([n] if ff is not None else [])
-    inputs = b.AddNamedSystem("inputs", Multiplexer(widths))
-    variables = x_des + x + (ff or [])
-    for name, expressions in (("actuation", actuation), ("voltage_command", voltage)):
-        law = b.AddNamedSystem(name, symbolic_law(variables, expressions))
-        b.Connect(inputs.get_output_port(), law.get_input_port())
-        b.ExportOutput(law.get_output_port(), name)
-    for k, name in enumerate(("desired_state", "estimated_state", "feedforward_torque")[:len(widths)]):
-        b.ExportInput(inputs.get_input_port(k), name)
-    d = b.Build()
-    d.set_name("motor_actuation")
-    return d
+
+    def actuation(voltage, x):
+        return {"actuation": [motor_forward(v, w, joint, SYMBOLIC)[3] + float(d) * w
+                              for v, w, joint, d in zip(voltage, x[n:], motor_joints(motor_params), loop_damping)]}
+
+    return pd_law_diagram(pid, "motor_actuation", actuation)

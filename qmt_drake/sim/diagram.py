@@ -43,7 +43,6 @@ from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, mo
                                  set_initial_state)
 from qmt_drake.sim.reference import plan_start, reference_trajectories
 from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear, dc_motors_as_primitives
-from qmt_drake.systems.electromagnet import electromagnet_force
 from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains, primitive_pd_controller
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.transfer_monitor import TransferMonitor, payload_motion_as_primitives

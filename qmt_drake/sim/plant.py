@@ -31,7 +31,8 @@ from pydrake.multibody.tree import JointActuatorIndex
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.arm import add_arm
-from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_hand_contact, payload_joint, seated_pose_in_hand
+from qmt_drake.systems.payload import (PayloadSpec, add_payload, allow_contact, payload_joint,
+                                      seated_pose_in_hand)
 
 
 def transfer_plant_config(time_step_s: float) -> MultibodyPlantConfig:
@@ -82,7 +83,7 @@ def finalize_transfer_plant(tp: TransferPlant, q_start) -> None:
     rest, the payload seated on the hand's face (`seated_pose_in_hand`) at rest."""
     plant = tp.plant
     plant.Finalize()
-    allow_hand_contact(plant, tp.scene_graph, tp.hand_body, tp.payload_body)
+    allow_contact(plant, tp.scene_graph, tp.hand_body, tp.payload_body)
     plant.SetDefaultPositions(tp.arm_instance, np.asarray(q_start, float).reshape(-1))
     tp.payload_joint = payload_joint(plant, tp.payload_body)
     tp.payload_joint.SetDefaultPose(seated_pose_in_hand())

@@ -71,7 +71,6 @@ rated torque and 1000-2000 rpm input is about 0.65-0.75.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 

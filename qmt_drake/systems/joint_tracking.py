@@ -186,26 +186,38 @@ def pd_law_inputs(pid: JointPidController):
     return x_des, x, ff
 
 
+def pd_law_diagram(pid: JointPidController, name: str, more_outputs=None, *,
+                   host_has_continuous_state: bool = False):
+    """A Diagram with JointPidController's input ports (desired_state, estimated_state[,
+    feedforward_torque]) whose output voltage_command is `pd_voltage` compiled into a
+    SymbolicVectorSystem; more_outputs(voltage, x) -> {port name: expressions} adds laws built on the
+    same (symbolic) voltage and estimated state, each its own system (evaluated only when read)."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import Multiplexer
+    n = pid._n
+    x_des, x, ff = pd_law_inputs(pid)
+    voltage = pd_voltage(pid, x_des, x, ff, SYMBOLIC)
+    laws = {"voltage_command": voltage, **(more_outputs(voltage, x) if more_outputs else {})}
+    b = DiagramBuilder()
+    widths = [2 * n, 2 * n] + ([n] if ff is not None else [])
+    inputs = b.AddNamedSystem("inputs", Multiplexer(widths))
+    for k, port in enumerate(("desired_state", "estimated_state", "feedforward_torque")[:len(widths)]):
+        b.ExportInput(inputs.get_input_port(k), port)
+    for port, expressions in laws.items():
+        law = b.AddNamedSystem(port, symbolic_law(x_des + x + (ff or []), expressions,
+                                                  host_has_continuous_state=host_has_continuous_state))
+        b.Connect(inputs.get_output_port(), law.get_input_port())
+        b.ExportOutput(law.get_output_port(), port)
+    d = b.Build()
+    d.set_name(name)
+    return d
+
+
 def primitive_pd_controller(pid: JointPidController, *, host_has_continuous_state: bool = False):
     """`pid`'s law (`pd_voltage`) compiled into a SymbolicVectorSystem, as a Diagram with
     JointPidController's port names (desired_state, estimated_state[, feedforward_torque] ->
     voltage_command); None when pid has an integral term (its anti-windup is a conditional update).
     Equal to pid's output up to rounding (tests/test_cosim.py)."""
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Multiplexer
     if pid._has_integral:
         return None
-    n = pid._n
-    x_des, x, ff = pd_law_inputs(pid)
-    b = DiagramBuilder()
-    widths = [2 * n, 2 * n] + ([n] if ff is not None else [])
-    inputs = b.AddNamedSystem("inputs", Multiplexer(widths))
-    law = b.AddNamedSystem("pd", symbolic_law(x_des + x + (ff or []), pd_voltage(pid, x_des, x, ff, SYMBOLIC),
-                                              host_has_continuous_state=host_has_continuous_state))
-    b.Connect(inputs.get_output_port(), law.get_input_port())
-    for k, name in enumerate(("desired_state", "estimated_state", "feedforward_torque")[:len(widths)]):
-        b.ExportInput(inputs.get_input_port(k), name)
-    b.ExportOutput(law.get_output_port(), "voltage_command")
-    d = b.Build()
-    d.set_name("pd_controller")
-    return d
+    return pd_law_diagram(pid, "pd_controller", host_has_continuous_state=host_has_continuous_state)

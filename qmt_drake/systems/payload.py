@@ -16,7 +16,7 @@ Not a LeafSystem: `add_payload` adds to a MultibodyPlant (before Finalize)
     step from 2 to 0.25 ms, which is the part's real creep); and the magnet's pull becomes a
     generalized force on the joint computed by Drake primitives (`electromagnet.electromagnet_force`).
     The hand and the part still collide: Drake filters collisions between the bodies of a joint,
-    but not across a floating joint, and `allow_hand_contact` declares the pair explicitly after
+    but not across a floating joint, and `allow_contact` declares the pair explicitly after
     Finalize (tests/test_systems_payload.py checks it). attach_to_hand=False adds a body floating
     in the world instead (the benchmark's floor of the previous plant; no magnet system for it);
   * contact: `n_contact_points` small spheres whose tops lie in the payload's face plane, on a ring
@@ -170,11 +170,6 @@ def allow_contact(plant, scene_graph, body_a, body_b) -> None:
     a = GeometrySet(plant.GetCollisionGeometriesForBody(body_a))
     b = GeometrySet(plant.GetCollisionGeometriesForBody(body_b))
     scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().AllowBetween(a, b))
-
-
-def allow_hand_contact(plant, scene_graph, hand_body, payload_body) -> None:
-    """allow_contact for the hand's face and the payload."""
-    allow_contact(plant, scene_graph, hand_body, payload_body)
 
 
 def seated_pose_in_hand() -> RigidTransform:
