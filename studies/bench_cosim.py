@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT))
 from qmt_drake.sim import (IMPLICIT_TIME_STEP_S, GenesPlan, build_transfer_diagram, make_result,  # noqa: E402
                              run_diagram)
 from qmt_drake.errors import QmtSimulationError  # noqa: E402
-from qmt_drake.plan import write_text_atomic  # noqa: E402
+from qmt_drake.outputs import write_text_atomic  # noqa: E402
 from qmt_drake.config.scenario import load_scenario  # noqa: E402
 
 EXPLICIT_STEPS_S = (0.25e-3, 0.5e-3, 1e-3, 2e-3)
@@ -111,7 +111,7 @@ def main(argv=None):
     ap.add_argument("--out", default=str(ROOT / "out"))
     args = ap.parse_args(argv)
     from qmt_drake.errors import QmtInputError
-    from qmt_drake.plan import check_output_dir
+    from qmt_drake.outputs import check_output_dir
     try:  # before any simulation: a folder that cannot be written stops here, in one line
         check_output_dir(args.out, "--out")
     except QmtInputError as exc:

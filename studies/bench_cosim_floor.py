@@ -57,7 +57,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.plan import jsonable, write_text_atomic  # noqa: E402
+from qmt_drake.outputs import jsonable, write_text_atomic  # noqa: E402
 
 THESIS_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 Table 4.3 (the scenario's reported genes)
 
@@ -293,7 +293,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "out"))
     a = ap.parse_args(argv)
     from qmt_drake.errors import QmtInputError
-    from qmt_drake.plan import check_output_dir
+    from qmt_drake.outputs import check_output_dir
     try:  # before any simulation: a folder that cannot be written stops here, in one line
         check_output_dir(a.out, "--out")
     except QmtInputError as exc:

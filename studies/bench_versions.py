@@ -83,7 +83,7 @@ def main(argv=None) -> int:
     for m in MEASURES:
         t, f = np.median(results[m]["this"]), np.median(results[m]["ref"])
         print(f"| {m} | {t:.4g} | {f:.4g} | {t / f:.3f} |")
-    from qmt_drake.plan import write_text_atomic
+    from qmt_drake.outputs import write_text_atomic
     write_text_atomic(Path(a.out) / "bench_versions.json",
                       json.dumps({"ref": str(ref), "this": str(this), "rounds": a.rounds, "results": results}, indent=1))
     return 0

@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT))
 from pydrake.systems.analysis import Simulator  # noqa: E402
 
 from qmt_drake.sim import GenesPlan, build_transfer_diagram, planned_peak_moment_Nm  # noqa: E402
-from qmt_drake.plan import write_text_atomic  # noqa: E402
+from qmt_drake.outputs import write_text_atomic  # noqa: E402
 from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.systems.payload import PayloadSpec  # noqa: E402
 
@@ -87,7 +87,7 @@ def main(argv=None):
     ap.add_argument("--out", default=str(ROOT / "out"))
     args = ap.parse_args(argv)
     from qmt_drake.errors import QmtInputError
-    from qmt_drake.plan import check_output_dir
+    from qmt_drake.outputs import check_output_dir
     try:  # before any simulation: a folder that cannot be written stops here, in one line
         check_output_dir(args.out, "--out")
     except QmtInputError as exc:

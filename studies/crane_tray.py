@@ -94,7 +94,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.plan import write_text_atomic  # noqa: E402
+from qmt_drake.outputs import write_text_atomic  # noqa: E402
 from qmt_drake.systems.dynamixel_servo import SEED_GAINS_AFTER, SEED_GAINS_BEFORE  # noqa: E402
 from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
 from qmt_drake.tray import crane_ik  # noqa: E402

@@ -39,7 +39,7 @@ from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
 from qmt_drake.design.search import exhaustive, run_all_types
 from qmt_drake.design.arm_types import levels_from_gene
 from qmt_drake.design.tasks import load_task
-from qmt_drake.plan import jsonable, write_text_atomic
+from qmt_drake.outputs import jsonable, write_text_atomic
 
 OUT = Path("out/kotosaka_1995")
 # Seed 003, Tables 1 and 2 (gene = L1..L6 levels in hex; E in the seed's unknown length unit).

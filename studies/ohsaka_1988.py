@@ -30,7 +30,7 @@ from qmt_drake.energy.multistart import (PATTERNS, distinct_optima, initial_end_
 from qmt_drake.energy.nlp import solve_nlp
 from qmt_drake.energy.objective import FINE_DIVISIONS
 from qmt_drake.energy.steepest import restore_endpoint, steepest_descent
-from qmt_drake.plan import jsonable, write_text_atomic
+from qmt_drake.outputs import jsonable, write_text_atomic
 
 
 def log(*a):

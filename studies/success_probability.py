@@ -38,7 +38,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.plan import jsonable, write_text_atomic  # noqa: E402
+from qmt_drake.outputs import jsonable, write_text_atomic  # noqa: E402
 
 CHAPTERS = ("thesis-ch2", "thesis-ch3", "thesis-ch4")
 BANG_BANG_S = {"thesis-ch2": 2.981, "thesis-ch3": 1.674}  # issue 13; = 2 sqrt(L/A) (benchmark.closed_form_bound_s)

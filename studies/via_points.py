@@ -12,7 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-from qmt_drake.plan import jsonable, write_text_atomic
+from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.planners import plan_with
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.apps.thesis_study import run_ga_seeds

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.plan import write_text_atomic
+from qmt_drake.outputs import write_text_atomic
 from qmt_drake.planners.ga import run_ga
 from qmt_drake.planners.optimum import plan_family_optimum
 from qmt_drake.problem import PlanningProblem

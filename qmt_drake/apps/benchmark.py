@@ -39,7 +39,8 @@ from typing import Callable
 
 import numpy as np
 
-from qmt_drake.plan import Plan, family_plan, jsonable, write_text_atomic
+from qmt_drake.plan import Plan, family_plan
+from qmt_drake.outputs import jsonable, write_text_atomic
 
 DEFAULT_JERK_LIMITS = (1.0, 10.0, 100.0)  # m/s^3
 

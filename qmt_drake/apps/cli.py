@@ -36,7 +36,7 @@ def _check_positive_finite(value, flag: str, fix: str) -> None:
 
 
 def _check_outputs(args, *flags: str) -> None:
-    from qmt_drake.plan import check_output_path
+    from qmt_drake.outputs import check_output_path
     for flag in flags:
         check_output_path(getattr(args, flag.lstrip("-").replace("-", "_"), None), flag)
 
@@ -44,7 +44,7 @@ def _check_outputs(args, *flags: str) -> None:
 def _check_checkpoint(path, scenario, seed) -> None:
     """The output path is writable and an existing file is a checkpoint of this very run
     (planners/ga.py: same scenario data, GA settings and seed)."""
-    from qmt_drake.plan import check_output_path
+    from qmt_drake.outputs import check_output_path
     from qmt_drake.planners.ga import check_checkpoint
     check_output_path(path, "--checkpoint")
     try:
@@ -64,7 +64,7 @@ def _emit_json(data: dict, target: str | None) -> None:
     if target == "-":
         print(text)
     else:
-        from qmt_drake.plan import write_text_atomic
+        from qmt_drake.outputs import write_text_atomic
         write_text_atomic(target, text + "\n")
 
 
@@ -223,7 +223,7 @@ def _simulate_tray(args, sc) -> int:
 
 
 def cmd_bench(args) -> int:
-    from qmt_drake.plan import check_output_dir
+    from qmt_drake.outputs import check_output_dir
     check_output_dir(args.out, "--out")
     _check_int(args.seeds, "--seeds", 1, "run at least one seed")
     from qmt_drake.config.scenario import load_scenario
@@ -236,7 +236,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_benchmark(args) -> int:
-    from qmt_drake.plan import check_output_dir
+    from qmt_drake.outputs import check_output_dir
     check_output_dir(args.out, "--out")
     for seed in args.ga_seeds:
         _check_int(seed, "--ga-seeds", 0, "seeds are non-negative integers")
@@ -340,7 +340,7 @@ def cmd_reproduce(args) -> int:
     if not (root / "studies" / "run_all.py").is_file():
         raise QmtInputError("reproduce needs the qmt_drake source checkout (studies/ beside the package); "
                             "run it from a clone installed with `make run`")
-    from qmt_drake.plan import check_output_path
+    from qmt_drake.outputs import check_output_path
     check_output_path(Path(args.out) / "report.html", "--out")
     return subprocess.call([sys.executable, "-m", "studies.run_all", "--out", str(args.out)], cwd=root)
 

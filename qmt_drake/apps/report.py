@@ -19,7 +19,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from qmt_drake.plan import write_text_atomic
+from qmt_drake.outputs import write_text_atomic
 
 
 @dataclass(frozen=True)

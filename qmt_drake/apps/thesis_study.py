@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.apps import plots
-from qmt_drake.plan import load_plan, write_text_atomic
+from qmt_drake.plan import load_plan
+from qmt_drake.outputs import write_text_atomic
 from qmt_drake.planners import plan_with
 from qmt_drake.config.scenario import load_scenario
 

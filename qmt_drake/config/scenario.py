@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from qmt_drake.config import fields as fields_mod
 from qmt_drake.errors import QmtInputError
 
 MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
@@ -378,22 +379,9 @@ def builtin_scenarios(kind: str = "transfer") -> list[str]:
 
 
 def read_scenario_yaml(path: Path, example: str = "thesis-ch4") -> dict:
-    """The YAML mapping of a scenario file; QmtInputError (one line) if it is not one."""
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise QmtInputError(f"{path}: not a UTF-8 text file; a scenario is a YAML text file") from None
-    except OSError as exc:
-        raise QmtInputError(f"{path}: cannot be read ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise QmtInputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if raw is None:
-        raise QmtInputError(f"{path}: the file is empty; a scenario is a YAML mapping (see "
-                            f"{SCENARIO_DIR / (example + '.yaml')})")
-    if not isinstance(raw, dict):
-        raise QmtInputError(f"{path}: a scenario file must be a YAML mapping (see "
-                            f"{SCENARIO_DIR / (example + '.yaml')})")
-    return raw
+    """The YAML mapping of a scenario file (duplicated keys refused); QmtInputError (one line) if it
+    is not one."""
+    return fields_mod.read_yaml_mapping(path, "scenario", SCENARIO_DIR / (example + ".yaml"))
 
 
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
@@ -816,64 +804,12 @@ def _check_against_arm(sc: Scenario, where: str) -> None:
 
 
 # ------------------------------------------------------------------------------------ value checks
-def _show(v) -> str:
-    s = repr(v)
-    return s if len(s) <= 60 else s[:57] + "..."
-
-
-def _is_number(v) -> bool:
-    """A real number that is not a bool (YAML `true` is not 1)."""
-    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
-
-
-def _check_keys(d: dict, allowed: set, where: str) -> None:
-    unknown = sorted(str(k) for k in set(d) - allowed)
-    if unknown:
-        raise QmtInputError(f"{where}: unknown key '{unknown[0]}'; allowed keys are "
-                            f"{', '.join(sorted(allowed))}")
-
-
-def _need(d: dict, key: str, where: str) -> Any:
-    if key not in d or d[key] is None:
-        raise QmtInputError(f"{where}: missing key '{key}'")
-    return d[key]
-
-
-_MISSING = object()
-
-
-def _num(d: dict, key: str, where: str, *, positive: bool = False, default=_MISSING) -> float:
-    """A finite number (not a bool); positive if asked. Missing keys take `default` if given."""
-    if default is not _MISSING and d.get(key) is None:
-        return default
-    v = _need(d, key, where)
-    if not _is_number(v):
-        raise QmtInputError(f"{where}.{key} must be a number, got {_show(v)}")
-    v = float(v)
-    if not math.isfinite(v) or (positive and v <= 0):
-        raise QmtInputError(f"{where}.{key} must be {'positive' if positive else 'finite'}, got {v}")
-    return v
-
-
-def _int(d: dict, key: str, where: str, *, minimum: int, default=_MISSING) -> int:
-    if default is not _MISSING and d.get(key) is None:
-        return default
-    v = _need(d, key, where)
-    if not (isinstance(v, numbers.Integral) and not isinstance(v, bool)):
-        raise QmtInputError(f"{where}.{key} must be an integer, got {_show(v)}")
-    if v < minimum:
-        raise QmtInputError(f"{where}.{key} must be >= {minimum}, got {v}")
-    return int(v)
-
-
-def _vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: bool = False,
-            what: str = "numbers") -> np.ndarray:
-    v = _need(d, key, where)
-    if not isinstance(v, list) or not v or not all(_is_number(x) for x in v):
-        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {_show(v)}")
-    a = np.asarray(v, dtype=float)
-    bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
-    if np.any(bad):
-        sign = "positive " if positive else "non-negative " if nonnegative else "finite "
-        raise QmtInputError(f"{where}.{key} must be a list of {sign}numbers ({what}), got {a.tolist()}")
-    return a
+# The shared validation layer (config/fields.py), under this module's historical names.
+_show = fields_mod.show
+_is_number = fields_mod.is_number
+_check_keys = fields_mod.check_keys
+_need = fields_mod.need
+_MISSING = fields_mod.MISSING
+_num = fields_mod.num
+_int = fields_mod.integer
+_vector = fields_mod.vector

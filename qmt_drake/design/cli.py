@@ -89,7 +89,7 @@ def cmd_design(args) -> int:
     from qmt_drake.design.problem import lengths6
     from qmt_drake.design.search import run_all_types
     from qmt_drake.design.tasks import load_task
-    from qmt_drake.plan import write_text_atomic
+    from qmt_drake.outputs import write_text_atomic
 
     task = load_task(args.task)
     if args.no_obstacles:
@@ -125,7 +125,7 @@ def _evaluate_one(task, args, out: Path) -> int:
     """--design TYPE:GENE: E of one design on the task (with its branch and every unit task)."""
     from qmt_drake.design.arm_types import urdf_text
     from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
-    from qmt_drake.plan import jsonable, write_text_atomic
+    from qmt_drake.outputs import jsonable, write_text_atomic
     t, lv = parse_design(args.design)
     pr = DesignProblem(task, t, branch=args.branch)
     g = genes_from_levels(lv)

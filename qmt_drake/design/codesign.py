@@ -54,7 +54,7 @@ def scaled_spec(l1_m: float, l2_m: float) -> dict:
 def write_scenario(l1_m: float, l2_m: float, folder: Path, base_m=(0.0, 0.0)) -> Path:
     """URDF + scenario for one pair of lengths and a base position (x_b, y_b) in the chapter-4
     world frame; returns the scenario path."""
-    from qmt_drake.plan import write_text_atomic
+    from qmt_drake.outputs import write_text_atomic
     folder = Path(folder)
     name = f"two_link_ch4_l1_{l1_m * 1e3:.0f}mm_l2_{l2_m * 1e3:.0f}mm"
     urdf = folder / f"{name}.urdf"

@@ -147,6 +147,6 @@ def meshcat_arm_at_task(path, task, type_name, lengths, q_units, dwell_s: float 
     arm.visualizer.PublishRecording()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    from qmt_drake.plan import write_text_atomic
+    from qmt_drake.outputs import write_text_atomic
     write_text_atomic(path, meshcat.StaticHtml())
     return path

@@ -57,7 +57,7 @@ def cmd_plan_energy(args) -> int:
     from qmt_drake.energy.experiments import get_experiment
     from qmt_drake.energy.multistart import (PATTERNS, initial_end_posture, initial_reduced_genes,
                                              pattern_str, travel_pattern)
-    from qmt_drake.plan import jsonable, write_text_atomic
+    from qmt_drake.outputs import jsonable, write_text_atomic
 
     E = get_experiment(args.scenario)
     over = {k: v for k, v in (("c1", args.c1), ("c2", args.c2), ("m", args.m),

@@ -180,7 +180,7 @@ def plan_file_hash(path: str) -> str:
 # ------------------------------------------------------------------------------- worker side
 def make_plan_doc(ref: PlanRef) -> dict:
     """Plan once (in a worker): the plan's JSON document (Plan.to_json_dict) plus its key."""
-    from qmt_drake.plan import jsonable
+    from qmt_drake.outputs import jsonable
     t0 = time.perf_counter()
     if ref.file is not None:
         with open(ref.file) as fh:

@@ -72,6 +72,6 @@ def cmd_sweep(args) -> int:
         if args.json == "-":
             print(text)
         else:
-            from qmt_drake.plan import write_text_atomic
+            from qmt_drake.outputs import write_text_atomic
             write_text_atomic(args.json, text + "\n")
     return EXIT_CASES_FAILED if out["failed"] else 0

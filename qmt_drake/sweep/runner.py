@@ -34,7 +34,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.plan import jsonable
+from qmt_drake.outputs import jsonable
 from qmt_drake.sweep.cases import build_cases, make_plan_doc, run_case
 from qmt_drake.sweep.spec import SweepSpec, describe_uncertainty, load_spec
 from qmt_drake.sweep.stats import success_rows

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from qmt_drake.plan import jsonable, write_text_atomic
+from qmt_drake.outputs import jsonable, write_text_atomic
 
 
 class SweepStore:

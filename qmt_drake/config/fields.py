@@ -1,0 +1,177 @@
+"""One validation layer for every file a user writes: scenarios, sweep specs, design tasks.
+
+Each check raises QmtInputError with one line that names the input (`where.key`) and the fix. Numbers
+are checked as numbers: a YAML `true` is not 1 and a string is not 0.5. `read_yaml_mapping` refuses a
+mapping with a duplicated key (PyYAML keeps the last value silently).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from qmt_drake.errors import QmtInputError
+
+MISSING = object()
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a duplicated key in any mapping."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                dup = key in seen
+            except TypeError:  # unhashable key: let PyYAML report it
+                dup = False
+            if dup:
+                line = key_node.start_mark.line + 1
+                raise QmtInputError(f"duplicated key '{key}' at line {line}; give each key once")
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
+def load_yaml_text(text: str, where: str) -> Any:
+    """YAML text parsed with duplicated keys refused; one-line QmtInputError naming `where`."""
+    try:
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - SafeLoader subclass
+    except QmtInputError as exc:
+        raise QmtInputError(f"{where}: {exc}") from None
+    except yaml.YAMLError as exc:
+        raise QmtInputError(f"{where}: not valid YAML ({str(exc).splitlines()[0]})") from None
+
+
+def read_yaml_mapping(path: str | Path, what: str = "file", example: str | Path | None = None) -> dict:
+    """The YAML mapping in `path` (duplicated keys refused); one line if it cannot be read or is
+    not a mapping. `what` names the kind of file ("scenario", "sweep spec"), `example` a file to copy."""
+    path = Path(path)
+    if path.is_dir():
+        raise QmtInputError(f"{path}: is a directory; give a {what} YAML file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise QmtInputError(f"{path}: not a UTF-8 text file; a {what} is a YAML text file") from None
+    except OSError as exc:
+        raise QmtInputError(f"{path}: cannot be read ({exc.strerror})") from None
+    raw = load_yaml_text(text, str(path))
+    see = f" (see {example})" if example else ""
+    if raw is None:
+        raise QmtInputError(f"{path}: the file is empty; a {what} is a YAML mapping{see}")
+    if not isinstance(raw, dict):
+        raise QmtInputError(f"{path}: a {what} file must be a YAML mapping{see}")
+    return raw
+
+
+def show(v) -> str:
+    """repr of a user value, cut to 60 characters for a one-line message."""
+    s = repr(v)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def is_number(v) -> bool:
+    """A real number that is not a bool (YAML `true` is not 1)."""
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+
+
+def check_keys(d: dict, allowed: set, where: str) -> None:
+    """Refuse a key outside `allowed` (a misspelt key is never dropped silently)."""
+    unknown = sorted(str(k) for k in set(d) - set(allowed))
+    if unknown:
+        raise QmtInputError(f"{where}: unknown key '{unknown[0]}'; allowed keys are "
+                            f"{', '.join(sorted(str(a) for a in allowed))}")
+
+
+def mapping(d: dict, key: str, where: str, *, default=MISSING) -> dict:
+    """d[key] as a mapping (None/missing -> `default` if given)."""
+    if default is not MISSING and d.get(key) is None:
+        return default
+    v = need(d, key, where)
+    if not isinstance(v, dict):
+        raise QmtInputError(f"{where}.{key} must be a mapping, got {show(v)}")
+    return v
+
+
+def need(d: dict, key: str, where: str) -> Any:
+    """d[key], refusing a missing or null key."""
+    if key not in d or d[key] is None:
+        raise QmtInputError(f"{where}: missing key '{key}'")
+    return d[key]
+
+
+def num(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: bool = False,
+        minimum: float | None = None, maximum: float | None = None, default=MISSING) -> float:
+    """A finite number (not a bool); positive / non-negative / within [minimum, maximum] if asked.
+    A missing key takes `default` if given."""
+    if default is not MISSING and d.get(key) is None:
+        return default
+    v = need(d, key, where)
+    if not is_number(v):
+        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}")
+    v = float(v)
+    if not math.isfinite(v) or (positive and v <= 0) or (nonnegative and v < 0):
+        want = "positive" if positive else "non-negative" if nonnegative else "finite"
+        raise QmtInputError(f"{where}.{key} must be {want}, got {v}")
+    if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
+        raise QmtInputError(f"{where}.{key} must lie in [{minimum if minimum is not None else '-inf'}, "
+                            f"{maximum if maximum is not None else 'inf'}], got {v}")
+    return v
+
+
+def integer(d: dict, key: str, where: str, *, minimum: int, maximum: int | None = None,
+            default=MISSING) -> int:
+    """An integer (not a bool, not 2.0) >= minimum (and <= maximum if given)."""
+    if default is not MISSING and d.get(key) is None:
+        return default
+    v = need(d, key, where)
+    if not (isinstance(v, numbers.Integral) and not isinstance(v, bool)):
+        raise QmtInputError(f"{where}.{key} must be an integer, got {show(v)}")
+    if v < minimum:
+        raise QmtInputError(f"{where}.{key} must be >= {minimum}, got {v}")
+    if maximum is not None and v > maximum:
+        raise QmtInputError(f"{where}.{key} must be <= {maximum}, got {v}")
+    return int(v)
+
+
+def string(d: dict, key: str, where: str, *, choices=None, default=MISSING) -> str:
+    """A non-empty string (one of `choices` if given)."""
+    if default is not MISSING and d.get(key) is None:
+        return default
+    v = need(d, key, where)
+    if not isinstance(v, str) or not v:
+        raise QmtInputError(f"{where}.{key} must be a non-empty string, got {show(v)}")
+    if choices is not None and v not in choices:
+        raise QmtInputError(f"{where}.{key} {v!r} is not one of {', '.join(map(str, choices))}")
+    return v
+
+
+def boolean(d: dict, key: str, where: str, *, default=MISSING) -> bool:
+    """true or false (not 0/1, not 'yes' as a string)."""
+    if default is not MISSING and d.get(key) is None:
+        return default
+    v = need(d, key, where)
+    if not isinstance(v, bool):
+        raise QmtInputError(f"{where}.{key} must be true or false, got {show(v)}")
+    return v
+
+
+def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: bool = False,
+           length: int | None = None, what: str = "numbers") -> np.ndarray:
+    """A non-empty list of finite numbers (positive / non-negative if asked; `length` entries)."""
+    v = need(d, key, where)
+    if not isinstance(v, list) or not v or not all(is_number(x) for x in v):
+        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}")
+    a = np.asarray(v, dtype=float)
+    bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
+    if np.any(bad):
+        sign = "positive " if positive else "non-negative " if nonnegative else "finite "
+        raise QmtInputError(f"{where}.{key} must be a list of {sign}numbers ({what}), got {a.tolist()}")
+    if length is not None and len(a) != length:
+        raise QmtInputError(f"{where}.{key} has {len(a)} entries; give {length} ({what})")
+    return a
