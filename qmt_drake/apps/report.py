@@ -55,7 +55,7 @@ SECTIONS: list[Section] = [
     Section("Benchmark: GA against TOPP-RA, Ruckig and trajectory optimisation",
             ".venv/bin/qmt-drake benchmark --out out/benchmark", "benchmark", tables=("benchmark.md",)),
     Section("Planner speed", ".venv/bin/qmt-drake bench --out out", "", recordings=(), figures=(),
-            raw=("bench.json",)),
+            tables=("bench.md",), raw=("bench.json",)),
     Section("Seed 001: energy-time optimal motions of a vertical 3-link arm (Ohsaka & Kurahashi 1988)",
             ".venv/bin/python -m studies.ohsaka_1988", "ohsaka_1988",
             seed="Fig. 3: z = 22766 / 20266 / 18815 for the patterns (+,-,-) / (+,+,+) / (-,+,-); "
@@ -71,7 +71,8 @@ SECTIONS: list[Section] = [
             tables=("*.md",)),
     Section("Success probability under uncertainty (Dask sweeps)",
             ".venv/bin/python -m studies.success_probability --cases 50 --robust thesis-ch4", "",
-            tables=("success_probability.md",), figures=(), recordings=(), raw=("success_probability.json",)),
+            tables=("success_probability.md",), figures=("sweeps/**/*.png",), recordings=(),
+            raw=("success_probability.json",)),
 ]
 
 
@@ -178,14 +179,25 @@ def markdown_to_html(text: str) -> str:
 
 
 def _table(rows: list[str]) -> str:
-    cells = [[c.strip() for c in r.strip().strip("|").split("|")] for r in rows]
+    cells = [table_cells(r) for r in rows]
     body = [r for r in cells if not all(re.fullmatch(r":?-{3,}:?", c) for c in r)]
     if not body:
         return ""
     head, rest = body[0], body[1:]
-    return ("<table><thead><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr></thead><tbody>"
+    bad = [k + 1 for k, r in enumerate(rest) if len(r) != len(head)]
+    warn = (f"<p class=missing>This table is misaligned: rows {bad} do not have the header's {len(head)} cells "
+            "(a literal bar in a cell must be written \\|).</p>" if bad else "")
+    return warn + ("<table><thead><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr></thead><tbody>"
             + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rest)
             + "</tbody></table>")
+
+
+def table_cells(row: str) -> list[str]:
+    """The cells of one Markdown pipe-table row; a literal bar is written `\\|` inside a cell."""
+    inner = row.strip()
+    inner = inner[1:] if inner.startswith("|") else inner
+    inner = inner[:-1] if inner.endswith("|") and not inner.endswith("\\|") else inner
+    return [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", inner)]
 
 
 def _inline(text: str) -> str:
