@@ -364,9 +364,9 @@ def main(argv=None) -> int:
     except QmtSimulationError as exc:
         print(f"qmt-drake: simulation failed: {exc}", file=sys.stderr)
         return EXIT_SIMULATION
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         # The GA saves its checkpoint on the way out (planners/ga.py); nothing half-written stays.
-        print("qmt-drake: interrupted", file=sys.stderr)
+        print(f"qmt-drake: interrupted {exc}".rstrip(), file=sys.stderr)
         return EXIT_INTERRUPTED
 
 
