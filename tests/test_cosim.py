@@ -256,7 +256,7 @@ def test_dof_mismatch_is_one_clear_line(sc4):
 
 
 def test_diverging_loop_names_the_time(sc4, plan4):
-    with pytest.raises(QmtSimulationError, match=r"^simulation diverged at t = \d+\.\d{3} s") as exc:
+    with pytest.raises(QmtSimulationError, match=r"^(simulation diverged|the arm left its reference) at t = \d+\.\d{3} s") as exc:
         simulate_transfer(sc4, plan4, time_step_s=0.03, implicit_loop_damping=False, keep_series=False)
     assert "\n" not in str(exc.value)
 

@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.sim.outcome import verdict_line
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
@@ -179,6 +180,7 @@ def cmd_simulate(args) -> int:
     if args.plan:
         plan = load_plan(args.plan, scenario=sc)
     else:
+        _say_planning_first(args)
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else _progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record,
@@ -187,10 +189,17 @@ def cmd_simulate(args) -> int:
     _emit_json(result, args.json)
     if args.json != "-":
         print(f"{sc.name} {plan.method} x{args.time_scale}: "
-              f"{'held' if result['held'] else 'LOST'}, max slip {result['max_slip_m'] * 1e3:.3f} mm, "
+              f"{verdict_line(result['outcome'], result['detached_at_s'])}, max slip {result['max_slip_m'] * 1e3:.3f} mm, "
               f"tracking error {result['max_tracking_error_rad']:.2e} rad, "
               f"real-time factor {result['real_time_factor']:.1f}")
     return 0
+
+
+def _say_planning_first(args) -> None:
+    """simulate without --plan plans first: say so, since a GA takes tens of seconds."""
+    if not args.quiet:
+        print(f"qmt-drake: no --plan given: planning with --method {args.method} (seed {args.seed}) first; "
+              "give --plan FILE to simulate a saved plan", file=sys.stderr)
 
 
 def _simulate_tray(args, sc) -> int:
@@ -204,17 +213,13 @@ def _simulate_tray(args, sc) -> int:
     check_tray_simulation(sc, time_step_s, args.feedforward, not args.explicit)  # before any planning
     if not args.plan:
         _check_tray_method(sc, args.method)
+        _say_planning_first(args)
     plan = load_plan(args.plan, scenario=sc) if args.plan else plan_with(
         args.method, sc, seed=args.seed, progress=None if args.quiet else _progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s)
     _emit_json(result, args.json)
     if args.json != "-":
-        if result["held"]:
-            verdict = "held (carried)"
-        elif result["outcome"] == "carried":  # on the tray and upright at the end, but it slid
-            verdict = "LOST (slipped, still on the tray)"
-        else:
-            verdict = f"LOST ({result['outcome'].replace('_', ' ')} at {result['lost_at_s']:.3f} s)"
+        verdict = verdict_line(result["outcome"], result["lost_at_s"])
         print(f"{sc.name} {plan.method} x{args.time_scale}: {verdict}"
               f", slip {result['max_slip_m'] * 1e3:.3f} mm, creep {result['creep_m'] * 1e3:.3f} "
               f"mm, tilt {result['max_tilt_rad']:.2e} rad, tracking error {result['max_tracking_error_rad']:.2e} rad, "
