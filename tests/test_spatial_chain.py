@@ -40,7 +40,7 @@ def assert_close(x, ref, what):
 
 
 def drake_reference(plant, hand, q, qd, qdd):
-    """Per sample: tau (gravity + reflected inertia), X_WH, V_WH, A_WH (J qdd + bias) and the hand
+    """Per sample: tau (force elements: gravity and joint damping; reflected inertia), X_WH, V_WH, A_WH (J qdd + bias) and the hand
     body's spatial acceleration from CalcSpatialAccelerationsFromVdot."""
     ctx = plant.CreateDefaultContext()
     forces = MultibodyForces(plant)
@@ -50,7 +50,8 @@ def drake_reference(plant, hand, q, qd, qdd):
         plant.SetPositions(ctx, q[k])
         plant.SetVelocities(ctx, qd[k])
         forces.SetZero()
-        tau = plant.CalcInverseDynamics(ctx, qdd[k], forces) - plant.CalcGravityGeneralizedForces(ctx)
+        plant.CalcForceElementsContribution(ctx, forces)
+        tau = plant.CalcInverseDynamics(ctx, qdd[k], forces)
         J = plant.CalcJacobianSpatialVelocity(ctx, JacobianWrtVariable.kV, hand, np.zeros(3), W, W)
         bias = plant.CalcBiasSpatialAcceleration(ctx, JacobianWrtVariable.kV, hand, np.zeros(3), W, W)
         A_bodies = plant.CalcSpatialAccelerationsFromVdot(ctx, qdd[k])
@@ -106,12 +107,14 @@ def test_equal_to_pinocchio(name):
     model = pinocchio_model(name, path, lock, chain)
     if name in ("arm6", "two_link_ch4"):  # the URDF's actuators carry rotor inertias: the term is live
         assert np.all(chain.reflected_inertia_kgm2 > 0)
+    if name == "panda":  # the URDF's joint damping: the term is live
+        assert np.all(chain.damping_Nms > 0)
     data = model.createData()
     fid = model.getFrameId(hand)
     q, qd, qdd = random_states(chain.n_dof, seed=1)
     r = chain.evaluate(q, qd, qdd)
     for k in range(S):
-        tau = pin.rnea(model, data, q[k], qd[k], qdd[k])
+        tau = pin.rnea(model, data, q[k], qd[k], qdd[k]) + chain.damping_Nms * qd[k]  # rnea has no damping
         assert_close(r["joint_torque_Nm"][k], tau, f"{name} torque vs pinocchio")
         pin.forwardKinematics(model, data, q[k], qd[k], qdd[k])
         pin.updateFramePlacements(model, data)

@@ -82,6 +82,9 @@ def _strip_and_lock(root: ET.Element, lock_joints, source: str) -> None:
         for tag in ("visual", "collision"):
             for el in link.findall(tag):
                 link.remove(el)
+    for j in root.findall("joint"):  # not used by planning; Drake warns about it
+        for el in j.findall("safety_controller"):
+            j.remove(el)
     names = {j.get("name") for j in root.findall("joint")}
     unknown = [n for n in lock_joints if n not in names]
     if unknown:
@@ -90,7 +93,7 @@ def _strip_and_lock(root: ET.Element, lock_joints, source: str) -> None:
     for j in root.findall("joint"):
         if j.get("name") in lock_joints:
             j.set("type", "fixed")
-            for tag in ("axis", "limit", "dynamics", "mimic", "safety_controller", "calibration"):
+            for tag in ("axis", "limit", "dynamics", "mimic", "calibration"):
                 for el in j.findall(tag):
                     j.remove(el)
     for tr in root.findall("transmission"):
