@@ -7,7 +7,8 @@ Hand state of N random samples (q, qd, qdd) on the UR5 and the Panda of `example
 - `drake_chain`: today's DrakeChain loop (hand_pose + hand_velocity + hand acceleration and joint
   torques), the same quantities sample by sample;
 - `drake_inverse_dynamics`: Drake's CalcInverseDynamics alone (with gravity), sample by sample.
-Rounds are interleaved (a busy machine slows all alike); the median per-sample time is reported with
+Rounds are interleaved (a busy machine slows all alike); in each round every method runs twice and
+its second (warm) run is timed; the median per-sample time is reported with
 the ratios, and the largest torque difference between the three as a check. Prints a table and
 writes OUT/bench_spatial.json atomically.
 """
@@ -68,6 +69,7 @@ def bench_hand_state(arm: str, n: int, rounds: int) -> dict:
     torques = {m: f() for m, f in methods.items()}  # warm-up and check
     for _ in range(rounds):
         for m, f in methods.items():
+            f()  # each method timed warm (its own caches), as it runs inside a planner's loop
             t = time.perf_counter()
             f()
             times[m].append((time.perf_counter() - t) / n)

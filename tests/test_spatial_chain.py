@@ -28,8 +28,13 @@ def arm_source(name):
 
 
 def random_states(n, seed=0):
+    """Random states; the first rows put joints at and near +-pi and several turns away (where the
+    half-angle cos/sin is least accurate)."""
     rng = np.random.default_rng(seed)
-    return rng.uniform(-2.5, 2.5, (S, n)), rng.uniform(-2, 2, (S, n)), rng.uniform(-4, 4, (S, n))
+    q = rng.uniform(-2.5, 2.5, (S, n))
+    special = np.array([np.pi, -np.pi, np.pi - 1e-9, 3 * np.pi + 1e-7, 100.3, -np.pi / 2, 0.0])
+    q[:4] = rng.choice(special, (4, n))
+    return q, rng.uniform(-2, 2, (S, n)), rng.uniform(-4, 4, (S, n))
 
 
 def assert_close(x, ref, what):
@@ -166,3 +171,19 @@ def test_planar_arm_is_a_special_case():
         assert_close(r["joint_torque_Nm"][k], st.joint_torque_Nm[k], "planar torque")
         assert_close(r["linear_acceleration_m_s2"][k], st.linear_acceleration_m_s2[k], "planar acceleration")
         assert_close(r["position_m"][k], st.position_m[k], "planar position")
+
+
+def test_chunks_and_workspace_reuse():
+    """More samples than one chunk, then fewer (the scratch arrays are rebuilt): every row equals the
+    same sample evaluated alone."""
+    from qmt_drake.model.spatial_chain import CHUNK
+
+    plant, H, _ = load_arm_plant(MODELS / "arm6.urdf", "hand")
+    chain = SpatialChain(plant, H)
+    rng = np.random.default_rng(4)
+    big = [rng.uniform(-3, 3, (2 * CHUNK + 3, 6)) for _ in range(3)]
+    r = chain.evaluate(*big)
+    for k in (0, CHUNK - 1, CHUNK, 2 * CHUNK + 2):
+        one = chain.evaluate(*(x[k:k + 1] for x in big))
+        for key, val in one.items():
+            assert_close(r[key][k], val[0], f"chunked {key} row {k}")

@@ -6,18 +6,21 @@ frame, and the composite inertia of every body welded to its child link. Each jo
 so the joint axis is its z axis (frame K_i = the joint's child frame times a constant rotation E_i
 with E_i e_z = axis), so every joint rotation is about z.
 
-Then for S samples of (q, qd, qdd), shape (S, n), one pass loops over the n joints only (each step
-vectorised over samples, arrays laid out (3, S)):
+Then for S samples of (q, qd, qdd), shape (S, n), one pass loops over the n joints only, each step
+vectorised over samples on a stacked state of S columns (rows: see W, AL, ... below):
 
-- forward: world pose of K_i, angular velocity/acceleration, velocity and classical acceleration of
-  its origin; the hand frame H (welded to the last link) from them;
-- backward (Newton-Euler, world frame): joint torques with gravity from a vector `gravity_m_s2`,
-  the reflected rotor inertia N^2 J_r qdd (per joint, joint side) and the carried body (mass,
-  centre of mass and central inertia in the hand frame, added to the last link's composite).
+- forward, in each link's own frame K_i: angular velocity and acceleration, velocity and classical
+  acceleration of its origin, the world axes and origin; the base accelerates at -g (any gravity
+  vector `gravity_m_s2`), so gravity needs no term of its own;
+- backward (Newton-Euler in K_i): joint torques with gravity, the reflected rotor inertia N^2 J_r qdd
+  and viscous joint damping b qd (per joint; both read from the plant unless given), and the carried
+  body (mass, centre of mass and central inertia in the hand frame, added to the last link);
+- the hand frame H (welded to the last link): pose, twist and spatial acceleration in world.
 
-Joint damping, friction and limits are not forces here (as in `CalcInverseDynamics` with only
-gravity applied). Units SI: m, rad, s, kg, N m. Checked against Drake (inverse dynamics, frame
-poses, body spatial accelerations) and Pinocchio's RNEA in tests/test_spatial_chain.py.
+Joint friction and limits are not forces here; damping is, as in Drake's force elements. Units SI:
+m, rad, s, kg, N m. Checked against Drake (CalcInverseDynamics with the force elements, frame poses,
+CalcSpatialAccelerationsFromVdot) and Pinocchio's RNEA in tests/test_spatial_chain.py; speed against
+DrakeChain in studies/bench_spatial.py. Not thread-safe (scratch arrays are kept between calls).
 """
 
 from __future__ import annotations
@@ -28,7 +31,19 @@ from pydrake.multibody.tree import JointIndex
 
 from qmt_drake.errors import QmtInputError
 
-CHUNK = 2048  # samples per pass: scratch arrays stay cache-sized, memory stays bounded
+CHUNK = 2048  # samples per pass: memory stays bounded
+
+# Rows of the stacked state of a frame K (S columns): eight 3-vectors expressed in K, then the six
+# products of the angular velocity's components (w x (w x p) and w x (I w) are linear in them),
+# then a row of ones. ex, ey, ez: the world axes; d: the world origin relative to K's origin;
+# w, alpha: angular velocity and acceleration; v, a: velocity and classical acceleration of K's
+# origin minus g. The rows a link's wrench needs (alpha .. Q) are contiguous: DYN.
+E, D, W, AL, V, A = slice(0, 9), slice(9, 12), slice(12, 15), slice(15, 18), slice(18, 21), slice(21, 24)
+Q = slice(24, 30)  # wx wx, wy wy, wz wz, wx wy, wx wz, wy wz
+ONE = 30
+NR = 31
+DYN, KIN = slice(15, 30), slice(12, 30)  # alpha..Q (wrench), w..Q (hand velocity and acceleration)
+_QI, _QJ = [12, 13, 14, 12, 12, 13], [12, 13, 14, 13, 14, 14]  # rows of w
 
 
 def _cross(a, b):
@@ -136,34 +151,38 @@ class SpatialChain:
         self._add_composite(m1 + m2, m1 * c1 + m2 * c2, about_origin(m1, c1, I1) + about_origin(m2, c2, I2))
 
     def _finish_constants(self) -> None:
-        """Per joint i, from the constants read off the plant:
-        T_i (12, 12) taking the stack [w; alpha; v; a] of frame K_{i-1} to frame J_i, apart from
-        the centripetal term (R^T on each block, -R^T [p]x from w to v and from alpha to a);
-        pJ_i = R^T p; M_i (3, 12) giving a + alpha x c from the stack of K_i; X_i (6, 6) taking a
-        wrench [f; n] at J_i's origin (J_i axes) to K_{i-1}'s origin and axes."""
-        self._T, self._pJ, self._M, self._X, self._Cc, self._Ic = [], [], [], [], [], []
-        for R, p, c, inertia in zip(self.R_prev_J, self.p_prev_J, self.com_m, self.inertia_com_kgm2):
-            P = _skew(p)
-            T = np.zeros((12, 12))
-            for k in range(4):
-                T[3 * k:3 * k + 3, 3 * k:3 * k + 3] = R.T
-            T[6:9, 0:3] = T[9:12, 3:6] = -R.T @ P
-            M = np.zeros((3, 12))
-            M[:, 3:6] = -_skew(c)  # alpha x c = -[c]x alpha
-            M[:, 9:12] = np.eye(3)
+        """The constant matrices of the stacked recursion (row layout: the module's W, AL, ...).
+        Joint i: the stack of K_{i-1} turns by R^T into J_i, then v += w x pJ and
+        a += alpha x pJ + R^T (w x (w x p)) (Kc on [w; alpha], RL on the old Q) and d -= pJ;
+        G_i (6, 15) gives link i's wrench [f; n] at K_i's origin in K_i axes from rows DYN;
+        X_i (6, 6) takes a wrench at J_i's origin (J_i axes) to K_{i-1}'s origin and axes;
+        Mh (6, 18) gives [v; a] of the hand's origin from the last link's rows KIN."""
+        self._Rt, self._Kc, self._RL, self._pJ, self._G, self._X = [], [], [], [], [], []
+        for R, p, m, c, inertia in zip(self.R_prev_J, self.p_prev_J, self.mass_kg, self.com_m,
+                                       self.inertia_com_kgm2):
+            pJ = R.T @ p
+            Kc = np.zeros((6, 6))
+            Kc[:3, :3] = Kc[3:, 3:] = -_skew(pJ)  # x x pJ = -[pJ]x x
+            C = _skew(c)
+            G = np.zeros((6, NR))  # f = m (a + alpha x c + w x (w x c)); n = I alpha + w x (I w) + c x f
+            G[:3, A], G[:3, AL], G[:3, Q] = m * np.eye(3), -m * C, m * _centripetal(c)
+            G[3:, AL], G[3:, Q] = inertia, _gyroscopic(inertia)
+            G[3:] += C @ G[:3]
             X = np.zeros((6, 6))
             X[:3, :3] = X[3:, 3:] = R
-            X[3:, :3] = P @ R
-            self._T.append(T)
-            self._pJ.append(R.T @ p)
-            self._M.append(M)
+            X[3:, :3] = _skew(p) @ R
+            self._Rt.append(np.ascontiguousarray(R.T))
+            self._Kc.append(Kc)
+            self._RL.append(R.T @ _centripetal(p))
+            self._pJ.append(pJ[:, None])
+            self._G.append(np.ascontiguousarray(G[:, DYN]))
             self._X.append(X)
-            self._Cc.append(_skew(c))
-            self._Ic.append(inertia)
-        self._Mh = np.zeros((6, 12))  # [v_H; a_H] = Mh [w; alpha; v; a] + centripetal
         r = self.p_K_H
-        self._Mh[0:3, 0:3] = self._Mh[3:6, 3:6] = -_skew(r)
-        self._Mh[0:3, 6:9] = self._Mh[3:6, 9:12] = np.eye(3)
+        Mh = np.zeros((6, NR))
+        Mh[0:3, W] = Mh[3:6, AL] = -_skew(r)
+        Mh[0:3, V] = Mh[3:6, A] = np.eye(3)
+        Mh[3:6, Q] = _centripetal(r)
+        self._Mh = np.ascontiguousarray(Mh[:, KIN])
 
     def _columns(self, a):
         a = np.atleast_2d(np.asarray(a, float))
@@ -203,120 +222,94 @@ class SpatialChain:
         ws = self._ws
         if ws.get("S") != S:
             n = self.n_dof
-            ws = self._ws = {"S": S, "Y": np.empty((n + 1, 12, S)), "W": np.empty((2, 6, S)),
+            ws = self._ws = {"S": S, "Y": np.empty((n + 1, NR, S)), "W": np.empty((2, 6, S)),
                              "X": np.empty((6, S)), "c": np.empty((n, S)), "s": np.empty((n, S)),
-                             "tau": np.empty((n, S)), "Rt": np.empty((2, 3, 3 * S)), "p": np.empty((3, S)),
-                             "H": np.empty((4, 3, S))}
+                             "tau": np.empty((n, S)), "t": np.empty((3, 8, S)), "H": np.empty((5, 3, S))}
         return ws
 
     def evaluate(self, q, qd, qdd, gravity_m_s2=None) -> dict:
         """Everything in one pass: position_m (S, 3), rotation (S, 3, 3) = R_WH,
         angular_velocity_rad_s, linear_velocity_m_s (of H's origin), angular_acceleration_rad_s2,
         linear_acceleration_m_s2 (classical, of H's origin), all in world, and joint_torque_Nm (S, n)
-        (plant velocity order). Runs in chunks of at most CHUNK samples (cache-sized scratch)."""
+        (plant velocity order). Runs in chunks of at most CHUNK samples."""
         q, qd, qdd = self._columns(q), self._columns(qd), self._columns(qdd)
         g = self.gravity_m_s2 if gravity_m_s2 is None else np.asarray(gravity_m_s2, float).reshape(3)
         S = q.shape[1]
-        out = {"position_m": np.empty((S, 3)), "rotation": np.empty((S, 3, 3)),
-               "H": np.empty((4, S, 3)), "tau": np.empty((self.n_dof, S))}
+        out = {"rotation": np.empty((S, 3, 3)), "H": np.empty((5, S, 3)), "tau": np.empty((self.n_dof, S))}
         for k in range(0, S, CHUNK):
             sl = slice(k, min(S, k + CHUNK))
             self._evaluate_chunk(q[:, sl], qd[:, sl], qdd[:, sl], g, out, sl)
         H = out["H"]
-        return {"position_m": out["position_m"], "rotation": out["rotation"], "angular_velocity_rad_s": H[0],
+        return {"position_m": H[4], "rotation": out["rotation"], "angular_velocity_rad_s": H[0],
                 "linear_velocity_m_s": H[2], "angular_acceleration_rad_s2": H[1], "linear_acceleration_m_s2": H[3],
                 "joint_torque_Nm": self._to_plant_order(out["tau"])}
 
     def _evaluate_chunk(self, q, qd, qdd, g, out, sl) -> None:
-        """Kinematics and Newton-Euler in the links' own frames K_i on the stack [w; alpha; v; a]
-        (12, S), the base accelerating at -g so gravity needs no term of its own;
-        w x (w x p) = w (w.p) - p |w|^2."""
+        """Forward: the stack of each link's frame K_i (rows W, AL, ...) from the previous one by a
+        constant rotation and offset, the joint's turn about z (the same 2-D rotation on all eight 3-vectors) and the joint's rates; the base
+        accelerates at -g, so gravity needs no term of its own. Backward: each link's wrench by one
+        constant matrix G_i, plus the outboard wrench turned back. tau_i = the moment's z."""
         n, S = self.n_dof, q.shape[1]
         ws = self._workspace(S)
-        c, s = np.cos(q, out=ws["c"]), np.sin(q, out=ws["s"])
+        c, s = _cos_sin(q, ws["c"], ws["s"])
         Ys = ws["Y"]
         Ys[0] = 0.0
-        Ys[0, 9:12] = -g[:, None]
+        Ys[0, A] = -g[:, None]
+        Ys[0, E] = np.eye(3).reshape(9, 1)
+        Ys[0, ONE] = 1.0
+        t1, t2, t3 = ws["t"]
         for i in range(n):
-            w = Ys[i, 0:3]
-            ww = np.einsum("is,is->s", w, w)
-            Y = Ys[i + 1]
-            np.matmul(self._T[i], Ys[i], out=Y)
-            pJ = self._pJ[i]
-            wJ = Y[0:3]
-            Y[9:12] += wJ * (pJ @ wJ) - pJ[:, None] * ww
-            # rotate J -> K about z by q_i (all four vectors at once), then add the joint's rates
-            Y4 = Y.reshape(4, 3, S)
-            x, y = Y4[:, 0], Y4[:, 1]
-            xn = c[i] * x
-            xn += s[i] * y
-            yn = c[i] * y
-            yn -= s[i] * x
-            Y4[:, 0], Y4[:, 1] = xn, yn
-            Y[3] += Y[1] * qd[i]  # alpha += (w x z) qd = (w_y, -w_x, 0) qd
-            Y[4] -= Y[0] * qd[i]
-            Y[5] += qdd[i]
-            Y[2] += qd[i]
+            Y, Yp = Ys[i + 1], Ys[i]
+            Y8 = Y[:24].reshape(8, 3, S)
+            np.matmul(self._Rt[i], Yp[:24].reshape(8, 3, S), out=Y8)
+            Y[V.start:A.stop] += self._Kc[i] @ Y[W.start:AL.stop]
+            Y[A] += self._RL[i] @ Yp[Q]
+            Y[D] -= self._pJ[i]
+            x, y = Y8[:, 0], Y8[:, 1]
+            np.multiply(c[i], x, out=t1)
+            np.multiply(s[i], y, out=t2)
+            t1 += t2
+            np.multiply(s[i], x, out=t3)
+            y *= c[i]
+            y -= t3
+            x[...] = t1
+            Y[15] += Y[13] * qd[i]  # alpha += (w x z) qd = (w_y, -w_x, 0) qd
+            Y[16] -= Y[12] * qd[i]
+            Y[17] += qdd[i]
+            Y[14] += qd[i]
+            np.multiply(Y[_QI], Y[_QJ], out=Y[Q])
         tau = ws["tau"]
-        W = None  # wrench [f; n] of links i.. at K_i's origin, K_i axes
+        Wc = None  # wrench [f; n] of links i+1.. at K_{i+1}'s origin, K_{i+1} axes
         for i in range(n - 1, -1, -1):
-            Y = Ys[i + 1]
-            w, al = Y[0:3], Y[3:6]
-            cm = self.com_m[i]
-            acc = self._M[i] @ Y
-            acc += w * (cm @ w) - cm[:, None] * np.einsum("is,is->s", w, w)
             Wi = ws["W"][i % 2]
-            np.multiply(self.mass_kg[i], acc, out=Wi[:3])
-            np.matmul(self._Ic[i], al, out=Wi[3:])
-            Wi[3:] += _cross(w, self._Ic[i] @ w)
-            Wi[3:] += self._Cc[i] @ Wi[:3]
-            if W is not None:
-                W2 = W.reshape(2, 3, S)
+            np.matmul(self._G[i], Ys[i + 1, DYN], out=Wi)
+            if Wc is not None:
+                W2 = Wc.reshape(2, 3, S)
                 x, y = W2[:, 0], W2[:, 1]
-                xn = c[i + 1] * x
-                xn -= s[i + 1] * y
-                yn = s[i + 1] * x
-                yn += c[i + 1] * y
-                W2[:, 0], W2[:, 1] = xn, yn
-                Wi += np.matmul(self._X[i + 1], W, out=ws["X"])
-            W = Wi
-            tau[i] = W[5]
+                u1, u2, u3 = t1[:2], t2[:2], t3[:2]
+                np.multiply(c[i + 1], x, out=u1)
+                np.multiply(s[i + 1], y, out=u2)
+                u1 -= u2
+                np.multiply(s[i + 1], x, out=u3)
+                y *= c[i + 1]
+                y += u3
+                x[...] = u1
+                Wi += np.matmul(self._X[i + 1], Wc, out=ws["X"])
+            Wc = Wi
+            tau[i] = Wi[5]
         tau += self.reflected_inertia_kgm2[:, None] * qdd
         tau += self.damping_Nms[:, None] * qd
         out["tau"][:, sl] = tau
-        Rt, p = self._last_pose(c, s, ws)
-        R = Rt.reshape(3, 3, S)
-        out["position_m"][sl] = (p + np.einsum("jis,j->is", R, self.p_K_H)).T
-        np.matmul(R.transpose(2, 1, 0), self.R_K_H, out=out["rotation"][sl])
         Y = Ys[n]
-        w = Y[0:3]
-        r = self.p_K_H
-        H = ws["H"]
-        H[0], H[1] = w, Y[3:6]
-        np.matmul(self._Mh, Y, out=H[2:4].reshape(6, S))
-        H[3] += w * (r @ w) - r[:, None] * np.einsum("is,is->s", w, w)
-        Hw = out["H"][:, sl]
-        np.einsum("jis,kjs->ksi", R, H, out=Hw)  # in world
+        Ek = Y[E].reshape(3, 3, S)  # Ek[j] = world axis j in K_n: R_WK[j, k] = Ek[j, k]
+        H = ws["H"]  # w, alpha, v_H, a_H, (hand origin - world origin), in K_n
+        H[0], H[1] = Y[W], Y[AL]
+        np.matmul(self._Mh, Y[KIN], out=H[2:4].reshape(6, S))
+        np.subtract(self.p_K_H[:, None], Y[D], out=H[4])
+        Hw = np.einsum("jks,vks->vsj", Ek, H)  # (5, S, 3) in world
         Hw[3] += g
-
-    def _last_pose(self, c, s, ws):
-        """(R_WK^T flattened (3, 3 S), origin (3, S)) of the last link's frame K_n, in scratch."""
-        S = c.shape[1]
-        Rt = ws["Rt"][1]
-        Rt[:] = np.broadcast_to(np.eye(3)[:, :, None], (3, 3, S)).reshape(3, 3 * S)
-        p = ws["p"]
-        p[:] = 0.0
-        for i in range(self.n_dof):
-            p += (self.p_prev_J[i] @ Rt).reshape(3, S)
-            RJ = (self.R_prev_J[i].T @ Rt).reshape(3, 3, S)
-            RK = ws["Rt"][i % 2].reshape(3, 3, S)
-            np.multiply(c[i], RJ[0], out=RK[0])
-            RK[0] += s[i] * RJ[1]
-            np.multiply(c[i], RJ[1], out=RK[1])
-            RK[1] -= s[i] * RJ[0]
-            RK[2] = RJ[2]
-            Rt = ws["Rt"][i % 2]
-        return Rt, p
+        out["H"][:, sl] = Hw
+        out["rotation"][sl] = np.einsum("jks,km->sjm", Ek, self.R_K_H)
 
     def _to_plant_order(self, x):
         x = x.T
@@ -354,6 +347,42 @@ class SpatialChain:
             J[:, :3, col] = zs[i].T
             J[:, 3:, col] = _cross(zs[i], pH - ps[i]).T
         return J
+
+
+def _cos_sin(q, c, s):
+    """cos q and sin q into c, s from t = tan(q / 2) (c = (1 - t^2) / (1 + t^2), s = 2 t / (1 + t^2)):
+    one transcendental instead of two, and numpy's tan is several times faster than its cos/sin
+    here; the absolute error stays at a few 1e-16 (checked against Drake to 1e-9 in the tests)."""
+    t = np.tan(0.5 * q)
+    t2 = t * t
+    inv = 1.0 / (1.0 + t2)
+    np.multiply(np.subtract(1.0, t2, out=t2), inv, out=c)
+    np.multiply(2.0 * t, inv, out=s)
+    return c, s
+
+
+def _quadratic_rows(mats) -> np.ndarray:
+    """(3, 6) coefficients on the products Q of w's components of the three quadratic forms
+    w^T M_k w."""
+    out = np.empty((3, 6))
+    for k, M in enumerate(mats):
+        B = 0.5 * (M + M.T)
+        out[k] = [B[0, 0], B[1, 1], B[2, 2], 2 * B[0, 1], 2 * B[0, 2], 2 * B[1, 2]]
+    return out
+
+
+def _centripetal(p) -> np.ndarray:
+    """w x (w x p) = (w w^T - |w|^2 I) p as (3, 6) rows on Q."""
+    p = np.asarray(p, float)
+    return _quadratic_rows([np.outer(np.eye(3)[k], p) - p[k] * np.eye(3) for k in range(3)])
+
+
+def _gyroscopic(inertia) -> np.ndarray:
+    """w x (I w) as (3, 6) rows on Q: component k is eps_kij w_i (I w)_j."""
+    eps = np.zeros((3, 3, 3))
+    eps[0, 1, 2] = eps[1, 2, 0] = eps[2, 0, 1] = 1.0
+    eps[0, 2, 1] = eps[2, 1, 0] = eps[1, 0, 2] = -1.0
+    return _quadratic_rows([eps[k] @ inertia for k in range(3)])
 
 
 def _skew(p) -> np.ndarray:
