@@ -151,12 +151,15 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
     if not movable:
         raise QmtInputError(f"{source}: no revolute joint between the base and {hand_frame!r}; "
                             "name a hand link at the end of the arm")
-    inertial_links = {lk.get("name") for lk in root.findall("link") if lk.find("inertial") is not None}
+    inertials = {lk.get("name"): lk.find("inertial") for lk in root.findall("link")}
     for j in movable:
         child = j.find("child").get("link")
-        if child not in inertial_links:
+        if inertials.get(child) is None:
             raise QmtInputError(f"{source}: link {child!r} (moved by joint {j.get('name')!r}) has no "
                                 "<inertial>; give it mass, origin and inertia")
+    for name, el in inertials.items():
+        if el is not None:
+            _check_inertial(name, el, source)
     for j in movable:
         lim = j.find("limit")
         for attr, supplied, what in (("effort", effort_limit_Nm, "effort"),
@@ -166,6 +169,27 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
                 raise QmtInputError(f"{source}: joint {j.get('name')!r} has no {what} limit; add "
                                     f"<limit {attr}=\"...\"/> or give the actuator section's {what} limits")
     return [j.get("name") for j in movable]
+
+
+def _check_inertial(link: str, el: ET.Element, source: str) -> None:
+    """Mass >= 0 and a physically valid rotational inertia (Drake only warns and substitutes)."""
+    try:
+        m = float(el.find("mass").get("value"))
+        i = el.find("inertia")
+        v = {k: float(i.get(k, 0.0)) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")}
+    except (AttributeError, TypeError, ValueError):
+        raise QmtInputError(f"{source}: link {link!r} has an <inertial> without a numeric <mass value> and "
+                            "<inertia>; give both") from None
+    inertia = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
+                        [v["ixz"], v["iyz"], v["izz"]]])
+    if not np.isfinite(m) or m < 0 or not np.all(np.isfinite(inertia)):
+        raise QmtInputError(f"{source}: link {link!r} has mass {m} kg; give a finite mass >= 0")
+    ev = np.linalg.eigvalsh(inertia)
+    tol = 1e-12 * max(1.0, float(np.abs(ev).max()))
+    if ev[0] < -tol or ev[0] + ev[1] < ev[2] - tol:
+        raise QmtInputError(f"{source}: link {link!r} has a rotational inertia that no body has (principal "
+                            f"moments {ev.round(9).tolist()} kg m^2 must be >= 0 and satisfy the triangle "
+                            "inequality); fix its <inertia>")
 
 
 def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried=None,
