@@ -25,12 +25,33 @@ import numpy as np
 from pydrake.multibody.tree import MultibodyForces
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.contact_wrench import CarriedBody
+from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.model.drake_chain import DrakeChain
 from qmt_drake.model.spatial_chain import SpatialChain
+from qmt_drake.model.spatial_ik import SpatialIK
 from qmt_drake.model.urdf_check import example_robot_urdf, load_arm_plant
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
+from qmt_drake.planners.spatial_toppra import (
+    joint_path,
+    pick_and_place_waypoints,
+    plan_drake_toppra,
+    plan_toppra,
+    recheck,
+)
 
 ARMS = ("ur5", "panda")
+
+# The UR5 suction pick-and-place of the TOPP-RA measure (SI units; chosen here, not from a datasheet):
+# a 2 kg box held 8 cm below a 15 mm-radius cup pulling 40 N (about -57 kPa), friction 0.5; the URDF's
+# joint speed limits, 15 rad/s^2 joint accelerations; pick at (0.45, -0.30, 0.10) m, place at
+# (0.30, 0.45, 0.10) m, 0.25 m lift, the cup facing down throughout.
+UR5_TASK = {"pick_m": [0.45, -0.30, 0.10], "place_m": [0.30, 0.45, 0.10], "lift_m": 0.25,
+            "seed_rad": [-0.6, -1.3, 1.6, -1.9, -1.57, 0.0], "acceleration_limit_rad_s2": 15.0,
+            "body": {"mass_kg": 2.0, "com_m": [0.0, 0.0, 0.08], "inertia_kgm2": [0.006, 0.006, 0.004]},
+            "cup": {"radius_m": 0.015, "pull_force_N": 40.0, "friction": 0.5}}
+GRIP_RESOLUTIONS = ((8, 4), (4, 4))  # (rim points, pyramid edges); the first is GripModel's default
+FINE_GRIP = (24, 8)  # the re-check's model: its rim and pyramid contain both (closer to the round cup)
 
 
 def _drake_id_loop(plant, q, qd, qdd):
@@ -82,17 +103,67 @@ def bench_hand_state(arm: str, n: int, rounds: int) -> dict:
             "max_torque_difference_Nm": {m: float(np.abs(t - ref).max()) for m, t in torques.items()}}
 
 
+def bench_toppra(n_grid: int, rounds: int) -> dict:
+    """TOPP-RA on the UR5 suction path: toppra with joint limits vs Drake's Toppra (same path, grid and
+    limits), and toppra with the suction grip at several rim resolutions; median planning times,
+    durations, and the largest suction ratio re-checked at 10 points per grid interval."""
+    path, hand, lock = example_robot_urdf("ur5")
+    plant, H, _ = load_arm_plant(path, hand, lock_joints=lock)
+    ik = SpatialIK(plant, H, name="ur5")
+    t = UR5_TASK
+    Q = pick_and_place_waypoints(ik, t["pick_m"], t["place_m"], lift_m=t["lift_m"], seed=np.array(t["seed_rad"]))
+    pp = joint_path(Q)
+    vel = plant.GetVelocityUpperLimits()
+    acc = np.full(ik.chain.n_dof, t["acceleration_limit_rad_s2"])
+    b = t["body"]
+    body = CarriedBody(b["mass_kg"], np.array(b["com_m"]), np.diag(b["inertia_kgm2"]))
+    g = plant.gravity_field().gravity_vector()
+    terms = {f"suction_{rp}x{pe}": SuctionTerm(GripModel(**t["cup"], rim_points=rp, pyramid_edges=pe), body, g,
+                                               name=f"suction_{rp}x{pe}") for rp, pe in GRIP_RESOLUTIONS}
+    runs = {"toppra_joint_limits": lambda: plan_toppra(pp, ik.chain, velocity_limit=vel, acceleration_limit=acc,
+                                                       n_grid=n_grid),
+            "drake_toppra_joint_limits": lambda: plan_drake_toppra(pp, plant, velocity_limit=vel,
+                                                                   acceleration_limit=acc, n_grid=n_grid)}
+    for name, term in terms.items():
+        runs[name] = (lambda term=term: plan_toppra(pp, ik.chain, velocity_limit=vel, acceleration_limit=acc,
+                                                   terms=[term], n_grid=n_grid))
+    times = {k: [] for k in runs}
+    last = {}
+    for _ in range(rounds):
+        for k, f in runs.items():
+            last[k] = f()
+            times[k].append(last[k]["planning_s"])
+    out = {"task": t, "n_grid": n_grid, "rounds": rounds, "waypoints_rad": Q,
+           "planning_ms_median": {k: 1e3 * float(np.median(v)) for k, v in times.items()},
+           "planning_ms": {k: [1e3 * x for x in v] for k, v in times.items()},
+           "duration_s": {k: r["duration_s"] for k, r in last.items()},
+           "rows": {k: int(len(term.grip.g)) for k, term in terms.items()}}
+    out["duration_toppra_vs_drake_rel"] = abs(out["duration_s"]["toppra_joint_limits"]
+                                              / out["duration_s"]["drake_toppra_joint_limits"] - 1.0)
+    fine = SuctionTerm(GripModel(**t["cup"], rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1]), body, g,
+                       name="suction_fine")
+    out["recheck_max_ratio"] = {k: recheck(r, pp, ik.chain, [terms[k]] if k in terms else [])
+                                .get(k) for k, r in last.items() if "grid" in r}
+    out["recheck_max_ratio_fine_grip"] = {k: recheck(r, pp, ik.chain, [fine])["suction_fine"]
+                                          for k, r in last.items() if "grid" in r}
+    out["fine_grip"] = {"rim_points": FINE_GRIP[0], "pyramid_edges": FINE_GRIP[1], "rows": int(len(fine.grip.g))}
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=1000, help="samples per evaluation (default 1000)")
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--grid", type=int, default=1000, help="TOPP-RA grid points (default 1000)")
     ap.add_argument("--out", default="out")
     a = ap.parse_args(argv)
     try:
         check_output_dir(a.out, "--out")
-        if a.n < 1 or a.rounds < 1:
-            raise QmtInputError(f"--n {a.n} / --rounds {a.rounds}: give positive integers")
-        results = {"hand_state": [bench_hand_state(arm, a.n, a.rounds) for arm in ARMS]}
+        if a.n < 1 or a.rounds < 1 or a.grid < 2:
+            raise QmtInputError(f"--n {a.n} / --rounds {a.rounds} / --grid {a.grid}: give positive integers "
+                                "(grid >= 2)")
+        results = {"hand_state": [bench_hand_state(arm, a.n, a.rounds) for arm in ARMS],
+                   "toppra": bench_toppra(a.grid, a.rounds)}
     except QmtInputError as exc:
         print(f"bench_spatial: error: {exc}", file=sys.stderr)
         return 2
@@ -103,6 +174,15 @@ def main(argv=None) -> int:
         print(f"| {r['arm']} | {m['spatial_chain'] * 1e6:.2f} | {m['drake_chain'] * 1e6:.1f} | "
               f"{m['drake_inverse_dynamics'] * 1e6:.1f} | {r['ratio_drake_chain_over_spatial']:.1f} | "
               f"{r['ratio_drake_inverse_dynamics_over_spatial']:.1f} |")
+    tp = results["toppra"]
+    print(f"\nTOPP-RA, UR5 suction pick-and-place, {tp['n_grid']} grid points (median of {tp['rounds']}):\n"
+          "| run | rows | planning ms | duration s | max ratio, own grip (10x re-check) | max ratio, "
+          f"{tp['fine_grip']['rim_points']}x{tp['fine_grip']['pyramid_edges']} grip |\n|---|---|---|---|---|---|")
+    for k, ms in tp["planning_ms_median"].items():
+        own, fine = tp["recheck_max_ratio"].get(k), tp["recheck_max_ratio_fine_grip"].get(k)
+        print(f"| {k} | {tp['rows'].get(k, '-')} | {ms:.1f} | {tp['duration_s'][k]:.4f} | "
+              f"{'-' if own is None else f'{own:.4f}'} | {'-' if fine is None else f'{fine:.4f}'} |")
+    print(f"toppra vs Drake Toppra duration (joint limits): relative difference {tp['duration_toppra_vs_drake_rel']:.2e}")
     write_text_atomic(Path(a.out) / "bench_spatial.json", json.dumps(jsonable(results), indent=1))
     return 0
 

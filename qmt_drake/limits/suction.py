@@ -62,11 +62,9 @@ class GripModel:
         hull = ConvexHull(np.vstack([np.zeros(6), pts]))
         eq = hull.equations[np.abs(hull.equations[:, -1]) < 1e-9][:, :6]  # faces through the origin
         eq = eq / np.linalg.norm(eq, axis=1, keepdims=True)
-        keep = []
-        for row in eq:
-            if not any(np.abs(row - k).max() < 1e-7 for k in keep):
-                keep.append(row)
-        H_C = np.array(keep) * scale  # h . (w scaled) <= 0  <=>  (h * scale) . w <= 0
+        # Qhull splits a face with more than 6 vertices into simplices sharing its normal: keep one
+        _, first = np.unique(np.round(eq, 8), axis=0, return_index=True)
+        H_C = eq[np.sort(first)] * scale  # h . (w scaled) <= 0  <=>  (h * scale) . w <= 0
         R_CH = self.basis  # rows: C's axes in H's axes, so w_C = blockdiag(R_CH) w_H
         F = np.concatenate([H_C[:, :3] @ R_CH, H_C[:, 3:] @ R_CH], axis=1)
         w_pull = np.r_[np.zeros(3), -self.pull_force_N * self.basis[2]]
