@@ -156,21 +156,41 @@ def test_carried_body_gravity_vector_and_reflected_override():
     np.testing.assert_allclose(over["joint_torque_Nm"] - base["joint_torque_Nm"], refl * qdd, rtol=1e-12, atol=1e-9)
 
 
-def test_planar_arm_is_a_special_case():
-    """The thesis's two-link arm through the spatial chain equals its planar backend (ArmModel)."""
+@pytest.mark.parametrize("urdf,hand", [("two_link_ch4", "hand"), ("three_link_ch2", "hand"),
+                                       ("crane_x7_planar", "tray"), ("three_link_vertical_ohsaka", "tip")])
+def test_planar_arms_are_a_special_case(urdf, hand):
+    """The project's planar arms (horizontal thesis arms, the vertical arms with gravity in their
+    plane) through the spatial chain equal their planar backend (ArmModel's PlanarChain)."""
     from qmt_drake.model.arm import ArmModel
 
-    arm = ArmModel.from_urdf(MODELS / "two_link_ch4.urdf")
+    path = MODELS / f"{urdf}.urdf"
+    arm = ArmModel.from_urdf(path, hand)
     assert arm.planar is not None
-    plant, H, _ = load_arm_plant(MODELS / "two_link_ch4.urdf", "hand")
+    plant, H, _ = load_arm_plant(path, hand)
     chain = SpatialChain(plant, H)
-    q, qd, qdd = random_states(2, seed=3)
+    q, qd, qdd = random_states(chain.n_dof, seed=3)
     r = chain.evaluate(q, qd, qdd)
     st = arm.hand_state(q, qd, qdd)
     for k in range(S):
         assert_close(r["joint_torque_Nm"][k], st.joint_torque_Nm[k], "planar torque")
         assert_close(r["linear_acceleration_m_s2"][k], st.linear_acceleration_m_s2[k], "planar acceleration")
+        assert_close(r["angular_acceleration_rad_s2"][k], st.angular_acceleration_rad_s2[k], "planar angular acc.")
         assert_close(r["position_m"][k], st.position_m[k], "planar position")
+        assert_close(r["rotation"][k], st.rotation[k], "planar rotation")
+
+
+def test_hand_state_backend():
+    """SpatialChain serves HandState (model/hand_state.py) like DrakeChain does, field by field."""
+    from qmt_drake.model.drake_chain import DrakeChain
+    from qmt_drake.model.hand_state import HandState
+
+    plant, H, _ = load_arm_plant(MODELS / "arm6.urdf", "hand")
+    q, qd, qdd = random_states(6, seed=7)
+    a, b = HandState(SpatialChain(plant, H), q, qd, qdd), HandState(DrakeChain(plant, H), q, qd, qdd)
+    for name in ("position_m", "rotation", "linear_velocity_m_s", "angular_velocity_rad_s",
+                 "linear_acceleration_m_s2", "angular_acceleration_rad_s2", "joint_torque_Nm"):
+        for k in range(S):
+            assert_close(getattr(a, name)[k], getattr(b, name)[k], f"HandState.{name}")
 
 
 def test_chunks_and_workspace_reuse():

@@ -18,6 +18,7 @@ supplies them.
 from __future__ import annotations
 
 import importlib.metadata
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -29,7 +30,8 @@ from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 
 from qmt_drake.errors import QmtInputError
 
-ET.register_namespace("drake", "http://drake.mit.edu")
+DRAKE_NS = "http://drake.mit.edu"
+ET.register_namespace("drake", DRAKE_NS)
 
 MOVABLE_OK = ("revolute", "continuous")
 
@@ -71,6 +73,8 @@ def _read_root(urdf: str | Path, source: str) -> ET.Element:
         if not path.is_file():
             raise QmtInputError(f"{source}: no such URDF file; give the path of an existing .urdf")
         text = path.read_text()
+    if "drake:" in text and "xmlns:drake" not in text:  # Drake's parser accepts the undeclared prefix
+        text = re.sub(r"<robot\b", f'<robot xmlns:drake="{DRAKE_NS}"', text, count=1)
     try:
         return ET.fromstring(text)
     except ET.ParseError as exc:
