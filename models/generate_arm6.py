@@ -1,6 +1,7 @@
-"""Write models/arm6.urdf: a generic 6-DOF spatial arm (no real product; numbers chosen here).
+"""Write models/spatial/arm6.urdf: a generic 6-DOF spatial arm (no real product; numbers chosen here).
 
-Run `python models/generate_arm6.py` after changing a number; the URDF is committed. SI units.
+Run `python models/generate_arm6.py` after changing a number; the URDF is committed (in models/spatial/,
+apart from the planar arms that tests/test_model.py reads from models/*.urdf). SI units.
 
 Layout (a small anthropomorphic arm, reach about 0.75 m): joint 1 yaw about the base's z axis;
 joints 2 and 3 pitch (shoulder, elbow) about y; joints 4-6 a spherical-ish wrist (roll about the
@@ -83,7 +84,7 @@ def urdf() -> str:
 
 
 def main() -> None:
-    (HERE / "arm6.urdf").write_text(urdf())
+    (HERE / "spatial" / "arm6.urdf").write_text(urdf())
 
 
 if __name__ == "__main__":

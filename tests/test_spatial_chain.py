@@ -18,7 +18,7 @@ S = 25
 
 def arm_source(name):
     if name == "arm6":
-        return MODELS / "arm6.urdf", "hand", ()
+        return MODELS / "spatial" / "arm6.urdf", "hand", ()
     if name == "two_link_ch4":
         return MODELS / "two_link_ch4.urdf", "hand", ()
     try:
@@ -136,7 +136,7 @@ def test_carried_body_gravity_vector_and_reflected_override():
     gravity argument equals Drake's gravity field; an explicit reflected inertia replaces the plant's."""
     carried = dict(mass_kg=1.3, com_m=[0.01, -0.02, 0.05],
                    inertia_kgm2=[[0.004, 0.0002, 0.0001], [0.0002, 0.005, -0.0003], [0.0001, -0.0003, 0.003]])
-    path = MODELS / "arm6.urdf"
+    path = MODELS / "spatial" / "arm6.urdf"
     plant0, H0, _ = load_arm_plant(path, "hand")
     plant1, H1, _ = load_arm_plant(path, "hand", carried=carried)
     g = np.array([1.2, -0.7, -9.6])
@@ -184,7 +184,7 @@ def test_hand_state_backend():
     from qmt_drake.model.drake_chain import DrakeChain
     from qmt_drake.model.hand_state import HandState
 
-    plant, H, _ = load_arm_plant(MODELS / "arm6.urdf", "hand")
+    plant, H, _ = load_arm_plant(MODELS / "spatial" / "arm6.urdf", "hand")
     q, qd, qdd = random_states(6, seed=7)
     a, b = HandState(SpatialChain(plant, H), q, qd, qdd), HandState(DrakeChain(plant, H), q, qd, qdd)
     for name in ("position_m", "rotation", "linear_velocity_m_s", "angular_velocity_rad_s",
@@ -198,7 +198,7 @@ def test_chunks_and_workspace_reuse():
     same sample evaluated alone."""
     from qmt_drake.model.spatial_chain import CHUNK
 
-    plant, H, _ = load_arm_plant(MODELS / "arm6.urdf", "hand")
+    plant, H, _ = load_arm_plant(MODELS / "spatial" / "arm6.urdf", "hand")
     chain = SpatialChain(plant, H)
     rng = np.random.default_rng(4)
     big = [rng.uniform(-3, 3, (2 * CHUNK + 3, 6)) for _ in range(3)]

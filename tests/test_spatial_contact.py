@@ -29,7 +29,7 @@ def states(n, S, seed):
 def test_contact_wrench_is_what_the_arm_feels():
     """Independent of the formula: Drake's joint torques with the body welded minus without equal
     J^T of the wrench (in world) the hand applies to the body; the hand state from DrakeChain."""
-    path = MODELS / "arm6.urdf"
+    path = MODELS / "spatial" / "arm6.urdf"
     plant0, H0, _ = load_arm_plant(path, "hand")
     plant1, H1, _ = load_arm_plant(path, "hand", carried=BODY.as_dict())
     g = plant0.gravity_field().gravity_vector()
@@ -54,7 +54,7 @@ def test_contact_wrench_is_what_the_arm_feels():
 
 
 def test_spatial_chain_state_gives_the_same_wrench():
-    plant, H, _ = load_arm_plant(MODELS / "arm6.urdf", "hand")
+    plant, H, _ = load_arm_plant(MODELS / "spatial" / "arm6.urdf", "hand")
     q, qd, qdd = states(6, 20, 1)
     g = np.array([0.3, -0.2, -9.7])
     a = contact_wrench(SpatialChain(plant, H).evaluate(q, qd, qdd), g, BODY)
@@ -82,7 +82,7 @@ def test_magnet_moment_is_the_thesis_moment_on_the_horizontal_arm():
 def test_magnet_moment_with_gravity_and_a_tilted_hand():
     """At rest on the spatial arm (hand tilted every way) the moment is m_o r_G |P_u g|, the 3-D branch
     of PayloadMomentTerm (face normal = hand z)."""
-    arm = ArmModel.from_urdf(MODELS / "arm6.urdf")
+    arm = ArmModel.from_urdf(MODELS / "spatial" / "arm6.urdf")
     assert arm.planar is None
     m_o, r_G, limit = 0.030, 0.028, 0.570e-3
     ref = PayloadMomentTerm(arm, m_o * r_G, limit)
@@ -134,7 +134,7 @@ def test_grip_closed_form_limits():
 
 
 def test_suction_term_columns_and_toppra_rows_agree():
-    plant, H, _ = load_arm_plant(MODELS / "arm6.urdf", "hand")
+    plant, H, _ = load_arm_plant(MODELS / "spatial" / "arm6.urdf", "hand")
     grip = GripModel(0.02, 30.0, 0.6)
     g = plant.gravity_field().gravity_vector()
     term = SuctionTerm(grip, BODY, g)

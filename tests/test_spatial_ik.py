@@ -14,7 +14,7 @@ MODELS = Path(__file__).resolve().parents[1] / "models"
 
 def make_ik(name):
     if name == "arm6":
-        path, hand, lock = MODELS / "arm6.urdf", "hand", ()
+        path, hand, lock = MODELS / "spatial" / "arm6.urdf", "hand", ()
     else:
         try:
             path, hand, lock = example_robot_urdf(name)

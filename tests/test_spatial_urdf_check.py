@@ -152,3 +152,20 @@ def test_panda_fingers_must_be_locked():
         pytest.skip(str(exc))
     msg = refused(str(path), hand=hand)
     assert "panda_finger_joint" in msg and "lock" in msg
+
+
+def test_generated_arm6_is_up_to_date_and_loads():
+    import importlib.util
+    from pathlib import Path
+
+    models = Path(__file__).resolve().parents[1] / "models"
+    spec = importlib.util.spec_from_file_location("gen_arm6", models / "generate_arm6.py")
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    path = models / "spatial" / "arm6.urdf"
+    assert path.read_text() == gen.urdf(), "run python models/generate_arm6.py"
+    plant, _, names = load_arm_plant(path, "hand")
+    assert names == [f"joint{k}" for k in range(1, 7)]
+    acts = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
+    np.testing.assert_allclose([a.default_gear_ratio() for a in acts], gen.GEAR_RATIO)
+    np.testing.assert_allclose([a.default_rotor_inertia() for a in acts], gen.ROTOR_INERTIA_KGM2)
