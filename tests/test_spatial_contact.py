@@ -104,8 +104,10 @@ def member_by_lp(grip, w):
     return res.status == 0
 
 
-def test_grip_rows_equal_the_rim_contact_model():
-    grip = GripModel(0.02, 30.0, 0.5, face_normal=(0.3, -0.2, 0.9))
+@pytest.mark.parametrize("rim,edges,angle", [(8, 4, 0.0), (6, 4, np.pi / 4), (4, 4, 0.0)])
+def test_grip_rows_equal_the_rim_contact_model(rim, edges, angle):
+    grip = GripModel(0.02, 30.0, 0.5, face_normal=(0.3, -0.2, 0.9), rim_points=rim, pyramid_edges=edges,
+                     pyramid_angle_rad=angle)
     rng = np.random.default_rng(5)
     agree = 0
     for _ in range(300):

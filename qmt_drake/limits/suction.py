@@ -7,7 +7,8 @@ origin, z = u the face normal pointing from the hand into the part):
 
 - the rim touches the part at `rim_points` points p_i = r (cos t_i, sin t_i, 0); each can push the
   part (along +u) with Coulomb friction mu, the cone replaced by the inscribed pyramid of
-  `pyramid_edges` edges d_ij = u + mu (cos s_j, sin s_j, 0) (conservative: never allows more);
+  `pyramid_edges` edges d_ij = u + mu (cos s_j, sin s_j, 0), s_j = pyramid_angle_rad + 2 pi j /
+  pyramid_edges (conservative: never allows more);
 - the vacuum (or the magnet's pull) pulls the part onto the cup with a constant force F along -u.
 
 The wrench the hand may apply to the part at C's origin is then w = sum_ij l_ij [p_i x d_ij; d_ij]
@@ -36,18 +37,19 @@ class GripModel:
     friction `friction`, face normal `face_normal` (H's axes)."""
 
     def __init__(self, radius_m: float, pull_force_N: float, friction: float, *, face_normal=(0.0, 0.0, 1.0),
-                 rim_points: int = 8, pyramid_edges: int = 4) -> None:
+                 rim_points: int = 8, pyramid_edges: int = 4, pyramid_angle_rad: float = 0.0) -> None:
         if radius_m <= 0 or pull_force_N <= 0 or friction <= 0 or rim_points < 3 or pyramid_edges < 3:
             raise ValueError("a grip needs radius, pull force and friction > 0, >= 3 rim points and pyramid edges")
         self.radius_m, self.pull_force_N, self.friction = float(radius_m), float(pull_force_N), float(friction)
         self.basis = face_basis(face_normal)  # rows t1, t2, u in H's axes
         self.rim_points, self.pyramid_edges = int(rim_points), int(pyramid_edges)
+        self.pyramid_angle_rad = float(pyramid_angle_rad)
         self.F, self.g = self._rows()
 
     def generators(self) -> np.ndarray:
         """(rim_points * pyramid_edges, 6) unit-force contact wrenches [p x d; d] in C's axes."""
         t = 2 * np.pi * np.arange(self.rim_points) / self.rim_points
-        s = 2 * np.pi * np.arange(self.pyramid_edges) / self.pyramid_edges
+        s = self.pyramid_angle_rad + 2 * np.pi * np.arange(self.pyramid_edges) / self.pyramid_edges
         p = self.radius_m * np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=1)
         d = np.stack([self.friction * np.cos(s), self.friction * np.sin(s), np.ones_like(s)], axis=1)
         P = np.repeat(p, len(d), axis=0)
