@@ -169,3 +169,48 @@ def test_generated_arm6_is_up_to_date_and_loads():
     acts = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
     np.testing.assert_allclose([a.default_gear_ratio() for a in acts], gen.GEAR_RATIO)
     np.testing.assert_allclose([a.default_rotor_inertia() for a in acts], gen.ROTOR_INERTIA_KGM2)
+
+
+def test_drive_parameters_from_the_urdf_or_the_actuator_section():
+    from pathlib import Path
+
+    from qmt_drake.model.urdf_check import drive_parameters
+
+    arm6 = Path(__file__).resolve().parents[1] / "models" / "spatial" / "arm6.urdf"
+    plant, _, names = load_arm_plant(arm6, "hand")
+    d = drive_parameters(arm6, names)
+    acts = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
+    np.testing.assert_allclose(d["gear_ratio"], [a.default_gear_ratio() for a in acts])
+    np.testing.assert_allclose(d["reflected_inertia_kgm2"],
+                               [a.default_gear_ratio() ** 2 * a.default_rotor_inertia() for a in acts])
+    try:
+        path, hand, lock = example_robot_urdf("ur5")
+    except QmtInputError as exc:
+        pytest.skip(str(exc))
+    plant, H, names = load_arm_plant(path, hand)
+    with pytest.raises(QmtInputError, match="shoulder_pan_joint.*drake:gear_ratio.*actuator section"):
+        drive_parameters(path, names)
+    with pytest.raises(QmtInputError, match="give 6 finite values"):
+        drive_parameters(path, names, gear_ratio=[100] * 5, rotor_inertia_kgm2=[1e-5] * 6)
+    N, J = np.array([100, 100, 100, 80, 80, 80.0]), np.array([3e-5, 3e-5, 2e-5, 6e-6, 6e-6, 6e-6])
+    d = drive_parameters(path, names, gear_ratio=N, rotor_inertia_kgm2=J)
+    # the supplied drive in SpatialChain equals Drake with the same actuator parameters in its context
+    ctx = plant.CreateDefaultContext()
+    acts = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
+    assert [a.joint().name() for a in acts] == names
+    for a, n, j in zip(acts, N, J):
+        a.SetGearRatio(ctx, n)
+        a.SetRotorInertia(ctx, j)
+    chain = SpatialChain(plant, H, reflected_inertia_kgm2=d["reflected_inertia_kgm2"])
+    rng = np.random.default_rng(2)
+    q, qd, qdd = rng.uniform(-2, 2, (3, 6)), rng.uniform(-2, 2, (3, 6)), rng.uniform(-2, 2, (3, 6))
+    tau = chain.evaluate(q, qd, qdd)["joint_torque_Nm"]
+    f = MultibodyForces(plant)
+    for k in range(3):
+        plant.SetPositions(ctx, q[k])
+        plant.SetVelocities(ctx, qd[k])
+        f.SetZero()
+        plant.CalcForceElementsContribution(ctx, f)
+        ref = plant.CalcInverseDynamics(ctx, qdd[k], f)
+        np.testing.assert_allclose(tau[k], ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    assert np.abs(d["reflected_inertia_kgm2"] * qdd).max() > 0.1  # the term is live

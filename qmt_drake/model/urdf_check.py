@@ -11,8 +11,11 @@ the hand frame.
 (QmtInputError), every URDF that is not a serial chain of revolute (or continuous) joints from a
 fixed base to the hand frame: floating/planar joints, prismatic joints, a link with two parents
 (closed chain), a movable joint that is not on the path to the hand (branching), links on the chain
-without an inertial element, and joints without effort or velocity limits when no actuator section
-supplies them.
+without an inertial element (or with a mass < 0 or an inertia no body has: Drake only warns and
+substitutes), and joints without effort or velocity limits when no actuator section supplies them.
+
+`drive_parameters(urdf, joints, ...)` reads gear ratios and rotor inertias from the URDF's actuators
+or takes them from the scenario's actuator section, refusing a joint left without them.
 """
 
 from __future__ import annotations
@@ -228,6 +231,45 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
         plant.WeldFrames(hand, body.body_frame(), RigidTransform())
     plant.Finalize()
     return plant, hand, names
+
+
+def drive_parameters(urdf: str | Path, joint_names, *, gear_ratio=None, rotor_inertia_kgm2=None,
+                     source: str | None = None) -> dict:
+    """Gear ratios N and motor-side rotor inertias J_r of the chain's joints (for a DC-motor model and
+    the reflected inertia N^2 J_r): from each joint's `<transmission><actuator>` `drake:gear_ratio` /
+    `drake:rotor_inertia`, replaced by `gear_ratio` / `rotor_inertia_kgm2` (per joint, the scenario's
+    actuator section) when given. A joint left without either is refused in one line (a
+    `<mechanicalReduction>` is not read: Drake ignores it too). Returns gear_ratio, rotor_inertia_kgm2,
+    reflected_inertia_kgm2 (n,) arrays."""
+    source = source or (str(urdf) if not str(urdf).lstrip().startswith("<") else "URDF text")
+    root = _read_root(urdf, source)
+    names = list(joint_names)
+    found = {"gear_ratio": {}, "rotor_inertia": {}}
+    for tr in root.findall("transmission"):
+        joints = [j.get("name") for j in tr.findall("joint")]
+        for act in tr.findall("actuator"):
+            for child in act:
+                tag = child.tag.split("}")[-1]
+                if tag in found and child.tag.startswith("{" + DRAKE_NS):
+                    for j in joints:
+                        found[tag][j] = float(child.get("value"))
+    out = {}
+    for tag, given, unit in (("gear_ratio", gear_ratio, ""), ("rotor_inertia", rotor_inertia_kgm2, " kg m^2")):
+        if given is not None:
+            vals = np.asarray(given, float).reshape(-1)
+            if vals.shape != (len(names),) or not np.all(np.isfinite(vals)) or np.any(vals < 0):
+                raise QmtInputError(f"{source}: the actuator section's {tag} has {vals.size} values; give "
+                                    f"{len(names)} finite values >= 0{unit}, one per joint {names}")
+            out[tag] = vals
+            continue
+        missing = [j for j in names if j not in found[tag]]
+        if missing:
+            raise QmtInputError(f"{source}: joints {missing} declare no drake:{tag} in their <transmission><actuator> "
+                                f"(<mechanicalReduction> is not read); add it there or give the actuator "
+                                f"section's {tag} per joint")
+        out[tag] = np.array([found[tag][j] for j in names])
+    return {"gear_ratio": out["gear_ratio"], "rotor_inertia_kgm2": out["rotor_inertia"],
+            "reflected_inertia_kgm2": out["gear_ratio"] ** 2 * out["rotor_inertia"]}
 
 
 def chain_root_link(root: ET.Element, hand_frame: str) -> str:
