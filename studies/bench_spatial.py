@@ -20,12 +20,14 @@ import json
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 from pydrake.multibody.tree import MultibodyForces
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody
+from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.model.drake_chain import DrakeChain
 from qmt_drake.model.spatial_chain import SpatialChain
@@ -44,10 +46,12 @@ ARMS = ("ur5", "panda")
 
 # The UR5 suction pick-and-place of the TOPP-RA measure (SI units; chosen here, not from a datasheet):
 # a 2 kg box held 8 cm below a 15 mm-radius cup pulling 40 N (about -57 kPa), friction 0.5; the URDF's
-# joint speed limits, 15 rad/s^2 joint accelerations; pick at (0.45, -0.30, 0.10) m, place at
+# joint speed limits, 15 rad/s^2 joint accelerations (torque runs: limits well below the URDF's, so they
+# bind; the box welded to the hand in both solvers' models); pick at (0.45, -0.30, 0.10) m, place at
 # (0.30, 0.45, 0.10) m, 0.25 m lift, the cup facing down throughout.
 UR5_TASK = {"pick_m": [0.45, -0.30, 0.10], "place_m": [0.30, 0.45, 0.10], "lift_m": 0.25,
             "seed_rad": [-0.6, -1.3, 1.6, -1.9, -1.57, 0.0], "acceleration_limit_rad_s2": 15.0,
+            "torque_limit_Nm": [50.0, 50.0, 25.0, 6.0, 6.0, 6.0],
             "body": {"mass_kg": 2.0, "com_m": [0.0, 0.0, 0.08], "inertia_kgm2": [0.006, 0.006, 0.004]},
             "cup": {"radius_m": 0.015, "pull_force_N": 40.0, "friction": 0.5}}
 # (rim points, pyramid edges, pyramid angle deg): GripModel's default, a hexagon rim with its pyramids
@@ -113,12 +117,17 @@ def bench_toppra(n_grid: int, rounds: int) -> dict:
     plant, H, _ = load_arm_plant(path, hand, lock_joints=lock)
     ik = SpatialIK(plant, H, name="ur5")
     t = UR5_TASK
+    b = t["body"]
+    body = CarriedBody(b["mass_kg"], np.array(b["com_m"]), np.diag(b["inertia_kgm2"]))
+    plant_b, H_b, names = load_arm_plant(path, hand, lock_joints=lock, carried=body.as_dict())
+    chain_b = SpatialChain(plant_b, H_b)  # the box welded: joint torques include it
+    torque = np.array(t["torque_limit_Nm"])
+    torque_term = MotorTorqueTerm(SimpleNamespace(gear_ratio=np.ones(6), joint_names=names, gravity_does_no_work=False),
+                                  torque)
     Q = pick_and_place_waypoints(ik, t["pick_m"], t["place_m"], lift_m=t["lift_m"], seed=np.array(t["seed_rad"]))
     pp = joint_path(Q)
     vel = plant.GetVelocityUpperLimits()
     acc = np.full(ik.chain.n_dof, t["acceleration_limit_rad_s2"])
-    b = t["body"]
-    body = CarriedBody(b["mass_kg"], np.array(b["com_m"]), np.diag(b["inertia_kgm2"]))
     g = plant.gravity_field().gravity_vector()
     terms = {}
     for rp, pe, deg in GRIP_RESOLUTIONS:
@@ -128,7 +137,12 @@ def bench_toppra(n_grid: int, rounds: int) -> dict:
     runs = {"toppra_joint_limits": lambda: plan_toppra(pp, ik.chain, velocity_limit=vel, acceleration_limit=acc,
                                                        n_grid=n_grid),
             "drake_toppra_joint_limits": lambda: plan_drake_toppra(pp, plant, velocity_limit=vel,
-                                                                   acceleration_limit=acc, n_grid=n_grid)}
+                                                                   acceleration_limit=acc, n_grid=n_grid),
+            "toppra_torque_limits": lambda: plan_toppra(pp, chain_b, velocity_limit=vel, acceleration_limit=acc,
+                                                        terms=[torque_term], n_grid=n_grid),
+            "drake_toppra_torque_limits": lambda: plan_drake_toppra(pp, plant_b, velocity_limit=vel,
+                                                                    acceleration_limit=acc, torque_limit=torque,
+                                                                    n_grid=n_grid)}
     for name, term in terms.items():
         runs[name] = (lambda term=term: plan_toppra(pp, ik.chain, velocity_limit=vel, acceleration_limit=acc,
                                                    terms=[term], n_grid=n_grid))
@@ -143,8 +157,9 @@ def bench_toppra(n_grid: int, rounds: int) -> dict:
            "planning_ms": {k: [1e3 * x for x in v] for k, v in times.items()},
            "duration_s": {k: r["duration_s"] for k, r in last.items()},
            "rows": {k: int(len(term.grip.g)) for k, term in terms.items()}}
-    out["duration_toppra_vs_drake_rel"] = abs(out["duration_s"]["toppra_joint_limits"]
-                                              / out["duration_s"]["drake_toppra_joint_limits"] - 1.0)
+    out["duration_toppra_vs_drake_rel"] = {
+        lim: abs(out["duration_s"][f"toppra_{lim}"] / out["duration_s"][f"drake_toppra_{lim}"] - 1.0)
+        for lim in ("joint_limits", "torque_limits")}
     fine = SuctionTerm(GripModel(**t["cup"], rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1]), body, g,
                        name="suction_fine")
     out["recheck_max_ratio"] = {k: recheck(r, pp, ik.chain, [terms[k]] if k in terms else [])
@@ -187,7 +202,8 @@ def main(argv=None) -> int:
         own, fine = tp["recheck_max_ratio"].get(k), tp["recheck_max_ratio_fine_grip"].get(k)
         print(f"| {k} | {tp['rows'].get(k, '-')} | {ms:.1f} | {tp['duration_s'][k]:.4f} | "
               f"{'-' if own is None else f'{own:.4f}'} | {'-' if fine is None else f'{fine:.4f}'} |")
-    print(f"toppra vs Drake Toppra duration (joint limits): relative difference {tp['duration_toppra_vs_drake_rel']:.2e}")
+    for lim, rel in tp["duration_toppra_vs_drake_rel"].items():
+        print(f"toppra vs Drake Toppra duration ({lim}): relative difference {rel:.2e}")
     write_text_atomic(Path(a.out) / "bench_spatial.json", json.dumps(jsonable(results), indent=1))
     return 0
 

@@ -72,3 +72,27 @@ def test_refusals(ur5):
     with pytest.raises(QmtInputError, match="no parameterisation"):
         plan_toppra(pp, ik.chain, velocity_limit=plant.GetVelocityUpperLimits(), acceleration_limit=np.full(6, 15.0),
                     terms=[heavy], n_grid=200)
+
+
+def test_torque_limits_equal_drake_toppra(ur5):
+    """Joint torque limits through SpatialChain (the existing MotorTorqueTerm, gear ratio 1) give the
+    same duration as Drake's Toppra with its own inverse dynamics, the carried box welded in both."""
+    from types import SimpleNamespace
+
+    from qmt_drake.limits.motor_torque import MotorTorqueTerm
+    from qmt_drake.model.spatial_chain import SpatialChain
+
+    _, ik, pp, _ = ur5
+    path, hand, lock = example_robot_urdf("ur5")
+    plant, H, names = load_arm_plant(path, hand, lock_joints=lock, carried=BODY.as_dict())
+    chain = SpatialChain(plant, H)
+    vel, acc = plant.GetVelocityUpperLimits(), np.full(6, 15.0)
+    torque = np.array([50.0, 50.0, 25.0, 6.0, 6.0, 6.0])
+    arm = SimpleNamespace(gear_ratio=np.ones(6), joint_names=names, gravity_does_no_work=False)
+    term = MotorTorqueTerm(arm, torque)
+    ours = plan_toppra(pp, chain, velocity_limit=vel, acceleration_limit=acc, terms=[term], n_grid=1000)
+    free = plan_toppra(pp, chain, velocity_limit=vel, acceleration_limit=acc, n_grid=1000)
+    drake = plan_drake_toppra(pp, plant, velocity_limit=vel, acceleration_limit=acc, torque_limit=torque, n_grid=1000)
+    assert ours["duration_s"] > free["duration_s"] * 1.05  # the torque limits bind
+    assert abs(ours["duration_s"] / drake["duration_s"] - 1) < 1e-4
+    assert recheck(ours, pp, chain, [term])["motor_torque"] <= 1.0 + 1e-3

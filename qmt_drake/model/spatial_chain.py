@@ -51,6 +51,17 @@ def _cross(a, b):
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
+class HandSample(dict):
+    """SpatialChain.evaluate's result: a dict whose keys also read as attributes (HandState's field
+    names), so limit terms written for a HandState take it as it is."""
+
+    def __getattr__(self, name):
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
 class SpatialChain:
     """Attributes: n_dof, joint_names, velocity_index (the plant's velocity index of each chain
     joint), reflected_inertia_kgm2 (n,), gravity_m_s2 (3,), and per joint the constants read from
@@ -227,7 +238,7 @@ class SpatialChain:
                              "tau": np.empty((n, S)), "t": np.empty((3, 8, S)), "H": np.empty((5, 3, S))}
         return ws
 
-    def evaluate(self, q, qd, qdd, gravity_m_s2=None) -> dict:
+    def evaluate(self, q, qd, qdd, gravity_m_s2=None) -> HandSample:
         """Everything in one pass: position_m (S, 3), rotation (S, 3, 3) = R_WH,
         angular_velocity_rad_s, linear_velocity_m_s (of H's origin), angular_acceleration_rad_s2,
         linear_acceleration_m_s2 (classical, of H's origin), all in world, and joint_torque_Nm (S, n)
@@ -240,9 +251,9 @@ class SpatialChain:
             sl = slice(k, min(S, k + CHUNK))
             self._evaluate_chunk(q[:, sl], qd[:, sl], qdd[:, sl], g, out, sl)
         H = out["H"]
-        return {"position_m": H[4], "rotation": out["rotation"], "angular_velocity_rad_s": H[0],
-                "linear_velocity_m_s": H[2], "angular_acceleration_rad_s2": H[1], "linear_acceleration_m_s2": H[3],
-                "joint_torque_Nm": self._to_plant_order(out["tau"])}
+        return HandSample(position_m=H[4], rotation=out["rotation"], angular_velocity_rad_s=H[0],
+                          linear_velocity_m_s=H[2], angular_acceleration_rad_s2=H[1], linear_acceleration_m_s2=H[3],
+                          joint_torque_Nm=self._to_plant_order(out["tau"]))
 
     def _evaluate_chunk(self, q, qd, qdd, g, out, sl) -> None:
         """Forward: the stack of each link's frame K_i (rows W, AL, ...) from the previous one by a

@@ -6,7 +6,7 @@ continuous second derivatives and zero end slopes, s the cumulative joint-space 
 joint velocity and acceleration limits and any LimitTerm whose `toppra_w` / `toppra_rows` exist,
 w evaluated by SpatialChain for all grid points in three batched calls (limits/toppra_form.py).
 `plan_drake_toppra` runs pydrake's Toppra on the same path and grid with the limits it has (joint
-velocity and acceleration). Both return the duration of their parameterisation (constant s-ddot
+velocity, acceleration and torque). Both return the duration of their parameterisation (constant s-ddot
 between grid points) and the planning time. `recheck` samples a plan: the terms' columns at every
 grid point and at `refine` points per interval (the plan holds at the grid; between grid points
 the path's curvature may add a little).
@@ -102,13 +102,19 @@ def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_gr
             "sdd": np.asarray(sdd, float), "n_grid": n_grid}
 
 
-def plan_drake_toppra(pp, plant, *, velocity_limit, acceleration_limit, n_grid: int = 1000) -> dict:
+def plan_drake_toppra(pp, plant, *, velocity_limit, acceleration_limit, torque_limit=None,
+                      n_grid: int = 1000) -> dict:
+    """pydrake's Toppra with joint velocity and acceleration limits and, if given, joint torque limits
+    (N m; Drake's own inverse dynamics of `plant`, gravity and any welded carried body included)."""
     t0 = time.perf_counter()
     grid = np.linspace(pp.start_time(), pp.end_time(), n_grid)
     solver = Toppra(pp, plant, grid)
     v, a = np.asarray(velocity_limit, float), np.asarray(acceleration_limit, float)
     solver.AddJointVelocityLimit(-v, v)
     solver.AddJointAccelerationLimit(-a, a)
+    if torque_limit is not None:
+        tl = np.asarray(torque_limit, float)
+        solver.AddJointTorqueLimit(-tl, tl)
     s_traj = solver.SolvePathParameterization()
     planning_s = time.perf_counter() - t0
     if s_traj is None:
