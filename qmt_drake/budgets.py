@@ -171,7 +171,7 @@ def fourier_estimate(m: int, divisions: int, *, starts: int = 8, n_joints: int =
     start 0.17 s at m = 5, growing as m^3.3, times the objective's cost per evaluation at
     `divisions` (1.1 ms + 3.7 us per division); memory 2.4 kB per division plus the solver's
     dense 8 n^2-byte matrices (x 4)."""
-    m, d = _f(m), _f(divisions)
+    m, d = max(_f(m), 0.0), max(_f(divisions), 0.0)
     n = 2 * m * n_joints + 1
     per_eval = (ENERGY_S_PER_EVAL + ENERGY_S_PER_DIVISION * d) / (ENERGY_S_PER_EVAL + ENERGY_S_PER_DIVISION * 40)
     seconds = starts * ENERGY_S_PER_START_M5 * (m / 5) ** ENERGY_M_EXPONENT * per_eval
@@ -206,8 +206,9 @@ def sweep_estimate(cases: int, per_case: Estimate, *, workers: int = 1, plans: E
     if plans is not None:
         seconds += plans.seconds
         mem = max(mem, plans.bytes)
+    alone = per_case.bytes > MEMORY_BUDGET_BYTES or per_case.seconds > TIME_BUDGET_S
     return Estimate(mem, seconds, f"a sweep of {_f(cases):g} cases on {w} worker(s) (each {per_case.what})",
-                    "narrow the grid or lower monte_carlo.cases")
+                    per_case.fix if alone else "narrow the grid or lower monte_carlo.cases")
 
 
 def motion_time_bound_s(scenario) -> float:
@@ -231,3 +232,25 @@ def scenario_estimates(scenario, *, generations: int | None = None, method: str 
                                plan_rate_hz=scenario.sampling.plan_rate_hz, motion_time_s=T, n_dof=n_dof,
                                n_genes=len(scenario.family.gene_names), bits_per_gene=scenario.ga.bits_per_gene))
     return out
+
+
+# --------------------------------------------------------------------- for the commands' checks
+def check_plan_budget(scenario, method: str, generations: int | None = None, *,
+                      allow_large: bool = False) -> list[Estimate]:
+    """`qmt-drake plan`: the scenario's rates and (method ga) its GA, before planning."""
+    return [check_budget(e, allow_large=allow_large)
+            for e in scenario_estimates(scenario, generations=generations, method=method)]
+
+
+def check_replay_budget(scenario, time_scale: float, time_step_s: float | None = None, *,
+                        motion_time_s: float | None = None, allow_large: bool = False) -> Estimate:
+    """`qmt-drake simulate`: the replay at `time_scale` (motion time: the plan's, or before planning
+    the scenario's bound), before planning and simulating."""
+    T = motion_time_s if motion_time_s is not None else motion_time_bound_s(scenario)
+    return check_budget(replay_estimate(time_scale, T, time_step_s or 2e-3, tray=bool(scenario.is_tray)),
+                        allow_large=allow_large)
+
+
+def check_energy_budget(m: int, divisions: int, *, starts: int = 8, allow_large: bool = False) -> Estimate:
+    """`qmt-drake plan ohsaka-*`: the Fourier order and time divisions, before any solve."""
+    return check_budget(fourier_estimate(m, divisions, starts=starts), allow_large=allow_large)

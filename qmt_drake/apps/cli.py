@@ -16,6 +16,8 @@ import math
 import sys
 from pathlib import Path
 
+from qmt_drake.apps.one_line_parser import OneLineParser
+from qmt_drake.budgets import check_plan_budget, check_replay_budget
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
@@ -91,6 +93,7 @@ def cmd_plan(args) -> int:
     from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
     _check_tray_method(sc, args.method)
+    check_plan_budget(sc, args.method, args.generations, allow_large=args.allow_large)
     if args.checkpoint is not None:
         if args.method != "ga":
             raise QmtInputError(f"--checkpoint is for --method ga, not {args.method}; drop it")
@@ -167,6 +170,9 @@ def cmd_simulate(args) -> int:
     from qmt_drake.planners import plan_with
     from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
+    check_plan_budget(sc, "thesis" if args.plan else args.method, allow_large=args.allow_large)
+    check_replay_budget(sc, args.time_scale, None if args.time_step_ms is None else args.time_step_ms * 1e-3,
+                        allow_large=args.allow_large)
     if getattr(sc, "is_tray", False):
         return _simulate_tray(args, sc)
     try:
@@ -262,7 +268,7 @@ def _parse_value(v: str):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="qmt-drake", description=__doc__.splitlines()[0])
+    p = OneLineParser(prog="qmt-drake", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("scenarios", help="list the built-in scenarios")
@@ -282,6 +288,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--option", action="append", metavar="KEY=VALUE",
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_plan)
 
     s = sub.add_parser("simulate", help="execute a plan through motors, PID and the held payload")
@@ -302,6 +309,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="motors drive the plant directly (no implicit loop damping; needs <= 1 ms)")
     s.add_argument("--json", metavar="PATH|-")
     s.add_argument("--quiet", action="store_true")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_simulate)
 
     s = sub.add_parser("bench", help="planner speed benchmark (JSON)")
