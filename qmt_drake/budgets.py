@@ -49,6 +49,7 @@ SIM_BYTES_PER_STEP = 4.8e3
 SIM_BASE_BYTES = 150e6
 TRAY_S_PER_SIM_S = 0.5
 TRAY_BYTES_PER_SIM_S = 1e6
+TRAY_TIME_STEP_S = 1e-3  # tray/cosim.py TIME_STEP_S
 ENERGY_S_PER_START_M5 = 0.17
 ENERGY_M_EXPONENT = 3.3
 ENERGY_S_PER_EVAL = 1.1e-3
@@ -151,13 +152,17 @@ def ga_estimate(population: int, generations: int, *, plan_rate_hz: float, motio
                     "use fewer generations (--generations, or a stall limit) or a smaller population")
 
 
-def replay_estimate(time_scale: float, motion_time_s: float, time_step_s: float = 2e-3, *,
+def replay_estimate(time_scale: float, motion_time_s: float, time_step_s: float | None = None, *,
                     tray: bool = False) -> Estimate:
     """One co-simulated replay of a motion of `motion_time_s` stretched by `time_scale`: the magnet
-    arm costs 0.15 ms and 4.8 kB per plant step, the tray 0.5 s per simulated second."""
+    arm costs 0.15 ms and 4.8 kB per plant step (default 2 ms), the tray 0.5 s and 1 MB per
+    simulated second at its 1 ms step (proportionally more at a smaller step)."""
     sim_s = _f(time_scale) * _f(motion_time_s)
+    if time_step_s is None:
+        time_step_s = TRAY_TIME_STEP_S if tray else 2e-3
     if tray:
-        seconds, mem = sim_s * TRAY_S_PER_SIM_S, SIM_BASE_BYTES + sim_s * TRAY_BYTES_PER_SIM_S
+        k = TRAY_TIME_STEP_S / _f(time_step_s)
+        seconds, mem = sim_s * TRAY_S_PER_SIM_S * k, SIM_BASE_BYTES + sim_s * TRAY_BYTES_PER_SIM_S * k
     else:
         steps = sim_s / _f(time_step_s)
         seconds, mem = steps * SIM_S_PER_STEP, SIM_BASE_BYTES + steps * SIM_BYTES_PER_STEP
@@ -247,10 +252,17 @@ def check_replay_budget(scenario, time_scale: float, time_step_s: float | None =
     """`qmt-drake simulate`: the replay at `time_scale` (motion time: the plan's, or before planning
     the scenario's bound), before planning and simulating."""
     T = motion_time_s if motion_time_s is not None else motion_time_bound_s(scenario)
-    return check_budget(replay_estimate(time_scale, T, time_step_s or 2e-3, tray=bool(scenario.is_tray)),
+    return check_budget(replay_estimate(time_scale, T, time_step_s, tray=bool(scenario.is_tray)),
                         allow_large=allow_large)
 
 
 def check_energy_budget(m: int, divisions: int, *, starts: int = 8, allow_large: bool = False) -> Estimate:
     """`qmt-drake plan ohsaka-*`: the Fourier order and time divisions, before any solve."""
     return check_budget(fourier_estimate(m, divisions, starts=starts), allow_large=allow_large)
+
+
+def check_ga_runs_budget(scenario, runs: int, generations: int, *, allow_large: bool = False) -> Estimate:
+    """`qmt-drake bench` / `benchmark`: `runs` GA runs of `generations` on `scenario`, before the first."""
+    (g,) = [e for e in scenario_estimates(scenario, generations=generations) if e.what.startswith("a GA")]
+    return check_budget(Estimate(g.bytes, g.seconds * _f(runs), f"{_f(runs):g} runs of {g.what}",
+                                 "use fewer seeds (--seeds / --ga-seeds)"), allow_large=allow_large)

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from qmt_drake.apps.one_line_parser import OneLineParser
-from qmt_drake.budgets import check_plan_budget, check_replay_budget
+from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
@@ -233,7 +233,7 @@ def cmd_bench(args) -> int:
     check_output_dir(args.out, "--out")
     _check_int(args.seeds, "--seeds", 1, "run at least one seed")
     from qmt_drake.config.scenario import load_scenario
-    load_scenario(args.scenario)
+    check_ga_runs_budget(load_scenario(args.scenario), args.seeds, 3000, allow_large=args.allow_large)
     from qmt_drake.apps.bench import run_bench
     data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=_progress,
                      seeds=args.seeds)
@@ -250,7 +250,8 @@ def cmd_benchmark(args) -> int:
         _check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
     from qmt_drake.config.scenario import load_scenario
     for name in args.scenarios:
-        load_scenario(name)
+        check_ga_runs_budget(load_scenario(name), len(args.ga_seeds), 30 if args.quick else 1000,
+                             allow_large=args.allow_large)
     from qmt_drake.apps.benchmark import run_benchmark
     run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress,
                   jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
@@ -316,6 +317,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--scenario", default="thesis-ch4")
     s.add_argument("--seeds", type=int, default=5)
     s.add_argument("--out", default="out")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_bench)
 
     s = sub.add_parser("benchmark", help="GA vs TOPP-RA, Ruckig and trajopt (JSON, Markdown, PNG)")
@@ -326,6 +328,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--ga-seeds", nargs="+", type=int, default=[0])
     s.add_argument("--quick", action="store_true", help="short GA, small trajopt, one jerk limit")
     s.add_argument("--no-cosim", action="store_true", help="skip the closed-loop column")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_benchmark)
 
     from qmt_drake.energy.cli import add_parser as add_energy_parser

@@ -117,7 +117,6 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *,
     with dask.config.set(cfg):
         if scheduler:
             addr = check_scheduler_address(scheduler)
-            probe_scheduler(addr, connect_timeout_s)
             try:
                 client = Client(addr, timeout=f"{connect_timeout_s}s", set_as_default=False)
             except Exception as exc:  # noqa: BLE001 - OSError/TimeoutError, or garbage from a non-Dask port
@@ -225,6 +224,8 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
     workers_used = None
     if pending:
         needed = {c.plan_key for c in pending}
+        if scheduler and client is None:
+            probe_scheduler(check_scheduler_address(scheduler), connect_timeout_s)
         with (_reuse(client) if client is not None else
               dask_client(scheduler, workers, allowed_failures=allowed_failures,
                           connect_timeout_s=connect_timeout_s)) as cl:

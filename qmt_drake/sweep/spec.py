@@ -40,6 +40,9 @@ from qmt_drake.config.fields import check_keys, is_number, read_yaml_mapping, sh
 from qmt_drake.errors import QmtInputError
 from qmt_drake.sweep.options import check_options
 
+EXPLICIT_MAX_TIME_STEP_S = 1e-3  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a test checks they agree)
+MAX_TIME_STEP_S = 0.02  # a plant step above 20 ms cannot resolve a transfer of ~1 s (validated: 1-2 ms)
+
 # Where a parameter goes (cases.py applies them):
 #   payload  -> dataclasses.replace(PayloadSpec, field=value)   (the simulated part only)
 #   magnet   -> coil current [A] / effective gap g0 [m]
@@ -89,7 +92,7 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "planning moment limit (replans)"),
     Parameter("time_scale", "sim", "time_scale", False, "-",
               "replay time stretch (<1 faster; moment ~ 1/s^2)"),
-    Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step"),
+    Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step", upper=MAX_TIME_STEP_S),
     Parameter("seed", "plan", "seed", False, "-", "planner seed", lower=0.0, inclusive=True,
               integer=True),
     Parameter("jerk_limit_m_s3", "plan", "options.jerk_limit", False, "m/s^3",
@@ -225,6 +228,7 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
                             f"got {sim['feedforward']!r}")
     if "time_step_s" in sim:
         sim["time_step_s"] = _number(sim["time_step_s"], f"{where}: sim.time_step_s", positive=True)
+        _check_range(sim["time_step_s"], PARAMETERS["time_step_s"], f"{where}: sim.time_step_s")
     if not isinstance(sim.get("implicit_loop_damping", True), bool):
         raise QmtInputError(f"{where}: sim.implicit_loop_damping must be true or false, got "
                             f"{show(sim['implicit_loop_damping'])}")
@@ -259,6 +263,12 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
             grid[pname] = _check_values(v, p, at)
         else:
             fixed[pname] = _check_values([v], p, at)[0]
+    if sim.get("implicit_loop_damping") is False:
+        steps = [sim.get("time_step_s", 0.0), fixed.get("time_step_s", 0.0), *grid.get("time_step_s", [])]
+        if max(steps) > EXPLICIT_MAX_TIME_STEP_S or ("time_step_s" in dists):
+            raise QmtInputError(f"{where}: sim.implicit_loop_damping false steps the motor loop explicitly, "
+                                f"known unstable above {EXPLICIT_MAX_TIME_STEP_S * 1e3:g} ms; use time_step_s "
+                                f"<= {EXPLICIT_MAX_TIME_STEP_S:g} (fixed or a list) or drop implicit_loop_damping")
     if "time_step_s" in sim and "time_step_s" in params:
         raise QmtInputError(f"{where}: time_step_s is given both in sim and in parameters; keep one")
 
@@ -377,8 +387,9 @@ def _check_range(x: float, p: Parameter, at: str) -> None:
     ok_lo = x >= p.lower if p.inclusive else x > p.lower
     if not ok_lo or x > p.upper:
         rel = ">=" if p.inclusive else ">"
+        upper = f" and <= {p.upper:g}" if math.isfinite(p.upper) else ""
         raise QmtInputError(f"{at}: {x:g} is out of range; {p.name} ({p.doc}, {p.unit}) must be "
-                            f"{rel} {p.lower:g}")
+                            f"{rel} {p.lower:g}{upper}")
 
 
 def _number(v, at: str, positive: bool = False) -> float:
