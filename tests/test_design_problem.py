@@ -31,7 +31,7 @@ def test_task_files_load():
     ({"constrained": ["x"]}, "more than one"),
     ({"position_m": [9.0, 0, 0]}, "no design reaches"),
     ({"position_m": [0.5, 0, -0.3]}, "inside box"),
-    ({"a": 1.5}, r"\[0, 1\]"),
+    ({"a": 1.5}, r"\[0(\.0)?, 1(\.0)?\]"),
 ])
 def test_bad_unit_tasks(change, match):
     u = dict(UNIT, **change)

@@ -16,6 +16,8 @@ import math
 import sys
 from pathlib import Path
 
+from qmt_drake.apps.one_line_parser import OneLineParser
+from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.sim.outcome import verdict_line
 
@@ -92,6 +94,7 @@ def cmd_plan(args) -> int:
     from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
     _check_tray_method(sc, args.method)
+    check_plan_budget(sc, args.method, args.generations, allow_large=args.allow_large)
     if args.checkpoint is not None:
         if args.method != "ga":
             raise QmtInputError(f"--checkpoint is for --method ga, not {args.method}; drop it")
@@ -168,6 +171,9 @@ def cmd_simulate(args) -> int:
     from qmt_drake.planners import plan_with
     from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
+    check_plan_budget(sc, "thesis" if args.plan else args.method, allow_large=args.allow_large)
+    check_replay_budget(sc, args.time_scale, None if args.time_step_ms is None else args.time_step_ms * 1e-3,
+                        allow_large=args.allow_large)
     if getattr(sc, "is_tray", False):
         return _simulate_tray(args, sc)
     try:
@@ -232,7 +238,7 @@ def cmd_bench(args) -> int:
     check_output_dir(args.out, "--out")
     _check_int(args.seeds, "--seeds", 1, "run at least one seed")
     from qmt_drake.config.scenario import load_scenario
-    load_scenario(args.scenario)
+    check_ga_runs_budget(load_scenario(args.scenario), args.seeds, 3000, allow_large=args.allow_large)
     from qmt_drake.apps.bench import run_bench
     data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=_progress,
                      seeds=args.seeds)
@@ -249,7 +255,8 @@ def cmd_benchmark(args) -> int:
         _check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
     from qmt_drake.config.scenario import load_scenario
     for name in args.scenarios:
-        load_scenario(name)
+        check_ga_runs_budget(load_scenario(name), len(args.ga_seeds), 30 if args.quick else 1000,
+                             allow_large=args.allow_large)
     from qmt_drake.apps.benchmark import run_benchmark
     run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress,
                   jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
@@ -267,7 +274,7 @@ def _parse_value(v: str):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="qmt-drake", description=__doc__.splitlines()[0])
+    p = OneLineParser(prog="qmt-drake", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("scenarios", help="list the built-in scenarios")
@@ -287,6 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--option", action="append", metavar="KEY=VALUE",
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_plan)
 
     s = sub.add_parser("simulate", help="execute a plan through motors, PID and the held payload")
@@ -307,12 +315,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="motors drive the plant directly (no implicit loop damping; needs <= 1 ms)")
     s.add_argument("--json", metavar="PATH|-")
     s.add_argument("--quiet", action="store_true")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_simulate)
 
     s = sub.add_parser("bench", help="planner speed benchmark (JSON)")
     s.add_argument("--scenario", default="thesis-ch4")
     s.add_argument("--seeds", type=int, default=5)
     s.add_argument("--out", default="out")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_bench)
 
     s = sub.add_parser("benchmark", help="GA vs TOPP-RA, Ruckig and trajopt (JSON, Markdown, PNG)")
@@ -323,6 +333,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--ga-seeds", nargs="+", type=int, default=[0])
     s.add_argument("--quick", action="store_true", help="short GA, small trajopt, one jerk limit")
     s.add_argument("--no-cosim", action="store_true", help="skip the closed-loop column")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_benchmark)
 
     from qmt_drake.energy.cli import add_parser as add_energy_parser

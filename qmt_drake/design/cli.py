@@ -1,7 +1,9 @@
 """`qmt-drake design TASK.yaml`: choose the joint combination and link lengths for a task (seed 003).
 
 The lead wires `add_parser(subparsers)` into qmt_drake/cli.py; `cmd_design(args)` returns the exit
-code (bad input raises QmtInputError before any long computation; the CLI maps it to exit 2).
+code (bad input raises QmtInputError before any long computation; the CLI maps it to exit 2): the task
+file, every option, the memory and time estimate (budgets.py; --allow-large to exceed it) and the
+output folder (created and probed) are checked before the search starts.
 Writes OUT/results.json, OUT/table.md and OUT/<type>.urdf for every type's best design.
 """
 
@@ -11,10 +13,13 @@ import json
 import sys
 from pathlib import Path
 
-from qmt_drake.errors import QmtInputError
-
+from qmt_drake.budgets import announce, check_budget, design_estimate
 from qmt_drake.design.problem import BRANCH_MODES
 from qmt_drake.design.search import METHODS
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import check_output_dir
+
+MAX_WORKERS = 256
 
 
 def add_parser(subparsers):
@@ -37,6 +42,8 @@ def add_parser(subparsers):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-obstacles", action="store_true", help="drop the task's obstacles")
     p.add_argument("--out", default=None, help="output folder (default out/design/<task name>)")
+    p.add_argument("--allow-large", action="store_true",
+                   help="run even if the estimate is over the memory and time budget (qmt_drake/budgets.py)")
     p.set_defaults(func=cmd_design)
     return p
 
@@ -56,8 +63,8 @@ def _types(arg: str):
 def _generations(arg: str) -> tuple:
     try:
         mx, st = (int(x) for x in str(arg).split(","))
-    except ValueError:
-        raise QmtInputError(f"--generations {arg!r}: give MAX,STALL as two integers, e.g. 400,100")
+    except (ValueError, OverflowError):
+        raise QmtInputError(f"--generations {arg!r}: give MAX,STALL as two integers, e.g. 400,100") from None
     if mx < 1 or st < 0:
         raise QmtInputError(f"--generations {arg!r}: MAX must be >= 1 and STALL >= 0")
     return mx, st
@@ -74,7 +81,7 @@ def parse_design(arg: str):
         try:
             lv = [float(x) for x in g.split(",")]
         except ValueError:
-            raise QmtInputError(f"--design {arg!r}: levels must be six integers 0-15 separated by commas")
+            raise QmtInputError(f"--design {arg!r}: levels must be six integers 0-15 separated by commas") from None
         lv = check_levels(lv)
     else:
         lv = levels_from_gene(g)
@@ -91,17 +98,29 @@ def cmd_design(args) -> int:
     from qmt_drake.design.tasks import load_task
     from qmt_drake.outputs import write_text_atomic
 
+    if args.out is not None and not str(args.out).strip():
+        raise QmtInputError("--out: empty path; give a folder")
     task = load_task(args.task)
     if args.no_obstacles:
         task = task.without_obstacles()
     types = _types(args.types)
-    if args.workers < 1:
-        raise QmtInputError(f"--workers {args.workers}: must be at least 1")
+    if not 1 <= args.workers <= MAX_WORKERS:
+        raise QmtInputError(f"--workers {args.workers}: must be between 1 and {MAX_WORKERS} (one process "
+                            "per arm type)")
+    if not 0 <= args.seed < 2 ** 63:
+        raise QmtInputError(f"--seed {args.seed}: seeds are integers in [0, 2^63)")
     gens = _generations(args.generations)
     out = Path(args.out or Path("out") / "design" / task.name)
     if args.design:
-        return _evaluate_one(task, args, out)
-    res, wall = run_all_types(task, method=args.method, workers=args.workers, seed=args.seed,
+        design = parse_design(args.design)
+        check_output_dir(out, "--out")
+        return _evaluate_one(task, args, out, design)
+    est = check_budget(design_estimate(method="exhaustive" if args.method == "exhaustive" else "ga",
+                                       types=len(types), units=len(task.units), generations=gens[0],
+                                       workers=args.workers), allow_large=args.allow_large)
+    check_output_dir(out, "--out")
+    announce(est)
+    res, wall = run_all_types(task, method=args.method, workers=min(args.workers, len(types)), seed=args.seed,
                               types=types, branch=args.branch, ga_generations=gens)
     res = sorted(res, key=lambda r: -r.E_per_m)
     rows = ["| type | gene | E [1/m] | designs evaluated | wall [s] |", "|---|---|---|---|---|"]
@@ -121,12 +140,12 @@ def cmd_design(args) -> int:
     return 0
 
 
-def _evaluate_one(task, args, out: Path) -> int:
+def _evaluate_one(task, args, out: Path, design) -> int:
     """--design TYPE:GENE: E of one design on the task (with its branch and every unit task)."""
     from qmt_drake.design.arm_types import urdf_text
     from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
     from qmt_drake.outputs import jsonable, write_text_atomic
-    t, lv = parse_design(args.design)
+    t, lv = design
     pr = DesignProblem(task, t, branch=args.branch)
     g = genes_from_levels(lv)
     det = pr.details(g)

@@ -18,7 +18,8 @@ YAML (units in the key names; angles in degrees in the file, radians inside):
         free: [gamma]                  # optional: the rest are free
         a: 0.5                         # eq. 6 weight (optional, default `a` at top level or 0.5)
 
-Boxes are axis-aligned in the base frame. A unit task's position must lie within the largest arm's
+Every key is checked (config/fields.py): unknown keys, wrong types and out-of-range numbers are
+refused with one line. Boxes are axis-aligned in the base frame. A unit task's position must lie within the largest arm's
 reach (MAX_REACH_M) and outside every box, else QmtInputError.
 """
 
@@ -28,14 +29,18 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from qmt_drake.config.fields import check_keys, num, read_yaml_mapping, show, string, vector
 from qmt_drake.design.arm_types import LEVEL_STEP_M, N_LEVELS
 from qmt_drake.design.operability import AXES
 from qmt_drake.errors import QmtInputError
 
 # Largest distance from the base origin any design reaches: L1..L4 and L6 at level 15 (L5 = 0).
 MAX_REACH_M = 5 * (N_LEVELS - 1) * LEVEL_STEP_M
+MAX_RADIUS_M = 0.5  # a link or tool collision radius above this swallows every design's reach
+TASK_KEYS = {"name", "description", "a", "link_radius_m", "tool_radius_m", "work_boxes", "obstacles", "units"}
+UNIT_KEYS = {"name", "position_m", "rpy_deg", "work", "constrained", "free", "a"}
+BOX_KEYS = {"name", "center_m", "size_m"}
 
 
 @dataclass(frozen=True)
@@ -64,7 +69,7 @@ class Task:
     def boxes(self) -> tuple:
         return tuple(self.work_boxes) + tuple(self.obstacles)
 
-    def without_obstacles(self) -> "Task":
+    def without_obstacles(self) -> Task:
         return replace(self, name=self.name + "-no-obstacles", obstacles=(),
                        box_names=self.box_names[:len(self.work_boxes)])
 
@@ -85,68 +90,86 @@ def _rpy_matrix(rpy_deg) -> np.ndarray:
     return Rz @ Ry @ Rx
 
 
-def _vec3(v, what: str) -> np.ndarray:
-    try:
-        a = np.asarray(v, dtype=float)
-    except (TypeError, ValueError):
-        a = np.zeros(0)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise QmtInputError(f"{what} = {v!r} must be three finite numbers")
-    return a
-
-
-def _axes_mask(names, what: str) -> np.ndarray:
-    names = [] if names is None else names
-    if isinstance(names, str):
-        names = [names]
+def _axes_mask(u: dict, key: str, what: str) -> np.ndarray:
+    """The task-frame axes listed under u[key] (a list of names, or one name) as a (6,) mask."""
+    names = u.get(key)
+    names = [] if names is None else [names] if isinstance(names, str) else names
+    if not isinstance(names, list):
+        raise QmtInputError(f"{what}.{key} must be a list of task-frame axes ({', '.join(AXES)}), "
+                            f"got {show(u.get(key))}")
     m = np.zeros(6, dtype=bool)
     for n in names:
-        key = str(n).strip().lower()
-        if key not in AXES:
-            raise QmtInputError(f"{what}: direction {n!r} is not a unit axis of the task frame; use "
-                                f"{', '.join(AXES)}")
-        m[AXES.index(key)] = True
+        key_n = n.strip().lower() if isinstance(n, str) else None
+        if key_n not in AXES:
+            raise QmtInputError(f"{what}.{key}: direction {show(n)} is not a unit axis of the task frame; "
+                                f"use {', '.join(AXES)}")
+        m[AXES.index(key_n)] = True
     return m
 
 
-def _boxes(items, what: str):
+def _boxes(d: dict, key: str):
+    """(((center (3,), size (3,)), ...), names) of the list d[key] (missing or null: none)."""
+    items = d.get(key)
+    if items is None:
+        return (), []
+    if not isinstance(items, list):
+        raise QmtInputError(f"task.{key} must be a list of boxes {{name, center_m: [x, y, z], "
+                            f"size_m: [sx, sy, sz]}} (or [] for none), got {show(items)}")
     out, names = [], []
-    for i, b in enumerate(items or []):
+    for i, b in enumerate(items):
+        at = f"{key}[{i}]"
         if not isinstance(b, dict):
-            raise QmtInputError(f"{what}[{i}] must be a mapping with center_m and size_m")
-        c = _vec3(b.get("center_m"), f"{what}[{i}].center_m")
-        s = _vec3(b.get("size_m"), f"{what}[{i}].size_m")
-        if np.any(s <= 0):
-            raise QmtInputError(f"{what}[{i}].size_m = {s.tolist()} must be positive")
+            raise QmtInputError(f"{at} must be a mapping {{name, center_m: [x, y, z], size_m: [sx, sy, sz]}}, "
+                                f"got {show(b)}")
+        check_keys(b, BOX_KEYS, at)
+        c = vector(b, "center_m", at, length=3, what="box centre x, y, z in m")
+        s = vector(b, "size_m", at, positive=True, length=3, what="box edge lengths in m")
         out.append((c, s))
-        names.append(str(b.get("name", f"{what}{i}")))
+        names.append(string(b, "name", at, default=f"{key}{i}"))
     return tuple(out), names
 
 
 def task_from_dict(d: dict, source: str = "") -> Task:
+    """A validated Task from the mapping of a task file: unknown keys, wrong types and out-of-range
+    numbers are refused with one line naming the key (a misspelt `obstacles` is never dropped)."""
     if not isinstance(d, dict):
         raise QmtInputError(f"task file {source}: top level must be a mapping with 'units'")
+    check_keys(d, TASK_KEYS, "task")
     units_in = d.get("units")
-    if not units_in or not isinstance(units_in, list):
-        raise QmtInputError(f"task file {source}: 'units' must be a non-empty list of unit tasks")
-    a_default = float(d.get("a", 0.5))
-    work, wn = _boxes(d.get("work_boxes"), "work_boxes")
-    obst, on = _boxes(d.get("obstacles"), "obstacles")
+    if not isinstance(units_in, list) or not units_in:
+        raise QmtInputError("task.units must be a non-empty list of unit tasks {name, position_m, "
+                            f"rpy_deg, work, constrained, free, a}}, got {show(units_in)}")
+    a_default = num(d, "a", "task", minimum=0.0, maximum=1.0, default=0.5)
+    link_r = num(d, "link_radius_m", "task", minimum=0.0, maximum=MAX_RADIUS_M, default=0.04)
+    tool_r = num(d, "tool_radius_m", "task", minimum=0.0, maximum=MAX_RADIUS_M, default=0.01)
+    name = string(d, "name", "task", default=Path(source).stem if source else "task")
+    if not name.replace("-", "").replace("_", "").replace(".", "").isalnum() or name.startswith("."):
+        raise QmtInputError(f"task.name {name!r} must be letters, digits, '-', '_' or '.' (it names the "
+                            "output folder)")
+    description = d.get("description") if d.get("description") is not None else ""
+    if not isinstance(description, str):
+        raise QmtInputError(f"task.description must be a string, got {show(description)}")
+    work, wn = _boxes(d, "work_boxes")
+    obst, on = _boxes(d, "obstacles")
     units = []
     for i, u in enumerate(units_in):
-        nm = str(u.get("name", f"unit{i}"))
+        if not isinstance(u, dict):
+            raise QmtInputError(f"task.units[{i}] must be a mapping {{name, position_m, rpy_deg, work, "
+                                f"constrained, free, a}}, got {show(u)}")
+        check_keys(u, UNIT_KEYS, f"task.units[{i}]")
+        nm = string(u, "name", f"task.units[{i}]", default=f"unit{i}")
         what = f"unit {nm}"
-        p = _vec3(u.get("position_m"), f"{what}.position_m")
-        R = _rpy_matrix(_vec3(u.get("rpy_deg", [0, 0, 0]), f"{what}.rpy_deg"))
-        wm = _axes_mask(u.get("work"), f"{what}.work")
-        cm = _axes_mask(u.get("constrained"), f"{what}.constrained")
-        fm = _axes_mask(u.get("free"), f"{what}.free")
+        p = vector(u, "position_m", what, length=3, what="tool point x, y, z in m")
+        rpy = vector(u, "rpy_deg", what, length=3, what="roll, pitch, yaw in degrees") \
+            if u.get("rpy_deg") is not None else np.zeros(3)
+        R = _rpy_matrix(rpy)
+        wm = _axes_mask(u, "work", what)
+        cm = _axes_mask(u, "constrained", what)
+        fm = _axes_mask(u, "free", what)
         if np.any(wm & cm) or np.any(wm & fm) or np.any(cm & fm):
             raise QmtInputError(f"{what}: a direction is listed in more than one of work, constrained, "
                                 f"free; list each axis once")
-        a = float(u.get("a", a_default))
-        if not 0.0 <= a <= 1.0:
-            raise QmtInputError(f"{what}.a = {a} must be in [0, 1]")
+        a = num(u, "a", what, minimum=0.0, maximum=1.0, default=a_default)
         if np.linalg.norm(p) > MAX_REACH_M:
             raise QmtInputError(f"{what}.position_m = {p.tolist()} is {np.linalg.norm(p):.2f} m from the "
                                 f"base: no design reaches beyond {MAX_REACH_M:.2f} m; move it closer")
@@ -155,26 +178,25 @@ def task_from_dict(d: dict, source: str = "") -> Task:
                 raise QmtInputError(f"{what}.position_m = {p.tolist()} is inside box {bn!r}: no design "
                                     f"can reach it; move the point or the box")
         units.append(UnitTask(nm, p, R, wm, cm, a))
-    return Task(str(d.get("name", Path(source).stem if source else "task")),
-                str(d.get("description", "")), tuple(units), work, obst, tuple(wn + on),
-                float(d.get("link_radius_m", 0.04)), float(d.get("tool_radius_m", 0.01)), source)
+    return Task(name, description, tuple(units), work, obst, tuple(wn + on), link_r, tool_r, source)
 
 
 def load_task(path: str | Path) -> Task:
-    """Load and validate a task YAML file; a bare name looks in models/tasks/."""
+    """Load and validate a task YAML file (duplicated keys refused); a bare name looks in
+    models/tasks/."""
     p = Path(path)
     if not p.exists():
         cand = Path(__file__).resolve().parents[2] / "models" / "tasks" / f"{path}.yaml"
-        if cand.exists():
+        if "/" not in str(path) and cand.exists():
             p = cand
         else:
-            raise QmtInputError(f"task file {path!r} not found; give a path or one of "
+            raise QmtInputError(f"task file {str(path)!r} not found; give a path or one of "
                                 f"{', '.join(builtin_tasks())}")
+    d = read_yaml_mapping(p, "design task")
     try:
-        d = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as e:
-        raise QmtInputError(f"task file {p}: not valid YAML ({str(e).splitlines()[0]})")
-    return task_from_dict(d, str(p))
+        return task_from_dict(d, str(p))
+    except QmtInputError as exc:
+        raise QmtInputError(f"{p}: {exc}") from None
 
 
 def builtin_tasks() -> list[str]:

@@ -16,7 +16,9 @@ from __future__ import annotations
 import argparse
 import json
 
+from qmt_drake.budgets import check_energy_budget
 from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import check_output_path
 
 METHODS = ("snopt", "ipopt", "steepest", "collocation")
 
@@ -39,6 +41,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--execute", default=None, metavar="PNG",
                    help="run the best optimum in the Drake co-simulation and plot tracking to PNG")
     p.add_argument("--recording", default=None, metavar="HTML", help="Meshcat recording of the execution")
+    p.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     p.set_defaults(func=cmd_plan_energy)
     return p
 
@@ -59,7 +62,11 @@ def cmd_plan_energy(args) -> int:
                                              pattern_str, travel_pattern)
     from qmt_drake.outputs import jsonable, write_text_atomic
 
+    for flag in ("--json", "--execute", "--recording"):  # probed before any work
+        check_output_path(getattr(args, flag[2:]), flag)
     E = get_experiment(args.scenario)
+    check_energy_budget(args.m if args.m is not None else E.m, args.divisions if args.divisions is not None
+                        else E.divisions, allow_large=args.allow_large)
     over = {k: v for k, v in (("c1", args.c1), ("c2", args.c2), ("m", args.m),
                               ("divisions", args.divisions)) if v is not None}
     if args.coords is not None:

@@ -22,9 +22,13 @@ those; bad input raises QmtInputError, which the main CLI prints as one line wit
 from __future__ import annotations
 
 import json
+import os
 import sys
+from pathlib import Path
 
 EXIT_CASES_FAILED = 4  # qmt_drake.apps.cli.EXIT_SIMULATION
+MAX_WORKERS = 256  # LocalCluster processes
+MAX_ALLOWED_FAILURES = 100
 
 
 def add_parser(subparsers):
@@ -44,19 +48,37 @@ def add_parser(subparsers):
     s.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     s.add_argument("--quiet", action="store_true", help="no progress line")
     s.add_argument("--json", metavar="PATH|-", help="also write the run's counts and summary rows as JSON")
+    s.add_argument("--allow-large", action="store_true",
+                   help="run even if the estimate is over the memory and time budget (qmt_drake/budgets.py)")
     s.set_defaults(func=cmd_sweep)
     return s
 
 
 def cmd_sweep(args) -> int:
+    """Every input first (options, spec, scheduler address, budget, output paths), then the run."""
+    from qmt_drake.budgets import announce, check_budget
+    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.errors import QmtInputError
-    from qmt_drake.sweep.runner import format_table, run_sweep
+    from qmt_drake.outputs import check_output_dir, check_output_path
+    from qmt_drake.sweep.budget import estimate_sweep
+    from qmt_drake.sweep.runner import check_scheduler_address, format_table, run_sweep
     from qmt_drake.sweep.spec import load_spec
-    if args.workers is not None and args.workers < 1:
-        raise QmtInputError(f"--workers must be >= 1, got {args.workers}")
-    if args.allowed_failures < 0:
-        raise QmtInputError(f"--allowed-failures must be >= 0, got {args.allowed_failures}")
+    if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
+        raise QmtInputError(f"--workers must be between 1 and {MAX_WORKERS}, got {args.workers}")
+    if not 0 <= args.allowed_failures <= MAX_ALLOWED_FAILURES:
+        raise QmtInputError(f"--allowed-failures must be between 0 and {MAX_ALLOWED_FAILURES}, got "
+                            f"{args.allowed_failures}")
+    if args.scheduler is not None:
+        check_scheduler_address(args.scheduler)
+    if not str(args.out).strip():
+        raise QmtInputError("--out: empty path; give a folder")
     spec = load_spec(args.spec)
+    sc = load_scenario(spec.scenario)
+    workers = args.workers or os.cpu_count() or 1
+    est = check_budget(estimate_sweep(spec, sc, workers), allow_large=args.allow_large)
+    check_output_dir(Path(args.out) / spec.name, "--out")
+    check_output_path(args.json, "--json")
+    announce(est)
     out = run_sweep(spec, args.out, scheduler=args.scheduler, workers=args.workers,
                     allowed_failures=args.allowed_failures, progress=not args.quiet,
                     figures=not args.no_figures)

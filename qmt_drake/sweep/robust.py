@@ -128,8 +128,8 @@ def carried_in_cosim(scenario, plan, *, time_scale: float = 1.0, feedforward: st
                      time_step_s: float | None = None) -> dict:
     """One nominal co-simulation: {'held', 'max_slip_m', 'detached_at_s', 'sim_wall_s'} (a failed
     simulation counts as not carried)."""
-    from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
     from qmt_drake.errors import QmtSimulationError
+    from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
     try:
         r = simulate_transfer(scenario, plan, time_scale=time_scale, time_step_s=time_step_s,
                               keep_series=False, **FEEDFORWARD_OPTIONS[feedforward])
@@ -151,8 +151,8 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
     (TimeScaledTrajectory, re-checked); base_plan: time-scale this plan instead of planning one
     (method is then only its name). rel_tol: relative width of the final bracket in motion time.
     Returns a Plan whose extra['carried_search'] holds every co-simulated point."""
-    from qmt_drake.sim import FEEDFORWARD_OPTIONS
     from qmt_drake.planners import plan_with
+    from qmt_drake.sim import FEEDFORWARD_OPTIONS
     if feedforward not in FEEDFORWARD_OPTIONS:
         raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
     say = progress or (lambda _m: None)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import socket
 import sys
 import time
 import uuid
@@ -41,7 +42,7 @@ from qmt_drake.sweep.stats import success_rows
 from qmt_drake.sweep.store import SweepStore
 
 DEFAULT_ALLOWED_FAILURES = 3  # Dask's own default, stated so a LocalCluster sweep does not depend on it
-CONNECT_TIMEOUT_S = 5.0
+CONNECT_TIMEOUT_S = 3.0  # an unroutable --scheduler is refused after this
 
 
 # ----------------------------------------------------------------------------------- connection
@@ -56,6 +57,49 @@ def check_scheduler_address(address: str) -> str:
         raise QmtInputError(f"--scheduler '{address}' is not an address of the form tcp://HOST:PORT "
                             "(a Dask scheduler prints it when started: `dask scheduler`)")
     return addr
+
+
+def probe_scheduler(addr: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """A plain TCP connection to tcp://HOST:PORT within timeout_s, before Dask's client (whose
+    failed connection leaves a TimeoutError traceback behind): one line if nothing answers."""
+    rest = addr.partition("://")[2]
+    host, _, port = rest.rpartition(":")
+    host = host.strip("[]")
+    why = None
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout_s):
+            pass
+    except OSError as exc:  # refused, unroutable (timeout), unknown host
+        why = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or type(exc).__name__)
+    if why is None:  # something listens (or a proxy accepts anything): ask it who it is
+        why = _dask_identity(addr, timeout_s)
+    if why is not None:
+        raise QmtInputError(f"--scheduler {addr}: no Dask scheduler answered within {timeout_s:g} s "
+                            f"({why}); start one there with `dask scheduler` and workers with "
+                            f"`dask worker {addr}`, or omit --scheduler for a local cluster") from None
+
+
+def _dask_identity(addr: str, timeout_s: float) -> str | None:
+    """None if a Dask scheduler at `addr` answers the identity request within timeout_s, else why not."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def ask():
+        comm = await connect(addr, timeout=timeout_s)
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(ask(), timeout_s))
+    except Exception as exc:  # noqa: BLE001 - timeouts, OSError, or garbage from a non-Dask server
+        return f"no Dask handshake: {type(exc).__name__}"
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        return "it is not a Dask scheduler"
+    return None
 
 
 @contextmanager
@@ -180,6 +224,8 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
     workers_used = None
     if pending:
         needed = {c.plan_key for c in pending}
+        if scheduler and client is None:
+            probe_scheduler(check_scheduler_address(scheduler), connect_timeout_s)
         with (_reuse(client) if client is not None else
               dask_client(scheduler, workers, allowed_failures=allowed_failures,
                           connect_timeout_s=connect_timeout_s)) as cl:

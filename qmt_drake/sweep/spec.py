@@ -35,9 +35,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from qmt_drake.config.fields import check_keys, is_number, read_yaml_mapping, show
 from qmt_drake.errors import QmtInputError
+from qmt_drake.sweep.options import check_options
+
+EXPLICIT_MAX_TIME_STEP_S = 1e-3  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a test checks they agree)
+MAX_TIME_STEP_S = 0.02  # a plant step above 20 ms cannot resolve a transfer of ~1 s (validated: 1-2 ms)
 
 # Where a parameter goes (cases.py applies them):
 #   payload  -> dataclasses.replace(PayloadSpec, field=value)   (the simulated part only)
@@ -88,7 +92,7 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "planning moment limit (replans)"),
     Parameter("time_scale", "sim", "time_scale", False, "-",
               "replay time stretch (<1 faster; moment ~ 1/s^2)"),
-    Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step"),
+    Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step", upper=MAX_TIME_STEP_S),
     Parameter("seed", "plan", "seed", False, "-", "planner seed", lower=0.0, inclusive=True,
               integer=True),
     Parameter("jerk_limit_m_s3", "plan", "options.jerk_limit", False, "m/s^3",
@@ -102,6 +106,7 @@ SPEC_KEYS = {"name", "description", "uncertainty", "scenario", "plan", "plans", 
 PLAN_KEYS = {"method", "seed", "options", "file", "label"}
 SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping"}
 FEEDFORWARD = ("none", "back-emf", "full")  # sim.FEEDFORWARD_OPTIONS keys
+MAX_CASES = 1_000_000  # beyond any budget (budgets.py): refused before the grid is built
 
 
 @dataclass(frozen=True)
@@ -166,7 +171,8 @@ class SweepSpec:
 
     @property
     def n_cases(self) -> int:
-        return len(self.plans) * len(self.grid_points()) * max(self.mc_cases, 1)
+        """plans x grid points x samples, counted without building the grid."""
+        return len(self.plans) * math.prod(len(v) for v in self.grid.values()) * max(self.mc_cases, 1)
 
 
 def _plain(v):
@@ -183,12 +189,7 @@ def load_spec(path_or_dict, *, name: str | None = None) -> SweepSpec:
         if not path.is_file():
             raise QmtInputError(f"sweep spec {path} does not exist; give the path of a YAML file "
                                 "(examples in models/sweeps/)")
-        try:
-            raw = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            raise QmtInputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-        if not isinstance(raw, dict):
-            raise QmtInputError(f"{path}: a sweep spec must be a YAML mapping")
+        raw = read_yaml_mapping(path, "sweep spec", example="models/sweeps/tiny-ch4.yaml")
     return spec_from_dict(raw, where, path, name)
 
 
@@ -227,6 +228,13 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
                             f"got {sim['feedforward']!r}")
     if "time_step_s" in sim:
         sim["time_step_s"] = _number(sim["time_step_s"], f"{where}: sim.time_step_s", positive=True)
+        _check_range(sim["time_step_s"], PARAMETERS["time_step_s"], f"{where}: sim.time_step_s")
+    if not isinstance(sim.get("implicit_loop_damping", True), bool):
+        raise QmtInputError(f"{where}: sim.implicit_loop_damping must be true or false, got "
+                            f"{show(sim['implicit_loop_damping'])}")
+    for k in ("description", "uncertainty"):
+        if raw.get(k) is not None and not isinstance(raw[k], str):
+            raise QmtInputError(f"{where}: '{k}' must be a string, got {show(raw[k])}")
 
     params = raw.get("parameters") or {}
     if not isinstance(params, dict):
@@ -255,6 +263,12 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
             grid[pname] = _check_values(v, p, at)
         else:
             fixed[pname] = _check_values([v], p, at)[0]
+    if sim.get("implicit_loop_damping") is False:
+        steps = [sim.get("time_step_s", 0.0), fixed.get("time_step_s", 0.0), *grid.get("time_step_s", [])]
+        if max(steps) > EXPLICIT_MAX_TIME_STEP_S or ("time_step_s" in dists):
+            raise QmtInputError(f"{where}: sim.implicit_loop_damping false steps the motor loop explicitly, "
+                                f"known unstable above {EXPLICIT_MAX_TIME_STEP_S * 1e3:g} ms; use time_step_s "
+                                f"<= {EXPLICIT_MAX_TIME_STEP_S:g} (fixed or a list) or drop implicit_loop_damping")
     if "time_step_s" in sim and "time_step_s" in params:
         raise QmtInputError(f"{where}: time_step_s is given both in sim and in parameters; keep one")
 
@@ -275,8 +289,9 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
                      distributions=dists, mc_cases=mc_cases, mc_seed=mc_seed,
                      description=str(raw.get("description", "")),
                      uncertainty=str(raw.get("uncertainty", "")), source_path=path, raw=raw)
-    if spec.n_cases > 1_000_000:
-        raise QmtInputError(f"{where}: {spec.n_cases} cases is too many; narrow the grid")
+    if spec.n_cases > MAX_CASES:
+        raise QmtInputError(f"{where}: {spec.n_cases} cases is too many (at most {MAX_CASES}); narrow the "
+                            "grid or lower monte_carlo.cases")
     return spec
 
 
@@ -301,10 +316,17 @@ def _check_plan(p, at: str, spec_path: Path | None) -> dict:
         raise QmtInputError(f"{at}: a plan must be a mapping with 'method' (+ seed, options) or 'file'")
     _check_keys(p, PLAN_KEYS, at)
     from qmt_drake.planners import METHODS
-    out = {"options": dict(p.get("options") or {}), "seed": 0}
+    out = {"options": {}, "seed": 0}
     if ("method" in p) == ("file" in p):
         raise QmtInputError(f"{at}: give exactly one of 'method' ({', '.join(METHODS)}) or 'file'")
+    if "label" in p and (not isinstance(p["label"], (str, int)) or isinstance(p["label"], bool)
+                         or not str(p["label"]).strip()):
+        raise QmtInputError(f"{at}.label must be a non-empty string, got {show(p['label'])}")
     if "file" in p:
+        if not isinstance(p["file"], str) or not p["file"].strip() or "\0" in p["file"]:
+            raise QmtInputError(f"{at}.file must be the path of a plan JSON file, got {show(p['file'])}")
+        if p.get("options") is not None:
+            raise QmtInputError(f"{at}: options are for a 'method'; a plan 'file' is used as written")
         f = Path(str(p["file"]))
         if not f.is_absolute() and spec_path is not None and (spec_path.parent / f).is_file():
             f = spec_path.parent / f
@@ -314,12 +336,11 @@ def _check_plan(p, at: str, spec_path: Path | None) -> dict:
         out["file"] = str(f.resolve())
         out["label"] = str(p.get("label", f.stem))
         return out
-    if p["method"] not in METHODS:
-        raise QmtInputError(f"{at}: unknown method '{p['method']}'; use one of {', '.join(METHODS)}")
+    if not isinstance(p["method"], str) or p["method"] not in METHODS:
+        raise QmtInputError(f"{at}: unknown method {show(p['method'])}; use one of {', '.join(METHODS)}")
     out["method"] = str(p["method"])
     out["seed"] = _integer(p.get("seed", 0), f"{at}.seed", minimum=0)
-    if not isinstance(p.get("options") or {}, dict):
-        raise QmtInputError(f"{at}.options must be a mapping of planner keyword arguments")
+    out["options"] = check_options(p.get("options"), out["method"], at)
     default = out["method"] + (f"-seed{out['seed']}" if out["method"] == "ga" else "")
     out["label"] = str(p.get("label", default))
     return out
@@ -366,33 +387,28 @@ def _check_range(x: float, p: Parameter, at: str) -> None:
     ok_lo = x >= p.lower if p.inclusive else x > p.lower
     if not ok_lo or x > p.upper:
         rel = ">=" if p.inclusive else ">"
+        upper = f" and <= {p.upper:g}" if math.isfinite(p.upper) else ""
         raise QmtInputError(f"{at}: {x:g} is out of range; {p.name} ({p.doc}, {p.unit}) must be "
-                            f"{rel} {p.lower:g}")
+                            f"{rel} {p.lower:g}{upper}")
 
 
 def _number(v, at: str, positive: bool = False) -> float:
-    if isinstance(v, bool):
-        raise QmtInputError(f"{at}: must be a number, got {v!r}")
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise QmtInputError(f"{at}: must be a number, got {v!r}") from None
+    """A finite number (config/fields.py's rule: not a bool, not a string)."""
+    if not is_number(v):
+        raise QmtInputError(f"{at}: must be a number, got {show(v)}")
+    x = float(v)
     if not math.isfinite(x) or (positive and x <= 0):
-        raise QmtInputError(f"{at}: must be a {'positive' if positive else 'finite'} number, got {v!r}")
+        raise QmtInputError(f"{at}: must be a {'positive' if positive else 'finite'} number, got {show(v)}")
     return x
 
 
-def _integer(v, at: str, minimum: int = 0) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
-        raise QmtInputError(f"{at}: must be an integer >= {minimum}, got {v!r}")
+def _integer(v, at: str, minimum: int = 0, maximum: int = 2 ** 63 - 1) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not minimum <= v <= maximum:
+        raise QmtInputError(f"{at}: must be an integer in [{minimum}, {maximum}], got {show(v)}")
     return int(v)
 
 
-def _check_keys(d: dict, allowed: set, where: str) -> None:
-    unknown = sorted(set(d) - allowed)
-    if unknown:
-        raise QmtInputError(f"{where}: unknown key '{unknown[0]}'; allowed keys are "
-                            f"{', '.join(sorted(allowed))}")
+_check_keys = check_keys
 
 
 def _first_dup(xs):

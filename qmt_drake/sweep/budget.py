@@ -1,0 +1,53 @@
+"""The memory and time estimate of a sweep (budgets.py), made from the spec before anything runs.
+
+Each case is one co-simulated replay: its cost grows with the motion time (bounded before planning
+by the scenario's time genes), the largest time scale and the smallest plant step the spec can
+draw; the plans run first (a GA plan costs its population x generations evaluations).
+"""
+
+from __future__ import annotations
+
+from qmt_drake.budgets import Estimate, ga_estimate, motion_time_bound_s, replay_estimate, sweep_estimate
+from qmt_drake.sweep.spec import SweepSpec
+
+DEFAULT_TIME_STEP_S = 2e-3  # sim.simulate_transfer's default with implicit loop damping
+NORMAL_REACH_STD = 6.0  # a normal draw is bounded by mean + 6 std for the estimate
+
+
+def _extreme(spec: SweepSpec, name: str, largest: bool):
+    """The largest (or smallest) value parameter `name` can take in the spec (None: not varied)."""
+    vals = []
+    if name in spec.fixed:
+        vals.append(spec.fixed[name])
+    vals += list(spec.grid.get(name, []))
+    d = spec.distributions.get(name)
+    if d is not None:
+        a = d.args
+        if largest:
+            vals.append(a.get("high", a.get("mean", 0.0) + NORMAL_REACH_STD * a.get("std", 0.0)))
+        else:
+            vals.append(a.get("low", max(a.get("mean", 0.0) - NORMAL_REACH_STD * a.get("std", 0.0), 1e-9)))
+    if not vals:
+        return None
+    return max(vals) if largest else min(vals)
+
+
+def estimate_sweep(spec: SweepSpec, scenario, workers: int) -> Estimate:
+    """An upper bound of the sweep's memory and wall time on `workers` processes."""
+    T = motion_time_bound_s(scenario)
+    ts = _extreme(spec, "time_scale", True) or 1.0
+    step = _extreme(spec, "time_step_s", False) or spec.sim.get("time_step_s") or DEFAULT_TIME_STEP_S
+    per_case = replay_estimate(ts, T, step)
+    plans = None
+    n_dof = len(scenario.limits.motor_torque_limit_Nm)
+    for p in spec.plans:
+        if p.get("method") == "ga":
+            o = p.get("options", {})
+            seeds = len(spec.grid.get("seed", [0]))
+            g = ga_estimate(scenario.ga.population, o.get("max_generations", scenario.ga.max_generations),
+                            plan_rate_hz=scenario.sampling.plan_rate_hz, motion_time_s=T, n_dof=n_dof,
+                            n_genes=len(scenario.family.gene_names), bits_per_gene=scenario.ga.bits_per_gene)
+            g = Estimate(g.bytes, g.seconds * seeds, g.what, g.fix)
+            plans = g if plans is None else Estimate(max(plans.bytes, g.bytes), plans.seconds + g.seconds,
+                                                     plans.what, plans.fix)
+    return sweep_estimate(spec.n_cases, per_case, workers=workers, plans=plans)
