@@ -127,7 +127,7 @@ def _section_html(out: Path, s: Section, k: int) -> str:
         h.append(markdown_to_html(s.notes))
     for p in _files(out, s, s.figures):
         rel = p.relative_to(out).as_posix()
-        h.append(f"<figure><img src='{html.escape(rel)}' alt='{html.escape(p.name)}'>"
+        h.append(f"<figure><a href='{html.escape(rel)}'><img src='{html.escape(rel)}' alt='{html.escape(p.name)}'></a>"
                  f"<figcaption>{html.escape(rel)}</figcaption></figure>")
     links = [(p, "recording") for p in _files(out, s, s.recordings)] + [(p, "data") for p in _files(out, s, s.raw)]
     if links:
@@ -212,6 +212,6 @@ h1{font-size:1.6em} h2{border-bottom:2px solid #ccd;padding-bottom:.2em;margin-t
 table{border-collapse:collapse;font-size:.85em;margin:.6em 0} td,th{border:1px solid #bbc;padding:.2em .5em}
 th{background:#eef} code{background:#f3f3f6;padding:0 .2em} .cmd{color:#444} .missing{color:#a33}
 .seed{background:#fff8e6;border-left:4px solid #e5b000;padding:.4em .8em} .file{color:#666;font-size:.8em;margin:0}
-figure{display:inline-block;margin:.5em;vertical-align:top} img{max-width:520px;border:1px solid #ddd}
+figure{display:block;margin:.8em 0} img{max-width:100%;border:1px solid #ddd}
 figcaption{font-size:.75em;color:#666} .meta{color:#666;font-size:.9em}
 </style></head><body>"""
