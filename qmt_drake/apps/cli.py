@@ -18,6 +18,9 @@ from pathlib import Path
 
 from qmt_drake.apps.one_line_parser import OneLineParser
 from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
+from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, add_energy_options, plan_energy, simulate_energy
+from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
+from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.sim.outcome import verdict_line
 
@@ -85,7 +88,34 @@ def cmd_scenarios(args) -> int:
     return 0
 
 
+TRANSFER_ONLY_OPTIONS = ("generations", "stall", "checkpoint", "option")
+
+
+def _given(args, names) -> list[str]:
+    """The options among `names` the user gave (not at their None default), as --flags."""
+    return ["--" + n.replace("_", "-") for n in names if getattr(args, n, None) is not None]
+
+
 def cmd_plan(args) -> int:
+    if is_energy_scenario(args.scenario):
+        args.method = args.method or "snopt"
+        if args.method not in ENERGY_METHODS:
+            raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is an "
+                                f"energy-time scenario: use --method {'|'.join(ENERGY_METHODS)}")
+        wrong = _given(args, TRANSFER_ONLY_OPTIONS) + (["--seed"] if args.seed != 0 else [])
+        if wrong:
+            raise QmtInputError(f"{' '.join(wrong)}: options of transfer planners; {args.scenario} is an "
+                                f"energy-time scenario (--method {args.method}): drop them")
+        return plan_energy(args)
+    args.method = args.method or "ga"
+    if args.method in ENERGY_METHODS:
+        raise QmtInputError(f"--method {args.method} plans energy-time scenarios (ohsaka-fig2/3/4, or a YAML "
+                            f"with kind: energy_time); {args.scenario} is a transfer scenario: use --method "
+                            "ga|optimum|thesis|toppra|ruckig|trajopt")
+    wrong = _given(args, ENERGY_ONLY_OPTIONS)
+    if wrong:
+        raise QmtInputError(f"{' '.join(wrong)}: options of the energy-time planners; {args.scenario} is a "
+                            "transfer scenario: drop them")
     _check_outputs(args, "--json", "--trajectory-csv")
     _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     _check_int(args.generations, "--generations", 1, "run at least one generation")
@@ -158,6 +188,12 @@ def _check_tray_method(sc, method: str) -> None:
 
 
 def cmd_simulate(args) -> int:
+    if is_energy_scenario(args.scenario):
+        if args.method not in (None, "snopt"):
+            raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
+                                "energy-time: give --plan FILE or no --method (it plans with snopt)")
+        return simulate_energy(args)
+    args.method = args.method or "ga"
     _check_outputs(args, "--json", "--record")
     _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     _check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
@@ -281,9 +317,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_scenarios)
 
     from qmt_drake.planners import METHODS
-    s = sub.add_parser("plan", help="plan a transfer motion")
+    s = sub.add_parser("plan", help="plan a motion (every method of every scenario kind)",
+                       description="Methods: transfer scenarios (thesis-*, via5-ch4, crane-tray, your YAML): "
+                       f"{', '.join(METHODS)} (GA options: --generations --stall --checkpoint; any planner: "
+                       "--option KEY=VALUE). Energy-time scenarios (ohsaka-fig2/3/4): "
+                       f"{', '.join(ENERGY_METHODS)} (their options below). Default: ga, or snopt for an "
+                       "energy-time scenario.")
     s.add_argument("scenario", help="built-in name (see `qmt-drake scenarios`) or a YAML path")
-    s.add_argument("--method", default="ga", choices=METHODS)
+    s.add_argument("--method", default=None, choices=METHODS + ENERGY_METHODS)
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--json", metavar="PATH|-", help="write the plan as JSON (- for stdout)")
     s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
@@ -295,12 +336,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
+    add_energy_options(s)
     s.set_defaults(func=cmd_plan)
 
     s = sub.add_parser("simulate", help="execute a plan through motors, PID and the held payload")
     s.add_argument("scenario")
     g = s.add_mutually_exclusive_group()
-    g.add_argument("--method", default="ga", choices=METHODS)
+    g.add_argument("--method", default=None, choices=METHODS,
+                   help="plan first with this method (default ga; energy-time scenarios: snopt)")
     g.add_argument("--plan", metavar="PLAN.json", help="a plan file written by `plan --json`")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--time-scale", type=float, default=1.0,
@@ -336,8 +379,6 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_benchmark)
 
-    from qmt_drake.energy.cli import add_parser as add_energy_parser
-    add_energy_parser(sub)  # seed 001; `plan ohsaka-figN ...` is routed here (main)
     from qmt_drake.sweep.cli import add_parser as add_sweep_parser
     add_sweep_parser(sub)
     from qmt_drake.design.cli import add_parser as add_design_parser
@@ -361,18 +402,9 @@ def cmd_reproduce(args) -> int:
     return subprocess.call([sys.executable, "-m", "studies.run_all", "--out", str(args.out)], cwd=root)
 
 
-def _route(argv: list) -> list:
-    """`plan <seed-001 experiment> ...` is the energy-time planner (`plan-energy`)."""
-    if len(argv) >= 2 and argv[0] == "plan":
-        from qmt_drake.energy.scenario import is_energy_scenario
-        if is_energy_scenario(argv[1]):
-            return ["plan-energy", *argv[1:]]
-    return argv
-
-
 def main(argv=None) -> int:
     try:
-        args = build_parser().parse_args(_route(list(sys.argv[1:] if argv is None else argv)))
+        args = build_parser().parse_args(list(sys.argv[1:] if argv is None else argv))
         return args.func(args)
     except QmtInputError as exc:
         print(f"qmt-drake: error: {exc}", file=sys.stderr)
