@@ -1,7 +1,15 @@
-"""qmt_drake: quasi-minimum-time transfer motions of robot arms that carry a payload they can lose.
+"""qmt_drake: quasi-minimum-time transfer motions of robot arms that carry a payload they can lose,
+planned, benchmarked and executed in Drake co-simulations.
 
-Entry points: `qmt_drake.config.scenario.load_scenario`, `qmt_drake.problem.PlanningProblem`,
-`qmt_drake.planners`, `qmt_drake.plan.Plan`; the command line is `qmt-drake` (qmt_drake/cli.py).
+    from qmt_drake import load_scenario, plan_with, simulate, build_diagram, Plan
+
+`load_scenario` reads a scenario (plain typed data), `plan_with` plans it (a `Plan`, re-checked by
+sampling), `simulate` executes a plan in the co-simulation and says whether the part was carried,
+`build_diagram` gives the Drake Diagram itself; their docstrings give inputs, outputs and units
+(SI). The command line is `qmt-drake` (qmt_drake/apps/cli.py); README.md and docs/ describe both.
 """
 
+from qmt_drake.api import Plan, Scenario, build_diagram, load_scenario, plan_with, simulate
+
 __version__ = "0.1.0"
+__all__ = ["Plan", "Scenario", "__version__", "build_diagram", "load_scenario", "plan_with", "simulate"]

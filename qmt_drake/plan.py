@@ -229,7 +229,7 @@ def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
             if q.shape[1] != scenario.arm.n_dof:
                 raise QmtInputError(f"plan file {path} has {q.shape[1]} joints but scenario "
                                     f"{scenario.name}'s arm has {scenario.arm.n_dof}; plan again for it")
-            _check_endpoints(q[0], q[-1], scenario, path)
+            _check_endpoints(q[0], q[-1], scenario, f"plan file {path}")
             traj_obj = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
             plan = make_plan(scenario, str(d.get("method", "loaded")), traj_obj, genes=d.get("genes"))
         else:
@@ -276,11 +276,23 @@ def _check_genes(genes: np.ndarray, scenario: Scenario, path: Path) -> None:
                                 f"family.genes.{name}")
 
 
-def _check_endpoints(q_start, q_end, scenario: Scenario, path: Path) -> None:
+def _check_endpoints(q_start, q_end, scenario: Scenario, path: Path | str) -> None:
     arm = scenario.arm
     ends = arm.tip_position(np.stack([q_start, q_end]))
     want = np.asarray(scenario.task.points_m, float)[[0, -1]]
     err = np.linalg.norm(np.asarray(ends)[:, :2] - want, axis=1)
     if np.any(err > PLAN_ENDPOINT_TOL_M):
-        raise QmtInputError(f"plan file {path} starts/ends {err[0] * 1e3:.3g}/{err[1] * 1e3:.3g} mm away from "
+        raise QmtInputError(f"{path} starts/ends {err[0] * 1e3:.3g}/{err[1] * 1e3:.3g} mm away from "
                             f"scenario {scenario.name}'s start and goal points; plan again for this scenario")
+
+
+def check_plan_fits(plan, scenario: Scenario) -> None:
+    """One-line QmtInputError unless `plan` (anything with n_dof, motion_time_s and sample) has the
+    scenario's joint count and starts and ends within PLAN_ENDPOINT_TOL_M of its task's start and
+    goal points: the library's own guard against running a plan made for another scenario."""
+    n = int(getattr(plan, "n_dof", scenario.arm.n_dof))
+    if n != scenario.arm.n_dof:
+        raise QmtInputError(f"the plan has {n} joints but scenario {scenario.name}'s arm has "
+                            f"{scenario.arm.n_dof}; plan again for this scenario")
+    q = plan.sample(np.array([0.0, float(plan.motion_time_s)]))[0]
+    _check_endpoints(q[0], q[-1], scenario, f"the {getattr(plan, 'method', '')} plan".replace("the  ", "the "))

@@ -21,12 +21,21 @@ class JointTrajectory:
         raise NotImplementedError
 
     def sample(self, t_s):
-        """q, qd, qdd (len(t), n) at times t (right-continuous)."""
+        """q [rad], qd [rad/s], qdd [rad/s^2], each (len(t), n), at times t [s] (right-continuous).
+        Outside [0, duration] the arm holds its end states: q(0) before the start, q(T) after the
+        end, with qd = qdd = 0 (never the pieces' polynomials extrapolated)."""
         t = np.atleast_1d(np.asarray(t_s, dtype=float))
         bp = self.breakpoints_s
-        j = np.clip(np.searchsorted(bp, t, side="right") - 1, 0, len(bp) - 2)
-        mid = np.where(t >= bp[-1], bp[-1] + 1.0, 0.5 * (bp[j] + bp[j + 1]))
-        return self.evaluate(t, mid)
+        outside = (t < bp[0]) | (t > bp[-1])
+        tc = np.clip(t, bp[0], bp[-1])
+        j = np.clip(np.searchsorted(bp, tc, side="right") - 1, 0, len(bp) - 2)
+        mid = np.where(tc >= bp[-1], bp[-1] + 1.0, 0.5 * (bp[j] + bp[j + 1]))
+        q, qd, qdd = self.evaluate(tc, mid)
+        if outside.any():
+            qd, qdd = np.array(qd, dtype=float, copy=True), np.array(qdd, dtype=float, copy=True)
+            qd[outside] = 0.0
+            qdd[outside] = 0.0
+        return q, qd, qdd
 
     def to_piecewise_polynomial(self, rate_hz: float = 1000.0) -> PiecewisePolynomial:
         """Cubic Hermite interpolation of q through samples at rate_hz (and every breakpoint),

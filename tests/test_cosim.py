@@ -409,3 +409,15 @@ def test_default_diagram_is_freed_after_a_run(sc4, plan4):
     del td
     gc.collect()
     assert all(r() is None for r in refs)
+
+
+def test_a_plan_made_for_another_scenario_is_refused_by_the_library(sc4, plan4):
+    """Not only the CLI: build_transfer_diagram / simulate_transfer on a scenario whose start is 50 mm
+    away from the plan's refuse it in one line instead of reporting the part held."""
+    moved = load_scenario("thesis-ch4", overrides={"task": {"points_m": [[0.17, 0.15], [0.08, 0.16],
+                                                                        [-0.10, 0.12], [-0.18, 0.10]]}})
+    with pytest.raises(QmtInputError, match="away from scenario .*start and goal") as exc:
+        simulate_transfer(moved, plan4, keep_series=False)
+    assert "\n" not in str(exc.value)
+    with pytest.raises(QmtInputError, match="on a tray"):
+        build_transfer_diagram(load_scenario("crane-tray"), plan4)

@@ -44,3 +44,18 @@ def test_family_plan_round_trip(problems, tmp_path):
     p.write_json(tmp_path / "f.json")
     back = load_plan(tmp_path / "f.json")
     assert back.genes == p.genes and back.check == p.check
+
+
+def test_sampling_outside_the_plan_holds_its_end_states():
+    """Before t = 0 the start, after T the goal, at rest: never the polynomial extrapolated."""
+    import numpy as np
+
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.planners import plan_with
+    plan = plan_with("thesis", load_scenario("thesis-ch4"))
+    T = plan.motion_time_s
+    q, qd, qdd = plan.sample(np.array([-1.0, -1e-3, 0.0, T, T + 1e-3, T + 5.0]))
+    q0, qT = plan.sample(np.array([0.0]))[0][0], plan.sample(np.array([T]))[0][0]
+    np.testing.assert_array_equal(q[:3], np.tile(q0, (3, 1)))
+    np.testing.assert_array_equal(q[3:], np.tile(qT, (3, 1)))
+    assert not np.any(qd[[0, 1, 4, 5]]) and not np.any(qdd[[0, 1, 4, 5]])

@@ -34,6 +34,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.plan import check_plan_fits
 from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_damping_actuation, add_motor_actuation_law,
                                      motor_actuation_law,
                                      add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
@@ -146,6 +147,10 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     if time_step_s is None:
         time_step_s = default_time_step_s(implicit_loop_damping)
     check_time_step(time_step_s, implicit_loop_damping, refuse_unstable=not allow_unstable_step)
+    if getattr(scenario, "is_tray", False):
+        raise QmtInputError(f"scenario {scenario.name} carries its part on a tray through Dynamixel servos: "
+                            "build its diagram with qmt_drake.build_diagram (or tray.cosim.build_tray_diagram)")
+    check_plan_fits(plan, scenario)  # a plan made for another scenario is refused here, not only by the CLI
     builder = DiagramBuilder()
     tp = add_transfer_plant(builder, scenario, time_step_s, payload_spec=payload_spec,
                             n_dof_expected=int(plan.n_dof))

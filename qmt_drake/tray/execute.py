@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.plan import check_plan_fits
 from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
@@ -65,6 +66,7 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
                        time_step_s: float | None = None) -> dict:
     from qmt_drake.tray.cosim import TIME_STEP_S, simulate_tray
     check_tray_simulation(scenario, time_step_s)
+    check_plan_fits(plan, scenario)  # a plan made for another scenario is refused by the library
     act = scenario.actuator
     sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s)
     r = simulate_tray(sched, act.gains(), scenario.bottle, time_step_s=time_step_s or TIME_STEP_S,
