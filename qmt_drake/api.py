@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import qmt_drake.builders  # noqa: F401  (registers the scenario's builders)
 from qmt_drake.config.scenario import Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.plan import Plan, check_plan_fits
@@ -49,7 +50,7 @@ def simulate(scenario: Scenario, plan, *, time_scale: float = 1.0, time_step_s: 
     """Execute `plan` in the Drake co-simulation of `scenario` (magnet hand: DC motors with gears,
     PID, the magnet and the part in friction contact; tray: the Dynamixel servos and the bottle
     standing free) and return its summary (the CLI's JSON): "outcome" (carried / slipped /
-    detached / slid_off / tipped / unfinished, sim/outcome.py), "held" (outcome == carried),
+    detached / slid_off / tipped / unfinished, qmt_drake/outcome.py), "held" (outcome == carried),
     "max_slip_m", "final_goal_error_rad", "max_tracking_error_rad", "real_time_factor", ...
     time_scale: replay the plan time_scale times slower (< 1 faster); time_step_s: the plant step
     [s] (default: the scenario's stable default); feedforward: "none", "back-emf" or "full" (DC

@@ -1,26 +1,67 @@
-"""Builders: a scenario (plain data) turned into the numpy and Drake objects planners and the
-co-simulation use. One builder for each thing: the arm model, the limit set, the tray's bottle.
-
-Transitional façade: today these read the scenario's cached properties; the one-stack work (issue 18)
-moves the implementations here so that the scenario imports nothing above it. Call these, not the
-scenario's attributes, from new code.
+"""Builders: a scenario (plain data, config/) turned into the numpy and Drake objects the planners
+and the co-simulation use. One builder for each thing: the arm model, the limit set, the tray's
+bottle. They are registered with config/scenario.py at import (qmt_drake's __init__ imports this
+module), so `scenario.arm`, `scenario.limit_set` and `scenario.bottle` build once per scenario
+object while the scenario module imports nothing above config/.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 
-def build_arm(scenario):
-    """The scenario's ArmModel (URDF chain with the carried body's inertia on the hand), built once
-    per scenario object."""
-    return scenario.arm
-
-
-def build_limit_set(scenario):
-    """The scenario's LimitSet (payload / tray / suction terms, motor torques, joint speeds and
-    ranges), built once per scenario object."""
-    return scenario.limit_set
+from qmt_drake.config.scenario import IdealTorque, Scenario, register_builders
+from qmt_drake.errors import QmtInputError
+from qmt_drake.limits import JointRangeTerm, LimitSet, MotorTorqueTerm, PayloadMomentTerm
+from qmt_drake.limits.tray import JointSpeedTerm, tray_terms
+from qmt_drake.model.arm import ArmModel
+from qmt_drake.systems.payload import PayloadSpec
+from qmt_drake.systems.tray_object import BottleSpec
 
 
-def build_bottle(scenario):
-    """Tray scenarios: the BottleSpec of the payload and the tray hand; None for other hands."""
-    return scenario.bottle
+def build_bottle(scenario: Scenario) -> BottleSpec | None:
+    """Tray scenarios: the BottleSpec (systems/tray_object.py) of the payload and the tray hand;
+    None for other hands."""
+    if not scenario.is_tray:
+        return None
+    b, p, h = scenario.payload.body, scenario.payload, scenario.hand
+    return BottleSpec(p.name, float(p.mass_kg), b.radius_m, b.length_m, float(p.com_offset_m), b.shell_mass_kg,
+                      h.contact_radius_m, friction=h.friction, n_contact_points=h.n_contact_points)
+
+
+def build_arm(scenario: Scenario) -> ArmModel:
+    """The ArmModel of the scenario's URDF with the carried part's inertia welded to the hand (tray:
+    the bottle seated at the tray centre, its base at the tray frame's origin). A URDF that is a
+    directory, unreadable, not XML or not a serial chain: one-line QmtInputError naming the scenario."""
+    carried = (scenario.bottle.spatial_inertia() if scenario.is_tray
+               else PayloadSpec.for_scenario(scenario).spatial_inertia_about_origin())
+    where, urdf = str(scenario.source_path), Path(scenario.urdf_path)
+    if urdf.is_dir():
+        raise QmtInputError(f"{where}: arm.urdf {urdf} is a directory; give the URDF file")
+    try:
+        return ArmModel.from_urdf(urdf, hand_frame=scenario.hand_frame, carried_inertia=carried,
+                                  require_gear_ratio=not isinstance(scenario.actuator, IdealTorque))
+    except QmtInputError as exc:
+        raise QmtInputError(f"{where}: {exc}") from None
+    except OSError as exc:
+        raise QmtInputError(f"{where}: arm.urdf {urdf} cannot be read ({exc.strerror})") from None
+
+
+def build_limit_set(scenario: Scenario) -> LimitSet:
+    """The scenario's LimitSet. Magnet hand (the thesis): payload moment, motor torques, joint
+    ranges. Tray hand (seed 002): no slide, no tip, no lift-off of the bottle (limits/tray.py)
+    instead of the payload moment, plus joint speeds when limits.joint_speed_fraction is given."""
+    arm = scenario.arm
+    if scenario.is_tray:
+        terms = tray_terms(scenario.bottle, scenario.hand.plan_margin)
+        terms.append(MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm))
+        if scenario.limits.joint_speed_fraction is not None:
+            sheets = getattr(scenario.actuator, "datasheets", None)
+            v = [s.no_load_speed_rad_s for s in sheets()] if sheets else None
+            terms.append(JointSpeedTerm(arm, scenario.limits.joint_speed_fraction, v))
+        return LimitSet(arm, terms + [JointRangeTerm(arm)])
+    return LimitSet(arm, [PayloadMomentTerm(arm, scenario.moment_per_accel_kgm, scenario.limits.moment_limit_Nm),
+                          MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm),
+                          JointRangeTerm(arm)])
+
+
+register_builders(arm=build_arm, limit_set=build_limit_set, bottle=build_bottle)

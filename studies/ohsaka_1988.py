@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.energy.dynamics import ohsaka_arm
-from qmt_drake.energy.experiments import get_experiment, paper_initial_x
+from qmt_drake.energy.experiments import paper_initial_x
+from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.figures import stick_figure
 from qmt_drake.energy.multistart import (PATTERNS, distinct_optima, initial_end_posture,
                                          initial_reduced_genes, pattern_str, run_multistart)

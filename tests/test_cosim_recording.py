@@ -6,7 +6,7 @@ import re
 import pytest
 
 from qmt_drake.sim import GenesPlan, build_transfer_diagram, run_diagram, simulate_transfer
-from qmt_drake.sim.recording import make_headless_meshcat
+from qmt_drake.recording import make_headless_meshcat
 from qmt_drake.config.scenario import load_scenario
 
 
@@ -36,7 +36,7 @@ def test_camera_frames_the_arm_from_its_reach_and_a_lost_part_stops_on_the_floor
     from pydrake.systems.framework import DiagramBuilder
 
     from qmt_drake.sim.plant import add_arm
-    from qmt_drake.sim.recording import add_floor, arm_reach_m
+    from qmt_drake.recording import add_floor, arm_reach_m
 
     sc = load_scenario("thesis-ch4")
     p, _ = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.0)

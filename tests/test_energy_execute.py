@@ -3,7 +3,7 @@
 import numpy as np
 
 from qmt_drake.energy.execute import execute
-from qmt_drake.energy.experiments import get_experiment
+from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.multistart import initial_end_posture, initial_reduced_genes
 from qmt_drake.energy.nlp import solve_nlp
 

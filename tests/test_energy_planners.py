@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from qmt_drake.energy.experiments import get_experiment, paper_initial_x
+from qmt_drake.energy.experiments import paper_initial_x
+from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.kinematics import tip_position
 from qmt_drake.energy.multistart import (PATTERNS, initial_end_posture, initial_reduced_genes,
                                          run_multistart, travel_pattern)

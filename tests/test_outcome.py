@@ -1,10 +1,10 @@
-"""The one outcome vocabulary (sim/outcome.py): a lost part and an unfinished transfer are never carried."""
+"""The one outcome vocabulary (qmt_drake/outcome.py): a lost part and an unfinished transfer are never carried."""
 
 import math
 
 import pytest
 
-from qmt_drake.sim.outcome import OUTCOMES, transfer_outcome, verdict_line
+from qmt_drake.outcome import OUTCOMES, transfer_outcome, verdict_line
 
 
 @pytest.mark.parametrize("lost, slipped, err, tol, want", [

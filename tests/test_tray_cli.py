@@ -141,7 +141,7 @@ def test_the_library_refuses_a_coarse_tray_step_too():
 def test_a_replay_too_fast_to_follow_is_never_carried(capsys):
     """Time scale 1e-4: the whole plan fits in less than one servo period. The goal stream must still
     end at the plan's goal, and whatever the servos do, the verdict is not "carried" unless the arm got
-    there with the bottle on the tray (sim/outcome.py)."""
+    there with the bottle on the tray (qmt_drake/outcome.py)."""
     from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners import plan_with
     from qmt_drake.tray.execute import plan_schedule, simulate_tray_plan

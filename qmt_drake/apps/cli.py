@@ -22,7 +22,7 @@ from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, add_energy_options, plan_e
 from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
 from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
-from qmt_drake.sim.outcome import verdict_line
+from qmt_drake.outcome import verdict_line
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
@@ -80,7 +80,7 @@ def cmd_scenarios(args) -> int:
         sc = load_scenario(name)
         print(f"{name:12s} {sc.family.kind:20s} genes {', '.join(sc.family.gene_names):22s} "
               f"{sc.arm.n_dof}-link arm, payload {sc.payload.mass_kg * 1e3:.0f} g")
-    from qmt_drake.energy.experiments import get_experiment
+    from qmt_drake.energy.scenario import get_experiment
     for name in builtin_scenarios(ENERGY_TIME_KIND):
         ex = get_experiment(name)
         print(f"{name:12s} {'fourier_velocity':20s} energy-time (seed 001), c2 = {ex.c2:g}, m = {ex.m}; "

@@ -34,13 +34,14 @@ import json
 import math
 import numbers
 from dataclasses import dataclass, field, fields, is_dataclass
-from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import yaml
 
+from qmt_drake.catalog import (HARMONIC_DRIVE_EFFICIENCY, IK_BRANCHES, MOTOR_CATALOG, SERVO_CATALOG, THESIS_COILS,
+                               CoilSpec, ServoGains, motor_for_rated_torque)
 from qmt_drake.config import fields as fields_mod
 from qmt_drake.errors import QmtInputError
 
@@ -155,12 +156,10 @@ class DynamixelServos:
     control_period_s: float = 1e-3
     kind: str = "dynamixel"
 
-    def gains(self):
-        from qmt_drake.systems.dynamixel_servo import ServoGains
+    def gains(self) -> ServoGains:
         return ServoGains(tuple(self.p), tuple(self.i), tuple(self.d))
 
-    def datasheets(self):
-        from qmt_drake.systems.dynamixel_servo import SERVO_CATALOG
+    def datasheets(self) -> tuple:
         return tuple(SERVO_CATALOG[s] for s in self.servos)
 
 
@@ -243,34 +242,32 @@ class Scenario:
     def is_tray(self) -> bool:
         return isinstance(self.hand, TrayHand)
 
+    # What a scenario turns into (the arm model, the limit set, the tray's bottle) is built by
+    # qmt_drake/builders.py, which registers its builders here (register_builders): this module
+    # imports nothing above config/, and every object is built once per scenario object.
     @property
     def bottle(self):
-        """Tray scenarios: the BottleSpec (systems/tray_object.py) of the payload and the hand."""
-        if not self.is_tray:
-            return None
-        from qmt_drake.systems.tray_object import BottleSpec
-        b = self.payload.body
-        return BottleSpec(self.payload.name, float(self.payload.mass_kg), b.radius_m, b.length_m,
-                          float(self.payload.com_offset_m), b.shell_mass_kg, self.hand.contact_radius_m,
-                          friction=self.hand.friction, n_contact_points=self.hand.n_contact_points)
+        """Tray scenarios: the BottleSpec of the payload and the tray hand (builders.build_bottle); None otherwise."""
+        return self._built("bottle")
 
-    @cached_property
+    @property
     def arm(self):
-        """The ArmModel built from the URDF with the carried part welded to the hand (loaded once
-        per scenario object; not pickled)."""
-        if self.is_tray:  # the bottle seated at the tray centre, its base at the tray frame's origin
-            carried = self.bottle.spatial_inertia()
-        else:
-            from qmt_drake.systems.payload import PayloadSpec
-            carried = PayloadSpec.for_scenario(self).spatial_inertia_about_origin()
-        return _load_arm(self.urdf_path, self.hand_frame, str(self.source_path), carried_inertia=carried,
-                         require_gear_ratio=not isinstance(self.actuator, IdealTorque))
+        """The ArmModel of the URDF with the carried part welded to the hand (builders.build_arm)."""
+        return self._built("arm")
 
-    @cached_property
+    @property
     def limit_set(self):
-        """The scenario's LimitSet (payload moment, motor torques, joint ranges; limits/)."""
-        from qmt_drake.limits import LimitSet
-        return LimitSet.for_scenario(self)
+        """The scenario's LimitSet (builders.build_limit_set)."""
+        return self._built("limit_set")
+
+    def _built(self, what: str):
+        cache = self.__dict__.setdefault("_built_objects", {})  # not pickled (__getstate__)
+        if what not in cache:
+            if what not in _BUILDERS:
+                raise RuntimeError(f"no builder registered for scenario.{what}: import qmt_drake (its "
+                                   "__init__ registers qmt_drake.builders)")
+            cache[what] = _BUILDERS[what](self)
+        return cache[what]
 
     @property
     def gear_ratio(self) -> np.ndarray:
@@ -284,8 +281,7 @@ class Scenario:
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        for cached in ("arm", "limit_set"):  # hold Drake objects, which do not pickle: rebuilt on demand
-            state.pop(cached, None)
+        state.pop("_built_objects", None)  # Drake objects, which do not pickle: rebuilt on demand
         return state
 
     def fingerprint(self) -> str:
@@ -325,18 +321,12 @@ def _canonical(x):
     return repr(x)
 
 
-def _load_arm(urdf_path: Path, hand_frame: str, where: str, **kw):
-    """ArmModel of a URDF (model/arm.py refuses non-XML, unparsable or non-serial URDFs in one
-    line); the message is prefixed with the scenario that names it."""
-    from qmt_drake.model.arm import ArmModel
-    if Path(urdf_path).is_dir():
-        raise QmtInputError(f"{where}: arm.urdf {urdf_path} is a directory; give the URDF file")
-    try:
-        return ArmModel.from_urdf(urdf_path, hand_frame=hand_frame, **kw)
-    except QmtInputError as exc:
-        raise QmtInputError(f"{where}: {exc}") from None
-    except OSError as exc:
-        raise QmtInputError(f"{where}: arm.urdf {urdf_path} cannot be read ({exc.strerror})") from None
+_BUILDERS: dict = {}
+
+
+def register_builders(**builders) -> None:
+    """qmt_drake/builders.py registers how a scenario's arm, limit_set and bottle are built."""
+    _BUILDERS.update(builders)
 
 
 # ---------------------------------------------------------------------------------------- loading
@@ -586,7 +576,6 @@ def _task(t: dict, where: str) -> Task:
     if not np.all(np.isfinite(pts)):
         raise QmtInputError(f"{where}.points_m must be finite numbers")
     branch = t.get("ik_branch", "elbow_positive")
-    from qmt_drake.model.arm import IK_BRANCHES
     if branch not in IK_BRANCHES:
         raise QmtInputError(f"{where}.ik_branch {_show(branch)} is not one of {IK_BRANCHES}")
     tool = None if t.get("tool_angle_rad") is None else _num(t, "tool_angle_rad", where)
@@ -655,7 +644,6 @@ def _hand(h, where: str) -> MagnetHand | None:
     if kind != "magnet":
         raise QmtInputError(f"{where}.kind {_show(kind)} is not available; use 'magnet' or 'tray'")
     _check_keys(h, _HAND_KEYS, where)
-    from qmt_drake.systems.electromagnet import THESIS_COILS, CoilSpec
     c = _need(h, "coil", where)
     if isinstance(c, str):
         if c not in THESIS_COILS:
@@ -748,7 +736,6 @@ def _actuator(a, limits: Limits, where: str):
         raise QmtInputError(f"{where}.kind must be 'dc_motor_gear' or 'ideal' (motor models) or 'dynamixel' "
                             f"(position servos), got {_show(kind)}")
     _check_keys(a, {"kind", "motors", "efficiency"}, where)
-    from qmt_drake.systems.dc_motor import HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, motor_for_rated_torque
     motors = a.get("motors", "by_rated_torque")
     if motors == "by_rated_torque":
         # The smallest catalogue motor whose continuous torque covers each rated motor torque.
@@ -768,7 +755,6 @@ def _actuator(a, limits: Limits, where: str):
 
 def _dynamixel(a: dict, where: str) -> DynamixelServos:
     _check_keys(a, {"kind", "servos", "p", "i", "d", "control_period_s"}, where)
-    from qmt_drake.systems.dynamixel_servo import SERVO_CATALOG
     servos = _need(a, "servos", where)
     if not isinstance(servos, list) or not all(isinstance(x, str) for x in servos):
         raise QmtInputError(f"{where}.servos must be a list of servo models ({', '.join(SERVO_CATALOG)}), "

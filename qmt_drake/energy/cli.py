@@ -24,7 +24,7 @@ from qmt_drake.budgets import check_energy_budget
 from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
 from qmt_drake.energy.objective import FINE_DIVISIONS
 from qmt_drake.errors import QmtInputError
-from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
 from qmt_drake.outputs import check_output_path
 
 METHODS = ("snopt", "ipopt", "steepest", "collocation")
@@ -61,7 +61,7 @@ def _pattern(s: str | None):
 def plan_energy(args) -> int:
     """`qmt-drake plan ENERGY_SCENARIO ...` (module docstring)."""
 
-    from qmt_drake.energy.experiments import get_experiment
+    from qmt_drake.energy.scenario import get_experiment
     from qmt_drake.energy.multistart import (PATTERNS, initial_end_posture, initial_reduced_genes,
                                              pattern_str, travel_pattern)
     from qmt_drake.outputs import jsonable, write_text_atomic
@@ -169,7 +169,7 @@ def simulate_energy(args) -> int:
     prints the tracking error, --json writes the execution summary. A plan made for another
     experiment (other start, goal or weights) is refused in one line."""
     from qmt_drake.energy.execute import execute
-    from qmt_drake.energy.experiments import get_experiment
+    from qmt_drake.energy.scenario import get_experiment
     from qmt_drake.energy.fourier import FourierVelocityFamily
     from qmt_drake.outputs import jsonable, write_text_atomic
     for flag in ("--json", "--record"):
@@ -194,7 +194,7 @@ def simulate_energy(args) -> int:
     family = FourierVelocityFamily(plan["theta0_rad"], plan["m"])
     ex = execute(family, np.asarray(plan["x"], float), recording_path=args.record)
     summary = ex.summary()
-    # no payload in seed 001: the outcome is only whether the arm reached the goal (sim/outcome.py's tolerance)
+    # no payload in seed 001: the outcome is only whether the arm reached the goal (qmt_drake/outcome.py's tolerance)
     summary.update(scenario=E.name, motion_time_s=float(plan["x"][-1]),
                    reached_goal=bool(summary["final_error_rad"] <= ARRIVAL_TOLERANCE_DC_MOTOR_RAD),
                    arrival_tolerance_rad=ARRIVAL_TOLERANCE_DC_MOTOR_RAD)

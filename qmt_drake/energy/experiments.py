@@ -1,15 +1,13 @@
-"""Seed 001's three numerical experiments (section 3) and the paper's numbers, read from the
-scenario files models/scenarios/ohsaka-fig{2,3,4}.yaml (the one source of truth; loader:
-scenario.py). A user's own file of that kind works wherever a built-in name does.
+"""Seed 001's numerical experiments (section 3): the Experiment record that energy/scenario.py loads
+from models/scenarios/ohsaka-fig{2,3,4}.yaml (the one source of truth; `get_experiment` and
+`EXPERIMENTS` live there), and the paper's initial trajectory.
 
 Coordinate vector (X(0)', X(T)')' in metres, X2 up. c1, c2 as printed. m = 5, 40 divisions.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -43,44 +41,6 @@ class Experiment:
             kw["arm"] = self.arm
         kw.update(over)
         return EnergyProblem(**kw)
-
-
-class _Experiments(Mapping):
-    """Built-in experiments by name (loaded on first use). `x in EXPERIMENTS` is also true for a
-    path to a YAML file of kind energy_time, so `qmt-drake plan FILE` routes it here."""
-
-    def __getitem__(self, name):
-        from qmt_drake.energy.scenario import builtin_energy_scenarios
-        if name not in builtin_energy_scenarios():
-            raise KeyError(name)
-        return _load(name)
-
-    def __iter__(self):
-        from qmt_drake.energy.scenario import builtin_energy_scenarios
-        return iter(builtin_energy_scenarios())
-
-    def __len__(self):
-        from qmt_drake.energy.scenario import builtin_energy_scenarios
-        return len(builtin_energy_scenarios())
-
-    def __contains__(self, name) -> bool:
-        from qmt_drake.energy.scenario import is_energy_scenario
-        return is_energy_scenario(name)
-
-
-EXPERIMENTS = _Experiments()
-
-
-@lru_cache(maxsize=16)
-def _load(name_or_path: str) -> Experiment:
-    from qmt_drake.energy.scenario import load_energy_scenario
-    return load_energy_scenario(name_or_path)
-
-
-def get_experiment(name_or_path) -> Experiment:
-    """A built-in experiment by name (ohsaka-fig2/3/4) or a user's energy scenario file by path."""
-    from qmt_drake.energy.scenario import resolve
-    return _load(str(resolve(name_or_path).resolve()))
 
 
 def paper_initial_x(problem: EnergyProblem, initial_a: dict, T_s: float) -> np.ndarray:

@@ -24,12 +24,16 @@ any computation.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from functools import lru_cache
+
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, builtin_scenarios, read_scenario_yaml
+from qmt_drake.energy.experiments import Experiment
 from qmt_drake.errors import QmtInputError
 
 KIND = ENERGY_TIME_KIND
@@ -111,7 +115,6 @@ def _numbers(path, key, v, n=None, **kw):
 
 def load_energy_scenario(name_or_path):
     """The Experiment (experiments.py) of a built-in name or a YAML path, every value checked."""
-    from qmt_drake.energy.experiments import Experiment
     raw, path = read_raw(name_or_path)
     if raw.get("kind") != KIND:
         raise QmtInputError(f"{path}: kind = {raw.get('kind')!r}; an energy scenario needs kind: {KIND} "
@@ -215,3 +218,35 @@ def _arm(path: Path, a: dict):
         raise QmtInputError(f"{path}: arm.urdf has {arm.n_dof} joints; the energy planner's start "
                             "postures and patterns are for 3 joints")
     return arm
+
+
+class _Experiments(Mapping):
+    """Built-in experiments by name (loaded on first use). `x in EXPERIMENTS` is also true for a
+    path to a YAML file of kind energy_time, so `qmt-drake plan FILE` routes it here."""
+
+    def __getitem__(self, name):
+        if name not in builtin_energy_scenarios():
+            raise KeyError(name)
+        return _load(name)
+
+    def __iter__(self):
+        return iter(builtin_energy_scenarios())
+
+    def __len__(self):
+        return len(builtin_energy_scenarios())
+
+    def __contains__(self, name) -> bool:
+        return is_energy_scenario(name)
+
+
+EXPERIMENTS = _Experiments()
+
+
+@lru_cache(maxsize=16)
+def _load(name_or_path: str) -> Experiment:
+    return load_energy_scenario(name_or_path)
+
+
+def get_experiment(name_or_path) -> Experiment:
+    """A built-in experiment by name (ohsaka-fig2/3/4) or a user's energy scenario file by path."""
+    return _load(str(resolve(name_or_path).resolve()))

@@ -52,25 +52,6 @@ class LimitSet:
         self.ratio_mask = np.concatenate([np.full(len(t.column_names), t.kind == "ratio") for t in self.terms])
         self.column_names = [c for t in self.terms for c in t.column_names]
 
-    @classmethod
-    def for_scenario(cls, scenario) -> "LimitSet":
-        """The thesis's limits: payload moment, motor torques, joint ranges. A tray scenario
-        (seed 002): no slide, no tip, no lift-off of the bottle (limits/tray.py) instead of the
-        payload moment, plus joint speeds when limits.joint_speed_fraction is given."""
-        arm = scenario.arm
-        if getattr(scenario, "is_tray", False):
-            from qmt_drake.limits.tray import JointSpeedTerm, tray_terms
-            terms = tray_terms(scenario.bottle, scenario.hand.plan_margin)
-            terms.append(MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm))
-            if scenario.limits.joint_speed_fraction is not None:
-                sheets = getattr(scenario.actuator, "datasheets", None)
-                v = [s.no_load_speed_rad_s for s in sheets()] if sheets else None
-                terms.append(JointSpeedTerm(arm, scenario.limits.joint_speed_fraction, v))
-            return cls(arm, terms + [JointRangeTerm(arm)])
-        return cls(arm, [PayloadMomentTerm(arm, scenario.moment_per_accel_kgm, scenario.limits.moment_limit_Nm),
-                         MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm),
-                         JointRangeTerm(arm)])
-
     def term(self, name: str):
         return next((t for t in self.terms if t.name == name), None)
 

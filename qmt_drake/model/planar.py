@@ -34,9 +34,9 @@ from __future__ import annotations
 import numpy as np
 from pydrake.multibody.tree import RevoluteJoint
 
+from qmt_drake.catalog import IK_BRANCHES  # noqa: F401 (re-exported)
 from qmt_drake.errors import QmtInputError
 
-IK_BRANCHES = ("elbow_positive", "elbow_negative")
 
 # World coordinate planes: normal axis index -> (in-plane axis indices u, v); normal = e_u x e_v.
 _PLANES = {2: (0, 1), 1: (0, 2), 0: (1, 2)}

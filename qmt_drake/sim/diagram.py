@@ -40,7 +40,7 @@ from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_da
                                      add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
                                      ideal_joint_gains, motor_params_for, pid_gains_for)
 from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
-from qmt_drake.sim.recording import add_floor, add_meshcat_visualizer, frame_arm
+from qmt_drake.recording import add_floor, add_meshcat_visualizer, frame_arm
 from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, move_loop_damping_into_plant,
                                  set_initial_state)
 from qmt_drake.sim.reference import plan_start, reference_trajectories
@@ -109,7 +109,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     motors chatter between their current limits): refused in one line (QmtInputError) unless
     allow_unstable_step=True, for studies of that instability (the result then says
     explicit_step_known_unstable). With meshcat, a floor is added under the arm (a lost part lands
-    on it) and the camera is pointed at the arm from its reach (sim/recording.py).
+    on it) and the camera is pointed at the arm from its reach (qmt_drake/recording.py).
 
     Exported output ports (units as in the systems' docstrings): desired_state (2n) [rad, rad/s],
     arm_state (2n), voltage_command (n) [V], joint_torque (n) [N*m], motor_torque (n) [N*m],

@@ -15,7 +15,7 @@ from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.sim.actuation import (FEEDFORWARD_OPTIONS, check_time_step, default_time_step_s,
                                      explicit_step_known_unstable)
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
-from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
 
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
@@ -25,7 +25,7 @@ HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
 class TransferResult:
     """One co-simulated transfer. Times are simulation time: lead_s (0.2 s) of rest, the plan slowed
     by time_scale, settle_s (0.5 s); detached_at_s counts from the start of the lead (None: never).
-    outcome: sim/outcome.py's word (carried / slipped / detached / unfinished); held = outcome is
+    outcome: qmt_drake/outcome.py's word (carried / slipped / detached / unfinished); held = outcome is
     carried: never detached, max_slip_m < 1 mm and the arm ended within arrival_tolerance_rad of the
     plan's goal (final_goal_error_rad, max over the joints). peak_motor_torque_ratio is the simulated peak over
     the scenario's rated motor torque; peak_moment_ratio_planned is the time-scaled plan's
@@ -168,18 +168,18 @@ def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: f
     """Build, run and summarise one transfer (see TransferResult)."""
     meshcat = None
     if record_path is not None:
-        from qmt_drake.sim.recording import make_headless_meshcat
+        from qmt_drake.recording import make_headless_meshcat
         meshcat = make_headless_meshcat()
     build_kw.setdefault("step_logs", True)  # the monitor's numbers from C++ logs (sim.posthoc)
     td = build_transfer_diagram(scenario, plan, time_step_s=time_step_s, time_scale=time_scale,
                                 meshcat=meshcat, log_period_s=5e-3 if keep_series else 0.0, **build_kw)
     on_start = None
     if meshcat is not None:
-        from qmt_drake.sim.recording import start_recording
+        from qmt_drake.recording import start_recording
         on_start = lambda sim: start_recording(td.visualizer)  # noqa: E731
     summary, wall = run_diagram(td, on_start=on_start)
     if meshcat is not None:
-        from qmt_drake.sim.recording import save_recording
+        from qmt_drake.recording import save_recording
         save_recording(td.visualizer, meshcat, record_path)
     return make_result(scenario, plan, td, summary, wall, time_scale, logged_series(td) if keep_series else {})
 

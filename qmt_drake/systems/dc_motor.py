@@ -77,62 +77,9 @@ from typing import NamedTuple
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from qmt_drake.catalog import (HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, MotorDatasheet,  # noqa: F401 (re-exported)
+                               motor_for_rated_torque)
 from qmt_drake.systems.scalar_ops import FLOAT
-
-
-@dataclass(frozen=True)
-class MotorDatasheet:
-    """One motor's catalogue numbers (motor side, SI)."""
-
-    name: str
-    source: str
-    nominal_voltage_V: float
-    resistance_ohm: float
-    inductance_H: float
-    torque_constant_Nm_per_A: float
-    rotor_inertia_kgm2: float
-    nominal_torque_Nm: float  # max. continuous torque
-    max_current_A: float  # drive current limit used here (amplifier), not the motor's stall current
-
-    @property
-    def stall_torque_Nm(self) -> float:
-        return self.torque_constant_Nm_per_A * self.nominal_voltage_V / self.resistance_ohm
-
-    @property
-    def no_load_speed_rad_s(self) -> float:
-        return self.nominal_voltage_V / self.torque_constant_Nm_per_A
-
-
-MOTOR_CATALOG: dict[str, MotorDatasheet] = {
-    # maxon RE 30, 60 W, graphite brushes, 24 V winding (order no. 310007).
-    "maxon_RE30_60W_24V": MotorDatasheet(
-        name="maxon RE 30 60 W 24 V", source="maxon catalogue 2012/13, RE 30 page, 310007",
-        nominal_voltage_V=24.0, resistance_ohm=0.611, inductance_H=0.119e-3,
-        torque_constant_Nm_per_A=25.9e-3, rotor_inertia_kgm2=33.3e-7, nominal_torque_Nm=85.6e-3,
-        max_current_A=6.0),
-    # maxon RE 25, 20 W, graphite brushes, 24 V winding (order no. 118752).
-    "maxon_RE25_20W_24V": MotorDatasheet(
-        name="maxon RE 25 20 W 24 V", source="maxon catalogue 2012/13, RE 25 page, 118752",
-        nominal_voltage_V=24.0, resistance_ohm=2.32, inductance_H=0.24e-3,
-        torque_constant_Nm_per_A=23.4e-3, rotor_inertia_kgm2=10.8e-7, nominal_torque_Nm=28.8e-3,
-        max_current_A=4.0),
-    # Faulhaber 1724 T 012 SR, 12 V coreless micromotor.
-    "faulhaber_1724T012SR": MotorDatasheet(
-        name="Faulhaber 1724 T 012 SR", source="Faulhaber DC-Micromotors catalogue, series 1724 SR",
-        nominal_voltage_V=12.0, resistance_ohm=8.71, inductance_H=0.26e-3,
-        torque_constant_Nm_per_A=14.7e-3, rotor_inertia_kgm2=1.0e-7, nominal_torque_Nm=4.5e-3,
-        max_current_A=1.4),
-}
-
-HARMONIC_DRIVE_EFFICIENCY = 0.7
-
-
-def motor_for_rated_torque(rated_torque_Nm: float) -> MotorDatasheet:
-    """The smallest catalogue motor whose continuous torque covers a thesis rated torque [N*m]."""
-    fitting = [m for m in MOTOR_CATALOG.values() if m.nominal_torque_Nm >= rated_torque_Nm]
-    if not fitting:
-        return max(MOTOR_CATALOG.values(), key=lambda m: m.nominal_torque_Nm)
-    return min(fitting, key=lambda m: m.nominal_torque_Nm)
 
 
 @dataclass

@@ -53,57 +53,13 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from qmt_drake.catalog import (  # noqa: F401 (the servo datasheets and units, re-exported)
+    CONTROL_PERIOD_S, CRANE_X7_PLANAR_SERVOS, CURRENT_UNIT_A, PULSES_PER_RAD, PULSES_PER_REV, PWM_FULL_SCALE, RPM,
+    SEED_GAINS_AFTER, SEED_GAINS_BEFORE, SERVO_CATALOG, XM430_W350, XM540_W270, ServoDatasheet, ServoGains)
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import DcMotorParams
 
-PULSES_PER_REV = 4096
-PULSES_PER_RAD = PULSES_PER_REV / (2.0 * math.pi)
-PWM_FULL_SCALE = 885.0  # PWM Limit(36) default and maximum: 100 % duty
-CURRENT_UNIT_A = 2.69e-3  # Current Limit(38) unit
-CONTROL_PERIOD_S = 1e-3  # ASSUMPTION (not stated by the maker); see the module docstring
-RPM = 2.0 * math.pi / 60.0
 
-
-@dataclass(frozen=True)
-class ServoDatasheet:
-    """One servo's datasheet numbers at its supply voltage (output-shaft side, SI except rpm)."""
-
-    model: str
-    source: str
-    supply_voltage_V: float
-    gear_ratio: float
-    stall_torque_Nm: float
-    stall_current_A: float
-    no_load_speed_rpm: float
-    current_limit_A: float
-
-    @property
-    def no_load_speed_rad_s(self) -> float:
-        return self.no_load_speed_rpm * RPM
-
-    @property
-    def back_emf_V_s_per_rad(self) -> float:
-        """Output-side back-EMF constant V / w0 [V*s/rad]."""
-        return self.supply_voltage_V / (self.no_load_speed_rpm * RPM)
-
-    @property
-    def resistance_ohm(self) -> float:
-        return self.supply_voltage_V / self.stall_current_A
-
-    @property
-    def efficiency(self) -> float:
-        """Stall torque over the ideal Ke*I_s: gear efficiency and friction lumped."""
-        return self.stall_torque_Nm / (self.back_emf_V_s_per_rad * self.stall_current_A)
-
-
-XM540_W270 = ServoDatasheet("XM540-W270", "ROBOTIS e-Manual XM540-W270 specifications, 12.0 V",
-                            12.0, 272.5, 10.6, 4.4, 30.0, 2047 * CURRENT_UNIT_A)
-XM430_W350 = ServoDatasheet("XM430-W350", "ROBOTIS e-Manual XM430-W350 specifications, 12.0 V",
-                            12.0, 353.5, 4.1, 2.3, 46.0, 1193 * CURRENT_UNIT_A)
-# CRANE-X7: XM540-W270 on joints 1-2, XM430-W350 on joints 3-7 (effort limits 10 / 4 N m in the
-# maker's description); the planar arm uses joints 2, 4, 6.
-CRANE_X7_PLANAR_SERVOS = (XM540_W270, XM430_W350, XM430_W350)
-SERVO_CATALOG = {s.model: s for s in (XM540_W270, XM430_W350)}  # scenario actuator.servos names
 
 
 def motor_params(sheets, *, lossless_equivalent: bool = True,
@@ -140,45 +96,6 @@ def motor_params(sheets, *, lossless_equivalent: bool = True,
     )
 
 
-@dataclass(frozen=True)
-class ServoGains:
-    """Position PID gains in control-table units (Position P/I/D Gain, addresses 84/82/80)."""
-
-    p: tuple
-    i: tuple
-    d: tuple
-
-    def __post_init__(self) -> None:
-        for name in ("p", "i", "d"):
-            v = np.asarray(getattr(self, name), float)
-            if np.any(v < 0) or np.any(v > 16383) or not np.all(np.isfinite(v)):
-                raise QmtInputError(f"servo {name.upper()} gain {v.tolist()} must be in the control table's "
-                                    f"range 0..16383")
-
-    @classmethod
-    def uniform(cls, n: int, p=800, i=0, d=0) -> "ServoGains":
-        return cls(tuple(np.broadcast_to(p, (n,)).tolist()), tuple(np.broadcast_to(i, (n,)).tolist()),
-                   tuple(np.broadcast_to(d, (n,)).tolist()))
-
-    def firmware(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(K_PP, K_PI, K_PD) in PWM units per pulse (per pulse-sample, per pulse-difference)."""
-        return (np.asarray(self.p, float) / 128.0, np.asarray(self.i, float) / 65536.0,
-                np.asarray(self.d, float) / 16.0)
-
-    def continuous_equivalent(self, sheets, period_s: float = CONTROL_PERIOD_S) -> dict:
-        """The loop in SI at the joint, for checks: voltage per rad (kp_V_per_rad), per rad*s
-        (ki_V_per_rad_s), per rad/s (kd_V_s_per_rad) and the stall torque per volt."""
-        kpp, kpi, kpd = self.firmware()
-        v_per_pwm = np.array([s.supply_voltage_V for s in sheets]) / PWM_FULL_SCALE
-        return {"kp_V_per_rad": kpp * PULSES_PER_RAD * v_per_pwm,
-                "ki_V_per_rad_s": kpi * PULSES_PER_RAD * v_per_pwm / period_s,
-                "kd_V_s_per_rad": kpd * PULSES_PER_RAD * v_per_pwm * period_s,
-                "stall_Nm_per_V": np.array([s.stall_torque_Nm / s.supply_voltage_V for s in sheets])}
-
-
-# Seed 002 section 7: P only (the servo default 800) before, retuned PID after.
-SEED_GAINS_BEFORE = ServoGains((800, 800, 800), (0, 0, 0), (0, 0, 0))
-SEED_GAINS_AFTER = ServoGains((1000, 1040, 1000), (150, 150, 150), (200, 250, 200))
 
 
 class DynamixelPositionServo(LeafSystem):

@@ -55,31 +55,12 @@ from pydrake import symbolic
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, MatrixGain, Multiplexer
 
+from qmt_drake.catalog import THESIS_COILS, CoilSpec  # noqa: F401 (re-exported)
 from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
 MU0 = 4e-7 * math.pi
 
 
-@dataclass(frozen=True)
-class CoilSpec:
-    """A thesis hand's coil (SI)."""
-
-    name: str
-    turns: int
-    resistance_ohm: float
-    core_diameter_m: float
-    outer_diameter_m: float
-    length_m: float
-
-    @property
-    def core_area_m2(self) -> float:
-        return math.pi * self.core_diameter_m**2 / 4
-
-
-THESIS_COILS = {
-    "table_2_2": CoilSpec("seed 000 Table 2.2 (ch.2 hand)", 420, 2.7, 7.8e-3, 16.5e-3, 20.0e-3),
-    "table_3_2": CoilSpec("seed 000 Table 3.2 (ch.3-4 hand)", 156, 1.7, 7.8e-3, 11.35e-3, 20.0e-3),
-}
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,7 @@ from functools import lru_cache
 import numpy as np
 
 from qmt_drake.systems.tray_object import GRAVITY_M_S2, BottleSpec
+from qmt_drake.tray.crane_ik import URDF_PATH
 
 GRAVITY_W = np.array([0.0, 0.0, -GRAVITY_M_S2])
 
@@ -63,7 +64,6 @@ def tray_kinematics(q, qd, qdd, p_TG, urdf=None) -> TrayKinematics:
     """ADAPTER (the only Drake call here): (S, 3) joint samples -> TrayKinematics of the point G
     fixed in the tray frame at p_TG [m] (the bottle's centre of mass when seated)."""
     from pydrake.multibody.tree import JacobianWrtVariable
-    from qmt_drake.tray.cosim import URDF_PATH
     plant, ctx = _arm_plant(str(urdf or URDF_PATH))
     frame = plant.GetFrameByName("tray")
     W = plant.world_frame()

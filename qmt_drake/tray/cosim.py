@@ -12,7 +12,7 @@ phase lets the position loops take up gravity before the move.
 
 `simulate_tray` returns a `TrayResult`; `TrayResult.outcome` classifies the run:
     "on_tray"    on the tray, upright and in contact at the end (whether it slid is `slipped`;
-                 the transfer's outcome in the common vocabulary is sim/outcome.py's)
+                 the transfer's outcome in the common vocabulary is qmt_drake/outcome.py's)
     "slid_off"   its base centre left the tray surface
     "tipped"     tilt beyond the angle at which its centre of mass passes the ring's edge
     "lifted"     (reported separately as lifted_s: time with zero normal force)
@@ -34,7 +34,6 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from qmt_drake.config.scenario import MODELS_DIR
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import DcMotorWithGear
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
@@ -42,9 +41,9 @@ from qmt_drake.systems.dynamixel_servo import (CONTROL_PERIOD_S, CRANE_X7_PLANAR
                                                ServoGains, motor_params)
 from qmt_drake.systems.tray_object import (TRAY_SIZE_M, BottleSpec, TrayBottleMonitor, add_bottle, add_tray_contact,
                                            seated_pose_on_tray)
+from qmt_drake.tray.crane_ik import URDF_PATH
 from qmt_drake.tray.waypoints import GoalSchedule
 
-URDF_PATH = MODELS_DIR / "crane_x7_planar.urdf"
 JOINTS = ("shoulder_pitch", "elbow", "wrist_pitch")
 TIME_STEP_S = 1e-3
 # Real slip vs creep: SAP's regularised friction lets a sticking contact creep, faster the nearer
@@ -135,7 +134,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()} if log_period_s else {}
     visualizer = None
     if meshcat is not None:
-        from qmt_drake.sim.recording import add_meshcat_visualizer
+        from qmt_drake.recording import add_meshcat_visualizer
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
     return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo, loggers, schedule, bottle, X_TB0,
@@ -275,7 +274,7 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     bottle = bottle or BottleSpec.pet_500ml()
     meshcat = None
     if recording_path is not None:
-        from qmt_drake.sim.recording import make_headless_meshcat
+        from qmt_drake.recording import make_headless_meshcat
         meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
                             meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor)
@@ -283,13 +282,13 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     set_initial_state(td, sim.get_mutable_context())
     sim.Initialize()
     if td.visualizer is not None:
-        from qmt_drake.sim.recording import start_recording
+        from qmt_drake.recording import start_recording
         start_recording(td.visualizer)
     wall0 = time.perf_counter()
     sim.AdvanceTo(schedule.t_end_s)
     wall = time.perf_counter() - wall0
     if td.visualizer is not None:
-        from qmt_drake.sim.recording import save_recording
+        from qmt_drake.recording import save_recording
         save_recording(td.visualizer, meshcat, recording_path)
     series = {}
     for k, lg in td.loggers.items():

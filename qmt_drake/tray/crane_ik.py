@@ -33,7 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from qmt_drake.config.scenario import MODELS_DIR
 from qmt_drake.errors import QmtInputError
+
+URDF_PATH = MODELS_DIR / "crane_x7_planar.urdf"  # the planar CRANE-X7 the tray co-simulation models
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ servo period (zero-order hold, as the seed streams its waypoints), after a settl
 start and followed by a tail at the goal; `simulate_tray_plan(scenario, plan)` runs the tray
 co-simulation (tray/cosim.py) with the scenario's bottle, servo gains and servo period and returns
 the summary the shared CLI prints (`held`, `max_slip_m`, `max_tracking_error_rad`,
-`real_time_factor`), the outcome in the common vocabulary (sim/outcome.py: carried / slipped /
+`real_time_factor`), the outcome in the common vocabulary (qmt_drake/outcome.py: carried / slipped /
 slid_off / tipped / unfinished, with the arm's final error against the plan's goal), slip vs
 creep, tilt and lift-off time.
 """
@@ -16,7 +16,7 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import check_plan_fits
-from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
 SETTLE_S = 1.0
