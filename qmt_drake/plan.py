@@ -28,6 +28,8 @@ from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
+from qmt_drake.families import make_family
+from qmt_drake.problem import PlanningProblem
 
 
 def recheck(scenario: Scenario, trajectory: JointTrajectory, rate_hz: float | None = None,
@@ -139,7 +141,6 @@ class Plan:
     def __setstate__(self, state):
         traj = state["trajectory"]
         if isinstance(traj, tuple) and traj and traj[0] == "family":
-            from qmt_drake.families import make_family
             state["trajectory"] = FamilyTrajectory(make_family(state["scenario"]), traj[1])
         elif isinstance(traj, tuple) and traj and traj[0] == "samples":
             state["trajectory"] = SampledTrajectory(*traj[1:])
@@ -207,7 +208,6 @@ def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
     traj = d["trajectory"]
     try:
         if traj.get("kind") == "family":
-            from qmt_drake.problem import PlanningProblem
             if traj.get("family", scenario.family.kind) != scenario.family.kind:
                 raise QmtInputError(f"plan file {path} is a {traj.get('family')} plan but scenario "
                                     f"{scenario.name} uses family {scenario.family.kind}; plan again "

@@ -22,6 +22,8 @@ from qmt_drake.families import make_family
 from qmt_drake.limits import BatchPeaks
 from qmt_drake.sampling import SampleGrid, peak_per_candidate, piecewise_grid, refine_grid
 from qmt_drake.config.scenario import Scenario
+from qmt_drake.errors import QmtInputError
+from qmt_drake.trajectory import FamilyTrajectory
 
 COARSE_STRIDE = 20  # coarse samples are every 20th of the planning grid
 REFINE_MARGIN = 0.01  # refine around coarse samples within 1% of their candidate's coarse peak
@@ -172,7 +174,6 @@ class PlanningProblem:
 
     def report(self, genes, rate_hz: float | None = None):
         """The re-check of one candidate (LimitSet.report: check rate, local maxima refined)."""
-        from qmt_drake.trajectory import FamilyTrajectory
         g = np.atleast_2d(np.asarray(genes, dtype=float))
         valid = bool(self.family.valid(g)[0])
         return self.limit_set.report(FamilyTrajectory(self.family, g[0]),
@@ -184,7 +185,6 @@ class PlanningProblem:
     def genes_vector(self, genes: dict) -> np.ndarray:
         missing = [k for k in self.gene_names if k not in genes]
         if missing:
-            from qmt_drake.errors import QmtInputError
             raise QmtInputError(f"genes {missing} missing; this family takes {list(self.gene_names)}")
         return np.array([float(genes[k]) for k in self.gene_names])
 

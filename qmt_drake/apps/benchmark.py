@@ -41,6 +41,17 @@ import numpy as np
 
 from qmt_drake.plan import Plan, family_plan
 from qmt_drake.outputs import jsonable, write_text_atomic
+from qmt_drake.config.scenario import load_scenario
+from qmt_drake.plan import load_plan
+from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
+from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
+from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
+from qmt_drake.planners.ga import run_ga
+from qmt_drake.planners.optimum import plan_family_optimum
+from qmt_drake.problem import PlanningProblem
+from qmt_drake.sim import run_simulate
+from qmt_drake.sweep.robust import plan_fastest_carried_converged
+from qmt_drake.systems.tray_object import GRAVITY_M_S2
 
 DEFAULT_JERK_LIMITS = (1.0, 10.0, 100.0)  # m/s^3
 
@@ -68,7 +79,6 @@ def bang_bang_acceleration_m_s2(scenario) -> float:
     friction's mu g (no slide) and g r_c / h_G (no tip; both with the plan margin)."""
     A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
     if getattr(scenario, "is_tray", False):
-        from qmt_drake.systems.tray_object import GRAVITY_M_S2
         h = scenario.hand
         A = min(A, h.plan_margin * h.friction * GRAVITY_M_S2)
     return float(A)
@@ -86,10 +96,6 @@ def cosim_outcome(scenario, plan: Plan) -> dict:
     """Guarded co-simulation: held / max slip, or nulls and a note."""
     if plan.motion_time_s <= 0:
         return {"held": None, "max_slip_m": None, "cosim_note": "not simulated: no motion"}
-    try:
-        from qmt_drake.sim import run_simulate
-    except Exception as exc:  # noqa: BLE001 - the co-simulation is optional here
-        return {"held": None, "max_slip_m": None, "cosim_note": f"co-simulation unavailable: {exc}"}
     try:
         r = run_simulate(scenario, plan)  # a tray scenario: the bottle through the servos
     except Exception as exc:  # noqa: BLE001
@@ -134,7 +140,6 @@ def fastest_carried(scenario, *, quick: bool = False, steps_s=CARRIED_STEPS_S, p
     benchmark's rows), or of the TOPP-RA family path without them. The row's held / slip are the
     co-simulation at the step the search settled on (the plan's own verdict), with its
     feedforward; 'carried_wall_s' is what the search added to the benchmark."""
-    from qmt_drake.sweep.robust import plan_fastest_carried_converged
     t0 = time.perf_counter()
     bound = closed_form_bound_s(scenario)
     rel_tol = 0.01 if quick else 0.002
@@ -175,7 +180,6 @@ def reusable_fastest_carried(path, scenario):
     """(Plan, row-like dict) of a fastest-carried plan the benchmark wrote (`fastest_carried_<name>.json`)
     if it was searched as `fastest_carried` searches now (steps, feedforward), else None."""
     from pathlib import Path as _P
-    from qmt_drake.plan import load_plan
     if not _P(path).is_file():
         return None
     plan = load_plan(path, scenario)
@@ -207,12 +211,6 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
     one jerk limit, a 1% bracket for the fastest carried plan. cosim=False skips the
     co-simulation (rows then say so) and the fastest-carried search; carried=False skips only the
     search."""
-    from qmt_drake.planners.optimum import plan_family_optimum
-    from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
-    from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
-    from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
-    from qmt_drake.problem import PlanningProblem
-    from qmt_drake.config.scenario import load_scenario
 
     say = progress or (lambda _m: None)
     out = Path(out_dir)
@@ -254,7 +252,6 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
         ga_plans = []
         for seed in ga_seeds:
             def ga(seed=seed):
-                from qmt_drake.planners.ga import run_ga
                 r = run_ga(P, seed=seed, max_generations=gmax, stall_generations=gstall)
                 return family_plan(P, r.genes, "ga", planner_wall_s=r.wall_s,
                                    evaluations=r.evaluations, generations=r.generations,

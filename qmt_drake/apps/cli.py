@@ -23,6 +23,23 @@ from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
 from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.outcome import verdict_line
+from qmt_drake.apps.bench import run_bench
+from qmt_drake.apps.benchmark import run_benchmark
+from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
+from qmt_drake.config.scenario import load_scenario
+from qmt_drake.design.cli import add_parser as add_design_parser
+from qmt_drake.energy.scenario import get_experiment
+from qmt_drake.outputs import check_output_dir
+from qmt_drake.outputs import check_output_path
+from qmt_drake.outputs import write_text_atomic
+from qmt_drake.plan import load_plan
+from qmt_drake.planners import METHODS
+from qmt_drake.planners import plan_with
+from qmt_drake.planners.ga import check_checkpoint
+from qmt_drake.sim import check_simulation_inputs, run_simulate
+from qmt_drake.sim import run_simulate
+from qmt_drake.sweep.cli import add_parser as add_sweep_parser
+from qmt_drake.tray.execute import check_tray_simulation
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
@@ -42,7 +59,6 @@ def _check_positive_finite(value, flag: str, fix: str) -> None:
 
 
 def _check_outputs(args, *flags: str) -> None:
-    from qmt_drake.outputs import check_output_path
     for flag in flags:
         check_output_path(getattr(args, flag.lstrip("-").replace("-", "_"), None), flag)
 
@@ -50,8 +66,6 @@ def _check_outputs(args, *flags: str) -> None:
 def _check_checkpoint(path, scenario, seed) -> None:
     """The output path is writable and an existing file is a checkpoint of this very run
     (planners/ga.py: same scenario data, GA settings and seed)."""
-    from qmt_drake.outputs import check_output_path
-    from qmt_drake.planners.ga import check_checkpoint
     check_output_path(path, "--checkpoint")
     try:
         check_checkpoint(path, scenario.fingerprint(), scenario.ga, seed)
@@ -70,17 +84,14 @@ def _emit_json(data: dict, target: str | None) -> None:
     if target == "-":
         print(text)
     else:
-        from qmt_drake.outputs import write_text_atomic
         write_text_atomic(target, text + "\n")
 
 
 def cmd_scenarios(args) -> int:
-    from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
     for name in builtin_scenarios():
         sc = load_scenario(name)
         print(f"{name:12s} {sc.family.kind:20s} genes {', '.join(sc.family.gene_names):22s} "
               f"{sc.arm.n_dof}-link arm, payload {sc.payload.mass_kg * 1e3:.0f} g")
-    from qmt_drake.energy.scenario import get_experiment
     for name in builtin_scenarios(ENERGY_TIME_KIND):
         ex = get_experiment(name)
         print(f"{name:12s} {'fourier_velocity':20s} energy-time (seed 001), c2 = {ex.c2:g}, m = {ex.m}; "
@@ -120,8 +131,6 @@ def cmd_plan(args) -> int:
     _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     _check_int(args.generations, "--generations", 1, "run at least one generation")
     _check_int(args.stall, "--stall", 0, "0 never stops early")
-    from qmt_drake.planners import plan_with
-    from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
     _check_tray_method(sc, args.method)
     check_plan_budget(sc, args.method, args.generations, allow_large=args.allow_large)
@@ -203,19 +212,12 @@ def cmd_simulate(args) -> int:
                             f"known unstable above {EXPLICIT_MAX_TIME_STEP_MS:g} ms (a loss would be the "
                             f"loop's, not the physics'); use --time-step-ms {EXPLICIT_MAX_TIME_STEP_MS:g} "
                             "or less, or drop --explicit")
-    from qmt_drake.plan import load_plan
-    from qmt_drake.planners import plan_with
-    from qmt_drake.config.scenario import load_scenario
     sc = load_scenario(args.scenario)
     check_plan_budget(sc, "thesis" if args.plan else args.method, allow_large=args.allow_large)
     check_replay_budget(sc, args.time_scale, None if args.time_step_ms is None else args.time_step_ms * 1e-3,
                         allow_large=args.allow_large)
     if getattr(sc, "is_tray", False):
         return _simulate_tray(args, sc)
-    try:
-        from qmt_drake.sim import check_simulation_inputs, run_simulate
-    except ImportError as exc:  # pragma: no cover - packaging problem
-        raise QmtInputError(f"co-simulation unavailable: {exc}") from None
     # What the co-simulation needs from the scenario and the options, before planning.
     check_simulation_inputs(sc, time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
                             implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
@@ -247,10 +249,6 @@ def _say_planning_first(args) -> None:
 def _simulate_tray(args, sc) -> int:
     """simulate for a tray scenario (seed 002): the plan streamed to the Dynamixel servos, the bottle
     free on the tray (qmt_drake/tray/execute.py)."""
-    from qmt_drake.plan import load_plan
-    from qmt_drake.planners import plan_with
-    from qmt_drake.sim import run_simulate
-    from qmt_drake.tray.execute import check_tray_simulation
     time_step_s = None if args.time_step_ms is None else args.time_step_ms * 1e-3
     check_tray_simulation(sc, time_step_s, args.feedforward, not args.explicit)  # before any planning
     if not args.plan:
@@ -270,12 +268,9 @@ def _simulate_tray(args, sc) -> int:
 
 
 def cmd_bench(args) -> int:
-    from qmt_drake.outputs import check_output_dir
     check_output_dir(args.out, "--out")
     _check_int(args.seeds, "--seeds", 1, "run at least one seed")
-    from qmt_drake.config.scenario import load_scenario
     check_ga_runs_budget(load_scenario(args.scenario), args.seeds, 3000, allow_large=args.allow_large)
-    from qmt_drake.apps.bench import run_bench
     data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=_progress,
                      seeds=args.seeds)
     print(json.dumps(data, indent=1))
@@ -283,17 +278,14 @@ def cmd_bench(args) -> int:
 
 
 def cmd_benchmark(args) -> int:
-    from qmt_drake.outputs import check_output_dir
     check_output_dir(args.out, "--out")
     for seed in args.ga_seeds:
         _check_int(seed, "--ga-seeds", 0, "seeds are non-negative integers")
     for j in args.jerk_limits:
         _check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
-    from qmt_drake.config.scenario import load_scenario
     for name in args.scenarios:
         check_ga_runs_budget(load_scenario(name), len(args.ga_seeds), 30 if args.quick else 1000,
                              allow_large=args.allow_large)
-    from qmt_drake.apps.benchmark import run_benchmark
     run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress,
                   jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
                   quick=args.quick, cosim=not args.no_cosim)
@@ -316,7 +308,6 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("scenarios", help="list the built-in scenarios")
     s.set_defaults(func=cmd_scenarios)
 
-    from qmt_drake.planners import METHODS
     s = sub.add_parser("plan", help="plan a motion (every method of every scenario kind)",
                        description="Methods: transfer scenarios (thesis-*, via5-ch4, crane-tray, your YAML): "
                        f"{', '.join(METHODS)} (GA options: --generations --stall --checkpoint; any planner: "
@@ -379,9 +370,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_benchmark)
 
-    from qmt_drake.sweep.cli import add_parser as add_sweep_parser
     add_sweep_parser(sub)
-    from qmt_drake.design.cli import add_parser as add_design_parser
     add_design_parser(sub)
 
     s = sub.add_parser("reproduce", help="the main job (make run): every seed, the benchmark and out/report.html")
@@ -397,7 +386,6 @@ def cmd_reproduce(args) -> int:
     if not (root / "studies" / "run_all.py").is_file():
         raise QmtInputError("reproduce needs the qmt_drake source checkout (studies/ beside the package); "
                             "run it from a clone installed with `make run`")
-    from qmt_drake.outputs import check_output_path
     check_output_path(Path(args.out) / "report.html", "--out")
     return subprocess.call([sys.executable, "-m", "studies.run_all", "--out", str(args.out)], cwd=root)
 

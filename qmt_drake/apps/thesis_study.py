@@ -23,6 +23,7 @@ from qmt_drake.plan import load_plan
 from qmt_drake.outputs import write_text_atomic
 from qmt_drake.planners import plan_with
 from qmt_drake.config.scenario import load_scenario
+from qmt_drake.sim import run_simulate
 
 
 def _ga_worker(scenario: str, seed: int, path: str, overrides: dict | None) -> str:
@@ -120,7 +121,6 @@ def run_chapter(scenario: str, out_dir: Path = Path("out"), *, seeds: int = 10, 
 def _record(sc, plan, path: Path, progress):
     """Co-simulate the plan with a Meshcat recording, if the co-simulation is available."""
     try:
-        from qmt_drake.sim import run_simulate
         result = run_simulate(sc, plan, time_scale=1.0, record_path=str(path))
         progress(f"{sc.name}: recording {path} (held={result.get('held')})")
         return {"path": str(path), "held": result.get("held"),

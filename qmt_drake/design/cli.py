@@ -18,6 +18,15 @@ from qmt_drake.design.problem import BRANCH_MODES
 from qmt_drake.design.search import METHODS
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir
+from qmt_drake.design.arm_types import TYPES, check_type
+from qmt_drake.design.arm_types import check_levels, check_type, levels_from_gene
+from qmt_drake.design.arm_types import urdf_text
+from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
+from qmt_drake.design.problem import lengths6
+from qmt_drake.design.search import run_all_types
+from qmt_drake.design.tasks import load_task
+from qmt_drake.outputs import jsonable, write_text_atomic
+from qmt_drake.outputs import write_text_atomic
 
 MAX_WORKERS = 256
 
@@ -49,7 +58,6 @@ def add_parser(subparsers):
 
 
 def _types(arg: str):
-    from qmt_drake.design.arm_types import TYPES, check_type
     if arg.strip().lower() == "all":
         return TYPES
     out = tuple(check_type(t.strip()) for t in arg.split(",") if t.strip())
@@ -72,7 +80,6 @@ def _generations(arg: str) -> tuple:
 
 def parse_design(arg: str):
     """'BP:0db000' or 'BP:0,13,11,0,0,0' -> (type, levels (6,)); bad input -> QmtInputError."""
-    from qmt_drake.design.arm_types import check_levels, check_type, levels_from_gene
     t, sep, g = str(arg).partition(":")
     if not sep or not g.strip():
         raise QmtInputError(f"--design {arg!r}: give TYPE:GENE, e.g. BP:0db000 or BP:0,13,11,0,0,0")
@@ -92,11 +99,6 @@ def parse_design(arg: str):
 
 
 def cmd_design(args) -> int:
-    from qmt_drake.design.arm_types import urdf_text
-    from qmt_drake.design.problem import lengths6
-    from qmt_drake.design.search import run_all_types
-    from qmt_drake.design.tasks import load_task
-    from qmt_drake.outputs import write_text_atomic
 
     if args.out is not None and not str(args.out).strip():
         raise QmtInputError("--out: empty path; give a folder")
@@ -142,9 +144,6 @@ def cmd_design(args) -> int:
 
 def _evaluate_one(task, args, out: Path, design) -> int:
     """--design TYPE:GENE: E of one design on the task (with its branch and every unit task)."""
-    from qmt_drake.design.arm_types import urdf_text
-    from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
-    from qmt_drake.outputs import jsonable, write_text_atomic
     t, lv = design
     pr = DesignProblem(task, t, branch=args.branch)
     g = genes_from_levels(lv)

@@ -27,6 +27,9 @@ import numpy as np
 import yaml
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.config.scenario import load_scenario
+from qmt_drake.outputs import write_text_atomic
+from qmt_drake.planners import plan_with
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -54,7 +57,6 @@ def scaled_spec(l1_m: float, l2_m: float) -> dict:
 def write_scenario(l1_m: float, l2_m: float, folder: Path, base_m=(0.0, 0.0)) -> Path:
     """URDF + scenario for one pair of lengths and a base position (x_b, y_b) in the chapter-4
     world frame; returns the scenario path."""
-    from qmt_drake.outputs import write_text_atomic
     folder = Path(folder)
     name = f"two_link_ch4_l1_{l1_m * 1e3:.0f}mm_l2_{l2_m * 1e3:.0f}mm"
     urdf = folder / f"{name}.urdf"
@@ -77,8 +79,6 @@ def write_scenario(l1_m: float, l2_m: float, folder: Path, base_m=(0.0, 0.0)) ->
 def evaluate_lengths(l1_m: float, l2_m: float, folder: Path, base_m=(0.0, 0.0)) -> dict:
     """Family-optimum motion time of the chapter-4 task for one pair of lengths and base position
     (inf if the task is out of reach or no plan meets the limits)."""
-    from qmt_drake.planners import plan_with
-    from qmt_drake.config.scenario import load_scenario
     t0 = time.perf_counter()
     base = [float(base_m[0]), float(base_m[1])]
     path = write_scenario(l1_m, l2_m, folder, base)

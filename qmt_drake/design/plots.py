@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.design.arm_types import TYPES, arm_type, forward
+from qmt_drake.design.arm_types import build_plant
+from qmt_drake.outputs import write_text_atomic
 
 
 _REL = {"P": "P parallel", "B": "B link on 2nd axis", "F": "F link on 1st axis",
@@ -127,7 +129,6 @@ def meshcat_arm_at_task(path, task, type_name, lengths, q_units, dwell_s: float 
 
     from pydrake.geometry import Meshcat, MeshcatParams
 
-    from qmt_drake.design.arm_types import build_plant
     meshcat = Meshcat(MeshcatParams(host="localhost", port=0))
     arm = build_plant(type_name, lengths, boxes=task.boxes, link_radius_m=task.link_radius_m,
                       tool_radius_m=task.tool_radius_m, relations=relations, meshcat=meshcat)
@@ -147,6 +148,5 @@ def meshcat_arm_at_task(path, task, type_name, lengths, q_units, dwell_s: float 
     arm.visualizer.PublishRecording()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    from qmt_drake.outputs import write_text_atomic
     write_text_atomic(path, meshcat.StaticHtml())
     return path

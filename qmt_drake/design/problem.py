@@ -33,6 +33,7 @@ from qmt_drake.design.operability import (direction_ease, fitness_E, operability
 from qmt_drake.design.tasks import Task
 from qmt_drake.errors import QmtInputError
 from qmt_drake.problem import Evaluation
+from qmt_drake.design.arm_types import build_plant
 
 GENE_NAMES = ("L1_m", "L2_m", "L3_m", "L4_m", "L6_m")
 CHUNK_ROWS = 60_000  # IK rows (candidates x units x starts) per numpy pass: bounds memory
@@ -216,7 +217,6 @@ class DesignProblem:
         SceneGraph collision) at the branches the batched evaluation chose."""
         from pydrake.multibody.tree import JacobianWrtVariable
 
-        from qmt_drake.design.arm_types import build_plant
         g = np.atleast_2d(np.asarray(genes, dtype=float))[:1]
         det = self.details(g)
         L = lengths6(g)[0]

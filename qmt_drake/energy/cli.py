@@ -26,6 +26,19 @@ from qmt_drake.energy.objective import FINE_DIVISIONS
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
 from qmt_drake.outputs import check_output_path
+from qmt_drake.energy.collocation import solve_collocation
+from qmt_drake.energy.execute import execute
+from qmt_drake.energy.execute import execute, plot_execution
+from qmt_drake.energy.experiments import paper_initial_x
+from qmt_drake.energy.fourier import FourierVelocityFamily
+from qmt_drake.energy.multistart import (PATTERNS, initial_end_posture, initial_reduced_genes,
+                                             pattern_str, travel_pattern)
+from qmt_drake.energy.nlp import solve_nlp
+from qmt_drake.energy.scenario import get_experiment
+from qmt_drake.energy.steepest import restore_endpoint
+from qmt_drake.energy.steepest import steepest_descent
+from qmt_drake.outputs import jsonable, write_text_atomic
+from qmt_drake.outputs import write_text_atomic
 
 METHODS = ("snopt", "ipopt", "steepest", "collocation")
 
@@ -61,10 +74,6 @@ def _pattern(s: str | None):
 def plan_energy(args) -> int:
     """`qmt-drake plan ENERGY_SCENARIO ...` (module docstring)."""
 
-    from qmt_drake.energy.scenario import get_experiment
-    from qmt_drake.energy.multistart import (PATTERNS, initial_end_posture, initial_reduced_genes,
-                                             pattern_str, travel_pattern)
-    from qmt_drake.outputs import jsonable, write_text_atomic
 
     for flag in ("--json", "--execute", "--recording", "--trajectory-csv"):  # probed before any work
         check_output_path(getattr(args, flag[2:].replace("-", "_")), flag)
@@ -88,8 +97,6 @@ def plan_energy(args) -> int:
         if not args.quiet:
             print(f"qmt-drake: {E.name} {args.method}: start {k + 1} of {len(starts)}", file=sys.stderr)
         if p is None:
-            from qmt_drake.energy.experiments import paper_initial_x
-            from qmt_drake.energy.steepest import restore_endpoint
             x0 = restore_endpoint(P, paper_initial_x(P, E.paper_initial_a, E.fixed_T_s or E.T_init_s))
             y0 = P.family.full_to_reduced(x0)
         else:
@@ -97,17 +104,14 @@ def plan_energy(args) -> int:
             x0 = P.family.reduced_to_full(y0)[0]
         rec = {"start": pattern_str(p) if p else "paper"}
         if args.method == "steepest":
-            from qmt_drake.energy.steepest import steepest_descent
             r = steepest_descent(P, x0, max_iter=max_iter)
             x, z, ok = r.x, r.z, r.converged
             rec.update(iterations=r.iterations, stop=r.stop_reason, wall_s=r.wall_s)
         else:
-            from qmt_drake.energy.nlp import solve_nlp
             r = solve_nlp(P, y0, "snopt" if args.method == "collocation" else args.method)
             x, z, ok = r.x, r.z, r.success
             rec.update(evaluations=r.evaluations, wall_s=r.wall_s, status=r.status)
             if args.method == "collocation":
-                from qmt_drake.energy.collocation import solve_collocation
                 c = solve_collocation(P, x)
                 rec.update(fourier_z=z, collocation_z=c.z, collocation_z_resampled=c.z_resampled,
                            collocation_T_s=c.T_s, collocation_status=c.status, collocation_wall_s=c.wall_s)
@@ -134,7 +138,6 @@ def plan_energy(args) -> int:
         if args.trajectory_csv:
             write_energy_csv(args.trajectory_csv, P, best["x"])
     if good and args.execute:
-        from qmt_drake.energy.execute import execute, plot_execution
         ex = execute(P.family, best["x"], recording_path=args.recording)
         plot_execution(ex, args.execute, f"{E.name} {best['end']} z={best['z']:.0f}")
         result["execution"] = ex.summary()
@@ -151,7 +154,6 @@ def plan_energy(args) -> int:
 def write_energy_csv(path, problem, x, rate_hz: float = 1000.0) -> None:
     """The plan x sampled at rate_hz (at least 2001 samples): t [s], q_i [rad], qd_i [rad/s],
     qdd_i [rad/s^2], tau_i [N m] (inverse dynamics with gravity, the cost's torques). Atomic."""
-    from qmt_drake.outputs import write_text_atomic
     T = float(x[-1])
     t = np.linspace(0.0, T, max(int(np.ceil(T * rate_hz)) + 1, 2001))
     q, qd, qdd = problem.family.sample(x, t)
@@ -168,10 +170,6 @@ def simulate_energy(args) -> int:
     SNOPT plan) executed in Drake (energy/execute.py: the vertical arm, inverse-dynamics control);
     prints the tracking error, --json writes the execution summary. A plan made for another
     experiment (other start, goal or weights) is refused in one line."""
-    from qmt_drake.energy.execute import execute
-    from qmt_drake.energy.scenario import get_experiment
-    from qmt_drake.energy.fourier import FourierVelocityFamily
-    from qmt_drake.outputs import jsonable, write_text_atomic
     for flag in ("--json", "--record"):
         check_output_path(getattr(args, flag[2:]), flag)
     for name, given in (("--time-scale", args.time_scale != 1.0), ("--feedforward", args.feedforward != "none"),

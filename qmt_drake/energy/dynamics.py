@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.config.scenario import MODELS_DIR  # noqa: E402
+from qmt_drake.model.arm import ArmModel
 OHSAKA_URDF = MODELS_DIR / "three_link_vertical_ohsaka.urdf"
 # Drake's default gravity (UniformGravityFieldElement); the paper does not print its g.
 GRAVITY_M_S2 = 9.81
@@ -107,7 +108,6 @@ def make_plant(urdf: str):
 
 @lru_cache(maxsize=4)
 def _planar_chain(urdf: str):
-    from qmt_drake.model.arm import ArmModel
     return ArmModel.from_urdf(urdf, "tip").planar
 
 

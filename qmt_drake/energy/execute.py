@@ -26,6 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
+from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat
+from qmt_drake.recording import save_recording
+from qmt_drake.recording import start_recording
 
 
 @dataclass
@@ -102,7 +105,6 @@ def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: floa
     log_d = LogVectorOutput(xs.get_output_port(), builder, 5e-4)
     vis = meshcat = None
     if recording_path is not None:
-        from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat
         meshcat = make_headless_meshcat()
         # the vertical arm spans +-0.7 m in x-z: look at it from -y
         meshcat.SetCameraPose(np.array([0.0, -2.2, 0.2]), np.array([0.0, 0.0, 0.0]))
@@ -117,12 +119,10 @@ def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: floa
     sim.get_mutable_integrator().set_target_accuracy(1e-6)
     sim.Initialize()
     if vis is not None:
-        from qmt_drake.recording import start_recording
         start_recording(vis)
     sim.AdvanceTo(T + settle_s)
     rec = None
     if vis is not None:
-        from qmt_drake.recording import save_recording
         rec = save_recording(vis, meshcat, recording_path)
     X = log_x.FindLog(ctx).data().T
     U = log_u.FindLog(ctx).data().T

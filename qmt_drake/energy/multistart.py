@@ -21,6 +21,8 @@ import numpy as np
 
 from qmt_drake.energy.kinematics import self_motion_samples
 from qmt_drake.energy.problem import EnergyProblem
+from qmt_drake.energy.nlp import solve_nlp
+from qmt_drake.energy.steepest import steepest_descent
 
 PATTERNS = tuple(itertools.product((1, -1), repeat=3))
 
@@ -79,14 +81,12 @@ def run_multistart(problem: EnergyProblem, method: str = "snopt", T0_s: float = 
     restrict=True keeps each solve inside its pattern (bounds on theta_T - theta_0): the best
     trajectory of each rotation-direction pattern, which may lie on the pattern's boundary."""
     base = problem
-    from qmt_drake.energy.nlp import solve_nlp
     out = []
     for p in PATTERNS:
         problem = base.with_travel_signs(p) if restrict else base
         thT = initial_end_posture(problem, p)
         y0 = initial_reduced_genes(problem, thT, T0_s)
         if method == "steepest":
-            from qmt_drake.energy.steepest import steepest_descent
             r = steepest_descent(problem, problem.family.reduced_to_full(y0)[0], **kw)
             y, x, z, ok, wall, ev, it = (problem.family.full_to_reduced(r.x), r.x, r.z, r.converged,
                                          r.wall_s, r.evaluations, r.iterations)

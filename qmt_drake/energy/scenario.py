@@ -35,6 +35,9 @@ import yaml
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, builtin_scenarios, read_scenario_yaml
 from qmt_drake.energy.experiments import Experiment
 from qmt_drake.errors import QmtInputError
+from qmt_drake.energy.dynamics import OHSAKA_URDF, VerticalArm, ohsaka_arm
+from qmt_drake.energy.kinematics import check_reachable
+from qmt_drake.energy.objective import check_weights
 
 KIND = ENERGY_TIME_KIND
 ENERGY_SCENARIO_DIR = SCENARIO_DIR  # beside the transfer scenarios, told apart by `kind`
@@ -179,8 +182,6 @@ def load_energy_scenario(name_or_path):
                    m=m, divisions=div, T_init_s=float(T_init), fixed_T_s=fixed_T, moving_joints=mj,
                    paper_initial_a=init, reported=reported, torque_limit_Nm=lim, arm=arm,
                    source_path=path)
-    from qmt_drake.energy.objective import check_weights
-    from qmt_drake.energy.kinematics import check_reachable
     for what, fn in (("objective", lambda: check_weights(c1, c2)),
                      ("task.coordinate_vector_m", lambda: (check_reachable(arm, X[:2], "start point X(0)"),
                                                            check_reachable(arm, X[2:], "end point X(T)")))):
@@ -192,7 +193,6 @@ def load_energy_scenario(name_or_path):
 
 
 def _arm(path: Path, a: dict):
-    from qmt_drake.energy.dynamics import OHSAKA_URDF, VerticalArm, ohsaka_arm
     urdf = Path(str(a["urdf"]))
     if not urdf.is_absolute():
         urdf = (path.parent / urdf).resolve()

@@ -25,6 +25,7 @@ import numpy as np
 
 from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.toppra_form import rows_constraint
 
 
 @dataclass
@@ -80,7 +81,6 @@ def time_optimal_on_path(problem, x, torque_limit_Nm, grid_points: int = 400,
     """TOPP-RA on the path of the Fourier trajectory x of `problem` (module docstring)."""
     from toppra.algorithm import TOPPRA
 
-    from qmt_drake.limits.toppra_form import rows_constraint
     lim = np.asarray(torque_limit_Nm, dtype=float)
     n = problem.family.n
     if lim.shape != (n,) or not np.all(np.isfinite(lim)) or np.any(lim <= 0):

@@ -27,6 +27,9 @@ import numpy as np
 from qmt_drake.limits.joint_range import JointRangeTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.payload_moment import PayloadMomentTerm
+from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.toppra_form import rows_constraint
+from qmt_drake.sampling import piecewise_grid
 
 JOINT_EXCESS_TOL_RAD = 1e-12
 REFINE_RELATIVE_MARGIN = 0.02  # refine local maxima within 2% of their column's sampled peak ...
@@ -80,7 +83,6 @@ class LimitSet:
 
     def toppra_w(self, terms, q, qd, qdd) -> np.ndarray:
         """(S, k) the stacked w of `terms` at joint samples (S, n)."""
-        from qmt_drake.errors import QmtInputError
         state = self.arm.hand_state(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd))
         parts = [t.toppra_w(state) for t in terms]
         if any(p is None for p in parts):
@@ -95,7 +97,6 @@ class LimitSet:
         the difference. row_options go to every term's toppra_rows."""
         from toppra.constraint import DiscretizationType, SecondOrderConstraint
 
-        from qmt_drake.limits.toppra_form import rows_constraint
 
         terms, F, g = self.toppra_rows(**row_options)
         if batched:
@@ -110,7 +111,6 @@ class LimitSet:
 
     # ------------------------------------------------------------------ one trajectory (re-check)
     def report(self, trajectory, rate_hz: float, valid: bool = True, refine: bool = True) -> "LimitReport":
-        from qmt_drake.sampling import piecewise_grid
         grid = piecewise_grid(trajectory.breakpoints_s[None, :], rate_hz)
         q, qd, qdd = trajectory.evaluate(grid.t_s, grid.t_piece_s)
         cols = self.columns(q, qd, qdd)

@@ -10,17 +10,22 @@ name, so the CLI, the studies and the benchmark call them all the same way.
 from __future__ import annotations
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.plan import family_plan
+from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
+from qmt_drake.planners.baselines.toppra_plan import plan_toppra
+from qmt_drake.planners.baselines.toppra_plan import plan_toppra_drake
+from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
+from qmt_drake.planners.ga import run_ga
+from qmt_drake.planners.optimum import TightTimingProblem
+from qmt_drake.planners.optimum import plan_family_optimum
+from qmt_drake.problem import PlanningProblem
 
 METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
 
 
 def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options):
-    from qmt_drake.plan import family_plan
-    from qmt_drake.problem import PlanningProblem
 
     if method == "ga":
-        from qmt_drake.planners.ga import run_ga
-        from qmt_drake.planners.optimum import TightTimingProblem
         problem = PlanningProblem(scenario)
         searched = TightTimingProblem(problem) if scenario.ga.tight_timing else problem
         r = run_ga(searched, seed=seed, progress=progress, **options)
@@ -33,7 +38,6 @@ def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options)
                                   "history_mean_fitness": r.history.mean_fitness,
                                   "history_feasible_fraction": r.history.feasible_fraction})
     if method == "optimum":
-        from qmt_drake.planners.optimum import plan_family_optimum
         return plan_family_optimum(PlanningProblem(scenario), seed=seed, progress=progress,
                                    **options)
     if method == "thesis":
@@ -42,15 +46,11 @@ def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options)
         problem = PlanningProblem(scenario)
         return family_plan(problem, problem.genes_vector(scenario.reported["genes"]), "thesis")
     if method == "toppra":
-        from qmt_drake.planners.baselines.toppra_plan import plan_toppra
         return plan_toppra(scenario, **options)
     if method == "toppra-drake":
-        from qmt_drake.planners.baselines.toppra_plan import plan_toppra_drake
         return plan_toppra_drake(scenario, **options)
     if method == "ruckig":
-        from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
         return plan_ruckig(scenario, **options)
     if method == "trajopt":
-        from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
         return plan_trajopt(scenario, **options)
     raise QmtInputError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")

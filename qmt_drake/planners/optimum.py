@@ -23,6 +23,7 @@ from scipy.stats import qmc
 
 from qmt_drake.plan import Plan, family_plan
 from qmt_drake.problem import PlanningProblem
+from qmt_drake.problem import Evaluation
 
 BOUND_PENALTY_S = 100.0  # seconds of objective per unit of normalised bound violation
 
@@ -75,7 +76,6 @@ class TightTimingProblem:
         self.lower, self.upper = base.lower, base.upper
 
     def evaluate(self, genes, exact: bool = False):
-        from qmt_drake.problem import Evaluation
         y, T0, viol = tight_motion(self.base, genes)
         ok = np.isfinite(T0)
         return Evaluation(np.where(ok & (viol <= 0), T0, np.inf), np.where(ok, viol, np.inf))

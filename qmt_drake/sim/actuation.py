@@ -22,6 +22,10 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import MOTOR_CATALOG, DcMotorParams, applied_motor_signals_as_primitives
 from qmt_drake.systems.ideal_torque import ideal_actuator_signals
 from qmt_drake.systems.joint_tracking import PidGains
+from qmt_drake.config.scenario import DcMotorGear
+from qmt_drake.systems.dc_motor import motor_forward, motor_joints
+from qmt_drake.systems.joint_tracking import pd_law_diagram
+from qmt_drake.systems.scalar_ops import SYMBOLIC
 
 # Plant steps: the implicitly damped loop (default) is stable and accurate at 2 ms; the explicit
 # loop needs 1 ms (studies/bench_cosim.py measures both against a 0.25 ms explicit reference).
@@ -61,7 +65,6 @@ def check_time_step(time_step_s: float, implicit_loop_damping: bool, *, refuse_u
 def motor_params_for(scenario, with_inductance: bool = False) -> DcMotorParams:
     """The scenario's actuator (kind dc_motor_gear: its catalogue motors and gear efficiency) behind
     the URDF's gear ratios."""
-    from qmt_drake.config.scenario import DcMotorGear
     act = getattr(scenario, "actuator", None)
     if not isinstance(act, DcMotorGear):
         kind = getattr(act, "kind", None)
@@ -198,9 +201,6 @@ def motor_actuation_law(pid, motor_params: DcMotorParams, loop_damping):
     A Diagram: inputs desired_state (2n), estimated_state (2n)[, feedforward_torque (n)]; outputs
     actuation (n) [N*m] and voltage_command (n) [V] (evaluated only when read). None when pid has an
     integral term or the motors an inductance (those run as their own systems)."""
-    from qmt_drake.systems.dc_motor import motor_forward, motor_joints
-    from qmt_drake.systems.joint_tracking import pd_law_diagram
-    from qmt_drake.systems.scalar_ops import SYMBOLIC
     if pid._has_integral or motor_params.inductance_H is not None:
         return None
     n = pid._n

@@ -48,6 +48,9 @@ from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear, dc_motors
 from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains, primitive_pd_controller
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.transfer_monitor import TransferMonitor, payload_motion_as_primitives
+from qmt_drake.config.scenario import IdealTorque
+from qmt_drake.sim.posthoc import add_step_logs
+from qmt_drake.sim.posthoc import summary_from_logs
 
 
 @dataclass
@@ -82,7 +85,6 @@ class TransferDiagram:
         """The monitor's summary (TransferMonitor.SUMMARY_FIELDS + peak motor torques) of the run
         simulated in root_context: from the per-step logs, or the per-step monitor's state."""
         if self.step_logs is not None:
-            from qmt_drake.sim.posthoc import summary_from_logs
             return summary_from_logs(self, root_context)
         return np.asarray(self.diagram.GetOutputPort("summary").Eval(root_context))
 
@@ -132,7 +134,6 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     has no `summary` output port. monitor_period_s samples the per-step monitor more sparsely.
     primitive_controller: a PD law (no integral term) runs as Drake primitives
     (joint_tracking.primitive_pd_controller; False: the Python JointPidController, the same law)."""
-    from qmt_drake.config.scenario import IdealTorque
     ideal = isinstance(getattr(scenario, "actuator", None), IdealTorque)
     if ideal:
         if motor_inductance or back_emf_feedforward or implicit_loop_damping is False:
@@ -238,7 +239,6 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                                                        loop_damping, time_step_s, mp)
     step_logs = None
     if log_steps:
-        from qmt_drake.sim.posthoc import add_step_logs
         step_logs = add_step_logs(builder, plant, ref.get_output_port(),
                                   builder.GetSubsystemByName("applied_joint_torque").get_output_port(), time_step_s)
     if monitor is not None:

@@ -34,6 +34,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.electromagnet import electromagnet_force, MagnetParams
 from qmt_drake.systems.payload import PayloadSpec, payload_joint
+from qmt_drake.config.scenario import MagnetHand
 
 GRAVITY_M_S2 = 9.81
 MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0 of the built-in scenarios' hands (hand.effective_gap_m)
@@ -41,7 +42,6 @@ MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0 of the built-in scenarios' hands (hand.eff
 
 def magnet_hand_of(scenario):
     """The scenario's MagnetHand, or a one-line QmtInputError saying what to add."""
-    from qmt_drake.config.scenario import MagnetHand
     hand = getattr(scenario, "hand", None)
     if not isinstance(hand, MagnetHand):
         raise QmtInputError(f"scenario '{scenario.name}' has no 'hand' section (kind: magnet, coil, "

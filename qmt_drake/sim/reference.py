@@ -9,6 +9,7 @@ import numpy as np
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.families import make_family
 
 
 def check_time_scale(time_scale) -> float:
@@ -47,7 +48,6 @@ class GenesPlan:
     straight from a scenario's trajectory family and one gene vector; held at the goal after T0."""
 
     def __init__(self, scenario, genes, method: str = "genes"):
-        from qmt_drake.families import make_family
         self.family = make_family(scenario)
         self.genes = np.asarray(genes, float)
         self.method = method

@@ -17,6 +17,13 @@ from qmt_drake.sim.actuation import (FEEDFORWARD_OPTIONS, check_time_step, defau
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
+from qmt_drake.config.scenario import IdealTorque
+from qmt_drake.recording import make_headless_meshcat
+from qmt_drake.recording import save_recording
+from qmt_drake.recording import start_recording
+from qmt_drake.sim.actuation import ideal_joint_gains, motor_params_for, pid_gains_for
+from qmt_drake.sim.magnet_hand import magnet_hand_of
+from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
 
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
 
@@ -168,18 +175,15 @@ def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: f
     """Build, run and summarise one transfer (see TransferResult)."""
     meshcat = None
     if record_path is not None:
-        from qmt_drake.recording import make_headless_meshcat
         meshcat = make_headless_meshcat()
     build_kw.setdefault("step_logs", True)  # the monitor's numbers from C++ logs (sim.posthoc)
     td = build_transfer_diagram(scenario, plan, time_step_s=time_step_s, time_scale=time_scale,
                                 meshcat=meshcat, log_period_s=5e-3 if keep_series else 0.0, **build_kw)
     on_start = None
     if meshcat is not None:
-        from qmt_drake.recording import start_recording
         on_start = lambda sim: start_recording(td.visualizer)  # noqa: E731
     summary, wall = run_diagram(td, on_start=on_start)
     if meshcat is not None:
-        from qmt_drake.recording import save_recording
         save_recording(td.visualizer, meshcat, record_path)
     return make_result(scenario, plan, td, summary, wall, time_scale, logged_series(td) if keep_series else {})
 
@@ -212,7 +216,6 @@ def feedforward_keywords(scenario, feedforward: str) -> dict:
     """build_transfer_diagram keywords of a CLI --feedforward choice for this scenario's actuator
     (an ideal torque source has no back EMF: 'full' is the inverse dynamics alone, 'back-emf' is
     refused). One-line QmtInputError for an unknown choice."""
-    from qmt_drake.config.scenario import IdealTorque
     if feedforward not in FEEDFORWARD_OPTIONS:
         raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
     kw = dict(FEEDFORWARD_OPTIONS[feedforward])
@@ -229,9 +232,6 @@ def check_simulation_inputs(scenario, *, time_step_s: float | None = None,
     """Everything `run_simulate` needs from the scenario and the options, checked before any planning
     or building: the hand, the actuator and its gains, the feedforward choice, the step (explicit
     steps above the known stable limit are refused). Returns the feedforward keywords."""
-    from qmt_drake.config.scenario import IdealTorque
-    from qmt_drake.sim.actuation import ideal_joint_gains, motor_params_for, pid_gains_for
-    from qmt_drake.sim.magnet_hand import magnet_hand_of
     magnet_hand_of(scenario)
     kw = feedforward_keywords(scenario, feedforward)
     if isinstance(getattr(scenario, "actuator", None), IdealTorque):
@@ -256,7 +256,6 @@ def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time
     (`check_simulation_inputs`). A tray scenario (seed 002) runs the bottle through the Dynamixel
     servos instead (tray/execute.py; it has no DC-motor options)."""
     if getattr(scenario, "is_tray", False):
-        from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
         check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
         return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path,
                                   time_step_s=time_step_s)

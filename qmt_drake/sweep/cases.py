@@ -28,6 +28,14 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.sweep.spec import PARAMETERS, SweepSpec
+from qmt_drake.config.scenario import load_scenario
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import jsonable
+from qmt_drake.plan import load_plan
+from qmt_drake.planners import plan_with
+from qmt_drake.sim import FEEDFORWARD_OPTIONS, calibrated_coil_current_A, simulate_transfer
+from qmt_drake.sim import motor_params_for
+from qmt_drake.systems.payload import PayloadSpec
 
 CASE_SCHEMA = 1  # bump when run_case's physics changes: every stored result is then recomputed
 
@@ -95,10 +103,8 @@ class Case:
 
 def build_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]]:
     """All cases of a spec (plans x grid points x samples) and the distinct plans they need."""
-    from qmt_drake.config.scenario import load_scenario
     base = load_scenario(spec.scenario)  # also validates the scenario before any long work
     if getattr(base, "is_tray", False):
-        from qmt_drake.errors import QmtInputError
         raise QmtInputError(f"sweep scenario '{spec.scenario}' has a tray hand: sweeps co-simulate the "
                             "magnet hand (coil, part, motor parameters); sweep the tray with "
                             "`python -m studies.crane_tray --sections sweep`")
@@ -180,13 +186,11 @@ def plan_file_hash(path: str) -> str:
 # ------------------------------------------------------------------------------- worker side
 def make_plan_doc(ref: PlanRef) -> dict:
     """Plan once (in a worker): the plan's JSON document (Plan.to_json_dict) plus its key."""
-    from qmt_drake.outputs import jsonable
     t0 = time.perf_counter()
     if ref.file is not None:
         with open(ref.file) as fh:
             doc = json.load(fh)
     else:
-        from qmt_drake.planners import plan_with
         sc = _scenario(ref.scenario, ref.overrides)
         plan = plan_with(ref.method, sc, seed=ref.seed, **ref.options)
         doc = jsonable(plan.to_json_dict())
@@ -200,7 +204,6 @@ _PLANS: dict = {}
 
 
 def _scenario(name: str, overrides: dict):
-    from qmt_drake.config.scenario import load_scenario
     k = stable_hash([name, overrides])
     if k not in _SCENARIOS:
         _SCENARIOS[k] = load_scenario(name, overrides=overrides or None)
@@ -209,7 +212,6 @@ def _scenario(name: str, overrides: dict):
 
 def plan_from_doc(doc: dict, scenario):
     """The Plan of a document written by make_plan_doc (cached per process by its key)."""
-    from qmt_drake.plan import load_plan
     k = doc.get("plan_key") or stable_hash(doc)
     if k not in _PLANS:
         # load_plan reads files only: one temporary file, then the same re-check as every plan.
@@ -226,8 +228,6 @@ def plan_from_doc(doc: dict, scenario):
 def run_case(case: Case, plan_doc: dict) -> dict:
     """Simulate one case in this process; the result is JSON data (never raises for a failed
     simulation: status 'sim_failed' counts as not carried)."""
-    from qmt_drake.sim import FEEDFORWARD_OPTIONS, calibrated_coil_current_A, simulate_transfer
-    from qmt_drake.systems.payload import PayloadSpec
     t0 = time.perf_counter()
     sc = _scenario(case.scenario, case.scenario_overrides)
     plan_sc = _scenario(case.scenario, {k: v for k, v in case.scenario_overrides.items() if k != "control"})
@@ -268,6 +268,5 @@ def scaled_motor_params(scenario, motor_scales: dict):
     (the scenario's own) without scales or for an ideal actuator."""
     if not motor_scales:
         return None
-    from qmt_drake.sim import motor_params_for
     mp = motor_params_for(scenario)
     return dataclasses.replace(mp, **{k: getattr(mp, k) * v for k, v in motor_scales.items()})

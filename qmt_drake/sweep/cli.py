@@ -25,6 +25,14 @@ import json
 import os
 import sys
 from pathlib import Path
+from qmt_drake.budgets import announce, check_budget
+from qmt_drake.config.scenario import load_scenario
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import check_output_dir, check_output_path
+from qmt_drake.outputs import write_text_atomic
+from qmt_drake.sweep.budget import estimate_sweep
+from qmt_drake.sweep.runner import check_scheduler_address, format_table, run_sweep
+from qmt_drake.sweep.spec import load_spec
 
 EXIT_CASES_FAILED = 4  # qmt_drake.apps.cli.EXIT_SIMULATION
 MAX_WORKERS = 256  # LocalCluster processes
@@ -56,13 +64,6 @@ def add_parser(subparsers):
 
 def cmd_sweep(args) -> int:
     """Every input first (options, spec, scheduler address, budget, output paths), then the run."""
-    from qmt_drake.budgets import announce, check_budget
-    from qmt_drake.config.scenario import load_scenario
-    from qmt_drake.errors import QmtInputError
-    from qmt_drake.outputs import check_output_dir, check_output_path
-    from qmt_drake.sweep.budget import estimate_sweep
-    from qmt_drake.sweep.runner import check_scheduler_address, format_table, run_sweep
-    from qmt_drake.sweep.spec import load_spec
     if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
         raise QmtInputError(f"--workers must be between 1 and {MAX_WORKERS}, got {args.workers}")
     if not 0 <= args.allowed_failures <= MAX_ALLOWED_FAILURES:
@@ -94,6 +95,5 @@ def cmd_sweep(args) -> int:
         if args.json == "-":
             print(text)
         else:
-            from qmt_drake.outputs import write_text_atomic
             write_text_atomic(args.json, text + "\n")
     return EXIT_CASES_FAILED if out["failed"] else 0

@@ -29,6 +29,13 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.sweep.spec import SweepSpec, load_spec
 from qmt_drake.sweep.stats import wilson_interval
+from qmt_drake.errors import QmtSimulationError
+from qmt_drake.plan import make_plan
+from qmt_drake.planners import plan_with
+from qmt_drake.sim import FEEDFORWARD_OPTIONS
+from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
+from qmt_drake.sweep.runner import dask_client, run_sweep
+from qmt_drake.trajectory import TimeScaledTrajectory
 
 
 # ------------------------------------------------------------------ robust time scale (sweeps)
@@ -42,7 +49,6 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
     Returns {time_scale, motion_time_s, p, ci_low, ci_high, n, history: [...], found}; found=False
     when even s_max misses the target (time_scale is then None). run_kw go to run_sweep (tests
     pass case_fn / plan_fn)."""
-    from qmt_drake.sweep.runner import dask_client, run_sweep
     if not isinstance(spec, SweepSpec):
         spec = load_spec(spec)
     if len(spec.plans) != 1 or spec.grid:
@@ -104,8 +110,6 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
 
 def time_scaled_plan(plan, time_scale: float, method: str, extra: dict | None = None):
     """`plan` played time_scale times slower, as a re-checked Plan (every inertial ratio / s^2)."""
-    from qmt_drake.plan import make_plan
-    from qmt_drake.trajectory import TimeScaledTrajectory
     traj = plan.trajectory if time_scale == 1.0 else TimeScaledTrajectory(plan.trajectory, time_scale)
     return make_plan(plan.scenario, method, traj, genes=plan.genes,
                      extra={"base_plan_extra": plan.extra, "time_scale": float(time_scale), **(extra or {})})
@@ -128,8 +132,6 @@ def carried_in_cosim(scenario, plan, *, time_scale: float = 1.0, feedforward: st
                      time_step_s: float | None = None) -> dict:
     """One nominal co-simulation: {'held', 'max_slip_m', 'detached_at_s', 'sim_wall_s'} (a failed
     simulation counts as not carried)."""
-    from qmt_drake.errors import QmtSimulationError
-    from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
     try:
         r = simulate_transfer(scenario, plan, time_scale=time_scale, time_step_s=time_step_s,
                               keep_series=False, **FEEDFORWARD_OPTIONS[feedforward])
@@ -151,8 +153,6 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
     (TimeScaledTrajectory, re-checked); base_plan: time-scale this plan instead of planning one
     (method is then only its name). rel_tol: relative width of the final bracket in motion time.
     Returns a Plan whose extra['carried_search'] holds every co-simulated point."""
-    from qmt_drake.planners import plan_with
-    from qmt_drake.sim import FEEDFORWARD_OPTIONS
     if feedforward not in FEEDFORWARD_OPTIONS:
         raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
     say = progress or (lambda _m: None)
@@ -277,7 +277,6 @@ def plan_fastest_carried_converged(scenario, method: str = "ruckig", *,
 
 def _neighbour(scenario, plan, method, kw):
     """The lost end of the final bracket of a plan_fastest_carried result (None if none was lost)."""
-    from qmt_drake.planners import plan_with
     s = plan.extra["carried_search"]
     if s["variable"] == "jerk_limit_m_s3":
         if s.get("lost_above") is None:

@@ -40,6 +40,7 @@ from qmt_drake.sweep.cases import build_cases, make_plan_doc, run_case
 from qmt_drake.sweep.spec import SweepSpec, describe_uncertainty, load_spec
 from qmt_drake.sweep.stats import success_rows
 from qmt_drake.sweep.store import SweepStore
+from qmt_drake.sweep.figures import write_figures
 
 DEFAULT_ALLOWED_FAILURES = 3  # Dask's own default, stated so a LocalCluster sweep does not depend on it
 CONNECT_TIMEOUT_S = 3.0  # an unroutable --scheduler is refused after this
@@ -330,7 +331,6 @@ def summarize(spec: SweepSpec, store: SweepStore, results: list[dict], failures:
     paths["summary.json"] = str(store.write_text("summary.json", json.dumps(jsonable(data), indent=1)))
     paths["summary.md"] = str(store.write_text("summary.md", summary_markdown(spec, rows, failures)))
     if figures and results:
-        from qmt_drake.sweep.figures import write_figures
         paths.update(write_figures(spec, store.root, results, rows))
     return {"rows": rows, "paths": paths}
 

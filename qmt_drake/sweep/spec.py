@@ -39,6 +39,7 @@ import numpy as np
 from qmt_drake.config.fields import check_keys, is_number, read_yaml_mapping, show
 from qmt_drake.errors import QmtInputError
 from qmt_drake.sweep.options import check_options
+from qmt_drake.planners import METHODS
 
 EXPLICIT_MAX_TIME_STEP_S = 1e-3  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a test checks they agree)
 MAX_TIME_STEP_S = 0.02  # a plant step above 20 ms cannot resolve a transfer of ~1 s (validated: 1-2 ms)
@@ -315,7 +316,6 @@ def _check_plan(p, at: str, spec_path: Path | None) -> dict:
     if not isinstance(p, dict):
         raise QmtInputError(f"{at}: a plan must be a mapping with 'method' (+ seed, options) or 'file'")
     _check_keys(p, PLAN_KEYS, at)
-    from qmt_drake.planners import METHODS
     out = {"options": {}, "seed": 0}
     if ("method" in p) == ("file" in p):
         raise QmtInputError(f"{at}: give exactly one of 'method' ({', '.join(METHODS)}) or 'file'")

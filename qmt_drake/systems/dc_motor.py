@@ -80,6 +80,7 @@ from pydrake.systems.framework import LeafSystem
 from qmt_drake.catalog import (HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, MotorDatasheet,  # noqa: F401 (re-exported)
                                motor_for_rated_torque)
 from qmt_drake.systems.scalar_ops import FLOAT
+from qmt_drake.systems.scalar_ops import SYMBOLIC, symbolic_law
 
 
 @dataclass
@@ -337,7 +338,6 @@ def _per_joint_laws_diagram(name: str, params: DcMotorParams, law, input_names: 
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import Multiplexer, PassThrough
 
-    from qmt_drake.systems.scalar_ops import SYMBOLIC, symbolic_law
     n = params.n
     u = [symbolic.Variable(f"{input_names[0]}_{k}") for k in range(n)]
     qd = [symbolic.Variable(f"{input_names[1]}_{k}") for k in range(n)]

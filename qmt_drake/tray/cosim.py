@@ -43,6 +43,11 @@ from qmt_drake.systems.tray_object import (TRAY_SIZE_M, BottleSpec, TrayBottleMo
                                            seated_pose_on_tray)
 from qmt_drake.tray.crane_ik import URDF_PATH
 from qmt_drake.tray.waypoints import GoalSchedule
+from qmt_drake.recording import add_meshcat_visualizer
+from qmt_drake.recording import make_headless_meshcat
+from qmt_drake.recording import save_recording
+from qmt_drake.recording import start_recording
+from qmt_drake.systems.dynamixel_servo import PULSES_PER_RAD, PWM_FULL_SCALE
 
 JOINTS = ("shoulder_pitch", "elbow", "wrist_pitch")
 TIME_STEP_S = 1e-3
@@ -134,7 +139,6 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()} if log_period_s else {}
     visualizer = None
     if meshcat is not None:
-        from qmt_drake.recording import add_meshcat_visualizer
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
     return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo, loggers, schedule, bottle, X_TB0,
@@ -202,7 +206,6 @@ def set_initial_state(td: TrayDiagram, root_context) -> None:
     """Arm and servos in static equilibrium at the first goal (P-only: the sag that balances
     gravity; with I: the integral carries the load, no error), bottle seated, all at rest: the
     run starts without the jolt of a loop taking up its load."""
-    from qmt_drake.systems.dynamixel_servo import PULSES_PER_RAD, PWM_FULL_SCALE
     plant = td.plant
     ctx = plant.GetMyMutableContextFromRoot(root_context)
     goal = td.schedule.q_start
@@ -274,7 +277,6 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     bottle = bottle or BottleSpec.pet_500ml()
     meshcat = None
     if recording_path is not None:
-        from qmt_drake.recording import make_headless_meshcat
         meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
                             meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor)
@@ -282,13 +284,11 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     set_initial_state(td, sim.get_mutable_context())
     sim.Initialize()
     if td.visualizer is not None:
-        from qmt_drake.recording import start_recording
         start_recording(td.visualizer)
     wall0 = time.perf_counter()
     sim.AdvanceTo(schedule.t_end_s)
     wall = time.perf_counter() - wall0
     if td.visualizer is not None:
-        from qmt_drake.recording import save_recording
         save_recording(td.visualizer, meshcat, recording_path)
     series = {}
     for k, lg in td.loggers.items():

@@ -18,6 +18,9 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import check_plan_fits
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
+from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
+from qmt_drake.tray.cosim import TIME_STEP_S, simulate_tray
+from qmt_drake.tray.cosim import URDF_PATH
 
 SETTLE_S = 1.0
 TAIL_S = 1.5
@@ -45,8 +48,6 @@ def check_tray_simulation(scenario, time_step_s: float | None = None, feedforwar
     if feedforward != "none" or implicit_loop_damping is False:
         raise QmtInputError("--explicit and --feedforward are options of the DC-motor co-simulation; the tray "
                             "co-simulation drives the servos' own firmware loop: drop them")
-    from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
-    from qmt_drake.tray.cosim import URDF_PATH
     if scenario.urdf_path.resolve() != URDF_PATH.resolve():
         raise QmtInputError(f"{scenario.source_path}: the tray co-simulation models {URDF_PATH.name} only, "
                             f"not {scenario.urdf_path.name}")
@@ -64,7 +65,6 @@ def check_tray_simulation(scenario, time_step_s: float | None = None, feedforwar
 
 def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
                        time_step_s: float | None = None) -> dict:
-    from qmt_drake.tray.cosim import TIME_STEP_S, simulate_tray
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused by the library
     act = scenario.actuator

@@ -9,6 +9,7 @@ re-check use the same limit terms (limits/tray.py) as `qmt-drake plan crane-tray
 from __future__ import annotations
 
 from qmt_drake.systems.tray_object import BottleSpec
+from qmt_drake.config.scenario import _merge, load_scenario
 
 
 def bottle_overrides(bottle: BottleSpec, margin: float | None = None, speed_fraction: float | None = None) -> dict:
@@ -28,6 +29,5 @@ def bottle_overrides(bottle: BottleSpec, margin: float | None = None, speed_frac
 def tray_scenario(bottle: BottleSpec, margin: float | None = None, speed_fraction: float | None = None,
                   extra: dict | None = None):
     """The crane-tray Scenario carrying `bottle` (see module docstring); `extra` more overrides."""
-    from qmt_drake.config.scenario import _merge, load_scenario
     o = bottle_overrides(bottle, margin, speed_fraction)
     return load_scenario("crane-tray", overrides=_merge(o, extra) if extra else o)

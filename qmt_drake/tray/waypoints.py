@@ -27,6 +27,12 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.tray.crane_ik import SEED_GOAL_XY_M, SEED_START_XY_M, TABLE1, CraneGeometry, tray_ik
+from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
+from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
+from qmt_drake.systems.tray_object import GRAVITY_M_S2
+from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
+from qmt_drake.tray.crane_ik import tray_fk
+from qmt_drake.tray.planning import tray_scenario
 
 SEED_WAYPOINTS = 1000
 SEED_MOVE_S = 5.0
@@ -125,8 +131,6 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     import toppra as ta
     import toppra.algorithm as algo
 
-    from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
-    from qmt_drake.tray.planning import tray_scenario
 
     if not 0 < margin <= 1:
         raise QmtInputError(f"planning margin {margin} must be in (0, 1]")
@@ -152,8 +156,6 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     q, qd, qdd = traj(t), traj(t, 1), traj(t, 2)
     info["planned_duration_s"] = T
     r = tray_ratios(contact_wrench(tray_kinematics(q, qd, qdd, [0, 0, bottle.com_height_m]), bottle), bottle)
-    from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
-    from qmt_drake.tray.crane_ik import tray_fk
     vmax = np.array([s.no_load_speed_rad_s * speed_fraction for s in CRANE_X7_PLANAR_SERVOS])
     fk = np.array([tray_fk(x, geom) for x in q])
     a, b = np.asarray(start_xy, float), np.asarray(goal_xy, float)
@@ -192,8 +194,6 @@ def ruckig_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, mar
     (speed / k, acceleration / k^2, jerk / k^3). Returns (GoalSchedule, info)."""
     from ruckig import InputParameter, Result, Ruckig, Trajectory
 
-    from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
-    from qmt_drake.systems.tray_object import GRAVITY_M_S2
 
     if not 0 < margin <= 1 or not jerk_m_s3 > 0:
         raise QmtInputError(f"margin {margin} must be in (0, 1] and jerk {jerk_m_s3} m/s^3 positive")

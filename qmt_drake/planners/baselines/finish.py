@@ -19,11 +19,11 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.baselines.paths import task_joint_points
 from qmt_drake.plan import Plan, make_plan, recheck
 from qmt_drake.trajectory import JointTrajectory, RestTrajectory, TimeScaledTrajectory
+from qmt_drake.families import make_family
 
 def slowest_allowed_motion_s(scenario) -> float:
     """The slowest motion the scenario's family allows (all genes at their upper bounds), s:
     the time budget every planner here must meet (a longer motion is an infeasible result)."""
-    from qmt_drake.families import make_family
     try:
         fam = make_family(scenario)
     except QmtInputError:

@@ -18,6 +18,9 @@ from scipy.interpolate import CubicSpline
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.trajectory import JointTrajectory
+from qmt_drake.plan import family_plan
+from qmt_drake.planners.ga import run_ga
+from qmt_drake.problem import PlanningProblem
 
 PATHS = ("family", "ga_path", "joint_line", "cartesian_line")
 TRACED_KNOTS = 1000  # spline knots along a traced joint path (joint-space arc length)
@@ -153,8 +156,6 @@ def straight_segments(scenario, kind: str) -> list[GeometricPath]:
 
 def reported_family_plan(scenario):
     """The thesis's own plan (family at the reported genes; midpoint of the bounds if none)."""
-    from qmt_drake.plan import family_plan
-    from qmt_drake.problem import PlanningProblem
     problem = PlanningProblem(scenario)
     genes = scenario.reported.get("genes")
     g = (problem.genes_vector(genes) if genes else 0.5 * (problem.lower + problem.upper))
@@ -164,9 +165,6 @@ def reported_family_plan(scenario):
 def short_ga_plan(scenario, seed: int = 0, max_generations: int = 300,
                   stall_generations: int = 100):
     """A short GA run (for a `ga_path` without a reference plan)."""
-    from qmt_drake.plan import family_plan
-    from qmt_drake.planners.ga import run_ga
-    from qmt_drake.problem import PlanningProblem
     problem = PlanningProblem(scenario)
     res = run_ga(problem, seed=seed, max_generations=max_generations,
                  stall_generations=stall_generations)
