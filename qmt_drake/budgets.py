@@ -211,9 +211,15 @@ def sweep_estimate(cases: int, per_case: Estimate, *, workers: int = 1, plans: E
     if plans is not None:
         seconds += plans.seconds
         mem = max(mem, plans.bytes)
-    alone = per_case.bytes > MEMORY_BUDGET_BYTES or per_case.seconds > TIME_BUDGET_S
-    return Estimate(mem, seconds, f"a sweep of {_f(cases):g} cases on {w} worker(s) (each {per_case.what})",
-                    per_case.fix if alone else "narrow the grid or lower monte_carlo.cases")
+    what = f"a sweep of {_f(cases):g} cases on {w} worker(s) (each {per_case.what})"
+    fix = "narrow the grid or lower monte_carlo.cases"
+    if per_case.bytes > MEMORY_BUDGET_BYTES or per_case.seconds > TIME_BUDGET_S:
+        fix = per_case.fix
+    if plans is not None:
+        what += f" after its plans ({plans.what})"
+        if plans.bytes > MEMORY_BUDGET_BYTES or plans.seconds > TIME_BUDGET_S:
+            fix = plans.fix.replace("--generations, or a stall limit", "the plan's options.max_generations")
+    return Estimate(mem, seconds, what, fix)
 
 
 def motion_time_bound_s(scenario) -> float:

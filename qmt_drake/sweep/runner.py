@@ -96,9 +96,9 @@ def _dask_identity(addr: str, timeout_s: float) -> str | None:
     try:
         reply = asyncio.run(asyncio.wait_for(ask(), timeout_s))
     except Exception as exc:  # noqa: BLE001 - timeouts, OSError, or garbage from a non-Dask server
-        return f"no Dask handshake: {type(exc).__name__}"
+        return f"something accepted the connection but gave no Dask handshake: {type(exc).__name__}"
     if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
-        return "it is not a Dask scheduler"
+        return "something answered, but not a Dask scheduler"
     return None
 
 
@@ -215,6 +215,8 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
         cases = list(unique.values())
     finished = store.finished_keys()
     pending = [c for c in cases if c.key not in finished]
+    if pending and scheduler and client is None:  # before anything is written
+        probe_scheduler(check_scheduler_address(scheduler), connect_timeout_s)
     store.write_text("spec.json", json.dumps(jsonable({"name": spec.name, "raw": spec.raw,
                                                        "n_cases": len(cases)}), indent=1))
     prog = Progress(spec.name, len(cases), len(cases) - len(pending), enabled=progress)
@@ -224,8 +226,6 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
     workers_used = None
     if pending:
         needed = {c.plan_key for c in pending}
-        if scheduler and client is None:
-            probe_scheduler(check_scheduler_address(scheduler), connect_timeout_s)
         with (_reuse(client) if client is not None else
               dask_client(scheduler, workers, allowed_failures=allowed_failures,
                           connect_timeout_s=connect_timeout_s)) as cl:
