@@ -429,7 +429,7 @@ def gen_sweep(klass: str, rng, ctx: Ctx) -> list:
             d["plans"] = [{"file": missing_input(rng, ctx, ".json")}]
             return ["sweep", ctx.write(d)]
         if r < 0.9:
-            return ["sweep", ctx.write(d), "--scheduler", _pick(rng, ["tcp://127.0.0.1:1", "nohost", "tcp://:80",
+            return ["sweep", ctx.write(d), "--scheduler", _pick(rng, ["tcp://127.0.0.1:0", "nohost", "tcp://:80",
                                                                      "http://h:1", "tcp://h:99999", "udp://x:1",
                                                                      "tcp://no-such-host.invalid:8786"])]
         return ["sweep", missing_input(rng, ctx)]

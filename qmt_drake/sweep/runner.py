@@ -66,11 +66,20 @@ def probe_scheduler(addr: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
     host, _, port = rest.rpartition(":")
     host = host.strip("[]")
     why = None
-    try:
-        with socket.create_connection((host, int(port)), timeout=timeout_s):
-            pass
-    except OSError as exc:  # refused, unroutable (timeout), unknown host
-        why = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or type(exc).__name__)
+    deadline = time.monotonic() + timeout_s
+    while True:  # a scheduler still starting refuses connections: retry until the timeout, as Dask does
+        try:
+            with socket.create_connection((host, int(port)), timeout=max(0.05, deadline - time.monotonic())):
+                why = None
+            break
+        except ConnectionRefusedError as exc:
+            why = exc.strerror or "refused"
+            if time.monotonic() + 0.1 >= deadline:
+                break
+            time.sleep(0.1)
+        except OSError as exc:  # unroutable (timeout), unknown host
+            why = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or type(exc).__name__)
+            break
     if why is None:  # something listens (or a proxy accepts anything): ask it who it is
         why = _dask_identity(addr, timeout_s)
     if why is not None:
