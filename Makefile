@@ -1,21 +1,31 @@
-# `make run` reproduces the thesis chapters and the benchmark into out/; `make test` runs the tests.
-# Both create .venv/ with the package installed in editable mode on first use.
+# `make run` reproduces every seed and the benchmark into out/ (then out/report.html); `make test`
+# runs ruff and the tests. Both create .venv/ with the package installed in editable mode on first
+# use: `run` installs the runtime dependencies only, `test` adds the test extra (pytest, Pinocchio,
+# example-robot-data, ruff).
 PY := .venv/bin/python
 STAMP := .venv/.installed
+TEST_STAMP := .venv/.installed-test
 
 $(STAMP): pyproject.toml
 	python3 -m venv .venv
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e .
 	touch $(STAMP)
 
-.PHONY: venv run test bench clean
+$(TEST_STAMP): $(STAMP)
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(TEST_STAMP)
+
+.PHONY: venv run test lint bench clean
 venv: $(STAMP)
 
 run: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m studies.run_all --out out
 
-test: $(STAMP)
+lint: $(TEST_STAMP)
+	$(PY) -m ruff check qmt_drake tests studies models
+
+test: lint
 	MPLBACKEND=Agg $(PY) -m pytest -q
 
 bench: $(STAMP)

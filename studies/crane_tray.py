@@ -229,7 +229,7 @@ def plot_pair(results: dict, path_joints: Path, path_bottle: Path) -> None:
 
 
 def carried_ok(r) -> bool:
-    return r.outcome == "carried" and not r.slipped
+    return r.outcome == "on_tray" and not r.slipped
 
 
 def fill_bottle(water_kg: float, mu: float) -> BottleSpec:
@@ -389,7 +389,7 @@ def plot_sweep(sw: dict, path: Path) -> None:
     for i, w in enumerate(waters):
         for j, m in enumerate(mus):
             c = cells[(w, m)]["nominal_plan"]
-            word = c["outcome"] if c["outcome"] != "carried" else ("carried" if c["carried"] else "slipped")
+            word = c["outcome"] if c["outcome"] != "on_tray" else ("carried" if c["carried"] else "slipped")
             ax.text(j, i, f"{word}\nslip {1e3 * c['slip_m']:.1f} mm", ha="center", va="center", fontsize=7)
     ax.set_xticks(range(len(mus)), [f"{m:g}" for m in mus])
     ax.set_yticks(range(len(waters)), [f"{1e3 * w:.0f} g water\nCOM {1e3 * cells[(w, mus[0])]['com_height_m']:.0f} mm"
@@ -568,7 +568,7 @@ def main(argv=None) -> int:
             ax.semilogy(mus, [1e3 * max(d["slip_m"], 1e-4) for d in sweep[c]], "-o", label=f"{c}: {CASES[c][2]}")
             ax.semilogy(mus, [1e3 * max(d["creep_m"], 1e-4) for d in sweep[c]], ":", color=ax.lines[-1].get_color(),
                         label=f"{c}: creep (slower than 3 mm/s)")
-            lost = [(m, d) for m, d in zip(mus, sweep[c]) if d["outcome"] != "carried"]
+            lost = [(m, d) for m, d in zip(mus, sweep[c]) if d["outcome"] != "on_tray"]
             if lost:
                 ax.semilogy([m for m, _ in lost], [1e3 * max(d["slip_m"], 1e-4) for _, d in lost], "x", ms=12, mew=2,
                             color=ax.lines[-2].get_color(), label=f"{c}: lost (" + ", ".join(
@@ -592,7 +592,7 @@ def main(argv=None) -> int:
         for c in CASES:
             ax.plot(coms, [np.degrees(d["max_tilt_rad"]) for d in fill[c]], "-o", label=c)
             for h, d in zip(coms, fill[c]):
-                if d["outcome"] != "carried":
+                if d["outcome"] != "on_tray":
                     ax.annotate(d["outcome"], (h, np.degrees(d["max_tilt_rad"])), fontsize=7)
         ax.set_yscale("log")
         ax.set_xlabel("bottle centre-of-mass height [m] (ring radius 0.029 m), mu = 1")
@@ -607,7 +607,7 @@ def main(argv=None) -> int:
         # 5. recordings of the pair at the friction where it splits (if any), else the default
         if "friction" in sections:
             lost = [m for m, b, a in zip(mus, sweep["before"], sweep["after"])
-                    if b["outcome"] != "carried" and a["outcome"] == "carried"]
+                    if b["outcome"] != "on_tray" and a["outcome"] == "on_tray"]
             slipped = [m for m, b, a in zip(mus, sweep["before"], sweep["after"]) if b["slipped"] and not a["slipped"]]
             split = lost or slipped
             mu_rec = max(split) if split else 0.3

@@ -371,7 +371,7 @@ def analyse():
         task = load_task(base)
         if name.endswith("-no-obstacles"):
             task = task.without_obstacles()
-        md += [f"## {name}", "", "| type | gene | E | P_k | sum L [m] | max lateral joint |y| [m] | "
+        md += [f"## {name}", "", "| type | gene | E | P_k | sum L [m] | max lateral joint abs(y) [m] | "
                "mean w | mean c | mu_bar | mu_x | mu_y | mu_z | mu_alpha | mu_beta | mu_gamma |",
                "|" + "---|" * 15]
         for T, r in sorted(entry["types"].items(), key=lambda kv: -kv[1]["E_per_m"]):

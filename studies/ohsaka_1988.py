@@ -140,9 +140,9 @@ def fig3(out, res, bench):
     import matplotlib.pyplot as plt
     show = keep + [r for r in keep_restricted if r.end_pattern not in {k.end_pattern for k in keep}]
     fig, axs = plt.subplots(2, (len(show) + 1) // 2, figsize=(2.3 * ((len(show) + 1) // 2), 4.8))
-    for ax, r in zip(axs.ravel(), show):
+    for i, (ax, r) in enumerate(zip(axs.ravel(), show)):
         tag = "" if r in keep else " (pattern-restricted)"
-        stick_figure(ax, keepP.arm, keepP.family, r.x,
+        stick_figure(ax, keepP.arm, keepP.family, r.x, legend=i == 0,
                      title=f"{pattern_str(r.end_pattern)}{tag}\nz={r.z:.0f}  T={r.T_s:.3f} s")
     for ax in axs.ravel()[len(show):]:
         ax.axis("off")
@@ -181,10 +181,10 @@ def fig4(out, res):
                     "T_s": Tp, "z": rf.z, "rel_above_optimum": (rf.z - best.z) / best.z, "success": rf.success}
                 lift = min((r for r in free if r.success and r.end_pattern[0] > 0), key=lambda r: r.z, default=None)
                 rows[label][str(c2)]["best_theta1_up"] = opt_record(P, lift, fine) if lift else None
-                stick_figure(axs[0, k], P.arm, P.family, best.x,
+                stick_figure(axs[0, k], P.arm, P.family, best.x, legend=k == 0,
                              title=f"c2={c2:g} global {pattern_str(best.end_pattern)}\nT={best.T_s:.3f} s (paper {E.reported['T_s'][c2]:.3f})")
                 if lift is not None:
-                    stick_figure(axs[1, k], P.arm, P.family, lift.x,
+                    stick_figure(axs[1, k], P.arm, P.family, lift.x, legend=False,
                                  title=f"c2={c2:g} best with joint 1 +\n{pattern_str(lift.end_pattern)} T={lift.T_s:.3f} s")
     fig.suptitle("Fig. 4 counterpart: (0.68, 0.075, 0.100, 0.600), c1=1, X2 up", fontsize=9)
     fig.tight_layout()

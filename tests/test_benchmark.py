@@ -33,9 +33,26 @@ def test_quick_benchmark_ch3(tmp_path, monkeypatch):
         carried_steps.append(time_step_s)
         return {"held": plan.motion_time_s * time_scale >= 1.70, "max_slip_m": 2e-4, "detached_at_s": None}
     monkeypatch.setattr(robust, "carried_in_cosim", fake_carried)
+    from matplotlib.figure import Figure
+    saved = []
+    real_savefig = Figure.savefig
+
+    def keep(fig, path, *a, **k):
+        saved.append((str(path), fig))
+        return real_savefig(fig, path, *a, **k)
+    monkeypatch.setattr(Figure, "savefig", keep)
     res = run_benchmark(scenarios=("thesis-ch3",), out_dir=tmp_path, quick=True, progress=None)
-    for f in ("benchmark.json", "benchmark.md", "benchmark_thesis-ch3_moment.png",
-              "benchmark_times.png"):
+    moments = sorted(tmp_path.glob("benchmark_thesis-ch3_moment_*.png"))
+    assert len(moments) >= 3  # one readable figure per planner group, not one mosaic
+    for path, fig in saved:  # every panel: labelled axes with units, at most 6 panels a figure
+        shown = [ax for ax in fig.axes if ax.get_visible() and ax.get_xlabel() != "" or ax.get_ylabel() != ""]
+        assert shown, path
+        for ax in [a for a in fig.axes if a.get_visible() and (a.lines or a.patches)]:
+            assert "[" in ax.get_xlabel() and ax.get_ylabel(), (path, ax.get_title())
+            if not ax.patches:  # a curve over time: its value has a unit too (bars are named planners)
+                assert "[" in ax.get_ylabel(), (path, ax.get_title())
+        assert sum(1 for a in fig.axes if a.get_visible() and a.lines) <= 6, path
+    for f in ("benchmark.json", "benchmark.md", moments[0].name, "benchmark_times.png"):
         assert (tmp_path / f).is_file()
         if f.endswith(".png"):
             assert (tmp_path / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

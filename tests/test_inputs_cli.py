@@ -106,7 +106,7 @@ def test_ctrl_c_exits_130_with_one_line(monkeypatch, capsys):
     monkeypatch.setattr("qmt_drake.planners.plan_with", interrupted)
     rc, _, err, _ = _run(capsys, "plan", "thesis-ch4", "--quiet")
     assert rc == cli.EXIT_INTERRUPTED == 130
-    assert _one_line(err) == "qmt-drake: interrupted"
+    assert _one_line(err).startswith("qmt-drake: interrupted")
 
 
 @pytest.mark.parametrize("changes, needle", [

@@ -3,18 +3,22 @@
 import math
 
 import pytest
-from scipy.stats import binomtest, norm
+from scipy.stats import norm
 
 from qmt_drake.sweep.stats import success_rows, wilson_interval
 
 
-@pytest.mark.parametrize("k, n", [(0, 10), (1, 10), (5, 10), (10, 10), (197, 200), (200, 200), (3, 7)])
+@pytest.mark.parametrize("k, n", [(1, 10), (5, 10), (197, 200), (3, 7)])
 @pytest.mark.parametrize("conf", [0.9, 0.95, 0.99])
-def test_matches_scipy(k, n, conf):
-    ci = binomtest(k, n).proportion_ci(confidence_level=conf, method="wilson")
+def test_matches_wilsons_closed_form(k, n, conf):
+    """Wilson (1927): centre (p + z^2/2n) / (1 + z^2/n), half-width z / (1 + z^2/n) sqrt(p(1-p)/n + z^2/4n^2)."""
+    z = norm.ppf(0.5 + conf / 2)
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
     lo, hi = wilson_interval(k, n, conf)
-    assert lo == pytest.approx(ci.low, abs=1e-12)
-    assert hi == pytest.approx(ci.high, abs=1e-12)
+    assert lo == pytest.approx(centre - half, abs=1e-12)
+    assert hi == pytest.approx(centre + half, abs=1e-12)
 
 
 def test_closed_form_at_zero_and_all():

@@ -23,7 +23,7 @@ def test_equilibrium_start_and_carry(short_run):
     s, t = r.series, r.series["t"]
     still = (t > SEATING_S) & (t < 0.5)
     assert np.max(np.abs(s["arm_state"][3:, still])) < 0.02  # rad/s: no jolt of a loop taking up the load
-    assert r.outcome == "carried" and not r.slipped
+    assert r.outcome == "on_tray" and not r.slipped
     assert r.min_normal_force_N > 0.2
     # the arm got to the goal (PID: the integral removes the sag)
     assert np.max(np.abs(s["goal"][:, -1] - s["arm_state"][:3, -1])) < 0.02

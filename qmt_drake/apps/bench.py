@@ -96,5 +96,30 @@ def run_bench(scenario: str = "thesis-ch4", out_dir: Path = Path("out"), progres
                                "motion_time_s": r.cost, "evaluations": r.evaluations}
     out = Path(out_dir) / "bench.json"
     write_text_atomic(out, json.dumps(data, indent=1) + "\n")
+    write_text_atomic(Path(out_dir) / "bench.md", bench_markdown(data))
     progress(f"wrote {out}")
     return data
+
+
+def bench_markdown(data: dict) -> str:
+    """The planner-speed figures of one `run_bench` as a Markdown table (for the report)."""
+    speed = data["batched_vs_drake_per_sample"]
+    rows = [
+        ("fitness evaluations per s, 1 kHz check, fast path", f"{data['fitness_evaluations_per_s_1kHz_fast']:.0f}"),
+        ("fitness evaluations per s, 1 kHz check, full grid", f"{data['fitness_evaluations_per_s_1kHz_full_grid']:.0f}"),
+        ("family optimum: motion time [s] / wall time [s]",
+         f"{data['family_optimum_motion_time_s']:.4f} / {data['family_optimum_wall_s']:.2f}"),
+        ("GA wall time to within 0.5 % of the optimum, median [s]",
+         "not reached" if data["ga_wall_s_to_within_0.5pct_median"] is None
+         else f"{data['ga_wall_s_to_within_0.5pct_median']:.2f}"),
+    ]
+    rows += [(f"batched vs Drake per sample: {k}", f"{v:.4g}" if isinstance(v, float) else str(v))
+             for k, v in speed.items()]
+    if "ga_full_run" in data:
+        f = data["ga_full_run"]
+        rows.append(("one full GA run: generations / wall [s] / motion time [s]",
+                     f"{f['generations']} / {f['wall_s']:.1f} / {f['motion_time_s']:.4f}"))
+    lines = [f"Scenario `{data['scenario']}`, {data['machine']['cpu_count']} CPUs, Python {data['machine']['python']}.",
+             "", "| quantity | value |", "|---|---|"]
+    lines += [f"| {k} | {v} |" for k, v in rows]
+    return "\n".join(lines) + "\n"

@@ -435,6 +435,22 @@ def benchmark_markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _planner_groups(shown: list) -> list[tuple[str, list]]:
+    """The benchmark's rows in planner groups, in the table's order: (group title, [(label, plan)])."""
+    def group_of(label: str) -> str:
+        if label.startswith(("TOPP-RA", "Drake Toppra")):
+            return "TOPP-RA variants"
+        if label.startswith("Ruckig"):
+            return "Ruckig variants"
+        if label.startswith(("trajopt", CARRIED_LABEL)):
+            return "trajopt and the fastest carried plan"
+        return "thesis family (reported, GA, optimum)"
+    groups: dict[str, list] = {}
+    for label, plan in shown:
+        groups.setdefault(group_of(label), []).append((label, plan))
+    return list(groups.items())
+
+
 def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict | None = None) -> list[str]:
     import matplotlib
     matplotlib.use("Agg")
@@ -458,42 +474,41 @@ def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict 
             limit_text = f"the limit A = {A:.4g} m/s² = {sc.limits.moment_limit_Nm*1e3:.4g} mN·m"
         X = sc.moment_per_accel_kgm
         shown = [(lb, p) for lb, p in plans if p.motion_time_s > 0]
-        cols = 3
-        rows = int(np.ceil(len(shown) / cols))
         # the time axis of the feasible plans (an infeasible one may rest at the family's slowest)
         T_all = max([p.motion_time_s for _, p in shown if p.feasible] or [p.motion_time_s for _, p in shown])
-        fig, axes = plt.subplots(rows, cols, figsize=(13, 2.1 * rows + 0.8), sharex=True,
-                                 sharey=True, squeeze=False)
-        for ax, (label, plan) in zip(axes.ravel(), shown):
-            t, a = _series(sc, plan)
-            color = "tab:blue" if plan.feasible else "tab:red"
-            ax.plot(t, a, color=color, lw=1.0)
-            ax.axhline(A, color="k", lw=1.0, ls="--")
-            ax.set_title(f"{label}: {plan.motion_time_s:.3f} s, peak "
-                         f"{peak_of(plan):.4f}", fontsize=8)
-            ax.set_xlim(0, T_all * 1.02)
-            ax.set_ylim(0, 1.2 * A)
-            ax.grid(alpha=0.3)
-            ax.tick_params(labelsize=7)
-            if not tray:
-                sec = ax.secondary_yaxis("right", functions=(lambda v: v * X * 1e3,
-                                                             lambda m: m / (X * 1e3)))
-                sec.tick_params(labelsize=7)
-                if ax in axes[:, -1]:
-                    sec.set_ylabel("moment [mN·m]", fontsize=8)
-        for ax in axes.ravel()[len(shown):]:
-            ax.set_visible(False)
-        for ax in axes[:, 0]:
-            ax.set_ylabel("|a_tip| [m/s²]", fontsize=8)
-        for ax in axes[-1]:
-            ax.set_xlabel("time [s]", fontsize=8)
-        fig.suptitle(f"{name}: tip acceleration{'' if tray else ' (left axis) = payload moment (right axis)'} "
-                     f"over time; dashed: {limit_text}; red: breaks a limit on the re-check", fontsize=9)
-        fig.tight_layout()
-        path = out / f"benchmark_{name}_moment.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        files.append(str(path))
+        # one readable figure per planner group (at most 6 panels, 2 columns) instead of one mosaic
+        for group, members in _planner_groups(shown):
+            cols = 2 if len(members) > 1 else 1
+            rows = int(np.ceil(len(members) / cols))
+            fig, axes = plt.subplots(rows, cols, figsize=(6.2 * cols, 2.9 * rows + 1.1), sharex=True,
+                                     sharey=True, squeeze=False)
+            for ax, (label, plan) in zip(axes.ravel(), members):
+                t, a = _series(sc, plan)
+                color = "tab:blue" if plan.feasible else "tab:red"
+                ax.plot(t, a, color=color, lw=1.2, label="|a_tip| of the plan")
+                ax.axhline(A, color="k", lw=1.0, ls="--", label="limit A")
+                ax.set_title(f"{label}: {plan.motion_time_s:.3f} s, peak ratio {peak_of(plan):.4f}", fontsize=10)
+                ax.set_xlim(0, T_all * 1.02)
+                ax.set_ylim(0, 1.2 * A)
+                ax.grid(alpha=0.3)
+                ax.tick_params(labelsize=9)
+                if not tray:
+                    sec = ax.secondary_yaxis("right", functions=(lambda v: v * X * 1e3,
+                                                                 lambda m: m / (X * 1e3)))
+                    sec.tick_params(labelsize=9)
+                    sec.set_ylabel("payload moment [mN·m]", fontsize=9)
+                ax.set_ylabel("|a_tip| [m/s²]", fontsize=9)
+                ax.set_xlabel("time [s]", fontsize=9)
+            axes.ravel()[0].legend(fontsize=8, loc="upper right")
+            for ax in axes.ravel()[len(members):]:
+                ax.set_visible(False)
+            fig.suptitle(f"{name}, {group}: tip acceleration over time; dashed: {limit_text}; red: breaks a "
+                         "limit on the re-check", fontsize=10, wrap=True)
+            fig.tight_layout()
+            path = out / f"benchmark_{name}_moment_{group.split()[0].lower().replace('-', '')}.png"
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+            files.append(str(path))
 
     fig, axes = plt.subplots(len(plans_by_scenario), 1,
                              figsize=(11, 3.6 * len(plans_by_scenario)), squeeze=False)
@@ -520,6 +535,7 @@ def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict 
                 bars[yi].set_color("tab:blue")
         ax.set_yticks(y, labels, fontsize=7)
         ax.set_xlabel("motion time [s]")
+        ax.set_ylabel("planner (a row of the benchmark table)")
         ax.set_title(f"{name}: motion time. Green: keeps every limit on the 10 kHz re-check; blue: fastest "
                      "carried;\nhatched: payload not carried in the co-simulation (thesis PID; the blue row: "
                      "its own search, full feedforward)", fontsize=9)

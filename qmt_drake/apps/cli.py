@@ -18,7 +18,11 @@ from pathlib import Path
 
 from qmt_drake.apps.one_line_parser import OneLineParser
 from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
+from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, add_energy_options, plan_energy, simulate_energy
+from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
+from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.sim.outcome import verdict_line
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
@@ -84,7 +88,34 @@ def cmd_scenarios(args) -> int:
     return 0
 
 
+TRANSFER_ONLY_OPTIONS = ("generations", "stall", "checkpoint", "option")
+
+
+def _given(args, names) -> list[str]:
+    """The options among `names` the user gave (not at their None default), as --flags."""
+    return ["--" + n.replace("_", "-") for n in names if getattr(args, n, None) is not None]
+
+
 def cmd_plan(args) -> int:
+    if is_energy_scenario(args.scenario):
+        args.method = args.method or "snopt"
+        if args.method not in ENERGY_METHODS:
+            raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is an "
+                                f"energy-time scenario: use --method {'|'.join(ENERGY_METHODS)}")
+        wrong = _given(args, TRANSFER_ONLY_OPTIONS) + (["--seed"] if args.seed != 0 else [])
+        if wrong:
+            raise QmtInputError(f"{' '.join(wrong)}: options of transfer planners; {args.scenario} is an "
+                                f"energy-time scenario (--method {args.method}): drop them")
+        return plan_energy(args)
+    args.method = args.method or "ga"
+    if args.method in ENERGY_METHODS:
+        raise QmtInputError(f"--method {args.method} plans energy-time scenarios (ohsaka-fig2/3/4, or a YAML "
+                            f"with kind: energy_time); {args.scenario} is a transfer scenario: use --method "
+                            "ga|optimum|thesis|toppra|ruckig|trajopt")
+    wrong = _given(args, ENERGY_ONLY_OPTIONS)
+    if wrong:
+        raise QmtInputError(f"{' '.join(wrong)}: options of the energy-time planners; {args.scenario} is a "
+                            "transfer scenario: drop them")
     _check_outputs(args, "--json", "--trajectory-csv")
     _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     _check_int(args.generations, "--generations", 1, "run at least one generation")
@@ -157,6 +188,12 @@ def _check_tray_method(sc, method: str) -> None:
 
 
 def cmd_simulate(args) -> int:
+    if is_energy_scenario(args.scenario):
+        if args.method not in (None, "snopt"):
+            raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
+                                "energy-time: give --plan FILE or no --method (it plans with snopt)")
+        return simulate_energy(args)
+    args.method = args.method or "ga"
     _check_outputs(args, "--json", "--record")
     _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     _check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
@@ -185,6 +222,7 @@ def cmd_simulate(args) -> int:
     if args.plan:
         plan = load_plan(args.plan, scenario=sc)
     else:
+        _say_planning_first(args)
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else _progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record,
@@ -193,10 +231,17 @@ def cmd_simulate(args) -> int:
     _emit_json(result, args.json)
     if args.json != "-":
         print(f"{sc.name} {plan.method} x{args.time_scale}: "
-              f"{'held' if result['held'] else 'LOST'}, max slip {result['max_slip_m'] * 1e3:.3f} mm, "
+              f"{verdict_line(result['outcome'], result['detached_at_s'])}, max slip {result['max_slip_m'] * 1e3:.3f} mm, "
               f"tracking error {result['max_tracking_error_rad']:.2e} rad, "
               f"real-time factor {result['real_time_factor']:.1f}")
     return 0
+
+
+def _say_planning_first(args) -> None:
+    """simulate without --plan plans first: say so, since a GA takes tens of seconds."""
+    if not args.quiet:
+        print(f"qmt-drake: no --plan given: planning with --method {args.method} (seed {args.seed}) first; "
+              "give --plan FILE to simulate a saved plan", file=sys.stderr)
 
 
 def _simulate_tray(args, sc) -> int:
@@ -210,17 +255,13 @@ def _simulate_tray(args, sc) -> int:
     check_tray_simulation(sc, time_step_s, args.feedforward, not args.explicit)  # before any planning
     if not args.plan:
         _check_tray_method(sc, args.method)
+        _say_planning_first(args)
     plan = load_plan(args.plan, scenario=sc) if args.plan else plan_with(
         args.method, sc, seed=args.seed, progress=None if args.quiet else _progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s)
     _emit_json(result, args.json)
     if args.json != "-":
-        if result["held"]:
-            verdict = "held (carried)"
-        elif result["outcome"] == "carried":  # on the tray and upright at the end, but it slid
-            verdict = "LOST (slipped, still on the tray)"
-        else:
-            verdict = f"LOST ({result['outcome'].replace('_', ' ')} at {result['lost_at_s']:.3f} s)"
+        verdict = verdict_line(result["outcome"], result["lost_at_s"])
         print(f"{sc.name} {plan.method} x{args.time_scale}: {verdict}"
               f", slip {result['max_slip_m'] * 1e3:.3f} mm, creep {result['creep_m'] * 1e3:.3f} "
               f"mm, tilt {result['max_tilt_rad']:.2e} rad, tracking error {result['max_tracking_error_rad']:.2e} rad, "
@@ -276,9 +317,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_scenarios)
 
     from qmt_drake.planners import METHODS
-    s = sub.add_parser("plan", help="plan a transfer motion")
+    s = sub.add_parser("plan", help="plan a motion (every method of every scenario kind)",
+                       description="Methods: transfer scenarios (thesis-*, via5-ch4, crane-tray, your YAML): "
+                       f"{', '.join(METHODS)} (GA options: --generations --stall --checkpoint; any planner: "
+                       "--option KEY=VALUE). Energy-time scenarios (ohsaka-fig2/3/4): "
+                       f"{', '.join(ENERGY_METHODS)} (their options below). Default: ga, or snopt for an "
+                       "energy-time scenario.")
     s.add_argument("scenario", help="built-in name (see `qmt-drake scenarios`) or a YAML path")
-    s.add_argument("--method", default="ga", choices=METHODS)
+    s.add_argument("--method", default=None, choices=METHODS + ENERGY_METHODS)
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--json", metavar="PATH|-", help="write the plan as JSON (- for stdout)")
     s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
@@ -290,12 +336,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
+    add_energy_options(s)
     s.set_defaults(func=cmd_plan)
 
     s = sub.add_parser("simulate", help="execute a plan through motors, PID and the held payload")
     s.add_argument("scenario")
     g = s.add_mutually_exclusive_group()
-    g.add_argument("--method", default="ga", choices=METHODS)
+    g.add_argument("--method", default=None, choices=METHODS,
+                   help="plan first with this method (default ga; energy-time scenarios: snopt)")
     g.add_argument("--plan", metavar="PLAN.json", help="a plan file written by `plan --json`")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--time-scale", type=float, default=1.0,
@@ -331,8 +379,6 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.set_defaults(func=cmd_benchmark)
 
-    from qmt_drake.energy.cli import add_parser as add_energy_parser
-    add_energy_parser(sub)  # seed 001; `plan ohsaka-figN ...` is routed here (main)
     from qmt_drake.sweep.cli import add_parser as add_sweep_parser
     add_sweep_parser(sub)
     from qmt_drake.design.cli import add_parser as add_design_parser
@@ -356,18 +402,9 @@ def cmd_reproduce(args) -> int:
     return subprocess.call([sys.executable, "-m", "studies.run_all", "--out", str(args.out)], cwd=root)
 
 
-def _route(argv: list) -> list:
-    """`plan <seed-001 experiment> ...` is the energy-time planner (`plan-energy`)."""
-    if len(argv) >= 2 and argv[0] == "plan":
-        from qmt_drake.energy.scenario import is_energy_scenario
-        if is_energy_scenario(argv[1]):
-            return ["plan-energy", *argv[1:]]
-    return argv
-
-
 def main(argv=None) -> int:
     try:
-        args = build_parser().parse_args(_route(list(sys.argv[1:] if argv is None else argv)))
+        args = build_parser().parse_args(list(sys.argv[1:] if argv is None else argv))
         return args.func(args)
     except QmtInputError as exc:
         print(f"qmt-drake: error: {exc}", file=sys.stderr)
@@ -375,9 +412,9 @@ def main(argv=None) -> int:
     except QmtSimulationError as exc:
         print(f"qmt-drake: simulation failed: {exc}", file=sys.stderr)
         return EXIT_SIMULATION
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         # The GA saves its checkpoint on the way out (planners/ga.py); nothing half-written stays.
-        print("qmt-drake: interrupted", file=sys.stderr)
+        print(f"qmt-drake: interrupted {exc}".rstrip(), file=sys.stderr)
         return EXIT_INTERRUPTED
 
 

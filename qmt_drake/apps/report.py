@@ -55,7 +55,7 @@ SECTIONS: list[Section] = [
     Section("Benchmark: GA against TOPP-RA, Ruckig and trajectory optimisation",
             ".venv/bin/qmt-drake benchmark --out out/benchmark", "benchmark", tables=("benchmark.md",)),
     Section("Planner speed", ".venv/bin/qmt-drake bench --out out", "", recordings=(), figures=(),
-            raw=("bench.json",)),
+            tables=("bench.md",), raw=("bench.json",)),
     Section("Seed 001: energy-time optimal motions of a vertical 3-link arm (Ohsaka & Kurahashi 1988)",
             ".venv/bin/python -m studies.ohsaka_1988", "ohsaka_1988",
             seed="Fig. 3: z = 22766 / 20266 / 18815 for the patterns (+,-,-) / (+,+,+) / (-,+,-); "
@@ -71,7 +71,8 @@ SECTIONS: list[Section] = [
             tables=("*.md",)),
     Section("Success probability under uncertainty (Dask sweeps)",
             ".venv/bin/python -m studies.success_probability --cases 50 --robust thesis-ch4", "",
-            tables=("success_probability.md",), figures=(), recordings=(), raw=("success_probability.json",)),
+            tables=("success_probability.md",), figures=("sweeps/**/*.png",), recordings=(),
+            raw=("success_probability.json",)),
 ]
 
 
@@ -126,7 +127,7 @@ def _section_html(out: Path, s: Section, k: int) -> str:
         h.append(markdown_to_html(s.notes))
     for p in _files(out, s, s.figures):
         rel = p.relative_to(out).as_posix()
-        h.append(f"<figure><img src='{html.escape(rel)}' alt='{html.escape(p.name)}'>"
+        h.append(f"<figure><a href='{html.escape(rel)}'><img src='{html.escape(rel)}' alt='{html.escape(p.name)}'></a>"
                  f"<figcaption>{html.escape(rel)}</figcaption></figure>")
     links = [(p, "recording") for p in _files(out, s, s.recordings)] + [(p, "data") for p in _files(out, s, s.raw)]
     if links:
@@ -178,14 +179,25 @@ def markdown_to_html(text: str) -> str:
 
 
 def _table(rows: list[str]) -> str:
-    cells = [[c.strip() for c in r.strip().strip("|").split("|")] for r in rows]
+    cells = [table_cells(r) for r in rows]
     body = [r for r in cells if not all(re.fullmatch(r":?-{3,}:?", c) for c in r)]
     if not body:
         return ""
     head, rest = body[0], body[1:]
-    return ("<table><thead><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr></thead><tbody>"
+    bad = [k + 1 for k, r in enumerate(rest) if len(r) != len(head)]
+    warn = (f"<p class=missing>This table is misaligned: rows {bad} do not have the header's {len(head)} cells "
+            "(a literal bar in a cell must be written \\|).</p>" if bad else "")
+    return warn + ("<table><thead><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr></thead><tbody>"
             + "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rest)
             + "</tbody></table>")
+
+
+def table_cells(row: str) -> list[str]:
+    """The cells of one Markdown pipe-table row; a literal bar is written `\\|` inside a cell."""
+    inner = row.strip()
+    inner = inner[1:] if inner.startswith("|") else inner
+    inner = inner[:-1] if inner.endswith("|") and not inner.endswith("\\|") else inner
+    return [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", inner)]
 
 
 def _inline(text: str) -> str:
@@ -200,6 +212,6 @@ h1{font-size:1.6em} h2{border-bottom:2px solid #ccd;padding-bottom:.2em;margin-t
 table{border-collapse:collapse;font-size:.85em;margin:.6em 0} td,th{border:1px solid #bbc;padding:.2em .5em}
 th{background:#eef} code{background:#f3f3f6;padding:0 .2em} .cmd{color:#444} .missing{color:#a33}
 .seed{background:#fff8e6;border-left:4px solid #e5b000;padding:.4em .8em} .file{color:#666;font-size:.8em;margin:0}
-figure{display:inline-block;margin:.5em;vertical-align:top} img{max-width:520px;border:1px solid #ddd}
+figure{display:block;margin:.8em 0} img{max-width:100%;border:1px solid #ddd}
 figcaption{font-size:.75em;color:#666} .meta{color:#666;font-size:.9em}
 </style></head><body>"""

@@ -137,6 +137,10 @@ class BinaryGa:
         return pop ^ flip.astype(np.uint8)
 
 
+class GaInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a GA run; the message says where the run stopped and where its checkpoint is."""
+
+
 def run_ga(problem, settings: GaSettings | None = None, *, seed: int = 0,
            max_generations: int | None = None, stall_generations: int | None = None,
            progress: Callable[[str], None] | None = None, progress_every_s: float = 2.0,
@@ -199,6 +203,9 @@ def run_ga(problem, settings: GaSettings | None = None, *, seed: int = 0,
             gen += 1
             if stall and gen - best_gen >= stall and np.isfinite(best_cost):
                 stop_reason = f"best unchanged for {stall} generations"
+                if progress:
+                    progress(f"{problem.name} seed {seed}: stopped at generation {gen} of at most {max_gen}: "
+                             f"{stop_reason}, best cost {best_cost:.4f}")
                 break
             # Next generation: elites, then parents -> crossover -> mutation.
             order = np.argsort(-fitness, kind="stable")
@@ -209,7 +216,8 @@ def run_ga(problem, settings: GaSettings | None = None, *, seed: int = 0,
             now = time.perf_counter()
             if progress and now - last_print >= progress_every_s:
                 last_print = now
-                progress(f"{problem.name} seed {seed}: generation {gen}/{max_gen}, best cost "
+                stall_note = f" (stops after {stall} without improvement, now {gen - best_gen})" if stall else ""
+                progress(f"{problem.name} seed {seed}: generation {gen} of at most {max_gen}{stall_note}, best cost "
                          f"{best_cost:.4f}, feasible {np.mean(fitness > 0):.0%}, "
                          f"{len(cache)} evaluated, {now - t_start + wall_before:.1f} s")
             if ckpt and gen % checkpoint_every == 0:
@@ -217,7 +225,10 @@ def run_ga(problem, settings: GaSettings | None = None, *, seed: int = 0,
     except KeyboardInterrupt:
         if ckpt:
             save()
-        raise
+            raise GaInterrupted(f"at generation {gen}; checkpoint written to {ckpt}: run the same command "
+                                "with the same --checkpoint to resume") from None
+        raise GaInterrupted(f"at generation {gen}; no checkpoint was kept (give --checkpoint PATH to "
+                            "make a long run resumable)") from None
 
     wall = time.perf_counter() - t_start + wall_before
     chosen = _best_confirmed(problem, ga, cache)

@@ -6,10 +6,10 @@ the plant explicitly; by default its velocity feedback is stepped implicitly
 (`add_implicit_damping_actuation`), which runs at 2 ms with the same motion and motor torques as a
 0.25 ms explicit run (studies/bench_cosim.py, tests/test_cosim.py). The explicit loop is known
 stable up to EXPLICIT_MAX_TIME_STEP_S = 1 ms (studies/bench_cosim.py). Larger explicit steps are
-refused by the CLI's entry point (`run_simulate` -> `check_time_step(..., refuse_unstable=True)`),
-since the loss they report would come from the unstable loop, not from the physics; the library
-(build_transfer_diagram, simulate_transfer) still runs them for studies of that instability and
-marks the result (`TransferResult.explicit_step_known_unstable`).
+refused (`check_time_step(..., refuse_unstable=True)`) by the CLI and by build_transfer_diagram,
+since the loss they report would come from the unstable loop, not from the physics; studies of that
+instability pass allow_unstable_step=True and the result is marked
+(`TransferResult.explicit_step_known_unstable`).
 """
 
 from __future__ import annotations

@@ -39,6 +39,7 @@ from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_da
                                      add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
                                      ideal_joint_gains, motor_params_for, pid_gains_for)
 from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
+from qmt_drake.sim.recording import add_floor, add_meshcat_visualizer, frame_arm
 from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, move_loop_damping_into_plant,
                                  set_initial_state)
 from qmt_drake.sim.reference import plan_start, reference_trajectories
@@ -99,9 +100,15 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                            primitive_controller: bool = True,
                            motor_inductance: bool = False, implicit_loop_damping: bool | None = None,
                            motor_params: DcMotorParams | None = None, magnet_effective_gap_m: float | None = None,
-                           meshcat: Meshcat | None = None) -> TransferDiagram:
+                           meshcat: Meshcat | None = None, allow_unstable_step: bool = False) -> TransferDiagram:
     """One Diagram for the whole closed loop (see the module docstring); its default context starts
     at the plan's start with the payload seated.
+
+    An explicit motor loop (implicit_loop_damping False) stepped above 1 ms is known unstable (the
+    motors chatter between their current limits): refused in one line (QmtInputError) unless
+    allow_unstable_step=True, for studies of that instability (the result then says
+    explicit_step_known_unstable). With meshcat, a floor is added under the arm (a lost part lands
+    on it) and the camera is pointed at the arm from its reach (sim/recording.py).
 
     Exported output ports (units as in the systems' docstrings): desired_state (2n) [rad, rad/s],
     arm_state (2n), voltage_command (n) [V], joint_torque (n) [N*m], motor_torque (n) [N*m],
@@ -138,7 +145,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                             "pass implicit_loop_damping=False and time_step_s <= 1e-3")
     if time_step_s is None:
         time_step_s = default_time_step_s(implicit_loop_damping)
-    check_time_step(time_step_s, implicit_loop_damping)
+    check_time_step(time_step_s, implicit_loop_damping, refuse_unstable=not allow_unstable_step)
     builder = DiagramBuilder()
     tp = add_transfer_plant(builder, scenario, time_step_s, payload_spec=payload_spec,
                             n_dof_expected=int(plan.n_dof))
@@ -154,6 +161,8 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     if loop_damping is not None:
         move_loop_damping_into_plant(plant, arm, loop_damping)
     q0 = plan_start(plan)
+    if meshcat is not None:
+        add_floor(plant, arm)
     finalize_transfer_plant(tp, q0)
 
     current = coil_current_for(scenario, spec) if coil_current_A is None else float(coil_current_A)
@@ -269,11 +278,13 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
 
     visualizer = None
     if meshcat is not None:
-        from qmt_drake.sim.recording import add_meshcat_visualizer
         visualizer = add_meshcat_visualizer(builder, tp.scene_graph, meshcat)
 
     diagram = builder.Build()
     diagram.set_name(f"transfer[{scenario.name}]")
+    if meshcat is not None:
+        ctx = diagram.CreateDefaultContext()
+        frame_arm(meshcat, plant, plant.GetMyContextFromRoot(ctx), arm)
     return TransferDiagram(diagram, plant, tp.scene_graph, arm, payload, hand, motors, ctrl, magnet, monitor,
                            loggers, q0, t_end, t_end + settle_s, current, spec, mp, time_step_s,
                            bool(implicit_loop_damping), visualizer, step_logs=step_logs, delivered=delivered)

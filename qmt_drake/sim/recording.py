@@ -1,7 +1,9 @@
 """Headless Meshcat recording of a co-simulation, saved as one self-contained HTML file.
 
     meshcat = make_headless_meshcat()                     # localhost, free port, no browser needed
+    add_floor(plant, arm_instance)                        # before Finalize: a lost part lands on it
     vis = add_meshcat_visualizer(builder, scene_graph, meshcat)
+    frame_arm(meshcat, plant, plant_context, arm_instance)  # camera from the arm's reach
     ... simulator.Initialize(); start_recording(vis); simulator.AdvanceTo(T)
     save_recording(vis, meshcat, "out/transfer.html")    # StaticHtml(): plays offline
 """
@@ -11,7 +13,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Role
+from pydrake.geometry import (Box, Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Role,
+                              Rgba)
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import CoulombFriction
 
 
 # The arms span about 0.3 m: look at the work area from the front and above, close enough to see
@@ -29,6 +34,46 @@ def make_headless_meshcat(camera_in_world_m=None, target_in_world_m=None) -> Mes
                           np.asarray(CAMERA_TARGET_IN_WORLD_M if target_in_world_m is None else target_in_world_m,
                                      float))
     return meshcat
+
+
+def arm_reach_m(plant, arm_instance) -> float:
+    """Sum of the distances between consecutive joint frames of `arm_instance` (its reach from the
+    base [m], any posture) plus the extent of the bodies welded beyond the last joint (hand,
+    payload) up to 0.1 m. Works before or after Finalize."""
+    reach = 0.0
+    for j in plant.GetJointIndices(arm_instance):
+        joint = plant.get_joint(j)
+        reach += float(np.linalg.norm(joint.frame_on_parent().GetFixedPoseInBodyFrame().translation()))
+        reach += float(np.linalg.norm(joint.frame_on_child().GetFixedPoseInBodyFrame().translation()))
+    return max(reach + 0.1, 0.1)
+
+
+def add_floor(plant, arm_instance, *, below_base_m: float | None = None, friction: float = 0.5) -> float:
+    """Before Finalize: a floor (collision and visual box, top face horizontal) under the arm, at the
+    base's height minus below_base_m [m] (default: the arm's reach, so a horizontal arm never touches
+    it while a lost part lands on it instead of falling for ever). Returns the floor's height [m]."""
+    reach = arm_reach_m(plant, arm_instance)
+    drop = reach if below_base_m is None else float(below_base_m)
+    z_top = -drop  # the arms' bases sit at the world origin (the URDFs weld them there)
+    size = 8.0 * reach
+    X = RigidTransform([0.0, 0.0, z_top - 0.01])
+    shape = Box(size, size, 0.02)
+    plant.RegisterCollisionGeometry(plant.world_body(), X, shape, "floor", CoulombFriction(friction, friction))
+    plant.RegisterVisualGeometry(plant.world_body(), X, shape, "floor_visual", np.array([0.85, 0.85, 0.8, 1.0]))
+    return z_top
+
+
+def frame_arm(meshcat: Meshcat, plant, plant_context, arm_instance, *, view: str = "front") -> None:
+    """Point the camera at the arm so that its whole reach fills most of the frame: the target is the
+    base, the camera 1.1 reach away (Meshcat's 75 degree vertical field of view then spans 1.7 reach),
+    in front (view 'front', looking along +y) or at the side (view 'side', along -x), raised 30 degrees."""
+    reach = arm_reach_m(plant, arm_instance)
+    bodies = [plant.get_body(b) for b in plant.GetBodyIndices(arm_instance)]
+    base = bodies[0].EvalPoseInWorld(plant_context).translation() if bodies else np.zeros(3)
+    d = 1.1 * reach
+    horizontal = np.array([0.0, -1.0, 0.0]) if view == "front" else np.array([1.0, 0.0, 0.0])
+    camera = base + d * (np.cos(np.radians(30)) * horizontal + np.array([0.0, 0.0, np.sin(np.radians(30))]))
+    meshcat.SetCameraPose(camera, base + np.array([0.0, 0.0, -0.1 * reach]))
 
 
 def add_meshcat_visualizer(builder, scene_graph, meshcat: Meshcat, publish_period_s: float = 1 / 30):

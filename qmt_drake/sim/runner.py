@@ -15,6 +15,7 @@ from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.sim.actuation import (FEEDFORWARD_OPTIONS, check_time_step, default_time_step_s,
                                      explicit_step_known_unstable)
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
+from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
 
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
@@ -24,7 +25,9 @@ HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
 class TransferResult:
     """One co-simulated transfer. Times are simulation time: lead_s (0.2 s) of rest, the plan slowed
     by time_scale, settle_s (0.5 s); detached_at_s counts from the start of the lead (None: never).
-    held = never detached and max_slip_m < 1 mm. peak_motor_torque_ratio is the simulated peak over
+    outcome: sim/outcome.py's word (carried / slipped / detached / unfinished); held = outcome is
+    carried: never detached, max_slip_m < 1 mm and the arm ended within arrival_tolerance_rad of the
+    plan's goal (final_goal_error_rad, max over the joints). peak_motor_torque_ratio is the simulated peak over
     the scenario's rated motor torque; peak_moment_ratio_planned is the time-scaled plan's
     m_o r_G |a_tip| peak over the moment limit. real_time_factor = sim_time_s / sim_wall_s.
     explicit_step_known_unstable: the motors drove the plant explicitly at a step above 1 ms, where
@@ -35,6 +38,9 @@ class TransferResult:
     method: str
     time_scale: float
     held: bool
+    outcome: str
+    final_goal_error_rad: float
+    arrival_tolerance_rad: float
     max_slip_m: float
     max_tilt_rad: float
     max_gap_m: float
@@ -57,7 +63,8 @@ class TransferResult:
 
     def summary_dict(self) -> dict:
         d = {k: getattr(self, k) for k in (
-            "scenario", "method", "time_scale", "held", "max_slip_m", "max_tilt_rad", "max_gap_m", "detached_at_s",
+            "scenario", "method", "time_scale", "outcome", "held", "final_goal_error_rad", "arrival_tolerance_rad",
+            "max_slip_m", "max_tilt_rad", "max_gap_m", "detached_at_s",
             "max_tracking_error_rad", "peak_motor_torque_ratio", "peak_moment_ratio_planned",
             "peak_moment_planned_Nm", "energy_J", "coil_current_A", "time_step_s", "implicit_loop_damping",
             "sim_time_s", "sim_wall_s", "real_time_factor", "explicit_step_known_unstable")}
@@ -114,6 +121,9 @@ def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.25, max_tracking_erro
     try:
         _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad)
         summary = td.summary(ctx)  # with per-step logs: computed here, part of the run's cost
+        # Where the arm ended against the goal (the reference holds the plan's end state here).
+        td.final_goal_error_rad = float(np.max(np.abs(
+            ref.Eval(ctx)[:n] - td.plant.GetPositions(plant_ctx, td.arm_instance))))
     finally:
         if gc_was_enabled:
             gc.enable()
@@ -136,8 +146,9 @@ def _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad) -
         err = float(np.max(np.abs(ref.Eval(ctx)[:n] - td.plant.GetPositions(plant_ctx, td.arm_instance))))
         if err > max_tracking_error_rad:
             raise QmtSimulationError(
-                f"simulation diverged at t = {ctx.get_time():.3f} s: joint tracking error {err:.3g} rad > "
-                f"{max_tracking_error_rad} rad (unstable control loop: use a smaller time step, "
+                f"the arm left its reference at t = {ctx.get_time():.3f} s: joint tracking error {err:.3g} rad > "
+                f"{max_tracking_error_rad} rad: the motors cannot follow it (a time scale below 1 asks for more "
+                "torque than the plan's limits) or the control loop is unstable (then use a smaller time step, "
                 f"at most {default_time_step_s(td.implicit_loop_damping) * 1e3:g} ms for this loop)")
 
 
@@ -178,9 +189,13 @@ def make_result(scenario, plan, td, summary, wall, time_scale, series) -> Transf
     detached = None if math.isnan(s["detached_at_s"]) else s["detached_at_s"]
     peak = s["peak_motor_torque_Nm"]
     moment = planned_peak_moment_Nm(scenario, plan, time_scale)
+    final_error = float(getattr(td, "final_goal_error_rad", math.nan))
+    outcome = transfer_outcome(None if detached is None else "detached", s["max_slip_m"] >= HELD_SLIP_LIMIT_M,
+                               final_error, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
     return TransferResult(
         scenario=scenario.name, method=str(getattr(plan, "method", "")), time_scale=float(time_scale),
-        held=bool(detached is None and s["max_slip_m"] < HELD_SLIP_LIMIT_M),
+        held=outcome == "carried", outcome=outcome, final_goal_error_rad=final_error,
+        arrival_tolerance_rad=ARRIVAL_TOLERANCE_DC_MOTOR_RAD,
         max_slip_m=s["max_slip_m"], max_tilt_rad=s["max_tilt_rad"], max_gap_m=s["max_gap_m"],
         detached_at_s=detached, max_tracking_error_rad=s["max_tracking_error_rad"], peak_motor_torque_Nm=peak,
         peak_motor_torque_ratio=float(np.max(peak / scenario.limits.motor_torque_limit_Nm)),

@@ -1,36 +1,29 @@
 """Success probability with a Wilson score interval, and the per-group tables of a sweep.
 
-Wilson (1927): for k successes in n trials and z the two-sided normal quantile,
-
-    centre = (p + z^2 / 2n) / (1 + z^2 / n),   half = z / (1 + z^2 / n) * sqrt(p (1 - p) / n + z^2 / 4n^2)
-
-with p = k / n. Unlike the normal ("Wald") interval it stays inside [0, 1] and is not empty at
-k = 0 or k = n (upper bound z^2 / (n + z^2) at k = 0). tests/test_sweep_stats.py checks it against
-scipy.stats.binomtest(...).proportion_ci(method="wilson") and the closed forms at k = 0 and n.
+The interval is scipy's (`scipy.stats.binomtest(k, n).proportion_ci(method="wilson")`, Wilson 1927):
+unlike the normal ("Wald") interval it stays inside [0, 1] and is not empty at k = 0 or k = n
+(upper bound z^2 / (n + z^2) at k = 0). tests/test_sweep_stats.py checks those closed forms.
 """
 
 from __future__ import annotations
 
-import math
 from collections import defaultdict
+
+from scipy.stats import binomtest
 
 
 def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
-    """Wilson score interval (lower, upper) of a success probability; (0, 1) when n = 0."""
+    """Wilson score interval (lower, upper) of a success probability from k successes in n trials;
+    (0, 1) when n = 0."""
     if n < 0 or k < 0 or k > n:
         raise ValueError(f"need 0 <= k <= n, got k={k}, n={n}")
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must lie in (0, 1), got {confidence}")
     if n == 0:
         return 0.0, 1.0
-    from scipy.stats import norm
-    z = float(norm.ppf(0.5 + confidence / 2))
-    p = k / n
-    denom = 1.0 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z / denom * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="wilson")
     # k = 0 and k = n make the interval touch 0 or 1 exactly (rounding could miss it by 1e-17).
-    return (0.0 if k == 0 else max(0.0, centre - half), 1.0 if k == n else min(1.0, centre + half))
+    return (0.0 if k == 0 else float(ci.low), 1.0 if k == n else float(ci.high))
 
 
 def success_rows(results: list[dict], group_keys=("label",), confidence: float = 0.95) -> list[dict]:

@@ -11,7 +11,8 @@ The arm starts at rest at the schedule's first goal, the bottle seated on the tr
 phase lets the position loops take up gravity before the move.
 
 `simulate_tray` returns a `TrayResult`; `TrayResult.outcome` classifies the run:
-    "carried"    on the tray, upright and in contact at the end
+    "on_tray"    on the tray, upright and in contact at the end (whether it slid is `slipped`;
+                 the transfer's outcome in the common vocabulary is sim/outcome.py's)
     "slid_off"   its base centre left the tray surface
     "tipped"     tilt beyond the angle at which its centre of mass passes the ring's edge
     "lifted"     (reported separately as lifted_s: time with zero normal force)
@@ -167,6 +168,7 @@ class TrayResult:
     friction: float
     com_height_m: float
     phases: dict
+    final_q_rad: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))  # arm joints at the end
     series: dict = field(default_factory=dict, repr=False)
 
     def summary_dict(self) -> dict:
@@ -261,7 +263,7 @@ def classify(series: dict, bottle: BottleSpec) -> tuple[str, float | None]:
     tipped = tilt > tipping_angle_rad(bottle)
     lost = off | tipped
     if not lost.any():
-        return "carried", None
+        return "on_tray", None
     k = int(np.argmax(lost))
     return ("slid_off" if off[k] and not tipped[k] else "tipped"), float(t[k])
 
@@ -306,4 +308,4 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
                       bool(slip > SLIP_THRESHOLD_M), float(np.max(series["tilt"][0][after])),
                       float(np.sum(dt[fn <= LIFT_FORCE_N])), float(np.min(fn)), err, float(schedule.t_end_s), wall,
                       float(schedule.t_end_s / wall), time_step_s, servo_period_s, bottle.friction,
-                      bottle.com_height_m, dict(schedule.phases), series if keep_series else {})
+                      bottle.com_height_m, dict(schedule.phases), q[:, -1].copy(), series if keep_series else {})

@@ -5,8 +5,9 @@ servo period (zero-order hold, as the seed streams its waypoints), after a settl
 start and followed by a tail at the goal; `simulate_tray_plan(scenario, plan)` runs the tray
 co-simulation (tray/cosim.py) with the scenario's bottle, servo gains and servo period and returns
 the summary the shared CLI prints (`held`, `max_slip_m`, `max_tracking_error_rad`,
-`real_time_factor`) plus the tray outcome (carried / slid_off / tipped), slip vs creep, tilt and
-lift-off time.
+`real_time_factor`), the outcome in the common vocabulary (sim/outcome.py: carried / slipped /
+slid_off / tipped / unfinished, with the arm's final error against the plan's goal), slip vs
+creep, tilt and lift-off time.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
 SETTLE_S = 1.0
@@ -28,6 +30,8 @@ def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, sett
     T = float(plan.motion_time_s) * time_scale
     t = np.arange(0.0, T + 0.5 * period_s, period_s)
     t[-1] = min(t[-1], T)
+    if t[-1] < T:  # a plan shorter than one period still ends at its goal
+        t = np.append(t, T)
     q = plan.sample(t / time_scale)[0]
     return _stream(q, t, settle_s, tail_s, f"{plan.method} x{time_scale:g}")
 
@@ -66,7 +70,12 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
     r = simulate_tray(sched, act.gains(), scenario.bottle, time_step_s=time_step_s or TIME_STEP_S,
                       servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path)
     d = r.summary_dict()
-    d.update(held=bool(r.outcome == "carried" and not r.slipped), max_slip_m=float(r.slip_m),
+    q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
+    final_error = float(np.max(np.abs(q_goal - r.final_q_rad)))
+    outcome = transfer_outcome(None if r.outcome == "on_tray" else r.outcome, r.slipped, final_error,
+                               ARRIVAL_TOLERANCE_SERVO_RAD)
+    d.update(outcome=outcome, held=outcome == "carried", final_goal_error_rad=final_error,
+             arrival_tolerance_rad=ARRIVAL_TOLERANCE_SERVO_RAD, max_slip_m=float(r.slip_m),
              max_tracking_error_rad=float(np.max(r.max_tracking_error_rad)),
              per_joint_tracking_error_rad=[float(x) for x in r.max_tracking_error_rad],
              motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),

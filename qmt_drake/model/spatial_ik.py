@@ -1,0 +1,152 @@
+"""SpatialIK: joint positions for hand poses of a spatial arm, checked by forward kinematics.
+
+A target is a hand position (m, world) and either the hand's face normal (the unit vector the hand
+frame's `face_axis` must point along, default its z axis) or a full rotation R_WH. Each target is
+solved by Drake's `InverseKinematics` (SNOPT or IPOPT, joint limits imposed) from a seed, with a
+quadratic cost on the distance to the seed so the solver stays on the seed's branch (elbow up or
+down, wrist flip; for a redundant arm, the nearest posture); a path is solved point by point, each
+seeded from the previous solution. The solution is then polished by Gauss-Newton steps on the
+SpatialChain Jacobian (the solver stops at its feasibility tolerance, about 1e-6) and checked by
+Drake's forward kinematics (`Frame.CalcPoseInWorld`): position within 1e-6 m and orientation (normal
+or rotation) within 1e-6 rad, joint limits held. A target that fails is refused with one line naming
+it (QmtInputError). `max_joint_step_rad` on a path refuses a jump between neighbouring points
+(a branch change) instead of returning a discontinuous joint path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RotationMatrix
+from pydrake.multibody.inverse_kinematics import InverseKinematics
+from pydrake.solvers import Solve
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.model.spatial_chain import SpatialChain
+
+POSITION_TOL_M = 1e-6
+ANGLE_TOL_RAD = 1e-6
+
+
+class SpatialIK:
+    def __init__(self, plant, hand_frame, *, face_axis=(0.0, 0.0, 1.0), name: str = "arm") -> None:
+        self.plant = plant
+        self.hand = plant.GetFrameByName(hand_frame) if isinstance(hand_frame, str) else hand_frame
+        self.chain = SpatialChain(plant, self.hand)
+        self.face_axis = np.asarray(face_axis, float) / np.linalg.norm(face_axis)
+        self.name = name
+        self.lower = plant.GetPositionLowerLimits()
+        self.upper = plant.GetPositionUpperLimits()
+        self._ctx = plant.CreateDefaultContext()
+
+    # ------------------------------------------------------------------ checks
+    def pose(self, q):
+        """Drake's forward kinematics: (p_WH (3,), R_WH (3, 3))."""
+        self.plant.SetPositions(self._ctx, q)
+        X = self.hand.CalcPoseInWorld(self._ctx)
+        return X.translation(), X.rotation().matrix()
+
+    def errors(self, q, position_m, normal=None, rotation=None):
+        """(position error m, orientation error rad) of q for a target, by Drake's kinematics."""
+        p, R = self.pose(q)
+        ep = float(np.linalg.norm(p - position_m))
+        if rotation is not None:
+            ea = float(RotationMatrix(rotation.T @ R).ToAngleAxis().angle())
+        elif normal is not None:
+            n = R @ self.face_axis
+            ea = float(np.arctan2(np.linalg.norm(np.cross(n, normal)), n @ normal))
+        else:
+            ea = 0.0
+        return ep, ea
+
+    # ------------------------------------------------------------------ solving
+    def solve(self, position_m, *, normal=None, rotation=None, seed, what: str = "task point") -> np.ndarray:
+        """q (n,) reaching the target, on the seed's branch; QmtInputError naming `what` if none."""
+        p = np.asarray(position_m, float).reshape(3)
+        n_t, R_t = _target_orientation(normal, rotation, what)
+        seed = np.asarray(seed, float).reshape(self.chain.n_dof)
+        q = self._drake_ik(p, n_t, R_t, seed)
+        q = self._polish(q, p, n_t, R_t)
+        ep, ea = self.errors(q, p, n_t, R_t)
+        inside = np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9)
+        if ep > POSITION_TOL_M or ea > ANGLE_TOL_RAD or not inside:
+            orient = ("" if n_t is None and R_t is None else
+                      f" with normal {np.round(n_t, 4).tolist()}" if n_t is not None else " with the given rotation")
+            raise QmtInputError(f"{what} at {np.round(p, 4).tolist()} m{orient} is out of reach of {self.name} "
+                                f"(best found misses by {ep:.3g} m, {ea:.3g} rad"
+                                f"{'' if inside else ', outside the joint limits'}); move the point or "
+                                "change its orientation")
+        return q
+
+    def solve_path(self, positions_m, *, normals=None, rotations=None, seed, max_joint_step_rad=None,
+                   what: str = "path point") -> np.ndarray:
+        """(K, n) joint positions along K targets, point k seeded from point k-1 (the first from
+        `seed`); a joint step above max_joint_step_rad between neighbours is refused."""
+        P = np.atleast_2d(np.asarray(positions_m, float))
+        out = np.empty((len(P), self.chain.n_dof))
+        prev = np.asarray(seed, float)
+        for k, p in enumerate(P):
+            q = self.solve(p, normal=None if normals is None else normals[k],
+                           rotation=None if rotations is None else rotations[k], seed=prev, what=f"{what} {k}")
+            if max_joint_step_rad is not None and k > 0:
+                step = float(np.abs(q - prev).max())
+                if step > max_joint_step_rad:
+                    raise QmtInputError(f"{what} {k} at {np.round(p, 4).tolist()} m: the joints jump by {step:.3g} rad "
+                                        f"from point {k - 1} (a branch change; max {max_joint_step_rad} rad); add "
+                                        "points in between or choose another seed")
+            out[k] = prev = q
+        return out
+
+    def _drake_ik(self, p, n_t, R_t, seed):
+        ik = InverseKinematics(self.plant, with_joint_limits=True)
+        W = self.plant.world_frame()
+        ik.AddPositionConstraint(self.hand, np.zeros(3), W, p, p)
+        if R_t is not None:
+            ik.AddOrientationConstraint(W, RotationMatrix(R_t), self.hand, RotationMatrix(), 0.0)
+        elif n_t is not None:
+            ik.AddAngleBetweenVectorsConstraint(W, n_t, self.hand, self.face_axis, 0.0, 1e-9)
+        prog = ik.get_mutable_prog()
+        prog.AddQuadraticErrorCost(np.eye(len(seed)), seed, ik.q())
+        prog.SetInitialGuess(ik.q(), np.clip(seed, self.lower, self.upper))
+        result = Solve(prog)
+        return result.GetSolution(ik.q())
+
+    def _polish(self, q, p, n_t, R_t, iterations: int = 8):
+        """Gauss-Newton on the hand pose error (minimum-norm steps, so a redundant arm moves least)."""
+        q = np.array(q, float)
+        for _ in range(iterations):
+            pos, R = self.chain.hand_pose(q[None])
+            pos, R = pos[0], R[0]
+            J = self.chain.spatial_jacobian(q[None])[0]
+            e_p = p - pos
+            if R_t is not None:
+                aa = RotationMatrix(R_t @ R.T).ToAngleAxis()
+                e_w = aa.axis() * aa.angle()
+                rows, err = J, np.concatenate([e_w, e_p])
+            elif n_t is not None:
+                n = R @ self.face_axis
+                e_w = np.cross(n, n_t)  # small rotation taking n to n_t
+                P = np.eye(3) - np.outer(n, n)  # spin about n does not move the normal
+                rows, err = np.vstack([P @ J[:3], J[3:]]), np.concatenate([P @ e_w, e_p])
+            else:
+                rows, err = J[3:], e_p
+            if np.abs(err).max() < 1e-13:
+                break
+            q = q + np.linalg.lstsq(rows, err, rcond=1e-10)[0]
+        return q
+
+
+def _target_orientation(normal, rotation, what):
+    if normal is not None and rotation is not None:
+        raise QmtInputError(f"{what}: give either a face normal or a rotation, not both")
+    if rotation is not None:
+        R = np.asarray(rotation, float).reshape(3, 3)
+        if np.abs(R @ R.T - np.eye(3)).max() > 1e-9 or np.linalg.det(R) < 0:
+            raise QmtInputError(f"{what}: the rotation is not a proper rotation matrix (R R^T = I, det R = 1 "
+                                "to 1e-9); give an orthonormal right-handed matrix")
+        return None, R
+    if normal is not None:
+        n = np.asarray(normal, float).reshape(3)
+        if not np.isfinite(n).all() or np.linalg.norm(n) < 1e-12:
+            raise QmtInputError(f"{what}: the face normal {n.tolist()} has no direction; give a nonzero vector")
+        return n / np.linalg.norm(n), None
+    return None, None

@@ -1,0 +1,144 @@
+"""TOPP-RA on a spatial arm's joint path with 3-D limit terms (e.g. the suction grip), and Drake's Toppra.
+
+The path q(s) is a Drake PiecewisePolynomial (`joint_path`: cubic through IK waypoints with
+continuous second derivatives and zero end slopes, s the cumulative joint-space chord length, rad).
+`plan_toppra` hands the same object to the `toppra` package (wrapped as its geometric path) with
+joint velocity and acceleration limits and any LimitTerm whose `toppra_w` / `toppra_rows` exist,
+w evaluated by SpatialChain for all grid points in three batched calls (limits/toppra_form.py).
+`plan_drake_toppra` runs pydrake's Toppra on the same path and grid with the limits it has (joint
+velocity, acceleration and torque). Both return the duration of their parameterisation (constant s-ddot
+between grid points) and the planning time. `recheck` samples a plan: the terms' columns at every
+grid point and at `refine` points per interval (the plan holds at the grid; between grid points
+the path's curvature may add a little).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import toppra
+from pydrake.multibody.optimization import Toppra
+from pydrake.trajectories import PiecewisePolynomial
+from toppra.interpolator import AbstractGeometricPath
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.toppra_form import rows_constraint
+
+
+def joint_path(q_waypoints) -> PiecewisePolynomial:
+    """q(s) through (K, n) waypoints; s = cumulative Euclidean joint-space chord length (rad)."""
+    Q = np.asarray(q_waypoints, float)
+    step = np.linalg.norm(np.diff(Q, axis=0), axis=1)
+    if np.any(step <= 0):
+        raise QmtInputError("joint path: two neighbouring waypoints are equal; drop one")
+    s = np.r_[0.0, np.cumsum(step)]
+    zero = np.zeros(Q.shape[1])
+    return PiecewisePolynomial.CubicWithContinuousSecondDerivatives(s, Q.T, zero, zero)
+
+
+class DrakePath(AbstractGeometricPath):
+    """A Drake trajectory q(s) as toppra's geometric path (so both solvers see the same path)."""
+
+    def __init__(self, pp: PiecewisePolynomial) -> None:
+        self.pp = pp
+        self._d = [pp, pp.derivative(1), pp.derivative(2)]
+
+    def __call__(self, path_positions, order: int = 0):
+        s = np.atleast_1d(np.asarray(path_positions, float))
+        out = self._d[order].vector_values(s).T
+        return out if np.ndim(path_positions) else out[0]
+
+    @property
+    def dof(self) -> int:
+        return self.pp.rows()
+
+    @property
+    def path_interval(self):
+        return np.array([self.pp.start_time(), self.pp.end_time()])
+
+
+def pick_and_place_waypoints(ik, pick_m, place_m, *, lift_m: float, seed, normal=(0.0, 0.0, -1.0),
+                             n_transfer: int = 5) -> np.ndarray:
+    """(K, n) joint waypoints of a pick-and-place move with the hand's face normal held: up from
+    `pick_m` by lift_m, a straight transfer at that height (n_transfer inner points), down to
+    `place_m`; solved by SpatialIK point by point from `seed` (branch kept, jumps refused)."""
+    A, B = np.asarray(pick_m, float), np.asarray(place_m, float)
+    up = np.array([0.0, 0.0, lift_m])
+    pts = [A, A + up] + [(1 - t) * (A + up) + t * (B + up) for t in np.linspace(0, 1, n_transfer + 2)[1:-1]]
+    pts += [B + up, B]
+    normals = np.repeat(np.asarray(normal, float)[None], len(pts), axis=0)
+    return ik.solve_path(np.array(pts), normals=normals, seed=seed, max_joint_step_rad=1.0, what="pick-and-place point")
+
+
+def _duration(grid, sd) -> float:
+    """Time of the constant-s-ddot parameterisation through (grid, sd)."""
+    ds = np.diff(grid)
+    return float(np.sum(2.0 * ds / (sd[:-1] + sd[1:])))
+
+
+def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000, **row_options):
+    """dict(duration_s, planning_s, grid, sd, sdd) or QmtInputError when no parameterisation exists."""
+    t0 = time.perf_counter()
+    path = DrakePath(pp)
+    n = chain.n_dof
+    vlim = np.stack([-np.asarray(velocity_limit, float), np.asarray(velocity_limit, float)], axis=1)
+    alim = np.stack([-np.asarray(acceleration_limit, float), np.asarray(acceleration_limit, float)], axis=1)
+    cons = [toppra.constraint.JointVelocityConstraint(vlim),
+            toppra.constraint.JointAccelerationConstraint(
+                alim, discretization_scheme=toppra.constraint.DiscretizationType.Interpolation)]
+    for term in terms:
+        F, g = term.toppra_rows(**row_options)
+        cons.append(rows_constraint(lambda q, qd, qdd, term=term: term.toppra_w(chain.evaluate(q, qd, qdd)), F, g, n))
+    grid = np.linspace(*path.path_interval, n_grid)
+    algo = toppra.algorithm.TOPPRA(cons, path, gridpoints=grid, solver_wrapper="seidel")
+    sdd, sd, _ = algo.compute_parameterization(0.0, 0.0)
+    planning_s = time.perf_counter() - t0
+    if sd is None or not np.all(np.isfinite(sd)):
+        raise QmtInputError("TOPP-RA found no parameterisation of the path under the limits (the path starts or "
+                            "passes where the limits cannot hold even at rest); relax a limit or change the path")
+    sd = np.asarray(sd, float)
+    return {"duration_s": _duration(grid, sd), "planning_s": planning_s, "grid": grid, "sd": sd,
+            "sdd": np.asarray(sdd, float), "n_grid": n_grid}
+
+
+def plan_drake_toppra(pp, plant, *, velocity_limit, acceleration_limit, torque_limit=None,
+                      n_grid: int = 1000) -> dict:
+    """pydrake's Toppra with joint velocity and acceleration limits and, if given, joint torque limits
+    (N m; Drake's own inverse dynamics of `plant`, gravity and any welded carried body included)."""
+    t0 = time.perf_counter()
+    grid = np.linspace(pp.start_time(), pp.end_time(), n_grid)
+    solver = Toppra(pp, plant, grid)
+    v, a = np.asarray(velocity_limit, float), np.asarray(acceleration_limit, float)
+    solver.AddJointVelocityLimit(-v, v)
+    solver.AddJointAccelerationLimit(-a, a)
+    if torque_limit is not None:
+        tl = np.asarray(torque_limit, float)
+        solver.AddJointTorqueLimit(-tl, tl)
+    s_traj = solver.SolvePathParameterization()
+    planning_s = time.perf_counter() - t0
+    if s_traj is None:
+        raise QmtInputError("Drake's Toppra found no parameterisation of the path; relax a limit")
+    return {"duration_s": float(s_traj.end_time() - s_traj.start_time()), "planning_s": planning_s,
+            "n_grid": n_grid, "s_of_t": s_traj}
+
+
+def recheck(plan: dict, pp, chain, terms, *, refine: int = 10) -> dict:
+    """Largest column of each term (and joint speed/acceleration) sampled on the constant-s-ddot
+    parameterisation: at the grid points and at `refine` points inside every interval."""
+    grid, sd = plan["grid"], plan["sd"]
+    ds = np.diff(grid)
+    u = (sd[1:] ** 2 - sd[:-1] ** 2) / (2.0 * ds)  # s-ddot of each interval
+    frac = np.linspace(0.0, 1.0, refine + 1)
+    s = (grid[:-1, None] + frac[None, :] * ds[:, None]).ravel()
+    x = (sd[:-1, None] ** 2 + 2.0 * u[:, None] * frac[None, :] * ds[:, None]).ravel()
+    uu = np.repeat(u, refine + 1)
+    path = DrakePath(pp)
+    q, qs, qss = path(s, 0), path(s, 1), path(s, 2)
+    qd = qs * np.sqrt(np.maximum(x, 0.0))[:, None]
+    qdd = qs * uu[:, None] + qss * x[:, None]
+    state = chain.evaluate(q, qd, qdd)
+    out = {t.name: float(np.max(t.columns(state))) for t in terms}
+    out["max_joint_speed_rad_s"] = np.abs(qd).max(axis=0)
+    out["max_joint_acceleration_rad_s2"] = np.abs(qdd).max(axis=0)
+    return out
