@@ -132,7 +132,7 @@ def search_type(task: Task, type_name: str, method: str = "ga", seed: int = 0,
         return best
     if method == "exhaustive":
         return exhaustive(pr)
-    raise ValueError(f"unknown search method {method!r}")
+    raise QmtInputError(f"search method {method!r}: use one of {', '.join(METHODS)}")
 
 
 def _search_star(args):
