@@ -197,7 +197,7 @@ def design_estimate(*, method: str, types: int, units: int, generations: int = 4
     mem = batch * _f(units) * DESIGN_BYTES_PER_DESIGN_UNIT * max(1, min(workers, types))
     what = (f"the exhaustive design search ({types} types x {DESIGN_GRID} designs x {units} unit tasks)"
             if method == "exhaustive" else
-            f"the design GA ({types} types x {_f(generations):g} generations x {units} unit tasks)")
+            f"the design GA ({types} type(s) x at most {_f(generations):g} generations x {units} unit tasks)")
     return Estimate(mem, seconds, what, "use fewer generations (--generations MAX,STALL), fewer "
                     "types (--types) or fewer unit tasks")
 
