@@ -197,7 +197,7 @@ def design_estimate(*, method: str, types: int, units: int, generations: int = 4
     mem = batch * _f(units) * DESIGN_BYTES_PER_DESIGN_UNIT * max(1, min(workers, types))
     what = (f"the exhaustive design search ({types} types x {DESIGN_GRID} designs x {units} unit tasks)"
             if method == "exhaustive" else
-            f"the design GA ({types} types x {_f(generations):g} generations x {units} unit tasks)")
+            f"the design GA ({types} type(s) x at most {_f(generations):g} generations x {units} unit tasks)")
     return Estimate(mem, seconds, what, "use fewer generations (--generations MAX,STALL), fewer "
                     "types (--types) or fewer unit tasks")
 
@@ -211,9 +211,15 @@ def sweep_estimate(cases: int, per_case: Estimate, *, workers: int = 1, plans: E
     if plans is not None:
         seconds += plans.seconds
         mem = max(mem, plans.bytes)
-    alone = per_case.bytes > MEMORY_BUDGET_BYTES or per_case.seconds > TIME_BUDGET_S
-    return Estimate(mem, seconds, f"a sweep of {_f(cases):g} cases on {w} worker(s) (each {per_case.what})",
-                    per_case.fix if alone else "narrow the grid or lower monte_carlo.cases")
+    what = f"a sweep of {_f(cases):g} cases on {w} worker(s) (each {per_case.what})"
+    fix = "narrow the grid or lower monte_carlo.cases"
+    if per_case.bytes > MEMORY_BUDGET_BYTES or per_case.seconds > TIME_BUDGET_S:
+        fix = per_case.fix
+    if plans is not None:
+        what += f" after its plans ({plans.what})"
+        if plans.bytes > MEMORY_BUDGET_BYTES or plans.seconds > TIME_BUDGET_S:
+            fix = plans.fix.replace("--generations, or a stall limit", "the plan's options.max_generations")
+    return Estimate(mem, seconds, what, fix)
 
 
 def motion_time_bound_s(scenario) -> float:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
+import functools
 import importlib
 import io
 import re
@@ -196,8 +197,13 @@ def missing_input(rng, ctx: Ctx, suffix=".yaml") -> str:
                        str(ctx.afile), f"{ctx.afile}/x{suffix}"])
 
 
+def _junk(rng) -> str:
+    """A random non-number: digits with a stray character."""
+    return f"{int(rng.integers(100))}{_pick(rng, ['x', ',', '..', '/', ' 1', 'j', '%'])}{int(rng.integers(10))}"
+
+
 def _int_word(rng) -> str:
-    return _pick(rng, list(WORDS) + [f"{rng.uniform(0.1, 9):.2f}", "1e3", "two"])
+    return _pick(rng, list(WORDS) + [f"{rng.uniform(0.1, 9):.2f}", "1e3", "two", _junk(rng), _junk(rng)])
 
 
 # ----------------------------------------------------------------------------------- generators
@@ -343,7 +349,7 @@ def gen_design(klass: str, rng, ctx: Ctx) -> list:
             non_finite(rng, d, skip=("name", "description"))
         return ["design", ctx.write(d)]
     if klass == "sizes":
-        if r < 0.8:
+        if r < 0.9:
             return ["design", t, "--generations", f"{int(10 ** rng.uniform(6, 15))},{int(rng.integers(0, 200))}"]
         d = ctx.task(t)
         n = int(rng.integers(400, 600))  # the default GA: ~4.9 h at 400 unit tasks
@@ -423,7 +429,7 @@ def gen_sweep(klass: str, rng, ctx: Ctx) -> list:
             d["plans"] = [{"file": missing_input(rng, ctx, ".json")}]
             return ["sweep", ctx.write(d)]
         if r < 0.9:
-            return ["sweep", ctx.write(d), "--scheduler", _pick(rng, ["tcp://127.0.0.1:1", "nohost", "tcp://:80",
+            return ["sweep", ctx.write(d), "--scheduler", _pick(rng, ["tcp://127.0.0.1:0", "nohost", "tcp://:80",
                                                                      "http://h:1", "tcp://h:99999", "udp://x:1",
                                                                      "tcp://no-such-host.invalid:8786"])]
         return ["sweep", missing_input(rng, ctx)]
@@ -436,8 +442,8 @@ def gen_benchmark(klass: str, rng, ctx: Ctx) -> list:
     cmd = _pick(rng, ["bench", "benchmark"])
     if klass == "types":
         flag = "--seeds" if cmd == "bench" else _pick(rng, ["--ga-seeds", "--jerk-limits"])
-        return [cmd, flag, _pick(rng, ["abc", "ten", "1,5", "0x1g", "two", "--"]) if flag != "--jerk-limits"
-                else _pick(rng, ["abc", "fast", "1,5", "0x1g"])]
+        return [cmd, flag, _pick(rng, ["abc", "ten", "0x1g", "two", "--", "2.5", _junk(rng)]) if flag != "--jerk-limits"
+                else _pick(rng, ["abc", "fast", "0x1g", _junk(rng), _junk(rng)])]
     if klass == "ranges":
         if cmd == "bench":
             return [cmd, "--seeds", str(-int(rng.integers(0, 10**6)))]
@@ -478,14 +484,20 @@ def _accepted(*args, **kwargs):
     raise Accepted("a bad input reached the work")
 
 
+# Lists of the built-in scenarios: each call parses every built-in YAML file (~70 ms); the list is
+# fixed while the tests run, so it is computed once (speed only: the same names are returned).
+CACHED = ("qmt_drake.config.scenario:builtin_scenarios", "qmt_drake.energy.scenario:builtin_scenarios",
+          "qmt_drake.energy.scenario:builtin_energy_scenarios")
+
+
 @contextlib.contextmanager
 def stubbed():
     saved = []
-    for spec in STUBS:
+    for spec in STUBS + CACHED:
         mod, _, attr = spec.partition(":")
         m = importlib.import_module(mod)
         saved.append((m, attr, getattr(m, attr)))
-        setattr(m, attr, _accepted)
+        setattr(m, attr, functools.cache(getattr(m, attr)) if spec in CACHED else _accepted)
     try:
         yield
     finally:
@@ -527,15 +539,80 @@ def problems(command: str, klass: str, ctx: Ctx, n: int = N_PER_CLASS) -> tuple[
     return bad, results
 
 
+# ------------------------------------------------------------------------- the issue's own list
+def issue_files(ctx: Ctx) -> dict:
+    """The files the issue's inputs name (written into ctx.tmp)."""
+    task = ctx.task("task1_welding_plate")
+    f = {}
+    t = copy.deepcopy(task)
+    t["obstacels"] = t.pop("obstacles")
+    f["misspelt_obstacles"] = ctx.write(t)
+    t = copy.deepcopy(task)
+    t["units"][0] = "P0"
+    f["unit_not_mapping"] = ctx.write(t)
+    f["obstacles_number"] = ctx.write(dict(task, obstacles=2))
+    f["radius_word"] = ctx.write(dict(task, link_radius_m="thick"))
+    t = copy.deepcopy(task)
+    t["units"][0]["work"] = ["forward"]
+    f["direction_word"] = ctx.write(t)
+    f["negative_radius"] = ctx.write(dict(task, link_radius_m=-0.04))
+    sc = ctx.scenario("thesis-ch4")
+    f["check_rate"] = ctx.write(dict(sc, sampling={"plan_rate_hz": 1000.0, "check_rate_hz": 1e10}))
+    f["population"] = ctx.write(dict(sc, ga=dict(sc["ga"], population=10_000_000)))
+    text = yaml.safe_dump(sc, sort_keys=False).replace("  mass_kg: 0.03\n", "  mass_kg: 0.03\n  mass_kg: 0.3\n", 1)
+    f["duplicated_key"] = ctx.write(None, text=text)
+    spec = copy.deepcopy(SPEC)
+    spec["monte_carlo"]["cases"] = 999_999
+    spec["parameters"] = {"friction": {"dist": "normal", "mean": 0.3, "std": 0.03}}
+    f["cases"] = ctx.write(spec)
+    f["spec"] = ctx.write(SPEC)
+    return f
+
+
+# (class of the issue, argv with {name} for issue_files and {tmp}, {afile})
+ISSUE_CASES = (
+    ("unwritable output", ["plan", "ohsaka-fig3", "--json", "/proc/x.json"]),
+    ("unwritable output", ["plan", "ohsaka-fig3", "--execute", "/proc/x.png"]),
+    ("unwritable output", ["design", "peg_in_hole", "--out", "/proc/x"]),
+    ("unwritable output", ["sweep", "{spec}", "--out", "/proc/x"]),
+    ("unwritable output", ["sweep", "{spec}", "--out", "{afile}"]),
+    ("unwritable output", ["sweep", "{spec}", "--out", "{tmp}/out", "--json", "/proc/x/run.json"]),
+    ("size", ["plan", "ohsaka-fig3", "--m", "3000"]),
+    ("size", ["plan", "ohsaka-fig3", "--divisions", "1000000000"]),
+    ("size", ["simulate", "thesis-ch4", "--method", "thesis", "--time-scale", "1e6"]),
+    ("size", ["simulate", "thesis-ch4", "--method", "thesis", "--time-scale", "1e4"]),
+    ("size", ["plan", "{check_rate}", "--method", "thesis"]),
+    ("size", ["plan", "{population}"]),
+    ("size", ["sweep", "{cases}", "--out", "{tmp}/out"]),
+    ("size", ["design", "task1_welding_plate", "--generations", "1000000000,100", "--out", "{tmp}/out"]),
+    ("design task file", ["design", "{unit_not_mapping}", "--out", "{tmp}/out"]),
+    ("design task file", ["design", "{obstacles_number}", "--out", "{tmp}/out"]),
+    ("design task file", ["design", "{radius_word}", "--out", "{tmp}/out"]),
+    ("design task file", ["design", "{direction_word}", "--out", "{tmp}/out"]),
+    ("design task file", ["design", "{misspelt_obstacles}", "--out", "{tmp}/out"]),
+    ("design task file", ["design", "{negative_radius}", "--out", "{tmp}/out"]),
+    ("sweep scheduler", ["sweep", "{spec}", "--out", "{tmp}/out", "--scheduler", "tcp://10.255.255.1:8786"]),
+    ("duplicated YAML key", ["plan", "{duplicated_key}", "--method", "thesis"]),
+)
+
+
+def issue_argv(argv, ctx: Ctx, files: dict) -> list:
+    return [a.format(tmp=ctx.tmp, afile=ctx.afile, **files) for a in argv]
+
+
 # ------------------------------------------------------------------------------ docs/bad_inputs.md
 def _normal(text: str, ctx: Ctx) -> str:
     text = text.replace(str(ctx.tmp), "$TMP").replace(str(ROOT), "$REPO")
     text = re.sub(r"this machine has \([^)]*\)|this machine has [0-9.]+ [KMGT]iB", "this machine has <RAM>", text)
+    text = re.sub(r"answered within ([0-9.]+) s \(.*\); start", r"answered within \1 s (<why>); start", text)
     return text.replace("|", "\\|")
 
 
 def _show_argv(argv) -> str:
-    return " ".join(a if a and " " not in a else repr(a) for a in map(str, argv))
+    argv = [a if a and " " not in a else repr(a) for a in map(str, argv)]
+    if len(argv) > 12:
+        argv = argv[:8] + [f"... ({len(argv) - 10} more) ..."] + argv[-2:]
+    return " ".join(argv)
 
 
 def doc_text(tmp: Path) -> str:
@@ -549,6 +626,16 @@ def doc_text(tmp: Path) -> str:
                 _, err = run(argv)
             line = err.strip().splitlines()[0] if err.strip() else "(nothing)"
             rows.append(f"| {klass} | `qmt-drake {_normal(_show_argv(argv), ctx)}` | {_normal(line, ctx)} |")
+    files = issue_files(ctx)
+    names = {v: "{" + k + "}" for k, v in files.items()}
+    issue_rows = []
+    for klass, argv in ISSUE_CASES:
+        argv = issue_argv(argv, ctx, files)
+        with stubbed():
+            _, err = run(argv)
+        line = err.strip().splitlines()[0] if err.strip() else "(nothing)"
+        shown = " ".join(names.get(a, a) for a in argv)
+        issue_rows.append(f"| {klass} | `qmt-drake {_normal(shown, ctx)}` | {_normal(line, ctx)} |")
     return ("# Bad inputs: what each command prints\n\n"
             "Generated by `python -m tests.inputs_fuzz --write docs/bad_inputs.md` from the randomized tests\n"
             "of tests/test_inputs_randomized.py (issue 21): for every command and every class of bad input,\n"
@@ -563,7 +650,14 @@ def doc_text(tmp: Path) -> str:
             "cannot be written, inputs that do not exist, scheduler addresses nobody answers), keys\n"
             "(unknown, misspelt or duplicated keys of scenario, task and sweep files).\n\n"
             "| class | command | the line it prints (stderr, exit 2) |\n|---|---|---|\n"
-            + "\n".join(rows) + "\n")
+            + "\n".join(rows) + "\n\n"
+            "## The inputs of issue 21's list\n\n"
+            "Each also runs through the real entry point (`python -m qmt_drake.apps.cli`, a subprocess) in\n"
+            "tests/test_inputs_randomized.py, which checks it is refused within 5 s and 1 GiB. `{name}` is a\n"
+            "file the test writes (tests/inputs_fuzz.py `issue_files`: e.g. {misspelt_obstacles} is task1\n"
+            "with `obstacels:`, {check_rate} thesis-ch4 with `check_rate_hz: 1e10`).\n\n"
+            "| class | command | the line it prints (stderr, exit 2) |\n|---|---|---|\n"
+            + "\n".join(issue_rows) + "\n")
 
 
 if __name__ == "__main__":

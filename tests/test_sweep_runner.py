@@ -3,6 +3,7 @@ a worker killed mid-case is retried and no finished case is lost, a case that ki
 fails alone and is the only one a rerun computes, a rerun of a finished sweep computes nothing,
 and an unreachable scheduler is a one-line error within 10 s."""
 
+import json
 import os
 import time
 
@@ -96,8 +97,8 @@ def test_rerun_of_a_finished_sweep_computes_nothing(tmp_path):
     cases.mkdir(parents=True)
     from qmt_drake.sweep.cases import build_cases
     for c in build_cases(spec)[0]:  # pretend a previous run finished both
-        (cases / f"{c.key}.json").write_text('{"label": "thesis", "held": true, "max_slip_m": 1e-4, '
-                                             '"parameters": {"friction": %r}}' % c.parameters["friction"])
+        (cases / f"{c.key}.json").write_text(json.dumps({"label": "thesis", "held": True, "max_slip_m": 1e-4,
+                                                         "parameters": {"friction": c.parameters["friction"]}}))
 
     def boom(*a):  # never called: nothing is pending, so not even a cluster is started
         raise AssertionError("recomputed a finished case")
@@ -134,3 +135,13 @@ def test_a_failed_plan_fails_only_its_cases(client, tmp_path):
     assert out["computed"] == 2 and out["failed"] == 2
     assert any("planner crashed" in f["error"] for f in out["failures"])
     assert {r["label"] for r in out["rows"]} == {"thesis"}
+
+
+def test_probe_refuses_a_closed_port_after_its_timeout():
+    import time
+
+    from qmt_drake.sweep.runner import probe_scheduler
+    t = time.perf_counter()
+    with pytest.raises(QmtInputError, match="no Dask scheduler answered within 0.5 s"):
+        probe_scheduler("tcp://127.0.0.1:1", 0.5)
+    assert 0.4 < time.perf_counter() - t < 3.0  # retried while refused (a starting scheduler), then one line

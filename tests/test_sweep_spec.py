@@ -134,3 +134,39 @@ def test_plan_file_key_ignores_wall_times(tmp_path):
     f.write_text("{not json")
     with pytest.raises(QmtInputError, match="cannot be read"):
         build_cases(load_spec(s))
+
+
+def test_explicit_step_limit_agrees_with_the_simulation():
+    from qmt_drake.sim.actuation import EXPLICIT_MAX_TIME_STEP_S
+    from qmt_drake.sweep.spec import EXPLICIT_MAX_TIME_STEP_S as SPEC_LIMIT
+    assert SPEC_LIMIT == EXPLICIT_MAX_TIME_STEP_S
+
+
+@pytest.mark.parametrize("sim, params, words", [
+    ({"time_step_s": 3.5}, {}, ["sim.time_step_s", "<= 0.005"]),
+    ({}, {"time_step_s": [0.001, 0.5]}, ["time_step_s", "<= 0.005"]),
+    ({"implicit_loop_damping": False, "time_step_s": 0.002}, {}, ["known unstable above 1 ms"]),
+    ({"implicit_loop_damping": "yes"}, {}, ["implicit_loop_damping must be true or false"]),
+    ({}, {"friction": "0.3"}, ["must be a number, got '0.3'"]),
+])
+def test_steps_and_types_refused(sim, params, words):
+    with pytest.raises(QmtInputError) as e:
+        load_spec(spec(sim=sim, parameters=params))
+    for w in words:
+        assert w in str(e.value), str(e.value)
+
+
+def test_planner_options_are_the_planners_keywords():
+    with pytest.raises(QmtInputError, match="not an option of the ga planner"):
+        load_spec(spec(plans=[{"method": "ga", "options": {"max_generation": 5}}]))
+    with pytest.raises(QmtInputError, match="max_generations must be an integer >= 1"):
+        load_spec(spec(plans=[{"method": "ga", "options": {"max_generations": 2.5}}]))
+    s = load_spec(spec(plans=[{"method": "ga", "options": {"max_generations": 5, "stall_generations": 0}}]))
+    assert s.plans[0]["options"] == {"max_generations": 5, "stall_generations": 0}
+
+
+def test_duplicated_key_in_a_spec_file(tmp_path):
+    p = tmp_path / "s.yaml"
+    p.write_text("name: a\nscenario: thesis-ch4\nplans: [{method: thesis}]\nname: b\n")
+    with pytest.raises(QmtInputError, match="duplicated key 'name'"):
+        load_spec(p)

@@ -123,7 +123,8 @@ def cmd_design(args) -> int:
     check_output_dir(out, "--out")
     announce(est)
     res, wall = run_all_types(task, method=args.method, workers=min(args.workers, len(types)), seed=args.seed,
-                              types=types, branch=args.branch, ga_generations=gens)
+                              types=types, branch=args.branch, ga_generations=gens,
+                              progress=lambda line: print(line, file=sys.stderr, flush=True))
     res = sorted(res, key=lambda r: -r.E_per_m)
     rows = ["| type | gene | E [1/m] | designs evaluated | wall [s] |", "|---|---|---|---|---|"]
     for r in res:

@@ -14,7 +14,7 @@
 from __future__ import annotations
 
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -132,7 +132,7 @@ def search_type(task: Task, type_name: str, method: str = "ga", seed: int = 0,
         return best
     if method == "exhaustive":
         return exhaustive(pr)
-    raise ValueError(f"unknown search method {method!r}")
+    raise QmtInputError(f"search method {method!r}: use one of {', '.join(METHODS)}")
 
 
 def _search_star(args):
@@ -143,16 +143,26 @@ def run_all_types(task: Task, *, method: str = "ga", workers: int = 2, seed: int
                   types=TYPES,
                   ga_generations: tuple = GA_GENERATIONS,
                   relations: dict | None = None,
-                  branch: str = "task", restarts: int = 1) -> tuple[list[SearchResult], float]:
+                  branch: str = "task", restarts: int = 1, progress=None) -> tuple[list[SearchResult], float]:
     """Search every type (in `workers` processes; 1 = in this process). Returns the results in
-    TYPES order and the wall time in s."""
+    TYPES order and the wall time in s; `progress(line)` hears of each type as it finishes."""
     t0 = time.perf_counter()
     if method not in METHODS:
         raise QmtInputError(f"search method {method!r}: use one of {', '.join(METHODS)}")
     jobs = [(task, t, method, seed, ga_generations, relations, branch, restarts) for t in types]
+
+    def done(r, k):
+        if progress:
+            progress(f"design {task.name}: {r.type_name} done ({k}/{len(jobs)} types), E {r.E_per_m:.4f} 1/m, "
+                     f"{time.perf_counter() - t0:.0f} s")
+        return r
+
     if workers <= 1:
-        res = [_search_star(j) for j in jobs]
+        res = [done(_search_star(j), k + 1) for k, j in enumerate(jobs)]
     else:
         with ProcessPoolExecutor(max_workers=workers) as ex:
-            res = list(ex.map(_search_star, jobs))
+            futures = [ex.submit(_search_star, j) for j in jobs]
+            for k, f in enumerate(as_completed(futures)):
+                done(f.result(), k + 1)
+            res = [f.result() for f in futures]
     return res, time.perf_counter() - t0

@@ -67,11 +67,20 @@ def probe_scheduler(addr: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
     host, _, port = rest.rpartition(":")
     host = host.strip("[]")
     why = None
-    try:
-        with socket.create_connection((host, int(port)), timeout=timeout_s):
-            pass
-    except OSError as exc:  # refused, unroutable (timeout), unknown host
-        why = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or type(exc).__name__)
+    deadline = time.monotonic() + timeout_s
+    while True:  # a scheduler still starting refuses connections: retry until the timeout, as Dask does
+        try:
+            with socket.create_connection((host, int(port)), timeout=max(0.05, deadline - time.monotonic())):
+                why = None
+            break
+        except ConnectionRefusedError as exc:
+            why = exc.strerror or "refused"
+            if time.monotonic() + 0.1 >= deadline:
+                break
+            time.sleep(0.1)
+        except OSError as exc:  # unroutable (timeout), unknown host
+            why = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or type(exc).__name__)
+            break
     if why is None:  # something listens (or a proxy accepts anything): ask it who it is
         why = _dask_identity(addr, timeout_s)
     if why is not None:
@@ -97,9 +106,9 @@ def _dask_identity(addr: str, timeout_s: float) -> str | None:
     try:
         reply = asyncio.run(asyncio.wait_for(ask(), timeout_s))
     except Exception as exc:  # noqa: BLE001 - timeouts, OSError, or garbage from a non-Dask server
-        return f"no Dask handshake: {type(exc).__name__}"
+        return f"something accepted the connection but gave no Dask handshake: {type(exc).__name__}"
     if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
-        return "it is not a Dask scheduler"
+        return "something answered, but not a Dask scheduler"
     return None
 
 
@@ -216,6 +225,8 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
         cases = list(unique.values())
     finished = store.finished_keys()
     pending = [c for c in cases if c.key not in finished]
+    if pending and scheduler and client is None:  # before anything is written
+        probe_scheduler(check_scheduler_address(scheduler), connect_timeout_s)
     store.write_text("spec.json", json.dumps(jsonable({"name": spec.name, "raw": spec.raw,
                                                        "n_cases": len(cases)}), indent=1))
     prog = Progress(spec.name, len(cases), len(cases) - len(pending), enabled=progress)
@@ -225,8 +236,6 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
     workers_used = None
     if pending:
         needed = {c.plan_key for c in pending}
-        if scheduler and client is None:
-            probe_scheduler(check_scheduler_address(scheduler), connect_timeout_s)
         with (_reuse(client) if client is not None else
               dask_client(scheduler, workers, allowed_failures=allowed_failures,
                           connect_timeout_s=connect_timeout_s)) as cl:
