@@ -62,15 +62,15 @@ def make_urdf(spec: dict = SPEC) -> str:
         '    <child link="base"/>\n  </joint>\n',
     ]
     for i in range(n):
-        m, l = spec["mass_kg"][i], spec["length_m"][i]
-        i_rod = m * l * l / 12.0  # uniform rod about its centre
+        m, length = spec["mass_kg"][i], spec["length_m"][i]
+        i_rod = m * length * length / 12.0  # uniform rod about its centre
         out.append(
             f'  <link name="link{i + 1}">\n'
-            f'    <inertial>\n      <origin xyz="{l / 2:.9g} 0 0"/>\n      <mass value="{m:.9g}"/>\n'
+            f'    <inertial>\n      <origin xyz="{length / 2:.9g} 0 0"/>\n      <mass value="{m:.9g}"/>\n'
             f'      <inertia ixx="{1e-6 * i_rod:.9g}" iyy="{i_rod:.9g}" izz="{i_rod:.9g}" '
             'ixy="0" ixz="0" iyz="0"/>\n    </inertial>\n'
-            f'    <visual>\n      <origin xyz="{l / 2:.9g} 0 0"/>\n'
-            f'      <geometry><box size="{l:.9g} 0.015 0.02"/></geometry>\n'
+            f'    <visual>\n      <origin xyz="{length / 2:.9g} 0 0"/>\n'
+            f'      <geometry><box size="{length:.9g} 0.015 0.02"/></geometry>\n'
             f'      <material name="{colors[i % 3]}"/>\n    </visual>\n'
             '    <visual>\n      <origin rpy="1.5707963267948966 0 0"/>\n'
             '      <geometry><cylinder radius="0.015" length="0.03"/></geometry>\n'

@@ -144,7 +144,7 @@ class ServoGains:
                                     f"range 0..16383")
 
     @classmethod
-    def uniform(cls, n: int, p=800, i=0, d=0) -> "ServoGains":
+    def uniform(cls, n: int, p=800, i=0, d=0) -> ServoGains:
         return cls(tuple(np.broadcast_to(p, (n,)).tolist()), tuple(np.broadcast_to(i, (n,)).tolist()),
                    tuple(np.broadcast_to(d, (n,)).tolist()))
 

@@ -22,14 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
+from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.errors import QmtInputError
+from qmt_drake.families import make_family
 from qmt_drake.limits import LimitReport
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.sampling import piecewise_grid
-from qmt_drake.config.scenario import Scenario, load_scenario
-from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
-from qmt_drake.families import make_family
 from qmt_drake.problem import PlanningProblem
+from qmt_drake.sampling import piecewise_grid
+from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
 
 
 def recheck(scenario: Scenario, trajectory: JointTrajectory, rate_hz: float | None = None,

@@ -13,16 +13,16 @@ full LimitReport of one candidate. Every planner uses these, so they all see the
 
 from __future__ import annotations
 
-import numpy as np
-
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
+import numpy as np
+
+from qmt_drake.config.scenario import Scenario
+from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
 from qmt_drake.limits import BatchPeaks
 from qmt_drake.sampling import SampleGrid, peak_per_candidate, piecewise_grid, refine_grid
-from qmt_drake.config.scenario import Scenario
-from qmt_drake.errors import QmtInputError
 from qmt_drake.trajectory import FamilyTrajectory
 
 COARSE_STRIDE = 20  # coarse samples are every 20th of the planning grid

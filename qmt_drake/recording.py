@@ -13,11 +13,16 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import (Box, Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Role,
-                              Rgba)
+from pydrake.geometry import (
+    Box,
+    Meshcat,
+    MeshcatParams,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    Role,
+)
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
-
 
 # The arms span about 0.3 m: look at the work area from the front and above, close enough to see
 # the payload (Meshcat's default camera sits metres away).

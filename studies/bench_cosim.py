@@ -39,11 +39,10 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.sim import (IMPLICIT_TIME_STEP_S, GenesPlan, build_transfer_diagram, make_result,  # noqa: E402
-                             run_diagram)
+from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.errors import QmtSimulationError  # noqa: E402
 from qmt_drake.outputs import write_text_atomic  # noqa: E402
-from qmt_drake.config.scenario import load_scenario  # noqa: E402
+from qmt_drake.sim import IMPLICIT_TIME_STEP_S, GenesPlan, build_transfer_diagram, make_result, run_diagram  # noqa: E402
 
 EXPLICIT_STEPS_S = (0.25e-3, 0.5e-3, 1e-3, 2e-3)
 IMPLICIT_STEPS_S = (1e-3, 2e-3, 3e-3, 4e-3)

@@ -70,14 +70,31 @@ def build_floor(sc, plan, time_step_s: float, *, our_magnet: bool = False, our_m
     plant, the payload floating in the world frame (its constant pull as spatial forces)."""
     from pydrake.common.value import AbstractValue
     from pydrake.multibody.math import SpatialForce
-    from pydrake.multibody.plant import AddMultibodyPlant, ExternallyAppliedSpatialForce
     from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import AddMultibodyPlant, ExternallyAppliedSpatialForce
     from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Adder, ConstantValueSource, ConstantVectorSource, MatrixGain, TrajectorySource
+    from pydrake.systems.primitives import (
+        Adder,
+        ConstantValueSource,
+        ConstantVectorSource,
+        MatrixGain,
+        TrajectorySource,
+    )
 
-    from qmt_drake.sim import (add_magnet_hand, add_transfer_plant, coil_current_for, finalize_transfer_plant,
-                               magnet_params_for, motor_params_for, move_loop_damping_into_plant, pid_gains_for,
-                               plan_start, reference_trajectories, set_initial_state, transfer_plant_config)
+    from qmt_drake.sim import (
+        add_magnet_hand,
+        add_transfer_plant,
+        coil_current_for,
+        finalize_transfer_plant,
+        magnet_params_for,
+        motor_params_for,
+        move_loop_damping_into_plant,
+        pid_gains_for,
+        plan_start,
+        reference_trajectories,
+        set_initial_state,
+        transfer_plant_config,
+    )
     from qmt_drake.systems.joint_tracking import effective_joint_gains
     from qmt_drake.systems.payload import PayloadSpec, add_payload, payload_joint
 
@@ -185,8 +202,8 @@ def run_floor(diagram, plant, h, chunk_s: float = 0.25):
 
 
 def cost_ratio(repeats: int, time_step_s: float) -> dict:
-    from qmt_drake.sim import GenesPlan, build_transfer_diagram, make_result, run_diagram
     from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.sim import GenesPlan, build_transfer_diagram, make_result, run_diagram
     sc = load_scenario("thesis-ch4")
     plan = GenesPlan(sc, THESIS_GENES_CH4, method="thesis")
     keys = ("ours", "ours_simulation_only", "ours_per_step_monitor", "floor", "floor_previous_plant",

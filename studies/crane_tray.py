@@ -86,8 +86,8 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.colors  # noqa: E402,F401
+import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.ticker  # noqa: E402,F401
 import numpy as np  # noqa: E402
 
@@ -99,7 +99,7 @@ from qmt_drake.systems.dynamixel_servo import SEED_GAINS_AFTER, SEED_GAINS_BEFOR
 from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
 from qmt_drake.tray import crane_ik  # noqa: E402
 from qmt_drake.tray.cosim import SEATING_S, required_friction, simulate_tray  # noqa: E402
-from qmt_drake.tray.waypoints import ruckig_line, seed_motion, toppra_line  # noqa: E402
+from qmt_drake.tray.waypoints import seed_motion, toppra_line  # noqa: E402
 
 OUT = ROOT / "out" / "crane_tray"
 CASES = {"before": (1.0, SEED_GAINS_BEFORE, "P-only (800), linear spacing (eq. 14)"),
@@ -316,7 +316,7 @@ def plot_qmt(q: dict, path: Path) -> None:
              "seed_eased_5s": "seed: 5 s eased line"}
     fig, ax = plt.subplots(figsize=(8, 4))
     y = np.arange(len(names))
-    for i, (k, label) in enumerate(names.items()):
+    for i, k in enumerate(names):
         m = q["methods"].get(k)
         if m is None:
             continue

@@ -31,13 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.design.arm_types import arm_type, forward, urdf_text
+from qmt_drake.design.arm_types import arm_type, forward, levels_from_gene, urdf_text
 from qmt_drake.design.operability import direction_ease, operability
-from qmt_drake.design.plots import (meshcat_arm_at_task, plot_arm_at_task, plot_convergence,
-                                    plot_types)
+from qmt_drake.design.plots import meshcat_arm_at_task, plot_arm_at_task, plot_convergence, plot_types
 from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
 from qmt_drake.design.search import exhaustive, run_all_types
-from qmt_drake.design.arm_types import levels_from_gene
 from qmt_drake.design.tasks import load_task
 from qmt_drake.outputs import jsonable, write_text_atomic
 
@@ -403,8 +401,7 @@ def codesign(max_layout_evaluations: int = 60):
     import yaml
 
     from qmt_drake.config.scenario import load_scenario
-    from qmt_drake.design.codesign import (LAYOUT_LOWER_M, LAYOUT_UPPER_M, ROOT, grid_search,
-                                           pattern_search)
+    from qmt_drake.design.codesign import LAYOUT_LOWER_M, LAYOUT_UPPER_M, ROOT, grid_search, pattern_search
     from qmt_drake.planners import plan_with
     from qmt_drake.sim import simulate_transfer
     t_start = time.perf_counter()

@@ -24,12 +24,18 @@ import numpy as np
 
 from qmt_drake.energy.dynamics import ohsaka_arm
 from qmt_drake.energy.experiments import paper_initial_x
-from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.figures import stick_figure
-from qmt_drake.energy.multistart import (PATTERNS, distinct_optima, initial_end_posture,
-                                         initial_reduced_genes, pattern_str, run_multistart)
+from qmt_drake.energy.multistart import (
+    PATTERNS,
+    distinct_optima,
+    initial_end_posture,
+    initial_reduced_genes,
+    pattern_str,
+    run_multistart,
+)
 from qmt_drake.energy.nlp import solve_nlp
 from qmt_drake.energy.objective import FINE_DIVISIONS
+from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.steepest import restore_endpoint, steepest_descent
 from qmt_drake.outputs import jsonable, write_text_atomic
 

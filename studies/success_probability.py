@@ -80,8 +80,8 @@ def main(argv=None) -> int:
                     help="reuse the benchmark's fastest_carried_<chapter>.json from DIR when it was searched "
                          "the same way (default: OUT/benchmark, where `make run` puts the benchmark)")
     a = ap.parse_args(argv)
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.apps.benchmark import fastest_carried, reusable_fastest_carried
+    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.sweep.robust import robust_time_scale
     from qmt_drake.sweep.runner import dask_client, run_sweep
     out = Path(a.out)

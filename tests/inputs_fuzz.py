@@ -495,9 +495,13 @@ def stubbed():
     saved = []
     for spec in STUBS + CACHED:
         mod, _, attr = spec.partition(":")
-        m = importlib.import_module(mod)
-        saved.append((m, attr, getattr(m, attr)))
-        setattr(m, attr, functools.cache(getattr(m, attr)) if spec in CACHED else _accepted)
+        original = getattr(importlib.import_module(mod), attr)
+        replacement = functools.cache(original) if spec in CACHED else _accepted
+        # every module that imported the name (modules bind imported names at their top)
+        for m in [m for name, m in list(sys.modules.items()) if name.startswith("qmt_drake") and m is not None]:
+            if getattr(m, attr, None) is original:
+                saved.append((m, attr, original))
+                setattr(m, attr, replacement)
     try:
         yield
     finally:

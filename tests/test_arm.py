@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from qmt_drake.model.arm import ArmModel
-from qmt_drake.errors import QmtInputError
 from qmt_drake.config.scenario import MODELS_DIR
+from qmt_drake.errors import QmtInputError
+from qmt_drake.model.arm import ArmModel
 
 URDFS = ["two_link_ch4.urdf", "three_link_ch2.urdf"]
 

@@ -8,7 +8,6 @@ from qmt_drake.apps.cli import main
 from qmt_drake.config.scenario import SCENARIO_DIR
 from tests.scenario_files import scenario_yaml
 
-
 _yaml = scenario_yaml
 
 

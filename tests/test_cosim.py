@@ -14,14 +14,22 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, TrajectorySource
 
-from qmt_drake.sim import (GenesPlan, build_transfer_diagram, calibrated_coil_current_A, motor_params_for,
-                           pid_gains_for, reference_trajectories, run_simulate,
-                           simulate_transfer, transfer_plant_config)
-from qmt_drake.sim.plant import seated_pose_in_hand
-from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.config.scenario import load_scenario
+from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.sim import (
+    GenesPlan,
+    build_transfer_diagram,
+    calibrated_coil_current_A,
+    motor_params_for,
+    pid_gains_for,
+    reference_trajectories,
+    run_simulate,
+    simulate_transfer,
+    transfer_plant_config,
+)
+from qmt_drake.sim.plant import seated_pose_in_hand
 from qmt_drake.systems.dc_motor import DcMotorWithGear
-from qmt_drake.systems.electromagnet import electromagnet_force, MagnetParams
+from qmt_drake.systems.electromagnet import MagnetParams, electromagnet_force
 from qmt_drake.systems.joint_tracking import JointPidController
 from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_contact, payload_joint
 from qmt_drake.systems.transfer_monitor import TransferMonitor

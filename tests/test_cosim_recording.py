@@ -5,9 +5,9 @@ import re
 
 import pytest
 
-from qmt_drake.sim import GenesPlan, build_transfer_diagram, run_diagram, simulate_transfer
-from qmt_drake.recording import make_headless_meshcat
 from qmt_drake.config.scenario import load_scenario
+from qmt_drake.recording import make_headless_meshcat
+from qmt_drake.sim import GenesPlan, build_transfer_diagram, run_diagram, simulate_transfer
 
 
 def _embedded_bytes(html: str) -> bytes:
@@ -35,8 +35,8 @@ def test_camera_frames_the_arm_from_its_reach_and_a_lost_part_stops_on_the_floor
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
     from pydrake.systems.framework import DiagramBuilder
 
-    from qmt_drake.sim.plant import add_arm
     from qmt_drake.recording import add_floor, arm_reach_m
+    from qmt_drake.sim.plant import add_arm
 
     sc = load_scenario("thesis-ch4")
     p, _ = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.0)

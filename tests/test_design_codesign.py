@@ -33,6 +33,7 @@ def test_scaling_rule_and_scenario(tmp_path):
 
 def test_base_shift_moves_the_task_points_not_the_world(tmp_path):
     import yaml
+
     from qmt_drake.config.scenario import load_scenario
     world = yaml.safe_load((ROOT / "models" / "scenarios" / "thesis-ch4.yaml").read_text())["task"]["points_m"]
     p = write_scenario(0.16, 0.12, tmp_path, base_m=(0.03, -0.02))

@@ -4,8 +4,7 @@ arms' Jacobian against Drake's."""
 import numpy as np
 import pytest
 
-from qmt_drake.design.operability import (direction_ease, fitness_E, joint_rate_cost, operability,
-                                          task_fitness)
+from qmt_drake.design.operability import direction_ease, fitness_E, joint_rate_cost, operability, task_fitness
 
 
 def planar_J(l1, l2, q1, q2):

@@ -13,8 +13,15 @@ from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogV
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import DcMotorWithGear
-from qmt_drake.systems.dynamixel_servo import (PULSES_PER_RAD, PWM_FULL_SCALE, XM430_W350, XM540_W270,
-                                               DynamixelPositionServo, ServoGains, motor_params)
+from qmt_drake.systems.dynamixel_servo import (
+    PULSES_PER_RAD,
+    PWM_FULL_SCALE,
+    XM430_W350,
+    XM540_W270,
+    DynamixelPositionServo,
+    ServoGains,
+    motor_params,
+)
 
 
 def test_gain_conversion_follows_the_e_manual():

@@ -3,8 +3,12 @@
 import numpy as np
 import pytest
 
-from qmt_drake.energy.dynamics import (drake_inverse_dynamics, drake_inverse_dynamics_jacobians,
-                                       inverse_dynamics_with_gravity, ohsaka_arm)
+from qmt_drake.energy.dynamics import (
+    drake_inverse_dynamics,
+    drake_inverse_dynamics_jacobians,
+    inverse_dynamics_with_gravity,
+    ohsaka_arm,
+)
 from qmt_drake.energy.kinematics import tip_position
 
 

@@ -3,9 +3,9 @@
 import numpy as np
 
 from qmt_drake.energy.execute import execute
-from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.multistart import initial_end_posture, initial_reduced_genes
 from qmt_drake.energy.nlp import solve_nlp
+from qmt_drake.energy.scenario import get_experiment
 
 
 def test_optimum_tracks_and_needs_the_planned_torque():

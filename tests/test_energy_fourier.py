@@ -5,8 +5,13 @@ import pytest
 
 from qmt_drake.energy.dynamics import ohsaka_arm
 from qmt_drake.energy.fourier import FourierVelocityFamily
-from qmt_drake.energy.kinematics import (cog_height_m, lowest_cog_posture, self_motion_samples,
-                                         tip_jacobian, tip_position)
+from qmt_drake.energy.kinematics import (
+    cog_height_m,
+    lowest_cog_posture,
+    self_motion_samples,
+    tip_jacobian,
+    tip_position,
+)
 from qmt_drake.errors import QmtInputError
 
 

@@ -4,12 +4,17 @@ import numpy as np
 import pytest
 
 from qmt_drake.energy.experiments import paper_initial_x
-from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.kinematics import tip_position
-from qmt_drake.energy.multistart import (PATTERNS, initial_end_posture, initial_reduced_genes,
-                                         run_multistart, travel_pattern)
+from qmt_drake.energy.multistart import (
+    PATTERNS,
+    initial_end_posture,
+    initial_reduced_genes,
+    run_multistart,
+    travel_pattern,
+)
 from qmt_drake.energy.nlp import solve_nlp
 from qmt_drake.energy.objective import EnergyObjective
+from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.steepest import restore_endpoint, steepest_descent
 
 

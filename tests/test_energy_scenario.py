@@ -8,8 +8,7 @@ import yaml
 
 from qmt_drake.apps.cli import main
 from qmt_drake.config.scenario import builtin_scenarios
-from qmt_drake.energy.scenario import EXPERIMENTS, get_experiment
-from qmt_drake.energy.scenario import ENERGY_SCENARIO_DIR
+from qmt_drake.energy.scenario import ENERGY_SCENARIO_DIR, EXPERIMENTS, get_experiment
 
 FIG3 = ENERGY_SCENARIO_DIR / "ohsaka-fig3.yaml"
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity, make_plant
-from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.multistart import initial_end_posture, initial_reduced_genes
 from qmt_drake.energy.nlp import solve_nlp
+from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.time_optimal import time_optimal_on_path
 from qmt_drake.errors import QmtInputError
 

@@ -5,11 +5,11 @@ exact slow-down of an overshooting output, solve time, and infeasible limits as 
 import numpy as np
 import pytest
 
-from qmt_drake.planners.baselines.paths import CartesianLinePath, PathTimingTrajectory
+from qmt_drake.config.scenario import load_scenario
 from qmt_drake.planners.baselines.finish import finish_plan
+from qmt_drake.planners.baselines.paths import CartesianLinePath, PathTimingTrajectory
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.trajectory import TimeScaledTrajectory
-from qmt_drake.config.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")
@@ -156,6 +156,7 @@ def vertical_ch4(tmp_path_factory):
     at rest: moment limit 0.05 N m (static 0.0082 N m), motor limits x3 (static torques up to
     half of them)."""
     import yaml
+
     from qmt_drake.config.scenario import MODELS_DIR, SCENARIO_DIR
     d = tmp_path_factory.mktemp("vertical")
     weld = '<joint name="base_weld" type="fixed">\n    <parent link="world"/>\n    <child link="base"/>'

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 
-
 @pytest.mark.parametrize("name", ["thesis-ch2", "thesis-ch3", "thesis-ch4"])
 def test_fast_evaluator_equals_full_grid(problems, name):
     P = problems[name]

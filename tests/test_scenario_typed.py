@@ -11,8 +11,17 @@ import numpy as np
 import pytest
 import yaml
 
-from qmt_drake.config.scenario import (SCENARIO_DIR, DcMotorGear, DynamixelServos, MagnetHand, PayloadBody, TrayHand,
-                                       UrdfArm, builtin_scenarios, load_scenario)
+from qmt_drake.config.scenario import (
+    SCENARIO_DIR,
+    DcMotorGear,
+    DynamixelServos,
+    MagnetHand,
+    PayloadBody,
+    TrayHand,
+    UrdfArm,
+    builtin_scenarios,
+    load_scenario,
+)
 from qmt_drake.systems.electromagnet import THESIS_COILS
 from qmt_drake.systems.payload import PayloadSpec
 
@@ -158,8 +167,9 @@ def test_fingerprint_tracks_content_not_location(tmp_path):
 
 
 def test_plan_file_carries_the_fingerprint_and_task(tmp_path):
-    from qmt_drake.planners import plan_with
     import json
+
+    from qmt_drake.planners import plan_with
     sc = load_scenario("thesis-ch4")
     plan = plan_with("thesis", sc)
     plan.write_json(tmp_path / "p.json")

@@ -12,7 +12,6 @@ from qmt_drake.sweep.runner import dask_client
 from qmt_drake.sweep.spec import load_spec
 
 
-
 def fake_plan(ref):
     return {"plan_key": ref.key}
 

@@ -202,8 +202,12 @@ def test_primitives_are_the_python_model(blend):
     """dc_motors_as_primitives / applied_motor_signals_as_primitives (the same formulas compiled into
     SymbolicVectorSystems) against DcMotorWithGear / motor_signals_from_joint_torque on random
     inputs: saturated and not, motoring and back-driven."""
-    from qmt_drake.systems.dc_motor import (DcMotorWithGear, applied_motor_signals_as_primitives,
-                                            dc_motors_as_primitives, motor_signals_from_joint_torque)
+    from qmt_drake.systems.dc_motor import (
+        DcMotorWithGear,
+        applied_motor_signals_as_primitives,
+        dc_motors_as_primitives,
+        motor_signals_from_joint_torque,
+    )
     p = DcMotorParams.from_datasheets([MOTOR_CATALOG["maxon_RE30_60W_24V"], MOTOR_CATALOG["maxon_RE25_20W_24V"]],
                                       [100, 100])
     p.efficiency_blend_speed_rad_s = blend

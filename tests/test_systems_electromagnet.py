@@ -13,8 +13,13 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
-from qmt_drake.systems.electromagnet import (MU0, THESIS_COILS, electromagnet_force, MagnetParams,
-                                             covered_fraction)
+from qmt_drake.systems.electromagnet import (
+    MU0,
+    THESIS_COILS,
+    MagnetParams,
+    covered_fraction,
+    electromagnet_force,
+)
 from qmt_drake.systems.payload import PayloadSpec, add_payload, payload_joint
 
 COIL = THESIS_COILS["table_3_2"]

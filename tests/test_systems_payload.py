@@ -16,11 +16,15 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
 from qmt_drake.sim import GRAVITY_M_S2, hold_lever_m
-from qmt_drake.systems.electromagnet import THESIS_COILS, electromagnet_force, MagnetParams
-from qmt_drake.systems.payload import (STEEL_DENSITY_KG_M3, PayloadSpec, add_payload, allow_contact,
-                                      payload_joint)
-from qmt_drake.systems.transfer_monitor import motion_from_joint
-from qmt_drake.systems.transfer_monitor import relative_payload_motion
+from qmt_drake.systems.electromagnet import THESIS_COILS, MagnetParams, electromagnet_force
+from qmt_drake.systems.payload import (
+    STEEL_DENSITY_KG_M3,
+    PayloadSpec,
+    add_payload,
+    allow_contact,
+    payload_joint,
+)
+from qmt_drake.systems.transfer_monitor import motion_from_joint, relative_payload_motion
 
 
 def test_inertia_and_shape():

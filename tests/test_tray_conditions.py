@@ -11,7 +11,13 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from qmt_drake.systems.tray_object import GRAVITY_M_S2, BottleSpec
-from qmt_drake.tray.conditions import (TrayKinematics, contact_wrench, linear_form, tray_kinematics, tray_ratios)
+from qmt_drake.tray.conditions import (
+    TrayKinematics,
+    contact_wrench,
+    linear_form,
+    tray_kinematics,
+    tray_ratios,
+)
 from qmt_drake.tray.cosim import URDF_PATH
 
 BOTTLE = BottleSpec.pet_500ml(friction=0.3)
@@ -52,7 +58,8 @@ def test_wrench_matches_drake_inverse_dynamics_of_the_bottle_welded_on_the_tray(
         np.testing.assert_allclose(tau[1] - tau[0], J.T @ wrench_W, rtol=1e-9, atol=1e-12)
 
 
-def _static(R, a=np.zeros(3)):
+def _static(R, a=None):
+    a = np.zeros(3) if a is None else a
     return TrayKinematics(R[None], a[None], np.zeros((1, 3)), np.zeros((1, 3)))
 
 

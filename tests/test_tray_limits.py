@@ -97,6 +97,7 @@ def test_toppra_rows_hold_exactly_when_the_columns_do():
 
 def test_batched_toppra_parameters_equal_toppras_per_gridpoint_evaluation():
     import toppra as ta
+
     from qmt_drake.tray.waypoints import line_waypoints
     _, theta = line_waypoints((0.04, 0.4), (0.4, 0.4), 40)
     s = np.linspace(0.0, 1.0, 41)

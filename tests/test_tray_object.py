@@ -13,8 +13,14 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.systems.tray_object import (GRAVITY_M_S2, BottleSpec, TrayBottleMonitor, add_bottle, add_tray_contact,
-                                           seated_pose_on_tray)
+from qmt_drake.systems.tray_object import (
+    GRAVITY_M_S2,
+    BottleSpec,
+    TrayBottleMonitor,
+    add_bottle,
+    add_tray_contact,
+    seated_pose_on_tray,
+)
 
 G = GRAVITY_M_S2
 

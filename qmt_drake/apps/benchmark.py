@@ -34,15 +34,14 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from qmt_drake.plan import Plan, family_plan
-from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.config.scenario import load_scenario
-from qmt_drake.plan import load_plan
+from qmt_drake.outputs import jsonable, write_text_atomic
+from qmt_drake.plan import Plan, family_plan, load_plan
 from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt

@@ -16,28 +16,22 @@ import math
 import sys
 from pathlib import Path
 
-from qmt_drake.apps.one_line_parser import OneLineParser
-from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
-from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, add_energy_options, plan_energy, simulate_energy
-from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
-from qmt_drake.energy.scenario import is_energy_scenario
-from qmt_drake.errors import QmtInputError, QmtSimulationError
-from qmt_drake.outcome import verdict_line
 from qmt_drake.apps.bench import run_bench
 from qmt_drake.apps.benchmark import run_benchmark
+from qmt_drake.apps.one_line_parser import OneLineParser
+from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.design.cli import add_parser as add_design_parser
-from qmt_drake.energy.scenario import get_experiment
-from qmt_drake.outputs import check_output_dir
-from qmt_drake.outputs import check_output_path
-from qmt_drake.outputs import write_text_atomic
+from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, add_energy_options, plan_energy, simulate_energy
+from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
+from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
+from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.outcome import verdict_line
+from qmt_drake.outputs import check_output_dir, check_output_path, write_text_atomic
 from qmt_drake.plan import load_plan
-from qmt_drake.planners import METHODS
-from qmt_drake.planners import plan_with
+from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
 from qmt_drake.sim import check_simulation_inputs, run_simulate
-from qmt_drake.sim import run_simulate
 from qmt_drake.sweep.cli import add_parser as add_sweep_parser
 from qmt_drake.tray.execute import check_tray_simulation
 

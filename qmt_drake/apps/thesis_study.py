@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.apps import plots
-from qmt_drake.plan import load_plan
-from qmt_drake.outputs import write_text_atomic
-from qmt_drake.planners import plan_with
 from qmt_drake.config.scenario import load_scenario
+from qmt_drake.outputs import write_text_atomic
+from qmt_drake.plan import load_plan
+from qmt_drake.planners import plan_with
 from qmt_drake.sim import run_simulate
 
 
@@ -80,7 +80,7 @@ def run_chapter(scenario: str, out_dir: Path = Path("out"), *, seeds: int = 10, 
                 "feasible": c.feasible, "generations": p.generations,
                 "planner_wall_s": p.planner_wall_s}
 
-    rows = [row("thesis reported genes", thesis), row("GA best of %d" % seeds, best),
+    rows = [row("thesis reported genes", thesis), row(f"GA best of {seeds}", best),
             row("GA median", median), row("GA worst", worst), row("family optimum", optimum)]
     within = int(np.sum(T <= opt_T0 * 1.005))
     summary = {

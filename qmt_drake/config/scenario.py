@@ -40,8 +40,16 @@ from typing import Any
 import numpy as np
 import yaml
 
-from qmt_drake.catalog import (HARMONIC_DRIVE_EFFICIENCY, IK_BRANCHES, MOTOR_CATALOG, SERVO_CATALOG, THESIS_COILS,
-                               CoilSpec, ServoGains, motor_for_rated_torque)
+from qmt_drake.catalog import (
+    HARMONIC_DRIVE_EFFICIENCY,
+    IK_BRANCHES,
+    MOTOR_CATALOG,
+    SERVO_CATALOG,
+    THESIS_COILS,
+    CoilSpec,
+    ServoGains,
+    motor_for_rated_torque,
+)
 from qmt_drake.config import fields as fields_mod
 from qmt_drake.errors import QmtInputError
 

@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmt_drake.design.arm_types import TYPES, arm_type, forward
-from qmt_drake.design.arm_types import build_plant
+from qmt_drake.design.arm_types import TYPES, arm_type, build_plant, forward
 from qmt_drake.outputs import write_text_atomic
-
 
 _REL = {"P": "P parallel", "B": "B link on 2nd axis", "F": "F link on 1st axis",
         "T": "T link on normal"}

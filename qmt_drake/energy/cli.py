@@ -21,24 +21,25 @@ import sys
 import numpy as np
 
 from qmt_drake.budgets import check_energy_budget
-from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
-from qmt_drake.energy.objective import FINE_DIVISIONS
-from qmt_drake.errors import QmtInputError
-from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
-from qmt_drake.outputs import check_output_path
 from qmt_drake.energy.collocation import solve_collocation
-from qmt_drake.energy.execute import execute
+from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
 from qmt_drake.energy.execute import execute, plot_execution
 from qmt_drake.energy.experiments import paper_initial_x
 from qmt_drake.energy.fourier import FourierVelocityFamily
-from qmt_drake.energy.multistart import (PATTERNS, initial_end_posture, initial_reduced_genes,
-                                             pattern_str, travel_pattern)
+from qmt_drake.energy.multistart import (
+    PATTERNS,
+    initial_end_posture,
+    initial_reduced_genes,
+    pattern_str,
+    travel_pattern,
+)
 from qmt_drake.energy.nlp import solve_nlp
+from qmt_drake.energy.objective import FINE_DIVISIONS
 from qmt_drake.energy.scenario import get_experiment
-from qmt_drake.energy.steepest import restore_endpoint
-from qmt_drake.energy.steepest import steepest_descent
-from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.outputs import write_text_atomic
+from qmt_drake.energy.steepest import restore_endpoint, steepest_descent
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
+from qmt_drake.outputs import check_output_path, jsonable, write_text_atomic
 
 METHODS = ("snopt", "ipopt", "steepest", "collocation")
 

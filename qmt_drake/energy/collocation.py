@@ -41,8 +41,8 @@ class CollocationResult:
 
 def solve_collocation(problem: EnergyProblem, x_init, knots: int = 41,
                       major_iterations: int = 400) -> CollocationResult:
-    from pydrake.solvers import SnoptSolver, SolverOptions
     from pydrake.planning import DirectCollocation
+    from pydrake.solvers import SnoptSolver, SolverOptions
     from pydrake.trajectories import PiecewisePolynomial
 
     plant = make_plant(str(problem.arm.urdf_path or OHSAKA_URDF))

@@ -29,6 +29,7 @@ import numpy as np
 
 from qmt_drake.config.scenario import MODELS_DIR  # noqa: E402
 from qmt_drake.model.arm import ArmModel
+
 OHSAKA_URDF = MODELS_DIR / "three_link_vertical_ohsaka.urdf"
 # Drake's default gravity (UniformGravityFieldElement); the paper does not print its g.
 GRAVITY_M_S2 = 9.81
@@ -69,18 +70,18 @@ class VerticalArm:
         """The project's PlanarChain of this arm's URDF (kinematics: one implementation)."""
         return _planar_chain(str(self.urdf_path or OHSAKA_URDF))
 
-    def with_gravity_sign(self, sign: float) -> "VerticalArm":
+    def with_gravity_sign(self, sign: float) -> VerticalArm:
         from dataclasses import replace
         return replace(self, gravity_up_sign=float(sign))
 
     @classmethod
-    def from_urdf(cls, path: str | Path = OHSAKA_URDF) -> "VerticalArm":
+    def from_urdf(cls, path: str | Path = OHSAKA_URDF) -> VerticalArm:
         plant = make_plant(str(path))
         ctx = plant.CreateDefaultContext()
         from pydrake.multibody.tree import JointIndex
         joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
         joints = [j for j in joints if j.num_velocities() > 0]
-        L, M, C, I = [], [], [], []
+        L, M, C, I = [], [], [], []  # noqa: E741 - I: the links' inertias, as in the paper
         for k, j in enumerate(joints):
             body = j.child_body()
             nxt = (joints[k + 1] if k + 1 < len(joints) else plant.GetJointByName("tip_weld")).frame_on_parent()
@@ -170,9 +171,8 @@ def drake_inverse_dynamics(q, qd, qdd, urdf: str | Path = OHSAKA_URDF, gravity_u
 
 def drake_inverse_dynamics_jacobians(q, qd, qdd, urdf: str | Path = OHSAKA_URDF):
     """(dtau/dq, dtau/dqd, dtau/dqdd) per sample from MultibodyPlant<AutoDiffXd>."""
-    from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
+    from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
     from pydrake.multibody.tree import MultibodyForces_
-    from pydrake.autodiffutils import AutoDiffXd
     plant = make_plant(str(urdf)).ToAutoDiffXd()
     ctx = plant.CreateDefaultContext()
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))

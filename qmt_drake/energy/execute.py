@@ -26,9 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
-from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat
-from qmt_drake.recording import save_recording
-from qmt_drake.recording import start_recording
+from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 
 
 @dataclass

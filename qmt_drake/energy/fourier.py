@@ -182,7 +182,7 @@ class FourierVelocityFamily:
         a[:, 0] = (self.theta0 - np.asarray(theta_T, dtype=float)) / T
         return self.pack(a, np.zeros((self.n, self.m)), T)
 
-    def trajectory(self, x) -> "FourierTrajectory":
+    def trajectory(self, x) -> FourierTrajectory:
         return FourierTrajectory(self, x)
 
 

@@ -51,7 +51,7 @@ def check_reachable(arm: VerticalArm, X, what: str) -> None:
     X = np.asarray(X, dtype=float)
     if X.shape != (2,) or not np.all(np.isfinite(X)):
         raise QmtInputError(f"{what} must be two finite numbers (X1, X2) in metres, got {X.tolist()}")
-    l = arm.length_m
+    l = arm.length_m  # noqa: E741 - the paper's link lengths l_i
     r = float(np.hypot(*X))
     r_min = max(0.0, 2 * l.max() - l.sum())
     if r > arm.reach_m + 1e-9 or r < r_min - 1e-9:

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from qmt_drake.energy.kinematics import self_motion_samples
-from qmt_drake.energy.problem import EnergyProblem
 from qmt_drake.energy.nlp import solve_nlp
+from qmt_drake.energy.problem import EnergyProblem
 from qmt_drake.energy.steepest import steepest_descent
 
 PATTERNS = tuple(itertools.product((1, -1), repeat=3))

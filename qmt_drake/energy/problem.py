@@ -62,7 +62,7 @@ class EnergyProblem:
         self.objective = EnergyObjective(self.family, self.arm, self.c1, self.c2, self.divisions)
         self.lower, self.upper = self._bounds()
 
-    def with_travel_signs(self, signs) -> "EnergyProblem":
+    def with_travel_signs(self, signs) -> EnergyProblem:
         """The same problem restricted to one rotation-direction pattern."""
         from dataclasses import replace
         return replace(self, travel_signs=None if signs is None else tuple(int(v) for v in signs))

@@ -26,18 +26,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from functools import lru_cache
-
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, builtin_scenarios, read_scenario_yaml
-from qmt_drake.energy.experiments import Experiment
-from qmt_drake.errors import QmtInputError
 from qmt_drake.energy.dynamics import OHSAKA_URDF, VerticalArm, ohsaka_arm
+from qmt_drake.energy.experiments import Experiment
 from qmt_drake.energy.kinematics import check_reachable
 from qmt_drake.energy.objective import check_weights
+from qmt_drake.errors import QmtInputError
 
 KIND = ENERGY_TIME_KIND
 ENERGY_SCENARIO_DIR = SCENARIO_DIR  # beside the transfer scenarios, told apart by `kind`
@@ -207,7 +206,7 @@ def _arm(path: Path, a: dict):
         return ohsaka_arm()
     try:
         arm = VerticalArm.from_urdf(urdf)
-        arm.chain  # the planar model must accept it (vertical plane, parallel joints)
+        _ = arm.chain  # the planar model must accept it (vertical plane, parallel joints)
     except QmtInputError as exc:
         raise QmtInputError(f"{path}: arm.urdf: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - Drake's parser errors are multi-line

@@ -35,7 +35,6 @@ from qmt_drake.energy.kinematics import tip_jacobian, tip_position
 from qmt_drake.energy.problem import T_MIN_S, EnergyProblem
 from qmt_drake.errors import QmtInputError
 
-
 PAPER_REL_TOL = 1e-4   # step IV: mean relative change of the trajectory vector ...
 PAPER_STREAK = 5       # ... below 1e-4 five times in a row
 

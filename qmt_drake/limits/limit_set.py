@@ -24,9 +24,6 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from qmt_drake.limits.joint_range import JointRangeTerm
-from qmt_drake.limits.motor_torque import MotorTorqueTerm
-from qmt_drake.limits.payload_moment import PayloadMomentTerm
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.toppra_form import rows_constraint
 from qmt_drake.sampling import piecewise_grid
@@ -106,11 +103,11 @@ class LimitSet:
                                      discretization_scheme=DiscretizationType.Interpolation)
 
     # ------------------------------------------------------------------ batched peaks (planners)
-    def batch_peaks(self, motion_time_s, valid, peaks) -> "BatchPeaks":
+    def batch_peaks(self, motion_time_s, valid, peaks) -> BatchPeaks:
         return BatchPeaks(motion_time_s, valid, peaks, self)
 
     # ------------------------------------------------------------------ one trajectory (re-check)
-    def report(self, trajectory, rate_hz: float, valid: bool = True, refine: bool = True) -> "LimitReport":
+    def report(self, trajectory, rate_hz: float, valid: bool = True, refine: bool = True) -> LimitReport:
         grid = piecewise_grid(trajectory.breakpoints_s[None, :], rate_hz)
         q, qd, qdd = trajectory.evaluate(grid.t_s, grid.t_piece_s)
         cols = self.columns(q, qd, qdd)
@@ -178,7 +175,7 @@ class LimitSet:
                 peak[col], t_peak[col] = v_best[m][j], t_best[m][j]
         return peak, t_peak, int(k.size)
 
-    def _make_report(self, rate_hz, T, peak, t_peak, valid, refined_count) -> "LimitReport":
+    def _make_report(self, rate_hz, T, peak, t_peak, valid, refined_count) -> LimitReport:
         moment = self.term("payload_moment")
         motor = self.term("motor_torque")
         joint = self.term("joint_range")

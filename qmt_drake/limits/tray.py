@@ -39,8 +39,15 @@ import numpy as np
 
 from qmt_drake.limits.base import LimitTerm
 from qmt_drake.systems.tray_object import GRAVITY_M_S2, BottleSpec
-from qmt_drake.tray.conditions import (contact_wrench, kinematics_from_hand_state, lift_ratio, slide_ratio,
-                                       slide_rows, tip_ratio, tip_rows)
+from qmt_drake.tray.conditions import (
+    contact_wrench,
+    kinematics_from_hand_state,
+    lift_ratio,
+    slide_ratio,
+    slide_rows,
+    tip_ratio,
+    tip_rows,
+)
 
 
 class TrayContact:

@@ -92,7 +92,7 @@ class ArmModel:
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_urdf(cls, urdf_path: str | Path, hand_frame: str = "hand", *, carried_inertia=None,
-                  require_gear_ratio: bool = True) -> "ArmModel":
+                  require_gear_ratio: bool = True) -> ArmModel:
         """Parse `urdf_path` into a continuous plant; `carried_inertia` (a Drake SpatialInertia about
         the hand frame's origin, expressed in it) is welded to the hand as the carried part."""
         path = Path(urdf_path)

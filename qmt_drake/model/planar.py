@@ -37,7 +37,6 @@ from pydrake.multibody.tree import RevoluteJoint
 from qmt_drake.catalog import IK_BRANCHES  # noqa: F401 (re-exported)
 from qmt_drake.errors import QmtInputError
 
-
 # World coordinate planes: normal axis index -> (in-plane axis indices u, v); normal = e_u x e_v.
 _PLANES = {2: (0, 1), 1: (0, 2), 0: (1, 2)}
 
@@ -258,7 +257,7 @@ class PlanarChain:
         J[:, :, 2 * n:] += np.diag(self.reflected_inertia_kgm2)
         return tau, J[:, :, :n], J[:, :, n:2 * n], J[:, :, 2 * n:]
 
-    def with_gravity(self, gravity_in_plane_m_s2) -> "PlanarChain":
+    def with_gravity(self, gravity_in_plane_m_s2) -> PlanarChain:
         """A copy of this chain under another in-plane gravity vector (m/s^2)."""
         import copy
         other = copy.copy(self)

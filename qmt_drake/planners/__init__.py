@@ -12,12 +12,10 @@ from __future__ import annotations
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import family_plan
 from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
-from qmt_drake.planners.baselines.toppra_plan import plan_toppra
-from qmt_drake.planners.baselines.toppra_plan import plan_toppra_drake
+from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
 from qmt_drake.planners.ga import run_ga
-from qmt_drake.planners.optimum import TightTimingProblem
-from qmt_drake.planners.optimum import plan_family_optimum
+from qmt_drake.planners.optimum import TightTimingProblem, plan_family_optimum
 from qmt_drake.problem import PlanningProblem
 
 METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")

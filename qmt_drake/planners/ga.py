@@ -27,14 +27,14 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from qmt_drake.errors import QmtInputError
 from qmt_drake.config.scenario import GaSettings
+from qmt_drake.errors import QmtInputError
 
 
 @dataclass

@@ -22,8 +22,7 @@ from scipy.optimize import minimize
 from scipy.stats import qmc
 
 from qmt_drake.plan import Plan, family_plan
-from qmt_drake.problem import PlanningProblem
-from qmt_drake.problem import Evaluation
+from qmt_drake.problem import Evaluation, PlanningProblem
 
 BOUND_PENALTY_S = 100.0  # seconds of objective per unit of normalised bound violation
 

@@ -12,21 +12,53 @@
 The names below are re-exported so user code can `from qmt_drake.sim import ...`.
 """
 
-from qmt_drake.sim.actuation import (EXPLICIT_MAX_TIME_STEP_S, EXPLICIT_TIME_STEP_S, FEEDFORWARD_OPTIONS,
-                                     IMPLICIT_TIME_STEP_S, add_implicit_damping_actuation,
-                                     add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
-                                     explicit_step_known_unstable, ideal_joint_gains, add_ideal_torque_actuation,
-                                     motor_params_for, pid_gains_for)
+from qmt_drake.sim.actuation import (
+                                     EXPLICIT_MAX_TIME_STEP_S,
+                                     EXPLICIT_TIME_STEP_S,
+                                     FEEDFORWARD_OPTIONS,
+                                     IMPLICIT_TIME_STEP_S,
+                                     add_ideal_torque_actuation,
+                                     add_implicit_damping_actuation,
+                                     add_inverse_dynamics_feedforward,
+                                     check_time_step,
+                                     default_time_step_s,
+                                     explicit_step_known_unstable,
+                                     ideal_joint_gains,
+                                     motor_params_for,
+                                     pid_gains_for,
+)
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
-from qmt_drake.sim.magnet_hand import (GRAVITY_M_S2, MAGNET_EFFECTIVE_GAP_M, add_magnet_hand,
-                                       calibrated_coil_current_A, coil_current_for, hold_lever_m,
-                                       magnet_hand_of, magnet_params_for)
-from qmt_drake.sim.plant import (TransferPlant, add_transfer_plant, finalize_transfer_plant,
-                                 move_loop_damping_into_plant, set_initial_state, transfer_plant_config)
+from qmt_drake.sim.magnet_hand import (
+                                     GRAVITY_M_S2,
+                                     MAGNET_EFFECTIVE_GAP_M,
+                                     add_magnet_hand,
+                                     calibrated_coil_current_A,
+                                     coil_current_for,
+                                     hold_lever_m,
+                                     magnet_hand_of,
+                                     magnet_params_for,
+)
+from qmt_drake.sim.plant import (
+                                     TransferPlant,
+                                     add_transfer_plant,
+                                     finalize_transfer_plant,
+                                     move_loop_damping_into_plant,
+                                     set_initial_state,
+                                     transfer_plant_config,
+)
 from qmt_drake.sim.reference import GenesPlan, check_time_scale, plan_start, reference_trajectories
-from qmt_drake.sim.runner import (HELD_SLIP_LIMIT_M, TransferResult, check_simulation_inputs,
-                                  feedforward_keywords, logged_series, make_result,
-                                  planned_peak_moment_Nm, planned_peak_motor_torque_Nm, run_diagram,
-                                  run_simulate, simulate_transfer)
+from qmt_drake.sim.runner import (
+                                     HELD_SLIP_LIMIT_M,
+                                     TransferResult,
+                                     check_simulation_inputs,
+                                     feedforward_keywords,
+                                     logged_series,
+                                     make_result,
+                                     planned_peak_moment_Nm,
+                                     planned_peak_motor_torque_Nm,
+                                     run_diagram,
+                                     run_simulate,
+                                     simulate_transfer,
+)
 
 __all__ = [n for n in dir() if not n.startswith("_")]

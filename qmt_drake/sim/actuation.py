@@ -18,13 +18,17 @@ import numpy as np
 from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.primitives import Adder, MatrixGain, TrajectorySource, ZeroOrderHold
 
-from qmt_drake.errors import QmtInputError
-from qmt_drake.systems.dc_motor import MOTOR_CATALOG, DcMotorParams, applied_motor_signals_as_primitives
-from qmt_drake.systems.ideal_torque import ideal_actuator_signals
-from qmt_drake.systems.joint_tracking import PidGains
 from qmt_drake.config.scenario import DcMotorGear
-from qmt_drake.systems.dc_motor import motor_forward, motor_joints
-from qmt_drake.systems.joint_tracking import pd_law_diagram
+from qmt_drake.errors import QmtInputError
+from qmt_drake.systems.dc_motor import (
+    MOTOR_CATALOG,
+    DcMotorParams,
+    applied_motor_signals_as_primitives,
+    motor_forward,
+    motor_joints,
+)
+from qmt_drake.systems.ideal_torque import ideal_actuator_signals
+from qmt_drake.systems.joint_tracking import PidGains, pd_law_diagram
 from qmt_drake.systems.scalar_ops import SYMBOLIC
 
 # Plant steps: the implicitly damped loop (default) is stable and accurate at 2 ms; the explicit

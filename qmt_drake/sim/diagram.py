@@ -33,24 +33,39 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 
+from qmt_drake.config.scenario import IdealTorque
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import check_plan_fits
-from qmt_drake.sim.actuation import (add_ideal_torque_actuation, add_implicit_damping_actuation, add_motor_actuation_law,
-                                     motor_actuation_law,
-                                     add_inverse_dynamics_feedforward, check_time_step, default_time_step_s,
-                                     ideal_joint_gains, motor_params_for, pid_gains_for)
-from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
 from qmt_drake.recording import add_floor, add_meshcat_visualizer, frame_arm
-from qmt_drake.sim.plant import (add_transfer_plant, finalize_transfer_plant, move_loop_damping_into_plant,
-                                 set_initial_state)
+from qmt_drake.sim.actuation import (
+    add_ideal_torque_actuation,
+    add_implicit_damping_actuation,
+    add_inverse_dynamics_feedforward,
+    add_motor_actuation_law,
+    check_time_step,
+    default_time_step_s,
+    ideal_joint_gains,
+    motor_actuation_law,
+    motor_params_for,
+    pid_gains_for,
+)
+from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
+from qmt_drake.sim.plant import (
+    add_transfer_plant,
+    finalize_transfer_plant,
+    move_loop_damping_into_plant,
+    set_initial_state,
+)
+from qmt_drake.sim.posthoc import add_step_logs, summary_from_logs
 from qmt_drake.sim.reference import plan_start, reference_trajectories
 from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear, dc_motors_as_primitives
-from qmt_drake.systems.joint_tracking import JointPidController, effective_joint_gains, primitive_pd_controller
+from qmt_drake.systems.joint_tracking import (
+    JointPidController,
+    effective_joint_gains,
+    primitive_pd_controller,
+)
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.transfer_monitor import TransferMonitor, payload_motion_as_primitives
-from qmt_drake.config.scenario import IdealTorque
-from qmt_drake.sim.posthoc import add_step_logs
-from qmt_drake.sim.posthoc import summary_from_logs
 
 
 @dataclass

@@ -31,10 +31,10 @@ import math
 
 from pydrake.systems.primitives import ConstantVectorSource
 
-from qmt_drake.errors import QmtInputError
-from qmt_drake.systems.electromagnet import electromagnet_force, MagnetParams
-from qmt_drake.systems.payload import PayloadSpec, payload_joint
 from qmt_drake.config.scenario import MagnetHand
+from qmt_drake.errors import QmtInputError
+from qmt_drake.systems.electromagnet import MagnetParams, electromagnet_force
+from qmt_drake.systems.payload import PayloadSpec, payload_joint
 
 GRAVITY_M_S2 = 9.81
 MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0 of the built-in scenarios' hands (hand.effective_gap_m)

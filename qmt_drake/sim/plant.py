@@ -31,8 +31,13 @@ from pydrake.multibody.tree import JointActuatorIndex
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.arm import add_arm
-from qmt_drake.systems.payload import (PayloadSpec, add_payload, allow_contact, payload_joint,
-                                      seated_pose_in_hand)
+from qmt_drake.systems.payload import (
+    PayloadSpec,
+    add_payload,
+    allow_contact,
+    payload_joint,
+    seated_pose_in_hand,
+)
 
 
 def transfer_plant_config(time_step_s: float) -> MultibodyPlantConfig:

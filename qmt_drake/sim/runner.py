@@ -11,18 +11,22 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.analysis import Simulator
 
-from qmt_drake.errors import QmtInputError, QmtSimulationError
-from qmt_drake.sim.actuation import (FEEDFORWARD_OPTIONS, check_time_step, default_time_step_s,
-                                     explicit_step_known_unstable)
-from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
-from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
-from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
 from qmt_drake.config.scenario import IdealTorque
-from qmt_drake.recording import make_headless_meshcat
-from qmt_drake.recording import save_recording
-from qmt_drake.recording import start_recording
-from qmt_drake.sim.actuation import ideal_joint_gains, motor_params_for, pid_gains_for
+from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.recording import make_headless_meshcat, save_recording, start_recording
+from qmt_drake.sim.actuation import (
+    FEEDFORWARD_OPTIONS,
+    check_time_step,
+    default_time_step_s,
+    explicit_step_known_unstable,
+    ideal_joint_gains,
+    motor_params_for,
+    pid_gains_for,
+)
+from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.magnet_hand import magnet_hand_of
+from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
 from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
 
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm

@@ -77,10 +77,8 @@ from typing import NamedTuple
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from qmt_drake.catalog import (HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, MotorDatasheet,  # noqa: F401 (re-exported)
-                               motor_for_rated_torque)
-from qmt_drake.systems.scalar_ops import FLOAT
-from qmt_drake.systems.scalar_ops import SYMBOLIC, symbolic_law
+from qmt_drake.catalog import HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, MotorDatasheet, motor_for_rated_torque  # noqa: F401 (re-exported)
+from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
 
 @dataclass
@@ -120,7 +118,7 @@ class DcMotorParams:
     @classmethod
     def from_datasheets(cls, sheets: list[MotorDatasheet], gear_ratio, *,
                         efficiency: float = HARMONIC_DRIVE_EFFICIENCY,
-                        with_inductance: bool = False) -> "DcMotorParams":
+                        with_inductance: bool = False) -> DcMotorParams:
         return cls(
             torque_constant_Nm_per_A=[s.torque_constant_Nm_per_A for s in sheets],
             resistance_ohm=[s.resistance_ohm for s in sheets],
@@ -133,7 +131,7 @@ class DcMotorParams:
         )
 
     @classmethod
-    def for_rated_torques(cls, rated_torque_Nm, gear_ratio, **kw) -> "DcMotorParams":
+    def for_rated_torques(cls, rated_torque_Nm, gear_ratio, **kw) -> DcMotorParams:
         """Pick one catalogue motor per joint from the thesis's rated motor torques [N*m]."""
         return cls.from_datasheets([motor_for_rated_torque(t) for t in np.atleast_1d(rated_torque_Nm)],
                                    gear_ratio, **kw)

@@ -48,18 +48,28 @@ Ports (n servos)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from qmt_drake.catalog import (  # noqa: F401 (the servo datasheets and units, re-exported)
-    CONTROL_PERIOD_S, CRANE_X7_PLANAR_SERVOS, CURRENT_UNIT_A, PULSES_PER_RAD, PULSES_PER_REV, PWM_FULL_SCALE, RPM,
-    SEED_GAINS_AFTER, SEED_GAINS_BEFORE, SERVO_CATALOG, XM430_W350, XM540_W270, ServoDatasheet, ServoGains)
+    CONTROL_PERIOD_S,
+    CRANE_X7_PLANAR_SERVOS,
+    CURRENT_UNIT_A,
+    PULSES_PER_RAD,
+    PULSES_PER_REV,
+    PWM_FULL_SCALE,
+    RPM,
+    SEED_GAINS_AFTER,
+    SEED_GAINS_BEFORE,
+    SERVO_CATALOG,
+    XM430_W350,
+    XM540_W270,
+    ServoDatasheet,
+    ServoGains,
+)
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dc_motor import DcMotorParams
-
-
 
 
 def motor_params(sheets, *, lossless_equivalent: bool = True,

@@ -23,8 +23,8 @@ A Diagram of Drake primitives (no Python per evaluation; a plain Diagram, which 
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import DiagramBuilder
 from pydrake import symbolic
+from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, MatrixGain, Multiplexer, PassThrough
 
 from qmt_drake.systems.scalar_ops import symbolic_law

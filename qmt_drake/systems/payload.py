@@ -42,8 +42,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import Box, Cylinder, ProximityProperties, Sphere
-from pydrake.geometry import AddContactMaterial
+from pydrake.geometry import AddContactMaterial, Box, Cylinder, ProximityProperties, Sphere
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import QuaternionFloatingJoint, SpatialInertia, UnitInertia
@@ -74,20 +73,20 @@ class PayloadSpec:
     hunt_crossley_dissipation_s_per_m: float = 5.0
 
     @classmethod
-    def m8_bolt(cls, mass_kg: float = 0.022, com_offset_m: float = 0.0151, **kw) -> "PayloadSpec":
+    def m8_bolt(cls, mass_kg: float = 0.022, com_offset_m: float = 0.0151, **kw) -> PayloadSpec:
         # M8 x 40 hexagon bolt, head (13 mm across flats, 5.3 mm) against the face.
         return cls("M8x40 bolt", mass_kg, com_offset_m, length_m=0.0453, radius_m=0.004, face_radius_m=6.5e-3,
                    **kw)
 
     @classmethod
-    def steel_cylinder(cls, mass_kg: float = 0.030, com_offset_m: float = 0.028, **kw) -> "PayloadSpec":
+    def steel_cylinder(cls, mass_kg: float = 0.030, com_offset_m: float = 0.028, **kw) -> PayloadSpec:
         length = 2.0 * com_offset_m
         radius = math.sqrt(mass_kg / (STEEL_DENSITY_KG_M3 * math.pi * length))
         return cls("steel part", mass_kg, com_offset_m, length_m=length, radius_m=radius, face_radius_m=radius,
                    **kw)
 
     @classmethod
-    def for_scenario(cls, scenario, **kw) -> "PayloadSpec":
+    def for_scenario(cls, scenario, **kw) -> PayloadSpec:
         """From the scenario's typed data: mass, r_G and body (payload section), friction and the
         contact ring (hand section, if any; else this class's defaults). kw overrides any field."""
         p = scenario.payload

@@ -83,7 +83,7 @@ class BottleSpec:
                                 f"(0, {self.height_m}) m")
 
     @classmethod
-    def pet_500ml(cls, mass_kg: float = 0.050, shell_mass_kg: float = 0.020, **kw) -> "BottleSpec":
+    def pet_500ml(cls, mass_kg: float = 0.050, shell_mass_kg: float = 0.020, **kw) -> BottleSpec:
         """The assumed bottle; the water is what remains of mass_kg after the shell."""
         r, height = 0.0325, 0.205
         water = mass_kg - shell_mass_kg
@@ -93,7 +93,7 @@ class BottleSpec:
         com = (shell_mass_kg * height / 2 + water * fill / 2) / mass_kg
         return cls("PET bottle 500 mL", mass_kg, r, height, com, shell_mass_kg, 0.029, **kw)
 
-    def with_com_height(self, com_height_m: float) -> "BottleSpec":
+    def with_com_height(self, com_height_m: float) -> BottleSpec:
         return replace(self, com_height_m=com_height_m)
 
     @property

@@ -35,19 +35,28 @@ from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, Trajector
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 from qmt_drake.systems.dc_motor import DcMotorWithGear
+from qmt_drake.systems.dynamixel_servo import (
+    CONTROL_PERIOD_S,
+    CRANE_X7_PLANAR_SERVOS,
+    PULSES_PER_RAD,
+    PWM_FULL_SCALE,
+    DynamixelPositionServo,
+    ServoGains,
+    motor_params,
+)
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
-from qmt_drake.systems.dynamixel_servo import (CONTROL_PERIOD_S, CRANE_X7_PLANAR_SERVOS, DynamixelPositionServo,
-                                               ServoGains, motor_params)
-from qmt_drake.systems.tray_object import (TRAY_SIZE_M, BottleSpec, TrayBottleMonitor, add_bottle, add_tray_contact,
-                                           seated_pose_on_tray)
+from qmt_drake.systems.tray_object import (
+    TRAY_SIZE_M,
+    BottleSpec,
+    TrayBottleMonitor,
+    add_bottle,
+    add_tray_contact,
+    seated_pose_on_tray,
+)
 from qmt_drake.tray.crane_ik import URDF_PATH
 from qmt_drake.tray.waypoints import GoalSchedule
-from qmt_drake.recording import add_meshcat_visualizer
-from qmt_drake.recording import make_headless_meshcat
-from qmt_drake.recording import save_recording
-from qmt_drake.recording import start_recording
-from qmt_drake.systems.dynamixel_servo import PULSES_PER_RAD, PWM_FULL_SCALE
 
 JOINTS = ("shoulder_pitch", "elbow", "wrist_pitch")
 TIME_STEP_S = 1e-3

@@ -15,12 +15,11 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.plan import check_plan_fits
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
-from qmt_drake.tray.waypoints import GoalSchedule, _stream
+from qmt_drake.plan import check_plan_fits
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
-from qmt_drake.tray.cosim import TIME_STEP_S, simulate_tray
-from qmt_drake.tray.cosim import URDF_PATH
+from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, simulate_tray
+from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
 SETTLE_S = 1.0
 TAIL_S = 1.5

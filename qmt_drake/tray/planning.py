@@ -8,8 +8,8 @@ re-check use the same limit terms (limits/tray.py) as `qmt-drake plan crane-tray
 
 from __future__ import annotations
 
-from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.config.scenario import _merge, load_scenario
+from qmt_drake.systems.tray_object import BottleSpec
 
 
 def bottle_overrides(bottle: BottleSpec, margin: float | None = None, speed_fraction: float | None = None) -> dict:

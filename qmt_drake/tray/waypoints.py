@@ -26,12 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.tray.crane_ik import SEED_GOAL_XY_M, SEED_START_XY_M, TABLE1, CraneGeometry, tray_ik
-from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
 from qmt_drake.systems.tray_object import GRAVITY_M_S2
 from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
-from qmt_drake.tray.crane_ik import tray_fk
+from qmt_drake.tray.crane_ik import SEED_GOAL_XY_M, SEED_START_XY_M, TABLE1, CraneGeometry, tray_fk, tray_ik
 from qmt_drake.tray.planning import tray_scenario
 
 SEED_WAYPOINTS = 1000
@@ -128,6 +126,7 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     info["solve_s"] / ["solve_cpu_s"] are the TOPP-RA wall / process CPU time (constraint
     parameters + solve + parametrisation; CPU time is less disturbed by other loads)."""
     import time as _time
+
     import toppra as ta
     import toppra.algorithm as algo
 

@@ -16,10 +16,11 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.planners.baselines.paths import task_joint_points
-from qmt_drake.plan import Plan, make_plan, recheck
-from qmt_drake.trajectory import JointTrajectory, RestTrajectory, TimeScaledTrajectory
 from qmt_drake.families import make_family
+from qmt_drake.plan import Plan, make_plan, recheck
+from qmt_drake.planners.baselines.paths import task_joint_points
+from qmt_drake.trajectory import JointTrajectory, RestTrajectory, TimeScaledTrajectory
+
 
 def slowest_allowed_motion_s(scenario) -> float:
     """The slowest motion the scenario's family allows (all genes at their upper bounds), s:

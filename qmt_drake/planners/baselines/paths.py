@@ -17,10 +17,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.trajectory import JointTrajectory
 from qmt_drake.plan import family_plan
 from qmt_drake.planners.ga import run_ga
 from qmt_drake.problem import PlanningProblem
+from qmt_drake.trajectory import JointTrajectory
 
 PATHS = ("family", "ga_path", "joint_line", "cartesian_line")
 TRACED_KNOTS = 1000  # spline knots along a traced joint path (joint-space arc length)

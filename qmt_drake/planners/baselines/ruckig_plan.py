@@ -42,9 +42,13 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
+from qmt_drake.planners.baselines.finish import (
+    finish_plan,
+    infeasible_plan,
+    no_path_plan,
+    slowest_allowed_motion_s,
+)
 from qmt_drake.planners.baselines.paths import CartesianLinePath, task_joint_points
-from qmt_drake.planners.baselines.finish import (finish_plan, infeasible_plan, no_path_plan,
-                                         slowest_allowed_motion_s)
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
 

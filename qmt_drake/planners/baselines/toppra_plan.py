@@ -50,9 +50,15 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.planners.baselines.paths import PATHS, GeometricPath, PathTimingTrajectory, chord_angle_rad, path_segments
-from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan, no_path_plan
 from qmt_drake.plan import Plan
+from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan, no_path_plan
+from qmt_drake.planners.baselines.paths import (
+    PATHS,
+    GeometricPath,
+    PathTimingTrajectory,
+    chord_angle_rad,
+    path_segments,
+)
 from qmt_drake.trajectory import CallableTrajectory, ConcatenatedTrajectory, JointTrajectory
 
 

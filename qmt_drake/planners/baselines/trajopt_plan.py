@@ -28,9 +28,13 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
+from qmt_drake.planners.baselines.finish import (
+    finish_plan,
+    infeasible_plan,
+    no_path_plan,
+    slowest_allowed_motion_s,
+)
 from qmt_drake.planners.baselines.paths import reported_family_plan, task_joint_points
-from qmt_drake.planners.baselines.finish import (finish_plan, infeasible_plan, no_path_plan,
-                                         slowest_allowed_motion_s)
 from qmt_drake.trajectory import JointTrajectory
 
 

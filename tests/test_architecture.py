@@ -1,0 +1,102 @@
+"""The house: no import circle, the scenario a leaf, no qmt_drake import hidden inside a function,
+and modules of one job (size)."""
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PKG = ROOT / "qmt_drake"
+
+
+def _modules() -> dict[str, Path]:
+    mods = {}
+    for p in PKG.rglob("*.py"):
+        name = ".".join(p.relative_to(ROOT).with_suffix("").parts)
+        mods[name.removesuffix(".__init__")] = p
+    return mods
+
+
+def _imports(mods):
+    """(module -> set of qmt_drake modules it imports at import time, including the packages whose
+    __init__ runs on the way; [(module, line) of qmt_drake imports inside functions])."""
+    def resolve(n):
+        while n and n not in mods:
+            n = n.rpartition(".")[0]
+        return n
+    edges, inner = {}, []
+    for name, path in mods.items():
+        edges[name] = set()
+
+        def visit(node, in_function):
+            for ch in ast.iter_child_nodes(node):
+                if isinstance(ch, (ast.Import, ast.ImportFrom)):
+                    targets = ([a.name for a in ch.names] if isinstance(ch, ast.Import)
+                               else [ch.module] + [f"{ch.module}.{a.name}" for a in ch.names] if ch.module else [])
+                    for t in (t for t in targets if t.startswith("qmt_drake")):
+                        r = resolve(t)
+                        if in_function:
+                            inner.append((name, ch.lineno))
+                        elif r and r != name:
+                            parts = r.split(".")
+                            for k in range(2, len(parts) + 1):
+                                anc = ".".join(parts[:k])
+                                if anc in mods and anc != name and not name.startswith(anc + "."):
+                                    edges[name].add(anc)
+                visit(ch, in_function or isinstance(ch, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)))
+        visit(ast.parse(path.read_text()), False)
+    return edges, inner
+
+
+def _cycles(edges):
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def strong(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in edges.get(v, ()):
+            if w not in index:
+                strong(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+    for v in edges:
+        if v not in index:
+            strong(v)
+    return out
+
+
+def test_no_import_circle_and_no_qmt_drake_import_inside_a_function():
+    edges, inner = _imports(_modules())
+    assert _cycles(edges) == []
+    assert inner == [], "import these at the module's top (an import inside a function hides a circle)"
+
+
+def test_the_scenario_imports_nothing_above_config():
+    edges, _ = _imports(_modules())
+    allowed = {"qmt_drake", "qmt_drake.config", "qmt_drake.config.fields", "qmt_drake.config.scenario",
+               "qmt_drake.errors", "qmt_drake.catalog"}
+    for name in (n for n in edges if n.startswith("qmt_drake.config")):
+        assert edges[name] <= allowed, (name, edges[name] - allowed)
+    assert edges["qmt_drake.catalog"] <= {"qmt_drake.errors"}
+
+
+def test_seed_packages_do_not_import_each_other():
+    edges, _ = _imports(_modules())
+    seeds = ("energy", "tray", "design")
+    for name, targets in edges.items():
+        mine = name.split(".")[1] if name.count(".") else ""
+        for t in targets:
+            theirs = t.split(".")[1] if t.count(".") else ""
+            if mine in seeds and theirs in seeds:
+                assert mine == theirs, f"{name} imports {t}: seed packages plug into the core only"
