@@ -14,19 +14,12 @@ import sys
 from pathlib import Path
 
 from qmt_drake.budgets import announce, check_budget, design_estimate
-from qmt_drake.design.problem import BRANCH_MODES
-from qmt_drake.design.search import METHODS
-from qmt_drake.errors import QmtInputError
-from qmt_drake.outputs import check_output_dir
-from qmt_drake.design.arm_types import TYPES, check_type
-from qmt_drake.design.arm_types import check_levels, check_type, levels_from_gene
-from qmt_drake.design.arm_types import urdf_text
-from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
-from qmt_drake.design.problem import lengths6
-from qmt_drake.design.search import run_all_types
+from qmt_drake.design.arm_types import TYPES, check_levels, check_type, levels_from_gene, urdf_text
+from qmt_drake.design.problem import BRANCH_MODES, DesignProblem, genes_from_levels, lengths6
+from qmt_drake.design.search import METHODS, run_all_types
 from qmt_drake.design.tasks import load_task
-from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.outputs import write_text_atomic
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 
 MAX_WORKERS = 256
 

@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from qmt_drake.errors import QmtInputError
 from qmt_drake.config.scenario import load_scenario
+from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import write_text_atomic
 from qmt_drake.planners import plan_with
 

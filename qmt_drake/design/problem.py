@@ -21,19 +21,22 @@ from SceneGraph signed distances, and requires the same E.
 
 from __future__ import annotations
 
-
-
 import numpy as np
 
 from qmt_drake.design import ik
-from qmt_drake.design.arm_types import (LEVEL_STEP_M, N_LEVELS, arm_type, forward, gene_from_levels,
-                                        jacobian)
-from qmt_drake.design.operability import (direction_ease, fitness_E, operability,
-                                          task_frame_jacobian)
+from qmt_drake.design.arm_types import (
+    LEVEL_STEP_M,
+    N_LEVELS,
+    arm_type,
+    build_plant,
+    forward,
+    gene_from_levels,
+    jacobian,
+)
+from qmt_drake.design.operability import direction_ease, fitness_E, operability, task_frame_jacobian
 from qmt_drake.design.tasks import Task
 from qmt_drake.errors import QmtInputError
 from qmt_drake.problem import Evaluation
-from qmt_drake.design.arm_types import build_plant
 
 GENE_NAMES = ("L1_m", "L2_m", "L3_m", "L4_m", "L6_m")
 CHUNK_ROWS = 60_000  # IK rows (candidates x units x starts) per numpy pass: bounds memory

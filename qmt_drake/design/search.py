@@ -19,11 +19,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from qmt_drake.config.scenario import GaSettings
 from qmt_drake.design.arm_types import LEVEL_STEP_M, N_LEVELS, TYPES
 from qmt_drake.design.problem import DesignProblem, hex_gene
 from qmt_drake.design.tasks import Task
 from qmt_drake.errors import QmtInputError
-from qmt_drake.config.scenario import GaSettings
 from qmt_drake.planners import ga
 
 SEED_GA = dict(population=200, mutants_per_generation=30, bits_per_gene=4, elite_count=1,

@@ -26,15 +26,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from qmt_drake.errors import QmtInputError, QmtSimulationError
-from qmt_drake.sweep.spec import PARAMETERS, SweepSpec
 from qmt_drake.config.scenario import load_scenario
-from qmt_drake.errors import QmtInputError
+from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.outputs import jsonable
 from qmt_drake.plan import load_plan
 from qmt_drake.planners import plan_with
-from qmt_drake.sim import FEEDFORWARD_OPTIONS, calibrated_coil_current_A, simulate_transfer
-from qmt_drake.sim import motor_params_for
+from qmt_drake.sim import FEEDFORWARD_OPTIONS, calibrated_coil_current_A, motor_params_for, simulate_transfer
+from qmt_drake.sweep.spec import PARAMETERS, SweepSpec
 from qmt_drake.systems.payload import PayloadSpec
 
 CASE_SCHEMA = 1  # bump when run_case's physics changes: every stored result is then recomputed

@@ -25,11 +25,11 @@ import json
 import os
 import sys
 from pathlib import Path
+
 from qmt_drake.budgets import announce, check_budget
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
-from qmt_drake.outputs import check_output_dir, check_output_path
-from qmt_drake.outputs import write_text_atomic
+from qmt_drake.outputs import check_output_dir, check_output_path, write_text_atomic
 from qmt_drake.sweep.budget import estimate_sweep
 from qmt_drake.sweep.runner import check_scheduler_address, format_table, run_sweep
 from qmt_drake.sweep.spec import load_spec

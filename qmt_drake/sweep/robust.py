@@ -26,15 +26,13 @@ import time
 
 import numpy as np
 
-from qmt_drake.errors import QmtInputError
-from qmt_drake.sweep.spec import SweepSpec, load_spec
-from qmt_drake.sweep.stats import wilson_interval
-from qmt_drake.errors import QmtSimulationError
+from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.plan import make_plan
 from qmt_drake.planners import plan_with
-from qmt_drake.sim import FEEDFORWARD_OPTIONS
 from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
 from qmt_drake.sweep.runner import dask_client, run_sweep
+from qmt_drake.sweep.spec import SweepSpec, load_spec
+from qmt_drake.sweep.stats import wilson_interval
 from qmt_drake.trajectory import TimeScaledTrajectory
 
 

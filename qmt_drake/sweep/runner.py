@@ -37,10 +37,10 @@ from pathlib import Path
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable
 from qmt_drake.sweep.cases import build_cases, make_plan_doc, run_case
+from qmt_drake.sweep.figures import write_figures
 from qmt_drake.sweep.spec import SweepSpec, describe_uncertainty, load_spec
 from qmt_drake.sweep.stats import success_rows
 from qmt_drake.sweep.store import SweepStore
-from qmt_drake.sweep.figures import write_figures
 
 DEFAULT_ALLOWED_FAILURES = 3  # Dask's own default, stated so a LocalCluster sweep does not depend on it
 CONNECT_TIMEOUT_S = 3.0  # an unroutable --scheduler is refused after this

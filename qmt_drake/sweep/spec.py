@@ -38,8 +38,8 @@ import numpy as np
 
 from qmt_drake.config.fields import check_keys, is_number, read_yaml_mapping, show
 from qmt_drake.errors import QmtInputError
-from qmt_drake.sweep.options import check_options
 from qmt_drake.planners import METHODS
+from qmt_drake.sweep.options import check_options
 
 EXPLICIT_MAX_TIME_STEP_S = 1e-3  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a test checks they agree)
 MAX_TIME_STEP_S = 0.005  # measured: thesis-ch4 replayed at 2 and 5 ms is carried, at 10 and 20 ms "lost" (a step artifact)
