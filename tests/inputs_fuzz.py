@@ -492,16 +492,17 @@ CACHED = ("qmt_drake.config.scenario:builtin_scenarios", "qmt_drake.energy.scena
 
 @contextlib.contextmanager
 def stubbed():
+    """Replace each entry point of STUBS (and CACHED) in every loaded qmt_drake module that holds
+    it (modules import these names at their top, so the defining module is not enough)."""
     saved = []
     for spec in STUBS + CACHED:
         mod, _, attr = spec.partition(":")
         original = getattr(importlib.import_module(mod), attr)
-        replacement = functools.cache(original) if spec in CACHED else _accepted
-        # every module that imported the name (modules bind imported names at their top)
-        for m in [m for name, m in list(sys.modules.items()) if name.startswith("qmt_drake") and m is not None]:
-            if getattr(m, attr, None) is original:
+        new = functools.cache(original) if spec in CACHED else _accepted
+        for name, m in list(sys.modules.items()):
+            if (name == "qmt_drake" or name.startswith("qmt_drake.")) and getattr(m, attr, None) is original:
                 saved.append((m, attr, original))
-                setattr(m, attr, replacement)
+                setattr(m, attr, new)
     try:
         yield
     finally:

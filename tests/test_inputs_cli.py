@@ -103,7 +103,7 @@ def test_ctrl_c_exits_130_with_one_line(monkeypatch, capsys):
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("qmt_drake.apps.cli.plan_with", interrupted)
+    monkeypatch.setattr(cli, "plan_with", interrupted)  # the name cmd_plan calls
     rc, _, err, _ = _run(capsys, "plan", "thesis-ch4", "--quiet")
     assert rc == cli.EXIT_INTERRUPTED == 130
     assert _one_line(err).startswith("qmt-drake: interrupted")
