@@ -429,3 +429,11 @@ def test_a_plan_made_for_another_scenario_is_refused_by_the_library(sc4, plan4):
     assert "\n" not in str(exc.value)
     with pytest.raises(QmtInputError, match="on a tray"):
         build_transfer_diagram(load_scenario("crane-tray"), plan4)
+
+
+def test_a_step_too_coarse_to_resolve_the_contact_is_refused(sc4, plan4):
+    """10 ms 'loses' the carried thesis move (an artefact of the step): refused, CLI and library alike."""
+    with pytest.raises(QmtInputError, match="above 5 ms"):
+        run_simulate(sc4, plan4, time_step_s=10e-3)
+    with pytest.raises(QmtInputError, match="above 5 ms"):
+        build_transfer_diagram(sc4, plan4, time_step_s=10e-3)

@@ -153,3 +153,9 @@ def test_a_replay_too_fast_to_follow_is_never_carried(capsys):
     r = simulate_tray_plan(sc, plan, time_scale=1e-4)
     assert r["outcome"] != "carried" and not r["held"]
     assert r["outcome"] in ("slid_off", "tipped", "slipped", "unfinished")
+
+
+def test_dc_motor_gains_on_a_dynamixel_scenario_are_refused_not_ignored(tmp_path, capsys):
+    path = _yaml(tmp_path, control={"kp": [1, 2, 3], "kd": [1, 1, 1]})
+    rc, out, err = _run(capsys, "plan", path, "--method", "thesis", "--quiet")
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "actuator.p / i / d" in err

@@ -464,6 +464,11 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     sampling = Sampling(**{f.name: _num(sm, f.name, f"{where}: sampling", positive=True,
                                         default=f.default) for f in fields(Sampling)})
     control = {}
+    act_kind = (raw.get("actuator") or {}).get("kind") if isinstance(raw.get("actuator"), dict) else None
+    if raw.get("control") and act_kind == "dynamixel":
+        raise QmtInputError(f"{where}: control.{'/'.join(raw['control'])} are the PID gains of DC motors or ideal "
+                            "actuators; a Dynamixel scenario sets its firmware gains in actuator.p / i / d "
+                            "(control-table units): move them there and drop the control section")
     for k, v in (raw.get("control") or {}).items():
         control[k] = _vector({k: v}, k, f"{where}: control", nonnegative=True,
                              what="gains, one per joint").tolist()
