@@ -130,14 +130,23 @@ SERVO_CATALOG = {s.model: s for s in (XM540_W270, XM430_W350)}  # scenario actua
 
 @dataclass(frozen=True)
 class ServoGains:
-    """Position PID gains in control-table units (Position P/I/D Gain, addresses 84/82/80)."""
+    """Position PID gains in control-table units (Position P/I/D Gain, addresses 84/82/80) and the
+    feedforward gains (Feedforward 1st Gain, address 90: velocity; Feedforward 2nd Gain, address 88:
+    acceleration; ROBOTIS e-Manual, X-series control table: K_FF1 = FF1(TBL) / 4, K_FF2 =
+    FF2(TBL) / 4, acting on the target velocity and acceleration trajectories). ff1 / ff2 None: 0,
+    the servo's default."""
 
     p: tuple
     i: tuple
     d: tuple
+    ff1: tuple | None = None
+    ff2: tuple | None = None
 
     def __post_init__(self) -> None:
-        for name in ("p", "i", "d"):
+        for name in ("ff1", "ff2"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, tuple(0.0 for _ in self.p))
+        for name in ("p", "i", "d", "ff1", "ff2"):
             v = np.asarray(getattr(self, name), float)
             if np.any(v < 0) or np.any(v > 16383) or not np.all(np.isfinite(v)):
                 raise QmtInputError(f"servo {name.upper()} gain {v.tolist()} must be in the control table's "
@@ -152,6 +161,11 @@ class ServoGains:
         """(K_PP, K_PI, K_PD) in PWM units per pulse (per pulse-sample, per pulse-difference)."""
         return (np.asarray(self.p, float) / 128.0, np.asarray(self.i, float) / 65536.0,
                 np.asarray(self.d, float) / 16.0)
+
+    def feedforward(self) -> tuple[np.ndarray, np.ndarray]:
+        """(K_FF1, K_FF2): PWM units per pulse/sample of target velocity and per pulse/sample^2 of
+        target acceleration (e-Manual: FF(TBL) / 4; the constants include the sampling time)."""
+        return np.asarray(self.ff1, float) / 4.0, np.asarray(self.ff2, float) / 4.0
 
     def continuous_equivalent(self, sheets, period_s: float = CONTROL_PERIOD_S) -> dict:
         """The loop in SI at the joint, for checks: voltage per rad (kp_V_per_rad), per rad*s

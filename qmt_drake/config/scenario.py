@@ -161,11 +161,17 @@ class DynamixelServos:
     p: tuple[float, ...]
     i: tuple[float, ...]
     d: tuple[float, ...]
+    ff1: tuple[float, ...] = ()  # Feedforward 1st Gain (velocity), control-table units; () = 0
+    ff2: tuple[float, ...] = ()  # Feedforward 2nd Gain (acceleration)
     control_period_s: float = 1e-3
+    # goal stream: "plain" streams the plan; "shaped" streams the goals that make the firmware's
+    # loop execute the plan (systems/servo_reference.py)
+    reference: str = "plain"
     kind: str = "dynamixel"
 
     def gains(self) -> ServoGains:
-        return ServoGains(tuple(self.p), tuple(self.i), tuple(self.d))
+        return ServoGains(tuple(self.p), tuple(self.i), tuple(self.d), tuple(self.ff1) or None,
+                          tuple(self.ff2) or None)
 
     def datasheets(self) -> tuple:
         return tuple(SERVO_CATALOG[s] for s in self.servos)
@@ -767,7 +773,11 @@ def _actuator(a, limits: Limits, where: str):
 
 
 def _dynamixel(a: dict, where: str) -> DynamixelServos:
-    _check_keys(a, {"kind", "servos", "p", "i", "d", "control_period_s"}, where)
+    _check_keys(a, {"kind", "servos", "p", "i", "d", "ff1", "ff2", "control_period_s", "reference"}, where)
+    reference = a.get("reference", "plain")
+    if reference not in ("plain", "shaped"):
+        raise QmtInputError(f"{where}.reference must be 'plain' (stream the plan) or 'shaped' (goals that make "
+                            f"the servo loop execute the plan), got {_show(reference)}")
     servos = _need(a, "servos", where)
     if not isinstance(servos, list) or not all(isinstance(x, str) for x in servos):
         raise QmtInputError(f"{where}.servos must be a list of servo models ({', '.join(SERVO_CATALOG)}), "
@@ -776,7 +786,10 @@ def _dynamixel(a: dict, where: str) -> DynamixelServos:
         if x not in SERVO_CATALOG:
             raise QmtInputError(f"{where}.servos: {x!r} is not one of {', '.join(SERVO_CATALOG)}")
     gains = {}
-    for k in ("p", "i", "d"):
+    for k in ("p", "i", "d", "ff1", "ff2"):
+        if k in ("ff1", "ff2") and k not in a:
+            gains[k] = tuple(0.0 for _ in servos)  # the servo's default: no feedforward
+            continue
         v = _vector(a, k, where, nonnegative=True, what="control-table gains, one per servo")
         if np.any(v > 16383) or np.any(v != np.round(v)):
             raise QmtInputError(f"{where}.{k} {v.tolist()} must be integers in the control table's range 0..16383")
@@ -784,7 +797,7 @@ def _dynamixel(a: dict, where: str) -> DynamixelServos:
             raise QmtInputError(f"{where}.{k} has {len(v)} entries for {len(servos)} servos; give one per servo")
         gains[k] = tuple(float(x) for x in v)
     period = _num(a, "control_period_s", where, positive=True, default=1e-3)
-    return DynamixelServos(servos=tuple(servos), control_period_s=period, **gains)
+    return DynamixelServos(servos=tuple(servos), control_period_s=period, reference=reference, **gains)
 
 
 def _check_against_arm(sc: Scenario, where: str) -> None:

@@ -124,17 +124,19 @@ class DynamixelPositionServo(LeafSystem):
                                     f"for {n} servos")
         self.sheets, self.gains, self.period_s, self._n = sheets, gains, float(control_period_s), n
         self._kpp, self._kpi, self._kpd = (k.tolist() for k in gains.firmware())
+        self._kff1, self._kff2 = (k.tolist() for k in gains.feedforward())
         self._v_per_pwm = [s.supply_voltage_V / PWM_FULL_SCALE for s in sheets]
         self._quantize = quantize
         self._goal = self.DeclareVectorInputPort("goal_position", n)
         self._pos = self.DeclareVectorInputPort("joint_position", n)
-        # state: [integral of e (pulse*samples) | previous e (pulses) | pwm]
-        self._state = self.DeclareDiscreteState(3 * n)
+        # state: [integral of e (pulse*samples) | previous e (pulses) | pwm | previous goal (pulses) |
+        #         previous goal velocity (pulses/sample)]: the last two feed the feedforward terms
+        self._state = self.DeclareDiscreteState(5 * n)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period_s, 0.0, self._update)
         self.DeclareStateOutputPort("state", self._state)
         self.DeclareVectorOutputPort("voltage_command", n, self._voltage, {self.discrete_state_ticket(self._state)})
         self.DeclareVectorOutputPort("pwm", n, lambda c, o: o.SetFromVector(
-            c.get_discrete_state(self._state).value()[2 * n:]), {self.discrete_state_ticket(self._state)})
+            c.get_discrete_state(self._state).value()[2 * n:3 * n]), {self.discrete_state_ticket(self._state)})
         self.DeclareVectorOutputPort("position_error", n, lambda c, o: o.SetFromVector(
             np.asarray(c.get_discrete_state(self._state).value()[n:2 * n]) / PULSES_PER_RAD),
             {self.discrete_state_ticket(self._state)})
@@ -148,24 +150,40 @@ class DynamixelPositionServo(LeafSystem):
         x = context.get_discrete_state(self._state).value().tolist()
         goal = self._goal.Eval(context).tolist()
         pos = self._pos.Eval(context).tolist()
-        out = [0.0] * (3 * n)
+        out = [0.0] * (5 * n)
         for k in range(n):
-            e = self._pulses(goal[k]) - self._pulses(pos[k])
+            g = self._pulses(goal[k])
+            e = g - self._pulses(pos[k])
+            # target velocity and acceleration of the streamed goal (profile off: the goal itself is
+            # the target trajectory), in pulses per sample and per sample^2
+            v = g - x[3 * n + k]
+            acc = v - x[4 * n + k]
             integral = x[k] + e
             if self._kpi[k] > 0:  # anti-windup: the integral term alone stays within the PWM limit
                 cap = PWM_FULL_SCALE / self._kpi[k]
                 integral = min(max(integral, -cap), cap)
             else:
                 integral = 0.0
-            pwm = self._kpp[k] * e + self._kpi[k] * integral + self._kpd[k] * (e - x[n + k])
+            pwm = (self._kpp[k] * e + self._kpi[k] * integral + self._kpd[k] * (e - x[n + k])
+                   + self._kff1[k] * v + self._kff2[k] * acc)
             out[k], out[n + k], out[2 * n + k] = integral, e, min(max(pwm, -PWM_FULL_SCALE), PWM_FULL_SCALE)
+            out[3 * n + k], out[4 * n + k] = g, v
         discrete_state.get_mutable_vector(self._state).SetFromVector(out)
 
     def _voltage(self, context, output: BasicVector):
-        pwm = context.get_discrete_state(self._state).value()[2 * self._n:]
+        pwm = context.get_discrete_state(self._state).value()[2 * self._n:3 * self._n]
         output.SetFromVector([p * v for p, v in zip(pwm.tolist(), self._v_per_pwm)])
 
+    def state_at_rest(self, integral, error_pulses, pwm, goal_rad) -> np.ndarray:
+        """The discrete state of a loop at rest at goal_rad: the given integral, error [pulses] and
+        PWM, the goal as the previous goal and no goal velocity (no feedforward kick)."""
+        g = [self._pulses(x) for x in np.ravel(goal_rad)]
+        return np.concatenate([np.ravel(integral), np.ravel(error_pulses), np.ravel(pwm), g, np.zeros(self._n)])
+
     def reset_at(self, context, goal_rad, position_rad) -> None:
-        """Start without a derivative kick: previous error = the current error, no integral."""
-        e = [self._pulses(g) - self._pulses(p) for g, p in zip(np.ravel(goal_rad), np.ravel(position_rad))]
-        context.SetDiscreteState(self._state, np.concatenate([np.zeros(self._n), e, np.zeros(self._n)]))
+        """Start without a derivative or feedforward kick: previous error = the current error, previous
+        goal = the goal at rest, no integral."""
+        g = [self._pulses(x) for x in np.ravel(goal_rad)]
+        e = [gk - self._pulses(p) for gk, p in zip(g, np.ravel(position_rad))]
+        context.SetDiscreteState(self._state, np.concatenate([np.zeros(self._n), e, np.zeros(self._n), g,
+                                                              np.zeros(self._n)]))

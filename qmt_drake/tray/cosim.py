@@ -235,7 +235,7 @@ def set_initial_state(td: TrayDiagram, root_context) -> None:
     joint.set_translational_velocity(ctx, np.zeros(3))
     integral = np.where(kpi > 0, pwm / np.where(kpi > 0, kpi, 1.0), 0.0)
     td.servo.GetMyMutableContextFromRoot(root_context).SetDiscreteState(
-        np.concatenate([integral, np.round(e), pwm]))
+        td.servo.state_at_rest(integral, np.round(e), pwm, goal))
 
 
 def split_slip_creep(series: dict, until_s: float | None = None) -> tuple[float, float]:

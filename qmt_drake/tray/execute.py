@@ -18,6 +18,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.plan import check_plan_fits
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
+from qmt_drake.systems.servo_reference import shaped_goals
 from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, simulate_tray
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
@@ -26,8 +27,10 @@ TAIL_S = 1.5
 
 
 def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, settle_s: float = SETTLE_S,
-                  tail_s: float = TAIL_S) -> GoalSchedule:
-    """Goal stream of `plan` played time_scale times slower, one goal per period_s [s]."""
+                  tail_s: float = TAIL_S, shaped_for=None) -> GoalSchedule:
+    """Goal stream of `plan` played time_scale times slower, one goal per period_s [s]. shaped_for:
+    a tray scenario whose servos the goals are shaped for (systems/servo_reference.py: the goals
+    that make the firmware's loop execute the plan), or None to stream the plan itself."""
     if not (np.isfinite(time_scale) and time_scale > 0):
         raise QmtInputError(f"time scale {time_scale} must be a positive number")
     T = float(plan.motion_time_s) * time_scale
@@ -35,8 +38,19 @@ def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, sett
     t[-1] = min(t[-1], T)
     if t[-1] < T:  # a plan shorter than one period still ends at its goal
         t = np.append(t, T)
-    q = plan.sample(t / time_scale)[0]
-    return _stream(q, t, settle_s, tail_s, f"{plan.method} x{time_scale:g}")
+    label = f"{plan.method} x{time_scale:g}"
+    if shaped_for is None:
+        return _stream(plan.sample(t / time_scale)[0], t, settle_s, tail_s, label)
+    # shaped: the loop's inverse runs on through the tail too (the plan rests at its goal there), so
+    # the goal eases back onto the plan's end as the integral takes up the new static load
+    t_all = np.arange(0.0, T + tail_s, period_s)
+    q, qd, qdd = plan.sample(t_all / time_scale)
+    qd, qdd = qd / time_scale, qdd / time_scale**2
+    tau = shaped_for.arm.joint_torque(q, qd, qdd)
+    goals = shaped_goals(q, qd, qdd, tau, shaped_for.actuator.datasheets(), shaped_for.actuator.gains(), period_s)
+    return GoalSchedule(np.concatenate([[0.0], settle_s + t_all]), np.vstack([goals[:1], goals]),
+                        settle_s + T + tail_s, {"settle": (0.0, settle_s), "move": (settle_s, settle_s + T)},
+                        label + " shaped")
 
 
 def check_tray_simulation(scenario, time_step_s: float | None = None, feedforward: str = "none",
@@ -67,7 +81,8 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused by the library
     act = scenario.actuator
-    sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s)
+    sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s,
+                          shaped_for=scenario if act.reference == "shaped" else None)
     r = simulate_tray(sched, act.gains(), scenario.bottle, time_step_s=time_step_s or TIME_STEP_S,
                       servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path)
     d = r.summary_dict()
