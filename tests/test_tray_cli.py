@@ -174,3 +174,20 @@ def test_shaped_goals_carry_the_time_optimal_tray_transfer_near_its_bound():
     assert plan.motion_time_s == pytest.approx(0.782, rel=2e-3)
     assert simulate(shaped, plan, time_scale=1.15)["outcome"] == "carried"
     assert simulate(plain, plan, time_scale=1.15)["outcome"] != "carried"
+
+
+def test_plan_carried_writes_the_fastest_carried_time_scale_and_every_try(tmp_path, capsys):
+    """`plan crane-tray --method toppra --carried`: the plan slowed to the fastest time scale the
+    co-simulation carries; each try's verdict is in the plan file, the chosen one carried and the
+    bracket's faster end not."""
+    out = tmp_path / "c.json"
+    rc, _, err = _run(capsys, "plan", "crane-tray", "--method", "toppra", "--carried", "--json", str(out), "--quiet")
+    assert rc == 0
+    d = json.loads(out.read_text())
+    s = d["extra"]["carried_search"]
+    by_scale = {round(p["time_scale"], 9): p for p in s["points"]}
+    assert by_scale[round(s["chosen"], 9)]["outcome"] == "carried"
+    assert by_scale[round(s["lost_below"], 9)]["outcome"] != "carried"
+    assert d["method"] == "toppra-carried" and d["feasible"]
+    assert d["motion_time_s"] == pytest.approx(0.782 * s["chosen"], rel=3e-3) and s["chosen"] < 1.15
+    assert 0 < s["margin"] < 0.01

@@ -33,6 +33,7 @@ from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
 from qmt_drake.sim import check_simulation_inputs, run_simulate
 from qmt_drake.sweep.cli import add_parser as add_sweep_parser
+from qmt_drake.sweep.robust import plan_fastest_carried
 from qmt_drake.tray.execute import check_tray_simulation
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
@@ -107,7 +108,8 @@ def cmd_plan(args) -> int:
         if args.method not in ENERGY_METHODS:
             raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is an "
                                 f"energy-time scenario: use --method {'|'.join(ENERGY_METHODS)}")
-        wrong = _given(args, TRANSFER_ONLY_OPTIONS) + (["--seed"] if args.seed != 0 else [])
+        wrong = (_given(args, TRANSFER_ONLY_OPTIONS) + (["--seed"] if args.seed != 0 else [])
+                 + (["--carried"] if args.carried else []))
         if wrong:
             raise QmtInputError(f"{' '.join(wrong)}: options of transfer planners; {args.scenario} is an "
                                 f"energy-time scenario (--method {args.method}): drop them")
@@ -123,6 +125,9 @@ def cmd_plan(args) -> int:
                             "transfer scenario: drop them")
     _check_outputs(args, "--json", "--trajectory-csv")
     _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    _check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
+    if args.carried_max_scale <= 1:
+        raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     _check_int(args.generations, "--generations", 1, "run at least one generation")
     _check_int(args.stall, "--stall", 0, "0 never stops early")
     sc = load_scenario(args.scenario)
@@ -155,6 +160,15 @@ def cmd_plan(args) -> int:
             raise QmtInputError(f"--option {' '.join(args.option)}: a value has the wrong type "
                                 f"({str(exc).splitlines()[0]}); see the planner's docstring") from None
         raise
+    if args.carried:
+        if not plan.feasible:
+            raise QmtInputError(f"--carried: the {args.method} plan breaks a limit on the re-check; nothing to "
+                                "time-scale (drop --carried to write the least-violating plan)")
+        plan = plan_fastest_carried(sc, args.method, base_plan=plan, feedforward=args.carried_feedforward,
+                                    s_max=args.carried_max_scale, progress=None if args.quiet else _progress)
+        search = plan.extra["carried_search"]
+        lost = search.get("lost_below")
+        search["margin"] = None if lost is None else search["chosen"] / lost - 1.0
     summary = plan.summary()
     if args.json and args.json != "-":
         plan.write_json(args.json)
@@ -321,6 +335,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
+    s.add_argument("--carried", action="store_true",
+                   help="then slow the plan to the fastest time scale the nominal co-simulation carries "
+                        "(bisection; every try's verdict and the margin kept go to the plan file)")
+    s.add_argument("--carried-feedforward", choices=FEEDFORWARD_CHOICES, default="full",
+                   help="with --carried: the DC-motor controller's feedforward (tray scenarios: their servos)")
+    s.add_argument("--carried-max-scale", type=float, default=3.0,
+                   help="with --carried: the slowest time scale tried (default 3)")
     add_energy_options(s)
     s.set_defaults(func=cmd_plan)
 

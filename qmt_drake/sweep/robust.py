@@ -29,7 +29,7 @@ import numpy as np
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.plan import make_plan
 from qmt_drake.planners import plan_with
-from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
+from qmt_drake.sim import FEEDFORWARD_OPTIONS, run_simulate, simulate_transfer
 from qmt_drake.sweep.runner import dask_client, run_sweep
 from qmt_drake.sweep.spec import SweepSpec, load_spec
 from qmt_drake.sweep.stats import wilson_interval
@@ -128,15 +128,24 @@ def plan_robust(plan, spec: SweepSpec | dict | str, out_dir="out", **kw):
 # ------------------------------------------------------------ fastest carried (nominal co-sim)
 def carried_in_cosim(scenario, plan, *, time_scale: float = 1.0, feedforward: str = "full",
                      time_step_s: float | None = None) -> dict:
-    """One nominal co-simulation: {'held', 'max_slip_m', 'detached_at_s', 'sim_wall_s'} (a failed
-    simulation counts as not carried)."""
+    """One nominal co-simulation: {'held', 'outcome', 'max_slip_m', 'detached_at_s', 'sim_wall_s'} (a
+    failed simulation counts as not carried). A tray scenario runs through its servos (the DC-motor
+    feedforward does not apply there)."""
+    if getattr(scenario, "is_tray", False):
+        try:
+            r = run_simulate(scenario, plan, time_scale=time_scale, time_step_s=time_step_s)
+        except QmtSimulationError as exc:
+            return {"held": False, "outcome": "failed", "max_slip_m": None, "detached_at_s": None, "error": str(exc)}
+        return {"held": bool(r["held"]), "outcome": r["outcome"], "max_slip_m": float(r["max_slip_m"]),
+                "detached_at_s": r.get("lost_at_s"), "max_tilt_rad": float(r["max_tilt_rad"]),
+                "sim_wall_s": float(r["sim_wall_s"])}
     try:
         r = simulate_transfer(scenario, plan, time_scale=time_scale, time_step_s=time_step_s,
                               keep_series=False, **FEEDFORWARD_OPTIONS[feedforward])
     except QmtSimulationError as exc:
-        return {"held": False, "max_slip_m": None, "detached_at_s": None, "error": str(exc)}
-    return {"held": bool(r.held), "max_slip_m": float(r.max_slip_m), "detached_at_s": r.detached_at_s,
-            "max_tilt_rad": float(r.max_tilt_rad), "sim_wall_s": float(r.sim_wall_s)}
+        return {"held": False, "outcome": "failed", "max_slip_m": None, "detached_at_s": None, "error": str(exc)}
+    return {"held": bool(r.held), "outcome": r.outcome, "max_slip_m": float(r.max_slip_m),
+            "detached_at_s": r.detached_at_s, "max_tilt_rad": float(r.max_tilt_rad), "sim_wall_s": float(r.sim_wall_s)}
 
 
 def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str = "full",
@@ -162,10 +171,10 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
         history.append({var: float(value), "motion_time_s": float(plan.motion_time_s) * s,
                         "plan_feasible": bool(plan.feasible), **out})
         say(f"{scenario.name} {method} {var}={value:.6g}: T = {plan.motion_time_s * s:.4f} s, "
-            f"{'carried' if out['held'] else 'lost'}")
+            f"{out.get('outcome', 'carried' if out['held'] else 'lost')}")
         return out["held"] and plan.feasible
 
-    if method == "ruckig":
+    if method == "ruckig" and base_plan is None:
         lo, hi = (float(x) for x in jerk_range_m_s3)
         if not 0 < lo < hi:
             raise QmtInputError(f"jerk_range_m_s3 must be two increasing positive numbers, got {jerk_range_m_s3}")
