@@ -39,7 +39,8 @@ def build_arm(scenario: Scenario) -> ArmModel:
         raise QmtInputError(f"{where}: arm.urdf {urdf} is a directory; give the URDF file")
     try:
         return ArmModel.from_urdf(urdf, hand_frame=scenario.hand_frame, carried_inertia=carried,
-                                  require_gear_ratio=not isinstance(scenario.actuator, IdealTorque))
+                                  require_gear_ratio=not isinstance(scenario.actuator, IdealTorque),
+                                  gravity_m_s2=scenario.world.gravity_m_s2)
     except QmtInputError as exc:
         raise QmtInputError(f"{where}: {exc}") from None
     except OSError as exc:
@@ -52,7 +53,7 @@ def build_limit_set(scenario: Scenario) -> LimitSet:
     instead of the payload moment, plus joint speeds when limits.joint_speed_fraction is given."""
     arm = scenario.arm
     if scenario.is_tray:
-        terms = tray_terms(scenario.bottle, scenario.hand.plan_margin)
+        terms = tray_terms(scenario.bottle, scenario.hand.plan_margin, gravity_m_s2=scenario.world.gravity_m_s2)
         terms.append(MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm))
         if scenario.limits.joint_speed_fraction is not None:
             sheets = getattr(scenario.actuator, "datasheets", None)

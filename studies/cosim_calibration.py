@@ -216,7 +216,7 @@ def main(argv=None):
     v4 = report["chapters"]["ch4"]["coil_voltage_V"]
     report["voltage_ratio_ch2_over_ch4"] = v2 / v4
     # Counterfactual: both coils on one supply voltage (the other hand's calibrated one), quasi-static.
-    from qmt_drake.sim import GRAVITY_M_S2
+    from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
     from qmt_drake.systems.electromagnet import MagnetParams
     cf = {}
     for ch, sc, v_other in (("ch2", sc2, v4), ("ch4", sc4, v2)):

@@ -94,10 +94,12 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2  # noqa: E402
 from qmt_drake.outputs import write_text_atomic  # noqa: E402
 from qmt_drake.systems.dynamixel_servo import SEED_GAINS_AFTER, SEED_GAINS_BEFORE  # noqa: E402
 from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
 from qmt_drake.tray import crane_ik  # noqa: E402
+from qmt_drake.tray.conditions import level_tray_acceleration_cap_m_s2  # noqa: E402
 from qmt_drake.tray.cosim import SEATING_S, required_friction, simulate_tray  # noqa: E402
 from qmt_drake.tray.waypoints import seed_motion, toppra_line  # noqa: E402
 
@@ -300,7 +302,7 @@ def qmt_section(quick: bool, jerk_m_s3: float = 5.0, ga_seed: int = 0) -> dict:
         if method == "ga":
             entry["plan"].update(generations=plan.generations, evaluations=plan.evaluations,
                                  family_optimum_s=math.sqrt(1.5) * 2 * math.sqrt(
-                                     0.36 / (sc.hand.plan_margin * bottle.friction * 9.81)))
+                                     0.36 / level_tray_acceleration_cap_m_s2(bottle, sc.hand.plan_margin)))
         entry["executed"] = fastest_executed(_plan_maker(plan), bottle, iters=k_iters)
         out["methods"][method] = entry
         print("qmt", method, plan.motion_time_s, entry["executed"]["duration_s"], flush=True)
@@ -430,7 +432,7 @@ def efficiency_section() -> dict:
     from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, motor_params
     sched = seed_motion(1.5, settle_s=SETTLE_S)
     bottle = fill_bottle(0.030, 0.3)
-    out = {"weight_N": bottle.mass_kg * 9.81, "cases": {}}
+    out = {"weight_N": bottle.mass_kg * STANDARD_GRAVITY_M_S2, "cases": {}}
     for name, kw in (("lossless equivalent (default)", {}),
                      ("datasheet eta, switched at qd = 0", {"lossless_equivalent": False}),
                      ("datasheet eta, smooth w_b = 0.05 rad/s", {"lossless_equivalent": False,

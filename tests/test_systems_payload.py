@@ -15,7 +15,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
-from qmt_drake.sim import GRAVITY_M_S2, hold_lever_m
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
+from qmt_drake.sim import hold_lever_m
 from qmt_drake.systems.electromagnet import THESIS_COILS, MagnetParams, electromagnet_force
 from qmt_drake.systems.payload import (
     STEEL_DENSITY_KG_M3,

@@ -10,7 +10,8 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from qmt_drake.systems.tray_object import GRAVITY_M_S2, BottleSpec
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
+from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.conditions import (
     TrayKinematics,
     contact_wrench,

@@ -12,8 +12,8 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.config.scenario import load_scenario
-from qmt_drake.systems.tray_object import GRAVITY_M_S2
 from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
 
 SC = load_scenario("crane-tray")
@@ -154,3 +154,20 @@ def test_ga_feasibility_of_the_line_family_follows_the_slide_closed_form():
     feasible = peaks.feasible
     assert not feasible[0] and feasible[2] and feasible[3]
     assert feasible[1] == bool(np.max(peaks.peaks[1, LS.ratio_mask]) <= 1.0)
+
+
+def test_gravity_has_one_owner_the_scenarios_world():
+    """Half the gravity in `world` halves the static motor torques AND the bottle's weight in the
+    tray terms of the same limit set (before, the tray wrench used a constant g)."""
+    import numpy as np
+
+    from qmt_drake.config.scenario import load_scenario
+    full = load_scenario("crane-tray")
+    half = load_scenario("crane-tray", overrides={"world": {"gravity_m_s2": [0.0, 0.0, -4.905]}})
+    q = np.array([[1.2, -2.0, 0.8]])
+    z = np.zeros_like(q)
+    np.testing.assert_allclose(half.arm.joint_torque(q, z, z), 0.5 * full.arm.joint_torque(q, z, z), rtol=1e-12)
+    c_full = full.limit_set.term("tray_slide").contact
+    c_half = half.limit_set.term("tray_slide").contact
+    assert c_half.weight_N == 0.5 * c_full.weight_N
+    assert half.limits.moment_limit_Nm == 0.5 * full.limits.moment_limit_Nm

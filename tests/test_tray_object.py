@@ -12,9 +12,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.tray_object import (
-    GRAVITY_M_S2,
     BottleSpec,
     TrayBottleMonitor,
     add_bottle,

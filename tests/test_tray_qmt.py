@@ -6,8 +6,9 @@ import math
 import numpy as np
 import pytest
 
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.errors import QmtInputError
-from qmt_drake.systems.tray_object import GRAVITY_M_S2, BottleSpec
+from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
 from qmt_drake.tray.waypoints import ruckig_line, toppra_line
 

@@ -50,7 +50,7 @@ from qmt_drake.planners.optimum import plan_family_optimum
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.sim import run_simulate
 from qmt_drake.sweep.robust import plan_fastest_carried_converged
-from qmt_drake.systems.tray_object import GRAVITY_M_S2
+from qmt_drake.tray.conditions import level_tray_acceleration_cap_m_s2
 
 DEFAULT_JERK_LIMITS = (1.0, 10.0, 100.0)  # m/s^3
 
@@ -76,11 +76,9 @@ def bang_bang_acceleration_m_s2(scenario) -> float:
     """The largest tip acceleration the payload limit allows on a level straight line, m/s^2:
     moment limit / (m_o r_G) for the magnet hand; for a tray, the smaller of the planning
     friction's mu g (no slide) and g r_c / h_G (no tip; both with the plan margin)."""
-    A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
     if getattr(scenario, "is_tray", False):
-        h = scenario.hand
-        A = min(A, h.plan_margin * h.friction * GRAVITY_M_S2)
-    return float(A)
+        return level_tray_acceleration_cap_m_s2(scenario.bottle, scenario.hand.plan_margin, scenario.world.g_m_s2)
+    return float(scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm)
 
 
 def closed_form_bound_s(scenario) -> float | None:

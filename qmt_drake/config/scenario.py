@@ -60,6 +60,23 @@ STEEL_DENSITY_KG_M3 = 7850.0
 
 
 # ------------------------------------------------------------------------------------ sections
+STANDARD_GRAVITY_M_S2 = 9.81  # the value every model here was calibrated with (and Drake's default)
+
+
+@dataclass(frozen=True)
+class World:
+    """`world`: what every model of the scenario shares. gravity_m_s2: the gravity vector in the world
+    frame [m/s^2] (z up); the planning plant, the co-simulation plant and every limit term take it
+    from here."""
+
+    gravity_m_s2: tuple[float, float, float] = (0.0, 0.0, -STANDARD_GRAVITY_M_S2)
+
+    @property
+    def g_m_s2(self) -> float:
+        """|gravity| [m/s^2]."""
+        return float(np.linalg.norm(self.gravity_m_s2))
+
+
 @dataclass(frozen=True)
 class UrdfArm:
     """arm.kind 'urdf' (the default): a serial arm read from a URDF file."""
@@ -251,6 +268,7 @@ class Scenario:
     arm_spec: UrdfArm | None = None
     hand: MagnetHand | TrayHand | None = None
     actuator: DcMotorGear | IdealTorque | DynamixelServos | None = None
+    world: World = field(default_factory=World)
 
     @property
     def is_tray(self) -> bool:
@@ -344,9 +362,10 @@ def register_builders(**builders) -> None:
 
 
 # ---------------------------------------------------------------------------------------- loading
-_TOP_KEYS = {"name", "description", "arm", "hand", "actuator", "payload", "task", "limits",
+_TOP_KEYS = {"name", "description", "world", "arm", "hand", "actuator", "payload", "task", "limits",
              "family", "ga", "sampling", "control", "reported", "notes", "source"}
 _SECTION_KEYS = {
+    "world": {"gravity_m_s2"},
     "arm": {"kind", "urdf", "hand_frame"},
     "payload": {"name", "mass_kg", "com_offset_m", "length_m", "body"},
     "task": {"points_m", "tool_angle_rad", "ik_branch"},
@@ -436,6 +455,7 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     payload = _payload(raw["payload"], f"{where}: payload")
     task = _task(raw["task"], f"{where}: task")
 
+    world = _world(raw.get("world") or {}, f"{where}: world")
     lim = raw["limits"]
     h = raw.get("hand")
     if isinstance(h, dict) and h.get("kind") == "tray" and (payload.body is None or payload.body.shell_mass_kg <= 0):
@@ -451,7 +471,7 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         # Not a planning limit here: the bottle's tipping moment m g r_c (with the planning margin),
         # so that moment_limit / moment_per_accel = g r_c / h_G is the level tray's tipping
         # acceleration, the starting acceleration scale of the Ruckig baseline.
-        moment = payload.mass_kg * 9.81 * hand.contact_radius_m * hand.plan_margin
+        moment = payload.mass_kg * world.g_m_s2 * hand.contact_radius_m * hand.plan_margin
     else:
         moment = _num(lim, "moment_limit_Nm", f"{where}: limits", positive=True)
     speed = lim.get("joint_speed_fraction")
@@ -502,7 +522,7 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         ga=ga, sampling=sampling, control=control, reported=reported,
         notes=tuple(notes), arm_spec=arm_spec,
         hand=hand,
-        actuator=_actuator(raw.get("actuator"), limits, f"{where}: actuator"))
+        actuator=_actuator(raw.get("actuator"), limits, f"{where}: actuator"), world=world)
     _check_against_arm(sc, where)
     if tray:
         _check_tray(sc, where)
@@ -770,6 +790,18 @@ def _actuator(a, limits: Limits, where: str):
     if eff > 1:
         raise QmtInputError(f"{where}.efficiency must lie in (0, 1], got {eff}")
     return DcMotorGear(motors=tuple(motors), efficiency=eff)
+
+
+def _world(w: dict, where: str) -> World:
+    if not isinstance(w, dict):
+        raise QmtInputError(f"{where} must be a mapping like {{gravity_m_s2: [0, 0, -9.81]}}, got {_show(w)}")
+    _check_keys(w, _SECTION_KEYS["world"], where)
+    if "gravity_m_s2" not in w:
+        return World()
+    g = _vector(w, "gravity_m_s2", where, what="the gravity vector in the world frame, m/s^2")
+    if g.shape != (3,) or not np.all(np.isfinite(g)):
+        raise QmtInputError(f"{where}.gravity_m_s2 must be three finite numbers [gx, gy, gz] in m/s^2, got {g.tolist()}")
+    return World(tuple(float(x) for x in g))
 
 
 def _dynamixel(a: dict, where: str) -> DynamixelServos:

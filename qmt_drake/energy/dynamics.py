@@ -28,11 +28,11 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.config.scenario import MODELS_DIR  # noqa: E402
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2  # the one value
 from qmt_drake.model.arm import ArmModel
 
 OHSAKA_URDF = MODELS_DIR / "three_link_vertical_ohsaka.urdf"
 # Drake's default gravity (UniformGravityFieldElement); the paper does not print its g.
-GRAVITY_M_S2 = 9.81
 
 
 @dataclass(frozen=True)

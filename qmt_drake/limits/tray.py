@@ -37,12 +37,12 @@ from dataclasses import replace
 
 import numpy as np
 
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2
 from qmt_drake.limits.base import LimitTerm
-from qmt_drake.systems.tray_object import GRAVITY_M_S2, BottleSpec
+from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.conditions import (
     contact_wrench,
     kinematics_from_hand_state,
-    lift_ratio,
     slide_ratio,
     slide_rows,
     tip_ratio,
@@ -53,7 +53,8 @@ from qmt_drake.tray.conditions import (
 class TrayContact:
     """The bottle seated on the tray (at (x0, y0) [m] in T) and its contact wrench per HandState."""
 
-    def __init__(self, bottle: BottleSpec, margin: float = 1.0, seat_xy_m=(0.0, 0.0)) -> None:
+    def __init__(self, bottle: BottleSpec, margin: float = 1.0, seat_xy_m=(0.0, 0.0),
+                 gravity_m_s2=(0.0, 0.0, -STANDARD_GRAVITY_M_S2)) -> None:
         if not 0 < margin <= 1:
             raise ValueError(f"tray planning margin {margin} must lie in (0, 1]")
         self.bottle = bottle
@@ -61,7 +62,8 @@ class TrayContact:
         self.friction = bottle.friction * margin
         self.contact_radius_m = bottle.contact_radius_m * margin
         self.p_TG = np.array([seat_xy_m[0], seat_xy_m[1], bottle.com_height_m], float)
-        self.weight_N = bottle.mass_kg * GRAVITY_M_S2
+        self.gravity_W = np.asarray(gravity_m_s2, float)  # the scenario's world gravity [m/s^2]
+        self.weight_N = bottle.mass_kg * float(np.linalg.norm(self.gravity_W))
         self._key = f"_tray_wrench_{id(self)}"
 
     def planning_bottle(self) -> BottleSpec:
@@ -72,7 +74,7 @@ class TrayContact:
         w = state.__dict__.get(self._key)
         if w is None:
             # moments about O = G - h_G z_T, the base centre under G (contact_wrench)
-            w = contact_wrench(kinematics_from_hand_state(state, self.p_TG), self.bottle)
+            w = contact_wrench(kinematics_from_hand_state(state, self.p_TG), self.bottle, self.gravity_W)
             state.__dict__[self._key] = w
         return w
 
@@ -122,7 +124,7 @@ class TrayLiftTerm(_TrayTerm):
     column_names = ("tray_lift",)
 
     def columns(self, state) -> np.ndarray:
-        return lift_ratio(self.contact.wrench(state), self.contact.bottle.mass_kg)[:, None]
+        return 1.0 - self.contact.wrench(state)[:, 5:6] / self.contact.weight_N  # conditions.lift_ratio
 
     def toppra_w(self, state):
         return self.contact.wrench(state)[:, 5:6] / self.contact.weight_N
@@ -131,9 +133,10 @@ class TrayLiftTerm(_TrayTerm):
         return np.array([[-1.0]]), np.zeros(1)  # F_n >= 0
 
 
-def tray_terms(bottle: BottleSpec, margin: float = 1.0, seat_xy_m=(0.0, 0.0)) -> list:
-    """[slide, tip, lift] sharing one TrayContact."""
-    c = TrayContact(bottle, margin, seat_xy_m)
+def tray_terms(bottle: BottleSpec, margin: float = 1.0, seat_xy_m=(0.0, 0.0),
+               gravity_m_s2=(0.0, 0.0, -STANDARD_GRAVITY_M_S2)) -> list:
+    """[slide, tip, lift] sharing one TrayContact (gravity_m_s2: the world's, as the arm's plant)."""
+    c = TrayContact(bottle, margin, seat_xy_m, gravity_m_s2)
     return [TraySlideTerm(c), TrayTipTerm(c), TrayLiftTerm(c)]
 
 

@@ -92,15 +92,18 @@ class ArmModel:
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_urdf(cls, urdf_path: str | Path, hand_frame: str = "hand", *, carried_inertia=None,
-                  require_gear_ratio: bool = True) -> ArmModel:
+                  require_gear_ratio: bool = True, gravity_m_s2=None) -> ArmModel:
         """Parse `urdf_path` into a continuous plant; `carried_inertia` (a Drake SpatialInertia about
-        the hand frame's origin, expressed in it) is welded to the hand as the carried part."""
+        the hand frame's origin, expressed in it) is welded to the hand as the carried part;
+        gravity_m_s2: the world's gravity vector [m/s^2] (None: Drake's default, (0, 0, -9.81))."""
         path = Path(urdf_path)
         if not path.is_file():
             raise QmtInputError(f"URDF file not found: {path}; check arm.urdf in the scenario "
                                 "(relative paths are taken from the scenario file's folder)")
         gear_declared = _actuators_declaring_gear_ratio(path)
         plant = MultibodyPlant(time_step=0.0)
+        if gravity_m_s2 is not None:
+            plant.mutable_gravity_field().set_gravity_vector(np.asarray(gravity_m_s2, float))
         add_arm(plant, path)
         if carried_inertia is not None:
             hand = _frame_or_error(plant, hand_frame, path)

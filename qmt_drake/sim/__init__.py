@@ -29,7 +29,6 @@ from qmt_drake.sim.actuation import (
 )
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.magnet_hand import (
-                                     GRAVITY_M_S2,
                                      MAGNET_EFFECTIVE_GAP_M,
                                      add_magnet_hand,
                                      calibrated_coil_current_A,

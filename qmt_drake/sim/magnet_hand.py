@@ -36,7 +36,6 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.electromagnet import MagnetParams, electromagnet_force
 from qmt_drake.systems.payload import PayloadSpec, payload_joint
 
-GRAVITY_M_S2 = 9.81
 MAGNET_EFFECTIVE_GAP_M = 0.5e-3  # g0 of the built-in scenarios' hands (hand.effective_gap_m)
 
 
@@ -71,7 +70,7 @@ def calibrated_coil_current_A(scenario, payload: PayloadSpec, *, effective_gap_m
                             "current is hand.coil_current_A")
     lo, hi = boundary
     tau_star = math.sqrt(lo * hi)
-    force = payload.mass_kg * GRAVITY_M_S2 + tau_star / hold_lever_m(payload)
+    force = payload.mass_kg * scenario.world.g_m_s2 + tau_star / hold_lever_m(payload)
     return magnet_params_for(scenario, payload, effective_gap_m).current_for_force_A(force)
 
 

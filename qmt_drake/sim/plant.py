@@ -69,6 +69,7 @@ def add_transfer_plant(builder, scenario, time_step_s: float, *, payload_spec: P
     The plant is NOT finalised: add joint damping etc., then call `finalize_transfer_plant`.
     n_dof_expected (a plan's joint count) is checked against the arm: one-line QmtInputError."""
     plant, scene_graph = AddMultibodyPlant(transfer_plant_config(time_step_s), builder)
+    plant.mutable_gravity_field().set_gravity_vector(np.asarray(scenario.world.gravity_m_s2, float))
     arm = add_arm(plant, scenario.urdf_path)
     n = sum(plant.get_joint(j).num_velocities() for j in plant.GetJointIndices(arm))
     if n_dof_expected is not None and int(n_dof_expected) != n:

@@ -45,7 +45,6 @@ from pydrake.systems.framework import LeafSystem
 
 from qmt_drake.errors import QmtInputError
 
-GRAVITY_M_S2 = 9.81
 WATER_DENSITY_KG_M3 = 1000.0
 TRAY_SIZE_M = (0.24, 0.16, 0.005)  # same as models/generate_crane_x7.py (visual); assumption
 

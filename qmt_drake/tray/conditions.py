@@ -34,10 +34,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from qmt_drake.systems.tray_object import GRAVITY_M_S2, BottleSpec
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2
+from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.crane_ik import URDF_PATH
 
-GRAVITY_W = np.array([0.0, 0.0, -GRAVITY_M_S2])
+GRAVITY_W = np.array([0.0, 0.0, -STANDARD_GRAVITY_M_S2])  # default; a scenario's world passes its own
 
 
 @dataclass(frozen=True)
@@ -122,9 +123,16 @@ def tip_ratio(wrench: np.ndarray, contact_radius_m: float) -> np.ndarray:
     return np.where(fn > 0, r, np.inf)
 
 
-def lift_ratio(wrench: np.ndarray, mass_kg: float) -> np.ndarray:
+def level_tray_acceleration_cap_m_s2(bottle: BottleSpec, margin: float = 1.0,
+                                     g_m_s2: float = STANDARD_GRAVITY_M_S2) -> float:
+    """The largest horizontal acceleration [m/s^2] of a level tray that keeps the bottle: margin *
+    min(mu, r_c / h_G) * g (no slide: mu g; no tip: g r_c / h_G), the bang-bang bound's acceleration."""
+    return float(margin * min(bottle.friction, bottle.tip_ratio) * g_m_s2)
+
+
+def lift_ratio(wrench: np.ndarray, mass_kg: float, g_m_s2: float = STANDARD_GRAVITY_M_S2) -> np.ndarray:
     """1 - F_n / (m g) (S,): <= 1 while the tray pushes (> 1 when it would have to pull)."""
-    return 1.0 - np.atleast_2d(wrench)[:, 5] / (mass_kg * GRAVITY_M_S2)
+    return 1.0 - np.atleast_2d(wrench)[:, 5] / (mass_kg * g_m_s2)
 
 
 def tray_ratios(wrench: np.ndarray, bottle: BottleSpec) -> dict:

@@ -34,6 +34,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.errors import QmtInputError
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 from qmt_drake.systems.dc_motor import DcMotorWithGear
@@ -203,7 +204,7 @@ def holding_torque_Nm(plant, ctx, arm, tray_body, bottle_body, bottle: BottleSpe
     J = plant.CalcJacobianTranslationalVelocity(ctx, JacobianWrtVariable.kV, tray_body.body_frame(), p_TG,
                                                 plant.world_frame(), plant.world_frame())
     J = J[:, idx]
-    return tau + J.T @ np.array([0.0, 0.0, bottle.mass_kg * 9.81])
+    return tau + J.T @ np.array([0.0, 0.0, bottle.mass_kg * GRAVITY_M_S2])
 
 
 def bottle_joint(plant, bottle_body):

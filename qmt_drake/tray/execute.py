@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmt_drake.config.scenario import World
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.plan import check_plan_fits
@@ -64,6 +65,10 @@ def check_tray_simulation(scenario, time_step_s: float | None = None, feedforwar
     if scenario.urdf_path.resolve() != URDF_PATH.resolve():
         raise QmtInputError(f"{scenario.source_path}: the tray co-simulation models {URDF_PATH.name} only, "
                             f"not {scenario.urdf_path.name}")
+    if scenario.world != World():
+        raise QmtInputError(f"{scenario.source_path}: the tray co-simulation models the CRANE-X7 under standard "
+                            f"gravity; world.gravity_m_s2 {list(scenario.world.gravity_m_s2)} is for planning only: "
+                            "drop it to simulate")
     act = scenario.actuator
     if getattr(act, "kind", None) != "dynamixel" or act.datasheets() != CRANE_X7_PLANAR_SERVOS:
         raise QmtInputError(f"{scenario.source_path}: the tray co-simulation needs actuator kind 'dynamixel' with "

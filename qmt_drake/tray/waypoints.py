@@ -27,8 +27,12 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
-from qmt_drake.systems.tray_object import GRAVITY_M_S2
-from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
+from qmt_drake.tray.conditions import (
+    contact_wrench,
+    level_tray_acceleration_cap_m_s2,
+    tray_kinematics,
+    tray_ratios,
+)
 from qmt_drake.tray.crane_ik import SEED_GOAL_XY_M, SEED_START_XY_M, TABLE1, CraneGeometry, tray_fk, tray_ik
 from qmt_drake.tray.planning import tray_scenario
 
@@ -202,7 +206,7 @@ def ruckig_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, mar
     dtheta_dx = np.abs(np.diff(theta, axis=0)) / (L / 200)
     vmax_joint = np.array([s.no_load_speed_rpm * RPM * speed_fraction for s in CRANE_X7_PLANAR_SERVOS])
     v_max = float(np.min(vmax_joint / np.maximum(dtheta_dx, 1e-9)))
-    a_max = margin * min(bottle.friction, bottle.tip_ratio) * GRAVITY_M_S2
+    a_max = level_tray_acceleration_cap_m_s2(bottle, margin)
     otg = Ruckig(1)
     inp = InputParameter(1)
     inp.current_position, inp.target_position = [0.0], [L]
