@@ -85,6 +85,7 @@ def test_no_import_circle_and_no_qmt_drake_import_inside_a_function():
 def test_the_scenario_imports_nothing_above_config():
     edges, _ = _imports(_modules())
     allowed = {"qmt_drake", "qmt_drake.config", "qmt_drake.config.fields", "qmt_drake.config.scenario",
+               "qmt_drake.config.sections",
                "qmt_drake.errors", "qmt_drake.catalog"}
     for name in (n for n in edges if n.startswith("qmt_drake.config")):
         assert edges[name] <= allowed, (name, edges[name] - allowed)
