@@ -2,8 +2,10 @@
 the time-scaling shortcut, the toppra rows bound what the columns bound."""
 
 import numpy as np
+import pytest
 
 from qmt_drake.limits import PayloadMomentTerm
+from qmt_drake.limits.base import RowOptions
 
 
 def test_moment_planar_path_equals_general_form(scenarios):
@@ -37,13 +39,13 @@ def test_toppra_rows_are_inside_the_columns(scenarios):
     """Any w with F w <= g (the inscribed polygon and the motor rows) keeps every column <= 1."""
     sc = scenarios["thesis-ch4"]
     term = sc.limit_set.term("payload_moment")
-    F, g = term.toppra_rows(polygon_sides=32, angle0_rad=0.3, inscribed=True)
+    F, g = term.toppra_rows(RowOptions(polygon_sides=32, angle0_rad=0.3, inscribed=True))
     theta = np.linspace(0, 2 * np.pi, 721)
     for th in theta:  # the largest |w| along each direction that the polygon allows
         d = np.array([np.cos(th), np.sin(th)])
         r = np.min(g / np.maximum(F @ d, 1e-300))
         assert r <= 1.0 + 1e-12
-    F, g = term.toppra_rows(polygon_sides=32, angle0_rad=0.3, inscribed=False)
+    F, g = term.toppra_rows(RowOptions(polygon_sides=32, angle0_rad=0.3, inscribed=False))
     assert min(np.min(g / np.maximum(F @ np.array([np.cos(t), np.sin(t)]), 1e-300)) for t in theta) >= 1.0 - 1e-12
 
 
@@ -78,3 +80,10 @@ def test_refined_peak_on_a_plateau_bounds_a_ten_times_finer_sampling():
         s = ls.slices[name]
         assert np.max(dense[s]) <= rep.peak_ratios[name] + 1e-9
     assert rep.peak_ratios["tray_slide"] > 0.99  # the plateau is at the limit
+
+
+def test_an_unknown_row_option_is_refused_not_swallowed():
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.errors import QmtInputError
+    with pytest.raises(QmtInputError, match="'polygon_side' is not one of"):
+        load_scenario("thesis-ch4").limit_set.toppra_rows(polygon_side=16)

@@ -7,6 +7,7 @@ import pytest
 from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 from scipy.optimize import linprog
 
+from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm, contact_wrench
 from qmt_drake.limits.payload_moment import PayloadMomentTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
@@ -143,7 +144,7 @@ def test_suction_term_columns_and_toppra_rows_agree():
     q, qd, qdd = states(6, 50, 6)
     st = SpatialChain(plant, H).evaluate(q, 0.3 * qd, 0.3 * qdd)
     col = term.columns(st)[:, 0]
-    F, ones = term.toppra_rows()
+    F, ones = term.toppra_rows(RowOptions())
     rows = term.toppra_w(st) @ F.T
     np.testing.assert_allclose(rows.max(axis=1), col, rtol=1e-12)
     assert np.all(ones == 1) and col.min() < 1 < col.max()

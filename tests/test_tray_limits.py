@@ -14,6 +14,7 @@ from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.config.scenario import load_scenario
+from qmt_drake.limits.base import RowOptions
 from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
 
 SC = load_scenario("crane-tray")
@@ -87,7 +88,7 @@ def test_toppra_rows_hold_exactly_when_the_columns_do():
     cols = LS.columns(q, qd, qdd)
     for name in ("tray_slide", "tray_tip", "tray_lift"):
         term = LS.term(name)
-        F, g = term.toppra_rows(tray_polygon_sides=4)
+        F, g = term.toppra_rows(RowOptions(tray_polygon_sides=4))
         viol = np.max(term.toppra_w(state) @ F.T - g, axis=1)
         col = cols[:, LS.slices[name]][:, 0]
         clear = np.abs(col - 1.0) > 1e-9

@@ -4,7 +4,7 @@ unfixed object on a tray and joint speeds; base.py says how columns are read); t
 (limit_set.py) evaluates them together for the GA, the re-check report and TOPP-RA. tray.py is
 imported from qmt_drake.limits.tray (it needs Drake through systems/tray_object.py)."""
 
-from qmt_drake.limits.base import LimitTerm
+from qmt_drake.limits.base import LimitTerm, RowOptions
 from qmt_drake.limits.joint_range import JointRangeTerm
 from qmt_drake.limits.limit_set import BatchPeaks, LimitReport, LimitSet
 from qmt_drake.limits.motor_torque import MotorTorqueTerm

@@ -9,15 +9,45 @@ time-scaling shortcut (LimitSet.time_scaling_is_exact):
     "invariant"       unchanged (positions only);
     "none"            neither (gravity, friction against weight, ...): planners must search.
 Terms that TOPP-RA can use also give `toppra_w(state)` (S, k), affine in qdd and quadratic in qd
-as toppra's SecondOrderConstraint requires, and `toppra_rows(**options)` -> (F (r, k), g (r,))
-with F w <= g, rows near unit scale (toppra's tolerances are absolute).
+as toppra's SecondOrderConstraint requires, and `toppra_rows(options: RowOptions)` -> (F (r, k),
+g (r,)) with F w <= g, rows near unit scale (toppra's tolerances are absolute). RowOptions is typed:
+an option no term knows is a one-line error, not silently swallowed.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
+
 import numpy as np
 
+from qmt_drake.errors import QmtInputError
+
 KINDS = ("ratio", "excess")
+
+
+@dataclass(frozen=True)
+class RowOptions:
+    """How the limits are written as TOPP-RA rows (the polygons that stand for circles and cones).
+
+    polygon_sides, angle0_rad: the payload moment's circle |a| <= A as a polygon of that many sides,
+    turned so a vertex (vertex_on_chord) or an edge normal points along angle0_rad [rad];
+    tray_polygon_sides: the tray's friction cone and tipping disc as polygons of that many sides;
+    inscribed: the polygons inside their circle (never allow more than the limit) or outside it."""
+
+    polygon_sides: int = 32
+    angle0_rad: float = 0.0
+    tray_polygon_sides: int = 4
+    inscribed: bool = True
+    vertex_on_chord: bool = True
+
+    @classmethod
+    def from_keywords(cls, **options) -> RowOptions:
+        """RowOptions(**options), with an unknown name as a one-line QmtInputError."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(options) - known)
+        if unknown:
+            raise QmtInputError(f"TOPP-RA row option {unknown[0]!r} is not one of {sorted(known)}")
+        return cls(**options)
 SCALINGS = ("inverse_square", "invariant", "none")
 
 
@@ -35,5 +65,6 @@ class LimitTerm:
         decides them)."""
         return None
 
-    def toppra_rows(self, **options):
+    def toppra_rows(self, options: RowOptions):
+        """(F, g) with F w <= g, or None when the term has no linear form."""
         return None

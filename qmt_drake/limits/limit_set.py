@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.toppra_form import rows_constraint
 from qmt_drake.sampling import piecewise_grid
 
@@ -68,11 +69,13 @@ class LimitSet:
     # ------------------------------------------------------------------ TOPP-RA
     def toppra_rows(self, **row_options):
         """(terms, F, g): the terms with a linear form and their stacked rows F w <= g (F block
-        diagonal in term order). row_options go to every term's toppra_rows."""
+        diagonal in term order). row_options: the fields of base.RowOptions (typed; an unknown name
+        is a one-line QmtInputError)."""
         from scipy.linalg import block_diag
+        options = RowOptions.from_keywords(**row_options)
         terms, blocks = [], []
         for t in self.terms:
-            rows = t.toppra_rows(**row_options)
+            rows = t.toppra_rows(options)
             if rows is not None:
                 terms.append(t)
                 blocks.append(rows)

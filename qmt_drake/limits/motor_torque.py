@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmt_drake.limits.base import LimitTerm
+from qmt_drake.limits.base import LimitTerm, RowOptions
 
 
 class MotorTorqueTerm(LimitTerm):
@@ -31,6 +31,6 @@ class MotorTorqueTerm(LimitTerm):
     def toppra_w(self, state):
         return state.joint_torque_Nm / self.joint_limit_Nm
 
-    def toppra_rows(self, **_):
+    def toppra_rows(self, options: RowOptions):
         n = self.limit_Nm.size
         return np.concatenate([np.eye(n), -np.eye(n)]), np.ones(2 * n)

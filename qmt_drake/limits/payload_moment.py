@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmt_drake.limits.base import LimitTerm
+from qmt_drake.limits.base import LimitTerm, RowOptions
 
 
 class PayloadMomentTerm(LimitTerm):
@@ -59,11 +59,12 @@ class PayloadMomentTerm(LimitTerm):
             return None
         return self.face_acceleration(state) / self.accel_limit_m_s2
 
-    def toppra_rows(self, *, polygon_sides: int = 32, angle0_rad: float = 0.0, inscribed: bool = True,
-                    vertex_on_chord: bool = True, **_):
-        """|w| <= 1 as a polygon of `polygon_sides` normals, turned so a vertex (or, with
+    def toppra_rows(self, options: RowOptions):
+        """|w| <= 1 as a polygon of options.polygon_sides normals, turned so a vertex (or, with
         vertex_on_chord=False, an edge normal) points along angle0_rad; inscribed in the circle (never
         allows more than the limit) or circumscribed (never less)."""
+        polygon_sides, angle0_rad = options.polygon_sides, options.angle0_rad
+        inscribed, vertex_on_chord = options.inscribed, options.vertex_on_chord
         offset = np.pi / polygon_sides if vertex_on_chord else 0.0
         theta = angle0_rad + offset + 2 * np.pi * np.arange(polygon_sides) / polygon_sides
         F = np.stack([np.cos(theta), np.sin(theta)], axis=1)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from qmt_drake.limits.base import LimitTerm
+from qmt_drake.limits.base import LimitTerm, RowOptions
 from qmt_drake.limits.contact_wrench import CarriedBody, contact_wrench, face_basis
 
 
@@ -101,5 +101,5 @@ class SuctionTerm(LimitTerm):
     def toppra_w(self, state):
         return self.wrench(state)
 
-    def toppra_rows(self, **_):
+    def toppra_rows(self, options: RowOptions):
         return self.grip.F / self.grip.g[:, None], np.ones(len(self.grip.g))

@@ -38,7 +38,7 @@ from dataclasses import replace
 import numpy as np
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2
-from qmt_drake.limits.base import LimitTerm
+from qmt_drake.limits.base import LimitTerm, RowOptions
 from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.conditions import (
     contact_wrench,
@@ -97,8 +97,8 @@ class TraySlideTerm(_TrayTerm):
     def toppra_w(self, state):
         return self.contact.wrench(state)[:, 3:6] / self.contact.weight_N
 
-    def toppra_rows(self, *, tray_polygon_sides: int = 4, inscribed: bool = True, vertex_on_chord: bool = True, **_):
-        R = slide_rows(self.contact.friction, tray_polygon_sides, inscribed, vertex_on_chord)
+    def toppra_rows(self, options: RowOptions):
+        R = slide_rows(self.contact.friction, options.tray_polygon_sides, options.inscribed, options.vertex_on_chord)
         return R, np.zeros(len(R))
 
 
@@ -114,8 +114,8 @@ class TrayTipTerm(_TrayTerm):
         scale = self.contact.weight_N * self.contact.contact_radius_m
         return np.stack([w[:, 0] / scale, w[:, 1] / scale, w[:, 5] / self.contact.weight_N], axis=1)
 
-    def toppra_rows(self, *, tray_polygon_sides: int = 4, inscribed: bool = True, vertex_on_chord: bool = True, **_):
-        R = tip_rows(1.0, tray_polygon_sides, inscribed, vertex_on_chord)  # moments already over r_c
+    def toppra_rows(self, options: RowOptions):
+        R = tip_rows(1.0, options.tray_polygon_sides, options.inscribed, options.vertex_on_chord)  # moments over r_c
         return R, np.zeros(len(R))
 
 
@@ -129,7 +129,7 @@ class TrayLiftTerm(_TrayTerm):
     def toppra_w(self, state):
         return self.contact.wrench(state)[:, 5:6] / self.contact.weight_N
 
-    def toppra_rows(self, **_):
+    def toppra_rows(self, options: RowOptions):
         return np.array([[-1.0]]), np.zeros(1)  # F_n >= 0
 
 
@@ -161,6 +161,6 @@ class JointSpeedTerm(LimitTerm):
     def toppra_w(self, state):
         return (state.qd / self.limit_rad_s) ** 2
 
-    def toppra_rows(self, **_):
+    def toppra_rows(self, options: RowOptions):
         n = self.limit_rad_s.size
         return np.eye(n), np.ones(n)

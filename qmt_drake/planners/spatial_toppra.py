@@ -23,6 +23,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from toppra.interpolator import AbstractGeometricPath
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.toppra_form import rows_constraint
 
 
@@ -87,8 +88,9 @@ def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_gr
     cons = [toppra.constraint.JointVelocityConstraint(vlim),
             toppra.constraint.JointAccelerationConstraint(
                 alim, discretization_scheme=toppra.constraint.DiscretizationType.Interpolation)]
+    options = RowOptions.from_keywords(**row_options)
     for term in terms:
-        F, g = term.toppra_rows(**row_options)
+        F, g = term.toppra_rows(options)
         cons.append(rows_constraint(lambda q, qd, qdd, term=term: term.toppra_w(chain.evaluate(q, qd, qdd)), F, g, n))
     grid = np.linspace(*path.path_interval, n_grid)
     algo = toppra.algorithm.TOPPRA(cons, path, gridpoints=grid, solver_wrapper="seidel")
