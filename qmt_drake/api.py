@@ -15,12 +15,12 @@ from pathlib import Path
 import qmt_drake.builders  # noqa: F401  (registers the scenario's builders)
 from qmt_drake.config.scenario import Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
-from qmt_drake.plan import Plan, check_plan_fits
+from qmt_drake.hands import build_diagram as _build_diagram
+from qmt_drake.hands import run_simulate
+from qmt_drake.plan import Plan
 from qmt_drake.planners import plan_with as _plan_with
-from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
-from qmt_drake.sim.runner import run_simulate
-from qmt_drake.tray.cosim import TrayDiagram, build_tray_diagram
-from qmt_drake.tray.execute import check_tray_simulation, plan_schedule
+from qmt_drake.sim.diagram import TransferDiagram
+from qmt_drake.tray.cosim import TrayDiagram
 
 __all__ = ["Plan", "Scenario", "build_diagram", "load_scenario", "plan_with", "simulate"]
 
@@ -68,13 +68,4 @@ def build_diagram(scenario: Scenario, plan, *, time_scale: float = 1.0, time_ste
     (options: its keywords, e.g. inverse_dynamics_feedforward=True, coil_current_A); tray
     scenarios: tray.cosim.build_tray_diagram with the plan streamed to the servos every servo
     period. time_scale and time_step_s [s] as in `simulate`; meshcat: a pydrake Meshcat to draw in."""
-    if not getattr(scenario, "is_tray", False):
-        return build_transfer_diagram(scenario, plan, time_scale=time_scale, time_step_s=time_step_s,
-                                      meshcat=meshcat, **options)
-    check_tray_simulation(scenario, time_step_s)
-    check_plan_fits(plan, scenario)
-    act = scenario.actuator
-    schedule = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s)
-    kw = {} if time_step_s is None else {"time_step_s": time_step_s}
-    return build_tray_diagram(schedule, act.gains(), scenario.bottle, servo_period_s=act.control_period_s,
-                              meshcat=meshcat, **kw, **options)
+    return _build_diagram(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, meshcat=meshcat, **options)

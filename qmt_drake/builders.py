@@ -11,10 +11,10 @@ from pathlib import Path
 
 from qmt_drake.config.scenario import IdealTorque, Scenario, register_builders
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits import JointRangeTerm, LimitSet, MotorTorqueTerm, PayloadMomentTerm
-from qmt_drake.limits.tray import JointSpeedTerm, tray_terms
+from qmt_drake.hands import hand_plugin
+from qmt_drake.limits import JointRangeTerm, LimitSet, MotorTorqueTerm
+from qmt_drake.limits.joint_speed import JointSpeedTerm
 from qmt_drake.model.arm import ArmModel
-from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.tray_object import BottleSpec
 
 
@@ -32,8 +32,7 @@ def build_arm(scenario: Scenario) -> ArmModel:
     """The ArmModel of the scenario's URDF with the carried part's inertia welded to the hand (tray:
     the bottle seated at the tray centre, its base at the tray frame's origin). A URDF that is a
     directory, unreadable, not XML or not a serial chain: one-line QmtInputError naming the scenario."""
-    carried = (scenario.bottle.spatial_inertia() if scenario.is_tray
-               else PayloadSpec.for_scenario(scenario).spatial_inertia_about_origin())
+    carried = hand_plugin(scenario).carried_inertia(scenario)
     where, urdf = str(scenario.source_path), Path(scenario.urdf_path)
     if urdf.is_dir():
         raise QmtInputError(f"{where}: arm.urdf {urdf} is a directory; give the URDF file")
@@ -48,21 +47,17 @@ def build_arm(scenario: Scenario) -> ArmModel:
 
 
 def build_limit_set(scenario: Scenario) -> LimitSet:
-    """The scenario's LimitSet. Magnet hand (the thesis): payload moment, motor torques, joint
-    ranges. Tray hand (seed 002): no slide, no tip, no lift-off of the bottle (limits/tray.py)
-    instead of the payload moment, plus joint speeds when limits.joint_speed_fraction is given."""
+    """The scenario's LimitSet: the hand's terms (its plug-in in hands.py: the thesis's payload moment,
+    or the tray's no slide / no tip / no lift-off), motor torques, joint speeds when
+    limits.joint_speed_fraction is given, joint ranges."""
     arm = scenario.arm
-    if scenario.is_tray:
-        terms = tray_terms(scenario.bottle, scenario.hand.plan_margin, gravity_m_s2=scenario.world.gravity_m_s2)
-        terms.append(MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm))
-        if scenario.limits.joint_speed_fraction is not None:
-            sheets = getattr(scenario.actuator, "datasheets", None)
-            v = [s.no_load_speed_rad_s for s in sheets()] if sheets else None
-            terms.append(JointSpeedTerm(arm, scenario.limits.joint_speed_fraction, v))
-        return LimitSet(arm, terms + [JointRangeTerm(arm)])
-    return LimitSet(arm, [PayloadMomentTerm(arm, scenario.moment_per_accel_kgm, scenario.limits.moment_limit_Nm),
-                          MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm),
-                          JointRangeTerm(arm)])
+    terms = hand_plugin(scenario).limit_terms(scenario, arm)  # what the hand adds (hands.py)
+    terms.append(MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm))
+    if scenario.limits.joint_speed_fraction is not None:
+        sheets = getattr(scenario.actuator, "datasheets", None)
+        v = [s.no_load_speed_rad_s for s in sheets()] if sheets else None
+        terms.append(JointSpeedTerm(arm, scenario.limits.joint_speed_fraction, v))
+    return LimitSet(arm, terms + [JointRangeTerm(arm)])
 
 
 register_builders(arm=build_arm, limit_set=build_limit_set, bottle=build_bottle)

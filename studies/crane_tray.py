@@ -18,7 +18,7 @@ Writes out/crane_tray/ (sections: pair, req, friction, fill, rec, qmt, sweep, ef
     qmt.json, qmt.png           fastest carried transfer at mu 0.3, 30 g water: TOPP-RA on the
                                 1000-waypoint IK line, the GA over the thesis's line family
                                 (families/line.py) and Ruckig (jerk 5 m/s^3), all with the tray
-                                terms (limits/tray.py, plan margin 0.8) and re-checked by sampling;
+                                terms (tray/limit_terms.py, plan margin 0.8) and re-checked by sampling;
                                 each executed through the servos at the fastest time scaling that
                                 carries the bottle without slip (> 1 mm); the seed's 5 s eased line
     sweep.json, sweep.png       success over friction 0.2-0.6 x fill (30/150/300/480 g water): the

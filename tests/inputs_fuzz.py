@@ -474,7 +474,7 @@ GENERATORS = {"plan": gen_plan, "simulate": gen_simulate, "design": _with_out(ge
 
 # --------------------------------------------------------------------------------------- running
 # Heavy entry points replaced while a bad input runs: reaching one means the input was accepted.
-STUBS = ("qmt_drake.planners:plan_with", "qmt_drake.sim:run_simulate", "qmt_drake.design.search:run_all_types",
+STUBS = ("qmt_drake.planners:plan_with", "qmt_drake.hands:run_simulate", "qmt_drake.design.search:run_all_types",
          "qmt_drake.sweep.runner:dask_client", "qmt_drake.energy.nlp:solve_nlp",
          "qmt_drake.energy.steepest:steepest_descent", "qmt_drake.apps.bench:run_bench",
          "qmt_drake.apps.benchmark:run_benchmark")

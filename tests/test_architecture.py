@@ -101,3 +101,18 @@ def test_seed_packages_do_not_import_each_other():
             theirs = t.split(".")[1] if t.count(".") else ""
             if mine in seeds and theirs in seeds:
                 assert mine == theirs, f"{name} imports {t}: seed packages plug into the core only"
+
+
+def test_the_core_does_not_import_the_seed_packages():
+    """Seed packages plug into the core (hands.py registers them), never the other way round: only the
+    plug-in registry and the applications above it may import energy/, tray/ or design/."""
+    edges, _ = _imports(_modules())
+    seeds = ("energy", "tray", "design")
+    above = ("apps", "api", "hands", "builders", "sweep", "budgets") + seeds
+    for name, targets in edges.items():
+        part = name.split(".")[1] if name.count(".") else ""
+        if part in above:
+            continue
+        for t in targets:
+            theirs = t.split(".")[1] if t.count(".") else ""
+            assert theirs not in seeds, f"{name} (core) imports {t} (a seed package)"

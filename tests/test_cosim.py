@@ -23,9 +23,11 @@ from qmt_drake.sim import (
     motor_params_for,
     pid_gains_for,
     reference_trajectories,
-    run_simulate,
     simulate_transfer,
     transfer_plant_config,
+)
+from qmt_drake.sim import (
+    run_transfer_simulate as run_simulate,
 )
 from qmt_drake.sim.plant import seated_pose_in_hand
 from qmt_drake.systems.dc_motor import DcMotorWithGear

@@ -129,8 +129,8 @@ def test_the_library_refuses_a_coarse_tray_step_too():
     """The step check lives in the tray co-simulation itself, not only in the CLI."""
     from qmt_drake.config.scenario import load_scenario
     from qmt_drake.errors import QmtInputError
+    from qmt_drake.hands import run_simulate
     from qmt_drake.planners import plan_with
-    from qmt_drake.sim import run_simulate
     sc = load_scenario("crane-tray")
     with pytest.raises(QmtInputError, match="control period"):
         run_simulate(sc, plan_with("thesis", sc), time_step_s=5e-3)

@@ -1,4 +1,4 @@
-"""Tray limits as LimitTerms (limits/tray.py) on the crane-tray scenario: the contact wrench against
+"""Tray limits as LimitTerms (tray/limit_terms.py) on the crane-tray scenario: the contact wrench against
 Drake's inverse dynamics with the bottle welded, the ratio columns against Drake's kinematics, the
 toppra rows against the columns, the batched toppra parameters against toppra's own per-grid-point
 evaluation, and TOPP-RA / the GA's feasibility against closed forms of a level tray on a line."""

@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.config.scenario import load_scenario
+from qmt_drake.hands import run_simulate
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import Plan, family_plan, load_plan
 from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
@@ -48,7 +49,6 @@ from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
 from qmt_drake.planners.ga import run_ga
 from qmt_drake.planners.optimum import plan_family_optimum
 from qmt_drake.problem import PlanningProblem
-from qmt_drake.sim import run_simulate
 from qmt_drake.sweep.robust import plan_fastest_carried_converged
 from qmt_drake.tray.conditions import level_tray_acceleration_cap_m_s2
 

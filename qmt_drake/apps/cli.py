@@ -26,12 +26,13 @@ from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, add_energy_options, plan_e
 from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
 from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import check_output_dir, check_output_path, write_text_atomic
 from qmt_drake.plan import load_plan
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
-from qmt_drake.sim import check_simulation_inputs, run_simulate
+from qmt_drake.sim import check_simulation_inputs
 from qmt_drake.sweep.cli import add_parser as add_sweep_parser
 from qmt_drake.sweep.robust import plan_fastest_carried
 from qmt_drake.tray.execute import check_tray_simulation
@@ -190,18 +191,13 @@ def cmd_plan(args) -> int:
     return 0 if plan.feasible else EXIT_INFEASIBLE
 
 
-# Planners that cannot serve a tray scenario.
-TRAY_REFUSED_METHODS = {
-    # its B-spline path does not hold the tray level and its constraints have no tray terms: the
-    # re-check's slow-down search (finish.py) cannot make it keep the tray limits
-    "trajopt": "its path does not hold the tray level and its constraints have no tray terms",
-}
-
-
 def _check_tray_method(sc, method: str) -> None:
-    if getattr(sc, "is_tray", False) and method in TRAY_REFUSED_METHODS:
-        raise QmtInputError(f"--method {method} is not available for the tray scenario '{sc.name}' "
-                            f"({TRAY_REFUSED_METHODS[method]}); use ga, optimum, toppra, ruckig or thesis")
+    """One line when the scenario's hand plug-in refuses the method (hands.py)."""
+    hand = hand_plugin(sc)
+    if method in hand.refused_methods:
+        usable = [m for m in METHODS if m not in hand.refused_methods]
+        raise QmtInputError(f"--method {method} is not available for the {hand.kind} scenario '{sc.name}' "
+                            f"({hand.refused_methods[method]}); use {', '.join(usable[:-1])} or {usable[-1]}")
 
 
 def cmd_simulate(args) -> int:

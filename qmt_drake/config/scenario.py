@@ -12,7 +12,7 @@ live in `models/scenarios/` and are loaded by name (`thesis-ch2`, `thesis-ch3`, 
 Tray scenarios (`hand: {kind: tray}`): the payload is the bottle standing on the tray (mass, its
 centre-of-mass height as `com_offset_m`, `body: {kind: bottle}` with its size); the hand frame is
 the tray frame (z the surface normal); the limits are the tray terms (no slide, no tip, no lift-off;
-limits/tray.py) plus motor torques, joint speeds and ranges. Checked at load, one line each: every
+tray/limit_terms.py) plus motor torques, joint speeds and ranges. Checked at load, one line each: every
 task point inside the joint ranges (tray level), the bottle standing at rest on the tray tilted by
 `hand.rest_tilt_rad`, friction positive.
 

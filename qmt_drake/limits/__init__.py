@@ -2,7 +2,7 @@
 (payload_moment.py, motor_torque.py, joint_range.py, tray.py: no slide / no tip / no lift-off of an
 unfixed object on a tray and joint speeds; base.py says how columns are read); the LimitSet
 (limit_set.py) evaluates them together for the GA, the re-check report and TOPP-RA. tray.py is
-imported from qmt_drake.limits.tray (it needs Drake through systems/tray_object.py)."""
+imported from qmt_drake.tray.limit_terms (it needs Drake through systems/tray_object.py)."""
 
 from qmt_drake.limits.base import LimitTerm, RowOptions
 from qmt_drake.limits.joint_range import JointRangeTerm

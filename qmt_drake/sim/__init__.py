@@ -6,7 +6,7 @@
     actuation.py    motors and gains from the scenario, implicit loop damping, feedforward, step limits
     reference.py    the plan as time-scaled Drake trajectories; GenesPlan
     diagram.py      build_transfer_diagram -> TransferDiagram (default context ready to simulate)
-    runner.py       run_diagram, simulate_transfer -> TransferResult, run_simulate (the CLI's)
+    runner.py       run_diagram, simulate_transfer -> TransferResult, run_transfer_simulate (JSON summary)
     posthoc.py      the monitor's summary from per-step C++ logs after the run (step_logs=True)
 
 The names below are re-exported so user code can `from qmt_drake.sim import ...`.
@@ -56,7 +56,7 @@ from qmt_drake.sim.runner import (
                                      planned_peak_moment_Nm,
                                      planned_peak_motor_torque_Nm,
                                      run_diagram,
-                                     run_simulate,
+                                     run_transfer_simulate,
                                      simulate_transfer,
 )
 

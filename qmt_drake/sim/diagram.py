@@ -163,9 +163,9 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     if time_step_s is None:
         time_step_s = default_time_step_s(implicit_loop_damping)
     check_time_step(time_step_s, implicit_loop_damping, refuse_unstable=not allow_unstable_step)
-    if getattr(scenario, "is_tray", False):
-        raise QmtInputError(f"scenario {scenario.name} carries its part on a tray through Dynamixel servos: "
-                            "build its diagram with qmt_drake.build_diagram (or tray.cosim.build_tray_diagram)")
+    if getattr(scenario.hand, "kind", "magnet") != "magnet":
+        raise QmtInputError(f"build_transfer_diagram builds the magnet hand's diagram; scenario {scenario.name} "
+                            f"has a {scenario.hand.kind} hand (on a tray: Dynamixel servos): use qmt_drake.build_diagram")
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused here, not only by the CLI
     builder = DiagramBuilder()
     tp = add_transfer_plant(builder, scenario, time_step_s, payload_spec=payload_spec,

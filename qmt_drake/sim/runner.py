@@ -27,7 +27,6 @@ from qmt_drake.sim.actuation import (
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.magnet_hand import magnet_hand_of
 from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
-from qmt_drake.tray.execute import check_tray_simulation, simulate_tray_plan
 
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
 
@@ -252,17 +251,12 @@ def check_simulation_inputs(scenario, *, time_step_s: float | None = None,
     return kw
 
 
-def run_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time_step_s: float | None = None,
-                 implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
-    """CLI entry point: simulate and return a JSON-ready dict (see TransferResult.summary_dict).
-    feedforward: a FEEDFORWARD_OPTIONS key (the controller's feedforward terms). Refuses (one line)
-    bad options, and explicit steps above the loop's known stable limit, before building anything
-    (`check_simulation_inputs`). A tray scenario (seed 002) runs the bottle through the Dynamixel
-    servos instead (tray/execute.py; it has no DC-motor options)."""
-    if getattr(scenario, "is_tray", False):
-        check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
-        return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path,
-                                  time_step_s=time_step_s)
+def run_transfer_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time_step_s: float | None = None,
+                          implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
+    """The magnet hand's co-simulation as a JSON-ready dict (see TransferResult.summary_dict);
+    hands.run_simulate dispatches here. feedforward: a FEEDFORWARD_OPTIONS key (the controller's
+    feedforward terms). Refuses (one line) bad options, and steps the loop is known unstable at,
+    before building anything (`check_simulation_inputs`)."""
     kw = check_simulation_inputs(scenario, time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
                                  feedforward=feedforward)
     res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,

@@ -27,9 +27,10 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.hands import run_simulate
 from qmt_drake.plan import make_plan
 from qmt_drake.planners import plan_with
-from qmt_drake.sim import FEEDFORWARD_OPTIONS, run_simulate, simulate_transfer
+from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
 from qmt_drake.sweep.runner import dask_client, run_sweep
 from qmt_drake.sweep.spec import SweepSpec, load_spec
 from qmt_drake.sweep.stats import wilson_interval

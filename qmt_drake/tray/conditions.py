@@ -18,7 +18,7 @@ Ratio columns (<= 1 feasible, for the GA and sampling checks): slide |F_t| / (mu
 Linear form for TOPP-RA: the wrench w = (M_O, F) in T is linear in qdd and quadratic in qd on a
 fixed path; with the cone and the ring replaced by K-gons (`slide_rows`, `tip_rows`) the limits are
 F w <= g with constant F (K + K + 1 rows) and g (`linear_form`). The limits/ terms
-(qmt_drake/limits/tray.py) use these functions for the GA, the re-check and TOPP-RA.
+(qmt_drake/tray/limit_terms.py) use these functions for the GA, the re-check and TOPP-RA.
 
 Kinematics: `kinematics_from_hand_state` reads the batched HandState of the planning arm (the
 project's planar backend; what the limits/ terms use). `tray_kinematics` computes the same with

@@ -3,7 +3,7 @@
 `tray_scenario(bottle, margin, speed_fraction)` loads the built-in `crane-tray` scenario
 (models/scenarios/crane-tray.yaml) with the bottle's mass, size, centre-of-mass height, friction
 and ring radius, and the planning margin, so that every planner (TOPP-RA, Ruckig, the GA) and the
-re-check use the same limit terms (limits/tray.py) as `qmt-drake plan crane-tray`.
+re-check use the same limit terms (tray/limit_terms.py) as `qmt-drake plan crane-tray`.
 """
 
 from __future__ import annotations
