@@ -96,7 +96,7 @@ def test_dc_motor_options_are_refused_for_the_tray(capsys):
 def test_trajopt_is_refused_for_the_tray_in_one_line(capsys, command):
     # its path does not hold the tray level and it has no tray terms (cli.TRAY_REFUSED_METHODS)
     rc, out, err = _run(capsys, command, "crane-tray", "--method", "trajopt", "--quiet")
-    assert rc == 2 and len(err.strip().splitlines()) == 1 and "use ga, optimum, toppra, ruckig or thesis" in err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "use ga, optimum, thesis, toppra, toppra-drake or ruckig" in err
 
 
 def test_benchmark_serves_the_tray(tmp_path):
