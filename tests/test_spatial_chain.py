@@ -207,3 +207,24 @@ def test_chunks_and_workspace_reuse():
         one = chain.evaluate(*(x[k:k + 1] for x in big))
         for key, val in one.items():
             assert_close(r[key][k], val[0], f"chunked {key} row {k}")
+
+
+def test_arm_model_serves_a_spatial_arm_through_the_spatial_chain():
+    """ArmModel's hand state of a non-planar arm (the generated 6-DOF arm with a carried body) comes
+    from SpatialChain and equals Drake's own algorithms (DrakeChain) to 1e-12."""
+    from pydrake.multibody.tree import SpatialInertia, UnitInertia
+
+    from qmt_drake.model.arm import ArmModel
+    from qmt_drake.model.hand_state import HandState
+    from qmt_drake.model.spatial_chain import SpatialChain
+    inert = SpatialInertia.MakeFromCentralInertia(0.5, [0.01, 0.0, -0.03],
+                                                  0.5 * UnitInertia.SolidCylinder(0.02, 0.05, [0, 0, 1]))
+    arm = ArmModel.from_urdf(MODELS / "spatial" / "arm6.urdf", hand_frame="hand", carried_inertia=inert,
+                             require_gear_ratio=False)
+    assert arm.planar is None and isinstance(arm.backend, SpatialChain)
+    rng = np.random.default_rng(0)
+    q, qd, qdd = (rng.uniform(-2, 2, (30, arm.n_dof)) for _ in range(3))
+    mine, drake = arm.hand_state(q, qd, qdd), HandState(arm.drake_chain, q, qd, qdd)
+    for k in ("position_m", "rotation", "linear_acceleration_m_s2", "angular_acceleration_rad_s2", "joint_torque_Nm"):
+        x, y = getattr(mine, k), getattr(drake, k)
+        assert np.max(np.abs(x - y)) <= 1e-12 * max(1.0, np.max(np.abs(y))), k

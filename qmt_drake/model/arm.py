@@ -5,7 +5,8 @@ to the hand frame, so its mass and inertia are in every joint torque) and picks 
 
 - `PlanarChain` (model/planar.py) when every joint turns about parallel axes along a world axis:
   batched numpy kinematics and inverse dynamics with gravity, analytic IK;
-- `DrakeChain` (model/drake_chain.py) otherwise: Drake's algorithms, sample by sample.
+- `SpatialChain` (model/spatial_chain.py) otherwise: a batched spatial recursion, checked against
+  `DrakeChain` (model/drake_chain.py: Drake's algorithms, sample by sample) and Pinocchio.
 
 A planar model is checked against Drake at load time (hand pose, hand acceleration and inverse
 dynamics with gravity at a few random states, 1e-9 relative): a URDF the planar reading gets wrong
@@ -31,6 +32,7 @@ from pydrake.multibody.tree import JointIndex
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.drake_chain import DrakeChain
+from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.hand_state import HandState
 from qmt_drake.model.planar import IK_BRANCHES, PlanarChain  # noqa: F401  (IK_BRANCHES is re-exported)
 
@@ -78,7 +80,10 @@ class ArmModel:
             self.not_planar_reason = ""
         except QmtInputError as exc:
             self.planar, self.not_planar_reason = None, str(exc)
-        self.backend = self.planar or self.drake_chain
+        # any other serial arm: the batched spatial recursion (equal to DrakeChain to 1e-15, ~30x faster)
+        self.spatial = None if self.planar is not None else SpatialChain(
+            plant, self.hand_frame, reflected_inertia_kgm2=self.reflected_inertia_kgm2)
+        self.backend = self.planar or self.spatial
         if self.planar is not None:
             self._check_planar_against_drake()
             self.gravity_does_no_work = not np.any(self.planar.gravity_in_plane_m_s2)
