@@ -144,3 +144,35 @@ def test_fastest_carried_time_scales_a_given_plan(fake_cosim, scenarios):
     plan = robust.plan_fastest_carried(scenarios["thesis-ch4"], "mine", base_plan=base, rel_tol=0.001)
     assert plan.method == "mine-carried" and 1.8 <= plan.motion_time_s <= 1.8 * 1.001
     assert plan.extra["carried_search"]["chosen"] == pytest.approx(plan.motion_time_s / base.motion_time_s)
+
+
+def test_plan_for_success_searches_the_lower_bound_and_checks_on_a_fresh_sweep(tmp_path):
+    """plan --success P: the time scale whose Wilson lower bound reaches P under the scenario's
+    uncertainty section, then a fresh sweep with another seed (the rule has a closed-form answer)."""
+    from qmt_drake import load_scenario, plan_with
+    sc = load_scenario("thesis-ch3", overrides={"uncertainty": {
+        "parameters": {"friction": {"dist": "uniform", "low": 0.2, "high": 0.4}},
+        "monte_carlo": {"cases": 30, "seed": 5}}})
+    plan = plan_with("thesis", sc)
+    pf = tmp_path / "p.json"
+    plan.write_json(pf)
+    with dask_client(None, 2) as cl:
+        slowed, summary = robust.plan_for_success(plan, pf, tmp_path, target=0.8, check_cases=40, s_max=1.5,
+                                                  client=cl, case_fn=threshold_case, plan_fn=fake_plan)
+    s = summary["search"]["time_scale"]
+    assert summary["search"]["ci_low"] >= 0.8
+    assert slowed.motion_time_s == pytest.approx(plan.motion_time_s * s, rel=1e-12)
+    check = summary["fresh_check"]
+    assert check["cases"] == 40 and check["seed"] != 5
+    # the rule: carried iff s >= 1.4 - friction with friction ~ U(0.2, 0.4): P(carried) = (s - 1) / 0.2
+    assert check["carried"] / 40 == pytest.approx(min(1.0, (s - 1.0) / 0.2), abs=0.2)
+
+
+def test_success_needs_an_uncertainty_section_and_a_probability(capsys):
+    from qmt_drake.apps.cli import main
+    assert main(["plan", "thesis-ch3", "--method", "thesis", "--success", "0.9"]) == 2
+    assert "no uncertainty section" in capsys.readouterr().err
+    assert main(["plan", "thesis-ch4", "--method", "thesis", "--success", "1.5"]) == 2
+    assert "a probability in (0, 1)" in capsys.readouterr().err
+    assert main(["plan", "crane-tray", "--method", "toppra", "--success", "0.9"]) == 2
+    assert "magnet hand only" in capsys.readouterr().err

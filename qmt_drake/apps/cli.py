@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import sys
+import tempfile
 from pathlib import Path
 
 from qmt_drake.apps.bench import run_bench
@@ -34,7 +35,7 @@ from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
 from qmt_drake.sim import check_simulation_inputs
 from qmt_drake.sweep.cli import add_parser as add_sweep_parser
-from qmt_drake.sweep.robust import plan_fastest_carried
+from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success, success_spec
 from qmt_drake.tray.execute import check_tray_simulation
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
@@ -127,6 +128,19 @@ def cmd_plan(args) -> int:
     _check_outputs(args, "--json", "--trajectory-csv")
     _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     _check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
+    if args.success is not None:
+        if not 0 < args.success < 1:
+            raise QmtInputError(f"--success {args.success:g} must be a probability in (0, 1), e.g. 0.9")
+        if args.carried:
+            raise QmtInputError("--carried and --success both choose the time scale; give one of them")
+        _check_int(args.success_check_cases, "--success-check-cases", 1, "e.g. 200")
+        _check_positive_finite(args.success_max_scale, "--success-max-scale", "e.g. 2")
+        check_output_dir(args.success_out, "--success-out")
+        sc_u = load_scenario(args.scenario)
+        if getattr(sc_u, "is_tray", False):
+            raise QmtInputError("--success: sweeps co-simulate the magnet hand only; the tray scenario's "
+                                "servo co-simulation is not swept yet (use --carried for its nominal case)")
+        success_spec(sc_u)  # the uncertainty section, checked before any planning
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     _check_int(args.generations, "--generations", 1, "run at least one generation")
@@ -170,6 +184,16 @@ def cmd_plan(args) -> int:
         search = plan.extra["carried_search"]
         lost = search.get("lost_below")
         search["margin"] = None if lost is None else search["chosen"] / lost - 1.0
+    if args.success is not None:
+        if not plan.feasible:
+            raise QmtInputError(f"--success: the {args.method} plan breaks a limit on the re-check; nothing to "
+                                "time-scale")
+        with tempfile.TemporaryDirectory() as d:
+            base_file = Path(d) / "base_plan.json"
+            plan.write_json(base_file)
+            plan, _ = plan_for_success(plan, base_file, args.success_out, target=args.success,
+                                       check_cases=args.success_check_cases, s_max=args.success_max_scale,
+                                       progress=None if args.quiet else _progress)
     summary = plan.summary()
     if args.json and args.json != "-":
         plan.write_json(args.json)
@@ -338,6 +362,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --carried: the DC-motor controller's feedforward (tray scenarios: their servos)")
     s.add_argument("--carried-max-scale", type=float, default=3.0,
                    help="with --carried: the slowest time scale tried (default 3)")
+    s.add_argument("--success", type=float, default=None, metavar="P",
+                   help="then slow the plan to the fastest time scale whose success probability under the "
+                        "scenario's uncertainty section has its 95%% Wilson lower bound >= P (Dask sweeps, "
+                        "resumable under --success-out), and check it on a fresh sweep")
+    s.add_argument("--success-out", default="out/success", help="with --success: the sweep store (default out/success)")
+    s.add_argument("--success-check-cases", type=int, default=200, help="with --success: cases of the fresh check")
+    s.add_argument("--success-max-scale", type=float, default=2.0, help="with --success: the slowest time scale tried")
     add_energy_options(s)
     s.set_defaults(func=cmd_plan)
 

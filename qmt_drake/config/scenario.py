@@ -75,7 +75,7 @@ STEEL_DENSITY_KG_M3 = 7850.0
 
 
 # ---------------------------------------------------------------------------------------- loading
-_TOP_KEYS = {"name", "description", "world", "arm", "hand", "actuator", "payload", "task", "limits",
+_TOP_KEYS = {"name", "description", "world", "uncertainty", "arm", "hand", "actuator", "payload", "task", "limits",
              "family", "ga", "sampling", "control", "reported", "notes", "source"}
 _SECTION_KEYS = {
     "world": {"gravity_m_s2"},
@@ -235,7 +235,8 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         ga=ga, sampling=sampling, control=control, reported=reported,
         notes=tuple(notes), arm_spec=arm_spec,
         hand=hand,
-        actuator=_actuator(raw.get("actuator"), limits, f"{where}: actuator"), world=world)
+        actuator=_actuator(raw.get("actuator"), limits, f"{where}: actuator"), world=world,
+        uncertainty=_uncertainty(raw.get("uncertainty"), f"{where}: uncertainty"))
     _check_against_arm(sc, where)
     if tray:
         _check_tray(sc, where)
@@ -503,6 +504,21 @@ def _actuator(a, limits: Limits, where: str):
     if eff > 1:
         raise QmtInputError(f"{where}.efficiency must lie in (0, 1], got {eff}")
     return DcMotorGear(motors=tuple(motors), efficiency=eff)
+
+
+def _uncertainty(u, where: str) -> dict:
+    """The shape only (a mapping with `parameters` and optional `monte_carlo`); the distributions are
+    checked by the sweep spec's validation when `plan --success` uses them."""
+    if u is None:
+        return {}
+    if not isinstance(u, dict):
+        raise QmtInputError(f"{where} must be a mapping {{parameters: {{friction: {{dist: normal, mean: 0.3, "
+                            f"std: 0.03}}}}, monte_carlo: {{cases: 200, seed: 1}}}}, got {_show(u)}")
+    _check_keys(u, {"parameters", "monte_carlo"}, where)
+    if not isinstance(u.get("parameters"), dict) or not u["parameters"]:
+        raise QmtInputError(f"{where}.parameters must be a non-empty mapping of parameter -> distribution "
+                            "(the sweep spec's form, models/sweeps/ch4-ga-mc200.yaml)")
+    return dict(u)
 
 
 def _world(w: dict, where: str) -> World:

@@ -226,6 +226,10 @@ class Scenario:
     hand: MagnetHand | TrayHand | None = None
     actuator: DcMotorGear | IdealTorque | DynamixelServos | None = None
     world: World = field(default_factory=World)
+    # `uncertainty`: what a part, a hand or a servo may differ by, in the sweep spec's parameter form
+    # ({friction: {dist: normal, mean: 0.3, std: 0.03}, ...}, monte_carlo: {cases, seed}); used by
+    # `plan --success P` (validated there by sweep/spec.py)
+    uncertainty: dict = field(default_factory=dict)
 
     @property
     def is_tray(self) -> bool:
@@ -280,7 +284,7 @@ class Scenario:
         the prose (description, notes, reported). Any edit that can change a plan or a
         simulation changes the fingerprint."""
         data = {f.name: _canonical(getattr(self, f.name)) for f in fields(self)
-                if f.name not in ("source_path", "urdf_path", "description", "notes", "reported")}
+                if f.name not in ("source_path", "urdf_path", "description", "notes", "reported", "uncertainty")}
         if isinstance(data.get("arm_spec"), dict):
             data["arm_spec"].pop("urdf_path", None)
         h = hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode())

@@ -32,9 +32,9 @@ from pydrake.multibody.tree import JointIndex
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.drake_chain import DrakeChain
-from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.hand_state import HandState
 from qmt_drake.model.planar import IK_BRANCHES, PlanarChain  # noqa: F401  (IK_BRANCHES is re-exported)
+from qmt_drake.model.spatial_chain import SpatialChain
 
 LOAD_CHECK_RTOL = 1e-9
 

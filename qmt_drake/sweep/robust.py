@@ -311,3 +311,58 @@ def bracket_check(scenario, plan, *, feedforward: str = "full", steps_s=(1e-3, 0
 
 def relative_excess(t: float, bound: float) -> float:
     return float(t / bound - 1.0) if bound and np.isfinite(t) else float("nan")
+
+
+# ------------------------------------------------------- plan --success P (scenario's uncertainty)
+def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: int | None = None,
+                 name: str = "success") -> SweepSpec:
+    """The sweep spec of `plan_file` (a written plan of `scenario`; None: its optimum, to check the
+    section before planning) under the scenario's
+    `uncertainty` section: its parameters, its monte_carlo cases / seed unless given. One-line
+    QmtInputError when the scenario has none or it is not a valid sweep parameter block."""
+    u = getattr(scenario, "uncertainty", None) or {}
+    if not u:
+        raise QmtInputError(f"--success: scenario {scenario.name} has no uncertainty section; add one "
+                            "(uncertainty: {parameters: {friction: {dist: normal, mean: 0.3, std: 0.03}}, "
+                            "monte_carlo: {cases: 100, seed: 1}})")
+    mc = dict(u.get("monte_carlo") or {})
+    if cases is not None:
+        mc["cases"] = int(cases)
+    if seed is not None:
+        mc["seed"] = int(seed)
+    mc.setdefault("cases", 100)
+    mc.setdefault("seed", 1)
+    plan_ref = {"method": "optimum"} if plan_file is None else {"file": str(plan_file)}
+    return load_spec({"name": name, "scenario": str(scenario.source_path), "plans": [plan_ref],
+                      "monte_carlo": mc, "parameters": dict(u["parameters"])}, name=name)
+
+
+def plan_for_success(plan, plan_file, out_dir, *, target: float, check_cases: int = 200, s_max: float = 2.0,
+                     progress=None, **run_kw):
+    """The fastest time scale of `plan` whose success probability under its scenario's uncertainty has
+    its lower 95 % Wilson bound >= target (robust_time_scale on the sweep store under out_dir, so a
+    rerun resumes), then a FRESH sweep of check_cases cases with another seed at that time scale,
+    which the search did not see. Returns (the time-scaled Plan, {search, fresh_check})."""
+    sc = plan.scenario
+    spec = success_spec(sc, plan_file)
+    found = robust_time_scale(spec, out_dir, target=target, criterion="lower_bound", s_max=s_max,
+                              progress=progress, **run_kw)
+    if not found["found"]:
+        raise QmtInputError(f"--success {target}: not reached even {s_max:g}x slower ({found['history'][-1]['carried']}"
+                            f"/{found['history'][-1]['n']} carried there); raise --success-max-scale or lower the target")
+    s = found["time_scale"]
+    seed = int((sc.uncertainty.get("monte_carlo") or {}).get("seed", 1)) + 1000003
+    fresh = success_spec(sc, plan_file, cases=check_cases, seed=seed, name=f"success-check-ts{s:.5f}")
+    raw = dict(fresh.raw)
+    raw["parameters"] = {**raw["parameters"], "time_scale": float(s)}
+    out = run_sweep(load_spec(raw, name=fresh.name), out_dir, progress=False, figures=False, **run_kw)
+    n = sum(r["n"] for r in out["rows"])
+    k = sum(r["carried"] for r in out["rows"])
+    lo, hi = wilson_interval(k, n)
+    check = {"cases": n, "carried": k, "p": k / n if n else None, "ci_low": lo, "ci_high": hi, "seed": seed,
+             "meets_target": bool(lo >= target)}
+    if progress:
+        progress(f"fresh check at x{s:.4f}: {k}/{n} carried, 95 % interval [{lo:.3f}, {hi:.3f}]")
+    summary = {"search": {k2: v for k2, v in found.items() if k2 != "history"}, "fresh_check": check,
+               "tries": found["history"]}
+    return time_scaled_plan(plan, s, f"{plan.method}-success", {"success": summary}), summary
