@@ -64,6 +64,7 @@ from qmt_drake.config.sections import (  # noqa: F401 (re-exported: the scenario
     UrdfArm,
     World,
     register_builders,
+    registered_validator,
 )
 from qmt_drake.errors import QmtInputError
 
@@ -518,6 +519,9 @@ def _uncertainty(u, where: str) -> dict:
     if not isinstance(u.get("parameters"), dict) or not u["parameters"]:
         raise QmtInputError(f"{where}.parameters must be a non-empty mapping of parameter -> distribution "
                             "(the sweep spec's form, models/sweeps/ch4-ga-mc200.yaml)")
+    check = registered_validator("uncertainty")
+    if check is not None:
+        check(u, where)
     return dict(u)
 
 

@@ -317,6 +317,19 @@ def _canonical(x):
 _BUILDERS: dict = {}
 
 
+_VALIDATORS: dict = {}
+
+
+def register_validator(section: str, check) -> None:
+    """A layer above config/ that owns a section's vocabulary registers its check here (sweep/spec.py
+    checks `uncertainty` against the sweep parameters): check(raw_section, where) raises QmtInputError."""
+    _VALIDATORS[section] = check
+
+
+def registered_validator(section: str):
+    return _VALIDATORS.get(section)
+
+
 def register_builders(**builders) -> None:
     """qmt_drake/builders.py registers how a scenario's arm, limit_set and bottle are built."""
     _BUILDERS.update(builders)

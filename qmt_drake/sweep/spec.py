@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.config.fields import check_keys, is_number, read_yaml_mapping, show
+from qmt_drake.config.sections import register_validator
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners import METHODS
 from qmt_drake.sweep.options import check_options
@@ -417,3 +418,26 @@ def _first_dup(xs):
         if x in seen:
             return x
         seen.add(x)
+
+
+def validate_uncertainty(u: dict, where: str) -> None:
+    """A scenario's `uncertainty` section: every parameter a known sweep parameter drawn from a
+    distribution (its keys and ranges checked as in a spec), monte_carlo {cases >= 1, seed}."""
+    for pname, v in u["parameters"].items():
+        at = f"{where}.parameters.{pname}"
+        if pname not in PARAMETERS:
+            raise QmtInputError(f"{at}: unknown parameter '{pname}'; known parameters are {', '.join(PARAMETERS)}")
+        if not (isinstance(v, dict) and "dist" in v):
+            raise QmtInputError(f"{at}: give a distribution, e.g. {{dist: normal, mean: 0.3, std: 0.03}}")
+        _check_distribution(v, PARAMETERS[pname], at)
+    mc = u.get("monte_carlo") or {}
+    if not isinstance(mc, dict):
+        raise QmtInputError(f"{where}.monte_carlo must be a mapping {{cases: 200, seed: 1}}, got {mc!r}")
+    check_keys(mc, {"cases", "seed"}, f"{where}.monte_carlo")
+    if "cases" in mc:
+        _integer(mc["cases"], f"{where}.monte_carlo.cases", minimum=1)
+    if "seed" in mc:
+        _integer(mc["seed"], f"{where}.monte_carlo.seed")
+
+
+register_validator("uncertainty", validate_uncertainty)
