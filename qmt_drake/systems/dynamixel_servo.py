@@ -180,6 +180,10 @@ class DynamixelPositionServo(LeafSystem):
         g = [self._pulses(x) for x in np.ravel(goal_rad)]
         return np.concatenate([np.ravel(integral), np.ravel(error_pulses), np.ravel(pwm), g, np.zeros(self._n)])
 
+    def set_state(self, root_context, state) -> None:
+        """Set this system's discrete state inside a diagram's root context."""
+        self.GetMyMutableContextFromRoot(root_context).SetDiscreteState(np.asarray(state, float))
+
     def reset_at(self, context, goal_rad, position_rad) -> None:
         """Start without a derivative or feedforward kick: previous error = the current error, previous
         goal = the goal at rest, no integral."""

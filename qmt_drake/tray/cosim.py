@@ -48,6 +48,7 @@ from qmt_drake.systems.dynamixel_servo import (
     motor_params,
 )
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
+from qmt_drake.systems.servo_law import CompiledServo
 from qmt_drake.systems.tray_object import (
     TRAY_SIZE_M,
     BottleSpec,
@@ -85,7 +86,7 @@ class TrayDiagram:
     arm: object
     tray_body: object
     bottle_body: object
-    servo: DynamixelPositionServo
+    servo: DynamixelPositionServo | CompiledServo
     loggers: dict
     schedule: GoalSchedule
     bottle: BottleSpec
@@ -103,10 +104,11 @@ def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
 def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                        time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                        bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None,
-                       motor=None) -> TrayDiagram:
+                       motor=None, compiled_servo: bool = True) -> TrayDiagram:
     """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps.
     motor: DcMotorParams of the three servos' motors (default motor_params(CRANE_X7_PLANAR_SERVOS),
-    the lossless equivalent)."""
+    the lossless equivalent). compiled_servo: the servo law as Drake primitives (systems/servo_law.py,
+    the default) or the Python DynamixelPositionServo (the same law, one Python call per period)."""
     if not time_step_s > 0 or not servo_period_s > 0:
         raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
     bottle = bottle or BottleSpec.pet_500ml()
@@ -126,8 +128,12 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     bottle_joint(plant, bottle_body).SetDefaultPose(X_TB0)
 
     goal = builder.AddNamedSystem("goal_stream", TrajectorySource(_goal_trajectory(schedule)))
-    servo = builder.AddNamedSystem("servos", DynamixelPositionServo(CRANE_X7_PLANAR_SERVOS, gains,
-                                                                    control_period_s=servo_period_s))
+    if compiled_servo:
+        servo_law = CompiledServo(CRANE_X7_PLANAR_SERVOS, gains, control_period_s=servo_period_s)
+        servo = builder.AddSystem(servo_law.system)
+    else:
+        servo = servo_law = builder.AddNamedSystem("servos", DynamixelPositionServo(
+            CRANE_X7_PLANAR_SERVOS, gains, control_period_s=servo_period_s))
     motor = motor or motor_params(CRANE_X7_PLANAR_SERVOS)
     motors = builder.AddNamedSystem("motors", DcMotorWithGear(motor))
     split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
@@ -151,7 +157,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     if meshcat is not None:
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
-    return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo, loggers, schedule, bottle, X_TB0,
+    return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo_law, loggers, schedule, bottle, X_TB0,
                        visualizer, motor)
 
 
@@ -235,8 +241,7 @@ def set_initial_state(td: TrayDiagram, root_context) -> None:
     joint.set_angular_velocity(ctx, np.zeros(3))
     joint.set_translational_velocity(ctx, np.zeros(3))
     integral = np.where(kpi > 0, pwm / np.where(kpi > 0, kpi, 1.0), 0.0)
-    td.servo.GetMyMutableContextFromRoot(root_context).SetDiscreteState(
-        td.servo.state_at_rest(integral, np.round(e), pwm, goal))
+    td.servo.set_state(root_context, td.servo.state_at_rest(integral, np.round(e), pwm, goal))
 
 
 def split_slip_creep(series: dict, until_s: float | None = None) -> tuple[float, float]:
