@@ -1,5 +1,5 @@
-"""The compiled servo law (Drake primitives, no Python per period) runs the same transfer as the
-Python DynamixelPositionServo: the same arm state to 1e-9 rad, the same verdict."""
+"""The compiled servo law and motors (Drake primitives, no Python per step) run the same transfer as the
+Python DynamixelPositionServo and DcMotorWithGear: the same arm state to 1e-9 rad, the same verdict."""
 
 import numpy as np
 

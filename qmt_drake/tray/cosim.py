@@ -37,7 +37,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.errors import QmtInputError
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
-from qmt_drake.systems.dc_motor import DcMotorWithGear
+from qmt_drake.systems.dc_motor import DcMotorWithGear, dc_motors_as_primitives
 from qmt_drake.systems.dynamixel_servo import (
     CONTROL_PERIOD_S,
     CRANE_X7_PLANAR_SERVOS,
@@ -135,7 +135,9 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
         servo = servo_law = builder.AddNamedSystem("servos", DynamixelPositionServo(
             CRANE_X7_PLANAR_SERVOS, gains, control_period_s=servo_period_s))
     motor = motor or motor_params(CRANE_X7_PLANAR_SERVOS)
-    motors = builder.AddNamedSystem("motors", DcMotorWithGear(motor))
+    # the motors' one formula compiled (dc_motor.dc_motors_as_primitives), as the servo law: no Python
+    # system runs per step in the default tray diagram (the monitor is read at the log period only)
+    motors = builder.AddSystem(dc_motors_as_primitives(motor) if compiled_servo else DcMotorWithGear(motor))
     split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
     monitor = builder.AddNamedSystem("monitor", TrayBottleMonitor(plant, tray, bottle_body, X_TB0))
     arm_state = plant.get_state_output_port(arm)
