@@ -1,0 +1,200 @@
+"""Every planner on a spatial scenario (spatial_task.SpatialScenario), each result re-checked.
+
+- `toppra`: TOPP-RA (planners/spatial_toppra.plan_toppra) along the IK'd geometric path (cubic in s
+  through sc.q_path_rad), joint speed/acceleration limits, joint torque and suction-grip rows; its
+  time-optimal duration on that path is the benchmark's bound.
+- `ruckig`: Ruckig's time-optimal jerk-limited motion in joint space from task pose to task pose,
+  stopping at each (the community Ruckig computes no intermediate waypoints); Ruckig knows only the
+  joint speed/acceleration/jerk limits, so the result is then time-scaled (TimeScaled, q(t/k)) by the
+  smallest k for which the torque and suction check holds.
+- `via_cubic`: the joint-space via-point cubic family through the task poses (genes: the segment
+  times T1..T_{K-1}; zero end velocities, continuous acceleration at the vias: Drake's
+  CubicWithContinuousSecondDerivatives); `family_optimum` minimises T0 over the segment-time shape
+  (Nelder-Mead on the simplex of shares, each shape played at its tightest time scale), `ga` runs
+  planners/ga.run_ga on the same genes (SpatialViaProblem, fitness exp(-c T0) when every limit holds).
+
+Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
+the check rate), so a plan that only holds at its own grid is slowed by the smallest factor that
+makes the fine check hold (the factor is reported: 1 when nothing was needed).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.trajectories import PiecewisePolynomial
+from ruckig import InputParameter, Result, Ruckig, Trajectory
+from scipy.optimize import minimize
+
+from qmt_drake.config.scenario import GaSettings
+from qmt_drake.errors import QmtInputError
+from qmt_drake.planners.ga import run_ga
+from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
+from qmt_drake.planners.spatial_trajectory import (
+    PolyTrajectory,
+    RuckigTrajectory,
+    ToppraTrajectory,
+    check,
+    pose_errors,
+    scale_to_hold,
+)
+from qmt_drake.problem import Evaluation, MinimumTime
+
+METHODS = ("toppra", "ruckig", "family_optimum", "ga")
+
+
+@dataclass
+class SpatialPlan:
+    method: str
+    trajectory: object  # spatial_trajectory kind, already scaled to hold
+    pose_times_s: np.ndarray  # when the hand is at each task pose
+    planning_s: float
+    raw_duration_s: float  # before scale_to_hold
+    hold_scale: float  # scale_to_hold's k (1: none needed)
+    recheck: dict  # check at the re-check rate
+    pose_error: np.ndarray  # (K, 2) Drake FK errors (m, rad)
+    info: dict
+
+    @property
+    def duration_s(self) -> float:
+        return self.trajectory.duration_s
+
+    def summary(self) -> dict:
+        return {"method": self.method, "duration_s": self.duration_s, "planning_s": self.planning_s,
+                "raw_duration_s": self.raw_duration_s, "hold_scale": self.hold_scale,
+                "recheck_max_ratio": self.recheck["max"], "recheck": self.recheck,
+                "max_pose_position_error_m": float(self.pose_error[:, 0].max()),
+                "max_pose_angle_error_rad": float(self.pose_error[:, 1].max()), **self.info}
+
+
+def _finish(sc, method, traj, pose_times, t0, info) -> SpatialPlan:
+    raw = traj.duration_s
+    held, k = scale_to_hold(sc, traj, sc.recheck_rate_hz)
+    planning_s = time.perf_counter() - t0
+    times = np.asarray(pose_times, float) * k
+    return SpatialPlan(method, held, times, planning_s, raw, k, check(sc, held, sc.recheck_rate_hz),
+                       pose_errors(sc, held, times), info)
+
+
+def plan_toppra_spatial(sc, *, n_grid: int = 1000) -> SpatialPlan:
+    t0 = time.perf_counter()
+    pp = joint_path(sc.q_path_rad)
+    r = plan_toppra(pp, sc.chain, velocity_limit=sc.velocity_limit_rad_s,
+                    acceleration_limit=sc.acceleration_limit_rad_s2, terms=sc.terms(), n_grid=n_grid)
+    traj = ToppraTrajectory(pp, r["grid"], r["sd"])
+    s_poses = np.asarray(pp.get_segment_times())[sc.path_pose_index]
+    return _finish(sc, "toppra", traj, traj.time_at(s_poses), t0,
+                   {"n_grid": n_grid, "toppra_solve_s": r["planning_s"]})
+
+
+def ruckig_segments(sc, scale_limits: float = 1.0):
+    n = sc.n_dof
+    segs = []
+    for qa, qb in zip(sc.q_poses_rad[:-1], sc.q_poses_rad[1:]):
+        inp = InputParameter(n)
+        inp.current_position, inp.target_position = qa.tolist(), qb.tolist()
+        inp.current_velocity = inp.current_acceleration = [0.0] * n
+        inp.target_velocity = inp.target_acceleration = [0.0] * n
+        inp.max_velocity = (sc.velocity_limit_rad_s * scale_limits).tolist()
+        inp.max_acceleration = (sc.acceleration_limit_rad_s2 * scale_limits).tolist()
+        inp.max_jerk = (sc.jerk_limit_rad_s3 * scale_limits).tolist()
+        traj = Trajectory(n)
+        res = Ruckig(n).calculate(inp, traj)
+        if res not in (Result.Working, Result.Finished):
+            raise QmtInputError(f"Ruckig found no trajectory between task poses ({res}); check the limits")
+        segs.append(traj)
+    return RuckigTrajectory(segs)
+
+
+def plan_ruckig_spatial(sc) -> SpatialPlan:
+    t0 = time.perf_counter()
+    traj = ruckig_segments(sc)
+    return _finish(sc, "ruckig", traj, traj.t_start, t0, {"segments": len(traj.segments)})
+
+
+def via_cubic(sc, T) -> PolyTrajectory:
+    T = np.asarray(T, float)
+    breaks = np.r_[0.0, np.cumsum(T)]
+    zero = np.zeros(sc.n_dof)
+    return PolyTrajectory(PiecewisePolynomial.CubicWithContinuousSecondDerivatives(breaks, sc.q_poses_rad.T,
+                                                                                   zero, zero))
+
+
+def tight_time(sc, shares) -> tuple[float, np.ndarray]:
+    """(T0, segment times) of the via cubic with these relative segment times at the smallest time
+    scale whose check (the planners' rate) holds."""
+    w = np.abs(np.asarray(shares, float)) + 1e-6
+    T = w / w.sum()
+    _, k = scale_to_hold(sc, via_cubic(sc, T), sc.check_rate_hz, k_max=12.0, rel_tol=2e-4)
+    return float(k), T * k
+
+
+def plan_family_optimum(sc, *, restarts: int = 1) -> SpatialPlan:
+    t0 = time.perf_counter()
+    m = len(sc.q_poses_rad) - 1
+    d = np.linalg.norm(np.diff(sc.q_poses_rad, axis=0), ord=np.inf, axis=1)
+    starts = [np.sqrt(d), np.ones(m)][:restarts]
+    best = None
+    for x0 in starts:
+        r = minimize(lambda x: tight_time(sc, x)[0], x0 / x0.sum(), method="Nelder-Mead",
+                     options={"xatol": 1e-3, "fatol": 1e-4, "maxiter": 150})
+        if best is None or r.fun < best.fun:
+            best = r
+    _, T = tight_time(sc, best.x)
+    traj = via_cubic(sc, T)
+    return _finish(sc, "family_optimum", traj, np.r_[0.0, np.cumsum(T)], t0,
+                   {"segment_times_s": T, "evaluations": int(best.nfev)})
+
+
+class SpatialViaProblem:
+    """The via-cubic family as a GA Problem (problem.py protocol): genes T1..T_m (s)."""
+
+    def __init__(self, sc, *, upper_s: float = 3.0, fitness_c_per_s: float = 1.0) -> None:
+        self.sc = sc
+        m = len(sc.q_poses_rad) - 1
+        self.name = f"{sc.name} via-cubic"
+        self.gene_names = tuple(f"T{i + 1}" for i in range(m))
+        self.lower, self.upper = np.full(m, 0.05), np.full(m, upper_s)
+        self.objective = MinimumTime(fitness_c_per_s)
+
+    def evaluate(self, genes, exact: bool = False) -> Evaluation:
+        G = np.atleast_2d(np.asarray(genes, float))
+        viol = np.array([max(check(self.sc, via_cubic(self.sc, g), self.sc.check_rate_hz)["max"] - 1.0, 0.0)
+                         for g in G])
+        return Evaluation(cost=G.sum(axis=1), violation=viol)
+
+    def fitness(self, ev: Evaluation) -> np.ndarray:
+        return self.objective.fitness(ev)
+
+    def confirm(self, genes) -> bool:
+        return check(self.sc, via_cubic(self.sc, genes), self.sc.recheck_rate_hz)["max"] <= 1.0
+
+    def fingerprint(self) -> str:
+        data = np.r_[self.sc.q_poses_rad.ravel(), self.lower, self.upper]
+        return hashlib.sha256(data.tobytes() + self.sc.name.encode()).hexdigest()[:16]
+
+
+def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40) -> SpatialPlan:
+    t0 = time.perf_counter()
+    problem = SpatialViaProblem(sc)
+    settings = GaSettings(population=population, max_generations=generations, stall_generations=60,
+                          fitness_c_per_s=1.0, selection="tournament", encoding="gray")
+    res = run_ga(problem, settings, seed=seed)
+    if not res.feasible:
+        raise QmtInputError(f"the GA found no via-cubic within the limits in {res.generations} generations; "
+                            "give it more generations or relax a limit")
+    T = np.asarray(res.genes, float)
+    return _finish(sc, "ga", via_cubic(sc, T), np.r_[0.0, np.cumsum(T)], t0,
+                   {"segment_times_s": T, "generations": res.generations, "evaluations": res.evaluations,
+                    "seed": seed})
+
+
+PLANNERS = {"toppra": plan_toppra_spatial, "ruckig": plan_ruckig_spatial,
+            "family_optimum": plan_family_optimum, "ga": plan_ga_spatial}
+
+
+def plan_all(sc, methods=METHODS) -> dict:
+    return {m: PLANNERS[m](sc) for m in methods}
