@@ -5,8 +5,9 @@
   time-optimal duration on that path is the benchmark's bound.
 - `ruckig`: Ruckig's time-optimal jerk-limited motion in joint space from task pose to task pose,
   stopping at each (the community Ruckig computes no intermediate waypoints); Ruckig knows only the
-  joint speed/acceleration/jerk limits, so the result is then time-scaled (TimeScaled, q(t/k)) by the
-  smallest k for which the torque and suction check holds.
+  joint speed/acceleration/jerk limits, so a segment whose torque/suction re-check fails is planned
+  again by Ruckig with its acceleration and jerk limits times the largest factor c <= 1 (bisection)
+  for which the re-check holds (speed limits kept).
 - `via_cubic`: the joint-space via-point cubic family through the task poses (genes: the segment
   times T1..T_{K-1}; zero end velocities, continuous acceleration at the vias: Drake's
   CubicWithContinuousSecondDerivatives); `family_optimum` minimises T0 over the segment-time shape
@@ -90,29 +91,51 @@ def plan_toppra_spatial(sc, *, n_grid: int = 1000) -> SpatialPlan:
                    {"n_grid": n_grid, "toppra_solve_s": r["planning_s"]})
 
 
-def ruckig_segments(sc, scale_limits: float = 1.0):
+def _ruckig(sc, qa, qb, factor: float):
+    """Ruckig's time-optimal rest-to-rest motion qa -> qb, acceleration and jerk limits times factor."""
     n = sc.n_dof
-    segs = []
+    inp = InputParameter(n)
+    inp.current_position, inp.target_position = qa.tolist(), qb.tolist()
+    inp.current_velocity = inp.current_acceleration = [0.0] * n
+    inp.target_velocity = inp.target_acceleration = [0.0] * n
+    inp.max_velocity = sc.velocity_limit_rad_s.tolist()
+    inp.max_acceleration = (sc.acceleration_limit_rad_s2 * factor).tolist()
+    inp.max_jerk = (sc.jerk_limit_rad_s3 * factor).tolist()
+    traj = Trajectory(n)
+    res = Ruckig(n).calculate(inp, traj)
+    if res not in (Result.Working, Result.Finished):
+        raise QmtInputError(f"Ruckig found no trajectory between task poses ({res}); check the limits")
+    return traj
+
+
+def ruckig_segments(sc, *, rate_hz: float | None = None, iterations: int = 14):
+    """Segment by segment (rest to rest between task poses): Ruckig with the joint limits, and where
+    the torque/suction check fails, Ruckig again with acceleration and jerk limits times the largest
+    factor c in (0, 1] (bisection, `iterations` halvings) whose check holds; (trajectory, factors)."""
+    rate = rate_hz or sc.recheck_rate_hz
+    segs, factors = [], []
     for qa, qb in zip(sc.q_poses_rad[:-1], sc.q_poses_rad[1:]):
-        inp = InputParameter(n)
-        inp.current_position, inp.target_position = qa.tolist(), qb.tolist()
-        inp.current_velocity = inp.current_acceleration = [0.0] * n
-        inp.target_velocity = inp.target_acceleration = [0.0] * n
-        inp.max_velocity = (sc.velocity_limit_rad_s * scale_limits).tolist()
-        inp.max_acceleration = (sc.acceleration_limit_rad_s2 * scale_limits).tolist()
-        inp.max_jerk = (sc.jerk_limit_rad_s3 * scale_limits).tolist()
-        traj = Trajectory(n)
-        res = Ruckig(n).calculate(inp, traj)
-        if res not in (Result.Working, Result.Finished):
-            raise QmtInputError(f"Ruckig found no trajectory between task poses ({res}); check the limits")
-        segs.append(traj)
-    return RuckigTrajectory(segs)
+        seg, c = _ruckig(sc, qa, qb, 1.0), 1.0
+        if check(sc, RuckigTrajectory([seg]), rate)["max"] > 1.0:
+            lo, hi = 0.0, 1.0
+            for _ in range(iterations):
+                mid = 0.5 * (lo + hi)
+                ok = check(sc, RuckigTrajectory([_ruckig(sc, qa, qb, mid)]), rate)["max"] <= 1.0
+                lo, hi = (mid, hi) if ok else (lo, mid)
+            if lo == 0.0:
+                raise QmtInputError("Ruckig: no reduction of the acceleration and jerk limits makes a segment hold "
+                                    "its torque and suction limits; relax a limit")
+            seg, c = _ruckig(sc, qa, qb, lo), lo
+        segs.append(seg)
+        factors.append(c)
+    return RuckigTrajectory(segs), factors
 
 
 def plan_ruckig_spatial(sc) -> SpatialPlan:
     t0 = time.perf_counter()
-    traj = ruckig_segments(sc)
-    return _finish(sc, "ruckig", traj, traj.t_start, t0, {"segments": len(traj.segments)})
+    traj, factors = ruckig_segments(sc)
+    return _finish(sc, "ruckig", traj, traj.t_start, t0, {"segments": len(traj.segments),
+                                                          "acceleration_jerk_factors": factors})
 
 
 def via_cubic(sc, T) -> PolyTrajectory:
