@@ -16,6 +16,7 @@ from qmt_drake.planners.spatial_methods import (
     plan_ga_spatial,
     plan_ruckig_spatial,
     plan_toppra_spatial,
+    plan_trajopt_spatial,
 )
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_cosim import simulate_spatial
@@ -37,7 +38,8 @@ def sc():
 @pytest.fixture(scope="module")
 def plans(sc):
     return {"toppra": plan_toppra_spatial(sc, n_grid=400), "ruckig": plan_ruckig_spatial(sc),
-            "family_optimum": plan_family_optimum(sc), "ga": plan_ga_spatial(sc, generations=8, population=20)}
+            "family_optimum": plan_family_optimum(sc), "ga": plan_ga_spatial(sc, generations=8, population=20),
+            "trajopt": plan_trajopt_spatial(sc)}
 
 
 def _variant(tmp_path: Path, edit) -> Path:

@@ -14,6 +14,14 @@
   (Nelder-Mead on the simplex of shares, each shape played at its tightest time scale), `ga` runs
   planners/ga.run_ga on the same genes (SpatialViaProblem, fitness exp(-c T0) when every limit holds).
 
+- `trajopt`: Drake's KinematicTrajectoryOptimization (a cubic B-spline, `control_points`), minimum
+  duration under joint position/speed/acceleration/jerk bounds, zero velocity and acceleration at
+  both ends, every point of the IK'd geometric path (task poses and transfer points, so the cup
+  stays near face-down between them) an equality constraint at a fixed path parameter (given
+  fractions, e.g. TOPP-RA's times at them over its duration, else joint chord-length shares); SNOPT
+  with a 1e-10 feasibility tolerance. Torque and suction are not in its program (nonlinear in the spline's control points),
+  so the result is time-scaled uniformly (scale_to_hold) until their re-check holds.
+
 Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
 the check rate), so a plan that only holds at its own grid is slowed by the smallest factor that
 makes the fine check hold (the factor is reported: 1 when nothing was needed).
@@ -26,7 +34,9 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.trajectories import PiecewisePolynomial
+from pydrake.planning import KinematicTrajectoryOptimization
+from pydrake.solvers import SnoptSolver, Solve, SolverOptions
+from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 from scipy.optimize import minimize
 
@@ -44,7 +54,7 @@ from qmt_drake.planners.spatial_trajectory import (
 )
 from qmt_drake.problem import Evaluation, MinimumTime
 
-METHODS = ("toppra", "ruckig", "family_optimum", "ga")
+METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
 
 
 @dataclass
@@ -215,8 +225,43 @@ def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: in
                     "seed": seed})
 
 
+def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None) -> SpatialPlan:
+    t0 = time.perf_counter()
+    Q, n = sc.q_path_rad, sc.n_dof
+    if point_fractions is None:
+        d = np.linalg.norm(np.diff(Q, axis=0), axis=1)
+        point_fractions = np.r_[0.0, np.cumsum(d)] / d.sum()
+    s = np.asarray(point_fractions, float)
+    to = KinematicTrajectoryOptimization(n, control_points, 4)
+    to.AddDurationCost(1.0)
+    to.AddPositionBounds(sc.plant.GetPositionLowerLimits(), sc.plant.GetPositionUpperLimits())
+    to.AddVelocityBounds(-sc.velocity_limit_rad_s, sc.velocity_limit_rad_s)
+    to.AddAccelerationBounds(-sc.acceleration_limit_rad_s2, sc.acceleration_limit_rad_s2)
+    to.AddJerkBounds(-sc.jerk_limit_rad_s3, sc.jerk_limit_rad_s3)
+    to.AddDurationConstraint(0.05, 60.0)
+    for sk, qk in zip(s, Q):
+        to.AddPathPositionConstraint(qk, qk, sk)
+    for sk in (0.0, 1.0):
+        to.AddPathVelocityConstraint(np.zeros(n), np.zeros(n), sk)
+        to.AddPathAccelerationConstraint(np.zeros(n), np.zeros(n), sk)
+    u = np.linspace(0.0, 1.0, control_points)
+    guess = [np.array([np.interp(x, s, Q[:, j]) for j in range(n)]).reshape(n, 1) for x in u]
+    to.SetInitialGuess(BsplineTrajectory(to.basis(), guess))
+    opts = SolverOptions()
+    opts.SetOption(SnoptSolver.id(), "Major feasibility tolerance", 1e-10)
+    res = Solve(to.get_mutable_prog(), None, opts)
+    if not res.is_success():
+        raise QmtInputError(f"trajopt found no trajectory through the task poses ({res.get_solution_result()}); "
+                            "give it more control points or relax a limit")
+    bs = to.ReconstructTrajectory(res)
+    traj = PolyTrajectory(bs)
+    return _finish(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
+                   {"control_points": control_points, "solver": res.get_solver_id().name(),
+                    "point_fractions": s})
+
+
 PLANNERS = {"toppra": plan_toppra_spatial, "ruckig": plan_ruckig_spatial,
-            "family_optimum": plan_family_optimum, "ga": plan_ga_spatial}
+            "family_optimum": plan_family_optimum, "ga": plan_ga_spatial, "trajopt": plan_trajopt_spatial}
 
 
 def plan_all(sc, methods=METHODS) -> dict:

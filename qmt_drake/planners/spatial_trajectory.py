@@ -2,8 +2,8 @@
 
 A trajectory is any object with `duration_s` and `sample(t) -> (q, qd, qdd)` ((S, n) arrays for (S,)
 times in s). Three kinds: `ToppraTrajectory` (a path q(s) with TOPP-RA's constant-s-ddot profile on
-its grid), `PolyTrajectory` (a Drake PiecewisePolynomial in time: a via-point cubic, a trajopt
-result), `RuckigTrajectory` (Ruckig segments, each from rest to rest). `TimeScaled(traj, k)` plays
+its grid), `PolyTrajectory` (a Drake trajectory in time: a via-point cubic PiecewisePolynomial, trajopt's
+BsplineTrajectory), `RuckigTrajectory` (Ruckig segments, each from rest to rest). `TimeScaled(traj, k)` plays
 one k times slower: q(t / k), qd / k, qdd / k^2 (positions, hence every task pose, unchanged).
 
 `check(sc, traj, rate_hz)` samples at rate_hz (and both ends) and returns the largest ratio of every
@@ -53,7 +53,7 @@ class ToppraTrajectory:
 class PolyTrajectory:
     def __init__(self, pp) -> None:
         self.pp = pp
-        self._d = [pp, pp.derivative(1), pp.derivative(2)]
+        self._d = [pp, pp.MakeDerivative(1), pp.MakeDerivative(2)]
         self.t0 = pp.start_time()
         self.duration_s = float(pp.end_time() - pp.start_time())
 
