@@ -80,6 +80,14 @@ class SpatialPlan:
                 "max_pose_position_error_m": float(self.pose_error[:, 0].max()),
                 "max_pose_angle_error_rad": float(self.pose_error[:, 1].max()), **self.info}
 
+    def to_json_dict(self, rate_hz: float = 1000.0) -> dict:
+        """summary() plus the trajectory sampled at rate_hz (t, q, qd, qdd) and the task-pose times:
+        what a later replay needs (the planar Plan of plan.py takes only planar scenarios)."""
+        t = np.linspace(0.0, self.duration_s, int(np.ceil(self.duration_s * rate_hz)) + 1)
+        q, qd, qdd = self.trajectory.sample(t)
+        return {**self.summary(), "pose_times_s": self.pose_times_s,
+                "trajectory": {"kind": "samples", "t_s": t, "q_rad": q, "qd_rad_s": qd, "qdd_rad_s2": qdd}}
+
 
 def _finish(sc, method, traj, pose_times, t0, info) -> SpatialPlan:
     raw = traj.duration_s
