@@ -12,7 +12,9 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   joint torques), one value per chain joint.
 - payload: mass_kg, com_m (hand frame, from the cup's centre), inertia_kgm2 (principal central moments
   in the hand axes).
-- hand: kind suction: cup_radius_m, vacuum_force_N, friction, rim_points, pyramid_edges.
+- hand: kind suction: cup_radius_m, vacuum_force_N, friction, rim_points, pyramid_edges; or kind
+  magnet: moment_limit_Nm (the thesis's payload-moment limit, in 3-D the face-plane moment of the
+  part's contact wrench, gravity included: limits/contact_wrench.MagnetMomentTerm).
 - task: seed_rad (the IK branch), face_normal (world), poses_m (K >= 2 hand positions, the cup facing
   along face_normal at each), transfer_points (inner points of the geometric path between poses 1 and
   K-2, straight in Cartesian space at constant orientation).
@@ -32,7 +34,7 @@ import numpy as np
 
 from qmt_drake.config import fields as F
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits.contact_wrench import CarriedBody
+from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.model.spatial_chain import SpatialChain
@@ -57,7 +59,7 @@ class SpatialScenario:
     ik: SpatialIK
     chain: SpatialChain  # with the carried part and the reflected rotor inertia
     body: CarriedBody
-    grip: GripModel
+    grip: GripModel | None  # suction hand
     velocity_limit_rad_s: np.ndarray
     acceleration_limit_rad_s2: np.ndarray
     jerk_limit_rad_s3: np.ndarray
@@ -71,6 +73,8 @@ class SpatialScenario:
     path_pose_index: np.ndarray  # index of each task pose in path_points_m
     check_rate_hz: float
     hand_kind: str = "suction"
+    moment_limit_Nm: float | None = None  # magnet hand
+    face_axis: np.ndarray | None = None
 
     @property
     def n_dof(self) -> int:
@@ -84,12 +88,18 @@ class SpatialScenario:
     def recheck_rate_hz(self) -> float:
         return RECHECK_FACTOR * self.check_rate_hz
 
+    def hand_term(self, grip: GripModel | None = None):
+        """The hand's limit term: the suction grip (`grip` overrides the scenario's polyhedron) or the
+        magnet's face-plane moment (limits/contact_wrench.MagnetMomentTerm)."""
+        if self.hand_kind == "magnet":
+            return MagnetMomentTerm(self.body, self.moment_limit_Nm, self.gravity_m_s2, face_normal=self.face_axis)
+        return SuctionTerm(grip or self.grip, self.body, self.gravity_m_s2)
+
     def terms(self, grip: GripModel | None = None) -> list:
-        """The limit terms beyond joint speed/acceleration: joint torques and the suction grip."""
+        """The limit terms beyond joint speed/acceleration: joint torques and the hand's term."""
         arm = SimpleNamespace(gear_ratio=self.drive["gear_ratio"], joint_names=self.joint_names,
                               gravity_does_no_work=False)
-        return [MotorTorqueTerm(arm, self.torque_limit_Nm / self.drive["gear_ratio"]),
-                SuctionTerm(grip or self.grip, self.body, self.gravity_m_s2)]
+        return [MotorTorqueTerm(arm, self.torque_limit_Nm / self.drive["gear_ratio"]), self.hand_term(grip)]
 
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:
@@ -97,7 +107,8 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
     if not p.suffix and (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
         p = SCENARIO_DIR / f"{name_or_path}.yaml"
     if not p.is_file():
-        raise QmtInputError(f"spatial scenario '{name_or_path}' is neither a built-in (ur5-suction-bins) nor a "
+        raise QmtInputError(f"spatial scenario '{name_or_path}' is neither a built-in (ur5-suction-bins, "
+                            "ur5-magnet-part) nor a "
                             "YAML file that exists")
     return p
 
@@ -157,12 +168,17 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     w = f"{where}: hand"
     hd = F.mapping(raw, "hand", where)
-    F.check_keys(hd, {"kind", "cup_radius_m", "vacuum_force_N", "friction", "rim_points", "pyramid_edges"}, w)
-    F.string(hd, "kind", w, choices=("suction",))
-    grip = GripModel(F.num(hd, "cup_radius_m", w, positive=True), F.num(hd, "vacuum_force_N", w, positive=True),
-                     F.num(hd, "friction", w, positive=True), face_normal=face_axis,
-                     rim_points=F.integer(hd, "rim_points", w, minimum=3, default=8),
-                     pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, default=4))
+    kind = F.string(hd, "kind", w, choices=("suction", "magnet"))
+    grip, moment_limit = None, None
+    if kind == "suction":
+        F.check_keys(hd, {"kind", "cup_radius_m", "vacuum_force_N", "friction", "rim_points", "pyramid_edges"}, w)
+        grip = GripModel(F.num(hd, "cup_radius_m", w, positive=True), F.num(hd, "vacuum_force_N", w, positive=True),
+                         F.num(hd, "friction", w, positive=True), face_normal=face_axis,
+                         rim_points=F.integer(hd, "rim_points", w, minimum=3, default=8),
+                         pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, default=4))
+    else:
+        F.check_keys(hd, {"kind", "moment_limit_Nm"}, w)
+        moment_limit = F.num(hd, "moment_limit_Nm", w, positive=True)
 
     w = f"{where}: task"
     tk = F.mapping(raw, "task", where)
@@ -189,7 +205,8 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            acceleration_limit_rad_s2=vals["acceleration_limit_rad_s2"],
                            jerk_limit_rad_s3=vals["jerk_limit_rad_s3"], torque_limit_Nm=vals["torque_limit_Nm"],
                            drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
-                           path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate)
+                           path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
+                           hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis)
 
 
 def _path_points(P: np.ndarray, n_transfer: int):

@@ -70,7 +70,8 @@ def test_unreachable_pose_refused_naming_it(sc, tmp_path):
     (lambda r: r.update(kind="transfer"), "kind must be 'spatial_transfer'"),
     (lambda r: r["arm"].update(package="example-robot-data/ur7"), "give example-robot-data/<arm>"),
     (lambda r: r["actuators"].update(gear_ratio=[101.0] * 5), "gear_ratio has 5 entries; give 6"),
-    (lambda r: r["hand"].update(kind="magnet"), "hand.kind 'magnet' is not one of suction"),
+    (lambda r: r["hand"].update(kind="gripper"), "hand.kind 'gripper' is not one of suction, magnet"),
+    (lambda r: r["hand"].update(moment_limit_Nm=1e-3), "unknown key 'moment_limit_Nm'"),
     (lambda r: r["payload"].update(mass=1.0), "unknown key 'mass'"),
 ])
 def test_bad_sections_refused_in_one_line(sc, tmp_path, edit, message):
@@ -125,3 +126,16 @@ def test_cosim_toppra_carried_and_one_and_a_half_times_faster_detached(sc, plans
     lost = simulate_spatial(sc, fast)
     assert held["outcome"] == "carried" and held["final_goal_error_rad"] < 1e-3
     assert lost["outcome"] == "detached" and lost["part_distance_from_cup_at_end_m"] > 0.1
+
+
+def test_magnet_scenario_plans_hold_and_the_smooth_optimum_is_carried(sc):
+    mg = load_spatial_scenario("ur5-magnet-part")
+    assert mg.hand_kind == "magnet" and mg.hand_term().name == "magnet_moment"
+    tp, fo = plan_toppra_spatial(mg, n_grid=400), plan_family_optimum(mg)
+    for p in (tp, fo):
+        r = check(mg, p.trajectory, 10 * mg.check_rate_hz)
+        assert r["max"] <= 1.0 and r["magnet_moment"] > 0.99  # on the moment limit, not beyond
+        assert p.pose_error.max() < 1e-6
+    assert tp.duration_s < fo.duration_s
+    assert simulate_spatial(mg, fo.trajectory)["outcome"] == "carried"
+    assert simulate_spatial(mg, TimeScaled(tp.trajectory, 0.67))["outcome"] == "detached"

@@ -1,14 +1,15 @@
 """Co-simulation of a spatial scenario's plan: the arm in a discrete Drake MultibodyPlant (1 ms), the
-part a free body held by a suction cup, ideal joint torque actuators saturated at the joint torque
+part a free body held by a suction cup or a magnet, ideal joint torque actuators saturated at the joint torque
 limits, Drake's InverseDynamicsController (PID on acceleration + inverse-dynamics feedforward of the
 arm with the part welded to the hand) tracking the plan sampled at 1 kHz.
 
 Suction model: a weld that breaks. The part is a free body welded to the hand frame H (the cup's
 centre) by a SAP weld constraint (Drake's discrete solver, implicit, hence stable at 1 ms for a light
-wrist). Every 1 ms step SuctionMonitor computes the wrench the cup applies to the part (Newton-Euler
+wrist). Every 1 ms step HoldMonitor computes the wrench the cup applies to the part (Newton-Euler
 on the part's own motion) and checks it against the cup's contact-stability set
 (limits/suction.GripModel with the finer FINE_GRIP rim and pyramid of the re-check: the round cup's
-rim and friction cone approximated more closely than by the planners' inscribed 8x4 polyhedron). The
+rim and friction cone approximated more closely than by the planners' inscribed 8x4 polyhedron), or
+for a magnet hand against the thesis's moment limit (MagnetMomentTerm, the same as the planners'). The
 first step with a ratio above 1 latches `detached`: the simulation stops there, the weld constraint
 is switched off, and the part falls freely for the rest of the run. A slip along the face without
 detaching is not modelled (the weld does not slide), so the outcomes are carried / detached /
@@ -28,7 +29,6 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
 from pydrake.systems.primitives import Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from qmt_drake.limits.contact_wrench import contact_wrench
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
@@ -39,18 +39,17 @@ TAIL_S = 0.5
 FINE_GRIP = (24, 8)
 
 
-class SuctionMonitor(LeafSystem):
-    """The grip ratio of the part's contact wrench every step; latches `detached` when it exceeds 1.
+class HoldMonitor(LeafSystem):
+    """The hand's ratio of the part's contact wrench every step; latches `detached` when it exceeds 1.
 
-    The wrench the hand applies to the part at the cup's centre (P's origin, P's axes) follows from
-    the part's own motion by Newton-Euler (limits/contact_wrench.contact_wrench with the part's pose,
-    twist and spatial acceleration from the plant): while the weld holds, the only other force on
-    the part is gravity."""
+    `term` is the hand's limit term (SuctionTerm with the finer grip, or MagnetMomentTerm): its
+    columns take the part's own pose, twist and spatial acceleration from the plant, from which
+    limits/contact_wrench.contact_wrench gives the wrench the hand applies at the face centre (P's
+    origin) by Newton-Euler: while the weld holds, the only other force on the part is gravity."""
 
-    def __init__(self, plant, part_body, body, grip: GripModel) -> None:
+    def __init__(self, plant, part_body, term) -> None:
         super().__init__()
-        self.part, self.body, self.grip = part_body, body, grip
-        self.g = plant.gravity_field().gravity_vector()
+        self.part, self.term = part_body, term
         self.poses = self.DeclareAbstractInputPort("poses", plant.get_body_poses_output_port().Allocate())
         self.vels = self.DeclareAbstractInputPort("velocities",
                                                   plant.get_body_spatial_velocities_output_port().Allocate())
@@ -65,7 +64,7 @@ class SuctionMonitor(LeafSystem):
         state = {"rotation": X.rotation().matrix()[None], "angular_velocity_rad_s": V.rotational()[None],
                  "angular_acceleration_rad_s2": A.rotational()[None],
                  "linear_acceleration_m_s2": A.translational()[None]}
-        return float(self.grip.holds(contact_wrench(state, self.g, self.body))[0])
+        return float(np.max(self.term.columns(state)))
 
     def _update(self, context, discrete_state):
         x = context.get_discrete_state_vector().CopyToVector()
@@ -87,9 +86,13 @@ def _reference(traj):
 
 
 def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
-    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word."""
-    grip = grip or GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction,
-                             face_normal=sc.grip.basis[2], rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
+    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word.
+    grip: the suction hand's stability set in the co-simulation (default: the scenario's cup with the
+    finer FINE_GRIP polyhedron)."""
+    if sc.hand_kind == "suction" and grip is None:
+        grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
+                         rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
+    term = sc.hand_term(grip)
     builder = DiagramBuilder()
     plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
                                  effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
@@ -109,7 +112,7 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
     ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
                                                        np.full(n, KD_1_S), True))
     sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
-    mon = builder.AddSystem(SuctionMonitor(plant, part, b, grip))
+    mon = builder.AddSystem(HoldMonitor(plant, part, term))
     pp, acc, t_end, q_goal = _reference(traj)
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
