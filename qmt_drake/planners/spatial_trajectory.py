@@ -117,8 +117,11 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
     if check(sc, traj, rate_hz)["max"] <= 1.0:
         return traj, 1.0
     if check(sc, TimeScaled(traj, k_max), rate_hz)["max"] > 1.0:
-        raise QmtInputError(f"the trajectory breaks a limit even {k_max:g} times slower (gravity alone?); "
-                            "relax a limit or change the task")
+        worst = {k: v for k, v in check(sc, TimeScaled(traj, k_max), rate_hz).items() if k not in ("max", "n_samples")}
+        name = max(worst, key=worst.get)
+        raise QmtInputError(f"the trajectory breaks its {name} limit (ratio {worst[name]:.3g}) even {k_max:g} times "
+                            "slower, where speed no longer matters (e.g. gravity on a tilted hand); relax that limit "
+                            "or keep the hand closer to the task's orientation")
     lo, hi = 1.0, k_max
     while hi / lo - 1.0 > rel_tol:
         mid = 0.5 * (lo + hi)
