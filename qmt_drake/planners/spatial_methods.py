@@ -18,8 +18,11 @@
   duration under joint position/speed/acceleration/jerk bounds, zero velocity and acceleration at
   both ends, every point of the IK'd geometric path (task poses and transfer points, so the cup
   stays near face-down between them) an equality constraint at a fixed path parameter (given
-  fractions, e.g. TOPP-RA's times at them over its duration, else joint chord-length shares); SNOPT
-  with a 1e-10 feasibility tolerance. Torque and suction are not in its program (nonlinear in the spline's control points),
+  fractions, e.g. TOPP-RA's times at them over its duration, else joint chord-length shares), and
+  the hand's face normal within `max_tilt_rad` (0.02 rad) of the task's at `tilt_samples` (40)
+  evenly spaced path parameters (Drake's AngleBetweenVectorsConstraint: without it the spline tilts
+  the hand between path points until gravity alone breaks the magnet's moment limit); SNOPT with a
+  1e-10 feasibility tolerance. Torque and suction are not in its program (nonlinear in the spline's control points),
   so the result is time-scaled uniformly (scale_to_hold) until their re-check holds.
 
 Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
@@ -34,6 +37,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.multibody.inverse_kinematics import AngleBetweenVectorsConstraint
 from pydrake.planning import KinematicTrajectoryOptimization
 from pydrake.solvers import SnoptSolver, Solve, SolverOptions
 from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
@@ -233,7 +237,8 @@ def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: in
                     "seed": seed})
 
 
-def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None) -> SpatialPlan:
+def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, max_tilt_rad: float = 0.02,
+                         tilt_samples: int = 40) -> SpatialPlan:
     t0 = time.perf_counter()
     Q, n = sc.q_path_rad, sc.n_dof
     if point_fractions is None:
@@ -252,6 +257,12 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None) 
     for sk in (0.0, 1.0):
         to.AddPathVelocityConstraint(np.zeros(n), np.zeros(n), sk)
         to.AddPathAccelerationConstraint(np.zeros(n), np.zeros(n), sk)
+    if max_tilt_rad is not None:  # the face normal within max_tilt_rad of the task's at tilt_samples points
+        ctx = sc.plant.CreateDefaultContext()
+        tilt = AngleBetweenVectorsConstraint(sc.plant, sc.plant.world_frame(), sc.face_normal, sc.ik.hand,
+                                             sc.ik.face_axis, 0.0, max_tilt_rad, ctx)
+        for sk in np.linspace(0.0, 1.0, tilt_samples):
+            to.AddPathPositionConstraint(tilt, sk)
     u = np.linspace(0.0, 1.0, control_points)
     guess = [np.array([np.interp(x, s, Q[:, j]) for j in range(n)]).reshape(n, 1) for x in u]
     to.SetInitialGuess(BsplineTrajectory(to.basis(), guess))
