@@ -134,6 +134,9 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
         raise QmtInputError(f"scenario '{name_or_path}' is neither a built-in "
                             f"({', '.join(builtin_scenarios())}) nor a YAML file that exists")
     raw = read_scenario_yaml(path)
+    if raw.get("kind") == "spatial_transfer":  # issue 19: qmt_drake/spatial_task.py loads these
+        raise QmtInputError(f"scenario '{name_or_path}' is a spatial (3-D) scenario: plan, re-check and co-simulate "
+                            f"it with `python -m studies.spatial_benchmark --scenario {path.stem}`")
     if raw.get("kind") == ENERGY_TIME_KIND:
         raise QmtInputError(f"scenario '{name_or_path}' is a seed-001 energy-time scenario: plan it with "
                             f"`qmt-drake plan {name_or_path} --method snopt|steepest|ipopt|collocation`; "

@@ -200,8 +200,10 @@ def _check_inertial(link: str, el: ET.Element, source: str) -> None:
 
 
 def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried=None,
-                   effort_limit_Nm=None, velocity_limit_rad_s=None, source: str | None = None):
-    """(plant, hand Frame, chain joint names): the checked arm as a finalized continuous plant.
+                   effort_limit_Nm=None, velocity_limit_rad_s=None, source: str | None = None,
+                   time_step_s: float = 0.0, finalize: bool = True):
+    """(plant, hand Frame, chain joint names): the checked arm as a finalized continuous plant
+    (a discrete one with time_step_s > 0; left unfinalized with finalize=False, to add bodies).
 
     carried: optional dict mass_kg, com_m (3, in the hand frame), inertia_kgm2 (3x3 about the
     centre of mass, hand-frame axes); welded to the hand frame as body "carried"."""
@@ -210,7 +212,7 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
     _strip_and_lock(root, tuple(lock_joints), source)
     names = check_urdf(root, hand_frame, source=source, effort_limit_Nm=effort_limit_Nm,
                        velocity_limit_rad_s=velocity_limit_rad_s)
-    plant = MultibodyPlant(0.0)
+    plant = MultibodyPlant(time_step_s)
     try:
         model = Parser(plant).AddModelsFromString(ET.tostring(root, encoding="unicode"), "urdf")[0]
     except RuntimeError as exc:
@@ -229,7 +231,8 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
                                                   np.asarray(carried["com_m"], float), inertia)
         body = plant.AddRigidBody("carried", model, M)
         plant.WeldFrames(hand, body.body_frame(), RigidTransform())
-    plant.Finalize()
+    if finalize:
+        plant.Finalize()
     return plant, hand, names
 
 

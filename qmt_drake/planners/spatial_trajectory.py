@@ -1,0 +1,138 @@
+"""Joint trajectories of a spatial scenario, their sampled limit check, time scaling and pose check.
+
+A trajectory is any object with `duration_s` and `sample(t) -> (q, qd, qdd)` ((S, n) arrays for (S,)
+times in s). Three kinds: `ToppraTrajectory` (a path q(s) with TOPP-RA's constant-s-ddot profile on
+its grid), `PolyTrajectory` (a Drake trajectory in time: a via-point cubic PiecewisePolynomial, trajopt's
+BsplineTrajectory), `RuckigTrajectory` (Ruckig segments, each from rest to rest). `TimeScaled(traj, k)` plays
+one k times slower: q(t / k), qd / k, qdd / k^2 (positions, hence every task pose, unchanged).
+
+`check(sc, traj, rate_hz)` samples at rate_hz (and both ends) and returns the largest ratio of every
+limit: joint speed, joint acceleration, joint torque (through the scenario's SpatialChain: gravity,
+the carried part, reflected rotor inertia), suction grip (limits/suction.py); 1 = on the limit.
+`scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
+smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
+check holds. `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
+hand is from each task pose at the given times (m, rad).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.planners.spatial_toppra import DrakePath
+
+
+class ToppraTrajectory:
+    def __init__(self, pp, grid, sd) -> None:
+        self.path = DrakePath(pp)
+        self.grid, self.sd = np.asarray(grid, float), np.asarray(sd, float)
+        ds = np.diff(self.grid)
+        self.u = (self.sd[1:] ** 2 - self.sd[:-1] ** 2) / (2.0 * ds)
+        self.t_grid = np.r_[0.0, np.cumsum(2.0 * ds / (self.sd[:-1] + self.sd[1:]))]
+        self.duration_s = float(self.t_grid[-1])
+
+    def sample(self, t):
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        i = np.clip(np.searchsorted(self.t_grid, t, side="right") - 1, 0, len(self.u) - 1)
+        tau = t - self.t_grid[i]
+        s = np.minimum(self.grid[i] + self.sd[i] * tau + 0.5 * self.u[i] * tau ** 2, self.grid[-1])
+        sd = np.maximum(self.sd[i] + self.u[i] * tau, 0.0)
+        q, qs, qss = self.path(s, 0), self.path(s, 1), self.path(s, 2)
+        return q, qs * sd[:, None], qs * self.u[i][:, None] + qss * (sd ** 2)[:, None]
+
+    def time_at(self, s) -> np.ndarray:
+        """Times (s) at which the profile passes path positions s."""
+        s = np.atleast_1d(np.asarray(s, float))
+        i = np.clip(np.searchsorted(self.grid, s, side="right") - 1, 0, len(self.u) - 1)
+        d = s - self.grid[i]
+        v = np.sqrt(np.maximum(self.sd[i] ** 2 + 2.0 * self.u[i] * d, 0.0))
+        return self.t_grid[i] + 2.0 * d / np.maximum(self.sd[i] + v, 1e-300)
+
+
+class PolyTrajectory:
+    def __init__(self, pp) -> None:
+        self.pp = pp
+        self._d = [pp, pp.MakeDerivative(1), pp.MakeDerivative(2)]
+        self.t0 = pp.start_time()
+        self.duration_s = float(pp.end_time() - pp.start_time())
+
+    def sample(self, t):
+        t = self.t0 + np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        return tuple(d.vector_values(t).T for d in self._d)
+
+
+class RuckigTrajectory:
+    """Ruckig trajectories played one after another (each segment from rest to rest)."""
+
+    def __init__(self, segments) -> None:
+        self.segments = list(segments)
+        self.t_start = np.r_[0.0, np.cumsum([s.duration for s in self.segments])]
+        self.duration_s = float(self.t_start[-1])
+
+    def sample(self, t):
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        out = [np.empty((len(t), self.segments[0].degrees_of_freedom)) for _ in range(3)]
+        k = np.clip(np.searchsorted(self.t_start, t, side="right") - 1, 0, len(self.segments) - 1)
+        for j, (seg, tj) in enumerate(zip(k, t)):
+            p, v, a = self.segments[seg].at_time(float(tj - self.t_start[seg]))
+            out[0][j], out[1][j], out[2][j] = p, v, a
+        return tuple(out)
+
+
+class TimeScaled:
+    def __init__(self, traj, k: float) -> None:
+        if not k > 0:
+            raise ValueError("time scale must be positive")
+        self.inner, self.k = traj, float(k)
+        self.duration_s = traj.duration_s * self.k
+
+    def sample(self, t):
+        q, qd, qdd = self.inner.sample(np.asarray(t, float) / self.k)
+        return q, qd / self.k, qdd / self.k ** 2
+
+
+def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:
+    n = max(int(np.ceil(duration_s * rate_hz)), 1)
+    return np.linspace(0.0, duration_s, n + 1)
+
+
+def check(sc, traj, rate_hz: float, terms=None) -> dict:
+    """Largest ratio of every limit over the samples (module docstring); 'max' the largest of all."""
+    t = sample_times(traj.duration_s, rate_hz)
+    q, qd, qdd = traj.sample(t)
+    state = sc.chain.evaluate(q, qd, qdd)
+    out = {"joint_speed": float(np.max(np.abs(qd) / sc.velocity_limit_rad_s)),
+           "joint_acceleration": float(np.max(np.abs(qdd) / sc.acceleration_limit_rad_s2))}
+    for term in (terms if terms is not None else sc.terms()):
+        out[term.name] = float(np.max(term.columns(state)))
+    out["max"] = max(out.values())
+    out["n_samples"] = int(len(t))
+    return out
+
+
+def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: float = 1e-4):
+    """(trajectory, k): traj itself (k = 1) if its check holds, else TimeScaled(traj, k) with the
+    smallest k (to 1e-4 relative) whose check holds."""
+    if check(sc, traj, rate_hz)["max"] <= 1.0:
+        return traj, 1.0
+    if check(sc, TimeScaled(traj, k_max), rate_hz)["max"] > 1.0:
+        worst = {k: v for k, v in check(sc, TimeScaled(traj, k_max), rate_hz).items() if k not in ("max", "n_samples")}
+        name = max(worst, key=worst.get)
+        raise QmtInputError(f"the trajectory breaks its {name} limit (ratio {worst[name]:.3g}) even {k_max:g} times "
+                            "slower, where speed no longer matters (e.g. gravity on a tilted hand); relax that limit "
+                            "or keep the hand closer to the task's orientation")
+    lo, hi = 1.0, k_max
+    while hi / lo - 1.0 > rel_tol:
+        mid = 0.5 * (lo + hi)
+        if check(sc, TimeScaled(traj, mid), rate_hz)["max"] <= 1.0:
+            hi = mid
+        else:
+            lo = mid
+    return TimeScaled(traj, hi), hi
+
+
+def pose_errors(sc, traj, times_s) -> np.ndarray:
+    """(K, 2) Drake-FK (position m, face-normal angle rad) errors to the task poses at times_s."""
+    q, _, _ = traj.sample(np.asarray(times_s, float))
+    return np.array([sc.ik.errors(qk, p, sc.face_normal) for qk, p in zip(q, sc.poses_m)])

@@ -1,0 +1,153 @@
+"""Co-simulation of a spatial scenario's plan: the arm in a discrete Drake MultibodyPlant (1 ms), the
+part a free body held by a suction cup or a magnet, ideal joint torque actuators saturated at the joint torque
+limits, Drake's InverseDynamicsController (PID on acceleration + inverse-dynamics feedforward of the
+arm with the part welded to the hand) tracking the plan sampled at 1 kHz.
+
+Suction model: a weld that breaks. The part is a free body welded to the hand frame H (the cup's
+centre) by a SAP weld constraint (Drake's discrete solver, implicit, hence stable at 1 ms for a light
+wrist). Every 1 ms step HoldMonitor computes the wrench the cup applies to the part (Newton-Euler
+on the part's own motion) and checks it against the cup's contact-stability set
+(limits/suction.GripModel with the finer FINE_GRIP rim and pyramid of the re-check: the round cup's
+rim and friction cone approximated more closely than by the planners' inscribed 8x4 polyhedron), or
+for a magnet hand against the thesis's moment limit (MagnetMomentTerm, the same as the planners'). The
+first step with a ratio above 1 latches `detached`: the simulation stops there, the weld constraint
+is switched off, and the part falls freely for the rest of the run. A slip along the face without
+detaching is not modelled (the weld does not slide), so the outcomes are carried / detached /
+unfinished (sim/outcome.transfer_outcome, arrival tolerance ARRIVAL_TOLERANCE_DC_MOTOR_RAD at the end
+of a TAIL_S hold at the goal).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import DiscreteContactApproximation
+from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.controllers import InverseDynamicsController
+from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
+from pydrake.systems.primitives import Saturation, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+
+from qmt_drake.limits.suction import GripModel
+from qmt_drake.model.urdf_check import load_arm_plant
+from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+
+TIME_STEP_S = 1e-3
+KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
+TAIL_S = 0.5
+FINE_GRIP = (24, 8)
+
+
+class HoldMonitor(LeafSystem):
+    """The hand's ratio of the part's contact wrench every step; latches `detached` when it exceeds 1.
+
+    `term` is the hand's limit term (SuctionTerm with the finer grip, or MagnetMomentTerm): its
+    columns take the part's own pose, twist and spatial acceleration from the plant, from which
+    limits/contact_wrench.contact_wrench gives the wrench the hand applies at the face centre (P's
+    origin) by Newton-Euler: while the weld holds, the only other force on the part is gravity."""
+
+    def __init__(self, plant, part_body, term) -> None:
+        super().__init__()
+        self.part, self.term = part_body, term
+        self.poses = self.DeclareAbstractInputPort("poses", plant.get_body_poses_output_port().Allocate())
+        self.vels = self.DeclareAbstractInputPort("velocities",
+                                                  plant.get_body_spatial_velocities_output_port().Allocate())
+        self.accs = self.DeclareAbstractInputPort("accelerations",
+                                                  plant.get_body_spatial_accelerations_output_port().Allocate())
+        self.DeclareDiscreteState(3)  # detached flag, time of detachment, largest ratio while held
+        self.DeclarePeriodicDiscreteUpdateEvent(TIME_STEP_S, 0.0, self._update)
+
+    def ratio(self, context) -> float:
+        i = int(self.part.index())
+        X, V, A = self.poses.Eval(context)[i], self.vels.Eval(context)[i], self.accs.Eval(context)[i]
+        state = {"rotation": X.rotation().matrix()[None], "angular_velocity_rad_s": V.rotational()[None],
+                 "angular_acceleration_rad_s2": A.rotational()[None],
+                 "linear_acceleration_m_s2": A.translational()[None]}
+        return float(np.max(self.term.columns(state)))
+
+    def _update(self, context, discrete_state):
+        x = context.get_discrete_state_vector().CopyToVector()
+        if x[0] < 0.5:
+            r = self.ratio(context)
+            x[2] = max(x[2], r)
+            if r > 1.0:
+                x[0], x[1] = 1.0, context.get_time()
+        discrete_state.get_mutable_vector().SetFromVector(x)
+
+
+def _reference(traj):
+    t = np.arange(0.0, traj.duration_s + TAIL_S + 1e-12, TIME_STEP_S)
+    q, qd, qdd = traj.sample(np.minimum(t, traj.duration_s))
+    after = t > traj.duration_s
+    qd[after], qdd[after] = 0.0, 0.0
+    return (PiecewisePolynomial.CubicHermite(t, q.T, qd.T), PiecewisePolynomial.FirstOrderHold(t, qdd.T),
+            t[-1], q[-1])
+
+
+def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
+    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word.
+    grip: the suction hand's stability set in the co-simulation (default: the scenario's cup with the
+    finer FINE_GRIP polyhedron)."""
+    if sc.hand_kind == "suction" and grip is None:
+        grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
+                         rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
+    term = sc.hand_term(grip)
+    builder = DiagramBuilder()
+    plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
+                                 effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
+                                 finalize=False)
+    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)  # SAP: weld constraints
+    builder.AddSystem(plant)
+    b = sc.body
+    M = SpatialInertia.MakeFromCentralInertia(b.mass_kg, np.asarray(b.com_m, float),
+                                              RotationalInertia(*np.diag(b.inertia_kgm2)))
+    part = plant.AddRigidBody("part", plant.AddModelInstance("part"), M)
+    weld_id = plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
+    plant.Finalize()
+    arm = H.model_instance()
+    ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=b.as_dict(),
+                                      effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s)
+    n = sc.n_dof
+    ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
+                                                       np.full(n, KD_1_S), True))
+    sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
+    mon = builder.AddSystem(HoldMonitor(plant, part, term))
+    pp, acc, t_end, q_goal = _reference(traj)
+    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
+    src_a = builder.AddSystem(TrajectorySource(acc))
+    builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
+    builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
+    builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
+    builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
+    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    builder.Connect(plant.get_body_poses_output_port(), mon.poses)
+    builder.Connect(plant.get_body_spatial_velocities_output_port(), mon.vels)
+    builder.Connect(plant.get_body_spatial_accelerations_output_port(), mon.accs)
+    diagram = builder.Build()
+    sim = Simulator(diagram)
+    ctx = sim.get_mutable_context()
+    pctx = plant.GetMyMutableContextFromRoot(ctx)
+    mctx = mon.GetMyContextFromRoot(ctx)
+    plant.SetPositions(pctx, arm, traj.sample([0.0])[0][0])
+    plant.SetFreeBodyPose(pctx, part, H.CalcPoseInWorld(pctx))
+
+    def stop_when_detached(root_context):
+        detached = mctx.get_discrete_state_vector()[0] > 0.5
+        return EventStatus.ReachedTermination(mon, "detached") if detached else EventStatus.DidNothing()
+
+    sim.set_monitor(stop_when_detached)
+    sim.AdvanceTo(t_end)
+    x = mctx.get_discrete_state_vector().CopyToVector()
+    if x[0] > 0.5:  # the cup let go: the part flies free for the rest of the run
+        sim.clear_monitor()
+        plant.SetConstraintActiveStatus(pctx, weld_id, False)
+        sim.AdvanceTo(t_end)
+    q_end = plant.GetPositions(pctx, arm)
+    lost = "detached" if x[0] > 0.5 else None
+    err = float(np.abs(q_goal - q_end).max())
+    outcome = transfer_outcome(lost, False, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+    gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation() - H.CalcPoseInWorld(pctx).translation()))
+    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": float(x[1]) if lost else None,
+            "max_grip_ratio_while_held": float(x[2]), "final_goal_error_rad": err, "duration_s": traj.duration_s,
+            "part_distance_from_cup_at_end_m": gap}

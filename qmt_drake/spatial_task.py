@@ -1,0 +1,221 @@
+"""Spatial transfer scenarios (`kind: spatial_transfer`): a URDF arm, its actuators, a carried part, a
+suction hand and a 3-D pick-and-place task, validated into planning objects with one-line errors.
+
+    sc = load_spatial_scenario("ur5-suction-bins")     # or a path to a YAML file
+
+Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
+- arm: `package: example-robot-data/<arm>` (an arm of urdf_check.EXAMPLE_ARMS; refused in one line
+  when the package is not installed) or `urdf: <path>` (relative to the file) with `hand_frame`;
+  `face_axis` the hand-frame axis the cup faces along (default z).
+- actuators: velocity_limit_rad_s, acceleration_limit_rad_s2, jerk_limit_rad_s3, torque_limit_Nm
+  (joint side), gear_ratio, rotor_inertia_kgm2 (motor side; the reflected inertia N^2 J_r enters the
+  joint torques), one value per chain joint.
+- payload: mass_kg, com_m (hand frame, from the cup's centre), inertia_kgm2 (principal central moments
+  in the hand axes).
+- hand: kind suction: cup_radius_m, vacuum_force_N, friction, rim_points, pyramid_edges; or kind
+  magnet: moment_limit_Nm (the thesis's payload-moment limit, in 3-D the face-plane moment of the
+  part's contact wrench, gravity included: limits/contact_wrench.MagnetMomentTerm).
+- task: seed_rad (the IK branch), face_normal (world), poses_m (K >= 2 hand positions, the cup facing
+  along face_normal at each), transfer_points (inner points of the geometric path between poses 1 and
+  K-2, straight in Cartesian space at constant orientation).
+- limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
+
+Every task pose is solved by SpatialIK on the seed's branch and checked by Drake's forward kinematics
+to 1e-6 m / 1e-6 rad; an unreachable pose is refused naming it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from qmt_drake.config import fields as F
+from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
+from qmt_drake.limits.motor_torque import MotorTorqueTerm
+from qmt_drake.limits.suction import GripModel, SuctionTerm
+from qmt_drake.model.spatial_chain import SpatialChain
+from qmt_drake.model.spatial_ik import SpatialIK
+from qmt_drake.model.urdf_check import EXAMPLE_ARMS, drive_parameters, example_robot_urdf, load_arm_plant
+
+SPATIAL_KIND = "spatial_transfer"
+SCENARIO_DIR = Path(__file__).resolve().parent.parent / "models" / "scenarios"
+RECHECK_FACTOR = 10
+TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits"}
+
+
+@dataclass
+class SpatialScenario:
+    name: str
+    path: Path
+    urdf: Path
+    hand_frame: str
+    lock_joints: tuple
+    joint_names: list
+    plant: object  # continuous MultibodyPlant of the arm alone (IK, Drake FK)
+    ik: SpatialIK
+    chain: SpatialChain  # with the carried part and the reflected rotor inertia
+    body: CarriedBody
+    grip: GripModel | None  # suction hand
+    velocity_limit_rad_s: np.ndarray
+    acceleration_limit_rad_s2: np.ndarray
+    jerk_limit_rad_s3: np.ndarray
+    torque_limit_Nm: np.ndarray
+    drive: dict
+    face_normal: np.ndarray
+    poses_m: np.ndarray  # (K, 3) task poses
+    q_poses_rad: np.ndarray  # (K, n) their IK solutions
+    path_points_m: np.ndarray  # (P, 3) the geometric path's points (poses + transfer points)
+    q_path_rad: np.ndarray  # (P, n)
+    path_pose_index: np.ndarray  # index of each task pose in path_points_m
+    check_rate_hz: float
+    hand_kind: str = "suction"
+    moment_limit_Nm: float | None = None  # magnet hand
+    face_axis: np.ndarray | None = None
+
+    @property
+    def n_dof(self) -> int:
+        return self.chain.n_dof
+
+    @property
+    def gravity_m_s2(self) -> np.ndarray:
+        return self.plant.gravity_field().gravity_vector()
+
+    @property
+    def recheck_rate_hz(self) -> float:
+        return RECHECK_FACTOR * self.check_rate_hz
+
+    def hand_term(self, grip: GripModel | None = None):
+        """The hand's limit term: the suction grip (`grip` overrides the scenario's polyhedron) or the
+        magnet's face-plane moment (limits/contact_wrench.MagnetMomentTerm)."""
+        if self.hand_kind == "magnet":
+            return MagnetMomentTerm(self.body, self.moment_limit_Nm, self.gravity_m_s2, face_normal=self.face_axis)
+        return SuctionTerm(grip or self.grip, self.body, self.gravity_m_s2)
+
+    def terms(self, grip: GripModel | None = None) -> list:
+        """The limit terms beyond joint speed/acceleration: joint torques and the hand's term."""
+        arm = SimpleNamespace(gear_ratio=self.drive["gear_ratio"], joint_names=self.joint_names,
+                              gravity_does_no_work=False)
+        return [MotorTorqueTerm(arm, self.torque_limit_Nm / self.drive["gear_ratio"]), self.hand_term(grip)]
+
+
+def resolve_scenario_path(name_or_path: str | Path) -> Path:
+    p = Path(name_or_path)
+    if not p.suffix and (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
+        p = SCENARIO_DIR / f"{name_or_path}.yaml"
+    if not p.is_file():
+        raise QmtInputError(f"spatial scenario '{name_or_path}' is neither a built-in (ur5-suction-bins, "
+                            "ur5-magnet-part) nor a "
+                            "YAML file that exists")
+    return p
+
+
+def _arm(raw: dict, where: str, base: Path):
+    F.check_keys(raw, {"package", "urdf", "hand_frame", "face_axis", "lock_joints"}, where)
+    if ("package" in raw) == ("urdf" in raw):
+        raise QmtInputError(f"{where}: give exactly one of 'package' (example-robot-data/<arm>) or 'urdf' (a path)")
+    if "package" in raw:
+        ref = F.string(raw, "package", where)
+        pkg, _, arm = ref.partition("/")
+        if pkg != "example-robot-data" or arm not in EXAMPLE_ARMS:
+            raise QmtInputError(f"{where}.package {ref!r}: give example-robot-data/<arm>, <arm> one of "
+                                f"{sorted(EXAMPLE_ARMS)}")
+        urdf, hand, lock = example_robot_urdf(arm)
+        hand = F.string(raw, "hand_frame", where, default=hand)
+    else:
+        urdf = (base / F.string(raw, "urdf", where)).resolve()
+        if not urdf.is_file():
+            raise QmtInputError(f"{where}.urdf: {urdf} does not exist")
+        hand, lock = F.string(raw, "hand_frame", where), ()
+    lock = tuple(raw.get("lock_joints", lock))
+    face = F.vector(raw, "face_axis", where, length=3) if "face_axis" in raw else np.array([0.0, 0.0, 1.0])
+    return urdf, hand, lock, face
+
+
+def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
+    """The validated scenario (module docstring); QmtInputError (one line) for any bad input."""
+    path = resolve_scenario_path(name_or_path)
+    raw = F.read_yaml_mapping(path, "spatial scenario", SCENARIO_DIR / "ur5-suction-bins.yaml")
+    where = path.name
+    F.check_keys(raw, TOP_KEYS, where)
+    if raw.get("kind") != SPATIAL_KIND:
+        raise QmtInputError(f"{where}: kind must be '{SPATIAL_KIND}' for a spatial scenario, got {raw.get('kind')!r}")
+    urdf, hand, lock, face_axis = _arm(F.mapping(raw, "arm", where), f"{where}: arm", path.parent)
+
+    w = f"{where}: actuators"
+    act = F.mapping(raw, "actuators", where)
+    keys = ("velocity_limit_rad_s", "acceleration_limit_rad_s2", "jerk_limit_rad_s3", "torque_limit_Nm",
+            "gear_ratio", "rotor_inertia_kgm2")
+    F.check_keys(act, set(keys), w)
+    vals = {k: F.vector(act, k, w, positive=True) for k in keys}
+    plant, H, names = load_arm_plant(urdf, hand, lock_joints=lock, effort_limit_Nm=vals["torque_limit_Nm"],
+                                     velocity_limit_rad_s=vals["velocity_limit_rad_s"])
+    n = len(names)
+    for k, v in vals.items():
+        if v.shape != (n,):
+            raise QmtInputError(f"{w}.{k} has {v.size} entries; give {n}, one per joint {names}")
+    drive = drive_parameters(urdf, names, gear_ratio=vals["gear_ratio"], rotor_inertia_kgm2=vals["rotor_inertia_kgm2"],
+                             source=str(urdf))
+
+    w = f"{where}: payload"
+    pay = F.mapping(raw, "payload", where)
+    F.check_keys(pay, {"mass_kg", "com_m", "inertia_kgm2"}, w)
+    body = CarriedBody(F.num(pay, "mass_kg", w, positive=True), F.vector(pay, "com_m", w, length=3),
+                       np.diag(F.vector(pay, "inertia_kgm2", w, positive=True, length=3)))
+
+    w = f"{where}: hand"
+    hd = F.mapping(raw, "hand", where)
+    kind = F.string(hd, "kind", w, choices=("suction", "magnet"))
+    grip, moment_limit = None, None
+    if kind == "suction":
+        F.check_keys(hd, {"kind", "cup_radius_m", "vacuum_force_N", "friction", "rim_points", "pyramid_edges"}, w)
+        grip = GripModel(F.num(hd, "cup_radius_m", w, positive=True), F.num(hd, "vacuum_force_N", w, positive=True),
+                         F.num(hd, "friction", w, positive=True), face_normal=face_axis,
+                         rim_points=F.integer(hd, "rim_points", w, minimum=3, default=8),
+                         pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, default=4))
+    else:
+        F.check_keys(hd, {"kind", "moment_limit_Nm"}, w)
+        moment_limit = F.num(hd, "moment_limit_Nm", w, positive=True)
+
+    w = f"{where}: task"
+    tk = F.mapping(raw, "task", where)
+    F.check_keys(tk, {"seed_rad", "face_normal", "poses_m", "transfer_points"}, w)
+    seed = F.vector(tk, "seed_rad", w, length=n, what="one joint angle per joint")
+    normal = F.vector(tk, "face_normal", w, length=3)
+    poses = tk.get("poses_m")
+    if not isinstance(poses, list) or len(poses) < 2:
+        raise QmtInputError(f"{w}.poses_m must be a list of >= 2 positions [x, y, z] (m)")
+    P = np.array([F.vector({"p": p}, "p", f"{w}.poses_m[{k}]", length=3) for k, p in enumerate(poses)])
+    n_tr = F.integer(tk, "transfer_points", w, minimum=0, default=0)
+    lim = F.mapping(raw, "limits", where)
+    F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
+    rate = F.num(lim, "check_rate_hz", f"{where}: limits", positive=True)
+
+    ik = SpatialIK(plant, H, face_axis=face_axis, name=str(raw.get("name", path.stem)))
+    chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())
+    pts, idx = _path_points(P, n_tr)
+    normals = np.repeat((normal / np.linalg.norm(normal))[None], len(pts), axis=0)
+    q_path = ik.solve_path(pts, normals=normals, seed=seed, max_joint_step_rad=1.0, what=f"{where}: task path point")
+    return SpatialScenario(name=str(raw.get("name", path.stem)), path=path, urdf=Path(urdf), hand_frame=hand,
+                           lock_joints=lock, joint_names=list(names), plant=plant, ik=ik, chain=chain, body=body,
+                           grip=grip, velocity_limit_rad_s=vals["velocity_limit_rad_s"],
+                           acceleration_limit_rad_s2=vals["acceleration_limit_rad_s2"],
+                           jerk_limit_rad_s3=vals["jerk_limit_rad_s3"], torque_limit_Nm=vals["torque_limit_Nm"],
+                           drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
+                           path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
+                           hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis)
+
+
+def _path_points(P: np.ndarray, n_transfer: int):
+    """The geometric path: the task poses with n_transfer straight-line points between poses 1 and K-2
+    (the carry between the two lifts); (points, index of each pose)."""
+    if len(P) < 4 or n_transfer == 0:
+        return P.copy(), np.arange(len(P))
+    a, b = P[1], P[-2]
+    inner = [(1 - t) * a + t * b for t in np.linspace(0, 1, n_transfer + 2)[1:-1]]
+    pts = np.vstack([P[:2], inner, P[2:]])
+    idx = np.r_[0, 1, np.arange(2, len(P)) + n_transfer]
+    return pts, idx
