@@ -1,7 +1,7 @@
 # `make run` reproduces every seed and the benchmark into out/ (then out/report.html); `make test`
 # runs ruff and the tests. Both create .venv/ with the package installed in editable mode on first
-# use: `run` installs the runtime dependencies only, `test` adds the test extra (pytest, Pinocchio,
-# example-robot-data, ruff).
+# use: `run` installs the runtime dependencies and the arms from the field (example-robot-data), `test`
+# adds the test extra (pytest, Pinocchio, ruff).
 PY := .venv/bin/python
 STAMP := .venv/.installed
 TEST_STAMP := .venv/.installed-test
@@ -9,7 +9,7 @@ TEST_STAMP := .venv/.installed-test
 $(STAMP): pyproject.toml
 	python3 -m venv .venv
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e .
+	$(PY) -m pip install --quiet -e '.[robots]'
 	touch $(STAMP)
 
 $(TEST_STAMP): $(STAMP)

@@ -69,6 +69,10 @@ SECTIONS: list[Section] = [
             seed="Task-1: PB, PF, PT best (E = 1.2027, second link 0), BP 1.1884; Task-2: BF best (E = 2.0107), "
                  "BP 1.9951; without obstacles BP is best; about 60 generations (some 360).",
             tables=("*.md",)),
+    Section("Spatial arms: a UR5 with a suction cup between two bins, and with the thesis's magnet",
+            ".venv/bin/python -m studies.spatial_benchmark --out out", "spatial",
+            seed="Not in the seeds: issue 19's arms from the field (Pham & Pham's suction-cup transfer).",
+            tables=("*.md",), figures=(), recordings=(), raw=("ur5-*.json",)),
     Section("Success probability under uncertainty (Dask sweeps)",
             ".venv/bin/python -m studies.success_probability --cases 50 --robust thesis-ch4", "",
             tables=("success_probability.md",), figures=("sweeps/**/*.png",), recordings=(),

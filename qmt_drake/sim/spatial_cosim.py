@@ -31,7 +31,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.model.urdf_check import load_arm_plant
-from qmt_drake.sim.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 
 TIME_STEP_S = 1e-3
 KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
