@@ -139,7 +139,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     # system runs per step in the default tray diagram (the monitor is read at the log period only)
     motors = builder.AddSystem(dc_motors_as_primitives(motor) if compiled_servo else DcMotorWithGear(motor))
     split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
-    monitor = builder.AddNamedSystem("monitor", TrayBottleMonitor(plant, tray, bottle_body, X_TB0))
+    monitor = builder.AddNamedSystem("monitor", TrayBottleMonitor(plant, tray, bottle_body, X_TB0)) if log_period_s else None
     arm_state = plant.get_state_output_port(arm)
     builder.Connect(arm_state, split.get_input_port())
     builder.Connect(goal.get_output_port(), servo.GetInputPort("goal_position"))
@@ -147,14 +147,17 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     builder.Connect(servo.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
     builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
     builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
-    builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
-    builder.Connect(plant.get_contact_results_output_port(), monitor.GetInputPort("contact_results"))
-    ports = {"goal": goal.get_output_port(), "arm_state": arm_state,
-             "voltage": servo.GetOutputPort("voltage_command"), "current": motors.GetOutputPort("current"),
-             "joint_torque": motors.GetOutputPort("joint_torque"), "slide": monitor.GetOutputPort("slide"),
-             "tilt": monitor.GetOutputPort("tilt"), "base_height": monitor.GetOutputPort("base_height"),
-             "contact_force": monitor.GetOutputPort("contact_force")}
-    loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()} if log_period_s else {}
+    if monitor is not None:
+        builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
+        builder.Connect(plant.get_contact_results_output_port(), monitor.GetInputPort("contact_results"))
+    loggers = {}
+    if monitor is not None:  # the monitor only feeds the loggers
+        ports = {"goal": goal.get_output_port(), "arm_state": arm_state,
+                 "voltage": servo.GetOutputPort("voltage_command"), "current": motors.GetOutputPort("current"),
+                 "joint_torque": motors.GetOutputPort("joint_torque"), "slide": monitor.GetOutputPort("slide"),
+                 "tilt": monitor.GetOutputPort("tilt"), "base_height": monitor.GetOutputPort("base_height"),
+                 "contact_force": monitor.GetOutputPort("contact_force")}
+        loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()}
     visualizer = None
     if meshcat is not None:
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
