@@ -18,37 +18,59 @@ from qmt_drake.planners.ga import run_ga
 from qmt_drake.planners.optimum import TightTimingProblem, plan_family_optimum
 from qmt_drake.problem import PlanningProblem
 
-METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
+
+def _ga(scenario, *, seed: int = 0, progress=None, **options):
+    problem = PlanningProblem(scenario)
+    searched = TightTimingProblem(problem) if scenario.ga.tight_timing else problem
+    r = run_ga(searched, seed=seed, progress=progress, **options)
+    genes = searched.realize(r.genes) if scenario.ga.tight_timing and r.feasible else r.genes
+    return family_plan(problem, genes, "ga", planner_wall_s=r.wall_s,
+                       evaluations=r.evaluations, generations=r.generations,
+                       extra={"seed": seed, "stop_reason": r.stop_reason,
+                              "ga_settings": scenario.ga.__dict__,
+                              "history_best_motion_time_s": r.history.best_cost,
+                              "history_mean_fitness": r.history.mean_fitness,
+                              "history_feasible_fraction": r.history.feasible_fraction})
+
+
+def _optimum(scenario, *, seed: int = 0, progress=None, **options):
+    return plan_family_optimum(PlanningProblem(scenario), seed=seed, progress=progress, **options)
+
+
+def _thesis(scenario, *, seed: int = 0, progress=None):
+    if not scenario.reported.get("genes"):
+        raise QmtInputError(f"scenario {scenario.name} has no reported.genes to evaluate")
+    problem = PlanningProblem(scenario)
+    return family_plan(problem, problem.genes_vector(scenario.reported["genes"]), "thesis")
+
+
+def _options_only(planner):
+    """A baseline planner takes the scenario and its own options (no seed, no progress)."""
+    return lambda scenario, *, seed=0, progress=None, **options: planner(scenario, **options)
+
+
+# The planner registry: each method registers once (register_planner); the CLI, the studies, the
+# benchmark and the sweeps reach every planner through plan_with.
+PLANNERS: dict = {}
+
+
+def register_planner(name: str, planner) -> None:
+    """planner(scenario, *, seed, progress, **options) -> Plan."""
+    PLANNERS[name] = planner
+
+
+for _name, _planner in (("ga", _ga), ("optimum", _optimum), ("thesis", _thesis),
+                        ("toppra", _options_only(plan_toppra)), ("toppra-drake", _options_only(plan_toppra_drake)),
+                        ("ruckig", _options_only(plan_ruckig)), ("trajopt", _options_only(plan_trajopt))):
+    register_planner(_name, _planner)
+METHODS = tuple(PLANNERS)
 
 
 def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options):
-
-    if method == "ga":
-        problem = PlanningProblem(scenario)
-        searched = TightTimingProblem(problem) if scenario.ga.tight_timing else problem
-        r = run_ga(searched, seed=seed, progress=progress, **options)
-        genes = searched.realize(r.genes) if scenario.ga.tight_timing and r.feasible else r.genes
-        return family_plan(problem, genes, "ga", planner_wall_s=r.wall_s,
-                           evaluations=r.evaluations, generations=r.generations,
-                           extra={"seed": seed, "stop_reason": r.stop_reason,
-                                  "ga_settings": scenario.ga.__dict__,
-                                  "history_best_motion_time_s": r.history.best_cost,
-                                  "history_mean_fitness": r.history.mean_fitness,
-                                  "history_feasible_fraction": r.history.feasible_fraction})
-    if method == "optimum":
-        return plan_family_optimum(PlanningProblem(scenario), seed=seed, progress=progress,
-                                   **options)
-    if method == "thesis":
-        if not scenario.reported.get("genes"):
-            raise QmtInputError(f"scenario {scenario.name} has no reported.genes to evaluate")
-        problem = PlanningProblem(scenario)
-        return family_plan(problem, problem.genes_vector(scenario.reported["genes"]), "thesis")
-    if method == "toppra":
-        return plan_toppra(scenario, **options)
-    if method == "toppra-drake":
-        return plan_toppra_drake(scenario, **options)
-    if method == "ruckig":
-        return plan_ruckig(scenario, **options)
-    if method == "trajopt":
-        return plan_trajopt(scenario, **options)
-    raise QmtInputError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")
+    """Plan `scenario` with the registered planner `method` (METHODS) and return its Plan, re-checked
+    by sampling at the scenario's check rate. seed: the GA's and the optimum's generator; progress:
+    a callable taking one line; options: the planner's own keywords (its docstring lists them; an
+    unknown one raises TypeError, which the CLI turns into one line). Units: SI (s, rad)."""
+    if method not in PLANNERS:
+        raise QmtInputError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")
+    return PLANNERS[method](scenario, seed=seed, progress=progress, **options)
