@@ -79,7 +79,8 @@ def test_case_that_always_kills_fails_alone_and_only_it_is_rerun(client, tmp_pat
     assert out["failed"] == 1 and out["computed"] == 3
     assert "KilledWorker" in out["failures"][0]["error"]
     deaths = next(client.kill_dir.glob("deaths-*")).read_text()
-    assert len(deaths) == 2  # first try + allowed_failures=1 retry
+    # first try + allowed_failures=1 retry among the others, then the same two alone
+    assert len(deaths) == 4
     cases = tmp_path / "killalways" / "cases"
     before = {p.name: p.stat().st_mtime_ns for p in cases.glob("*.json")}
     assert len(before) == 3

@@ -14,8 +14,9 @@
 
 Worker deaths: the scheduler resubmits a task whose worker died up to
 `distributed.scheduler.allowed-failures` times (set here for a local cluster; a user's scheduler
-uses its own configuration) and then gives up with KilledWorker: that case is reported as failed,
-written nowhere, and retried by the next run. Exceptions other than a failed simulation (which
+uses its own configuration) and then gives up with KilledWorker; such a case runs once more alone
+(it may only have shared the worker with the case that killed it), and if it kills its worker
+again it is reported as failed, written nowhere, and retried by the next run. Exceptions other than a failed simulation (which
 run_case returns as status 'sim_failed') are reported the same way.
 
 Progress: one line on stderr (rewritten in place on a terminal). At the end: summary.json,
@@ -310,20 +311,45 @@ def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failu
         f = cl.submit(case_fn, c, doc_futs[c.plan_key], key=f"case-{c.key[:16]}-{uuid.uuid4().hex[:8]}",
                       pure=False)
         futs[f] = c
+    suspects = []  # cases given up after worker deaths: perhaps only co-located with the killer
     for fut in as_completed(list(futs), loop=cl.loop):
         c = futs.pop(fut)
         try:
             res = fut.result()
         except Exception as exc:  # noqa: BLE001 - KilledWorker after allowed-failures, or a bug in the case
-            failures.append({"key": c.key, "label": c.label, "index": c.index,
-                             "error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"})
-            prog.update(False)
+            if type(exc).__name__ == "KilledWorker":
+                suspects.append(c)
+                continue
+            _record_failure(failures, c, exc, prog)
             continue
-        store.write_case(c.key, res)
-        stored += 1
-        prog.update(True)
+        stored += _store_result(store, c, res, prog)
+        fut.release()
+    # The scheduler assigns a case to a worker before the worker is free (cases depend on the plan
+    # document, so they are not queued centrally), so an innocent case can share a dying worker.
+    # Each suspect runs once more alone: only a case that kills its worker by itself fails.
+    for c in suspects:
+        fut = cl.submit(case_fn, c, doc_futs[c.plan_key], key=f"case-{c.key[:16]}-{uuid.uuid4().hex[:8]}",
+                        pure=False)
+        try:
+            res = fut.result()
+        except Exception as exc:  # noqa: BLE001 - as above
+            _record_failure(failures, c, exc, prog)
+            continue
+        stored += _store_result(store, c, res, prog)
         fut.release()
     return stored
+
+
+def _record_failure(failures: list, c, exc: BaseException, prog: Progress) -> None:
+    failures.append({"key": c.key, "label": c.label, "index": c.index,
+                     "error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"})
+    prog.update(False)
+
+
+def _store_result(store: SweepStore, c, res: dict, prog: Progress) -> int:
+    store.write_case(c.key, res)
+    prog.update(True)
+    return 1
 
 
 # ------------------------------------------------------------------------------------ summary
