@@ -24,7 +24,13 @@ from qmt_drake.sim.diagram import build_transfer_diagram
 from qmt_drake.sim.runner import run_transfer_simulate
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.tray.cosim import build_tray_diagram
-from qmt_drake.tray.execute import check_tray_simulation, plan_schedule, simulate_tray_plan
+from qmt_drake.tray.execute import (
+    TRAY_CASE_PARAMETERS,
+    check_tray_simulation,
+    drawn_bottle_overrides,
+    plan_schedule,
+    simulate_tray_plan,
+)
 from qmt_drake.tray.limit_terms import tray_terms
 
 
@@ -34,7 +40,11 @@ class HandPlugin:
     motor torques); carried_inertia(scenario) -> the Drake SpatialInertia welded to the planning
     arm's hand; simulate(scenario, plan, **options) -> the co-simulation summary (the CLI's JSON);
     build_diagram(scenario, plan, **options) -> the diagram; refused_methods: planners that cannot
-    serve it, with the reason."""
+    serve it, with the reason. For sweeps (sweep/cases.py): case_parameters, the sweep parameters its
+    cases may vary (None: the magnet hand's own case runner, every parameter), and
+    case_overrides(scenario, payload) -> the scenario overrides of a case's drawn payload, whose
+    scenario is then passed to simulate(..., physical=) while the plan and the controller keep the
+    nominal one."""
 
     kind: str
     limit_terms: Callable
@@ -42,6 +52,8 @@ class HandPlugin:
     simulate: Callable
     build_diagram: Callable
     refused_methods: dict = field(default_factory=dict)
+    case_parameters: frozenset | None = None
+    case_overrides: Callable | None = None
 
 
 HANDS: dict[str, HandPlugin] = {}
@@ -84,9 +96,10 @@ register_hand(HandPlugin(
 
 # --------------------------------------------------------------------------------------- tray
 def _simulate_tray(scenario, plan, *, time_scale=1.0, record_path=None, time_step_s=None,
-                   implicit_loop_damping=None, feedforward="none") -> dict:
+                   implicit_loop_damping=None, feedforward="none", physical=None) -> dict:
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
-    return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path, time_step_s=time_step_s)
+    return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path, time_step_s=time_step_s,
+                              physical=physical)
 
 
 def _tray_diagram(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None, meshcat=None,
@@ -110,4 +123,6 @@ register_hand(HandPlugin(
     # its B-spline path does not hold the tray level and its constraints have no tray terms: the
     # re-check's slow-down search (finish.py) cannot make it keep the tray limits
     refused_methods={"trajopt": "its path does not hold the tray level and its constraints have no tray terms"},
+    case_parameters=TRAY_CASE_PARAMETERS,
+    case_overrides=drawn_bottle_overrides,
 ))

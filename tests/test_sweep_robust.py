@@ -174,5 +174,3 @@ def test_success_needs_an_uncertainty_section_and_a_probability(capsys):
     assert "no uncertainty section" in capsys.readouterr().err
     assert main(["plan", "thesis-ch4", "--method", "thesis", "--success", "1.5"]) == 2
     assert "a probability in (0, 1)" in capsys.readouterr().err
-    assert main(["plan", "crane-tray", "--method", "toppra", "--success", "0.9"]) == 2
-    assert "magnet hand only" in capsys.readouterr().err

@@ -136,11 +136,7 @@ def cmd_plan(args) -> int:
         _check_int(args.success_check_cases, "--success-check-cases", 1, "e.g. 200")
         _check_positive_finite(args.success_max_scale, "--success-max-scale", "e.g. 2")
         check_output_dir(args.success_out, "--success-out")
-        sc_u = load_scenario(args.scenario)
-        if getattr(sc_u, "is_tray", False):
-            raise QmtInputError("--success: sweeps co-simulate the magnet hand only; the tray scenario's "
-                                "servo co-simulation is not swept yet (use --carried for its nominal case)")
-        success_spec(sc_u)  # the uncertainty section, checked before any planning
+        success_spec(load_scenario(args.scenario))  # the uncertainty section, checked before any planning
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     _check_int(args.generations, "--generations", 1, "run at least one generation")

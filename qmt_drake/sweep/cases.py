@@ -28,6 +28,7 @@ import numpy as np
 
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.hands import hand_plugin
 from qmt_drake.outputs import jsonable
 from qmt_drake.plan import load_plan
 from qmt_drake.planners import plan_with
@@ -102,10 +103,7 @@ class Case:
 def build_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]]:
     """All cases of a spec (plans x grid points x samples) and the distinct plans they need."""
     base = load_scenario(spec.scenario)  # also validates the scenario before any long work
-    if getattr(base, "is_tray", False):
-        raise QmtInputError(f"sweep scenario '{spec.scenario}' has a tray hand: sweeps co-simulate the "
-                            "magnet hand (coil, part, motor parameters); sweep the tray with "
-                            "`python -m studies.crane_tray --sections sweep`")
+    check_hand_can_vary(spec, base)
     samples = spec.samples()
     cases, plans = [], {}
     index = 0
@@ -119,6 +117,23 @@ def build_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]]:
                 cases.append(case)
                 index += 1
     return cases, plans
+
+
+def check_hand_can_vary(spec: SweepSpec, base) -> None:
+    """One-line QmtInputError when the spec varies what the scenario's hand co-simulation does not
+    model (e.g. a coil current for a tray), or sets a DC-motor simulator option for it."""
+    plugin = hand_plugin(base)
+    if plugin.case_parameters is None:
+        return
+    kind = plugin.kind
+    for name in (*spec.fixed, *spec.grid, *spec.distributions):
+        if name not in plugin.case_parameters:
+            raise QmtInputError(f"sweep parameter '{name}': the {kind} hand's co-simulation does not vary it "
+                                f"(scenario {base.name}); vary {', '.join(sorted(plugin.case_parameters))}")
+    extra = sorted(k for k, v in spec.sim.items() if k != "time_step_s" and not (k == "feedforward" and v == "none"))
+    if extra:
+        raise QmtInputError(f"sweep sim.{extra[0]}: an option of the DC-motor co-simulation; the {kind} hand's "
+                            "co-simulation takes only sim.time_step_s")
 
 
 def _make_case(spec, base, pdef, values, index, sample):
@@ -230,6 +245,9 @@ def run_case(case: Case, plan_doc: dict) -> dict:
     sc = _scenario(case.scenario, case.scenario_overrides)
     plan_sc = _scenario(case.scenario, {k: v for k, v in case.scenario_overrides.items() if k != "control"})
     plan = plan_from_doc(plan_doc, plan_sc)
+    plugin = hand_plugin(sc)
+    if plugin.case_overrides is not None:
+        return _run_hand_case(case, plan, sc, plugin, t0)
     nominal = PayloadSpec.for_scenario(sc)
     spec = dataclasses.replace(nominal, **{
         k: (getattr(nominal, k) * v[1] if isinstance(v, (list, tuple)) else v) for k, v in case.payload.items()})
@@ -257,6 +275,34 @@ def run_case(case: Case, plan_doc: dict) -> dict:
             "held", "max_slip_m", "max_tilt_rad", "max_gap_m", "detached_at_s", "max_tracking_error_rad",
             "peak_motor_torque_ratio", "peak_moment_ratio_planned", "energy_J", "time_step_s",
             "sim_time_s", "sim_wall_s")})
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+def _run_hand_case(case: Case, plan, sc, plugin, t0: float) -> dict:
+    """A case of a hand plug-in with its own case runner (the tray): the plan and the controller
+    keep the nominal scenario, the drawn payload is simulated (plugin.case_overrides)."""
+    drawn = plugin.case_overrides(sc, case.payload)
+    overrides = {k: dict(v) for k, v in case.scenario_overrides.items()}
+    for section, values in drawn.items():
+        overrides.setdefault(section, {}).update(values)
+    physical = _scenario(case.scenario, overrides)
+    sim = dict(case.sim)
+    sim.pop("feedforward", None)
+    out = {"key": case.key, "index": case.index, "label": case.label, "plan_key": case.plan_key,
+           "parameters": case.parameters, "sample": case.sample, "method": plan.method,
+           "motion_time_s": float(plan.motion_time_s) * float(sim.get("time_scale", 1.0)),
+           "plan_motion_time_s": float(plan.motion_time_s), "plan_feasible": bool(plan.feasible),
+           "payload_mass_kg": physical.payload.mass_kg, "payload_com_offset_m": physical.payload.com_offset_m,
+           "friction": physical.hand.friction, "host": socket.gethostname(), "pid": os.getpid()}
+    try:
+        d = plugin.simulate(sc, plan, physical=physical, **sim)
+    except QmtSimulationError as exc:
+        out.update(status="sim_failed", held=False, outcome="failed", error=str(exc))
+    else:
+        out.update(status="ok", **{k: d.get(k) for k in (
+            "held", "outcome", "max_slip_m", "max_tilt_rad", "lost_at_s", "max_tracking_error_rad",
+            "final_goal_error_rad", "time_step_s", "sim_time_s", "sim_wall_s")})
     out["wall_s"] = time.perf_counter() - t0
     return out
 

@@ -31,6 +31,7 @@ from qmt_drake.hands import run_simulate
 from qmt_drake.plan import make_plan
 from qmt_drake.planners import plan_with
 from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
+from qmt_drake.sweep.cases import check_hand_can_vary
 from qmt_drake.sweep.runner import dask_client, run_sweep
 from qmt_drake.sweep.spec import SweepSpec, load_spec
 from qmt_drake.sweep.stats import wilson_interval
@@ -70,7 +71,8 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
         params["time_scale"] = float(s)
         raw["parameters"] = params
         sub = load_spec(raw, name=f"{spec.name}-ts{s:.5f}")
-        out = run_sweep(sub, out_dir, client=cl, progress=False, figures=figures, **run_kw)
+        # each step's sweep shows its own count (minutes per step on the tray) when progress is asked for
+        out = run_sweep(sub, out_dir, client=cl, progress=progress is not None, figures=figures, **run_kw)
         n = sum(r["n"] for r in out["rows"])
         k = sum(r["carried"] for r in out["rows"])
         lo, hi = wilson_interval(k, n, confidence)
@@ -333,8 +335,10 @@ def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: in
     mc.setdefault("cases", 100)
     mc.setdefault("seed", 1)
     plan_ref = {"method": "optimum"} if plan_file is None else {"file": str(plan_file)}
-    return load_spec({"name": name, "scenario": str(scenario.source_path), "plans": [plan_ref],
+    spec = load_spec({"name": name, "scenario": str(scenario.source_path), "plans": [plan_ref],
                       "monte_carlo": mc, "parameters": dict(u["parameters"])}, name=name)
+    check_hand_can_vary(spec, scenario)
+    return spec
 
 
 def plan_for_success(plan, plan_file, out_dir, *, target: float, check_cases: int = 200, s_max: float = 2.0,

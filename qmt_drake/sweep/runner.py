@@ -353,6 +353,9 @@ def _store_result(store: SweepStore, c, res: dict, prog: Progress) -> int:
 
 
 # ------------------------------------------------------------------------------------ summary
+CARRIED_MEANS = ("the co-simulation's outcome 'carried' (qmt_drake/outcome.py): the part on the hand at the "
+                 "end, never lost, slip below the hand's limit, the arm at its goal")
+
 def summarize(spec: SweepSpec, store: SweepStore, results: list[dict], failures: list, *,
               figures: bool = True) -> dict:
     groups = ("label",) + tuple(spec.grid)
@@ -361,7 +364,7 @@ def summarize(spec: SweepSpec, store: SweepStore, results: list[dict], failures:
     data = {"name": spec.name, "scenario": spec.scenario, "description": spec.description,
             "uncertainty": spec.uncertainty or describe_uncertainty(spec),
             "uncertainty_drawn": describe_uncertainty(spec), "monte_carlo_cases": spec.mc_cases,
-            "monte_carlo_seed": spec.mc_seed, "carried_means": "held: never detached and slip < 1 mm",
+            "monte_carlo_seed": spec.mc_seed, "carried_means": CARRIED_MEANS,
             "cases": len(results), "failures": failures, "rows": rows}
     paths["summary.json"] = str(store.write_text("summary.json", json.dumps(jsonable(data), indent=1)))
     paths["summary.md"] = str(store.write_text("summary.md", summary_markdown(spec, rows, failures)))
@@ -374,7 +377,7 @@ def summary_markdown(spec: SweepSpec, rows: list[dict], failures: list) -> str:
     grid = list(spec.grid)
     lines = [f"# Sweep {spec.name}", "", f"Scenario {spec.scenario}. Uncertainty: "
              f"{spec.uncertainty or describe_uncertainty(spec)}.", "",
-             "Carried = never detached and slip < 1 mm in the co-simulation; interval: Wilson score, "
+             f"Carried = {CARRIED_MEANS}; interval: Wilson score, "
              f"{int(round(rows[0]['confidence'] * 100)) if rows else 95}%.", "",
              "| plan | " + "".join(f"{g} | " for g in grid) + "motion time [s] | cases | carried | "
              "P(carried) | interval | median slip [mm] |",

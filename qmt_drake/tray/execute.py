@@ -25,6 +25,11 @@ from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
 SETTLE_S = 1.0
 TAIL_S = 1.5
+# The sweep parameters a tray case varies (sweep/spec.PARAMETERS names): the bottle as drawn, the
+# replay speed and step, the planner seed. Coil, magnet, DC-motor and gain parameters belong to
+# the magnet hand's co-simulation and are refused for a tray scenario.
+TRAY_CASE_PARAMETERS = frozenset({"friction", "mass_kg", "mass_scale", "com_offset_m", "com_offset_scale",
+                                  "time_scale", "time_step_s", "seed"})
 
 
 def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, settle_s: float = SETTLE_S,
@@ -82,13 +87,17 @@ def check_tray_simulation(scenario, time_step_s: float | None = None, feedforwar
 
 
 def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
-                       time_step_s: float | None = None) -> dict:
+                       time_step_s: float | None = None, physical=None) -> dict:
+    """The summary of `plan` executed on `scenario`'s CRANE-X7 (see the module docstring).
+    physical: the scenario whose bottle (mass, centre of mass, friction) is simulated, when it
+    differs from the one the servos' goals are shaped for (a sweep case's drawn bottle: the
+    controller knows only the nominal one); None: `scenario` itself."""
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused by the library
     act = scenario.actuator
     sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s,
                           shaped_for=scenario if act.reference == "shaped" else None)
-    r = simulate_tray(sched, act.gains(), scenario.bottle, time_step_s=time_step_s or TIME_STEP_S,
+    r = simulate_tray(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
                       servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path)
     d = r.summary_dict()
     q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
@@ -102,3 +111,18 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
              motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),
              method=plan.method, plan_feasible=bool(plan.feasible))
     return d
+
+
+def drawn_bottle_overrides(scenario, payload: dict) -> dict:
+    """Scenario overrides of a sweep case's drawn bottle. payload: PayloadSpec field -> an absolute
+    value or ["scale", x] times the nominal one (sweep/cases.Case.payload): friction [-] goes to
+    hand.friction, mass_kg [kg] and com_offset_m [m, centre of mass above the base] to payload."""
+    nominal = {"friction": ("hand", scenario.hand.friction), "mass_kg": ("payload", scenario.payload.mass_kg),
+               "com_offset_m": ("payload", scenario.payload.com_offset_m)}
+    out: dict = {}
+    for name, v in payload.items():
+        if name not in nominal:
+            raise QmtInputError(f"a tray case cannot vary the payload's {name}; vary friction, mass or com_offset")
+        section, value = nominal[name]
+        out.setdefault(section, {})[name] = float(value) * v[1] if isinstance(v, (list, tuple)) else float(v)
+    return out
