@@ -3,8 +3,9 @@ resident memory over many runs (issue 20).
 
     .venv/bin/python -m studies.bench_tray_floor --out out [--runs 200] [--repeats 3]
 
-ours      the default tray diagram (tray/cosim.build_tray_diagram: compiled servo law and motors, the
-          Python bottle monitor read at the 5 ms log period, loggers)
+ours      the default tray diagram (tray/cosim.build_tray_diagram: compiled servo law and motors,
+          loggers of plant and primitive ports every 5 ms; the bottle's motion is derived from its
+          logged joint state after the run, so no Python system is in the diagram)
 python    the same with the Python DynamixelPositionServo and DcMotorWithGear (one call per period)
 floor     the default diagram with no monitor and no loggers: the plant, the goal source, the servo
           law and the motors only, all Drake primitives

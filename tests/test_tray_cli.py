@@ -113,9 +113,9 @@ def test_benchmark_serves_the_tray(tmp_path):
     assert r["cosim_note"] is None and r["held"] is True and r["max_slip_m"] < 1e-3
 
 
-def test_sweep_of_a_tray_scenario_is_one_line(tmp_path, capsys):
+def test_a_tray_sweep_of_a_magnet_parameter_is_one_line(tmp_path, capsys):
     spec = tmp_path / "tray.yaml"
-    spec.write_text("scenario: crane-tray\nplans:\n  - {method: thesis}\nparameters:\n  friction: [0.25, 0.35]\n")
+    spec.write_text("scenario: crane-tray\nplans:\n  - {method: thesis}\nparameters:\n  coil_current_scale: [0.9, 1.0]\n")
     rc, out, err = _run(capsys, "sweep", str(spec), "--out", str(tmp_path / "sw"))
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "tray hand" in err
 

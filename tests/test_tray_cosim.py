@@ -44,3 +44,40 @@ def test_contact_force_matches_the_tray_conditions_on_the_executed_motion(short_
     for axis in (0, 2):  # tangential along the line, normal
         pred, meas = smooth(w[:, 3 + axis])[m], smooth(f_sim[axis])[m]
         assert np.max(np.abs(pred - meas)) < 0.1 * bottle.mass_kg * 9.81
+
+
+def test_logged_bottle_motion_is_the_python_monitors_and_the_diagram_is_freed():
+    """The default diagram derives slide, tilt, height and contact force from the bottle joint's
+    logged state and generalized contact forces (no Python system): equal to the Python
+    TrayBottleMonitor's (poses and contact results) on a transfer where the bottle slides, and the
+    diagram is freed after the run (pydrake never frees one that holds a Python system)."""
+    import gc
+    import weakref
+
+    from pydrake.systems.analysis import Simulator
+
+    from qmt_drake import load_scenario, plan_with
+    from qmt_drake.tray import cosim
+    from qmt_drake.tray.execute import plan_schedule
+    sc = load_scenario("crane-tray")
+    act = sc.actuator
+    # x0.8: faster than the plan, the bottle slides some 60 mm
+    sched = plan_schedule(plan_with("toppra", sc), time_scale=0.8, period_s=act.control_period_s, shaped_for=sc,
+                          settle_s=0.3, tail_s=0.3)
+    td = cosim.build_tray_diagram(sched, act.gains(), sc.bottle, servo_period_s=act.control_period_s,
+                                  python_monitor=True)
+    sim = Simulator(td.diagram)
+    cosim.set_initial_state(td, sim.get_mutable_context())
+    sim.AdvanceTo(sched.t_end_s)
+    s = cosim.logged_series(td, sim.get_context())
+    assert np.max(np.hypot(*s["slide"])) > 0.01
+    for k, tol in (("slide", 1e-12), ("tilt", 1e-12), ("base_height", 1e-12), ("contact_force", 1e-9)):
+        assert np.max(np.abs(s[k] - s["monitor_" + k])) < tol, k
+    td = cosim.build_tray_diagram(sched, act.gains(), sc.bottle, servo_period_s=act.control_period_s)
+    sim = Simulator(td.diagram)
+    cosim.set_initial_state(td, sim.get_mutable_context())
+    sim.AdvanceTo(0.05)
+    refs = [weakref.ref(td.diagram), weakref.ref(td.plant)]
+    del td, sim
+    gc.collect()
+    assert all(r() is None for r in refs)

@@ -192,7 +192,7 @@ class TrayBottleMonitor(LeafSystem):
 
     def _tilt(self, context) -> float:
         z = self._X_TB(context).rotation().matrix()[:, 2]
-        return math.acos(max(-1.0, min(1.0, z[2])))
+        return math.atan2(math.hypot(z[0], z[1]), z[2])  # acos(z[2]) loses half the digits near 0
 
     def _force(self, context, output) -> None:
         results = self._contacts.Eval(context)

@@ -3,7 +3,8 @@
     goal stream (GoalSchedule, zero-order hold) --goal_position--> DynamixelPositionServo (firmware PID,
         sampled) --voltage_command--> DcMotorWithGear (datasheet XM540-W270 / XM430-W350)
         --joint_torque--> MultibodyPlant(CRANE-X7 planar arm + tray, bottle on its 6-DOF joint to the tray; discrete, SAP lagged,
-        point contact) --> TrayBottleMonitor (slide, tilt, lift-off, contact force)
+        point contact) --> loggers of the bottle's joint state and contact forces (logged_series: slide,
+        tilt, lift-off, contact force)
 
 The motors drive the plant explicitly (their back-EMF damping b = eta Ke^2 / R, 3.4 / 0.85 N m s/rad,
 over the joints' inertia incl. the reflected rotor gives b h / J < 0.05 at h = 1 ms: stable).
@@ -48,7 +49,9 @@ from qmt_drake.systems.dynamixel_servo import (
     motor_params,
 )
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
+from qmt_drake.systems.scalar_ops import NUMPY
 from qmt_drake.systems.servo_law import CompiledServo
+from qmt_drake.systems.transfer_monitor import motion_from_joint
 from qmt_drake.systems.tray_object import (
     TRAY_SIZE_M,
     BottleSpec,
@@ -104,11 +107,16 @@ def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
 def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                        time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                        bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None,
-                       motor=None, compiled_servo: bool = True) -> TrayDiagram:
+                       motor=None, compiled_servo: bool = True, python_monitor: bool = False) -> TrayDiagram:
     """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps.
     motor: DcMotorParams of the three servos' motors (default motor_params(CRANE_X7_PLANAR_SERVOS),
     the lossless equivalent). compiled_servo: the servo law as Drake primitives (systems/servo_law.py,
-    the default) or the Python DynamixelPositionServo (the same law, one Python call per period)."""
+    the default) or the Python DynamixelPositionServo (the same law, one Python call per period).
+    Loggers (every log_period_s; 0: none): the goal, the arm's state, the servos' voltage, the motors'
+    current and torque, the bottle's joint state and its generalized contact forces, all plant or
+    primitive ports, so the default diagram holds no Python system and is freed after the run (a
+    pydrake diagram holding one never is). python_monitor: also log the Python TrayBottleMonitor's
+    outputs as monitor_* (the same quantities from poses and contact results: a cross-check)."""
     if not time_step_s > 0 or not servo_period_s > 0:
         raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
     bottle = bottle or BottleSpec.pet_500ml()
@@ -139,7 +147,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     # system runs per step in the default tray diagram (the monitor is read at the log period only)
     motors = builder.AddSystem(dc_motors_as_primitives(motor) if compiled_servo else DcMotorWithGear(motor))
     split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
-    monitor = builder.AddNamedSystem("monitor", TrayBottleMonitor(plant, tray, bottle_body, X_TB0)) if log_period_s else None
+    monitor = builder.AddNamedSystem("monitor", TrayBottleMonitor(plant, tray, bottle_body, X_TB0)) if python_monitor else None
     arm_state = plant.get_state_output_port(arm)
     builder.Connect(arm_state, split.get_input_port())
     builder.Connect(goal.get_output_port(), servo.GetInputPort("goal_position"))
@@ -151,12 +159,16 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
         builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
         builder.Connect(plant.get_contact_results_output_port(), monitor.GetInputPort("contact_results"))
     loggers = {}
-    if monitor is not None:  # the monitor only feeds the loggers
+    if log_period_s:
+        instance = bottle_body.model_instance()
         ports = {"goal": goal.get_output_port(), "arm_state": arm_state,
                  "voltage": servo.GetOutputPort("voltage_command"), "current": motors.GetOutputPort("current"),
-                 "joint_torque": motors.GetOutputPort("joint_torque"), "slide": monitor.GetOutputPort("slide"),
-                 "tilt": monitor.GetOutputPort("tilt"), "base_height": monitor.GetOutputPort("base_height"),
-                 "contact_force": monitor.GetOutputPort("contact_force")}
+                 "joint_torque": motors.GetOutputPort("joint_torque"),
+                 "bottle_state": plant.get_state_output_port(instance),
+                 "bottle_contact": plant.get_generalized_contact_forces_output_port(instance)}
+        if monitor is not None:
+            ports.update({f"monitor_{k}": monitor.GetOutputPort(k)
+                          for k in ("slide", "tilt", "base_height", "contact_force")})
         loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()}
     visualizer = None
     if meshcat is not None:
@@ -249,6 +261,26 @@ def set_initial_state(td: TrayDiagram, root_context) -> None:
     td.servo.set_state(root_context, td.servo.state_at_rest(integral, np.round(e), pwm, goal))
 
 
+def logged_series(td: TrayDiagram, root_context) -> dict:
+    """The loggers' samples {'t': (K,), port name: (width, K)} plus the bottle's motion on the tray
+    derived from its joint (coordinates = its pose in the tray frame T, velocities and forces in T's
+    axes): slide (2, K) [m] of the base centre from its seat, tilt (1, K) [rad] of its axis from
+    T's z (transfer_monitor.motion_from_joint), base_height (1, K) [m] above the surface, and
+    contact_force (3, K) [N] on the bottle in T's axes (the translational generalized contact
+    forces of its joint)."""
+    series = {}
+    for k, lg in td.loggers.items():
+        log = lg.FindLog(root_context)
+        series["t"] = log.sample_times()
+        series[k] = log.data()
+    q = series["bottle_state"][:7]
+    series["slide"] = q[4:6] - np.asarray(td.X_TB0.translation())[:2, None]
+    series["tilt"] = motion_from_joint(tuple(q), ops=NUMPY)[1][None, :]
+    series["base_height"] = q[6:7].copy()
+    series["contact_force"] = series["bottle_contact"][3:6].copy()
+    return series
+
+
 def split_slip_creep(series: dict, until_s: float | None = None) -> tuple[float, float]:
     """(slip, creep) [m]: path length of the base centre on the tray, split by sliding speed, up to
     until_s (the time the bottle was lost: after that it is falling, not sliding)."""
@@ -310,11 +342,7 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     wall = time.perf_counter() - wall0
     if td.visualizer is not None:
         save_recording(td.visualizer, meshcat, recording_path)
-    series = {}
-    for k, lg in td.loggers.items():
-        log = lg.FindLog(sim.get_context())
-        series["t"] = log.sample_times()
-        series[k] = log.data()
+    series = logged_series(td, sim.get_context())
     outcome, lost_at = classify(series, bottle)
     after = series["t"] >= SEATING_S
     slide_norm = np.hypot(series["slide"][0], series["slide"][1])[after]
