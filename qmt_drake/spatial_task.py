@@ -254,7 +254,7 @@ def _tray_cup(hd: dict, w: str) -> TrayCup:
         raise QmtInputError(f"{wc}.com_height_m {com} must lie inside the cup, below height_m {height}")
     radius = F.num(c, "radius_m", wc, positive=True)
     size = (F.vector(hd, "tray_size_m", w, positive=True, length=3, what="tray length, width, thickness")
-            if "tray_size_m" in hd else np.array([0.24, 0.16, 0.005]))
+            if "tray_size_m" in hd else np.array(TrayCup.tray_size_m))
     if 2 * radius > min(size[:2]):
         raise QmtInputError(f"{wc}.radius_m {radius} is too large for the tray {size[:2].tolist()} m; give a "
                             "smaller cup or a larger tray_size_m")

@@ -154,6 +154,31 @@ def test_bad_tray_sections_refused_in_one_line(sc, tmp_path, edit, message):
     assert "\n" not in str(e.value)
 
 
+def test_margin_and_centre_of_mass_height_reach_the_term(sc, tmp_path):
+    def edit(raw):
+        raw["hand"]["margin"] = 0.8
+        raw["hand"]["cup"]["com_height_m"] = 0.03
+    v = load_spatial_scenario(_variant(tmp_path, edit))
+    np.testing.assert_allclose(v.body.com_m, [0.0, 0.0, 0.03])
+    t, t0 = v.hand_term(), TrayContactTerm(TrayCup(0.04, 0.10, 0.3, 0.4, com_height_m=0.03), GRAVITY)
+    st = _states(np.random.default_rng(5), 200, False, False)
+    r, r0 = t.columns(st), t0.columns(st)
+    ok = np.isfinite(r0[:, 0])
+    np.testing.assert_allclose(r[ok, :2], r0[ok, :2] / 0.8, rtol=1e-12)  # mu and r scaled by the margin
+    np.testing.assert_allclose(r[:, 2], r0[:, 2], rtol=1e-12)
+
+
+def test_a_tray_across_the_hand_frame_plans_and_is_carried(tmp_path):
+    """face_axis y (the tray's normal along the TCP's y axis): the cup's body, the term's basis and
+    the co-simulation's tray weld all turn with it; Drake's contact agrees with the plan's ratio."""
+    v = load_spatial_scenario(_variant(tmp_path, lambda r: r["arm"].update(face_axis=[0.0, 1.0, 0.0])))
+    np.testing.assert_allclose(v.body.com_m, [0.0, 0.05, 0.0])
+    p = plan_toppra_spatial(v, n_grid=400)
+    assert p.recheck["max"] <= 1.0 and p.recheck["tray"] > 0.95
+    r = simulate_spatial(v, p.trajectory)
+    assert r["outcome"] == "carried" and abs(r["max_grip_ratio_while_held"] - p.recheck["tray"]) < 0.02
+
+
 def test_every_plan_holds_at_ten_times_the_check_rate_and_reaches_every_pose(sc, plans):
     for name, p in plans.items():
         r = check(sc, p.trajectory, 10 * sc.check_rate_hz)

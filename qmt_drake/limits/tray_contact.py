@@ -103,7 +103,7 @@ class TrayCup:
     com_height_m: float | None = None  # default height / 2
     margin: float = 1.0
     pyramid_edges: int = 8
-    tray_size_m: tuple = (0.24, 0.16, 0.005)
+    tray_size_m: tuple = (0.24, 0.16, 0.005)  # the seed-002 tray's (systems/tray_object.TRAY_SIZE_M)
 
     def __post_init__(self) -> None:
         if not (self.radius_m > 0 and self.height_m > 0 and self.mass_kg > 0 and self.friction > 0):
