@@ -203,7 +203,10 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     pts, idx = _path_points(P, n_tr)
     normals = np.repeat((normal / np.linalg.norm(normal))[None], len(pts), axis=0)
     q_path = ik.solve_path(pts, normals=normals, seed=seed, max_joint_step_rad=1.0, what=f"{where}: task path point")
-    sc = SpatialScenario(name=str(raw.get("name", path.stem)), path=path, urdf=Path(urdf), hand_frame=hand,
+    if cup is not None:
+        _check_cup_rests(TrayContactTerm(cup, plant.gravity_field().gravity_vector(), face_axis=face_axis), chain,
+                         q_path, f"{where}: task")
+    return SpatialScenario(name=str(raw.get("name", path.stem)), path=path, urdf=Path(urdf), hand_frame=hand,
                            lock_joints=lock, joint_names=list(names), plant=plant, ik=ik, chain=chain, body=body,
                            grip=grip, velocity_limit_rad_s=vals["velocity_limit_rad_s"],
                            acceleration_limit_rad_s2=vals["acceleration_limit_rad_s2"],
@@ -211,9 +214,6 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
                            hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup)
-    if cup is not None:
-        _check_cup_rests(sc, f"{where}: task")
-    return sc
 
 
 def _payload(raw: dict, where: str) -> CarriedBody:
@@ -230,10 +230,10 @@ def _no_payload(raw: dict, where: str, body: CarriedBody) -> CarriedBody:
     return body
 
 
-def _check_cup_rests(sc: SpatialScenario, w: str) -> None:
+def _check_cup_rests(term: TrayContactTerm, chain: SpatialChain, q_path: np.ndarray, w: str) -> None:
     """Refuse a path on which the cup cannot even stand still on the tray (tray not facing up enough)."""
-    zero = np.zeros_like(sc.q_path_rad)
-    r = sc.hand_term().columns(sc.chain.evaluate(sc.q_path_rad, zero, zero))
+    zero = np.zeros_like(q_path)
+    r = term.columns(chain.evaluate(q_path, zero, zero))
     k, j = np.unravel_index(np.argmax(r), r.shape)
     if r[k, j] > 1.0:
         raise QmtInputError(f"{w}: the cup cannot stand still on the tray at path point {k} (its "
