@@ -182,7 +182,7 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
 SETTLE_S = 0.2  # the arm holds the start while the cup's contact takes up its weight (tray/cosim.SEATING_S)
 TRAY_LOG_PERIOD_S = 1e-3
 # carried: the cup ends on the tray with its base within this of its seat (chosen: a cup moved by 5 mm
-# on the tray is still where it was put; SAP's regularised friction alone creeps < 1 mm in a run)
+# on the tray is still where it was put; the shipped plans, carried, end within 8 um of the seat)
 SLIP_TOLERANCE_M = 5e-3
 
 
