@@ -14,7 +14,10 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   in the hand axes).
 - hand: kind suction: cup_radius_m, vacuum_force_N, friction, rim_points, pyramid_edges; or kind
   magnet: moment_limit_Nm (the thesis's payload-moment limit, in 3-D the face-plane moment of the
-  part's contact wrench, gravity included: limits/contact_wrench.MagnetMomentTerm).
+  part's contact wrench, gravity included: limits/contact_wrench.MagnetMomentTerm); or kind tray:
+  friction, cup {radius_m, height_m, mass_kg, com_height_m (default height / 2)}, margin (0, 1],
+  pyramid_edges, tray_size_m: an unfixed cup standing on a tray in the face plane
+  (limits/tray_contact.py; no payload section: the cup is the carried body; the tray is massless).
 - task: seed_rad (the IK branch), face_normal (world), poses_m (K >= 2 hand positions, the cup facing
   along face_normal at each), transfer_points (inner points of the geometric path between poses 1 and
   K-2, straight in Cartesian space at constant orientation).
@@ -37,6 +40,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
+from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.spatial_ik import SpatialIK
 from qmt_drake.model.urdf_check import EXAMPLE_ARMS, drive_parameters, example_robot_urdf, load_arm_plant
@@ -75,6 +79,7 @@ class SpatialScenario:
     hand_kind: str = "suction"
     moment_limit_Nm: float | None = None  # magnet hand
     face_axis: np.ndarray | None = None
+    cup: TrayCup | None = None  # tray hand: the unfixed cup standing on the tray
 
     @property
     def n_dof(self) -> int:
@@ -91,6 +96,8 @@ class SpatialScenario:
     def hand_term(self, grip: GripModel | None = None):
         """The hand's limit term: the suction grip (`grip` overrides the scenario's polyhedron) or the
         magnet's face-plane moment (limits/contact_wrench.MagnetMomentTerm)."""
+        if self.hand_kind == "tray":
+            return TrayContactTerm(self.cup, self.gravity_m_s2, face_axis=self.face_axis)
         if self.hand_kind == "magnet":
             return MagnetMomentTerm(self.body, self.moment_limit_Nm, self.gravity_m_s2, face_normal=self.face_axis)
         return SuctionTerm(grip or self.grip, self.body, self.gravity_m_s2)
@@ -108,7 +115,7 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
         p = SCENARIO_DIR / f"{name_or_path}.yaml"
     if not p.is_file():
         raise QmtInputError(f"spatial scenario '{name_or_path}' is neither a built-in (ur5-suction-bins, "
-                            "ur5-magnet-part) nor a "
+                            "ur5-magnet-part, panda-tray-cup) nor a "
                             "YAML file that exists")
     return p
 
@@ -160,17 +167,13 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     drive = drive_parameters(urdf, names, gear_ratio=vals["gear_ratio"], rotor_inertia_kgm2=vals["rotor_inertia_kgm2"],
                              source=str(urdf))
 
-    w = f"{where}: payload"
-    pay = F.mapping(raw, "payload", where)
-    F.check_keys(pay, {"mass_kg", "com_m", "inertia_kgm2"}, w)
-    body = CarriedBody(F.num(pay, "mass_kg", w, positive=True), F.vector(pay, "com_m", w, length=3),
-                       np.diag(F.vector(pay, "inertia_kgm2", w, positive=True, length=3)))
-
     w = f"{where}: hand"
     hd = F.mapping(raw, "hand", where)
-    kind = F.string(hd, "kind", w, choices=("suction", "magnet"))
-    grip, moment_limit = None, None
-    if kind == "suction":
+    kind = F.string(hd, "kind", w, choices=("suction", "magnet", "tray"))
+    grip, moment_limit, cup = None, None, None
+    if kind == "tray":
+        cup = _tray_cup(hd, w)
+    elif kind == "suction":
         F.check_keys(hd, {"kind", "cup_radius_m", "vacuum_force_N", "friction", "rim_points", "pyramid_edges"}, w)
         grip = GripModel(F.num(hd, "cup_radius_m", w, positive=True), F.num(hd, "vacuum_force_N", w, positive=True),
                          F.num(hd, "friction", w, positive=True), face_normal=face_axis,
@@ -179,6 +182,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     else:
         F.check_keys(hd, {"kind", "moment_limit_Nm"}, w)
         moment_limit = F.num(hd, "moment_limit_Nm", w, positive=True)
+    body = _payload(raw, where) if cup is None else _no_payload(raw, where, cup.body(face_axis))
 
     w = f"{where}: task"
     tk = F.mapping(raw, "task", where)
@@ -199,6 +203,9 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     pts, idx = _path_points(P, n_tr)
     normals = np.repeat((normal / np.linalg.norm(normal))[None], len(pts), axis=0)
     q_path = ik.solve_path(pts, normals=normals, seed=seed, max_joint_step_rad=1.0, what=f"{where}: task path point")
+    if cup is not None:
+        _check_cup_rests(TrayContactTerm(cup, plant.gravity_field().gravity_vector(), face_axis=face_axis), chain,
+                         q_path, f"{where}: task")
     return SpatialScenario(name=str(raw.get("name", path.stem)), path=path, urdf=Path(urdf), hand_frame=hand,
                            lock_joints=lock, joint_names=list(names), plant=plant, ik=ik, chain=chain, body=body,
                            grip=grip, velocity_limit_rad_s=vals["velocity_limit_rad_s"],
@@ -206,7 +213,55 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            jerk_limit_rad_s3=vals["jerk_limit_rad_s3"], torque_limit_Nm=vals["torque_limit_Nm"],
                            drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
-                           hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis)
+                           hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup)
+
+
+def _payload(raw: dict, where: str) -> CarriedBody:
+    w = f"{where}: payload"
+    pay = F.mapping(raw, "payload", where)
+    F.check_keys(pay, {"mass_kg", "com_m", "inertia_kgm2"}, w)
+    return CarriedBody(F.num(pay, "mass_kg", w, positive=True), F.vector(pay, "com_m", w, length=3),
+                       np.diag(F.vector(pay, "inertia_kgm2", w, positive=True, length=3)))
+
+
+def _no_payload(raw: dict, where: str, body: CarriedBody) -> CarriedBody:
+    if "payload" in raw:
+        raise QmtInputError(f"{where}: payload: a tray hand carries its cup (hand.cup); drop the payload section")
+    return body
+
+
+def _check_cup_rests(term: TrayContactTerm, chain: SpatialChain, q_path: np.ndarray, w: str) -> None:
+    """Refuse a path on which the cup cannot even stand still on the tray (tray not facing up enough)."""
+    zero = np.zeros_like(q_path)
+    r = term.columns(chain.evaluate(q_path, zero, zero))
+    k, j = np.unravel_index(np.argmax(r), r.shape)
+    if r[k, j] > 1.0:
+        raise QmtInputError(f"{w}: the cup cannot stand still on the tray at path point {k} (its "
+                            f"{TrayContactTerm.column_names[j]} ratio at rest is {r[k, j]:.3g} > 1); point face_normal "
+                            "up (e.g. [0, 0, 1]) or raise the friction")
+
+
+def _tray_cup(hd: dict, w: str) -> TrayCup:
+    """The tray hand's section: friction, cup {radius_m, height_m, mass_kg, com_height_m}, margin,
+    pyramid_edges, tray_size_m (limits/tray_contact.TrayCup)."""
+    F.check_keys(hd, {"kind", "friction", "cup", "margin", "pyramid_edges", "tray_size_m"}, w)
+    c = F.mapping(hd, "cup", w)
+    wc = f"{w}.cup"
+    F.check_keys(c, {"radius_m", "height_m", "mass_kg", "com_height_m"}, wc)
+    height = F.num(c, "height_m", wc, positive=True)
+    com = F.num(c, "com_height_m", wc, positive=True, default=None)
+    if com is not None and com >= height:
+        raise QmtInputError(f"{wc}.com_height_m {com} must lie inside the cup, below height_m {height}")
+    radius = F.num(c, "radius_m", wc, positive=True)
+    size = (F.vector(hd, "tray_size_m", w, positive=True, length=3, what="tray length, width, thickness")
+            if "tray_size_m" in hd else np.array(TrayCup.tray_size_m))
+    if 2 * radius > min(size[:2]):
+        raise QmtInputError(f"{wc}.radius_m {radius} is too large for the tray {size[:2].tolist()} m; give a "
+                            "smaller cup or a larger tray_size_m")
+    return TrayCup(radius, height, F.num(c, "mass_kg", wc, positive=True), F.num(hd, "friction", w, positive=True),
+                   com_height_m=com, margin=F.num(hd, "margin", w, positive=True, maximum=1.0, default=1.0),
+                   pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, default=8),
+                   tray_size_m=tuple(float(x) for x in size))
 
 
 def _path_points(P: np.ndarray, n_transfer: int):

@@ -68,7 +68,7 @@ def main(argv=None) -> int:
     step("success probability (Dask)", lambda: success_probability.main(
         ["--out", str(out), "--cases", "50", "--workers", str(a.workers), "--robust", "thesis-ch4"]))
     from studies import spatial_benchmark
-    step("spatial arms: UR5 with a suction cup and with the magnet", lambda: spatial_benchmark.main(
+    step("spatial arms: UR5 with a suction cup and with the magnet, Panda with a cup on a tray", lambda: spatial_benchmark.main(
         ["--out", str(out)]))
     from qmt_drake.apps.report import build_report
     step("report", lambda: _log(f"report: {build_report(out)}"))

@@ -1,6 +1,7 @@
 """Limits as terms: each limit is its own module producing columns from the batched hand state
 (payload_moment.py, motor_torque.py, joint_range.py, tray.py: no slide / no tip / no lift-off of an
-unfixed object on a tray and joint speeds; base.py says how columns are read); the LimitSet
+unfixed object on a tray and joint speeds; tray_contact.py: the same for a cup on a spatial arm's
+tray, and the ratio formulas both use; base.py says how columns are read); the LimitSet
 (limit_set.py) evaluates them together for the GA, the re-check report and TOPP-RA. tray.py is
 imported from qmt_drake.tray.limit_terms (it needs Drake through systems/tray_object.py)."""
 

@@ -15,23 +15,45 @@ is switched off, and the part falls freely for the rest of the run. A slip along
 detaching is not modelled (the weld does not slide), so the outcomes are carried / detached /
 unfinished (sim/outcome.transfer_outcome, arrival tolerance ARRIVAL_TOLERANCE_DC_MOTOR_RAD at the end
 of a TAIL_S hold at the goal).
+
+Tray hand (simulate_tray_hand): nothing holds the cup. A massless tray body is welded to H (its z
+the face axis) with the seed-002 tray's collision box (systems/tray_object.add_tray_contact), the cup
+a free body on a 6-DOF joint from it (add_bottle: a ring of 16 point contacts at the cup's radius,
+Coulomb friction mu, Hunt-Crossley dissipation; the solid cylinder's inertia of the planners), point
+contact in the discrete SAP solver at 1 ms; the arm holds the start for SETTLE_S while the contact
+takes up the cup's weight, then plays the plan. TrayBottleMonitor logs the cup's slide and tilt on
+the tray: slid_off / tipped / slipped (final slide > SLIP_TOLERANCE_M) / unfinished / carried.
+Example-robot-data's Panda declares no actuators: the tray co-simulation adds one per chain joint.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
-from pydrake.math import RigidTransform
-from pydrake.multibody.plant import DiscreteContactApproximation
+from pydrake.geometry import SceneGraph
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import ContactModel, DiscreteContactApproximation
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
-from pydrake.systems.primitives import Saturation, TrajectorySource
+from pydrake.systems.primitives import LogVectorOutput, Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.suction import GripModel
+from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
+from qmt_drake.systems.tray_object import (
+    BottleSpec,
+    TrayBottleMonitor,
+    add_bottle,
+    add_tray_contact,
+    seated_pose_on_tray,
+)
 
 TIME_STEP_S = 1e-3
 KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
@@ -88,7 +110,9 @@ def _reference(traj):
 def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
     """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word.
     grip: the suction hand's stability set in the co-simulation (default: the scenario's cup with the
-    finer FINE_GRIP polyhedron)."""
+    finer FINE_GRIP polyhedron). A tray hand's cup is not welded: simulate_tray_hand."""
+    if sc.hand_kind == "tray":
+        return simulate_tray_hand(sc, traj)
     if sc.hand_kind == "suction" and grip is None:
         grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                          rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
@@ -151,3 +175,161 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
     return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": float(x[1]) if lost else None,
             "max_grip_ratio_while_held": float(x[2]), "final_goal_error_rad": err, "duration_s": traj.duration_s,
             "part_distance_from_cup_at_end_m": gap}
+
+
+# --- tray hand: the cup a free body in friction contact with a tray box welded to the hand ---------
+
+SETTLE_S = 0.2  # the arm holds the start while the cup's contact takes up its weight (tray/cosim.SEATING_S)
+TRAY_LOG_PERIOD_S = 1e-3
+# carried: the cup ends on the tray with its base within this of its seat (chosen: a cup moved by 5 mm
+# on the tray is still where it was put; the shipped plans, carried, end within 8 um of the seat)
+SLIP_TOLERANCE_M = 5e-3
+
+
+@dataclass(frozen=True)
+class CupSpec(BottleSpec):
+    """The scenario's cup as systems/tray_object's BottleSpec (its contact ring at the cup's radius,
+    point contact with the seed-002 tray's stiffness and dissipation), with the solid cylinder's
+    inertia of limits/tray_contact.TrayCup (the planners' body) instead of the bottle's shell."""
+
+    inertia_T_kgm2: tuple = ()
+
+    @classmethod
+    def from_cup(cls, cup: TrayCup) -> CupSpec:
+        return cls("cup", cup.mass_kg, cup.radius_m, cup.height_m, cup.h_G, cup.mass_kg, cup.radius_m,
+                   friction=cup.friction, inertia_T_kgm2=tuple(np.diag(cup.inertia_T())))
+
+    def spatial_inertia(self) -> SpatialInertia:
+        return SpatialInertia.MakeFromCentralInertia(self.mass_kg, np.array([0.0, 0.0, self.com_height_m]),
+                                                     RotationalInertia(*self.inertia_T_kgm2))
+
+
+class _Delayed:
+    """traj after `settle_s` of rest at its start (a spatial_trajectory kind)."""
+
+    def __init__(self, traj, settle_s: float) -> None:
+        self.inner, self.settle_s = traj, settle_s
+        self.duration_s = traj.duration_s + settle_s
+
+    def sample(self, t):
+        t = np.atleast_1d(np.asarray(t, float)) - self.settle_s
+        q, qd, qdd = self.inner.sample(np.maximum(t, 0.0))
+        qd[t < 0], qdd[t < 0] = 0.0, 0.0
+        return q, qd, qdd
+
+
+class _SeatedHoldMonitor(HoldMonitor):
+    """HoldMonitor that starts at start_s (the cup's contact takes up its weight before)."""
+
+    def __init__(self, plant, part_body, term, start_s: float) -> None:
+        super().__init__(plant, part_body, term)
+        self.start_s = start_s
+
+    def _update(self, context, discrete_state):
+        if context.get_time() >= self.start_s:
+            super()._update(context, discrete_state)
+
+
+def _actuate(plant, joint_names) -> None:
+    """An actuator on every chain joint that has none (example-robot-data's Panda URDF declares no
+    transmissions), in chain order; the torque limits are the Saturation's."""
+    have = {plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()}
+    for name in joint_names:
+        if name not in have:
+            plant.AddJointActuator(f"{name}_actuator", plant.GetJointByName(name))
+
+
+def _add_tray_and_cup(plant, scene_graph, H, sc):
+    """Register the plant with scene_graph; a massless tray body welded to H (its z the face axis,
+    surface at H's origin) with its box, and the cup on a 6-DOF joint from it; (tray, cup, spec)."""
+    plant.RegisterAsSourceForSceneGraph(scene_graph)
+    plant.set_contact_model(ContactModel.kPoint)
+    spec = CupSpec.from_cup(sc.cup)
+    tray = plant.AddRigidBody("tray", plant.AddModelInstance("tray"), SpatialInertia.Zero())
+    X_HT = RigidTransform(RotationMatrix(face_basis(sc.face_axis).T), np.zeros(3))
+    plant.WeldFrames(H, tray.body_frame(), X_HT)
+    add_tray_contact(plant, tray, spec, size_m=sc.cup.tray_size_m)
+    cup = add_bottle(plant, spec, "cup", tray_body=tray)
+    six_dof_joint_of(plant, cup).SetDefaultPose(seated_pose_on_tray())
+    return tray, cup, spec
+
+
+def classify_tray_run(t, slide, tilt, spec: CupSpec, tray_size_m) -> tuple[str | None, float | None, bool]:
+    """(lost outcome or None, time lost, slipped) from the logged slide (2, S) [m] and tilt (S,) [rad]:
+    slid_off when the base centre leaves the tray surface, tipped when the tilt passes the angle at
+    which the centre of mass is over the base's edge, atan(r / h_G); slipped when the cup ends more
+    than SLIP_TOLERANCE_M from its seat (tray/cosim.classify's rules, for the cup)."""
+    off = np.any(np.abs(slide.T) > np.asarray(tray_size_m[:2]) / 2, axis=1)
+    tipped = tilt > np.arctan2(spec.contact_radius_m, spec.com_height_m)
+    lost = off | tipped
+    if lost.any():
+        k = int(np.argmax(lost))
+        return ("slid_off" if off[k] and not tipped[k] else "tipped"), float(t[k]), True
+    return None, None, bool(np.hypot(*slide[:, -1]) > SLIP_TOLERANCE_M)
+
+
+def simulate_tray_hand(sc, traj) -> dict:
+    """simulate_spatial for a tray hand: the cup is a free body standing on the tray box under Coulomb
+    friction (point contact, discrete SAP at 1 ms), nothing holds it; after SETTLE_S at the start the
+    plan is played. Outcome (qmt_drake/outcome.py): slid_off / tipped / slipped / unfinished / carried.
+    max_grip_ratio_while_held: the largest TrayContactTerm ratio of the cup's own contact wrench
+    (Newton-Euler on its simulated motion, gravity the only other force) until it first exceeds 1."""
+    builder = DiagramBuilder()
+    plant, H, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
+                                     effort_limit_Nm=sc.torque_limit_Nm,
+                                     velocity_limit_rad_s=sc.velocity_limit_rad_s, finalize=False)
+    _actuate(plant, names)
+    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
+    builder.AddSystem(plant)
+    scene_graph = builder.AddSystem(SceneGraph())
+    tray, cup, spec = _add_tray_and_cup(plant, scene_graph, H, sc)
+    plant.Finalize()
+    builder.Connect(plant.get_geometry_pose_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
+    builder.Connect(scene_graph.get_query_output_port(), plant.get_geometry_query_input_port())
+    allow_contact(plant, scene_graph, tray, cup)
+    arm = H.model_instance()
+    ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
+                                      effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
+                                      finalize=False)
+    _actuate(ctrl_plant, names)
+    ctrl_plant.Finalize()
+    n = sc.n_dof
+    ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
+                                                       np.full(n, KD_1_S), True))
+    sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
+    mon = builder.AddSystem(TrayBottleMonitor(plant, tray, cup, seated_pose_on_tray()))
+    hold = builder.AddSystem(_SeatedHoldMonitor(plant, cup, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S))
+    pp, acc, t_end, q_goal = _reference(_Delayed(traj, SETTLE_S))
+    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
+    src_a = builder.AddSystem(TrajectorySource(acc))
+    builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
+    builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
+    builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
+    builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
+    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    builder.Connect(plant.get_body_poses_output_port(), mon.GetInputPort("body_poses"))
+    builder.Connect(plant.get_contact_results_output_port(), mon.GetInputPort("contact_results"))
+    builder.Connect(plant.get_body_poses_output_port(), hold.poses)
+    builder.Connect(plant.get_body_spatial_velocities_output_port(), hold.vels)
+    builder.Connect(plant.get_body_spatial_accelerations_output_port(), hold.accs)
+    logs = {k: LogVectorOutput(mon.GetOutputPort(k), builder, TRAY_LOG_PERIOD_S) for k in ("slide", "tilt")}
+    diagram = builder.Build()
+    sim = Simulator(diagram)
+    ctx = sim.get_mutable_context()
+    pctx = plant.GetMyMutableContextFromRoot(ctx)
+    plant.SetPositions(pctx, arm, traj.sample([0.0])[0][0])
+    sim.AdvanceTo(t_end)
+    log = {k: lg.FindLog(ctx) for k, lg in logs.items()}
+    t = log["slide"].sample_times()
+    seated = t >= SETTLE_S
+    slide, tilt = log["slide"].data()[:, seated], log["tilt"].data()[0, seated]
+    lost, lost_at, slipped = classify_tray_run(t[seated] - SETTLE_S, slide, tilt, spec, sc.cup.tray_size_m)
+    err = float(np.abs(q_goal - plant.GetPositions(pctx, arm)).max())
+    outcome = transfer_outcome(lost, slipped and lost is None, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+    x = hold.GetMyContextFromRoot(ctx).get_discrete_state_vector().CopyToVector()
+    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at,
+            "max_grip_ratio_while_held": float(x[2]),
+            "contact_ratio_first_above_1_s": float(x[1]) - SETTLE_S if x[0] > 0.5 else None,
+            "final_goal_error_rad": err, "duration_s": traj.duration_s,
+            "max_slide_m": float(np.max(np.hypot(*slide))), "final_slide_m": float(np.hypot(*slide[:, -1])),
+            "max_tilt_rad": float(np.max(tilt))}

@@ -17,7 +17,8 @@ Ratio columns (<= 1 feasible, for the GA and sampling checks): slide |F_t| / (mu
 
 Linear form for TOPP-RA: the wrench w = (M_O, F) in T is linear in qdd and quadratic in qd on a
 fixed path; with the cone and the ring replaced by K-gons (`slide_rows`, `tip_rows`) the limits are
-F w <= g with constant F (K + K + 1 rows) and g (`linear_form`). The limits/ terms
+F w <= g with constant F (K + K + 1 rows) and g (`linear_form`). The ratio formulas and the K-gon
+rows live in limits/tray_contact.py (shared with the spatial tray hand) and are imported here. The terms
 (qmt_drake/tray/limit_terms.py) use these functions for the GA, the re-check and TOPP-RA.
 
 Kinematics: `kinematics_from_hand_state` reads the batched HandState of the planning arm (the
@@ -28,13 +29,13 @@ on models/crane_x7_planar.urdf): the independent reference for tests and the co-
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2
+from qmt_drake.limits.tray_contact import lift_ratio, slide_ratio, slide_rows, tip_ratio, tip_rows
 from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.crane_ik import URDF_PATH
 
@@ -105,24 +106,6 @@ def contact_wrench(kin: TrayKinematics, bottle: BottleSpec, gravity_W=GRAVITY_W)
     return np.concatenate([np.einsum("sij,sj->si", RT, M_O), np.einsum("sij,sj->si", RT, F_W)], axis=1)
 
 
-def slide_ratio(wrench: np.ndarray, friction: float) -> np.ndarray:
-    """|F_t| / (mu F_n) (S,): <= 1 while the bottle can stick; inf without normal force."""
-    w = np.atleast_2d(wrench)
-    fn, ft = w[:, 5], np.hypot(w[:, 3], w[:, 4])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = ft / (friction * fn) if friction > 0 else np.where(ft > 0, np.inf, 0.0)
-    return np.where(fn > 0, r, np.inf)
-
-
-def tip_ratio(wrench: np.ndarray, contact_radius_m: float) -> np.ndarray:
-    """|p_zmp| / r_c (S,): <= 1 while the centre of pressure is inside the base ring."""
-    w = np.atleast_2d(wrench)
-    fn = w[:, 5]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.hypot(w[:, 0], w[:, 1]) / (fn * contact_radius_m)
-    return np.where(fn > 0, r, np.inf)
-
-
 def level_tray_acceleration_cap_m_s2(bottle: BottleSpec, margin: float = 1.0,
                                      g_m_s2: float = STANDARD_GRAVITY_M_S2) -> float:
     """The largest horizontal acceleration [m/s^2] of a level tray that keeps the bottle: margin *
@@ -130,38 +113,10 @@ def level_tray_acceleration_cap_m_s2(bottle: BottleSpec, margin: float = 1.0,
     return float(margin * min(bottle.friction, bottle.tip_ratio) * g_m_s2)
 
 
-def lift_ratio(wrench: np.ndarray, mass_kg: float, g_m_s2: float = STANDARD_GRAVITY_M_S2) -> np.ndarray:
-    """1 - F_n / (m g) (S,): <= 1 while the tray pushes (> 1 when it would have to pull)."""
-    return 1.0 - np.atleast_2d(wrench)[:, 5] / (mass_kg * g_m_s2)
-
-
 def tray_ratios(wrench: np.ndarray, bottle: BottleSpec) -> dict:
     """Ratio columns (S,) each, <= 1 feasible: slide, tip, lift (module docstring)."""
     return {"slide": slide_ratio(wrench, bottle.friction), "tip": tip_ratio(wrench, bottle.contact_radius_m),
             "lift": lift_ratio(wrench, bottle.mass_kg)}
-
-
-def _polygon(sides: int, inscribed: bool, vertex_on_x: bool):
-    """Unit normals (cos, sin) of a regular K-gon about the unit circle and its apothem factor:
-    inscribed (apothem cos(pi/K): never allows more than the circle) or circumscribed (1). With
-    vertex_on_x a vertex lies on +x (and, K even, on -x): exact for forces in the arm's plane."""
-    if sides < 3:
-        raise ValueError(f"polygon needs at least 3 sides, got {sides}")
-    a = 2.0 * math.pi * np.arange(sides) / sides + (math.pi / sides if vertex_on_x else 0.0)
-    return np.cos(a), np.sin(a), (math.cos(math.pi / sides) if inscribed else 1.0)
-
-
-def slide_rows(friction: float, sides: int = 16, inscribed: bool = True, vertex_on_x: bool = False) -> np.ndarray:
-    """(K, 3) rows R with R (F_x, F_y, F_n) <= 0: the friction cone as a K-sided pyramid."""
-    c, s, k = _polygon(sides, inscribed, vertex_on_x)
-    return np.stack([c, s, np.full(sides, -friction * k)], axis=1)
-
-
-def tip_rows(contact_radius_m: float, sides: int = 16, inscribed: bool = True, vertex_on_x: bool = False) -> np.ndarray:
-    """(K, 3) rows R with R (M_x, M_y, F_n) <= 0: the centre of pressure p = (-M_y, M_x) / F_n in a
-    K-gon of the ring (d . p F_n <= r_c k F_n)."""
-    c, s, k = _polygon(sides, inscribed, vertex_on_x)
-    return np.stack([s, -c, np.full(sides, -contact_radius_m * k)], axis=1)
 
 
 def linear_form(bottle: BottleSpec, sides: int = 16, min_normal_force_N: float = 0.0, *, inscribed: bool = True,
