@@ -32,6 +32,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.sim.spatial_actuation import add_tracking_logs, spatial_drive, tracking_report
 
 TIME_STEP_S = 1e-3
 KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
@@ -85,10 +86,14 @@ def _reference(traj):
             t[-1], q[-1])
 
 
-def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
-    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word.
-    grip: the suction hand's stability set in the co-simulation (default: the scenario's cup with the
-    finer FINE_GRIP polyhedron)."""
+def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
+                     feedforward: str = "full") -> dict:
+    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
+    tracking error. grip: the suction hand's stability set in the co-simulation (default: the scenario's
+    cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
+    'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
+    none / back-emf / full)."""
+    drive = spatial_drive(sc, traj.sample([0.0])[0][0], actuator, feedforward)
     if sc.hand_kind == "suction" and grip is None:
         grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                          rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
@@ -104,23 +109,31 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
                                               RotationalInertia(*np.diag(b.inertia_kgm2)))
     part = plant.AddRigidBody("part", plant.AddModelInstance("part"), M)
     weld_id = plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
+    if drive is not None:
+        drive.prepare_plant(plant, H.model_instance(), sc)
     plant.Finalize()
     arm = H.model_instance()
-    ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=b.as_dict(),
-                                      effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s)
     n = sc.n_dof
-    ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
-                                                       np.full(n, KD_1_S), True))
-    sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
     mon = builder.AddSystem(HoldMonitor(plant, part, term))
     pp, acc, t_end, q_goal = _reference(traj)
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
-    builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
-    builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
-    builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
-    builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
-    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    motors = None
+    if drive is None:
+        ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=b.as_dict(),
+                                          effort_limit_Nm=sc.torque_limit_Nm,
+                                          velocity_limit_rad_s=sc.velocity_limit_rad_s)
+        ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
+                                                           np.full(n, KD_1_S), True))
+        sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
+        builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
+        builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
+        builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
+        builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
+        builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    else:
+        motors = drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
+    logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     builder.Connect(plant.get_body_poses_output_port(), mon.poses)
     builder.Connect(plant.get_body_spatial_velocities_output_port(), mon.vels)
     builder.Connect(plant.get_body_spatial_accelerations_output_port(), mon.accs)
@@ -150,4 +163,5 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
     gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation() - H.CalcPoseInWorld(pctx).translation()))
     return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": float(x[1]) if lost else None,
             "max_grip_ratio_while_held": float(x[2]), "final_goal_error_rad": err, "duration_s": traj.duration_s,
-            "part_distance_from_cup_at_end_m": gap}
+            "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
+            **tracking_report(logs, ctx, traj.duration_s, sc, drive)}
