@@ -161,8 +161,9 @@ def add_tracking_logs(builder, arm_state_port, desired_state_port, period_s: flo
 
 
 def tracking_report(logs: dict, root_context, motion_end_s: float, sc, drive: SpatialMotorDrive | None) -> dict:
-    """Tracking error |q_des - q| [rad] along the motion (t <= motion_end_s) and over the whole run; with
-    motors, the largest |N k_t i| over the joint torque limit and the largest current [A]."""
+    """Tracking error |q_des - q| [rad] along the motion (t <= motion_end_s) and its signed value at the
+    end of the run; with motors, the largest |N k_t i| over the joint torque limit, the largest and the
+    final current [A]."""
     q = logs["arm_state"].FindLog(root_context)
     d = logs["desired_state"].FindLog(root_context)
     n = sc.n_dof
@@ -170,11 +171,13 @@ def tracking_report(logs: dict, root_context, motion_end_s: float, sc, drive: Sp
     during = q.sample_times() <= motion_end_s + 1e-9
     out = {"max_tracking_error_rad": float(err[:, during].max()),
            "max_tracking_error_per_joint_rad": err[:, during].max(axis=1).tolist(),
-           "rms_tracking_error_rad": float(np.sqrt(np.mean(err[:, during] ** 2)))}
+           "rms_tracking_error_rad": float(np.sqrt(np.mean(err[:, during] ** 2))),
+           "final_tracking_error_rad": (d.data()[:n, -1] - q.data()[:n, -1]).tolist()}  # signed, q_des - q
     if drive is not None:
         i = logs["current"].FindLog(root_context).data()
         mp = drive.params
         tau_m = (mp.gear_ratio * mp.torque_constant_Nm_per_A)[:, None] * np.abs(i)
         out["max_motor_torque_over_limit"] = float((tau_m / np.asarray(sc.torque_limit_Nm)[:, None]).max())
         out["max_current_A"] = np.abs(i).max(axis=1).tolist()
+        out["final_current_A"] = i[:, -1].tolist()
     return out
