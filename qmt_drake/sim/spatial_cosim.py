@@ -14,7 +14,8 @@ first step with a ratio above 1 latches `detached`: the simulation stops there, 
 is switched off, and the part falls freely for the rest of the run. A slip along the face without
 detaching is not modelled (the weld does not slide), so the outcomes are carried / detached /
 unfinished (sim/outcome.transfer_outcome, arrival tolerance ARRIVAL_TOLERANCE_DC_MOTOR_RAD at the end
-of a TAIL_S hold at the goal).
+of a TAIL_S hold at the goal). actuator="dc_motor" drives the arm through DC motors with gears and a PD
+voltage law with feedforward instead (sim/spatial_actuation.py); both report the tracking error.
 """
 
 from __future__ import annotations
