@@ -9,7 +9,8 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   `face_axis` the hand-frame axis the cup faces along (default z).
 - actuators: velocity_limit_rad_s, acceleration_limit_rad_s2, jerk_limit_rad_s3, torque_limit_Nm
   (joint side), gear_ratio, rotor_inertia_kgm2 (motor side; the reflected inertia N^2 J_r enters the
-  joint torques), one value per chain joint.
+  joint torques), one value per chain joint; optional `motor` (spatial_motor.py: k_t, R, voltage limit) for
+  the DC-motor co-simulation.
 - payload: mass_kg, com_m (hand frame, from the cup's centre), inertia_kgm2 (principal central moments
   in the hand axes).
 - hand: kind suction: cup_radius_m, vacuum_force_N, friction, rim_points, pyramid_edges; or kind
@@ -44,6 +45,7 @@ from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.spatial_ik import SpatialIK
 from qmt_drake.model.urdf_check import EXAMPLE_ARMS, drive_parameters, example_robot_urdf, load_arm_plant
+from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 
 SPATIAL_KIND = "spatial_transfer"
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "models" / "scenarios"
@@ -80,6 +82,7 @@ class SpatialScenario:
     moment_limit_Nm: float | None = None  # magnet hand
     face_axis: np.ndarray | None = None
     cup: TrayCup | None = None  # tray hand: the unfixed cup standing on the tray
+    motor: SpatialMotors | None = None  # actuators.motor (DC-motor co-simulation); None: not given
 
     @property
     def n_dof(self) -> int:
@@ -156,7 +159,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     act = F.mapping(raw, "actuators", where)
     keys = ("velocity_limit_rad_s", "acceleration_limit_rad_s2", "jerk_limit_rad_s3", "torque_limit_Nm",
             "gear_ratio", "rotor_inertia_kgm2")
-    F.check_keys(act, set(keys), w)
+    F.check_keys(act, set(keys) | {"motor"}, w)
     vals = {k: F.vector(act, k, w, positive=True) for k in keys}
     plant, H, names = load_arm_plant(urdf, hand, lock_joints=lock, effort_limit_Nm=vals["torque_limit_Nm"],
                                      velocity_limit_rad_s=vals["velocity_limit_rad_s"])
@@ -166,6 +169,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
             raise QmtInputError(f"{w}.{k} has {v.size} entries; give {n}, one per joint {names}")
     drive = drive_parameters(urdf, names, gear_ratio=vals["gear_ratio"], rotor_inertia_kgm2=vals["rotor_inertia_kgm2"],
                              source=str(urdf))
+    motor = parse_motor_section(act.get("motor"), names, vals["torque_limit_Nm"], drive["gear_ratio"], f"{w}.motor")
 
     w = f"{where}: hand"
     hd = F.mapping(raw, "hand", where)
@@ -213,7 +217,8 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            jerk_limit_rad_s3=vals["jerk_limit_rad_s3"], torque_limit_Nm=vals["torque_limit_Nm"],
                            drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
-                           hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup)
+                           hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
+                           motor=motor)
 
 
 def _payload(raw: dict, where: str) -> CarriedBody:

@@ -1,7 +1,7 @@
 """Spatial scenarios: every planner against the TOPP-RA bound, re-checked, and co-simulated.
 
     cd <checkout> && PYTHONPATH=. .venv/bin/python -m studies.spatial_benchmark [--scenario ur5-suction-bins ur5-magnet-part panda-tray-cup]
-        [--out out] [--ga-generations 150]
+        [--out out] [--ga-generations 150] [--actuator ideal|dc_motor]
 
 For each method of planners/spatial_methods (TOPP-RA, Ruckig, the via-cubic family optimum, the GA):
 motion time, its ratio to the bound (TOPP-RA's time-optimal duration along the IK'd geometric path;
@@ -14,6 +14,8 @@ leaves no margin for tracking error), a row `toppra_carried` gives the smallest 
 co-simulation carries (bisection over the time scale). A method that refuses the task is a row with
 its one-line reason. Prints a Markdown table and writes OUT/spatial/<scenario>.json
 and .md atomically, and each plan (1 kHz samples) as OUT/spatial/<scenario>-<method>-plan.json.
+--actuator dc_motor co-simulates through DC motors with gears (sim/spatial_actuation.py, full feedforward;
+the scenario's actuators.motor) instead of ideal torque actuators, and writes <scenario>-dc_motor.{json,md}.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_methods import PLANNERS, plan_ga_spatial
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
+from qmt_drake.sim.spatial_actuation import ACTUATORS, motor_params_for_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 
@@ -47,9 +50,12 @@ NOTES = {"suction": "The co-simulation checks the cup on a finer grip polyhedron
                  "re-check uses the circles."}
 
 
-def run(scenario: str, ga_generations: int) -> dict:
+def run(scenario: str, ga_generations: int, actuator: str = "ideal") -> dict:
     t0 = time.perf_counter()
     sc = load_spatial_scenario(scenario)
+    simulate = partial(simulate_spatial, actuator=actuator)
+    if actuator != "ideal":  # refused before any planning when the scenario has no motor constants
+        motor_params_for_spatial(sc)
     planners = dict(PLANNERS, ga=partial(plan_ga_spatial, generations=ga_generations))
     rows, plans, errors = {}, {}, {}
     for m, f in planners.items():
@@ -64,27 +70,28 @@ def run(scenario: str, ga_generations: int) -> dict:
     bound = plans["toppra"].raw_duration_s
     for m, p in plans.items():
         rows[m]["ratio_to_bound"] = p.duration_s / bound
-        rows[m]["cosim"] = simulate_spatial(sc, p.trajectory)
+        rows[m]["cosim"] = simulate(sc, p.trajectory)
     fast = TimeScaled(plans["toppra"].trajectory, FAST_SCALE)
     rows["toppra_x0.67"] = {"method": "toppra_x0.67", "duration_s": fast.duration_s, "ratio_to_bound": fast.duration_s / bound,
                             "planning_s": 0.0, "hold_scale": FAST_SCALE,
                             "recheck_max_ratio": check(sc, fast, sc.recheck_rate_hz)["max"],
                             "max_pose_position_error_m": rows["toppra"]["max_pose_position_error_m"],
                             "max_pose_angle_error_rad": rows["toppra"]["max_pose_angle_error_rad"],
-                            "cosim": simulate_spatial(sc, fast)}
+                            "cosim": simulate(sc, fast)}
     if not rows["toppra"]["cosim"]["held"]:
-        rows["toppra_carried"] = carried_search(sc, plans["toppra"], bound)
+        rows["toppra_carried"] = carried_search(sc, plans["toppra"], bound, actuator=actuator)
     carried = [r for r in rows.values() if r["cosim"]["held"] and r["recheck_max_ratio"] <= 1.0]
     fastest = min(carried, key=lambda r: r["duration_s"])["method"] if carried else None
-    return {"plans": plans, "errors": errors, "scenario": sc.name, "hand_kind": sc.hand_kind, "bound_s": bound, "check_rate_hz": sc.check_rate_hz,
+    return {"plans": plans, "errors": errors, "scenario": sc.name, "actuator": actuator, "hand_kind": sc.hand_kind, "bound_s": bound, "check_rate_hz": sc.check_rate_hz,
             "recheck_rate_hz": sc.recheck_rate_hz, "rows": rows, "fastest_carried": fastest,
             "wall_s": time.perf_counter() - t0}
 
 
-def carried_search(sc, plan, bound: float, *, k_max: float = 2.5, iterations: int = 7) -> dict:
+def carried_search(sc, plan, bound: float, *, k_max: float = 2.5, iterations: int = 7, actuator: str = "ideal") -> dict:
     """The TOPP-RA plan slowed by the smallest time scale k in (1, k_max] (bisection) whose
-    co-simulation carries the part: the margin the closed loop needs over the planned limit."""
-    if not simulate_spatial(sc, TimeScaled(plan.trajectory, k_max))["held"]:
+    co-simulation (through `actuator`) carries the part: the margin the closed loop needs over the planned limit."""
+    simulate = partial(simulate_spatial, actuator=actuator)
+    if not simulate(sc, TimeScaled(plan.trajectory, k_max))["held"]:
         return {"method": "toppra_carried", "duration_s": float("nan"), "ratio_to_bound": float("nan"),
                 "planning_s": 0.0, "hold_scale": k_max, "recheck_max_ratio": float("nan"),
                 "max_pose_position_error_m": float("nan"), "max_pose_angle_error_rad": float("nan"),
@@ -93,17 +100,17 @@ def carried_search(sc, plan, bound: float, *, k_max: float = 2.5, iterations: in
     lo, hi = 1.0, k_max
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if simulate_spatial(sc, TimeScaled(plan.trajectory, mid))["held"] else (mid, hi)
+        lo, hi = (lo, mid) if simulate(sc, TimeScaled(plan.trajectory, mid))["held"] else (mid, hi)
     traj = TimeScaled(plan.trajectory, hi)
     return {"method": "toppra_carried", "duration_s": traj.duration_s, "ratio_to_bound": traj.duration_s / bound,
             "planning_s": 0.0, "hold_scale": hi, "recheck_max_ratio": check(sc, traj, sc.recheck_rate_hz)["max"],
             "max_pose_position_error_m": plan.summary()["max_pose_position_error_m"],
             "max_pose_angle_error_rad": plan.summary()["max_pose_angle_error_rad"],
-            "cosim": simulate_spatial(sc, traj)}
+            "cosim": simulate(sc, traj)}
 
 
 def markdown(res: dict) -> str:
-    lines = [f"Scenario {res['scenario']}: bound (TOPP-RA time-optimal on the IK'd path) {res['bound_s']:.4f} s; "
+    lines = [f"Scenario {res['scenario']} ({res['actuator']} actuators): bound (TOPP-RA time-optimal on the IK'd path) {res['bound_s']:.4f} s; "
              f"re-check at {res['recheck_rate_hz']:g} Hz (10x the {res['check_rate_hz']:g} Hz check).", "",
              "| method | time s | / bound | planning s | scale to hold | max ratio (re-check) | pose error m / rad "
              "| co-simulation | co-sim hand ratio |", "|---|---|---|---|---|---|---|---|---|"]
@@ -125,12 +132,13 @@ def main(argv=None) -> int:
     ap.add_argument("--scenario", nargs="+", default=["ur5-suction-bins", "ur5-magnet-part", "panda-tray-cup"])
     ap.add_argument("--out", default="out")
     ap.add_argument("--ga-generations", type=int, default=150)
+    ap.add_argument("--actuator", choices=ACTUATORS, default="ideal")
     a = ap.parse_args(argv)
     try:
         check_output_dir(a.out, "--out")
         if a.ga_generations < 1:
             raise QmtInputError(f"--ga-generations {a.ga_generations}: give a positive integer")
-        results = [run(name, a.ga_generations) for name in a.scenario]
+        results = [run(name, a.ga_generations, a.actuator) for name in a.scenario]
     except QmtInputError as exc:
         print(f"spatial_benchmark: error: {exc}", file=sys.stderr)
         return 2
@@ -139,8 +147,9 @@ def main(argv=None) -> int:
         md = markdown(res)
         print(md)
         plans = res.pop("plans")
-        write_text_atomic(out / f"{res['scenario']}.json", json.dumps(jsonable(res), indent=1))
-        write_text_atomic(out / f"{res['scenario']}.md", md)
+        stem = res["scenario"] + ("" if a.actuator == "ideal" else f"-{a.actuator}")
+        write_text_atomic(out / f"{stem}.json", json.dumps(jsonable(res), indent=1))
+        write_text_atomic(out / f"{stem}.md", md)
         for m, p in plans.items():
             write_text_atomic(out / f"{res['scenario']}-{m}-plan.json", json.dumps(jsonable(p.to_json_dict())))
     return 0

@@ -14,7 +14,8 @@ first step with a ratio above 1 latches `detached`: the simulation stops there, 
 is switched off, and the part falls freely for the rest of the run. A slip along the face without
 detaching is not modelled (the weld does not slide), so the outcomes are carried / detached /
 unfinished (sim/outcome.transfer_outcome, arrival tolerance ARRIVAL_TOLERANCE_DC_MOTOR_RAD at the end
-of a TAIL_S hold at the goal).
+of a TAIL_S hold at the goal). actuator="dc_motor" drives the arm through DC motors with gears and a PD
+voltage law with feedforward instead (sim/spatial_actuation.py); both report the tracking error.
 
 Tray hand (simulate_tray_hand): nothing holds the cup. A massless tray body is welded to H (its z
 the face axis) with the seed-002 tray's collision box (systems/tray_object.add_tray_contact), the cup
@@ -41,11 +42,13 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput, Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.sim.spatial_actuation import add_tracking_logs, spatial_drive, tracking_report
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import (
     BottleSpec,
@@ -107,12 +110,19 @@ def _reference(traj):
             t[-1], q[-1])
 
 
-def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
-    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word.
-    grip: the suction hand's stability set in the co-simulation (default: the scenario's cup with the
-    finer FINE_GRIP polyhedron). A tray hand's cup is not welded: simulate_tray_hand."""
+def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
+                     feedforward: str = "full") -> dict:
+    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
+    tracking error. grip: the suction hand's stability set in the co-simulation (default: the scenario's
+    cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
+    'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
+    none / back-emf / full)."""
     if sc.hand_kind == "tray":
+        if actuator != "ideal":
+            raise QmtInputError(f"actuator {actuator!r}: the tray hand's co-simulation drives ideal joint torques "
+                                "only; use actuator 'ideal'")
         return simulate_tray_hand(sc, traj)
+    drive = spatial_drive(sc, traj.sample([0.0])[0][0], actuator, feedforward)
     if sc.hand_kind == "suction" and grip is None:
         grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                          rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
@@ -128,23 +138,31 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
                                               RotationalInertia(*np.diag(b.inertia_kgm2)))
     part = plant.AddRigidBody("part", plant.AddModelInstance("part"), M)
     weld_id = plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
+    if drive is not None:
+        drive.prepare_plant(plant, H.model_instance(), sc)
     plant.Finalize()
     arm = H.model_instance()
-    ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=b.as_dict(),
-                                      effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s)
     n = sc.n_dof
-    ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
-                                                       np.full(n, KD_1_S), True))
-    sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
     mon = builder.AddSystem(HoldMonitor(plant, part, term))
     pp, acc, t_end, q_goal = _reference(traj)
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
-    builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
-    builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
-    builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
-    builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
-    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    motors = None
+    if drive is None:
+        ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=b.as_dict(),
+                                          effort_limit_Nm=sc.torque_limit_Nm,
+                                          velocity_limit_rad_s=sc.velocity_limit_rad_s)
+        ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
+                                                           np.full(n, KD_1_S), True))
+        sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
+        builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
+        builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
+        builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
+        builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
+        builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    else:
+        motors = drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
+    logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     builder.Connect(plant.get_body_poses_output_port(), mon.poses)
     builder.Connect(plant.get_body_spatial_velocities_output_port(), mon.vels)
     builder.Connect(plant.get_body_spatial_accelerations_output_port(), mon.accs)
@@ -174,7 +192,8 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None) -> dict:
     gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation() - H.CalcPoseInWorld(pctx).translation()))
     return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": float(x[1]) if lost else None,
             "max_grip_ratio_while_held": float(x[2]), "final_goal_error_rad": err, "duration_s": traj.duration_s,
-            "part_distance_from_cup_at_end_m": gap}
+            "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
+            **tracking_report(logs, ctx, traj.duration_s, sc, drive)}
 
 
 # --- tray hand: the cup a free body in friction contact with a tray box welded to the hand ---------

@@ -1,0 +1,183 @@
+"""The spatial co-simulation's actuator choice: `ideal` (Drake's InverseDynamicsController with saturated
+joint torques, built in sim/spatial_cosim.py) or `dc_motor`, the planar thesis arms' drive on a URDF arm:
+
+    plan --desired_state--> PD law (joint_tracking.pd_voltage, motor-side gains, volts)
+         [+ K_e N qd_des]                      back-EMF feedforward      (feedforward "back-emf", "full")
+         [+ tau_ff R / (N eta k_t)]            inverse-dynamics feedforward ("full"): Drake InverseDynamics of
+                                               the arm with the part welded and N^2 J_r, on the plan
+         --voltage--> DC motor + gear per joint (dc_motor.motor_forward: voltage and current limits)
+         --joint torque (+ D qd, implicit loop damping)--> MultibodyPlant
+
+The PD law, the motors and the damping add-back are the planar co-simulation's compiled law
+(sim/actuation.motor_actuation_law) and its implicit wiring (add_motor_actuation_law); the two
+feedforward voltages together are the motor model backwards (dc_motor.motor_inverse) at the desired
+speed while motoring, exactly so for a loss-free gear (gear_efficiency 1, the default). The reflected
+rotor inertia N^2 J_r is in the simulated plant (and in the feedforward's plant): each joint actuator gets
+the scenario's gear ratio and rotor inertia (JointActuator.set_default_gear_ratio / _rotor_inertia).
+
+Motor constants: the scenario's actuators.motor (spatial_motor.py); without it `dc_motor` is refused.
+Gains (the scenario has no control section): decentralised, per joint from its diagonal mass-matrix
+entry M_jj at the plan's start (reflected inertia and part included), a critically damped
+(DAMPING_RATIO) joint loop of natural frequency CLOSED_LOOP_RAD_S, the ideal controller's 30 rad/s
+(Kp 900 1/s^2, Kd 60 1/s). A joint whose back-EMF damping b = N^2 eta k_t^2 / R alone exceeds that
+loop's damping keeps Kd = 0 and gets the stiffness that makes b critical (K = b^2 / (4 zeta^2 M_jj)):
+every joint is critically damped at M_jj. The voltage gains come from joint-side K, D through
+joint_tracking.effective_joint_gains (K = c N Kp, D = c N Kd + b, c = N eta k_t / R).
+
+`add_tracking_logs` / `tracking_report` record the arm state and the plan (both actuators) and, with
+motors, the current, and summarise the tracking error along the motion and the largest motor torque
+N k_t i [N*m] over the torque limit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.multibody.tree import JointActuatorIndex
+from pydrake.systems.controllers import InverseDynamics
+from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.model.urdf_check import load_arm_plant
+from qmt_drake.sim.actuation import FEEDFORWARD_OPTIONS, add_motor_actuation_law, motor_actuation_law
+from qmt_drake.sim.plant import move_loop_damping_into_plant
+from qmt_drake.spatial_motor import MOTOR_KEYS
+from qmt_drake.systems.dc_motor import DcMotorParams
+from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
+
+ACTUATORS = ("ideal", "dc_motor")
+CLOSED_LOOP_RAD_S = 30.0  # = sqrt(KP_1_S2) of sim/spatial_cosim's inverse-dynamics controller
+DAMPING_RATIO = 1.0  # = KD_1_S / (2 sqrt(KP_1_S2)) there
+
+
+def set_drive_inertia(plant, arm_instance, sc) -> None:
+    """Before Finalize: each chain joint's actuator gets the scenario's gear ratio N and rotor inertia J_r
+    (Drake adds N^2 J_r to the joint's diagonal of the mass matrix)."""
+    for i in range(plant.num_actuators()):
+        a = plant.get_mutable_joint_actuator(JointActuatorIndex(i))
+        if a.model_instance() != arm_instance or a.joint().name() not in sc.joint_names:
+            continue
+        k = sc.joint_names.index(a.joint().name())
+        a.set_default_gear_ratio(float(sc.drive["gear_ratio"][k]))
+        a.set_default_rotor_inertia(float(sc.drive["rotor_inertia_kgm2"][k]))
+
+
+def motor_params_for_spatial(sc) -> DcMotorParams:
+    """The scenario's motors (actuators.motor) behind its gears; one-line refusal when not given."""
+    m = sc.motor
+    if m is None:
+        raise QmtInputError(f"scenario '{sc.name}': actuator dc_motor needs actuators.motor with "
+                            f"{', '.join(MOTOR_KEYS)} (one number or one per joint); add them to its YAML or use "
+                            "actuator ideal")
+    return DcMotorParams(torque_constant_Nm_per_A=m.torque_constant_Nm_per_A, resistance_ohm=m.resistance_ohm,
+                         gear_ratio=sc.drive["gear_ratio"], voltage_limit_V=m.voltage_limit_V,
+                         current_limit_A=m.current_limit_A, efficiency=m.gear_efficiency, names=list(sc.joint_names))
+
+
+def decentralised_gains(mp: DcMotorParams, joint_inertia_kgm2) -> PidGains:
+    """Motor-side PD voltage gains (module docstring): every joint critically damped at its inertia."""
+    M = np.asarray(joint_inertia_kgm2, float)
+    n = mp.n
+    per_kp, b = effective_joint_gains(PidGains(np.ones(n), np.zeros(n), np.zeros(n)), mp)  # c N [N*m/V*V/rad], b_emf
+    D = np.maximum(2.0 * DAMPING_RATIO * CLOSED_LOOP_RAD_S * M, b)
+    K = (D / (2.0 * DAMPING_RATIO)) ** 2 / M
+    return PidGains(K / per_kp, np.zeros(n), (D - b) / per_kp)
+
+
+@dataclass
+class SpatialMotorDrive:
+    """What the dc_motor actuator needs, built before the simulated plant (refusals come first)."""
+
+    params: DcMotorParams
+    gains: PidGains
+    loop_damping_Nms: np.ndarray  # joint-side D of PD + motors, stepped implicitly by the plant
+    feedforward: str
+    id_plant: object  # continuous arm + welded part + N^2 J_r: the feedforward's inverse dynamics
+
+    @classmethod
+    def for_scenario(cls, sc, q_start_rad, feedforward: str = "full") -> SpatialMotorDrive:
+        if feedforward not in FEEDFORWARD_OPTIONS:
+            raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(FEEDFORWARD_OPTIONS)}")
+        mp = motor_params_for_spatial(sc)
+        plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
+                                     effort_limit_Nm=sc.torque_limit_Nm,
+                                     velocity_limit_rad_s=sc.velocity_limit_rad_s, finalize=False)
+        set_drive_inertia(plant, H.model_instance(), sc)
+        plant.Finalize()
+        ctx = plant.CreateDefaultContext()
+        plant.SetPositions(ctx, np.asarray(q_start_rad, float))
+        gains = decentralised_gains(mp, np.diag(plant.CalcMassMatrix(ctx)))
+        return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant)
+
+    def prepare_plant(self, plant, arm_instance, sc) -> None:
+        """Before the simulated plant's Finalize: reflected inertia, and the loop damping in the joints."""
+        set_drive_inertia(plant, arm_instance, sc)
+        move_loop_damping_into_plant(plant, arm_instance, self.loop_damping_Nms)
+
+    def add_to(self, builder, plant, arm_instance, desired_state_port, desired_acceleration_port, time_step_s):
+        """Wire law, motors and feedforward into the builder (after Finalize); returns the applied
+        motor signals system (joint_torque, voltage, current, motor_torque, electrical_power)."""
+        mp, n = self.params, self.params.n
+        opts = FEEDFORWARD_OPTIONS[self.feedforward]
+        pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
+                                 motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),
+                                 torque_feedforward=opts.get("inverse_dynamics_feedforward", False))
+        law = builder.AddNamedSystem("motor_actuation", motor_actuation_law(pid, mp, self.loop_damping_Nms))
+        state = plant.get_state_output_port(arm_instance)
+        split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+        builder.Connect(state, split.get_input_port())
+        builder.Connect(desired_state_port, law.GetInputPort("desired_state"))
+        builder.Connect(state, law.GetInputPort("estimated_state"))
+        if opts.get("inverse_dynamics_feedforward"):
+            inv = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(self.id_plant))
+            builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
+            builder.Connect(desired_acceleration_port, inv.get_input_port_desired_acceleration())
+            builder.Connect(inv.get_output_port_generalized_force(), law.GetInputPort("feedforward_torque"))
+        return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),
+                                       self.loop_damping_Nms, time_step_s, mp)
+
+
+def spatial_drive(sc, q_start_rad, actuator: str, feedforward: str) -> SpatialMotorDrive | None:
+    """None for `ideal` (feedforward must stay 'full': the inverse-dynamics controller has it built in);
+    the dc_motor drive otherwise. One-line QmtInputError for an unknown choice or missing motor constants."""
+    if actuator not in ACTUATORS:
+        raise QmtInputError(f"actuator {actuator!r}: choose one of {', '.join(ACTUATORS)}")
+    if actuator == "ideal":
+        if feedforward != "full":
+            raise QmtInputError(f"feedforward {feedforward!r} applies to actuator dc_motor; the ideal actuator's "
+                                "inverse-dynamics controller always has the full feedforward")
+        return None
+    return SpatialMotorDrive.for_scenario(sc, q_start_rad, feedforward)
+
+
+def add_tracking_logs(builder, arm_state_port, desired_state_port, period_s: float, motors=None) -> dict:
+    """Loggers of the arm state, the plan's desired state and (motors) the applied current, every period_s."""
+    logs = {"arm_state": LogVectorOutput(arm_state_port, builder, period_s),
+            "desired_state": LogVectorOutput(desired_state_port, builder, period_s)}
+    if motors is not None:
+        logs["current"] = LogVectorOutput(motors.GetOutputPort("current"), builder, period_s)
+    return logs
+
+
+def tracking_report(logs: dict, root_context, motion_end_s: float, sc, drive: SpatialMotorDrive | None) -> dict:
+    """Tracking error |q_des - q| [rad] along the motion (t <= motion_end_s) and its signed value at the
+    end of the run; with motors, the largest |N k_t i| over the joint torque limit, the largest and the
+    final current [A]."""
+    q = logs["arm_state"].FindLog(root_context)
+    d = logs["desired_state"].FindLog(root_context)
+    n = sc.n_dof
+    err = np.abs(d.data()[:n] - q.data()[:n])
+    during = q.sample_times() <= motion_end_s + 1e-9
+    out = {"max_tracking_error_rad": float(err[:, during].max()),
+           "max_tracking_error_per_joint_rad": err[:, during].max(axis=1).tolist(),
+           "rms_tracking_error_rad": float(np.sqrt(np.mean(err[:, during] ** 2))),
+           "final_tracking_error_rad": (d.data()[:n, -1] - q.data()[:n, -1]).tolist()}  # signed, q_des - q
+    if drive is not None:
+        i = logs["current"].FindLog(root_context).data()
+        mp = drive.params
+        tau_m = (mp.gear_ratio * mp.torque_constant_Nm_per_A)[:, None] * np.abs(i)
+        out["max_motor_torque_over_limit"] = float((tau_m / np.asarray(sc.torque_limit_Nm)[:, None]).max())
+        out["max_current_A"] = np.abs(i).max(axis=1).tolist()
+        out["final_current_A"] = i[:, -1].tolist()
+    return out

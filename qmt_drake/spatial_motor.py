@@ -1,0 +1,75 @@
+"""A spatial scenario's optional motor constants (`actuators.motor`), for the DC-motor co-simulation.
+
+    actuators:
+      motor:                              # one number for every joint, or a list with one per joint
+        torque_constant_Nm_per_A: [0.10, 0.10, 0.10, 0.05, 0.05, 0.05]   # k_t = K_e in SI
+        resistance_ohm: [0.35, 0.35, 0.35, 1.2, 1.2, 1.2]                # armature (terminal) resistance
+        voltage_limit_V: 48.0                                            # supply / amplifier limit
+        gear_efficiency: 1.0              # optional, (0, 1], default 1 (a loss-free gear, as the planners assume)
+
+The current limit is not a key: it is the joint's torque limit at the motor, I_max = tau_max / (N eta k_t),
+so the motors never deliver more than the actuators section's torque_limit_Nm (the planners' limit).
+A motor that cannot reach that torque even at stall through the gear (N eta k_t V_max / R < tau_max)
+is refused: the planners would plan torques the motor cannot make. The gear ratio and the rotor inertia
+stay in the actuators section (gear_ratio, rotor_inertia_kgm2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from qmt_drake.config import fields as F
+from qmt_drake.errors import QmtInputError
+
+MOTOR_KEYS = ("torque_constant_Nm_per_A", "resistance_ohm", "voltage_limit_V")
+OPTIONAL_KEYS = ("gear_efficiency",)
+
+
+@dataclass(frozen=True)
+class SpatialMotors:
+    """Per-joint motor constants (n,) arrays, motor side, SI."""
+
+    torque_constant_Nm_per_A: np.ndarray
+    resistance_ohm: np.ndarray
+    voltage_limit_V: np.ndarray
+    gear_efficiency: np.ndarray
+    current_limit_A: np.ndarray  # tau_max / (N eta k_t): the torque limit at the motor
+
+
+def _per_joint(raw: dict, key: str, where: str, n: int, names, default=None) -> np.ndarray:
+    v = raw.get(key, default)
+    if F.is_number(v):
+        v = [v] * n
+    if not isinstance(v, list) or len(v) != n:
+        raise QmtInputError(f"{where}.{key} must be one number or a list of {n} numbers, one per joint {list(names)}; "
+                            f"got {F.show(raw.get(key))}")
+    return F.vector({key: v}, key, where, positive=True, length=n)
+
+
+def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: str) -> SpatialMotors | None:
+    """The validated `actuators.motor` mapping (module docstring); None when absent. One-line
+    QmtInputError naming the key and the fix for anything else."""
+    if raw is None:
+        return None
+    if not isinstance(raw, dict):
+        raise QmtInputError(f"{where} must be a mapping with {', '.join(MOTOR_KEYS)}; got {F.show(raw)}")
+    F.check_keys(raw, set(MOTOR_KEYS + OPTIONAL_KEYS), where)
+    missing = [k for k in MOTOR_KEYS if k not in raw]
+    if missing:
+        raise QmtInputError(f"{where} lacks {', '.join(missing)}; give each as one number or one per joint")
+    n = len(joint_names)
+    kt, r, v = (_per_joint(raw, k, where, n, joint_names) for k in MOTOR_KEYS)
+    eta = _per_joint(raw, "gear_efficiency", where, n, joint_names, default=1.0)
+    if np.any(eta > 1.0):
+        raise QmtInputError(f"{where}.gear_efficiency must be in (0, 1]; got {eta.tolist()}")
+    tau_max, N = np.asarray(torque_limit_Nm, float), np.asarray(gear_ratio, float)
+    stall = N * eta * kt * v / r  # joint torque at stall with the full voltage [N*m]
+    short = np.flatnonzero(stall < tau_max)
+    if short.size:
+        k = int(short[0])
+        raise QmtInputError(f"{where}: joint {joint_names[k]}'s motor reaches {stall[k]:.4g} N m at stall through the "
+                            f"gear (N eta k_t V/R), below its torque limit {tau_max[k]:g} N m; raise voltage_limit_V "
+                            "or torque_constant_Nm_per_A, or lower resistance_ohm")
+    return SpatialMotors(kt, r, v, eta, tau_max / (N * eta * kt))
