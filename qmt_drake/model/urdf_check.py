@@ -224,6 +224,12 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
         welded = {b.index() for b in plant.GetBodiesWeldedTo(plant.world_body())}
         if base.index() not in welded:
             plant.WeldFrames(plant.world_frame(), base.body_frame(), RigidTransform())
+    # An actuator on every chain joint that has none (example-robot-data's Panda URDF declares no
+    # transmissions): the arm is torque-driven; its limits are the scenario's torque limits.
+    have = {plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()}
+    for name in names:
+        if name not in have:
+            plant.AddJointActuator(f"{name}_actuator", plant.GetJointByName(name, model))
     hand = plant.GetFrameByName(hand_frame, model)
     if carried is not None:
         inertia = RotationalInertia(*_inertia_args(np.asarray(carried["inertia_kgm2"], float)))

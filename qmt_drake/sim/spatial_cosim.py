@@ -249,15 +249,6 @@ class _SeatedHoldMonitor(HoldMonitor):
             super()._update(context, discrete_state)
 
 
-def _actuate(plant, joint_names) -> None:
-    """An actuator on every chain joint that has none (example-robot-data's Panda URDF declares no
-    transmissions), in chain order; the torque limits are the Saturation's."""
-    have = {plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()}
-    for name in joint_names:
-        if name not in have:
-            plant.AddJointActuator(f"{name}_actuator", plant.GetJointByName(name))
-
-
 def _add_tray_and_cup(plant, scene_graph, H, sc):
     """Register the plant with scene_graph; a massless tray body welded to H (its z the face axis,
     surface at H's origin) with its box, and the cup on a 6-DOF joint from it; (tray, cup, spec)."""
@@ -297,7 +288,6 @@ def simulate_tray_hand(sc, traj) -> dict:
     plant, H, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
                                      effort_limit_Nm=sc.torque_limit_Nm,
                                      velocity_limit_rad_s=sc.velocity_limit_rad_s, finalize=False)
-    _actuate(plant, names)
     plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
     builder.AddSystem(plant)
     scene_graph = builder.AddSystem(SceneGraph())
@@ -310,7 +300,6 @@ def simulate_tray_hand(sc, traj) -> dict:
     ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
                                       effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
                                       finalize=False)
-    _actuate(ctrl_plant, names)
     ctrl_plant.Finalize()
     n = sc.n_dof
     ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
