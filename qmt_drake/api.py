@@ -13,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import qmt_drake.builders  # noqa: F401  (registers the scenario's builders)
-import qmt_drake.sweep.spec  # noqa: F401  (registers the check of the scenario's uncertainty section)
+import qmt_drake.sweep.parameters  # noqa: F401  (registers the check of the scenario's uncertainty section)
 from qmt_drake.config.scenario import Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.hands import build_diagram as _build_diagram

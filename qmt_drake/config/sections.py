@@ -1,7 +1,7 @@
 """The scenario's sections as plain typed data (frozen dataclasses), and the Scenario that holds them.
 
 Loaded and validated by config/scenario.py; what a scenario turns into (the arm model, the limit
-set, the tray's bottle) is built by qmt_drake/builders.py, registered here with `register_builders`,
+set, the tray's bottle) is built by qmt_drake/builders.py, registered in config/hooks.py with `register_builders`,
 so this module imports nothing above config/ (catalogue data aside).
 """
 
@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.catalog import SERVO_CATALOG, CoilSpec, ServoGains
+from qmt_drake.config.hooks import registered_builder
 
 STANDARD_GRAVITY_M_S2 = 9.81  # the value every model here was calibrated with (and Drake's default)
 
@@ -228,7 +229,7 @@ class Scenario:
     world: World = field(default_factory=World)
     # `uncertainty`: what a part, a hand or a servo may differ by, in the sweep spec's parameter form
     # ({friction: {dist: normal, mean: 0.3, std: 0.03}, ...}, monte_carlo: {cases, seed}); used by
-    # `plan --success P` (validated there by sweep/spec.py)
+    # `plan --success P` (validated there by sweep/parameters.py)
     uncertainty: dict = field(default_factory=dict)
 
     @property
@@ -236,7 +237,7 @@ class Scenario:
         return isinstance(self.hand, TrayHand)
 
     # What a scenario turns into (the arm model, the limit set, the tray's bottle) is built by
-    # qmt_drake/builders.py, which registers its builders here (register_builders): this module
+    # qmt_drake/builders.py, which registers its builders in config/hooks.py (register_builders): this module
     # imports nothing above config/, and every object is built once per scenario object.
     @property
     def bottle(self):
@@ -256,10 +257,11 @@ class Scenario:
     def _built(self, what: str):
         cache = self.__dict__.setdefault("_built_objects", {})  # not pickled (__getstate__)
         if what not in cache:
-            if what not in _BUILDERS:
+            build = registered_builder(what)
+            if build is None:
                 raise RuntimeError(f"no builder registered for scenario.{what}: import qmt_drake (its "
                                    "__init__ registers qmt_drake.builders)")
-            cache[what] = _BUILDERS[what](self)
+            cache[what] = build(self)
         return cache[what]
 
     @property
@@ -312,26 +314,3 @@ def _canonical(x):
     if isinstance(x, numbers.Real):
         return repr(float(x))
     return repr(x)
-
-
-_BUILDERS: dict = {}
-
-
-_VALIDATORS: dict = {}
-
-
-def register_validator(section: str, check) -> None:
-    """A layer above config/ that owns a section's vocabulary registers its check here (sweep/spec.py
-    checks `uncertainty` against the sweep parameters): check(raw_section, where) raises QmtInputError."""
-    _VALIDATORS[section] = check
-
-
-def registered_validator(section: str):
-    return _VALIDATORS.get(section)
-
-
-def register_builders(**builders) -> None:
-    """qmt_drake/builders.py registers how a scenario's arm, limit_set and bottle are built."""
-    _BUILDERS.update(builders)
-
-
