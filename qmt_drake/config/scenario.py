@@ -31,6 +31,7 @@ and the URDF's bytes: what a GA checkpoint or a plan file stores to recognise it
 
 from __future__ import annotations
 
+from collections.abc import Sized
 from dataclasses import fields
 from pathlib import Path
 
@@ -173,7 +174,7 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
                             "bottle; give payload.body kind 'bottle' (radius_m, height_m, shell_mass_kg)")
     hand = parse_hand(h, f"{where}: hand")
     tray = isinstance(hand, TrayHand)
-    if tray:
+    if isinstance(hand, TrayHand):
         if lim.get("moment_limit_Nm") is not None:
             raise QmtInputError(f"{where}: limits.moment_limit_Nm does not apply to a tray hand (its limits "
                                 "are no slide, no tip, no lift-off from hand.friction and hand.contact_radius_m); "
@@ -268,16 +269,17 @@ def _arm(a: dict, path: Path, where: str) -> UrdfArm:
 def _check_tray(sc: Scenario, where: str) -> None:
     """The task's tray points inside the joint ranges (tray level: task.tool_angle_rad) and the
     bottle standing at rest: one line each, before any planning."""
-    b = sc.payload.body
-    if sc.hand.contact_radius_m > b.radius_m:
-        raise QmtInputError(f"{where}: hand.contact_radius_m {sc.hand.contact_radius_m} m is wider than the bottle "
+    b, hand = sc.payload.body, sc.hand
+    assert b is not None and isinstance(hand, TrayHand)  # scenario_from_dict checked both before calling
+    if hand.contact_radius_m > b.radius_m:
+        raise QmtInputError(f"{where}: hand.contact_radius_m {hand.contact_radius_m} m is wider than the bottle "
                             f"(payload.body.radius_m {b.radius_m} m)")
     bottle = sc.bottle
     try:
-        bottle.check_rests(sc.hand.rest_tilt_rad)
+        bottle.check_rests(hand.rest_tilt_rad)
     except QmtInputError as exc:
         raise QmtInputError(f"{where}: payload: {exc} (the tray at rest: hand.rest_tilt_rad "
-                            f"{sc.hand.rest_tilt_rad:.4g} rad)") from None
+                            f"{hand.rest_tilt_rad:.4g} rad)") from None
     for i, p in enumerate(sc.task.points_m):
         try:
             sc.arm.inverse_kinematics(p, sc.task.tool_angle_rad, sc.task.ik_branch, what=f"tray point {i + 1}")
@@ -289,7 +291,7 @@ def _check_tray(sc: Scenario, where: str) -> None:
 def _check_against_arm(sc: Scenario, where: str) -> None:
     """Lists that go one per joint must match the arm's joint count (loads the arm once)."""
     n = sc.arm.n_dof
-    checks = [("limits.motor_torque_limit_Nm", sc.limits.motor_torque_limit_Nm)]
+    checks: list[tuple[str, Sized]] = [("limits.motor_torque_limit_Nm", sc.limits.motor_torque_limit_Nm)]
     checks += [(f"control.{k}", v) for k, v in sc.control.items()]
     if isinstance(sc.actuator, DcMotorGear):
         checks.append(("actuator.motors", sc.actuator.motors))

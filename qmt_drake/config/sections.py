@@ -12,6 +12,7 @@ import json
 import numbers
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -238,23 +239,24 @@ class Scenario:
 
     # What a scenario turns into (the arm model, the limit set, the tray's bottle) is built by
     # qmt_drake/builders.py, which registers its builders in config/hooks.py (register_builders): this module
-    # imports nothing above config/, and every object is built once per scenario object.
+    # imports nothing above config/, and every object is built once per scenario object. Their types
+    # (ArmModel, LimitSet, BottleSpec) live above config/, so they are typed Any here.
     @property
-    def bottle(self):
+    def bottle(self) -> Any:
         """Tray scenarios: the BottleSpec of the payload and the tray hand (builders.build_bottle); None otherwise."""
         return self._built("bottle")
 
     @property
-    def arm(self):
+    def arm(self) -> Any:
         """The ArmModel of the URDF with the carried part welded to the hand (builders.build_arm)."""
         return self._built("arm")
 
     @property
-    def limit_set(self):
+    def limit_set(self) -> Any:
         """The scenario's LimitSet (builders.build_limit_set)."""
         return self._built("limit_set")
 
-    def _built(self, what: str):
+    def _built(self, what: str) -> Any:
         cache = self.__dict__.setdefault("_built_objects", {})  # not pickled (__getstate__)
         if what not in cache:
             build = registered_builder(what)
@@ -266,7 +268,7 @@ class Scenario:
 
     @property
     def gear_ratio(self) -> np.ndarray:
-        return self.arm.gear_ratio
+        return np.asarray(self.arm.gear_ratio, dtype=float)
 
     @property
     def moment_per_accel_kgm(self) -> float:
@@ -274,7 +276,7 @@ class Scenario:
         about its base per unit horizontal tray acceleration, m h_G)."""
         return self.payload.mass_kg * self.payload.com_offset_m
 
-    def __getstate__(self):
+    def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
         state.pop("_built_objects", None)  # Drake objects, which do not pickle: rebuilt on demand
         return state
@@ -295,7 +297,7 @@ class Scenario:
         return h.hexdigest()
 
 
-def _canonical(x):
+def _canonical(x: Any) -> Any:
     """JSON-ready data of validated dataclasses/arrays; floats as repr strings (exact, stable)."""
     if is_dataclass(x):
         return {f.name: _canonical(getattr(x, f.name)) for f in fields(x)}
