@@ -73,7 +73,7 @@ def markdown(rows: list[dict]) -> str:
     lines = ["| friction | water [g] | reference | planned (bound) [s] | fastest carried [s] | carried / bound |",
              "|---|---|---|---|---|---|"]
     for r in rows:
-        c = "lost at x%g" % S_MAX if r["carried_s"] is None else f"{r['carried_s']:.3f}"
+        c = f"lost at x{S_MAX:g}" if r["carried_s"] is None else f"{r['carried_s']:.3f}"
         k = "—" if r["carried_s"] is None else f"{r['carried_s'] / r['planned_s']:.3f}"
         lines.append(f"| {r['friction']:g} | {r['water_kg'] * 1e3:.0f} | {r['reference']} | {r['planned_s']:.3f} | "
                      f"{c} | {k} |")
