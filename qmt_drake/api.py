@@ -10,10 +10,14 @@ Units: SI throughout (m, s, rad, N m, kg); times in seconds, joint angles in rad
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+
+from pydrake.geometry import Meshcat
 
 import qmt_drake.builders  # noqa: F401  (registers the scenario's builders)
-import qmt_drake.sweep.spec  # noqa: F401  (registers the check of the scenario's uncertainty section)
+import qmt_drake.sweep.parameters  # noqa: F401  (registers the check of the scenario's uncertainty section)
 from qmt_drake.config.scenario import Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.hands import build_diagram as _build_diagram
@@ -35,7 +39,8 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     return _load_scenario(name_or_path, overrides)
 
 
-def plan_with(method: str, scenario: Scenario, *, seed: int = 0, progress=None, **options) -> Plan:
+def plan_with(method: str, scenario: Scenario, *, seed: int = 0, progress: Callable[[str], None] | None = None,
+              **options: Any) -> Plan:
     """Plan `scenario` with `method`: "ga" (the binary GA over the scenario's trajectory family),
     "optimum" (the family's deterministic best), "thesis" (the reported genes), "toppra", "ruckig",
     "trajopt" (time-optimal baselines under the same limits). seed: the GA's generator; progress: a
@@ -46,7 +51,7 @@ def plan_with(method: str, scenario: Scenario, *, seed: int = 0, progress=None, 
     return _plan_with(method, scenario, seed=seed, progress=progress, **options)
 
 
-def simulate(scenario: Scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
+def simulate(scenario: Scenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
              feedforward: str = "none", record_path: str | Path | None = None) -> dict:
     """Execute `plan` in the Drake co-simulation of `scenario` (magnet hand: DC motors with gears,
     PID, the magnet and the part in friction contact; tray: the Dynamixel servos and the bottle
@@ -61,8 +66,8 @@ def simulate(scenario: Scenario, plan, *, time_scale: float = 1.0, time_step_s: 
                         implicit_loop_damping=None, feedforward=feedforward)
 
 
-def build_diagram(scenario: Scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
-                  meshcat=None, **options) -> TransferDiagram | TrayDiagram:
+def build_diagram(scenario: Scenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
+                  meshcat: Meshcat | None = None, **options: Any) -> TransferDiagram | TrayDiagram:
     """The co-simulation Diagram of `plan` on `scenario`, ready to run: td.diagram (a Drake Diagram
     whose default context starts at the plan's start with the part seated), td.plant, and the
     exported ports and loggers its docstring lists. Magnet scenarios: sim.build_transfer_diagram

@@ -1,6 +1,6 @@
 """Builders: a scenario (plain data, config/) turned into the numpy and Drake objects the planners
 and the co-simulation use. One builder for each thing: the arm model, the limit set, the tray's
-bottle. They are registered with config/scenario.py at import (qmt_drake's __init__ imports this
+bottle. They are registered with config/hooks.py at import (qmt_drake's __init__ imports this
 module), so `scenario.arm`, `scenario.limit_set` and `scenario.bottle` build once per scenario
 object while the scenario module imports nothing above config/.
 """
@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from qmt_drake.config.scenario import IdealTorque, Scenario, register_builders
+from qmt_drake.config.hooks import register_builders
+from qmt_drake.config.scenario import IdealTorque, Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
 from qmt_drake.limits import JointRangeTerm, LimitSet, MotorTorqueTerm

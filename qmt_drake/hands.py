@@ -15,15 +15,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
-from qmt_drake.config.scenario import Scenario
+from pydrake.geometry import Meshcat
+
+from qmt_drake.config.scenario import DynamixelServos, Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits import PayloadMomentTerm
-from qmt_drake.plan import check_plan_fits
-from qmt_drake.sim.diagram import build_transfer_diagram
+from qmt_drake.plan import Motion, check_plan_fits
+from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.runner import run_transfer_simulate
 from qmt_drake.systems.payload import PayloadSpec
-from qmt_drake.tray.cosim import build_tray_diagram
+from qmt_drake.tray.cosim import TrayDiagram, build_tray_diagram
 from qmt_drake.tray.execute import (
     TRAY_CASE_PARAMETERS,
     check_tray_simulation,
@@ -49,8 +53,8 @@ class HandPlugin:
     kind: str
     limit_terms: Callable
     carried_inertia: Callable
-    simulate: Callable
-    build_diagram: Callable
+    simulate: Callable[..., dict]
+    build_diagram: Callable[..., TransferDiagram | TrayDiagram]
     refused_methods: dict = field(default_factory=dict)
     case_parameters: frozenset | None = None
     case_overrides: Callable | None = None
@@ -70,7 +74,7 @@ def hand_plugin(scenario: Scenario) -> HandPlugin:
     return HANDS[kind]
 
 
-def run_simulate(scenario: Scenario, plan, *, time_scale: float = 1.0, record_path=None,
+def run_simulate(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, record_path: str | Path | None = None,
                  time_step_s: float | None = None, implicit_loop_damping: bool | None = None,
                  feedforward: str = "none") -> dict:
     """The co-simulation of `plan` on `scenario` through its hand's plug-in (api.simulate documents it)."""
@@ -79,7 +83,7 @@ def run_simulate(scenario: Scenario, plan, *, time_scale: float = 1.0, record_pa
                                           feedforward=feedforward)
 
 
-def build_diagram(scenario: Scenario, plan, **options):
+def build_diagram(scenario: Scenario, plan: Motion, **options: Any) -> TransferDiagram | TrayDiagram:
     """The co-simulation Diagram through the hand's plug-in (api.build_diagram documents it)."""
     return hand_plugin(scenario).build_diagram(scenario, plan, **options)
 
@@ -95,21 +99,24 @@ register_hand(HandPlugin(
 
 
 # --------------------------------------------------------------------------------------- tray
-def _simulate_tray(scenario, plan, *, time_scale=1.0, record_path=None, time_step_s=None,
-                   implicit_loop_damping=None, feedforward="none", physical=None) -> dict:
+def _simulate_tray(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0,
+                   record_path: str | Path | None = None, time_step_s: float | None = None,
+                   implicit_loop_damping: bool | None = None, feedforward: str = "none",
+                   physical: Scenario | None = None) -> dict:
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
     return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path, time_step_s=time_step_s,
                               physical=physical)
 
 
-def _tray_diagram(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None, meshcat=None,
-                  **options):
+def _tray_diagram(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, time_step_s: float | None = None,
+                  meshcat: Meshcat | None = None, **options: Any) -> TrayDiagram:
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)
     act = scenario.actuator
+    assert isinstance(act, DynamixelServos)  # check_tray_simulation refused every other actuator
     schedule = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s,
                              shaped_for=scenario if act.reference == "shaped" else None)
-    kw = {} if time_step_s is None else {"time_step_s": time_step_s}
+    kw: dict[str, Any] = {} if time_step_s is None else {"time_step_s": time_step_s}
     return build_tray_diagram(schedule, act.gains(), scenario.bottle, servo_period_s=act.control_period_s,
                               meshcat=meshcat, **kw, **options)
 

@@ -19,8 +19,11 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
+from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.errors import QmtInputError
@@ -36,7 +39,19 @@ def recheck(scenario: Scenario, trajectory: JointTrajectory, rate_hz: float | No
             valid: bool = True) -> LimitReport:
     """Limits of `trajectory` sampled at `rate_hz` (default: the scenario's check rate), every
     local maximum near a peak or a limit refined between the samples (LimitSet.report)."""
-    return scenario.limit_set.report(trajectory, rate_hz or scenario.sampling.check_rate_hz, valid=valid)
+    report: LimitReport = scenario.limit_set.report(trajectory, rate_hz or scenario.sampling.check_rate_hz,
+                                                    valid=valid)
+    return report
+
+
+class Motion(Protocol):
+    """What check_plan_fits and the co-simulations need of a plan: its duration [s] and its samples
+    (q [rad], qd [rad/s], qdd [rad/s^2]) at times [s]. A Plan is one."""
+
+    @property
+    def motion_time_s(self) -> float: ...
+
+    def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
 
 @dataclass
@@ -67,10 +82,10 @@ class Plan:
     def peak_moment_ratio(self) -> float:
         return self.check.peak_moment_ratio
 
-    def sample(self, t_s):
+    def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.trajectory.sample(t_s)
 
-    def to_piecewise_polynomial(self, rate_hz: float = 1000.0):
+    def to_piecewise_polynomial(self, rate_hz: float = 1000.0) -> PiecewisePolynomial:
         return self.trajectory.to_piecewise_polynomial(rate_hz)
 
     def summary(self) -> dict:
@@ -123,7 +138,7 @@ class Plan:
     # from the scenario's family; another trajectory travels as itself if it pickles, else as the
     # samples a plan file stores (1 kHz per piece, both values at each boundary, quintic Hermite
     # in between). The re-check travels unchanged.
-    def __getstate__(self):
+    def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
         traj = self.trajectory
         if isinstance(traj, FamilyTrajectory):
@@ -138,7 +153,7 @@ class Plan:
                 state["trajectory"] = ("samples", grid.t_s, q, qd, qdd, np.asarray(traj.breakpoints_s))
         return state
 
-    def __setstate__(self, state):
+    def __setstate__(self, state: dict[str, Any]) -> None:
         traj = state["trajectory"]
         if isinstance(traj, tuple) and traj and traj[0] == "family":
             state["trajectory"] = FamilyTrajectory(make_family(state["scenario"]), traj[1])
@@ -160,8 +175,9 @@ class Plan:
         write_text_atomic(path, "\n".join(lines) + "\n")
 
 
-def make_plan(scenario: Scenario, method: str, trajectory: JointTrajectory, *, genes=None,
-              planner_wall_s=0.0, evaluations=0, generations=0, valid=True, extra=None) -> Plan:
+def make_plan(scenario: Scenario, method: str, trajectory: JointTrajectory, *, genes: dict | None = None,
+              planner_wall_s: float = 0.0, evaluations: int = 0, generations: int = 0, valid: bool = True,
+              extra: dict | None = None) -> Plan:
     """Wrap a planner's trajectory into a Plan, re-checking it at the scenario's check rate."""
     return Plan(scenario=scenario, method=method, trajectory=trajectory,
                 check=recheck(scenario, trajectory, valid=valid), genes=genes,
@@ -169,7 +185,7 @@ def make_plan(scenario: Scenario, method: str, trajectory: JointTrajectory, *, g
                 generations=int(generations), extra=dict(extra or {}))
 
 
-def family_plan(problem, genes, method: str, **kw) -> Plan:
+def family_plan(problem: PlanningProblem, genes: npt.ArrayLike, method: str, **kw: Any) -> Plan:
     g = np.asarray(genes, dtype=float)
     valid = bool(problem.family.valid(g[None])[0])
     return make_plan(problem.scenario, method, FamilyTrajectory(problem.family, g),
@@ -276,7 +292,7 @@ def _check_genes(genes: np.ndarray, scenario: Scenario, path: Path) -> None:
                                 f"family.genes.{name}")
 
 
-def _check_endpoints(q_start, q_end, scenario: Scenario, path: Path | str) -> None:
+def _check_endpoints(q_start: np.ndarray, q_end: np.ndarray, scenario: Scenario, path: Path | str) -> None:
     arm = scenario.arm
     ends = arm.tip_position(np.stack([q_start, q_end]))
     want = np.asarray(scenario.task.points_m, float)[[0, -1]]
@@ -286,7 +302,7 @@ def _check_endpoints(q_start, q_end, scenario: Scenario, path: Path | str) -> No
                             f"scenario {scenario.name}'s start and goal points; plan again for this scenario")
 
 
-def check_plan_fits(plan, scenario: Scenario) -> None:
+def check_plan_fits(plan: Motion, scenario: Scenario) -> None:
     """One-line QmtInputError unless `plan` (anything with n_dof, motion_time_s and sample) has the
     scenario's joint count and starts and ends within PLAN_ENDPOINT_TOL_M of its task's start and
     goal points: the library's own guard against running a plan made for another scenario."""

@@ -9,6 +9,7 @@ the duration the arm rests at the final position.
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 from pydrake.trajectories import PiecewisePolynomial
 
 
@@ -20,7 +21,7 @@ class JointTrajectory:
     def evaluate(self, t_s, t_piece_s):  # pragma: no cover - interface
         raise NotImplementedError
 
-    def sample(self, t_s):
+    def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """q [rad], qd [rad/s], qdd [rad/s^2], each (len(t), n), at times t [s] (right-continuous).
         Outside [0, duration] the arm holds its end states: q(0) before the start, q(T) after the
         end, with qd = qdd = 0 (never the pieces' polynomials extrapolated)."""

@@ -15,6 +15,9 @@ Usage: PYTHONPATH=$PWD MPLBACKEND=Agg python -m studies.kotosaka_1995 [--workers
        python -m studies.kotosaka_1995 --skip-search --exhaustive BP:task1_welding_plate [--ga-seeds 5]
        python -m studies.kotosaka_1995 --codesign
 
+The searches are here; the tables (and analysis.md) are in studies/kotosaka_1995_tables.py, the
+co-design of the ch.4 arm (--codesign) in studies/kotosaka_1995_codesign.py.
+
 Per type the project's GA (seed 003's settings, search.SEED_GA); the exhaustive search over every
 distinct design of one type certifies the GA's answer. --compare-branch also runs every task with
 the other branch choice and writes branches.md.
@@ -31,13 +34,15 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.design.arm_types import arm_type, forward, levels_from_gene, urdf_text
+from qmt_drake.design.arm_types import levels_from_gene, urdf_text
 from qmt_drake.design.operability import direction_ease, operability
 from qmt_drake.design.plots import meshcat_arm_at_task, plot_arm_at_task, plot_convergence, plot_types
 from qmt_drake.design.problem import DesignProblem, genes_from_levels, lengths6
 from qmt_drake.design.search import exhaustive, run_all_types
 from qmt_drake.design.tasks import load_task
 from qmt_drake.outputs import jsonable, write_text_atomic
+from studies.kotosaka_1995_codesign import codesign
+from studies.kotosaka_1995_tables import analyse, branch_table, table
 
 OUT = Path("out/kotosaka_1995")
 # Seed 003, Tables 1 and 2 (gene = L1..L6 levels in hex; E in the seed's unknown length unit).
@@ -116,43 +121,6 @@ def first_generation_reaching(history, E, rel=1e-12):
     return None
 
 
-def branch_table(rows: dict, branch: str, other: str) -> str:
-    """Rankings under both branch choices, per task variant."""
-    md = [f"# Branch choice: '{branch}' vs '{other}'", "",
-          "task = one IK branch label (ik.branch_label) for every unit task, the best label over "
-          "the whole task (seed 003 sec. 4.1); point = the best branch at each unit task (an upper "
-          "bound). E in 1/m, GA best per type.", ""]
-    for name, (ra, rb) in rows.items():
-        eb = {r.type_name: r for r in rb}
-        md += [f"## {name}", "", f"| type | {branch} gene | {branch} E | rank | {other} gene | "
-               f"{other} E | rank |", "|---|---|---|---|---|---|---|"]
-        rka = {r.type_name: i + 1 for i, r in enumerate(sorted(ra, key=lambda r: -r.E_per_m))}
-        rkb = {r.type_name: i + 1 for i, r in enumerate(sorted(rb, key=lambda r: -r.E_per_m))}
-        for r in sorted(ra, key=lambda r: -r.E_per_m):
-            o = eb[r.type_name]
-            md.append(f"| {r.type_name} | {r.gene_hex} | {r.E_per_m:.4f} | {rka[r.type_name]} | "
-                      f"{o.gene_hex} | {o.E_per_m:.4f} | {rkb[r.type_name]} |")
-        md.append("")
-    return "\n".join(md) + "\n"
-
-
-def table(task_name, res, seed_rows, title):
-    best = max(r.E_per_m for r in res)
-    lines = [f"### {title}", "",
-             "| type | our gene (L1..L6, 0.1 m/level) | our E [1/m] | seed gene | seed E | our rank | seed rank |",
-             "|---|---|---|---|---|---|---|"]
-    ours = sorted(res, key=lambda r: -r.E_per_m)
-    rank = {r.type_name: i + 1 for i, r in enumerate(ours)}
-    srank = ({t: i + 1 for i, t in enumerate(sorted(seed_rows, key=lambda t: -seed_rows[t][1]))}
-             if seed_rows else {})
-    for r in ours:
-        sg, se = seed_rows.get(r.type_name, ("", float("nan"))) if seed_rows else ("", float("nan"))
-        star = "*" if r.E_per_m >= best - 1e-12 else ""
-        lines.append(f"| {star}{r.type_name} | {r.gene_hex} | {r.E_per_m:.6f} | {sg} | "
-                     f"{se:.10g} | {rank[r.type_name]} | {srank.get(r.type_name, '')} |")
-    return "\n".join(lines) + "\n"
-
-
 def main(argv=None):
     global OUT
     ap = argparse.ArgumentParser()
@@ -189,9 +157,9 @@ def main(argv=None):
     OUT = Path(a.out)
     OUT.mkdir(parents=True, exist_ok=True)
     if a.codesign:
-        return codesign(a.layout_evaluations)
+        return codesign(OUT, log, a.layout_evaluations)
     if a.analyse:
-        return analyse()
+        return analyse(OUT, log)
     if a.letters:
         return letters(a.letters, a.workers, tuple(int(x) for x in a.generations.split(",")))
     resfile = OUT / "results.json"
@@ -284,7 +252,7 @@ def main(argv=None):
                              title=f"{task.name}: best E per generation (GA, branch {a.branch})")
             write_text_atomic(resfile, json.dumps(jsonable(results), indent=1) + "\n")
         write_text_atomic(OUT / "tables.md", "\n".join(md) + "\n")
-        analyse()
+        analyse(OUT, log)
         if cmp_rows:
             write_text_atomic(OUT / "branches.md", branch_table(cmp_rows, a.branch, other))
 
@@ -355,136 +323,6 @@ def letters(name, workers, gens):
                                                       "method": r.method} for r in res}
             write_text_atomic(OUT / f"letters_{name}.json", json.dumps(jsonable(out), indent=1) + "\n")
             write_text_atomic(OUT / f"letters_{name}.md", "\n".join(md) + "\n")
-
-
-def analyse():
-    """Why the ranking is what it is: mean w (work mobility), c (constrained mobility), reach and
-    sum of lengths of every type's best design, per task variant -> analysis.md."""
-    results = json.loads((OUT / "results.json").read_text())
-    md = ["# Breakdown of each type's best design", "",
-          "w, c: means over the reachable unit tasks of eq. 4 and 5; mu_bar: eq. 7; E = mu_bar / "
-          "sum L * P_k / k. mu_x.. : mean direction ease (eq. 3) per task axis.", ""]
-    for name, entry in results.get("search", {}).items():
-        base = name.replace("-no-obstacles", "")
-        task = load_task(base)
-        if name.endswith("-no-obstacles"):
-            task = task.without_obstacles()
-        md += [f"## {name}", "", "| type | gene | E | P_k | sum L [m] | max lateral joint abs(y) [m] | "
-               "mean w | mean c | mu_bar | mu_x | mu_y | mu_z | mu_alpha | mu_beta | mu_gamma |",
-               "|" + "---|" * 15]
-        for T, r in sorted(entry["types"].items(), key=lambda kv: -kv[1]["E_per_m"]):
-            pr = DesignProblem(task, T, branch=results.get("branch", "task"))
-            g = genes_from_levels(levels_from_gene(r["gene"]))
-            b = [x for x in pr.breakdown(g) if x is not None]
-            if not b:
-                md.append(f"| {T} | {r['gene']} | 0 | 0 | | | | | | | | | | | |")
-                continue
-            md_dir = np.mean([x["mu_dir"] for x in b], axis=0)
-            at = arm_type(T)
-            o = at.origins(lengths6(g)[0])
-            ymax = max(float(np.abs(forward(at, o, np.array(u["q_rad"])[None]).points[0, :5, 1]).max())
-                       for u in pr.details(g)["units"] if u["reachable"])
-            mub = sum(x["mu"] for x in b) / len(task.units)
-            md.append(f"| {T} | {r['gene']} | {r['E_per_m']:.4f} | {len(b)} | {lengths6(g)[0].sum():.1f} | "
-                      f"{ymax:.2f} | "
-                      f"{np.mean([x['w'] for x in b]):.3f} | {np.mean([x['c'] for x in b]):.3f} | {mub:.3f} | "
-                      + " | ".join(f"{v:.3f}" for v in md_dir) + " |")
-        md.append("")
-    write_text_atomic(OUT / "analysis.md", "\n".join(md) + "\n")
-    log("analysis written")
-
-
-def codesign(max_layout_evaluations: int = 60):
-    """Item 7: lengths (grid) and then lengths + base position (compass search from the grid's
-    best) of the ch.4 two-link arm minimising the family-optimum QMT time under thesis-ch4's moment
-    and motor limits; the thesis arm and both winners re-planned and carried in the co-simulation."""
-    import yaml
-
-    from qmt_drake.config.scenario import load_scenario
-    from qmt_drake.design.codesign import LAYOUT_LOWER_M, LAYOUT_UPPER_M, ROOT, grid_search, pattern_search
-    from qmt_drake.planners import plan_with
-    from qmt_drake.sim import simulate_transfer
-    t_start = time.perf_counter()
-    folder = OUT / "codesign"
-    l1s = np.round(np.arange(0.12, 0.201, 0.02), 3)
-    l2s = np.round(np.arange(0.08, 0.161, 0.02), 3)
-    rows = grid_search(l1s, l2s, folder, progress=log)
-    best = min(rows, key=lambda r: r["motion_time_s"])
-    # refine around the best at 10 mm
-    fine = grid_search(np.round(best["l1_m"] + np.array([-0.01, 0.0, 0.01]), 3),
-                       np.round(best["l2_m"] + np.array([-0.01, 0.0, 0.01]), 3), folder / "fine", progress=log)
-    allr = rows + [r for r in fine if not (r["l1_m"] == best["l1_m"] and r["l2_m"] == best["l2_m"])]
-    best = min(allr, key=lambda r: r["motion_time_s"])
-    t_lengths = time.perf_counter() - t_start
-    thesis = next(r for r in rows if abs(r["l1_m"] - 0.16) < 1e-9 and abs(r["l2_m"] - 0.12) < 1e-9)
-    # joint layout: the base position joins the lengths; start from the lengths-only optimum
-    t0 = time.perf_counter()
-    lay = pattern_search([best["l1_m"], best["l2_m"], 0.0, 0.0], folder / "layout", step_m=0.02,
-                         min_step_m=0.005, max_evaluations=max_layout_evaluations, progress=log)
-    t_layout = time.perf_counter() - t0
-    layout = lay["best"]
-    log(f"codesign layout: l1 {layout['l1_m']:.3f} l2 {layout['l2_m']:.3f} base {layout['base_m']} m: "
-        f"T0 {layout['motion_time_s']:.4f} s after {lay['evaluations']} plans ({t_layout:.0f} s)")
-    sims = {}
-    for tag, r in (("thesis_arm", thesis), ("codesigned_lengths", best), ("codesigned_layout", layout)):
-        sc = load_scenario(r["scenario"])
-        plan = plan_with("optimum", sc)     # re-planned from the written scenario: the re-check
-        res = simulate_transfer(sc, plan, keep_series=False)
-        sims[tag] = {"l1_m": r["l1_m"], "l2_m": r["l2_m"], "base_m": r.get("base_m", [0.0, 0.0]),
-                     "motion_time_s": float(plan.motion_time_s),
-                     "search_motion_time_s": float(r["motion_time_s"]),
-                     "held": bool(res.held), "max_slip_m": float(res.max_slip_m),
-                     "peak_motor_torque_ratio": float(res.peak_motor_torque_ratio),
-                     "peak_moment_ratio_planned": float(res.peak_moment_ratio_planned)}
-        log(f"codesign {tag}: T0 {plan.motion_time_s:.4f} s, co-simulation held={res.held}, "
-            f"slip {res.max_slip_m * 1e3:.3f} mm, torque ratio {res.peak_motor_torque_ratio:.3f}, "
-            f"planned moment ratio {res.peak_moment_ratio_planned:.4f}")
-    out = {"grid": allr, "best": best, "thesis": thesis, "cosim": sims,
-           "time_saved_s": thesis["motion_time_s"] - best["motion_time_s"],
-           "layout": {"best": layout, "evaluations": lay["evaluations"], "steps": lay["steps"],
-                      "rows": lay["rows"], "bounds_m": [LAYOUT_LOWER_M.tolist(), LAYOUT_UPPER_M.tolist()],
-                      "wall_s": t_layout},
-           "layout_time_saved_s": thesis["motion_time_s"] - layout["motion_time_s"],
-           "wall_s": {"lengths_grid": t_lengths, "layout_search": t_layout,
-                      "total": time.perf_counter() - t_start}}
-    write_text_atomic(OUT / "codesign.json", json.dumps(jsonable(out), indent=1) + "\n")
-    import matplotlib.pyplot as plt
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
-    Z = np.array([[next(r["motion_time_s"] for r in rows if r["l1_m"] == l1 and r["l2_m"] == l2)
-                   for l1 in l1s] for l2 in l2s])
-    im = ax.pcolormesh(l1s, l2s, np.where(np.isfinite(Z), Z, np.nan), shading="nearest", cmap="viridis")
-    fig.colorbar(im, ax=ax, label="family-optimum motion time T0 [s]")
-    ax.plot(0.16, 0.12, "rs", label="thesis arm (Table 4.1)")
-    ax.plot(best["l1_m"], best["l2_m"], "w*", ms=12, label="co-designed lengths")
-    ax.set_xlabel("l1 [m]")
-    ax.set_ylabel("l2 [m]")
-    ax.legend(fontsize=8)
-    ax.set_title("lengths, base at the thesis's (white: unreachable)", fontsize=9)
-    # layout: the task points in the world, each arm's base and reach
-    pts = np.array(yaml.safe_load((ROOT / "models" / "scenarios" / "thesis-ch4.yaml").read_text())
-                   ["task"]["points_m"])
-    ax2.plot(pts[:, 0], pts[:, 1], "ko", label="task points (start, vias, goal)")
-    th = np.linspace(0, 2 * np.pi, 200)
-    for tag, col, mk, ms in (("thesis_arm", "r", "s", 13), ("codesigned_lengths", "b", "o", 7),
-                             ("codesigned_layout", "g", "D", 7)):
-        sm = sims[tag]
-        b = np.array(sm["base_m"])
-        R = sm["l1_m"] + sm["l2_m"]
-        ax2.plot(b[0] + R * np.cos(th), b[1] + R * np.sin(th), col + ":", lw=0.8)
-        ax2.plot(*b, col + mk, ms=ms, mfc="none" if tag == "thesis_arm" else col,
-                 label=f"{tag}: base ({b[0]:+.3f}, {b[1]:+.3f}), l1 {sm['l1_m']:.3f}, "
-                       f"l2 {sm['l2_m']:.3f} m, T0 {sm['motion_time_s']:.3f} s")
-    ax2.set_aspect("equal")
-    ax2.set_xlim(-0.35, 0.35)
-    ax2.set_ylim(-0.2, 0.35)
-    ax2.set_xlabel("x [m]")
-    ax2.set_ylabel("y [m]")
-    ax2.legend(fontsize=7, loc="lower center")
-    ax2.set_title("joint layout: base (marker) and reach l1 + l2 (dotted)", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(OUT / "codesign.png", dpi=110)
-    plt.close(fig)
-    log(f"codesign done in {time.perf_counter() - t_start:.0f} s")
 
 
 if __name__ == "__main__":

@@ -84,11 +84,10 @@ def test_no_import_circle_and_no_qmt_drake_import_inside_a_function():
 
 def test_the_scenario_imports_nothing_above_config():
     edges, _ = _imports(_modules())
-    allowed = {"qmt_drake", "qmt_drake.config", "qmt_drake.config.fields", "qmt_drake.config.scenario",
-               "qmt_drake.config.sections",
-               "qmt_drake.errors", "qmt_drake.catalog"}
+    allowed = {"qmt_drake", "qmt_drake.errors", "qmt_drake.catalog"}  # and config/'s own modules
     for name in (n for n in edges if n.startswith("qmt_drake.config")):
-        assert edges[name] <= allowed, (name, edges[name] - allowed)
+        above = {t for t in edges[name] if t != "qmt_drake.config" and not t.startswith("qmt_drake.config.")}
+        assert above <= allowed, (name, above - allowed)
     assert edges["qmt_drake.catalog"] <= {"qmt_drake.errors"}
 
 
@@ -116,3 +115,24 @@ def test_the_core_does_not_import_the_seed_packages():
         for t in targets:
             theirs = t.split(".")[1] if t.count(".") else ""
             assert theirs not in seeds, f"{name} (core) imports {t} (a seed package)"
+
+
+MAX_MODULE_LINES = 450
+# Modules allowed to stay bigger ({path: their own bound}), each with why; none today. Split a module
+# by its jobs rather than add it here.
+BIG_MODULES: dict[str, int] = {}
+
+
+def test_modules_stay_small():
+    """One job per module: every module under qmt_drake/ and studies/ below MAX_MODULE_LINES lines,
+    except the allow-listed ones (which may not grow past their own bound)."""
+    too_big = []
+    for p in sorted([*PKG.rglob("*.py"), *(ROOT / "studies").rglob("*.py")]):
+        rel = p.relative_to(ROOT).as_posix()
+        n = len(p.read_text(encoding="utf-8").splitlines())
+        if n >= BIG_MODULES.get(rel, MAX_MODULE_LINES):
+            too_big.append(f"{rel}: {n} lines")
+    assert too_big == [], "split these into modules of one job each: " + "; ".join(too_big)
+    stale = [m for m in BIG_MODULES if not (ROOT / m).is_file()
+             or len((ROOT / m).read_text(encoding="utf-8").splitlines()) < MAX_MODULE_LINES]
+    assert stale == [], f"drop from BIG_MODULES (gone or small now): {stale}"

@@ -1,7 +1,7 @@
 """The scenario's sections as plain typed data (frozen dataclasses), and the Scenario that holds them.
 
 Loaded and validated by config/scenario.py; what a scenario turns into (the arm model, the limit
-set, the tray's bottle) is built by qmt_drake/builders.py, registered here with `register_builders`,
+set, the tray's bottle) is built by qmt_drake/builders.py, registered in config/hooks.py with `register_builders`,
 so this module imports nothing above config/ (catalogue data aside).
 """
 
@@ -12,10 +12,12 @@ import json
 import numbers
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from qmt_drake.catalog import SERVO_CATALOG, CoilSpec, ServoGains
+from qmt_drake.config.hooks import registered_builder
 
 STANDARD_GRAVITY_M_S2 = 9.81  # the value every model here was calibrated with (and Drake's default)
 
@@ -228,7 +230,7 @@ class Scenario:
     world: World = field(default_factory=World)
     # `uncertainty`: what a part, a hand or a servo may differ by, in the sweep spec's parameter form
     # ({friction: {dist: normal, mean: 0.3, std: 0.03}, ...}, monte_carlo: {cases, seed}); used by
-    # `plan --success P` (validated there by sweep/spec.py)
+    # `plan --success P` (validated there by sweep/parameters.py)
     uncertainty: dict = field(default_factory=dict)
 
     @property
@@ -236,35 +238,37 @@ class Scenario:
         return isinstance(self.hand, TrayHand)
 
     # What a scenario turns into (the arm model, the limit set, the tray's bottle) is built by
-    # qmt_drake/builders.py, which registers its builders here (register_builders): this module
-    # imports nothing above config/, and every object is built once per scenario object.
+    # qmt_drake/builders.py, which registers its builders in config/hooks.py (register_builders): this module
+    # imports nothing above config/, and every object is built once per scenario object. Their types
+    # (ArmModel, LimitSet, BottleSpec) live above config/, so they are typed Any here.
     @property
-    def bottle(self):
+    def bottle(self) -> Any:
         """Tray scenarios: the BottleSpec of the payload and the tray hand (builders.build_bottle); None otherwise."""
         return self._built("bottle")
 
     @property
-    def arm(self):
+    def arm(self) -> Any:
         """The ArmModel of the URDF with the carried part welded to the hand (builders.build_arm)."""
         return self._built("arm")
 
     @property
-    def limit_set(self):
+    def limit_set(self) -> Any:
         """The scenario's LimitSet (builders.build_limit_set)."""
         return self._built("limit_set")
 
-    def _built(self, what: str):
+    def _built(self, what: str) -> Any:
         cache = self.__dict__.setdefault("_built_objects", {})  # not pickled (__getstate__)
         if what not in cache:
-            if what not in _BUILDERS:
+            build = registered_builder(what)
+            if build is None:
                 raise RuntimeError(f"no builder registered for scenario.{what}: import qmt_drake (its "
                                    "__init__ registers qmt_drake.builders)")
-            cache[what] = _BUILDERS[what](self)
+            cache[what] = build(self)
         return cache[what]
 
     @property
     def gear_ratio(self) -> np.ndarray:
-        return self.arm.gear_ratio
+        return np.asarray(self.arm.gear_ratio, dtype=float)
 
     @property
     def moment_per_accel_kgm(self) -> float:
@@ -272,7 +276,7 @@ class Scenario:
         about its base per unit horizontal tray acceleration, m h_G)."""
         return self.payload.mass_kg * self.payload.com_offset_m
 
-    def __getstate__(self):
+    def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
         state.pop("_built_objects", None)  # Drake objects, which do not pickle: rebuilt on demand
         return state
@@ -293,7 +297,7 @@ class Scenario:
         return h.hexdigest()
 
 
-def _canonical(x):
+def _canonical(x: Any) -> Any:
     """JSON-ready data of validated dataclasses/arrays; floats as repr strings (exact, stable)."""
     if is_dataclass(x):
         return {f.name: _canonical(getattr(x, f.name)) for f in fields(x)}
@@ -312,26 +316,3 @@ def _canonical(x):
     if isinstance(x, numbers.Real):
         return repr(float(x))
     return repr(x)
-
-
-_BUILDERS: dict = {}
-
-
-_VALIDATORS: dict = {}
-
-
-def register_validator(section: str, check) -> None:
-    """A layer above config/ that owns a section's vocabulary registers its check here (sweep/spec.py
-    checks `uncertainty` against the sweep parameters): check(raw_section, where) raises QmtInputError."""
-    _VALIDATORS[section] = check
-
-
-def registered_validator(section: str):
-    return _VALIDATORS.get(section)
-
-
-def register_builders(**builders) -> None:
-    """qmt_drake/builders.py registers how a scenario's arm, limit_set and bottle are built."""
-    _BUILDERS.update(builders)
-
-

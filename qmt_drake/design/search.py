@@ -45,7 +45,7 @@ class SearchResult:
 
 
 def _ga_settings_class():
-    """The project GA (planners/ga.py) and its settings class (config/scenario.py)."""
+    """The project GA (planners/ga.py) and its settings class (config/sections.py)."""
     return ga, GaSettings
 
 

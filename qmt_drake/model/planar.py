@@ -20,9 +20,10 @@ Inverse dynamics is a planar recursive Newton-Euler written on u and v component
 (no small-array stacking: it is the hot path of planning), forward for link accelerations with the
 base accelerating at -g, backward for forces and moments; joint torque tau_i = s_i * moment about
 the normal + N_i^2 J_r,i qdd_i (the reflected rotor inertia, as Drake adds it). The same recursion
-run on `Tangent`s (forward-mode derivatives, one tangent per entry of q, qd, qdd) gives the exact
-partials d tau / d q, d qd, d qdd for gradient planners (`torque_and_derivatives`; tested against
-Drake's MultibodyPlant<AutoDiffXd> in tests/test_model.py and tests/test_energy_dynamics.py).
+run on `Tangent`s (model/tangent.py: forward-mode derivatives, one tangent per entry of q, qd, qdd)
+gives the exact partials d tau / d q, d qd, d qdd for gradient planners (`torque_and_derivatives`;
+tested against Drake's MultibodyPlant<AutoDiffXd> in tests/test_model.py and
+tests/test_energy_dynamics.py).
 `ArmModel` (model/arm.py) checks all of this against Drake at load time.
 
 Shapes: joint arrays (..., n); in-plane vectors (..., 2). Units: rad, rad/s, rad/s^2, m, m/s,
@@ -36,6 +37,7 @@ from pydrake.multibody.tree import RevoluteJoint
 
 from qmt_drake.catalog import IK_BRANCHES  # noqa: F401 (re-exported)
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.tangent import Tangent
 
 # World coordinate planes: normal axis index -> (in-plane axis indices u, v); normal = e_u x e_v.
 _PLANES = {2: (0, 1), 1: (0, 2), 0: (1, 2)}
@@ -365,61 +367,11 @@ class PlanarChain:
         return q, qd, solve_small(J, rhs_a)
 
 
-class Tangent:
-    """Forward-mode derivative carrier for the planar recursion: value v (...,) and tangents
-    d (..., D), one per seeded input direction. Only the arithmetic the recursion uses (+, -, *,
-    unary -, cos/sin) is defined; numpy defers to these operators (`__array_ufunc__ = None`)."""
-
-    __slots__ = ("v", "d")
-    __array_ufunc__ = None
-
-    def __init__(self, v, d) -> None:
-        self.v, self.d = v, d
-
-    def __getitem__(self, key):  # key indexes the value's axes: q[..., i]
-        return Tangent(self.v[key], self.d[key + (slice(None),) if isinstance(key, tuple) else (key, slice(None))])
-
-    # A link offset of 0 (a rod along its x axis) multiplies to the constant 0: kept as a plain
-    # 0.0 so the tangents skip the work (no tangent array is ever changed in place).
-    def __add__(self, o):
-        if isinstance(o, Tangent):
-            return Tangent(self.v + o.v, self.d + o.d)
-        return self if _is_zero(o) else Tangent(self.v + o, self.d)
-
-    __radd__ = __add__
-
-    def __sub__(self, o):
-        if isinstance(o, Tangent):
-            return Tangent(self.v - o.v, self.d - o.d)
-        return self if _is_zero(o) else Tangent(self.v - o, self.d)
-
-    def __rsub__(self, o):
-        return Tangent(o - self.v, -self.d)
-
-    def __neg__(self):
-        return Tangent(-self.v, -self.d)
-
-    def __mul__(self, o):
-        if isinstance(o, Tangent):
-            return Tangent(self.v * o.v, self.v[..., None] * o.d + o.v[..., None] * self.d)
-        return 0.0 if _is_zero(o) else Tangent(self.v * o, self.d * o)
-
-    __rmul__ = __mul__
-
-    def cos_sin(self):
-        c, s = np.cos(self.v), np.sin(self.v)
-        return Tangent(c, -s[..., None] * self.d), Tangent(s, c[..., None] * self.d)
-
-
 def _point(ax, ay, ex, ey, a: float, b: float):
     """Acceleration of the point a u + b n of a link whose joint accelerates at (ax, ay)."""
     if b == 0.0:
         return ax + a * ex, ay + a * ey
     return ax + a * ex - b * ey, ay + a * ey + b * ex
-
-
-def _is_zero(x) -> bool:
-    return isinstance(x, float) and x == 0.0
 
 
 def solve_small(A, b) -> np.ndarray:

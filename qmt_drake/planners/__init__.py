@@ -9,8 +9,12 @@ name, so the CLI, the studies and the benchmark call them all the same way.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
+from qmt_drake.config.scenario import Scenario
 from qmt_drake.errors import QmtInputError
-from qmt_drake.plan import family_plan
+from qmt_drake.plan import Plan, family_plan
 from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
@@ -18,12 +22,14 @@ from qmt_drake.planners.ga import run_ga
 from qmt_drake.planners.optimum import TightTimingProblem, plan_family_optimum
 from qmt_drake.problem import PlanningProblem
 
+Progress = Callable[[str], None] | None  # a callable taking one line of text
 
-def _ga(scenario, *, seed: int = 0, progress=None, **options):
+
+def _ga(scenario: Scenario, *, seed: int = 0, progress: Progress = None, **options: Any) -> Plan:
     problem = PlanningProblem(scenario)
-    searched = TightTimingProblem(problem) if scenario.ga.tight_timing else problem
-    r = run_ga(searched, seed=seed, progress=progress, **options)
-    genes = searched.realize(r.genes) if scenario.ga.tight_timing and r.feasible else r.genes
+    tight = TightTimingProblem(problem) if scenario.ga.tight_timing else None
+    r = run_ga(tight if tight is not None else problem, seed=seed, progress=progress, **options)
+    genes = tight.realize(r.genes) if tight is not None and r.feasible else r.genes
     return family_plan(problem, genes, "ga", planner_wall_s=r.wall_s,
                        evaluations=r.evaluations, generations=r.generations,
                        extra={"seed": seed, "stop_reason": r.stop_reason,
@@ -33,28 +39,28 @@ def _ga(scenario, *, seed: int = 0, progress=None, **options):
                               "history_feasible_fraction": r.history.feasible_fraction})
 
 
-def _optimum(scenario, *, seed: int = 0, progress=None, **options):
+def _optimum(scenario: Scenario, *, seed: int = 0, progress: Progress = None, **options: Any) -> Plan:
     return plan_family_optimum(PlanningProblem(scenario), seed=seed, progress=progress, **options)
 
 
-def _thesis(scenario, *, seed: int = 0, progress=None):
+def _thesis(scenario: Scenario, *, seed: int = 0, progress: Progress = None) -> Plan:
     if not scenario.reported.get("genes"):
         raise QmtInputError(f"scenario {scenario.name} has no reported.genes to evaluate")
     problem = PlanningProblem(scenario)
     return family_plan(problem, problem.genes_vector(scenario.reported["genes"]), "thesis")
 
 
-def _options_only(planner):
+def _options_only(planner: Callable[..., Plan]) -> Callable[..., Plan]:
     """A baseline planner takes the scenario and its own options (no seed, no progress)."""
     return lambda scenario, *, seed=0, progress=None, **options: planner(scenario, **options)
 
 
 # The planner registry: each method registers once (register_planner); the CLI, the studies, the
 # benchmark and the sweeps reach every planner through plan_with.
-PLANNERS: dict = {}
+PLANNERS: dict[str, Callable[..., Plan]] = {}
 
 
-def register_planner(name: str, planner) -> None:
+def register_planner(name: str, planner: Callable[..., Plan]) -> None:
     """planner(scenario, *, seed, progress, **options) -> Plan."""
     PLANNERS[name] = planner
 
@@ -66,7 +72,7 @@ for _name, _planner in (("ga", _ga), ("optimum", _optimum), ("thesis", _thesis),
 METHODS = tuple(PLANNERS)
 
 
-def plan_with(method: str, scenario, *, seed: int = 0, progress=None, **options):
+def plan_with(method: str, scenario: Scenario, *, seed: int = 0, progress: Progress = None, **options: Any) -> Plan:
     """Plan `scenario` with the registered planner `method` (METHODS) and return its Plan, re-checked
     by sampling at the scenario's check rate. seed: the GA's and the optimum's generator; progress:
     a callable taking one line; options: the planner's own keywords (its docstring lists them; an

@@ -33,7 +33,8 @@ from qmt_drake.outputs import jsonable
 from qmt_drake.plan import load_plan
 from qmt_drake.planners import plan_with
 from qmt_drake.sim import FEEDFORWARD_OPTIONS, calibrated_coil_current_A, motor_params_for, simulate_transfer
-from qmt_drake.sweep.spec import PARAMETERS, SweepSpec
+from qmt_drake.sweep.parameters import PARAMETERS
+from qmt_drake.sweep.spec import SweepSpec
 from qmt_drake.systems.payload import PayloadSpec
 
 CASE_SCHEMA = 1  # bump when run_case's physics changes: every stored result is then recomputed

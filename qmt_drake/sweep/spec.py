@@ -17,13 +17,10 @@ A spec (YAML, see models/sweeps/) names one scenario, one or more plans, and par
 Cases are plans x grid points x Monte Carlo samples; the i-th sample is the same draw for every
 plan and grid point (common random numbers, so plans are compared on the same parts).
 
-Every parameter maps to exactly one place through the table `PARAMETERS`: a field of the
-co-simulation's PayloadSpec (the physical part: its mass and r_G vary, the plan does not), the
-magnet (coil current, absolute or as a multiple of the calibrated current; the equivalent gap g0),
-the motor model (multiples of torque constant and resistance), a scenario override (gains as
-multiples of the scenario's, the planning moment limit), a `simulate_transfer` keyword (time
-scale, step) or the planner (seed, Ruckig jerk limit). "scale" parameters multiply the nominal
-value. Every problem raises QmtInputError with one line naming the key and the fix.
+Every parameter maps to exactly one place through the table `PARAMETERS` (sweep/parameters.py,
+with the distributions and the value checks); this module parses a spec (scenario, plans, sim,
+parameters, monte_carlo) against it. Every problem raises QmtInputError with one line naming the
+key and the fix.
 """
 
 from __future__ import annotations
@@ -36,104 +33,26 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.config.fields import check_keys, is_number, read_yaml_mapping, show
-from qmt_drake.config.sections import register_validator
+from qmt_drake.config.fields import check_keys, read_yaml_mapping, show
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners import METHODS
 from qmt_drake.sweep.options import check_options
+from qmt_drake.sweep.parameters import (
+    PARAMETERS,
+    check_distribution,
+    check_range,
+    check_values,
+    integer,
+    number,
+)
 
 EXPLICIT_MAX_TIME_STEP_S = 1e-3  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a test checks they agree)
-MAX_TIME_STEP_S = 0.005  # measured: thesis-ch4 replayed at 2 and 5 ms is carried, at 10 and 20 ms "lost" (a step artifact)
-
-# Where a parameter goes (cases.py applies them):
-#   payload  -> dataclasses.replace(PayloadSpec, field=value)   (the simulated part only)
-#   magnet   -> coil current [A] / effective gap g0 [m]
-#   motor    -> DcMotorParams field multiplied by value
-#   scenario -> override in the scenario's YAML mapping (dotted path)
-#   sim      -> simulate_transfer keyword
-#   plan     -> planner input (seed, or an option of the planner)
-
-
-@dataclass(frozen=True)
-class Parameter:
-    name: str
-    target: str  # payload | magnet | motor | scenario | sim | plan
-    field: str
-    scale: bool  # True: value multiplies the nominal value
-    unit: str
-    doc: str
-    lower: float = 0.0  # values must be > lower (or >= when inclusive)
-    inclusive: bool = False
-    upper: float = math.inf
-    integer: bool = False
-
-
-PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
-    Parameter("friction", "payload", "friction", False, "-", "Coulomb friction, part on face"),
-    Parameter("mass_kg", "payload", "mass_kg", False, "kg", "simulated part mass"),
-    Parameter("mass_scale", "payload", "mass_kg", True, "-", "simulated part mass / nominal"),
-    Parameter("com_offset_m", "payload", "com_offset_m", False, "m", "simulated r_G"),
-    Parameter("com_offset_scale", "payload", "com_offset_m", True, "-", "simulated r_G / nominal"),
-    Parameter("contact_stiffness_N_per_m", "payload", "point_stiffness_N_per_m", False, "N/m",
-              "contact point stiffness"),
-    Parameter("coil_current_A", "magnet", "coil_current_A", False, "A", "coil current",
-              inclusive=True),
-    Parameter("coil_current_scale", "magnet", "coil_current_A", True, "-",
-              "coil current / the calibrated current of the nominal part", inclusive=True),
-    Parameter("magnet_gap_m", "magnet", "effective_gap_m", False, "m",
-              "equivalent magnet gap g0 (coil current stays as set)"),
-    Parameter("motor_torque_constant_scale", "motor", "torque_constant_Nm_per_A", True, "-",
-              "motor torque (= back-EMF) constant / catalogue"),
-    Parameter("motor_resistance_scale", "motor", "resistance_ohm", True, "-",
-              "armature resistance / catalogue"),
-    Parameter("kp_scale", "scenario", "control.kp", True, "-", "proportional gains / scenario's",
-              inclusive=True),
-    Parameter("kd_scale", "scenario", "control.kd", True, "-", "derivative gains / scenario's",
-              inclusive=True),
-    Parameter("moment_limit_Nm", "scenario", "limits.moment_limit_Nm", False, "N*m",
-              "planning moment limit (replans)"),
-    Parameter("time_scale", "sim", "time_scale", False, "-",
-              "replay time stretch (<1 faster; moment ~ 1/s^2)"),
-    Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step", upper=MAX_TIME_STEP_S),
-    Parameter("seed", "plan", "seed", False, "-", "planner seed", lower=0.0, inclusive=True,
-              integer=True),
-    Parameter("jerk_limit_m_s3", "plan", "options.jerk_limit", False, "m/s^3",
-              "Ruckig tip jerk limit (replans)"),
-)}
-
-DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
-                 "truncnormal": ("mean", "std", "low", "high")}
 SPEC_KEYS = {"name", "description", "uncertainty", "scenario", "plan", "plans", "sim",
              "monte_carlo", "parameters"}
 PLAN_KEYS = {"method", "seed", "options", "file", "label"}
 SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping"}
 FEEDFORWARD = ("none", "back-emf", "full")  # sim.FEEDFORWARD_OPTIONS keys
 MAX_CASES = 1_000_000  # beyond any budget (budgets.py): refused before the grid is built
-
-
-@dataclass(frozen=True)
-class Distribution:
-    kind: str
-    args: dict
-
-    def sample(self, rng: np.random.Generator, n: int, p: Parameter) -> np.ndarray:
-        a = self.args
-        if self.kind == "uniform":
-            x = rng.uniform(a["low"], a["high"], n)
-        else:
-            # normal: truncated at the parameter's physical bound; truncnormal: at [low, high].
-            lo = a.get("low", p.lower)
-            hi = a.get("high", p.upper)
-            x = _truncated_normal(rng, a["mean"], a["std"], lo, hi, n)
-        return np.round(x).astype(int) if p.integer else x
-
-
-def _truncated_normal(rng, mean, std, lo, hi, n) -> np.ndarray:
-    if std == 0:
-        return np.full(n, float(mean))
-    from scipy.stats import truncnorm
-    a, b = (lo - mean) / std, (hi - mean) / std
-    return truncnorm.ppf(rng.uniform(size=n), a, b, loc=mean, scale=std)
 
 
 @dataclass
@@ -229,8 +148,8 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
         raise QmtInputError(f"{where}: sim.feedforward must be one of {', '.join(FEEDFORWARD)}, "
                             f"got {sim['feedforward']!r}")
     if "time_step_s" in sim:
-        sim["time_step_s"] = _number(sim["time_step_s"], f"{where}: sim.time_step_s", positive=True)
-        _check_range(sim["time_step_s"], PARAMETERS["time_step_s"], f"{where}: sim.time_step_s")
+        sim["time_step_s"] = number(sim["time_step_s"], f"{where}: sim.time_step_s", positive=True)
+        check_range(sim["time_step_s"], PARAMETERS["time_step_s"], f"{where}: sim.time_step_s")
     if not isinstance(sim.get("implicit_loop_damping", True), bool):
         raise QmtInputError(f"{where}: sim.implicit_loop_damping must be true or false, got "
                             f"{show(sim['implicit_loop_damping'])}")
@@ -255,16 +174,16 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
             raise QmtInputError(f"{at}: sets the same quantity as '{fields_used[slot]}'; keep one")
         fields_used[slot] = pname
         if isinstance(v, dict) and "dist" in v:
-            dists[pname] = _check_distribution(v, p, at)
+            dists[pname] = check_distribution(v, p, at)
         elif isinstance(v, dict) and set(v) == {"values"}:
-            grid[pname] = _check_values(v["values"], p, at)
+            grid[pname] = check_values(v["values"], p, at)
         elif isinstance(v, dict):
             raise QmtInputError(f"{at}: a mapping must be a distribution ({{dist: normal, mean: .., "
                                 "std: ..}}) or {values: [...]}")
         elif isinstance(v, list):
-            grid[pname] = _check_values(v, p, at)
+            grid[pname] = check_values(v, p, at)
         else:
-            fixed[pname] = _check_values([v], p, at)[0]
+            fixed[pname] = check_values([v], p, at)[0]
     if sim.get("implicit_loop_damping") is False:
         steps = [sim.get("time_step_s", 0.0), fixed.get("time_step_s", 0.0), *grid.get("time_step_s", [])]
         if max(steps) > EXPLICIT_MAX_TIME_STEP_S or ("time_step_s" in dists):
@@ -281,8 +200,8 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
             raise QmtInputError(f"{where}: parameters {', '.join(dists)} have distributions; add "
                                 "monte_carlo: {cases: N, seed: S}")
         _check_keys(mc, {"cases", "seed"}, f"{where}: monte_carlo")
-        mc_cases = _integer(mc["cases"], f"{where}: monte_carlo.cases", minimum=1)
-        mc_seed = _integer(mc.get("seed", 0), f"{where}: monte_carlo.seed", minimum=0)
+        mc_cases = integer(mc["cases"], f"{where}: monte_carlo.cases", minimum=1)
+        mc_seed = integer(mc.get("seed", 0), f"{where}: monte_carlo.seed", minimum=0)
     elif mc is not None:
         raise QmtInputError(f"{where}: monte_carlo is given but no parameter has a distribution; "
                             "give one (e.g. friction: {dist: normal, mean: 0.3, std: 0.03}) or "
@@ -340,73 +259,11 @@ def _check_plan(p, at: str, spec_path: Path | None) -> dict:
     if not isinstance(p["method"], str) or p["method"] not in METHODS:
         raise QmtInputError(f"{at}: unknown method {show(p['method'])}; use one of {', '.join(METHODS)}")
     out["method"] = str(p["method"])
-    out["seed"] = _integer(p.get("seed", 0), f"{at}.seed", minimum=0)
+    out["seed"] = integer(p.get("seed", 0), f"{at}.seed", minimum=0)
     out["options"] = check_options(p.get("options"), out["method"], at)
     default = out["method"] + (f"-seed{out['seed']}" if out["method"] == "ga" else "")
     out["label"] = str(p.get("label", default))
     return out
-
-
-def _check_distribution(v: dict, p: Parameter, at: str) -> Distribution:
-    kind = v["dist"]
-    if kind not in DISTRIBUTIONS:
-        raise QmtInputError(f"{at}: unknown distribution '{kind}'; use one of {', '.join(DISTRIBUTIONS)}")
-    need = DISTRIBUTIONS[kind]
-    allowed = set(need) | {"dist"} | ({"low", "high"} if kind == "normal" else set())
-    _check_keys(v, allowed, at)
-    missing = [k for k in need if k not in v]
-    if missing:
-        raise QmtInputError(f"{at}: a {kind} distribution needs {', '.join(need)}; missing "
-                            f"{', '.join(missing)}")
-    args = {k: _number(v[k], f"{at}.{k}") for k in v if k != "dist"}
-    if "std" in args and args["std"] < 0:
-        raise QmtInputError(f"{at}: std {args['std']:g} is negative; a spread must be >= 0")
-    if "low" in args and "high" in args and not args["low"] <= args["high"]:
-        raise QmtInputError(f"{at}: low {args['low']:g} > high {args['high']:g}; a spread must be "
-                            ">= 0 (swap them)")
-    lo = args.get("low", args.get("mean"))
-    hi = args.get("high", args.get("mean"))
-    for x in (lo, hi):
-        _check_range(x, p, at)
-    if kind == "normal" and p.integer:
-        raise QmtInputError(f"{at}: '{p.name}' is an integer; give a list of values instead")
-    return Distribution(kind, args)
-
-
-def _check_values(values, p: Parameter, at: str) -> list:
-    if not isinstance(values, list) or not values:
-        raise QmtInputError(f"{at}: give a non-empty list of values")
-    out = []
-    for x in values:
-        x = _integer(x, at, minimum=0) if p.integer else _number(x, at)
-        _check_range(x, p, at)
-        out.append(x)
-    return out
-
-
-def _check_range(x: float, p: Parameter, at: str) -> None:
-    ok_lo = x >= p.lower if p.inclusive else x > p.lower
-    if not ok_lo or x > p.upper:
-        rel = ">=" if p.inclusive else ">"
-        upper = f" and <= {p.upper:g}" if math.isfinite(p.upper) else ""
-        raise QmtInputError(f"{at}: {x:g} is out of range; {p.name} ({p.doc}, {p.unit}) must be "
-                            f"{rel} {p.lower:g}{upper}")
-
-
-def _number(v, at: str, positive: bool = False) -> float:
-    """A finite number (config/fields.py's rule: not a bool, not a string)."""
-    if not is_number(v):
-        raise QmtInputError(f"{at}: must be a number, got {show(v)}")
-    x = float(v)
-    if not math.isfinite(x) or (positive and x <= 0):
-        raise QmtInputError(f"{at}: must be a {'positive' if positive else 'finite'} number, got {show(v)}")
-    return x
-
-
-def _integer(v, at: str, minimum: int = 0, maximum: int = 2 ** 63 - 1) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not minimum <= v <= maximum:
-        raise QmtInputError(f"{at}: must be an integer in [{minimum}, {maximum}], got {show(v)}")
-    return int(v)
 
 
 _check_keys = check_keys
@@ -418,26 +275,3 @@ def _first_dup(xs):
         if x in seen:
             return x
         seen.add(x)
-
-
-def validate_uncertainty(u: dict, where: str) -> None:
-    """A scenario's `uncertainty` section: every parameter a known sweep parameter drawn from a
-    distribution (its keys and ranges checked as in a spec), monte_carlo {cases >= 1, seed}."""
-    for pname, v in u["parameters"].items():
-        at = f"{where}.parameters.{pname}"
-        if pname not in PARAMETERS:
-            raise QmtInputError(f"{at}: unknown parameter '{pname}'; known parameters are {', '.join(PARAMETERS)}")
-        if not (isinstance(v, dict) and "dist" in v):
-            raise QmtInputError(f"{at}: give a distribution, e.g. {{dist: normal, mean: 0.3, std: 0.03}}")
-        _check_distribution(v, PARAMETERS[pname], at)
-    mc = u.get("monte_carlo") or {}
-    if not isinstance(mc, dict):
-        raise QmtInputError(f"{where}.monte_carlo must be a mapping {{cases: 200, seed: 1}}, got {mc!r}")
-    check_keys(mc, {"cases", "seed"}, f"{where}.monte_carlo")
-    if "cases" in mc:
-        _integer(mc["cases"], f"{where}.monte_carlo.cases", minimum=1)
-    if "seed" in mc:
-        _integer(mc["seed"], f"{where}.monte_carlo.seed")
-
-
-register_validator("uncertainty", validate_uncertainty)

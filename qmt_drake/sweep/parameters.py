@@ -1,0 +1,197 @@
+"""Sweep parameters: the table of every quantity a sweep may vary (`PARAMETERS`: where it goes,
+its unit and its physical range), the distributions a Monte Carlo draws it from, and the checks of a
+value, a list of values or a distribution against that table.
+
+Every parameter maps to exactly one place: a field of the co-simulation's PayloadSpec (the physical
+part: its mass and r_G vary, the plan does not), the magnet (coil current, absolute or as a multiple
+of the calibrated current; the equivalent gap g0), the motor model (multiples of torque constant and
+resistance), a scenario override (gains as multiples of the scenario's, the planning moment limit),
+a `simulate_transfer` keyword (time scale, step) or the planner (seed, Ruckig jerk limit). "scale"
+parameters multiply the nominal value. sweep/spec.py parses a spec against this table; a scenario's
+`uncertainty` section is checked here too (registered with config/hooks.py at import).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from qmt_drake.config.fields import check_keys, is_number, show
+from qmt_drake.config.hooks import register_validator
+from qmt_drake.errors import QmtInputError
+
+MAX_TIME_STEP_S = 0.005  # measured: thesis-ch4 replayed at 2 and 5 ms is carried, at 10 and 20 ms "lost" (a step artifact)
+
+# Where a parameter goes (cases.py applies them):
+#   payload  -> dataclasses.replace(PayloadSpec, field=value)   (the simulated part only)
+#   magnet   -> coil current [A] / effective gap g0 [m]
+#   motor    -> DcMotorParams field multiplied by value
+#   scenario -> override in the scenario's YAML mapping (dotted path)
+#   sim      -> simulate_transfer keyword
+#   plan     -> planner input (seed, or an option of the planner)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    target: str  # payload | magnet | motor | scenario | sim | plan
+    field: str
+    scale: bool  # True: value multiplies the nominal value
+    unit: str
+    doc: str
+    lower: float = 0.0  # values must be > lower (or >= when inclusive)
+    inclusive: bool = False
+    upper: float = math.inf
+    integer: bool = False
+
+
+PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
+    Parameter("friction", "payload", "friction", False, "-", "Coulomb friction, part on face"),
+    Parameter("mass_kg", "payload", "mass_kg", False, "kg", "simulated part mass"),
+    Parameter("mass_scale", "payload", "mass_kg", True, "-", "simulated part mass / nominal"),
+    Parameter("com_offset_m", "payload", "com_offset_m", False, "m", "simulated r_G"),
+    Parameter("com_offset_scale", "payload", "com_offset_m", True, "-", "simulated r_G / nominal"),
+    Parameter("contact_stiffness_N_per_m", "payload", "point_stiffness_N_per_m", False, "N/m",
+              "contact point stiffness"),
+    Parameter("coil_current_A", "magnet", "coil_current_A", False, "A", "coil current",
+              inclusive=True),
+    Parameter("coil_current_scale", "magnet", "coil_current_A", True, "-",
+              "coil current / the calibrated current of the nominal part", inclusive=True),
+    Parameter("magnet_gap_m", "magnet", "effective_gap_m", False, "m",
+              "equivalent magnet gap g0 (coil current stays as set)"),
+    Parameter("motor_torque_constant_scale", "motor", "torque_constant_Nm_per_A", True, "-",
+              "motor torque (= back-EMF) constant / catalogue"),
+    Parameter("motor_resistance_scale", "motor", "resistance_ohm", True, "-",
+              "armature resistance / catalogue"),
+    Parameter("kp_scale", "scenario", "control.kp", True, "-", "proportional gains / scenario's",
+              inclusive=True),
+    Parameter("kd_scale", "scenario", "control.kd", True, "-", "derivative gains / scenario's",
+              inclusive=True),
+    Parameter("moment_limit_Nm", "scenario", "limits.moment_limit_Nm", False, "N*m",
+              "planning moment limit (replans)"),
+    Parameter("time_scale", "sim", "time_scale", False, "-",
+              "replay time stretch (<1 faster; moment ~ 1/s^2)"),
+    Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step", upper=MAX_TIME_STEP_S),
+    Parameter("seed", "plan", "seed", False, "-", "planner seed", lower=0.0, inclusive=True,
+              integer=True),
+    Parameter("jerk_limit_m_s3", "plan", "options.jerk_limit", False, "m/s^3",
+              "Ruckig tip jerk limit (replans)"),
+)}
+
+DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
+                 "truncnormal": ("mean", "std", "low", "high")}
+
+
+@dataclass(frozen=True)
+class Distribution:
+    kind: str
+    args: dict
+
+    def sample(self, rng: np.random.Generator, n: int, p: Parameter) -> np.ndarray:
+        a = self.args
+        if self.kind == "uniform":
+            x = rng.uniform(a["low"], a["high"], n)
+        else:
+            # normal: truncated at the parameter's physical bound; truncnormal: at [low, high].
+            lo = a.get("low", p.lower)
+            hi = a.get("high", p.upper)
+            x = _truncated_normal(rng, a["mean"], a["std"], lo, hi, n)
+        return np.round(x).astype(int) if p.integer else x
+
+
+def _truncated_normal(rng, mean, std, lo, hi, n) -> np.ndarray:
+    if std == 0:
+        return np.full(n, float(mean))
+    from scipy.stats import truncnorm
+    a, b = (lo - mean) / std, (hi - mean) / std
+    return truncnorm.ppf(rng.uniform(size=n), a, b, loc=mean, scale=std)
+
+
+
+def check_distribution(v: dict, p: Parameter, at: str) -> Distribution:
+    kind = v["dist"]
+    if kind not in DISTRIBUTIONS:
+        raise QmtInputError(f"{at}: unknown distribution '{kind}'; use one of {', '.join(DISTRIBUTIONS)}")
+    need = DISTRIBUTIONS[kind]
+    allowed = set(need) | {"dist"} | ({"low", "high"} if kind == "normal" else set())
+    check_keys(v, allowed, at)
+    missing = [k for k in need if k not in v]
+    if missing:
+        raise QmtInputError(f"{at}: a {kind} distribution needs {', '.join(need)}; missing "
+                            f"{', '.join(missing)}")
+    args = {k: number(v[k], f"{at}.{k}") for k in v if k != "dist"}
+    if "std" in args and args["std"] < 0:
+        raise QmtInputError(f"{at}: std {args['std']:g} is negative; a spread must be >= 0")
+    if "low" in args and "high" in args and not args["low"] <= args["high"]:
+        raise QmtInputError(f"{at}: low {args['low']:g} > high {args['high']:g}; a spread must be "
+                            ">= 0 (swap them)")
+    lo = args.get("low", args.get("mean"))
+    hi = args.get("high", args.get("mean"))
+    for x in (lo, hi):
+        check_range(x, p, at)
+    if kind == "normal" and p.integer:
+        raise QmtInputError(f"{at}: '{p.name}' is an integer; give a list of values instead")
+    return Distribution(kind, args)
+
+
+def check_values(values, p: Parameter, at: str) -> list:
+    if not isinstance(values, list) or not values:
+        raise QmtInputError(f"{at}: give a non-empty list of values")
+    out = []
+    for x in values:
+        x = integer(x, at, minimum=0) if p.integer else number(x, at)
+        check_range(x, p, at)
+        out.append(x)
+    return out
+
+
+def check_range(x: float, p: Parameter, at: str) -> None:
+    ok_lo = x >= p.lower if p.inclusive else x > p.lower
+    if not ok_lo or x > p.upper:
+        rel = ">=" if p.inclusive else ">"
+        upper = f" and <= {p.upper:g}" if math.isfinite(p.upper) else ""
+        raise QmtInputError(f"{at}: {x:g} is out of range; {p.name} ({p.doc}, {p.unit}) must be "
+                            f"{rel} {p.lower:g}{upper}")
+
+
+def number(v, at: str, positive: bool = False) -> float:
+    """A finite number (config/fields.py's rule: not a bool, not a string)."""
+    if not is_number(v):
+        raise QmtInputError(f"{at}: must be a number, got {show(v)}")
+    x = float(v)
+    if not math.isfinite(x) or (positive and x <= 0):
+        raise QmtInputError(f"{at}: must be a {'positive' if positive else 'finite'} number, got {show(v)}")
+    return x
+
+
+def integer(v, at: str, minimum: int = 0, maximum: int = 2 ** 63 - 1) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not minimum <= v <= maximum:
+        raise QmtInputError(f"{at}: must be an integer in [{minimum}, {maximum}], got {show(v)}")
+    return int(v)
+
+
+
+
+def validate_uncertainty(u: dict, where: str) -> None:
+    """A scenario's `uncertainty` section: every parameter a known sweep parameter drawn from a
+    distribution (its keys and ranges checked as in a spec), monte_carlo {cases >= 1, seed}."""
+    for pname, v in u["parameters"].items():
+        at = f"{where}.parameters.{pname}"
+        if pname not in PARAMETERS:
+            raise QmtInputError(f"{at}: unknown parameter '{pname}'; known parameters are {', '.join(PARAMETERS)}")
+        if not (isinstance(v, dict) and "dist" in v):
+            raise QmtInputError(f"{at}: give a distribution, e.g. {{dist: normal, mean: 0.3, std: 0.03}}")
+        check_distribution(v, PARAMETERS[pname], at)
+    mc = u.get("monte_carlo") or {}
+    if not isinstance(mc, dict):
+        raise QmtInputError(f"{where}.monte_carlo must be a mapping {{cases: 200, seed: 1}}, got {mc!r}")
+    check_keys(mc, {"cases", "seed"}, f"{where}.monte_carlo")
+    if "cases" in mc:
+        integer(mc["cases"], f"{where}.monte_carlo.cases", minimum=1)
+    if "seed" in mc:
+        integer(mc["seed"], f"{where}.monte_carlo.seed")
+
+
+register_validator("uncertainty", validate_uncertainty)
