@@ -4,8 +4,11 @@
 
 Each measure runs in a fresh subprocess per version, the versions interleaved round by round, so a
 busy machine slows both alike: fitness evaluations per second (ch.4, 1 kHz, batches of 50 random
-candidates), GA wall time to within 0.5% of the ch.4 family optimum (5 seeds), and one full
-10,000-generation GA run. Prints a table with the ratio this/ref and writes OUT/bench_versions.json
+candidates), GA wall time to within 0.5% of the ch.4 family optimum (5 seeds), one full
+10,000-generation GA run, seed 001's SNOPT solve time per optimum (ohsaka-fig3, median of its 8
+starts) and the magnet co-simulation's cost per plant step and its ratio to the Drake-primitives
+floor (each version's studies/bench_cosim_floor.py, 5 repeats; cosim_us_per_step is read from the
+same run). Prints a table with the ratio this/ref and writes OUT/bench_versions.json
 (atomically). The probe copes with the older API names (problem.evaluate/peaks, result
 motion_time_s/cost)."""
 
@@ -16,6 +19,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -51,13 +55,32 @@ else:
     out = run_ga(P, seed=0, stall_generations=0).wall_s
 print(json.dumps(out))
 """
-MEASURES = ("evaluations_per_s", "ga_s_to_0.5pct_median", "full_10000_generation_run_s")
+MEASURES = ("evaluations_per_s", "ga_s_to_0.5pct_median", "full_10000_generation_run_s",
+            "snopt_s_per_optimum_median", "cosim_cost_ratio_to_floor", "cosim_us_per_step")
 
 
-def _probe(tree: Path, measure: str) -> float:
+def _run(tree: Path, args: list) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg")
-    out = subprocess.run([sys.executable, "-c", PROBE, measure], env=env, capture_output=True, text=True,
-                         cwd=str(tree), check=True)
+    return subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True, cwd=str(tree), check=True)
+
+
+def _probe(tree: Path, measure: str, scratch: Path) -> float:
+    if measure == "snopt_s_per_optimum_median":
+        # seed 001: the 8 SNOPT optima of ohsaka-fig3 (both versions accept this command; the older
+        # one rerouted it to its own plan-energy); each optimum's own solve time
+        f = scratch / "snopt.json"
+        _run(tree, ["-m", "qmt_drake.apps.cli", "plan", "ohsaka-fig3", "--method", "snopt", "--json", str(f)])
+        return float(np.median([o["wall_s"] for o in json.loads(f.read_text())["optima"]]))
+    if measure.startswith("cosim_"):
+        # the magnet co-simulation against its Drake-primitives floor (studies/bench_cosim_floor.py of
+        # each version: the same plant, plan and step), median of 5 alternating repeats
+        if measure == "cosim_cost_ratio_to_floor":
+            _run(tree, ["-m", "studies.bench_cosim_floor", "--repeats", "5", "--sweep-cases", "0",
+                        "--out", str(scratch)])
+        cost = json.loads((scratch / "bench_cosim_floor.json").read_text())["cost"]
+        return float(cost["ratio_wall_median"] if measure == "cosim_cost_ratio_to_floor"
+                     else cost["ours_us_per_step_median"])
+    out = _run(tree, ["-c", PROBE, measure])
     return float(json.loads(out.stdout.strip().splitlines()[-1]))
 
 
@@ -73,10 +96,11 @@ def main(argv=None) -> int:
               file=sys.stderr)
         return 2
     results = {m: {"this": [], "ref": []} for m in MEASURES}
+    scratch = {"ref": Path(tempfile.mkdtemp(prefix="bench_ref_")), "this": Path(tempfile.mkdtemp(prefix="bench_this_"))}
     for r in range(a.rounds):
         for m in MEASURES:
             for name, tree in (("ref", ref), ("this", this)):
-                v = _probe(tree, m)
+                v = _probe(tree, m, scratch[name])
                 results[m][name].append(v)
                 print(f"round {r + 1} {m} {name}: {v:.4g}", file=sys.stderr, flush=True)
     print("| measure | this (median) | ref (median) | this / ref |\n|---|---|---|---|")
