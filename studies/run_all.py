@@ -57,6 +57,9 @@ def main(argv=None) -> int:
     step("seed 001: Ohsaka & Kurahashi 1988", lambda: ohsaka_1988.main(["--out", str(out / "ohsaka_1988")]))
     from studies import crane_tray
     step("seed 002: CRANE-X7 tray", lambda: crane_tray.main(["--out", str(out / "crane_tray")]))
+    from studies import tray_carried
+    step("seed 002: fastest carried through the servos, per friction and fill",
+         lambda: tray_carried.main(["--out", str(out)]))
     from studies import kotosaka_1995
     step("seed 003: Kotosaka et al. 1995", lambda: kotosaka_1995.main(["--out", str(out / "kotosaka_1995")]))
     step("seed 003: exhaustive certificate of the GA (BP, Task-1)",

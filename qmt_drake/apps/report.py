@@ -64,15 +64,21 @@ SECTIONS: list[Section] = [
     Section("Seed 002: a bottle on a tray carried by a CRANE-X7 arm", ".venv/bin/python -m studies.crane_tray",
             "crane_tray", seed="P-only gains (P = 800) with linear waypoint spacing: the bottle fell as the return "
                                "began; retuned PID with 1.5-power spacing: carried, about 5 s per move."),
+    Section("Seed 002 through the servos as the firmware runs them: fastest carried transfer per friction and fill",
+            ".venv/bin/python -m studies.tray_carried --out out", "tray_carried",
+            seed="Not in the seed: the issue-20 re-measurement (TOPP-RA planned per bottle, its time scale bisected "
+                 "until the co-simulation carries the bottle; goals shaped for the firmware's PID or streamed plain).",
+            tables=("tray_carried.md",), figures=("tray_carried.png",), recordings=(), raw=("tray_carried.json",)),
     Section("Seed 003: task-oriented structural design by operability (Kotosaka et al. 1995)",
             ".venv/bin/python -m studies.kotosaka_1995", "kotosaka_1995",
             seed="Task-1: PB, PF, PT best (E = 1.2027, second link 0), BP 1.1884; Task-2: BF best (E = 2.0107), "
                  "BP 1.9951; without obstacles BP is best; about 60 generations (some 360).",
             tables=("*.md",)),
-    Section("Spatial arms: a UR5 with a suction cup between two bins, and with the thesis's magnet",
-            ".venv/bin/python -m studies.spatial_benchmark --out out", "spatial",
+    Section("Spatial arms: a UR5 with a suction cup between two bins and with the thesis's magnet, a Panda with "
+            "a cup on a tray", ".venv/bin/python -m studies.spatial_benchmark --out out", "spatial",
             seed="Not in the seeds: issue 19's arms from the field (Pham & Pham's suction-cup transfer).",
-            tables=("*.md",), figures=(), recordings=(), raw=("ur5-*.json",)),
+            tables=("*.md",), figures=(), recordings=(),
+            raw=("ur5-suction-bins.json", "ur5-magnet-part.json", "panda-tray-cup.json")),
     Section("Success probability under uncertainty (Dask sweeps)",
             ".venv/bin/python -m studies.success_probability --cases 50 --robust thesis-ch4", "",
             tables=("success_probability.md",), figures=("sweeps/**/*.png",), recordings=(),
