@@ -197,6 +197,6 @@ def simulate(args, energy_options=()) -> int:
     if args.json != "-":
         print(f"{sc.name} {p.method} x{args.time_scale:g}: {verdict_line(r['outcome'], r['lost_at_s'])}, "
               f"T = {r['duration_s']:.4f} s, largest hand ratio while held {r['max_grip_ratio_while_held']:.4f}, "
-              f"goal error {r['final_goal_error_rad']:.1e} rad, part {r['part_distance_from_cup_at_end_m'] * 1e3:.3g} mm "
+              f"goal error {r['final_goal_error_rad']:.1e} rad, part {r['part_distance_from_cup_at_end_m']:.3g} m "
               f"from the hand at the end, real-time factor {(r['duration_s'] + TAIL_S) / wall:.2f}")
     return 0

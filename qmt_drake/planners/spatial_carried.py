@@ -54,8 +54,8 @@ def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int
 
 def carried_plan(sc, plan: SpatialPlan, search: dict) -> SpatialPlan:
     """`plan` played search['chosen'] times slower as a SpatialPlan named '<method>-carried', re-checked
-    (the check only improves when slowing down, but it is measured, not assumed); the search goes to
-    info['carried_search']. QmtInputError (one line) when the search found no carried scale."""
+    (gravity does not slow down, so a slower plan is not assumed to hold: it is measured); the search
+    goes to info['carried_search']. QmtInputError (one line) when the search found no carried scale."""
     k = search["chosen"]
     if k is None:
         raise QmtInputError(f"--carried: the {plan.method} plan is lost in the co-simulation even {search['k_max']:g}x "

@@ -16,8 +16,9 @@ what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KI
 Floats are written by repr (exact), so the rebuilt trajectory is the planned one to rounding;
 `write_spatial_plan` proves it on every write (rebuilt vs planned at 1 kHz, REBUILD_TOL) and never
 writes a file that does not reproduce its plan. `load_spatial_plan` refuses, in one line, a planar
-plan file, a plan of another scenario (joint count or names, task poses, or a start/end that Drake's
-forward kinematics puts more than POSE_TOL away from the first/last task pose) and a file whose
+plan file, a plan of another scenario (its name: ur5-magnet-part has ur5-suction-bins's poses but
+another hand; joint count or names; task poses; or a start/end that Drake's forward kinematics puts
+more than POSE_TOL away from the first/last task pose) and a file whose
 rebuilt trajectory disagrees with its own samples; it re-checks the limits and the task poses
 itself (nothing the file claims is trusted).
 """
@@ -159,6 +160,8 @@ def _check_fits(d: dict, path, sc) -> None:
         raise QmtInputError(f"plan file {path} is a planar plan (scenario {d.get('scenario')}); spatial scenario "
                             f"{sc.name} needs a plan written by `qmt-drake plan {sc.name} --json PATH`")
     again = f"plan again with `qmt-drake plan {sc.name} --json PATH`"
+    if d.get("scenario") != sc.name:  # same geometry may carry another part or hand (ur5-magnet-part)
+        raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')}, not {sc.name}; {again}")
     if d.get("n_dof") != sc.n_dof or d.get("joint_names") != list(sc.joint_names):
         raise QmtInputError(f"plan file {path} is for joints {d.get('joint_names')} (scenario {d.get('scenario')}) "
                             f"but scenario {sc.name} has {list(sc.joint_names)}; {again}")
