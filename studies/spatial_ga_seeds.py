@@ -67,13 +67,13 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", nargs="+", type=int, default=list(range(10)))
     ap.add_argument("--generations", type=int, default=150, help="the spatial benchmark's default")
     ap.add_argument("--population", type=int, default=40)
-    ap.add_argument("--restarts", type=int, default=2)
+    ap.add_argument("--restarts", type=int, default=2, choices=(1, 2),
+                    help="Nelder-Mead starts of the family optimum (plan_family_optimum has two)")
     ap.add_argument("--out", default="out")
     a = ap.parse_args(argv)
     try:
         check_output_dir(Path(a.out) / "spatial", "--out")
-        for flag, v, lo in (("--generations", a.generations, 1), ("--population", a.population, 2),
-                            ("--restarts", a.restarts, 1)):
+        for flag, v, lo in (("--generations", a.generations, 1), ("--population", a.population, 2)):
             if v < lo:
                 raise QmtInputError(f"{flag} {v}: give an integer >= {lo}")
         if any(s < 0 for s in a.seeds):
