@@ -8,7 +8,7 @@ optimum (plan_family_optimum, Nelder-Mead from `restarts` starts) plan the same 
 (genes: the segment times); both are re-checked and time-scaled to hold at 10x the check rate, and
 their motion times compared: gap = T_ga / T_opt - 1. "Must show": |gap| <= 0.5 % for 9 of 10 seeds.
 A negative gap beyond the optimum's own tolerance would mean the optimum is not optimal (the table
-says so rather than hiding it). Prints a table and writes OUT/spatial/ga_seeds.json atomically.
+says so rather than hiding it). Prints a table and writes OUT/spatial/ga_seeds.json and .md atomically.
 """
 
 from __future__ import annotations
@@ -83,8 +83,10 @@ def main(argv=None) -> int:
     except QmtInputError as exc:
         print(f"spatial_ga_seeds: error: {exc}", file=sys.stderr)
         return 2
-    print(table(res), end="")
+    md = table(res)
+    print(md, end="")
     write_text_atomic(Path(a.out) / "spatial" / "ga_seeds.json", json.dumps(jsonable(res), indent=1))
+    write_text_atomic(Path(a.out) / "spatial" / "ga_seeds.md", md)  # the report's spatial section shows *.md
     return 0
 
 

@@ -134,6 +134,19 @@ def test_carried_search_brackets_the_fastest_carried_scale():
     assert plan_file_dict(mg, p)["rebuild"]["kind"] == "time_scaled"
 
 
+def test_plan_carried_through_the_cli(sc, tmp_path):
+    """--carried on the suction TOPP-RA plan: carried as planned (benchmark), so the search stops at
+    x1 after one co-simulation, says so, and the file keeps the search and replays the same plan."""
+    rc, out, err = _main("plan", SC, "--method", "toppra", "--carried", "--json", tmp_path / "c.json", "--quiet")
+    assert rc == 0, err
+    d = json.loads((tmp_path / "c.json").read_text())
+    s = d["info"]["carried_search"]
+    assert d["method"] == "toppra-carried" and s["chosen"] == 1.0 and s["lost_below"] is None
+    assert [p["outcome"] for p in s["points"]] == ["carried"] and s["cosim"]["held"]
+    assert out.rstrip().endswith("carried in the co-simulation at x1.0000, as planned")
+    assert load_spatial_plan(tmp_path / "c.json", sc).duration_s == pytest.approx(d["duration_s"], abs=REBUILD_TOL)
+
+
 @pytest.fixture(scope="module")
 def planar_plan(tmp_path_factory):
     p = tmp_path_factory.mktemp("planar") / "ch4.json"
