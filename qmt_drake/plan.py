@@ -196,10 +196,13 @@ def family_plan(problem: PlanningProblem, genes: npt.ArrayLike, method: str, **k
 PLAN_ENDPOINT_TOL_M = 1e-6
 
 
-def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
-    """Read a plan file written by `Plan.write_json`; the scenario is reloaded from the path
-    stored in it unless one is given. The plan must fit the scenario (module docstring). Errors
-    name the file and the problem in one line."""
+# The `scenario_kind` of a spatial plan file (planners/spatial_plan_io.py); planar files have none.
+SPATIAL_PLAN_KIND = "spatial_transfer"
+
+
+def read_plan_file(path: str | Path) -> dict:
+    """The JSON mapping of a plan file (planar or spatial) with 'scenario' and 'trajectory' keys;
+    one-line QmtInputError naming the file otherwise."""
     path = Path(path)
     if path.is_dir():
         raise QmtInputError(f"plan file {path} is a directory; give the JSON file written by "
@@ -217,6 +220,18 @@ def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
     if not isinstance(d, dict) or not isinstance(d.get("trajectory"), dict) or "scenario" not in d:
         raise QmtInputError(f"plan file {path} lacks the 'scenario' or 'trajectory' key; write it "
                             "with `qmt-drake plan ... --json PATH`")
+    return d
+
+
+def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
+    """Read a plan file written by `Plan.write_json`; the scenario is reloaded from the path
+    stored in it unless one is given. The plan must fit the scenario (module docstring). Errors
+    name the file and the problem in one line."""
+    path = Path(path)
+    d = read_plan_file(path)
+    if d.get("scenario_kind") == SPATIAL_PLAN_KIND:
+        raise QmtInputError(f"plan file {path} is a spatial (3-D) plan for scenario {d['scenario']}; simulate it "
+                            f"with `qmt-drake simulate {d['scenario']} --plan {path}`")
     if scenario is None:
         src = d.get("scenario_path")
         scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))

@@ -13,7 +13,8 @@ scale 0.67): the part should be lost. When the TOPP-RA plan itself is not carrie
 leaves no margin for tracking error), a row `toppra_carried` gives the smallest slow-down that the
 co-simulation carries (bisection over the time scale). A method that refuses the task is a row with
 its one-line reason. Prints a Markdown table and writes OUT/spatial/<scenario>.json
-and .md atomically, and each plan (1 kHz samples) as OUT/spatial/<scenario>-<method>-plan.json.
+and .md atomically, and each plan as OUT/spatial/<scenario>-<method>-plan.json (planners/spatial_plan_io:
+1 kHz samples and the exact trajectory; `qmt-drake simulate <scenario> --plan FILE` replays it).
 --actuator dc_motor co-simulates through DC motors with gears (sim/spatial_actuation.py, full feedforward;
 the scenario's actuators.motor) instead of ideal torque actuators, and writes <scenario>-dc_motor.{json,md}.
 """
@@ -29,7 +30,9 @@ from pathlib import Path
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
+from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_methods import PLANNERS, plan_ga_spatial
+from qmt_drake.planners.spatial_plan_io import write_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_actuation import ACTUATORS, motor_params_for_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
@@ -79,34 +82,32 @@ def run(scenario: str, ga_generations: int, actuator: str = "ideal") -> dict:
                             "max_pose_angle_error_rad": rows["toppra"]["max_pose_angle_error_rad"],
                             "cosim": simulate(sc, fast)}
     if not rows["toppra"]["cosim"]["held"]:
-        rows["toppra_carried"] = carried_search(sc, plans["toppra"], bound, actuator=actuator)
+        rows["toppra_carried"] = carried_row(sc, plans["toppra"], bound, actuator)
     carried = [r for r in rows.values() if r["cosim"]["held"] and r["recheck_max_ratio"] <= 1.0]
     fastest = min(carried, key=lambda r: r["duration_s"])["method"] if carried else None
-    return {"plans": plans, "errors": errors, "scenario": sc.name, "actuator": actuator, "hand_kind": sc.hand_kind, "bound_s": bound, "check_rate_hz": sc.check_rate_hz,
+    return {"sc": sc, "plans": plans, "errors": errors, "scenario": sc.name, "actuator": actuator,
+            "hand_kind": sc.hand_kind, "bound_s": bound, "check_rate_hz": sc.check_rate_hz,
             "recheck_rate_hz": sc.recheck_rate_hz, "rows": rows, "fastest_carried": fastest,
             "wall_s": time.perf_counter() - t0}
 
 
-def carried_search(sc, plan, bound: float, *, k_max: float = 2.5, iterations: int = 7, actuator: str = "ideal") -> dict:
-    """The TOPP-RA plan slowed by the smallest time scale k in (1, k_max] (bisection) whose
-    co-simulation (through `actuator`) carries the part: the margin the closed loop needs over the planned limit."""
-    simulate = partial(simulate_spatial, actuator=actuator)
-    if not simulate(sc, TimeScaled(plan.trajectory, k_max))["held"]:
+def carried_row(sc, plan, bound: float, actuator: str = "ideal") -> dict:
+    """The table row of the TOPP-RA plan slowed by the smallest time scale in (1, 2.5] (bisection,
+    planners/spatial_carried) whose co-simulation carries the part: the margin the closed loop needs
+    over the planned limit. Called only when the plan as planned was lost (so k = 1 is not tried again)."""
+    search = carried_search(sc, plan, k_max=2.5, iterations=7, try_planned=False,
+                            actuator=actuator)
+    if search["chosen"] is None:
         return {"method": "toppra_carried", "duration_s": float("nan"), "ratio_to_bound": float("nan"),
-                "planning_s": 0.0, "hold_scale": k_max, "recheck_max_ratio": float("nan"),
+                "planning_s": 0.0, "hold_scale": search["k_max"], "recheck_max_ratio": float("nan"),
                 "max_pose_position_error_m": float("nan"), "max_pose_angle_error_rad": float("nan"),
-                "cosim": {"outcome": f"not carried even at {k_max}x", "held": False,
+                "cosim": {"outcome": f"not carried even at {search['k_max']}x", "held": False,
                           "max_grip_ratio_while_held": float("nan")}}
-    lo, hi = 1.0, k_max
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if simulate(sc, TimeScaled(plan.trajectory, mid))["held"] else (mid, hi)
-    traj = TimeScaled(plan.trajectory, hi)
-    return {"method": "toppra_carried", "duration_s": traj.duration_s, "ratio_to_bound": traj.duration_s / bound,
-            "planning_s": 0.0, "hold_scale": hi, "recheck_max_ratio": check(sc, traj, sc.recheck_rate_hz)["max"],
-            "max_pose_position_error_m": plan.summary()["max_pose_position_error_m"],
-            "max_pose_angle_error_rad": plan.summary()["max_pose_angle_error_rad"],
-            "cosim": simulate(sc, traj)}
+    p = carried_plan(sc, plan, search)
+    return {"method": "toppra_carried", "duration_s": p.duration_s, "ratio_to_bound": p.duration_s / bound,
+            "planning_s": 0.0, "hold_scale": search["chosen"], "recheck_max_ratio": p.recheck["max"],
+            "max_pose_position_error_m": float(p.pose_error[:, 0].max()),
+            "max_pose_angle_error_rad": float(p.pose_error[:, 1].max()), "cosim": search["cosim"]}
 
 
 def markdown(res: dict) -> str:
@@ -146,12 +147,12 @@ def main(argv=None) -> int:
     for res in results:
         md = markdown(res)
         print(md)
-        plans = res.pop("plans")
+        plans, sc = res.pop("plans"), res.pop("sc")
         stem = res["scenario"] + ("" if a.actuator == "ideal" else f"-{a.actuator}")
         write_text_atomic(out / f"{stem}.json", json.dumps(jsonable(res), indent=1))
         write_text_atomic(out / f"{stem}.md", md)
         for m, p in plans.items():
-            write_text_atomic(out / f"{res['scenario']}-{m}-plan.json", json.dumps(jsonable(p.to_json_dict())))
+            write_spatial_plan(sc, p, out / f"{res['scenario']}-{m}-plan.json")
     return 0
 
 

@@ -12,11 +12,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import tempfile
 from pathlib import Path
 
+from qmt_drake.apps import spatial_cli
+from qmt_drake.apps.arg_checks import (
+    check_int,
+    check_outputs,
+    check_positive_finite,
+    emit_json,
+    given,
+    parse_options,
+    progress,
+)
 from qmt_drake.apps.bench import run_bench
 from qmt_drake.apps.benchmark import run_benchmark
 from qmt_drake.apps.one_line_parser import OneLineParser
@@ -29,7 +38,7 @@ from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outcome import verdict_line
-from qmt_drake.outputs import check_output_dir, check_output_path, write_text_atomic
+from qmt_drake.outputs import check_output_dir, check_output_path
 from qmt_drake.plan import load_plan
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
@@ -45,21 +54,6 @@ EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130
 EXPLICIT_MAX_TIME_STEP_MS = 1.0  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a test checks they agree)
 
 
-def _check_int(value, flag: str, minimum: int, fix: str) -> None:
-    if value is not None and value < minimum:
-        raise QmtInputError(f"{flag} {value} must be >= {minimum}; {fix}")
-
-
-def _check_positive_finite(value, flag: str, fix: str) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise QmtInputError(f"{flag} {value} must be a finite positive number; {fix}")
-
-
-def _check_outputs(args, *flags: str) -> None:
-    for flag in flags:
-        check_output_path(getattr(args, flag.lstrip("-").replace("-", "_"), None), flag)
-
-
 def _check_checkpoint(path, scenario, seed) -> None:
     """The output path is writable and an existing file is a checkpoint of this very run
     (planners/ga.py: same scenario data, GA settings and seed)."""
@@ -68,20 +62,6 @@ def _check_checkpoint(path, scenario, seed) -> None:
         check_checkpoint(path, scenario.fingerprint(), scenario.ga, seed)
     except QmtInputError as exc:
         raise QmtInputError(f"--checkpoint: {exc}") from None
-
-
-def _progress(msg: str) -> None:
-    print(msg, file=sys.stderr, flush=True)
-
-
-def _emit_json(data: dict, target: str | None) -> None:
-    if target is None:
-        return
-    text = json.dumps(data, indent=1)
-    if target == "-":
-        print(text)
-    else:
-        write_text_atomic(target, text + "\n")
 
 
 def cmd_scenarios(args) -> int:
@@ -93,24 +73,31 @@ def cmd_scenarios(args) -> int:
         ex = get_experiment(name)
         print(f"{name:12s} {'fourier_velocity':20s} energy-time (seed 001), c2 = {ex.c2:g}, m = {ex.m}; "
               f"plan with --method snopt|steepest|ipopt|collocation")
+    spatial_cli.list_scenarios()
     return 0
 
 
 TRANSFER_ONLY_OPTIONS = ("generations", "stall", "checkpoint", "option")
 
 
-def _given(args, names) -> list[str]:
-    """The options among `names` the user gave (not at their None default), as --flags."""
-    return ["--" + n.replace("_", "-") for n in names if getattr(args, n, None) is not None]
+SPATIAL_ONLY_METHODS = tuple(m for m in spatial_cli.SPATIAL_METHODS if m not in METHODS)
+
+
+def _refuse_spatial_method(args) -> None:
+    if args.method in SPATIAL_ONLY_METHODS:
+        raise QmtInputError(f"--method {args.method} plans spatial scenarios; {args.scenario} is a transfer scenario: "
+                            "use --method ga|optimum|thesis|toppra|ruckig|trajopt")
 
 
 def cmd_plan(args) -> int:
+    if spatial_cli.is_spatial_scenario(args.scenario):
+        return 0 if spatial_cli.plan(args, ENERGY_ONLY_OPTIONS) else EXIT_INFEASIBLE
     if is_energy_scenario(args.scenario):
         args.method = args.method or "snopt"
         if args.method not in ENERGY_METHODS:
             raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is an "
                                 f"energy-time scenario: use --method {'|'.join(ENERGY_METHODS)}")
-        wrong = (_given(args, TRANSFER_ONLY_OPTIONS) + (["--seed"] if args.seed != 0 else [])
+        wrong = (given(args, TRANSFER_ONLY_OPTIONS) + (["--seed"] if args.seed != 0 else [])
                  + (["--carried"] if args.carried else []))
         if wrong:
             raise QmtInputError(f"{' '.join(wrong)}: options of transfer planners; {args.scenario} is an "
@@ -121,26 +108,27 @@ def cmd_plan(args) -> int:
         raise QmtInputError(f"--method {args.method} plans energy-time scenarios (ohsaka-fig2/3/4, or a YAML "
                             f"with kind: energy_time); {args.scenario} is a transfer scenario: use --method "
                             "ga|optimum|thesis|toppra|ruckig|trajopt")
-    wrong = _given(args, ENERGY_ONLY_OPTIONS)
+    _refuse_spatial_method(args)
+    wrong = given(args, ENERGY_ONLY_OPTIONS)
     if wrong:
         raise QmtInputError(f"{' '.join(wrong)}: options of the energy-time planners; {args.scenario} is a "
                             "transfer scenario: drop them")
-    _check_outputs(args, "--json", "--trajectory-csv")
-    _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
-    _check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
+    check_outputs(args, "--json", "--trajectory-csv")
+    check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
     if args.success is not None:
         if not 0 < args.success < 1:
             raise QmtInputError(f"--success {args.success:g} must be a probability in (0, 1), e.g. 0.9")
         if args.carried:
             raise QmtInputError("--carried and --success both choose the time scale; give one of them")
-        _check_int(args.success_check_cases, "--success-check-cases", 1, "e.g. 200")
-        _check_positive_finite(args.success_max_scale, "--success-max-scale", "e.g. 2")
+        check_int(args.success_check_cases, "--success-check-cases", 1, "e.g. 200")
+        check_positive_finite(args.success_max_scale, "--success-max-scale", "e.g. 2")
         check_output_dir(args.success_out, "--success-out")
         success_spec(load_scenario(args.scenario))  # the uncertainty section, checked before any planning
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
-    _check_int(args.generations, "--generations", 1, "run at least one generation")
-    _check_int(args.stall, "--stall", 0, "0 never stops early")
+    check_int(args.generations, "--generations", 1, "run at least one generation")
+    check_int(args.stall, "--stall", 0, "0 never stops early")
     sc = load_scenario(args.scenario)
     _check_tray_method(sc, args.method)
     check_plan_budget(sc, args.method, args.generations, allow_large=args.allow_large)
@@ -156,14 +144,10 @@ def cmd_plan(args) -> int:
             options["stall_generations"] = args.stall
         if args.checkpoint:
             options["checkpoint_path"] = args.checkpoint
-    for kv in args.option or []:
-        k, eq, v = kv.partition("=")
-        if not eq or not k:
-            raise QmtInputError(f"--option {kv!r} must be KEY=VALUE (e.g. jerk_limit=10)")
-        options[k] = _parse_value(v)
+    options.update(parse_options(args.option))
     try:
         plan = plan_with(args.method, sc, seed=args.seed,
-                         progress=None if args.quiet else _progress, **options)
+                         progress=None if args.quiet else progress, **options)
     except TypeError as exc:
         if "unexpected keyword argument" in str(exc):
             raise QmtInputError(f"--option: {exc}; see the planner's docstring for its options") from None
@@ -176,7 +160,7 @@ def cmd_plan(args) -> int:
             raise QmtInputError(f"--carried: the {args.method} plan breaks a limit on the re-check; nothing to "
                                 "time-scale (drop --carried to write the least-violating plan)")
         plan = plan_fastest_carried(sc, args.method, base_plan=plan, feedforward=args.carried_feedforward,
-                                    s_max=args.carried_max_scale, progress=None if args.quiet else _progress)
+                                    s_max=args.carried_max_scale, progress=None if args.quiet else progress)
         search = plan.extra["carried_search"]
         lost = search.get("lost_below")
         search["margin"] = None if lost is None else search["chosen"] / lost - 1.0
@@ -189,12 +173,12 @@ def cmd_plan(args) -> int:
             plan.write_json(base_file)
             plan, _ = plan_for_success(plan, base_file, args.success_out, target=args.success,
                                        check_cases=args.success_check_cases, s_max=args.success_max_scale,
-                                       progress=None if args.quiet else _progress)
+                                       progress=None if args.quiet else progress)
     summary = plan.summary()
     if args.json and args.json != "-":
         plan.write_json(args.json)
     elif args.json == "-":
-        _emit_json(plan.to_json_dict(), "-")
+        emit_json(plan.to_json_dict(), "-")
     if args.trajectory_csv:
         plan.write_csv(args.trajectory_csv)
     if getattr(sc, "is_tray", False) and args.json != "-":
@@ -221,16 +205,19 @@ def _check_tray_method(sc, method: str) -> None:
 
 
 def cmd_simulate(args) -> int:
+    if spatial_cli.is_spatial_scenario(args.scenario):
+        return spatial_cli.simulate(args)
     if is_energy_scenario(args.scenario):
         if args.method not in (None, "snopt"):
             raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
                                 "energy-time: give --plan FILE or no --method (it plans with snopt)")
         return simulate_energy(args)
     args.method = args.method or "ga"
-    _check_outputs(args, "--json", "--record")
-    _check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
-    _check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
-    _check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
+    _refuse_spatial_method(args)
+    check_outputs(args, "--json", "--record")
+    check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
+    check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
     if args.explicit and args.time_step_ms is not None and args.time_step_ms > EXPLICIT_MAX_TIME_STEP_MS:
         raise QmtInputError(f"--explicit --time-step-ms {args.time_step_ms:g}: the explicit motor loop is "
                             f"known unstable above {EXPLICIT_MAX_TIME_STEP_MS:g} ms (a loss would be the "
@@ -250,11 +237,11 @@ def cmd_simulate(args) -> int:
     else:
         _say_planning_first(args)
         plan = plan_with(args.method, sc, seed=args.seed,
-                         progress=None if args.quiet else _progress)
+                         progress=None if args.quiet else progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record,
                           time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
                           implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
-    _emit_json(result, args.json)
+    emit_json(result, args.json)
     if args.json != "-":
         print(f"{sc.name} {plan.method} x{args.time_scale}: "
               f"{verdict_line(result['outcome'], result['detached_at_s'])}, max slip {result['max_slip_m'] * 1e3:.3f} mm, "
@@ -279,9 +266,9 @@ def _simulate_tray(args, sc) -> int:
         _check_tray_method(sc, args.method)
         _say_planning_first(args)
     plan = load_plan(args.plan, scenario=sc) if args.plan else plan_with(
-        args.method, sc, seed=args.seed, progress=None if args.quiet else _progress)
+        args.method, sc, seed=args.seed, progress=None if args.quiet else progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s)
-    _emit_json(result, args.json)
+    emit_json(result, args.json)
     if args.json != "-":
         verdict = verdict_line(result["outcome"], result["lost_at_s"])
         print(f"{sc.name} {plan.method} x{args.time_scale}: {verdict}"
@@ -293,9 +280,9 @@ def _simulate_tray(args, sc) -> int:
 
 def cmd_bench(args) -> int:
     check_output_dir(args.out, "--out")
-    _check_int(args.seeds, "--seeds", 1, "run at least one seed")
+    check_int(args.seeds, "--seeds", 1, "run at least one seed")
     check_ga_runs_budget(load_scenario(args.scenario), args.seeds, 3000, allow_large=args.allow_large)
-    data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=_progress,
+    data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=progress,
                      seeds=args.seeds)
     print(json.dumps(data, indent=1))
     return 0
@@ -304,25 +291,16 @@ def cmd_bench(args) -> int:
 def cmd_benchmark(args) -> int:
     check_output_dir(args.out, "--out")
     for seed in args.ga_seeds:
-        _check_int(seed, "--ga-seeds", 0, "seeds are non-negative integers")
+        check_int(seed, "--ga-seeds", 0, "seeds are non-negative integers")
     for j in args.jerk_limits:
-        _check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
+        check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
     for name in args.scenarios:
         check_ga_runs_budget(load_scenario(name), len(args.ga_seeds), 30 if args.quick else 1000,
                              allow_large=args.allow_large)
-    run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=_progress,
+    run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=progress,
                   jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
                   quick=args.quick, cosim=not args.no_cosim)
     return 0
-
-
-def _parse_value(v: str):
-    for cast in (int, float):
-        try:
-            return cast(v)
-        except ValueError:
-            pass
-    return v
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -336,10 +314,13 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Methods: transfer scenarios (thesis-*, via5-ch4, crane-tray, your YAML): "
                        f"{', '.join(METHODS)} (GA options: --generations --stall --checkpoint; any planner: "
                        "--option KEY=VALUE). Energy-time scenarios (ohsaka-fig2/3/4): "
-                       f"{', '.join(ENERGY_METHODS)} (their options below). Default: ga, or snopt for an "
+                       f"{', '.join(ENERGY_METHODS)} (their options below). Spatial (3-D) scenarios "
+                       f"(ur5-suction-bins, ur5-magnet-part, kind: spatial_transfer): {', '.join(spatial_cli.SPATIAL_METHODS)} "
+                       "(optimum: family_optimum; GA: --seed --generations --stall; --carried, --carried-max-scale, "
+                       "--option KEY=VALUE of the planner's int/float keywords). Default: ga, or snopt for an "
                        "energy-time scenario.")
     s.add_argument("scenario", help="built-in name (see `qmt-drake scenarios`) or a YAML path")
-    s.add_argument("--method", default=None, choices=METHODS + ENERGY_METHODS)
+    s.add_argument("--method", default=None, choices=METHODS + ENERGY_METHODS + SPATIAL_ONLY_METHODS)
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--json", metavar="PATH|-", help="write the plan as JSON (- for stdout)")
     s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
@@ -371,8 +352,9 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="execute a plan through motors, PID and the held payload")
     s.add_argument("scenario")
     g = s.add_mutually_exclusive_group()
-    g.add_argument("--method", default=None, choices=METHODS,
-                   help="plan first with this method (default ga; energy-time scenarios: snopt)")
+    g.add_argument("--method", default=None, choices=METHODS + SPATIAL_ONLY_METHODS,
+                   help="plan first with this method (default ga; energy-time scenarios: snopt; spatial "
+                        f"scenarios: {', '.join(spatial_cli.SPATIAL_METHODS)})")
     g.add_argument("--plan", metavar="PLAN.json", help="a plan file written by `plan --json`")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--time-scale", type=float, default=1.0,

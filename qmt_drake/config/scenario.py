@@ -93,6 +93,10 @@ _SECTION_KEYS = {
 ENERGY_TIME_KIND = "energy_time"  # seed 001's scenarios (qmt_drake/energy/scenario.py) share the folder
 
 
+# planners/spatial_methods.METHODS (named here: config imports nothing above it; a test checks they agree)
+SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
+
+
 def scenario_kind(path: Path) -> str:
     """A scenario file's top-level `kind` (transfer scenarios have none: 'transfer'); '' if the
     file cannot be read as a YAML mapping (load_scenario then says why)."""
@@ -129,8 +133,9 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
                             f"({', '.join(builtin_scenarios())}) nor a YAML file that exists")
     raw = read_scenario_yaml(path)
     if raw.get("kind") == "spatial_transfer":  # issue 19: qmt_drake/spatial_task.py loads these
-        raise QmtInputError(f"scenario '{name_or_path}' is a spatial (3-D) scenario: plan, re-check and co-simulate "
-                            f"it with `python -m studies.spatial_benchmark --scenario {path.stem}`")
+        raise QmtInputError(f"scenario '{name_or_path}' is a spatial (3-D) scenario: plan it with `qmt-drake plan "
+                            f"{name_or_path} --method {'|'.join(SPATIAL_METHODS)} --json PLAN.json` and co-simulate "
+                            f"it with `qmt-drake simulate {name_or_path} --plan PLAN.json`")
     if raw.get("kind") == ENERGY_TIME_KIND:
         raise QmtInputError(f"scenario '{name_or_path}' is a seed-001 energy-time scenario: plan it with "
                             f"`qmt-drake plan {name_or_path} --method snopt|steepest|ipopt|collocation`; "

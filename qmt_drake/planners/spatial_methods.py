@@ -113,21 +113,32 @@ def plan_toppra_spatial(sc, *, n_grid: int = 1000) -> SpatialPlan:
                    {"n_grid": n_grid, "toppra_solve_s": r["planning_s"]})
 
 
-def _ruckig(sc, qa, qb, factor: float):
-    """Ruckig's time-optimal rest-to-rest motion qa -> qb, acceleration and jerk limits times factor."""
-    n = sc.n_dof
+def ruckig_rest_to_rest(qa, qb, max_velocity, max_acceleration, max_jerk):
+    """Ruckig's time-optimal rest-to-rest motion qa -> qb (rad) under these joint limits (rad/s,
+    rad/s^2, rad/s^3); deterministic, so a plan file rebuilds a segment from these five inputs."""
+    n = len(qa)
     inp = InputParameter(n)
-    inp.current_position, inp.target_position = qa.tolist(), qb.tolist()
+    inp.current_position, inp.target_position = np.asarray(qa, float).tolist(), np.asarray(qb, float).tolist()
     inp.current_velocity = inp.current_acceleration = [0.0] * n
     inp.target_velocity = inp.target_acceleration = [0.0] * n
-    inp.max_velocity = sc.velocity_limit_rad_s.tolist()
-    inp.max_acceleration = (sc.acceleration_limit_rad_s2 * factor).tolist()
-    inp.max_jerk = (sc.jerk_limit_rad_s3 * factor).tolist()
+    inp.max_velocity = np.asarray(max_velocity, float).tolist()
+    inp.max_acceleration = np.asarray(max_acceleration, float).tolist()
+    inp.max_jerk = np.asarray(max_jerk, float).tolist()
     traj = Trajectory(n)
     res = Ruckig(n).calculate(inp, traj)
     if res not in (Result.Working, Result.Finished):
         raise QmtInputError(f"Ruckig found no trajectory between task poses ({res}); check the limits")
     return traj
+
+
+def ruckig_segment_limits(sc, factor: float):
+    """(velocity, acceleration, jerk) limits of a Ruckig segment: acceleration and jerk times factor."""
+    return sc.velocity_limit_rad_s, sc.acceleration_limit_rad_s2 * factor, sc.jerk_limit_rad_s3 * factor
+
+
+def _ruckig(sc, qa, qb, factor: float):
+    """Ruckig's time-optimal rest-to-rest motion qa -> qb, acceleration and jerk limits times factor."""
+    return ruckig_rest_to_rest(qa, qb, *ruckig_segment_limits(sc, factor))
 
 
 def ruckig_segments(sc, *, rate_hz: float | None = None, iterations: int = 14):
@@ -222,12 +233,13 @@ class SpatialViaProblem:
         return hashlib.sha256(data.tobytes() + self.sc.name.encode()).hexdigest()[:16]
 
 
-def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40) -> SpatialPlan:
+def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40, stall: int = 60,
+                    progress=None) -> SpatialPlan:
     t0 = time.perf_counter()
     problem = SpatialViaProblem(sc)
-    settings = GaSettings(population=population, max_generations=generations, stall_generations=60,
+    settings = GaSettings(population=population, max_generations=generations, stall_generations=stall,
                           fitness_c_per_s=1.0, selection="tournament", encoding="gray")
-    res = run_ga(problem, settings, seed=seed)
+    res = run_ga(problem, settings, seed=seed, progress=progress)
     if not res.feasible:
         raise QmtInputError(f"the GA found no via-cubic within the limits in {res.generations} generations; "
                             "give it more generations or relax a limit")

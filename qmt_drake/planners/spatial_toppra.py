@@ -17,10 +17,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import toppra
 from pydrake.multibody.optimization import Toppra
 from pydrake.trajectories import PiecewisePolynomial
-from toppra.interpolator import AbstractGeometricPath
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.base import RowOptions
@@ -38,8 +36,9 @@ def joint_path(q_waypoints) -> PiecewisePolynomial:
     return PiecewisePolynomial.CubicWithContinuousSecondDerivatives(s, Q.T, zero, zero)
 
 
-class DrakePath(AbstractGeometricPath):
-    """A Drake trajectory q(s) as toppra's geometric path (so both solvers see the same path)."""
+class DrakePath:
+    """A Drake trajectory q(s) with toppra's geometric-path interface (so both solvers see the same
+    path); `_toppra_path` makes it one of toppra's classes for its solver."""
 
     def __init__(self, pp: PiecewisePolynomial) -> None:
         self.pp = pp
@@ -57,6 +56,17 @@ class DrakePath(AbstractGeometricPath):
     @property
     def path_interval(self):
         return np.array([self.pp.start_time(), self.pp.end_time()])
+
+
+def _toppra_path(pp: PiecewisePolynomial):
+    """DrakePath as toppra's AbstractGeometricPath. toppra is imported here, as in limits/toppra_form.py:
+    it loads matplotlib.pyplot (about 1 s), which `qmt-drake` must not pay at every start."""
+    from toppra.interpolator import AbstractGeometricPath
+
+    class _Path(DrakePath, AbstractGeometricPath):
+        pass
+
+    return _Path(pp)
 
 
 def pick_and_place_waypoints(ik, pick_m, place_m, *, lift_m: float, seed, normal=(0.0, 0.0, -1.0),
@@ -80,8 +90,10 @@ def _duration(grid, sd) -> float:
 
 def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000, **row_options):
     """dict(duration_s, planning_s, grid, sd, sdd) or QmtInputError when no parameterisation exists."""
+    import toppra  # see _toppra_path
+
     t0 = time.perf_counter()
-    path = DrakePath(pp)
+    path = _toppra_path(pp)
     n = chain.n_dof
     vlim = np.stack([-np.asarray(velocity_limit, float), np.asarray(velocity_limit, float)], axis=1)
     alim = np.stack([-np.asarray(acceleration_limit, float), np.asarray(acceleration_limit, float)], axis=1)

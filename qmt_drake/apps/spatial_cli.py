@@ -1,0 +1,202 @@
+"""`qmt-drake plan` and `simulate` on a spatial (3-D) scenario (`kind: spatial_transfer`, spatial_task.py).
+
+    qmt-drake plan ur5-suction-bins --method toppra|ruckig|family_optimum|ga|trajopt --json p.json
+        [--trajectory-csv p.csv] [--carried [--carried-max-scale K]] [--seed N --generations G --stall S]
+        [--option KEY=VALUE] [--quiet]
+    qmt-drake simulate ur5-suction-bins --plan p.json [--time-scale S] [--json out.json]
+
+`plan` runs planners/spatial_methods (every result re-checked at 10x the check rate and slowed by the
+smallest time scale that makes that check hold), prints one summary line (motion time, its ratio to
+TOPP-RA's time-optimal duration on the IK'd path, the re-check's largest ratio, the time scale applied)
+and writes the plan file (planners/spatial_plan_io: rebuilds the trajectory exactly) and the CSV.
+`--carried` then slows the plan to the fastest time scale the co-simulation carries
+(planners/spatial_carried). `simulate` loads a plan file back (refused in one line when made for
+another scenario, or planar), or plans first with --method, and co-simulates it
+(sim/spatial_cosim) printing the outcome word (outcome.py). Options of planar or energy-time
+scenarios are refused in one line naming them; `optimum` is accepted for `family_optimum`.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import time
+
+from qmt_drake.apps.arg_checks import (
+    check_int,
+    check_outputs,
+    check_positive_finite,
+    emit_json,
+    given,
+    parse_options,
+    progress,
+)
+from qmt_drake.config.scenario import SCENARIO_DIR, builtin_scenarios, scenario_kind
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outcome import verdict_line
+from qmt_drake.outputs import jsonable
+from qmt_drake.planners.spatial_carried import carried_plan, carried_search
+from qmt_drake.planners.spatial_methods import METHODS, PLANNERS, plan_toppra_spatial
+from qmt_drake.planners.spatial_plan_io import (
+    load_spatial_plan,
+    plan_file_dict,
+    write_spatial_csv,
+    write_spatial_plan,
+)
+from qmt_drake.planners.spatial_trajectory import TimeScaled
+from qmt_drake.sim.spatial_cosim import TAIL_S, simulate_spatial
+from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
+
+ALIASES = {"optimum": "family_optimum"}  # the planar scenarios' name of the family optimum
+SPATIAL_METHODS = METHODS
+GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
+# plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
+PLAN_REFUSED = (("checkpoint", None), ("success", None), ("carried_feedforward", "full"), ("allow_large", False))
+SIMULATE_REFUSED = (("record", None), ("time_step_ms", None), ("feedforward", "none"), ("explicit", False),
+                    ("allow_large", False))
+NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "success": "spatial scenarios have no "
+                   "uncertainty section to sweep", "carried_feedforward": "the spatial co-simulation's controller "
+                   "is Drake's inverse dynamics (feedforward always on)", "allow_large": "spatial runs have no "
+                   "memory/time budget", "record": "the spatial co-simulation records nothing yet",
+                   "time_step_ms": "the spatial co-simulation steps at 1 ms", "feedforward": "the spatial "
+                   "co-simulation's controller is Drake's inverse dynamics", "explicit": "the spatial co-simulation "
+                   "has no motor loop"}
+
+
+def is_spatial_scenario(name_or_path) -> bool:
+    """A built-in name or a YAML file with `kind: spatial_transfer`; never raises (a probe)."""
+    p = SCENARIO_DIR / f"{name_or_path}.yaml"
+    if not (isinstance(name_or_path, str) and "/" not in name_or_path and p.is_file()):
+        p = name_or_path
+    try:
+        return scenario_kind(p) == SPATIAL_KIND
+    except (OSError, TypeError, ValueError):
+        return False
+
+
+def list_scenarios() -> None:
+    """One line per built-in spatial scenario (for `qmt-drake scenarios`)."""
+    for name in builtin_scenarios(SPATIAL_KIND):
+        sc = load_spatial_scenario(name)
+        print(f"{name:12s} {SPATIAL_KIND:20s} {sc.n_dof}-joint {sc.urdf.stem}, {sc.hand_kind} hand, payload "
+              f"{sc.body.mass_kg * 1e3:.0f} g, {len(sc.poses_m)} task poses; plan with --method {'|'.join(METHODS)}")
+
+
+def _refuse_given(args, refused, energy_options) -> None:
+    wrong = [(f"--{d.replace('_', '-')}", NOT_FOR_SPATIAL[d]) for d, default in refused
+             if getattr(args, d, default) != default]
+    if wrong:
+        raise QmtInputError(f"{wrong[0][0]}: not for spatial scenario {args.scenario} ({wrong[0][1]}); drop it")
+    energy = given(args, energy_options)
+    if energy:
+        raise QmtInputError(f"{' '.join(energy)}: options of the energy-time planners; {args.scenario} is a "
+                            "spatial scenario: drop them")
+
+
+def _method(args, default: str = "ga") -> str:
+    m = ALIASES.get(args.method or default, args.method or default)
+    if m not in PLANNERS:
+        raise QmtInputError(f"--method {args.method} does not plan spatial scenarios; {args.scenario} is one: use "
+                            f"--method {'|'.join(METHODS)}")
+    return m
+
+
+def _planner_options(args, method: str) -> dict:
+    """The planner's keyword arguments from --seed, --generations, --stall and --option KEY=VALUE,
+    checked against its signature (only int/float keywords) before it runs."""
+    ga = given(args, GA_FLAGS) + (["--seed"] if getattr(args, "seed", 0) != 0 else [])
+    if method != "ga" and ga:
+        raise QmtInputError(f"{' '.join(ga)}: options of --method ga, not {method}; drop them")
+    check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    check_int(getattr(args, "generations", None), "--generations", 1, "run at least one generation")
+    check_int(getattr(args, "stall", None), "--stall", 0, "0 never stops early")
+    params = inspect.signature(PLANNERS[method]).parameters
+    allowed = {k: p.default for k, p in params.items()
+               if type(p.default) in (int, float) and k not in ("seed", "generations", "stall")}
+    opts = parse_options(getattr(args, "option", None))
+    for k, v in opts.items():
+        if k not in allowed:
+            raise QmtInputError(f"--option {k}: the spatial {method} planner takes "
+                                f"{', '.join(sorted(allowed)) or 'no options'}")
+        if not isinstance(v, (int, float)) or (isinstance(allowed[k], int) and not isinstance(v, int)):
+            raise QmtInputError(f"--option {k}={v}: give a{'n integer' if isinstance(allowed[k], int) else ' number'}")
+    if method == "ga":
+        opts.update(seed=args.seed, **{k: getattr(args, k) for k in GA_FLAGS if getattr(args, k, None) is not None})
+        opts["progress"] = None if args.quiet else progress
+    return opts
+
+
+def _plan(args, sc, method: str, opts: dict):
+    if not args.quiet:
+        progress(f"qmt-drake: planning {sc.name} with {method}")
+    return PLANNERS[method](sc, **opts)
+
+
+def plan(args, energy_options) -> bool:
+    """`qmt-drake plan` on a spatial scenario (module docstring); True when the written plan holds
+    every limit on the re-check."""
+    _refuse_given(args, PLAN_REFUSED, energy_options)
+    method = _method(args)
+    check_outputs(args, "--json", "--trajectory-csv")
+    check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
+    if args.carried_max_scale <= 1:
+        raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
+    opts = _planner_options(args, method)
+    sc = load_spatial_scenario(args.scenario)
+    p = _plan(args, sc, method, opts)
+    try:  # TOPP-RA's duration on the IK'd path: the benchmark's bound (well under a second on a UR5)
+        bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc).raw_duration_s
+    except QmtInputError:
+        bound = None
+    if args.carried:
+        search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress)
+        p = carried_plan(sc, p, search)
+    if args.json == "-":
+        print(json.dumps(jsonable(plan_file_dict(sc, p))))
+    elif args.json:
+        write_spatial_plan(sc, p, args.json)
+    if args.trajectory_csv:
+        write_spatial_csv(p, args.trajectory_csv)
+    if args.json != "-":
+        print(summary_line(sc, p, bound))
+    return p.recheck["max"] <= 1.0
+
+
+def summary_line(sc, p, bound) -> str:
+    ratio = f"{p.duration_s / bound:.4f} x the TOPP-RA bound {bound:.4f} s" if bound else "TOPP-RA bound n/a"
+    line = (f"{sc.name} {p.method}: T = {p.duration_s:.4f} s ({ratio}), re-check max ratio {p.recheck['max']:.5f} "
+            f"at {sc.recheck_rate_hz:g} Hz, time scale applied {p.hold_scale:.4f}, task poses within "
+            f"{p.pose_error[:, 0].max():.1e} m, {p.planning_s:.2f} s")
+    s = p.info.get("carried_search")
+    if s:
+        lost = f", lost at x{s['lost_below']:.4f}" if s["lost_below"] else ", as planned"
+        line += f"; carried in the co-simulation at x{s['chosen']:.4f}{lost}"
+    return line
+
+
+def simulate(args, energy_options=()) -> int:
+    """`qmt-drake simulate` on a spatial scenario (module docstring); 0 whatever the outcome."""
+    _refuse_given(args, SIMULATE_REFUSED, energy_options)
+    check_outputs(args, "--json")
+    check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
+    sc = load_spatial_scenario(args.scenario)
+    if args.plan:
+        if args.seed != 0:
+            raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")
+        p = load_spatial_plan(args.plan, sc)
+    else:
+        method = _method(args)
+        opts = _planner_options(args, method)
+        p = _plan(args, sc, method, opts)
+    traj = p.trajectory if args.time_scale == 1.0 else TimeScaled(p.trajectory, args.time_scale)
+    t0 = time.perf_counter()
+    r = simulate_spatial(sc, traj)
+    wall = time.perf_counter() - t0
+    emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
+                        **r, "wall_s": wall}), args.json)
+    if args.json != "-":
+        print(f"{sc.name} {p.method} x{args.time_scale:g}: {verdict_line(r['outcome'], r['lost_at_s'])}, "
+              f"T = {r['duration_s']:.4f} s, largest hand ratio while held {r['max_grip_ratio_while_held']:.4f}, "
+              f"goal error {r['final_goal_error_rad']:.1e} rad, part {r['part_distance_from_cup_at_end_m']:.3g} m "
+              f"from the hand at the end, real-time factor {(r['duration_s'] + TAIL_S) / wall:.2f}")
+    return 0

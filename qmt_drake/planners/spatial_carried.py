@@ -1,0 +1,70 @@
+"""The fastest time scale at which a spatial plan is carried in the co-simulation.
+
+A plan resting on a limit (TOPP-RA's is time-optimal) leaves no margin for the closed loop's
+tracking error, so the co-simulation (sim/spatial_cosim) may lose the part that the planners'
+sampled check says is held. `carried_search` plays the plan k times slower (TimeScaled: positions,
+hence every task pose, unchanged) and bisects k in [1, k_max] for the smallest k whose
+co-simulation carries the part; `carried_plan` turns its answer into a SpatialPlan (re-checked at
+the re-check rate, task poses checked again by Drake FK). Used by `qmt-drake plan SPATIAL --carried`
+and by studies/spatial_benchmark.py (one implementation).
+"""
+
+from __future__ import annotations
+
+import time
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.planners.spatial_methods import SpatialPlan
+from qmt_drake.planners.spatial_trajectory import TimeScaled, check, pose_errors
+from qmt_drake.sim.spatial_cosim import simulate_spatial
+
+
+def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int = 7, try_planned: bool = True,
+                   progress=None, actuator: str = "ideal") -> dict:
+    """Bisection on the time scale k (module docstring). Returns {'chosen': smallest carried k found
+    (None if not carried even at k_max), 'lost_below': the largest k tried that was lost (None if the
+    plan is carried as planned), 'cosim': the chosen k's co-simulation result, 'points': every k tried
+    with its outcome, 'k_max', 'iterations', 'wall_s'}. try_planned: co-simulate k = 1 first (the plan as planned).
+    actuator: the co-simulation's ('ideal' or 'dc_motor', sim/spatial_cosim.simulate_spatial)."""
+    say = progress or (lambda _m: None)
+    points, results, t0 = [], {}, time.perf_counter()
+
+    def carried(k: float) -> bool:
+        r = simulate_spatial(sc, TimeScaled(plan.trajectory, k) if k != 1.0 else plan.trajectory, actuator=actuator)
+        results[k] = r
+        points.append({"time_scale": k, "duration_s": plan.duration_s * k, "outcome": r["outcome"],
+                       "max_grip_ratio_while_held": r["max_grip_ratio_while_held"]})
+        say(f"{sc.name} {plan.method} x{k:.4f}: T = {plan.duration_s * k:.4f} s, {r['outcome']}")
+        return r["held"]
+
+    def done(chosen, lost_below):
+        return {"chosen": chosen, "lost_below": lost_below, "cosim": results[chosen if chosen else lost_below],
+                "k_max": float(k_max), "iterations": int(iterations), "points": points, "actuator": actuator,
+                "wall_s": time.perf_counter() - t0}
+
+    if try_planned and carried(1.0):
+        return done(1.0, None)
+    if not carried(float(k_max)):
+        return done(None, float(k_max))
+    lo, hi = 1.0, float(k_max)
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if carried(mid) else (mid, hi)
+    return done(hi, lo)
+
+
+def carried_plan(sc, plan: SpatialPlan, search: dict) -> SpatialPlan:
+    """`plan` played search['chosen'] times slower as a SpatialPlan named '<method>-carried', re-checked
+    (gravity does not slow down, so a slower plan is not assumed to hold: it is measured); the search
+    goes to info['carried_search']. QmtInputError (one line) when the search found no carried scale."""
+    k = search["chosen"]
+    if k is None:
+        raise QmtInputError(f"--carried: the {plan.method} plan is lost in the co-simulation even {search['k_max']:g}x "
+                            "slower; raise --carried-max-scale")
+    traj = TimeScaled(plan.trajectory, k) if k != 1.0 else plan.trajectory
+    times = plan.pose_times_s * k
+    lost = search["lost_below"]
+    info = dict(plan.info, carried_search=dict(search, margin=None if lost is None else k / lost - 1.0))
+    return SpatialPlan(f"{plan.method}-carried", traj, times, plan.planning_s + search["wall_s"],
+                       plan.raw_duration_s, plan.hold_scale * k, check(sc, traj, sc.recheck_rate_hz),
+                       pose_errors(sc, traj, times), info)

@@ -1,0 +1,205 @@
+"""Spatial plan files: written atomically with what rebuilds the trajectory exactly, loaded back only
+against the scenario they were made for; the trajectory as CSV.
+
+A file is SpatialPlan.to_json_dict() (the summary, the task-pose times, 1 kHz samples to plot) plus
+what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KIND, `n_dof`,
+`joint_names`, `poses_m`, `face_normal`), `info` and `rebuild`, the trajectory's own data:
+
+    {"kind": "time_scaled", "k": k, "inner": {...}}             played k times slower (TimeScaled)
+    {"kind": "piecewise_cubic", "breaks_s", "q_rad", "qd_rad_s"}  a C1 piecewise cubic (the via cubic):
+                                                                  Drake's CubicHermite through its breaks
+    {"kind": "bspline", "order", "knots_s", "control_points_rad"}  trajopt's BsplineTrajectory
+    {"kind": "toppra", "path": {piecewise_cubic in s}, "grid", "sd"}  TOPP-RA's profile on its path
+    {"kind": "ruckig", "segments": [{q_start_rad, q_goal_rad, max_velocity_rad_s,
+              max_acceleration_rad_s2, max_jerk_rad_s3}]}         Ruckig run again (deterministic)
+
+Floats are written by repr (exact), so the rebuilt trajectory is the planned one to rounding;
+`write_spatial_plan` proves it on every write (rebuilt vs planned at 1 kHz, REBUILD_TOL) and never
+writes a file that does not reproduce its plan. `load_spatial_plan` refuses, in one line, a planar
+plan file, a plan of another scenario (its name: ur5-magnet-part has ur5-suction-bins's poses but
+another hand; joint count or names; task poses; or a start/end that Drake's forward kinematics puts
+more than POSE_TOL away from the first/last task pose) and a file whose
+rebuilt trajectory disagrees with its own samples; it re-checks the limits and the task poses
+itself (nothing the file claims is trusted).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from pydrake.math import BsplineBasis
+from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import jsonable, write_text_atomic
+from qmt_drake.plan import SPATIAL_PLAN_KIND, read_plan_file
+from qmt_drake.planners.spatial_methods import SpatialPlan, ruckig_rest_to_rest, ruckig_segment_limits
+from qmt_drake.planners.spatial_trajectory import (
+    PolyTrajectory,
+    RuckigTrajectory,
+    TimeScaled,
+    ToppraTrajectory,
+    check,
+    pose_errors,
+)
+
+REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: rebuilt vs planned (only rounding may differ, ~1e-13)
+POSE_TOL = 1e-6  # m and rad: the plan's first/last sample on the scenario's first/last task pose (Drake FK)
+
+
+def _cubic_spec(pp) -> dict:
+    if any(pp.getSegmentPolynomialDegree(i) > 3 for i in range(pp.get_number_of_segments())):
+        raise ValueError("only piecewise cubics are stored as breaks, positions and velocities")
+    b = np.asarray(pp.get_segment_times())
+    return {"kind": "piecewise_cubic", "breaks_s": b, "q_rad": pp.vector_values(b).T,
+            "qd_rad_s": pp.MakeDerivative(1).vector_values(b).T}
+
+
+def trajectory_spec(traj, ruckig_segments=None) -> dict:
+    """The `rebuild` data of a spatial trajectory (module docstring); ruckig_segments: the inputs of a
+    RuckigTrajectory's segments (Ruckig's result does not carry them)."""
+    if isinstance(traj, TimeScaled):
+        return {"kind": "time_scaled", "k": traj.k, "inner": trajectory_spec(traj.inner, ruckig_segments)}
+    if isinstance(traj, ToppraTrajectory):
+        return {"kind": "toppra", "path": _cubic_spec(traj.path.pp), "grid": traj.grid, "sd": traj.sd}
+    if isinstance(traj, RuckigTrajectory):
+        if ruckig_segments is None or len(ruckig_segments) != len(traj.segments):
+            raise ValueError("a Ruckig trajectory needs the inputs of each of its segments")
+        return {"kind": "ruckig", "segments": ruckig_segments}
+    if isinstance(traj, PolyTrajectory) and isinstance(traj.pp, BsplineTrajectory):
+        bs = traj.pp
+        return {"kind": "bspline", "order": bs.basis().order(), "knots_s": np.asarray(bs.basis().knots()),
+                "control_points_rad": np.hstack(bs.control_points()).T}
+    if isinstance(traj, PolyTrajectory):
+        return _cubic_spec(traj.pp)
+    raise ValueError(f"no plan-file form for a {type(traj).__name__}")
+
+
+def _arr(spec: dict, key: str, ndim: int) -> np.ndarray:
+    a = np.asarray(spec[key], dtype=float)
+    if a.ndim != ndim or a.size == 0 or not np.all(np.isfinite(a)):
+        raise ValueError(f"'{key}' must be a finite {ndim}-D array")
+    return a
+
+
+def trajectory_from_spec(spec: dict):
+    """The trajectory a `rebuild` dict describes; ValueError/KeyError/TypeError/RuntimeError if malformed."""
+    kind = spec["kind"]
+    if kind == "time_scaled":
+        return TimeScaled(trajectory_from_spec(spec["inner"]), float(spec["k"]))
+    if kind == "piecewise_cubic":
+        b, q, qd = _arr(spec, "breaks_s", 1), _arr(spec, "q_rad", 2), _arr(spec, "qd_rad_s", 2)
+        if not (q.shape == qd.shape and q.shape[0] == b.size >= 2 and np.all(np.diff(b) > 0)):
+            raise ValueError("breaks_s must rise and match q_rad and qd_rad_s row for row")
+        return PolyTrajectory(PiecewisePolynomial.CubicHermite(b, q.T, qd.T))
+    if kind == "bspline":
+        cp = _arr(spec, "control_points_rad", 2)
+        basis = BsplineBasis(int(spec["order"]), _arr(spec, "knots_s", 1).tolist())
+        return PolyTrajectory(BsplineTrajectory(basis, [c.reshape(-1, 1) for c in cp]))
+    if kind == "toppra":
+        path = trajectory_from_spec(spec["path"]).pp
+        return ToppraTrajectory(path, _arr(spec, "grid", 1), _arr(spec, "sd", 1))
+    if kind == "ruckig":
+        keys = ("q_start_rad", "q_goal_rad", "max_velocity_rad_s", "max_acceleration_rad_s2", "max_jerk_rad_s3")
+        return RuckigTrajectory([ruckig_rest_to_rest(*(_arr(s, k, 1) for k in keys)) for s in spec["segments"]])
+    raise ValueError(f"unknown trajectory kind {kind!r}")
+
+
+def _ruckig_inputs(sc, plan: SpatialPlan):
+    factors = plan.info.get("acceleration_jerk_factors")
+    if factors is None:
+        return None
+    out = []
+    for qa, qb, c in zip(sc.q_poses_rad[:-1], sc.q_poses_rad[1:], factors):
+        v, a, j = ruckig_segment_limits(sc, c)
+        out.append({"q_start_rad": qa, "q_goal_rad": qb, "max_velocity_rad_s": v, "max_acceleration_rad_s2": a,
+                    "max_jerk_rad_s3": j})
+    return out
+
+
+def _samples(traj, rate_hz: float = 1000.0):
+    t = np.union1d(np.arange(0.0, traj.duration_s, 1.0 / rate_hz), [traj.duration_s])
+    return (t, *traj.sample(t))
+
+
+def _max_difference(a, b) -> float:
+    return max(float(np.max(np.abs(x - y))) for x, y in zip(a, b))
+
+
+def plan_file_dict(sc, plan: SpatialPlan) -> dict:
+    """What write_spatial_plan writes, after proving that `rebuild` reproduces the plan (REBUILD_TOL)."""
+    spec = jsonable(trajectory_spec(plan.trajectory, _ruckig_inputs(sc, plan)))
+    rebuilt = trajectory_from_spec(json.loads(json.dumps(spec)))
+    t, *planned = _samples(plan.trajectory)
+    err = _max_difference(planned, rebuilt.sample(t))
+    if not (abs(rebuilt.duration_s - plan.duration_s) <= REBUILD_TOL and err <= REBUILD_TOL):
+        raise RuntimeError(f"the {plan.method} plan's file form does not rebuild it (difference {err:.3g}); a bug")
+    return {**plan.to_json_dict(), "scenario": sc.name, "scenario_kind": SPATIAL_PLAN_KIND,
+            "scenario_path": str(sc.path), "n_dof": sc.n_dof, "joint_names": list(sc.joint_names),
+            "poses_m": sc.poses_m, "face_normal": sc.face_normal, "info": plan.info, "rebuild": spec}
+
+
+def write_spatial_plan(sc, plan: SpatialPlan, path) -> None:
+    write_text_atomic(path, json.dumps(jsonable(plan_file_dict(sc, plan))) + "\n")
+
+
+def write_spatial_csv(plan: SpatialPlan, path, rate_hz: float = 1000.0) -> None:
+    """t, q_i, qd_i, qdd_i at rate_hz and the end time, units in the header."""
+    t, q, qd, qdd = _samples(plan.trajectory, rate_hz)
+    n = q.shape[1]
+    header = ",".join(["t_s"] + [f"q{i + 1}_rad" for i in range(n)] + [f"qd{i + 1}_rad_s" for i in range(n)]
+                      + [f"qdd{i + 1}_rad_s2" for i in range(n)])
+    rows = np.column_stack([t, q, qd, qdd])
+    write_text_atomic(path, "\n".join([header] + [",".join(f"{v:.12g}" for v in r) for r in rows]) + "\n")
+
+
+def _check_fits(d: dict, path, sc) -> None:
+    """The file's scenario against sc (module docstring), before rebuilding anything."""
+    if d.get("scenario_kind") != SPATIAL_PLAN_KIND:
+        raise QmtInputError(f"plan file {path} is a planar plan (scenario {d.get('scenario')}); spatial scenario "
+                            f"{sc.name} needs a plan written by `qmt-drake plan {sc.name} --json PATH`")
+    again = f"plan again with `qmt-drake plan {sc.name} --json PATH`"
+    if d.get("scenario") != sc.name:  # same geometry may carry another part or hand (ur5-magnet-part)
+        raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')}, not {sc.name}; {again}")
+    if d.get("n_dof") != sc.n_dof or d.get("joint_names") != list(sc.joint_names):
+        raise QmtInputError(f"plan file {path} is for joints {d.get('joint_names')} (scenario {d.get('scenario')}) "
+                            f"but scenario {sc.name} has {list(sc.joint_names)}; {again}")
+    try:
+        poses = np.asarray(d.get("poses_m"), dtype=float)
+    except (TypeError, ValueError):
+        raise QmtInputError(f"plan file {path}: poses_m is not a list of points") from None
+    if poses.shape != sc.poses_m.shape or not np.allclose(poses, sc.poses_m, rtol=0.0, atol=1e-12):
+        raise QmtInputError(f"plan file {path} was made for task poses {poses.tolist()} (scenario {d.get('scenario')}) "
+                            f"but scenario {sc.name} has {sc.poses_m.tolist()}; {again}")
+
+
+def load_spatial_plan(path, sc) -> SpatialPlan:
+    """The plan of a file written by write_spatial_plan, rebuilt exactly and re-checked on sc
+    (module docstring); one-line QmtInputError naming the file for any misfit."""
+    d = read_plan_file(path)
+    _check_fits(d, path, sc)
+    try:
+        traj = trajectory_from_spec(d["rebuild"])
+        stored = d["trajectory"]
+        t = _arr(stored, "t_s", 1)
+        err = _max_difference([_arr(stored, "q_rad", 2)], [traj.sample(t)[0]])
+        times = _arr(d, "pose_times_s", 1)
+        nums = {k: float(d[k]) for k in ("planning_s", "raw_duration_s", "hold_scale")}
+        info = d.get("info") if isinstance(d.get("info"), dict) else {}
+    except (KeyError, TypeError, ValueError, RuntimeError, AttributeError) as exc:
+        raise QmtInputError(f"plan file {path}: cannot rebuild its trajectory ({str(exc).splitlines()[0]}); "
+                            f"write it again with `qmt-drake plan {sc.name} --json PATH`") from None
+    if err > REBUILD_TOL or abs(t[-1] - traj.duration_s) > REBUILD_TOL:
+        raise QmtInputError(f"plan file {path}: its rebuilt trajectory differs from its own samples by {err:.3g} rad "
+                            "(edited by hand?); write it again with `qmt-drake plan`")
+    if times.size != len(sc.poses_m):
+        raise QmtInputError(f"plan file {path} has {times.size} task-pose times; scenario {sc.name} has "
+                            f"{len(sc.poses_m)} task poses")
+    ends = np.array([sc.ik.errors(q, p, sc.face_normal) for q, p in
+                          zip(traj.sample([0.0, traj.duration_s])[0], sc.poses_m[[0, -1]])])
+    if np.any(ends > POSE_TOL):
+        raise QmtInputError(f"plan file {path} starts/ends {ends[0, 0] * 1e3:.3g}/{ends[1, 0] * 1e3:.3g} mm "
+                            f"away from scenario {sc.name}'s first/last task pose; plan again for this scenario")
+    return SpatialPlan(str(d.get("method", "loaded")), traj, times, nums["planning_s"], nums["raw_duration_s"],
+                       nums["hold_scale"], check(sc, traj, sc.recheck_rate_hz), pose_errors(sc, traj, times), info)
