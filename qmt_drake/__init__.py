@@ -9,6 +9,7 @@ sampling), `simulate` executes a plan in the co-simulation and says whether the 
 (SI). The command line is `qmt-drake` (qmt_drake/apps/cli.py); README.md and docs/ describe both.
 """
 
+from qmt_drake import malloc_tuning  # noqa: F401 (first: glibc's thresholds, see the module)
 from qmt_drake.api import Plan, Scenario, build_diagram, load_scenario, plan_with, simulate
 
 __version__ = "0.1.0"
