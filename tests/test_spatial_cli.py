@@ -71,6 +71,15 @@ def test_simulate_prints_the_outcome_word_and_writes_it(planned):
     assert r["outcome"] == "carried" and r["final_goal_error_rad"] < 1e-3
 
 
+def test_simulate_records_the_run(planned, tmp_path):
+    """--record writes one self-contained Meshcat HTML file (the stick-figure arm, the part, the floor)."""
+    rec = tmp_path / "rec.html"
+    rc, out, err = _main("simulate", SC, "--plan", planned["plan"], "--record", rec)
+    assert rc == 0 and f"recording {rec}" in out, err
+    html = rec.read_text()
+    assert len(html) > 100_000 and "meshcat" in html.lower()
+
+
 def test_csv_velocity_is_the_derivative_of_its_position(planned):
     lines = planned["csv"].read_text().splitlines()
     assert lines[0].split(",")[:2] == ["t_s", "q1_rad"] and "qd6_rad_s" in lines[0] and "qdd6_rad_s2" in lines[0]
@@ -171,7 +180,6 @@ def planar_plan(tmp_path_factory):
     (["simulate", SC, "--plan", "{planar}"], "is a planar plan (scenario thesis-ch4)"),
     (["simulate", "thesis-ch4", "--plan", "{spatial}"], "is a spatial (3-D) plan for scenario ur5-suction-bins"),
     (["simulate", "ur5-magnet-part", "--plan", "{spatial}"], "was made for scenario ur5-suction-bins, not ur5-magnet-part"),
-    (["simulate", SC, "--plan", "{spatial}", "--record", "r.html"], "--record: not for spatial scenario"),
     (["simulate", SC, "--plan", "{spatial}", "--time-scale", "-1"], "--time-scale -1.0 must be a finite positive"),
 ])
 def test_refusals_are_one_line_exit_2(sc, planned, planar_plan, tmp_path, argv, needle):
@@ -196,3 +204,13 @@ def test_plan_help_lists_the_spatial_methods():
         main(["plan", "--help"])
     assert "Spatial (3-D) scenarios" in " ".join(buf.getvalue().split())
     assert "toppra, ruckig, family_optimum, ga, trajopt" in " ".join(buf.getvalue().split())
+
+
+def test_a_tray_hand_plans_and_simulates_through_the_cli(tmp_path):
+    """The tray hand's result has no cup-to-hand distance: the CLI says where the cup ended on the tray."""
+    plan = tmp_path / "panda.json"
+    rc, out, err = _main("plan", "panda-tray-cup", "--method", "toppra", "--json", plan, "--quiet")
+    assert rc == 0, err
+    rc, out, err = _main("simulate", "panda-tray-cup", "--plan", plan)
+    assert rc == 0 and "Traceback" not in err, err
+    assert out.startswith("panda-tray-cup toppra x1: carried") and "from its seat on the tray" in out

@@ -52,12 +52,12 @@ SPATIAL_METHODS = METHODS
 GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
 # plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
 PLAN_REFUSED = (("checkpoint", None), ("success", None), ("carried_feedforward", "full"), ("allow_large", False))
-SIMULATE_REFUSED = (("record", None), ("time_step_ms", None), ("feedforward", "none"), ("explicit", False),
+SIMULATE_REFUSED = (("time_step_ms", None), ("feedforward", "none"), ("explicit", False),
                     ("allow_large", False))
 NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "success": "spatial scenarios have no "
                    "uncertainty section to sweep", "carried_feedforward": "the spatial co-simulation's controller "
                    "is Drake's inverse dynamics (feedforward always on)", "allow_large": "spatial runs have no "
-                   "memory/time budget", "record": "the spatial co-simulation records nothing yet",
+                   "memory/time budget",
                    "time_step_ms": "the spatial co-simulation steps at 1 ms", "feedforward": "the spatial "
                    "co-simulation's controller is Drake's inverse dynamics", "explicit": "the spatial co-simulation "
                    "has no motor loop"}
@@ -177,7 +177,7 @@ def summary_line(sc, p, bound) -> str:
 def simulate(args, energy_options=()) -> int:
     """`qmt-drake simulate` on a spatial scenario (module docstring); 0 whatever the outcome."""
     _refuse_given(args, SIMULATE_REFUSED, energy_options)
-    check_outputs(args, "--json")
+    check_outputs(args, "--json", "--record")
     check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
     sc = load_spatial_scenario(args.scenario)
     if args.plan:
@@ -190,13 +190,22 @@ def simulate(args, energy_options=()) -> int:
         p = _plan(args, sc, method, opts)
     traj = p.trajectory if args.time_scale == 1.0 else TimeScaled(p.trajectory, args.time_scale)
     t0 = time.perf_counter()
-    r = simulate_spatial(sc, traj)
+    r = simulate_spatial(sc, traj, record_path=args.record)
     wall = time.perf_counter() - t0
     emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
                         **r, "wall_s": wall}), args.json)
     if args.json != "-":
         print(f"{sc.name} {p.method} x{args.time_scale:g}: {verdict_line(r['outcome'], r['lost_at_s'])}, "
               f"T = {r['duration_s']:.4f} s, largest hand ratio while held {r['max_grip_ratio_while_held']:.4f}, "
-              f"goal error {r['final_goal_error_rad']:.1e} rad, part {r['part_distance_from_cup_at_end_m']:.3g} m "
-              f"from the hand at the end, real-time factor {(r['duration_s'] + TAIL_S) / wall:.2f}")
+              f"goal error {r['final_goal_error_rad']:.1e} rad, {_where_the_part_ended(r)}, "
+              f"real-time factor {(r['duration_s'] + TAIL_S) / wall:.2f}"
+              + (f"; recording {args.record}" if args.record else ""))
     return 0
+
+
+def _where_the_part_ended(r: dict) -> str:
+    """The part's end position in the hand's own terms: off the cup or magnet face, or slid on the tray."""
+    if "final_slide_m" in r:  # tray hand: the cup stands free on the tray
+        return f"cup {r['final_slide_m']:.3g} m from its seat on the tray at the end"
+    return f"part {r['part_distance_from_cup_at_end_m']:.3g} m from the hand at the end"
+

@@ -32,9 +32,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import SceneGraph
+from pydrake.geometry import SceneGraph, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.plant import ContactModel, DiscreteContactApproximation
+from pydrake.multibody.plant import ContactModel, CoulombFriction, DiscreteContactApproximation
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
@@ -49,6 +49,7 @@ from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.spatial_actuation import add_tracking_logs, spatial_drive, tracking_report
+from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import (
     BottleSpec,
@@ -111,17 +112,17 @@ def _reference(traj):
 
 
 def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
-                     feedforward: str = "full") -> dict:
+                     feedforward: str = "full", record_path=None) -> dict:
     """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
     tracking error. grip: the suction hand's stability set in the co-simulation (default: the scenario's
     cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
     'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
-    none / back-emf / full)."""
+    none / back-emf / full). record_path: also write a Meshcat recording there (sim/spatial_recording)."""
     if sc.hand_kind == "tray":
         if actuator != "ideal":
             raise QmtInputError(f"actuator {actuator!r}: the tray hand's co-simulation drives ideal joint torques "
                                 "only; use actuator 'ideal'")
-        return simulate_tray_hand(sc, traj)
+        return simulate_tray_hand(sc, traj, record_path=record_path)
     drive = spatial_drive(sc, traj.sample([0.0])[0][0], actuator, feedforward)
     if sc.hand_kind == "suction" and grip is None:
         grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
@@ -140,7 +141,17 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     weld_id = plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
     if drive is not None:
         drive.prepare_plant(plant, H.model_instance(), sc)
+    rec = None
+    if record_path is not None:
+        rec = SpatialRecording.add(builder, plant, H.model_instance())
+        size = 4.0 * rec.link_radius_m
+        add_part_box(plant, part, b.com_m, size)
+        # only the part and the floor collide: a detached part lands instead of falling for ever
+        plant.RegisterCollisionGeometry(part, RigidTransform(np.asarray(b.com_m, float)), Sphere(size / 2),
+                                        "part_collision", CoulombFriction(0.5, 0.5))
     plant.Finalize()
+    if rec is not None:
+        rec.connect(builder, plant)
     arm = H.model_instance()
     n = sc.n_dof
     mon = builder.AddSystem(HoldMonitor(plant, part, term))
@@ -179,12 +190,16 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
         return EventStatus.ReachedTermination(mon, "detached") if detached else EventStatus.DidNothing()
 
     sim.set_monitor(stop_when_detached)
+    if rec is not None:
+        rec.start(plant, pctx, sc.path_points_m)
     sim.AdvanceTo(t_end)
     x = mctx.get_discrete_state_vector().CopyToVector()
     if x[0] > 0.5:  # the cup let go: the part flies free for the rest of the run
         sim.clear_monitor()
         plant.SetConstraintActiveStatus(pctx, weld_id, False)
         sim.AdvanceTo(t_end)
+    if rec is not None:
+        rec.save(record_path)
     q_end = plant.GetPositions(pctx, arm)
     lost = "detached" if x[0] > 0.5 else None
     err = float(np.abs(q_goal - q_end).max())
@@ -258,7 +273,7 @@ def _add_tray_and_cup(plant, scene_graph, H, sc):
     tray = plant.AddRigidBody("tray", plant.AddModelInstance("tray"), SpatialInertia.Zero())
     X_HT = RigidTransform(RotationMatrix(face_basis(sc.face_axis).T), np.zeros(3))
     plant.WeldFrames(H, tray.body_frame(), X_HT)
-    add_tray_contact(plant, tray, spec, size_m=sc.cup.tray_size_m)
+    add_tray_contact(plant, tray, spec, size_m=sc.cup.tray_size_m, visual=True)
     cup = add_bottle(plant, spec, "cup", tray_body=tray)
     six_dof_joint_of(plant, cup).SetDefaultPose(seated_pose_on_tray())
     return tray, cup, spec
@@ -278,7 +293,7 @@ def classify_tray_run(t, slide, tilt, spec: CupSpec, tray_size_m) -> tuple[str |
     return None, None, bool(np.hypot(*slide[:, -1]) > SLIP_TOLERANCE_M)
 
 
-def simulate_tray_hand(sc, traj) -> dict:
+def simulate_tray_hand(sc, traj, *, record_path=None) -> dict:
     """simulate_spatial for a tray hand: the cup is a free body standing on the tray box under Coulomb
     friction (point contact, discrete SAP at 1 ms), nothing holds it; after SETTLE_S at the start the
     plan is played. Outcome (qmt_drake/outcome.py): slid_off / tipped / slipped / unfinished / carried.
@@ -292,9 +307,12 @@ def simulate_tray_hand(sc, traj) -> dict:
     builder.AddSystem(plant)
     scene_graph = builder.AddSystem(SceneGraph())
     tray, cup, spec = _add_tray_and_cup(plant, scene_graph, H, sc)
+    rec = None if record_path is None else SpatialRecording.add(builder, plant, H.model_instance(), scene_graph)
     plant.Finalize()
     builder.Connect(plant.get_geometry_pose_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
     builder.Connect(scene_graph.get_query_output_port(), plant.get_geometry_query_input_port())
+    if rec is not None:
+        rec.connect(builder, plant, geometry_connected=True)
     allow_contact(plant, scene_graph, tray, cup)
     arm = H.model_instance()
     ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
@@ -326,7 +344,11 @@ def simulate_tray_hand(sc, traj) -> dict:
     ctx = sim.get_mutable_context()
     pctx = plant.GetMyMutableContextFromRoot(ctx)
     plant.SetPositions(pctx, arm, traj.sample([0.0])[0][0])
+    if rec is not None:
+        rec.start(plant, pctx, sc.path_points_m)
     sim.AdvanceTo(t_end)
+    if rec is not None:
+        rec.save(record_path)
     log = {k: lg.FindLog(ctx) for k, lg in logs.items()}
     t = log["slide"].sample_times()
     seated = t >= SETTLE_S

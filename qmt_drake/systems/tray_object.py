@@ -132,11 +132,14 @@ def _proximity(spec: BottleSpec) -> ProximityProperties:
     return props
 
 
-def add_tray_contact(plant, tray_body, spec: BottleSpec, size_m=TRAY_SIZE_M) -> None:
-    """The tray's collision box: upper face at tray frame z = 0."""
+def add_tray_contact(plant, tray_body, spec: BottleSpec, size_m=TRAY_SIZE_M, *, visual: bool = False) -> None:
+    """The tray's collision box: upper face at tray frame z = 0; with visual, the same box drawn (a
+    tray body with no visual of its own, e.g. the spatial tray hand's; the CRANE-X7's URDF has one)."""
     a, b, c = size_m
-    plant.RegisterCollisionGeometry(tray_body, RigidTransform([0.0, 0.0, -c / 2]), Box(a, b, c), "tray_surface",
-                                    _proximity(spec))
+    X = RigidTransform([0.0, 0.0, -c / 2])
+    plant.RegisterCollisionGeometry(tray_body, X, Box(a, b, c), "tray_surface", _proximity(spec))
+    if visual:
+        plant.RegisterVisualGeometry(tray_body, X, Box(a, b, c), "tray_visual", np.array([0.55, 0.55, 0.6, 1.0]))
 
 
 def add_bottle(plant, spec: BottleSpec, name: str = "bottle", *, tray_body=None):
