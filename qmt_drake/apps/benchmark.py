@@ -254,10 +254,11 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
             rows.append(_row(sc, label, plan, cosim))
         fc_row = None
         if cosim and carried and getattr(sc, "is_tray", False):
-            # the search (sweep/robust.py) co-simulates the magnet hand; studies/crane_tray.py
-            # searches the tray's time scales through the servos
+            # this search converges the magnet co-simulation's plant step; the tray's servos fix it at
+            # their control period, and its search per bottle is a study of its own
             result["scenarios"].setdefault(name, {})["fastest_carried_note"] = (
-                "not searched here for a tray scenario: python -m studies.crane_tray --sections qmt")
+                "not searched here for a tray scenario: qmt-drake plan crane-tray --method toppra --carried, "
+                "or per friction and fill python -m studies.tray_carried")
         elif cosim and carried:
             say(f"{name}: searching the fastest plan carried in the co-simulation")
             try:
