@@ -17,6 +17,7 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 
 IK_BRANCHES = ("elbow_positive", "elbow_negative")
+STEEL_DENSITY_KG_M3 = 7850.0  # the thesis's steel part (a cylinder sized from its mass)
 
 
 # ------------------------------------------------------------------------------- DC motors

@@ -34,10 +34,12 @@ def test_the_two_kinds_refuse_each_others_commands_in_one_line(capsys):
     assert len(err.splitlines()) == 1 and "transfer scenario" in err
 
 
-def test_scenarios_lists_both_kinds(capsys):
+def test_scenarios_lists_every_kind(capsys):
     assert main(["scenarios"]) == 0
     names = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
-    assert set(names) == set(builtin_scenarios()) | set(EXPERIMENTS)
+    spatial = builtin_scenarios("spatial_transfer")
+    assert {"ur5-suction-bins", "ur5-magnet-part", "panda-tray-cup"} <= set(spatial)
+    assert set(names) == set(builtin_scenarios()) | set(EXPERIMENTS) | set(spatial)
 
 
 def _user_file(tmp_path, **changes):

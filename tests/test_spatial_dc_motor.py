@@ -20,18 +20,14 @@ from qmt_drake.spatial_motor import parse_motor_section
 from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
 from qmt_drake.systems.dc_motor import motor_inverse, motor_joints
 from qmt_drake.systems.joint_tracking import JointPidController, pd_voltage
+from tests.spatial_fixtures import load_or_skip
 
 SHIPPED = SCENARIO_DIR / "ur5-suction-bins.yaml"
 
 
 @pytest.fixture(scope="module")
 def sc():
-    try:
-        return load_spatial_scenario("ur5-suction-bins")
-    except QmtInputError as exc:  # example-robot-data (a test extra) missing
-        if "example-robot-data" not in str(exc):
-            raise
-        pytest.skip(str(exc))
+    return load_or_skip("ur5-suction-bins")
 
 
 @pytest.fixture(scope="module")

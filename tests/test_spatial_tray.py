@@ -27,6 +27,7 @@ from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_cosim import CupSpec, simulate_spatial
 from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
 from qmt_drake.tray.conditions import contact_wrench, kinematics_from_hand_state, tray_ratios
+from tests.spatial_fixtures import load_or_skip
 
 SHIPPED = SCENARIO_DIR / "panda-tray-cup.yaml"
 CUP = TrayCup(radius_m=0.04, height_m=0.10, mass_kg=0.3, friction=0.4)
@@ -100,12 +101,7 @@ def test_level_tray_closed_forms_and_inscribed_rows():
 
 @pytest.fixture(scope="module")
 def sc():
-    try:
-        return load_spatial_scenario("panda-tray-cup")
-    except QmtInputError as exc:  # example-robot-data (a test extra) missing
-        if "example-robot-data" not in str(exc):
-            raise
-        pytest.skip(str(exc))
+    return load_or_skip("panda-tray-cup")
 
 
 @pytest.fixture(scope="module")

@@ -18,6 +18,7 @@ from qmt_drake.catalog import (
     IK_BRANCHES,
     MOTOR_CATALOG,
     SERVO_CATALOG,
+    STEEL_DENSITY_KG_M3,
     THESIS_COILS,
     CoilSpec,
     motor_for_rated_torque,
@@ -41,8 +42,6 @@ from qmt_drake.config.sections import (
 from qmt_drake.errors import QmtInputError
 
 FAMILY_KINDS = ("line_cubic_velocity", "trapezoid_ptp", "via_cubic")
-# systems/payload.py has the same density for the simulated part; config/ may not import systems/
-STEEL_DENSITY_KG_M3 = 7850.0
 WORLD_KEYS = {"gravity_m_s2"}
 
 _HAND_KEYS = {"kind", "coil", "slip_boundary_Nm", "coil_current_A", "effective_gap_m", "friction",

@@ -47,7 +47,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import QuaternionFloatingJoint, SpatialInertia, UnitInertia
 
-STEEL_DENSITY_KG_M3 = 7850.0
+from qmt_drake.catalog import STEEL_DENSITY_KG_M3
 
 
 @dataclass(frozen=True)
