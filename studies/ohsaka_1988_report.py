@@ -138,7 +138,7 @@ def table(res) -> str:
                          f"T = {po['T_s']:.4f} s, theta_T = ({', '.join(f'{v:.1f}' for v in po['thetaT_deg'])}) deg.")
     if "ipopt_warm" in res["fig3"]["X2_up"]:
         L += ["", "## IPOPT beside SNOPT (Fig. 3, X2 up)", "",
-              "| optimum | SNOPT z | IPOPT warm-started there: z, rel. change, max |dy| |", "|---|---|---|"]
+              "| optimum | SNOPT z | IPOPT warm-started there: z, rel. change, max abs(dy) |", "|---|---|---|"]
         for w in res["fig3"]["X2_up"]["ipopt_warm"]:
             L.append(f"| {w['end']} | {w['snopt_z']:.1f} | {w['ipopt_z']:.1f}, {w['rel_dz']:.1e}, {w['max_dy']:.1e} ({'ok' if w['success'] else 'failed'}) |")
         for label, what in (("ipopt_cold", "Drake's IPOPT options, 1000 iterations"),
