@@ -58,6 +58,7 @@ class HandPlugin:
     refused_methods: dict = field(default_factory=dict)
     case_parameters: frozenset | None = None
     case_overrides: Callable | None = None
+    case_refused: frozenset = frozenset()  # sweep parameters of other hands that this one cannot vary
 
 
 HANDS: dict[str, HandPlugin] = {}
@@ -95,6 +96,7 @@ register_hand(HandPlugin(
     carried_inertia=lambda sc: PayloadSpec.for_scenario(sc).spatial_inertia_about_origin(),
     simulate=run_transfer_simulate,
     build_diagram=build_transfer_diagram,
+    case_refused=frozenset({"servo_delay_s"}),  # DC motors with PID: no goal stream to delay
 ))
 
 
@@ -102,10 +104,10 @@ register_hand(HandPlugin(
 def _simulate_tray(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0,
                    record_path: str | Path | None = None, time_step_s: float | None = None,
                    implicit_loop_damping: bool | None = None, feedforward: str = "none",
-                   physical: Scenario | None = None) -> dict:
+                   physical: Scenario | None = None, servo_delay_s: float = 0.0) -> dict:
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
     return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path, time_step_s=time_step_s,
-                              physical=physical)
+                              physical=physical, servo_delay_s=servo_delay_s)
 
 
 def _tray_diagram(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, time_step_s: float | None = None,

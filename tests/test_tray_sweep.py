@@ -5,6 +5,7 @@ the tray co-simulation does not model is refused in one line before anything run
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from qmt_drake.apps.cli import main
@@ -62,3 +63,31 @@ def test_tray_cases_vary_the_simulated_bottle_and_not_the_plan(tmp_path):
     assert out[0.3]["outcome"] == "carried" and out[0.3]["held"] is True
     assert out[0.15]["outcome"] != "carried" and out[0.15]["held"] is False
     assert out[0.15]["max_slip_m"] > 1e-3
+
+
+def test_a_delayed_goal_stream_is_the_same_stream_later():
+    from qmt_drake.tray.execute import delayed, plan_schedule
+    sc = load_scenario("crane-tray")
+    s = plan_schedule(plan_with("toppra", sc), time_scale=1.1, period_s=1e-3, shaped_for=sc)
+    d = delayed(s, 0.02)
+    t = np.random.default_rng(0).uniform(0.0, s.t_end_s, 200)
+    np.testing.assert_array_equal(d.goal_at(t + 0.02), s.goal_at(t))
+    np.testing.assert_array_equal(d.goal_at(np.array([0.0, 0.019])), s.goals[[0, 0]])
+    assert d.t_end_s == pytest.approx(s.t_end_s + 0.02)
+    with pytest.raises(QmtInputError, match="servo delay"):
+        delayed(s, 0.5)
+
+
+def test_servo_delay_is_a_tray_parameter_and_refused_for_the_magnet():
+    spec = load_spec({"name": "t", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
+                      "parameters": {"servo_delay_s": 0.01}})
+    with pytest.raises(QmtInputError, match="servo_delay_s.*magnet hand"):
+        build_cases(spec)
+    spec = load_spec({"name": "t", "scenario": "crane-tray", "plans": [{"method": "toppra"}],
+                      "parameters": {"servo_delay_s": {"values": [0.0, 0.03]}, "time_scale": 1.1}})
+    cases, refs = build_cases(spec)
+    doc = make_plan_doc(next(iter(refs.values())))
+    out = [run_case(c, doc) for c in cases]
+    assert [r["parameters"]["servo_delay_s"] for r in out] == [0.0, 0.03]
+    # the same motion 30 ms later: the bottle is carried either way and the arm arrives
+    assert all(r["outcome"] == "carried" for r in out)

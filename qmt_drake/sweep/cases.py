@@ -124,9 +124,13 @@ def check_hand_can_vary(spec: SweepSpec, base) -> None:
     """One-line QmtInputError when the spec varies what the scenario's hand co-simulation does not
     model (e.g. a coil current for a tray), or sets a DC-motor simulator option for it."""
     plugin = hand_plugin(base)
+    kind = plugin.kind
+    for name in (*spec.fixed, *spec.grid, *spec.distributions):
+        if name in plugin.case_refused:
+            raise QmtInputError(f"sweep parameter '{name}': the {kind} hand's co-simulation does not vary it "
+                                f"(scenario {base.name})")
     if plugin.case_parameters is None:
         return
-    kind = plugin.kind
     for name in (*spec.fixed, *spec.grid, *spec.distributions):
         if name not in plugin.case_parameters:
             raise QmtInputError(f"sweep parameter '{name}': the {kind} hand's co-simulation does not vary it "

@@ -74,6 +74,8 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("time_scale", "sim", "time_scale", False, "-",
               "replay time stretch (<1 faster; moment ~ 1/s^2)"),
     Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step", upper=MAX_TIME_STEP_S),
+    Parameter("servo_delay_s", "sim", "servo_delay_s", False, "s",
+              "latency of the goal stream to the servos (tray hand)", inclusive=True, upper=0.1),
     Parameter("seed", "plan", "seed", False, "-", "planner seed", lower=0.0, inclusive=True,
               integer=True),
     Parameter("jerk_limit_m_s3", "plan", "options.jerk_limit", False, "m/s^3",

@@ -29,7 +29,8 @@ TAIL_S = 1.5
 # replay speed and step, the planner seed. Coil, magnet, DC-motor and gain parameters belong to
 # the magnet hand's co-simulation and are refused for a tray scenario.
 TRAY_CASE_PARAMETERS = frozenset({"friction", "mass_kg", "mass_scale", "com_offset_m", "com_offset_scale",
-                                  "time_scale", "time_step_s", "seed"})
+                                  "time_scale", "time_step_s", "seed", "servo_delay_s"})
+MAX_SERVO_DELAY_S = 0.1
 
 
 def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, settle_s: float = SETTLE_S,
@@ -86,17 +87,32 @@ def check_tray_simulation(scenario, time_step_s: float | None = None, feedforwar
                             f"exceed the servos' control period ({period_ms:g} ms); use {period_ms:g} or less")
 
 
+def delayed(schedule: GoalSchedule, delay_s: float) -> GoalSchedule:
+    """The goal stream reaching the servos delay_s [s] late (a bus or host latency): the first goal held
+    until then, every later one shifted, the run and its phases delay_s longer."""
+    if not (np.isfinite(delay_s) and 0.0 <= delay_s <= MAX_SERVO_DELAY_S):
+        raise QmtInputError(f"servo delay {delay_s} s must lie in [0, {MAX_SERVO_DELAY_S:g}] s")
+    if delay_s == 0.0:
+        return schedule
+    return GoalSchedule(np.concatenate([[0.0], schedule.times + delay_s]),
+                        np.vstack([schedule.goals[:1], schedule.goals]), schedule.t_end_s + delay_s,
+                        {k: (a + delay_s, b + delay_s) for k, (a, b) in schedule.phases.items()},
+                        f"{schedule.label} delayed {delay_s * 1e3:g} ms")
+
+
 def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
-                       time_step_s: float | None = None, physical=None) -> dict:
+                       time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0) -> dict:
     """The summary of `plan` executed on `scenario`'s CRANE-X7 (see the module docstring).
     physical: the scenario whose bottle (mass, centre of mass, friction) is simulated, when it
     differs from the one the servos' goals are shaped for (a sweep case's drawn bottle: the
-    controller knows only the nominal one); None: `scenario` itself."""
+    controller knows only the nominal one); None: `scenario` itself. servo_delay_s: the goal stream
+    arrives that late (`delayed`)."""
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused by the library
     act = scenario.actuator
     sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s,
                           shaped_for=scenario if act.reference == "shaped" else None)
+    sched = delayed(sched, float(servo_delay_s))
     r = simulate_tray(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
                       servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path)
     d = r.summary_dict()
