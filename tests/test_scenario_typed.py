@@ -176,3 +176,14 @@ def test_plan_file_carries_the_fingerprint_and_task(tmp_path):
     d = json.loads((tmp_path / "p.json").read_text())
     assert d["scenario_fingerprint"] == sc.fingerprint() and d["n_dof"] == 2
     np.testing.assert_array_equal(d["task_points_m"], sc.task.points_m)
+
+
+def test_a_number_yaml_read_as_text_names_the_fix():
+    """PyYAML (YAML 1.1) reads 1e-5 without a decimal point as a string: refused, with the fix."""
+    import pytest
+
+    from qmt_drake.config import fields
+    from qmt_drake.errors import QmtInputError
+    for call in (lambda: fields.vector({"k": [1.0, "1e-5"]}, "k", "w"), lambda: fields.num({"k": "2e3"}, "k", "w")):
+        with pytest.raises(QmtInputError, match="write it with a decimal point"):
+            call()

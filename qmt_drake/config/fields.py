@@ -113,7 +113,7 @@ def num(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: b
         return default
     v = need(d, key, where)
     if not is_number(v):
-        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}")
+        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}{_float_text_hint(v)}")
     v = float(v)
     if not math.isfinite(v) or (positive and v <= 0) or (nonnegative and v < 0):
         want = "positive" if positive else "non-negative" if nonnegative else "finite"
@@ -166,7 +166,7 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     """A non-empty list of finite numbers (positive / non-negative if asked; `length` entries)."""
     v = need(d, key, where)
     if not isinstance(v, list) or not v or not all(is_number(x) for x in v):
-        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}")
+        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}{_float_text_hint(v)}")
     a = np.asarray(v, dtype=float)
     bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
     if np.any(bad):
@@ -175,3 +175,17 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     if length is not None and len(a) != length:
         raise QmtInputError(f"{where}.{key} has {len(a)} entries; give {length} ({what})")
     return a
+
+
+def _float_text_hint(v) -> str:
+    """The fix when YAML 1.1 read a number as text (PyYAML takes 1e-5 without a dot for a string)."""
+    items = v if isinstance(v, list) else [v]
+    for x in items:
+        if isinstance(x, str):
+            try:
+                float(x)
+            except ValueError:
+                continue
+            return f"; YAML reads {x} as text: write it with a decimal point, e.g. {float(x):.1e}"
+    return ""
+

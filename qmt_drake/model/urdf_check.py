@@ -92,6 +92,10 @@ def _strip_and_lock(root: ET.Element, lock_joints, source: str) -> None:
     for j in root.findall("joint"):  # not used by planning; Drake warns about it
         for el in j.findall("safety_controller"):
             j.remove(el)
+        for dyn in j.findall("dynamics"):  # Drake ignores joint friction and warns per joint
+            dyn.attrib.pop("friction", None)
+    for el in root.iter("mechanicalReduction"):  # Drake ignores it too (drive_parameters explains) and warns
+        el.text = "1"
     names = {j.get("name") for j in root.findall("joint")}
     unknown = [n for n in lock_joints if n not in names]
     if unknown:
