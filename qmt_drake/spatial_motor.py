@@ -6,6 +6,8 @@
         resistance_ohm: [0.35, 0.35, 0.35, 1.2, 1.2, 1.2]                # armature (terminal) resistance
         voltage_limit_V: 48.0                                            # supply / amplifier limit
         gear_efficiency: 1.0              # optional, (0, 1], default 1 (a loss-free gear, as the planners assume)
+        integral_rate_per_s: 0.0          # optional, >= 0, default 0 (a PD law): the PID's integral gain as a
+                                          # rate of the loop's stiffness, Ki = K * rate (joint side)
 
 The current limit is not a key: it is the joint's torque limit at the motor, I_max = tau_max / (N eta k_t),
 so the motors never deliver more than the actuators section's torque_limit_Nm (the planners' limit).
@@ -24,7 +26,10 @@ from qmt_drake.config import fields as F
 from qmt_drake.errors import QmtInputError
 
 MOTOR_KEYS = ("torque_constant_Nm_per_A", "resistance_ohm", "voltage_limit_V")
-OPTIONAL_KEYS = ("gear_efficiency",)
+OPTIONAL_KEYS = ("gear_efficiency", "integral_rate_per_s")
+# the loop s^3 + 60 s^2 + 900 s + 900 rate (critically damped at 30 rad/s, sim/spatial_actuation) keeps its slow
+# pole pair damped at 0.55 or better up to rate 10 1/s (0.28 at 20, unstable at 60)
+MAX_INTEGRAL_RATE_PER_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -36,16 +41,17 @@ class SpatialMotors:
     voltage_limit_V: np.ndarray
     gear_efficiency: np.ndarray
     current_limit_A: np.ndarray  # tau_max / (N eta k_t): the torque limit at the motor
+    integral_rate_per_s: np.ndarray  # Ki / K of the PID [1/s]; zeros: a PD law
 
 
-def _per_joint(raw: dict, key: str, where: str, n: int, names, default=None) -> np.ndarray:
+def _per_joint(raw: dict, key: str, where: str, n: int, names, default=None, positive: bool = True) -> np.ndarray:
     v = raw.get(key, default)
     if F.is_number(v):
         v = [v] * n
     if not isinstance(v, list) or len(v) != n:
         raise QmtInputError(f"{where}.{key} must be one number or a list of {n} numbers, one per joint {list(names)}; "
                             f"got {F.show(raw.get(key))}")
-    return F.vector({key: v}, key, where, positive=True, length=n)
+    return F.vector({key: v}, key, where, positive=positive, nonnegative=not positive, length=n)
 
 
 def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: str) -> SpatialMotors | None:
@@ -64,6 +70,10 @@ def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: st
     eta = _per_joint(raw, "gear_efficiency", where, n, joint_names, default=1.0)
     if np.any(eta > 1.0):
         raise QmtInputError(f"{where}.gear_efficiency must be in (0, 1]; got {eta.tolist()}")
+    rate = _per_joint(raw, "integral_rate_per_s", where, n, joint_names, default=0.0, positive=False)
+    if np.any(rate > MAX_INTEGRAL_RATE_PER_S):
+        raise QmtInputError(f"{where}.integral_rate_per_s must be at most {MAX_INTEGRAL_RATE_PER_S:g} 1/s (beyond it the "
+                            f"joint loop's slow poles are damped less than 0.55 and ring); got {rate.tolist()}")
     tau_max, N = np.asarray(torque_limit_Nm, float), np.asarray(gear_ratio, float)
     stall = N * eta * kt * v / r  # joint torque at stall with the full voltage [N*m]
     short = np.flatnonzero(stall < tau_max)
@@ -72,4 +82,4 @@ def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: st
         raise QmtInputError(f"{where}: joint {joint_names[k]}'s motor reaches {stall[k]:.4g} N m at stall through the "
                             f"gear (N eta k_t V/R), below its torque limit {tau_max[k]:g} N m; raise voltage_limit_V "
                             "or torque_constant_Nm_per_A, or lower resistance_ohm")
-    return SpatialMotors(kt, r, v, eta, tau_max / (N * eta * kt))
+    return SpatialMotors(kt, r, v, eta, tau_max / (N * eta * kt), rate)

@@ -81,6 +81,10 @@ def test_dc_motor_refused_without_motor_constants(sc, tmp_path):
     ({"torque_constant_Nm_per_A": 0.001, "resistance_ohm": 5.0, "voltage_limit_V": 12.0},
      "shoulder_pan_joint's motor reaches 0.2424 N m at stall .* below its torque limit 150 N m"),
     ({"torque_constant_Nm_per_A": 0.1, "resistance_ohm": 0.35, "voltage_limit_V": 48.0, "kv": 1.0}, "unknown key 'kv'"),
+    ({"torque_constant_Nm_per_A": 0.1, "resistance_ohm": 0.35, "voltage_limit_V": 48.0, "integral_rate_per_s": -1.0},
+     "integral_rate_per_s must be a list of non-negative numbers"),
+    ({"torque_constant_Nm_per_A": 0.1, "resistance_ohm": 0.35, "voltage_limit_V": 48.0, "integral_rate_per_s": 30.0},
+     "integral_rate_per_s must be at most 10 1/s"),
 ])
 def test_motor_section_refused_in_one_line(sc, motor, message):
     with pytest.raises(QmtInputError, match=message) as e:
@@ -152,6 +156,26 @@ def test_static_gravity_hold_matches_the_closed_form(sc):
         np.testing.assert_allclose(e, expected_e, atol=1e-7)
         if ff == "none":
             assert np.abs(e).max() > 1e-3  # a visible sag, so the check above is not trivially zero
+
+
+def test_integral_term_removes_the_gravity_sag(sc, tmp_path):
+    """With the PID's integral (actuators.motor.integral_rate_per_s) and no feedforward, the hold's sag
+    (the closed form of the test above: e = R tau_g / (N^2 k_t Kp)) decays at about that rate: after
+    2 s at 5 1/s it is under 1 % of the PD's, and the current still carries the gravity torque."""
+    raw = yaml.safe_load(SHIPPED.read_text())
+    raw["actuators"]["motor"]["integral_rate_per_s"] = 5.0
+    p = tmp_path / "pid.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    pid_sc = load_spatial_scenario(p)
+    q0 = pid_sc.q_poses_rad[0]
+    drive = SpatialMotorDrive.for_scenario(pid_sc, q0, "none")
+    np.testing.assert_allclose(drive.gains.ki_V_per_rad_s, 5.0 * drive.gains.kp_V_per_rad)
+    pd = simulate_spatial(sc, Hold(q0, 2.0), actuator="dc_motor", feedforward="none", grip=_strong_grip(sc))
+    pid = simulate_spatial(pid_sc, Hold(q0, 2.0), actuator="dc_motor", feedforward="none", grip=_strong_grip(sc))
+    e_pd, e_pid = np.abs(pd["final_tracking_error_rad"]), np.abs(pid["final_tracking_error_rad"])
+    assert e_pd.max() > 1e-3 and pid["lost_at_s"] is None
+    assert e_pid.max() < 0.01 * e_pd.max()
+    np.testing.assert_allclose(pid["final_current_A"], pd["final_current_A"], rtol=0.02, atol=1e-3)
 
 
 def test_toppra_plan_carried_and_arrives_through_dc_motors(sc, toppra):

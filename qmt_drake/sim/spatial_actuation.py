@@ -1,7 +1,8 @@
 """The spatial co-simulation's actuator choice: `ideal` (Drake's InverseDynamicsController with saturated
 joint torques, built in sim/spatial_cosim.py) or `dc_motor`, the planar thesis arms' drive on a URDF arm:
 
-    plan --desired_state--> PD law (joint_tracking.pd_voltage, motor-side gains, volts)
+    plan --desired_state--> PD law (joint_tracking.pd_voltage, motor-side gains, volts) [+ Ki z: integral,
+                            actuators.motor.integral_rate_per_s > 0: the JointPidController with anti-windup]
          [+ K_e N qd_des]                      back-EMF feedforward      (feedforward "back-emf", "full")
          [+ tau_ff R / (N eta k_t)]            inverse-dynamics feedforward ("full"): Drake InverseDynamics of
                                                the arm with the part welded and N^2 J_r, on the plan
@@ -40,10 +41,15 @@ from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.urdf_check import load_arm_plant
-from qmt_drake.sim.actuation import FEEDFORWARD_OPTIONS, add_motor_actuation_law, motor_actuation_law
+from qmt_drake.sim.actuation import (
+    FEEDFORWARD_OPTIONS,
+    add_implicit_damping_actuation,
+    add_motor_actuation_law,
+    motor_actuation_law,
+)
 from qmt_drake.sim.plant import move_loop_damping_into_plant
 from qmt_drake.spatial_motor import MOTOR_KEYS
-from qmt_drake.systems.dc_motor import DcMotorParams
+from qmt_drake.systems.dc_motor import DcMotorParams, dc_motors_as_primitives
 from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
 
 ACTUATORS = ("ideal", "dc_motor")
@@ -75,14 +81,15 @@ def motor_params_for_spatial(sc) -> DcMotorParams:
                          current_limit_A=m.current_limit_A, efficiency=m.gear_efficiency, names=list(sc.joint_names))
 
 
-def decentralised_gains(mp: DcMotorParams, joint_inertia_kgm2) -> PidGains:
-    """Motor-side PD voltage gains (module docstring): every joint critically damped at its inertia."""
+def decentralised_gains(mp: DcMotorParams, joint_inertia_kgm2, integral_rate_per_s=0.0) -> PidGains:
+    """Motor-side PID voltage gains (module docstring): every joint critically damped at its inertia,
+    and the integral gain Ki = K * integral_rate_per_s [1/s] (zero: a PD law)."""
     M = np.asarray(joint_inertia_kgm2, float)
     n = mp.n
     per_kp, b = effective_joint_gains(PidGains(np.ones(n), np.zeros(n), np.zeros(n)), mp)  # c N [N*m/V*V/rad], b_emf
     D = np.maximum(2.0 * DAMPING_RATIO * CLOSED_LOOP_RAD_S * M, b)
     K = (D / (2.0 * DAMPING_RATIO)) ** 2 / M
-    return PidGains(K / per_kp, np.zeros(n), (D - b) / per_kp)
+    return PidGains(K / per_kp, K * np.broadcast_to(integral_rate_per_s, (n,)) / per_kp, (D - b) / per_kp)
 
 
 @dataclass
@@ -107,7 +114,7 @@ class SpatialMotorDrive:
         plant.Finalize()
         ctx = plant.CreateDefaultContext()
         plant.SetPositions(ctx, np.asarray(q_start_rad, float))
-        gains = decentralised_gains(mp, np.diag(plant.CalcMassMatrix(ctx)))
+        gains = decentralised_gains(mp, np.diag(plant.CalcMassMatrix(ctx)), sc.motor.integral_rate_per_s)
         return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant)
 
     def prepare_plant(self, plant, arm_instance, sc) -> None:
@@ -123,7 +130,10 @@ class SpatialMotorDrive:
         pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
                                  motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),
                                  torque_feedforward=opts.get("inverse_dynamics_feedforward", False))
-        law = builder.AddNamedSystem("motor_actuation", motor_actuation_law(pid, mp, self.loop_damping_Nms))
+        compiled = motor_actuation_law(pid, mp, self.loop_damping_Nms)  # None with an integral term
+        # a PD law is one compiled system with the motors; a PID runs as the Python controller (its integral
+        # is a discrete state with anti-windup) driving the motors as Drake primitives
+        law = builder.AddNamedSystem("motor_actuation" if compiled is not None else "controller", compiled or pid)
         state = plant.get_state_output_port(arm_instance)
         split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
         builder.Connect(state, split.get_input_port())
@@ -134,8 +144,14 @@ class SpatialMotorDrive:
             builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
             builder.Connect(desired_acceleration_port, inv.get_input_port_desired_acceleration())
             builder.Connect(inv.get_output_port_generalized_force(), law.GetInputPort("feedforward_torque"))
-        return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),
-                                       self.loop_damping_Nms, time_step_s, mp)
+        if compiled is not None:
+            return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),
+                                           self.loop_damping_Nms, time_step_s, mp)
+        motors = builder.AddNamedSystem("motors", dc_motors_as_primitives(mp))
+        builder.Connect(law.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
+        builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
+        return add_implicit_damping_actuation(builder, plant, arm_instance, motors, split.get_output_port(1),
+                                              self.loop_damping_Nms, time_step_s, mp)
 
 
 def spatial_drive(sc, q_start_rad, actuator: str, feedforward: str) -> SpatialMotorDrive | None:
