@@ -42,13 +42,17 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput, Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
-from qmt_drake.sim.spatial_actuation import add_tracking_logs, spatial_drive, tracking_report
+from qmt_drake.sim.spatial_actuation import (
+    SpatialMotorDrive,
+    add_tracking_logs,
+    spatial_drive,
+    tracking_report,
+)
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import (
@@ -111,6 +115,23 @@ def _reference(traj):
             t[-1], q[-1])
 
 
+def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
+    """The ideal actuator: Drake's InverseDynamicsController (the carried body welded in its plant) with the
+    joint torques saturated at the scenario's limits. None: no motors to log."""
+    n = sc.n_dof
+    ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
+                                      effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s)
+    ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
+                                                       np.full(n, KD_1_S), True))
+    sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
+    builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
+    builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
+    builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
+    builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
+    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    return None
+
+
 def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
                      feedforward: str = "full", record_path=None) -> dict:
     """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
@@ -118,12 +139,9 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
     'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
     none / back-emf / full). record_path: also write a Meshcat recording there (sim/spatial_recording)."""
-    if sc.hand_kind == "tray":
-        if actuator != "ideal":
-            raise QmtInputError(f"actuator {actuator!r}: the tray hand's co-simulation drives ideal joint torques "
-                                "only; use actuator 'ideal'")
-        return simulate_tray_hand(sc, traj, record_path=record_path)
     drive = spatial_drive(sc, traj.sample([0.0])[0][0], actuator, feedforward)
+    if sc.hand_kind == "tray":
+        return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path)
     if sc.hand_kind == "suction" and grip is None:
         grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                          rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
@@ -153,26 +171,12 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     if rec is not None:
         rec.connect(builder, plant)
     arm = H.model_instance()
-    n = sc.n_dof
     mon = builder.AddSystem(HoldMonitor(plant, part, term))
     pp, acc, t_end, q_goal = _reference(traj)
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = None
-    if drive is None:
-        ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=b.as_dict(),
-                                          effort_limit_Nm=sc.torque_limit_Nm,
-                                          velocity_limit_rad_s=sc.velocity_limit_rad_s)
-        ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
-                                                           np.full(n, KD_1_S), True))
-        sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
-        builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
-        builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
-        builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
-        builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
-        builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
-    else:
-        motors = drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
+    motors = _add_ideal_controller(builder, plant, arm, sc, src, src_a) if drive is None else \
+        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
     logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     builder.Connect(plant.get_body_poses_output_port(), mon.poses)
     builder.Connect(plant.get_body_spatial_velocities_output_port(), mon.vels)
@@ -293,12 +297,13 @@ def classify_tray_run(t, slide, tilt, spec: CupSpec, tray_size_m) -> tuple[str |
     return None, None, bool(np.hypot(*slide[:, -1]) > SLIP_TOLERANCE_M)
 
 
-def simulate_tray_hand(sc, traj, *, record_path=None) -> dict:
+def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, record_path=None) -> dict:
     """simulate_spatial for a tray hand: the cup is a free body standing on the tray box under Coulomb
     friction (point contact, discrete SAP at 1 ms), nothing holds it; after SETTLE_S at the start the
     plan is played. Outcome (qmt_drake/outcome.py): slid_off / tipped / slipped / unfinished / carried.
     max_grip_ratio_while_held: the largest TrayContactTerm ratio of the cup's own contact wrench
-    (Newton-Euler on its simulated motion, gravity the only other force) until it first exceeds 1."""
+    (Newton-Euler on its simulated motion, gravity the only other force) until it first exceeds 1.
+    drive: the DC motors (spatial_drive) instead of the ideal inverse-dynamics controller."""
     builder = DiagramBuilder()
     plant, H, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
                                      effort_limit_Nm=sc.torque_limit_Nm,
@@ -307,6 +312,8 @@ def simulate_tray_hand(sc, traj, *, record_path=None) -> dict:
     builder.AddSystem(plant)
     scene_graph = builder.AddSystem(SceneGraph())
     tray, cup, spec = _add_tray_and_cup(plant, scene_graph, H, sc)
+    if drive is not None:
+        drive.prepare_plant(plant, H.model_instance(), sc)
     rec = None if record_path is None else SpatialRecording.add(builder, plant, H.model_instance(), scene_graph)
     plant.Finalize()
     builder.Connect(plant.get_geometry_pose_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
@@ -315,24 +322,14 @@ def simulate_tray_hand(sc, traj, *, record_path=None) -> dict:
         rec.connect(builder, plant, geometry_connected=True)
     allow_contact(plant, scene_graph, tray, cup)
     arm = H.model_instance()
-    ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
-                                      effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
-                                      finalize=False)
-    ctrl_plant.Finalize()
-    n = sc.n_dof
-    ctrl = builder.AddSystem(InverseDynamicsController(ctrl_plant, np.full(n, KP_1_S2), np.full(n, KI_1_S3),
-                                                       np.full(n, KD_1_S), True))
-    sat = builder.AddSystem(Saturation(-sc.torque_limit_Nm, sc.torque_limit_Nm))
     mon = builder.AddSystem(TrayBottleMonitor(plant, tray, cup, seated_pose_on_tray()))
     hold = builder.AddSystem(_SeatedHoldMonitor(plant, cup, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S))
     pp, acc, t_end, q_goal = _reference(_Delayed(traj, SETTLE_S))
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
-    builder.Connect(plant.get_state_output_port(arm), ctrl.get_input_port_estimated_state())
-    builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
-    builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
-    builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
-    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    motors = _add_ideal_controller(builder, plant, arm, sc, src, src_a) if drive is None else \
+        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
+    tracking = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     builder.Connect(plant.get_body_poses_output_port(), mon.GetInputPort("body_poses"))
     builder.Connect(plant.get_contact_results_output_port(), mon.GetInputPort("contact_results"))
     builder.Connect(plant.get_body_poses_output_port(), hold.poses)
@@ -362,4 +359,5 @@ def simulate_tray_hand(sc, traj, *, record_path=None) -> dict:
             "contact_ratio_first_above_1_s": float(x[1]) - SETTLE_S if x[0] > 0.5 else None,
             "final_goal_error_rad": err, "duration_s": traj.duration_s,
             "max_slide_m": float(np.max(np.hypot(*slide))), "final_slide_m": float(np.hypot(*slide[:, -1])),
-            "max_tilt_rad": float(np.max(tilt))}
+            "max_tilt_rad": float(np.max(tilt)), "actuator": "ideal" if drive is None else "dc_motor",
+            **tracking_report(tracking, ctx, t_end, sc, drive)}
