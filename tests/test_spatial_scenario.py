@@ -8,20 +8,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.spatial_methods import (
     plan_family_optimum,
-    plan_ga_spatial,
-    plan_ruckig_spatial,
     plan_toppra_spatial,
-    plan_trajopt_spatial,
 )
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
-from tests.spatial_fixtures import load_or_skip
+from tests.spatial_fixtures import edited_copy, load_or_skip, plans_of_every_method
 
 SHIPPED = SCENARIO_DIR / "ur5-suction-bins.yaml"
 
@@ -33,17 +29,11 @@ def sc():
 
 @pytest.fixture(scope="module")
 def plans(sc):
-    return {"toppra": plan_toppra_spatial(sc, n_grid=400), "ruckig": plan_ruckig_spatial(sc),
-            "family_optimum": plan_family_optimum(sc), "ga": plan_ga_spatial(sc, generations=8, population=20),
-            "trajopt": plan_trajopt_spatial(sc)}
+    return plans_of_every_method(sc)
 
 
 def _variant(tmp_path: Path, edit) -> Path:
-    raw = yaml.safe_load(SHIPPED.read_text())
-    edit(raw)
-    p = tmp_path / "variant.yaml"
-    p.write_text(yaml.safe_dump(raw))
-    return p
+    return edited_copy(SHIPPED, tmp_path, edit)
 
 
 def test_task_poses_reached_by_drake_fk(sc):
