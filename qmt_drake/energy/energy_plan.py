@@ -221,8 +221,8 @@ def _load(path: Path, d: dict, E: Experiment | None) -> EnergyPlan:
     except (KeyError, TypeError, ValueError):
         raise QmtInputError(f"plan file {path}: its trajectory has no start posture theta0_rad; {again}") from None
     if d.get("scenario") != E.name or not same_start:
-        raise QmtInputError(f"plan file {path} was made for {d.get('scenario')!r}, not {E.name!r} (other start "
-                            f"posture); {again}")
+        why = "" if d.get("scenario") != E.name else " (other start posture)"
+        raise QmtInputError(f"plan file {path} was made for {d.get('scenario')!r}, not {E.name!r}{why}; {again}")
     try:
         x = np.asarray(traj["x"], float)
         m = traj["m"]
