@@ -12,6 +12,7 @@ import pytest
 
 from qmt_drake import api
 from qmt_drake.errors import QmtInputError
+from qmt_drake.outcome import OUTCOMES
 from qmt_drake.plan import load_plan
 
 # kind -> (scenario, method, options): the quickest planner of each kind
@@ -111,3 +112,13 @@ def test_an_energy_plan_file_keeps_the_old_keys_and_its_cost_is_recomputed(tmp_p
     bad.write_text(json.dumps(d))
     with pytest.raises(QmtInputError, match="away from ohsaka-fig3's goal"):
         load_plan(bad)
+
+
+def test_simulate_runs_every_kinds_plan_and_says_it_in_the_one_vocabulary(planned):
+    """The shipped plans of each kind are carried as planned (thesis-ch4's reported genes, UR5 suction
+    TOPP-RA: docs/spatial.md, ohsaka-fig3's optimum reaches its goal)."""
+    kind, sc, plan, _ = planned
+    r = api.simulate(sc, plan)
+    assert r["outcome"] in OUTCOMES and r["held"] == (r["outcome"] == "carried")
+    assert r["outcome"] == "carried", r["outcome"]
+    assert r["final_goal_error_rad"] < 1e-3
