@@ -102,9 +102,10 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
 
 
 def _check_plan_kind(scenario: AnyScenario, plan: Plan) -> None:
-    """One line unless `plan` is a plan of this scenario's kind made for a scenario of this name."""
+    """One line unless `plan` is a plan of this scenario's kind made for a scenario of this name (a
+    transfer plan's fit is checked by its end points, hands.run_simulate; any Motion passes here)."""
     kind = scenario_kind_of(scenario)
-    if plan.scenario_kind != kind or (kind != "transfer" and plan.scenario.name != scenario.name):
+    if getattr(plan, "scenario_kind", kind) != kind or (kind != "transfer" and plan.scenario.name != scenario.name):
         raise QmtInputError(f"the {plan.method} plan is {a_kind(plan.scenario_kind)} plan for scenario "
                             f"{plan.scenario.name}, not for the {KIND_WORDS[kind]} scenario {scenario.name}; "
                             "plan this scenario with plan_with")
@@ -125,10 +126,10 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     there. A plan made for another scenario, an unstable step or a bad option raises QmtInputError
     (one line) before anything runs; the spatial and energy-time runs take time_scale (spatial) and
     record_path only."""
+    _check_plan_kind(scenario, plan)
     if isinstance(scenario, Scenario):
         return run_simulate(scenario, plan, time_scale=time_scale, record_path=record_path,
                             time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward)
-    _check_plan_kind(scenario, plan)
     for name, given in (("time_step_s", time_step_s is not None), ("feedforward", feedforward != "none"),
                         ("time_scale", isinstance(plan, EnergyPlan) and time_scale != 1.0)):
         if given:

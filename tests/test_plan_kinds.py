@@ -88,7 +88,7 @@ def test_simulate_refuses_another_kinds_plan(planned):
     other = _scenario(OTHER[kind])
     with pytest.raises(QmtInputError) as e:
         api.simulate(other, plan)
-    assert "\n" not in str(e.value)
+    assert "\n" not in str(e.value) and f"plan for scenario {sc.name}, not for the" in str(e.value)
 
 
 def test_an_energy_plan_file_keeps_the_old_keys_and_its_cost_is_recomputed(tmp_path):
