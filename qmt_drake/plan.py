@@ -227,7 +227,7 @@ PLAN_ENDPOINT_TOL_M = 1e-6
 
 
 def read_plan_file(path: str | Path) -> dict:
-    """The JSON mapping of a plan file (planar or spatial) with 'scenario' and 'trajectory' keys;
+    """The JSON mapping of a plan file (any scenario kind) with 'scenario' and 'trajectory' keys;
     one-line QmtInputError naming the file otherwise."""
     path = Path(path)
     if path.is_dir():
