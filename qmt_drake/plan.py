@@ -12,14 +12,22 @@ scenario it fits (`load_plan`: same joint count and task points, family genes wi
 bounds, a sampled plan that starts and ends on the task's start and goal; one-line QmtInputError).
 
 `write_csv` writes t, q1..qn, qd1..qdn, qdd1..qddn at 1 kHz or finer.
+
+One Plan type for every scenario kind: a transfer plan is a `Plan`; a spatial (3-D) plan
+(planners/spatial_plan_io.SpatialPlan) and an energy-time plan (energy/energy_plan.EnergyPlan) are
+subclasses with the same surface (motion_time_s, sample, feasible, check, summary, to_json_dict,
+write_json, write_csv), each file carrying its `scenario_kind`. `load_plan(path)` reads any of
+them: it dispatches on that field to the loader the kind registered (`register_plan_kind`), and a
+file given with a scenario of another kind is refused in one line.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -54,8 +62,28 @@ class Motion(Protocol):
     def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
 
+# The `scenario_kind` of each plan file; transfer files written before the field existed have none,
+# energy-time files written before it say `kind: energy_time`.
+TRANSFER_PLAN_KIND = "transfer"
+SPATIAL_PLAN_KIND = "spatial_transfer"
+ENERGY_PLAN_KIND = "energy_time"
+KIND_WORDS = {TRANSFER_PLAN_KIND: "planar", SPATIAL_PLAN_KIND: "spatial (3-D)", ENERGY_PLAN_KIND: "energy-time"}
+
+
+def a_kind(kind: str) -> str:
+    """'a planar', 'a spatial (3-D)', 'an energy-time': a kind's words for one-line messages."""
+    word = KIND_WORDS.get(kind, kind)
+    return ("an " if word[:1] in "aeiou" else "a ") + word
+
+
 @dataclass
 class Plan:
+    """A planned motion of one scenario, re-checked by sampling: `motion_time_s` [s], `sample(t)` ->
+    (q [rad], qd [rad/s], qdd [rad/s^2]), `feasible` and `check` (the re-check's LimitReport, its
+    peak_ratios: every limit's peak / limit), `summary()` (the CLI's JSON keys), `write_json` /
+    `write_csv`, and `load_plan` to read a file back. Transfer scenarios give a Plan; spatial and
+    energy-time scenarios give its subclasses (module docstring), whose `scenario` is their kind's."""
+
     scenario: Scenario
     method: str
     trajectory: JointTrajectory
@@ -65,6 +93,7 @@ class Plan:
     evaluations: int = 0
     generations: int = 0
     extra: dict = field(default_factory=dict)  # planner-specific facts (history, notes, ...)
+    scenario_kind: ClassVar[str] = TRANSFER_PLAN_KIND
 
     @property
     def feasible(self) -> bool:
@@ -93,6 +122,7 @@ class Plan:
         sc, c = self.scenario, self.check
         return {
             "scenario": sc.name,
+            "scenario_kind": self.scenario_kind,
             "method": self.method,
             "feasible": c.feasible,
             "motion_time_s": self.motion_time_s,
@@ -196,12 +226,8 @@ def family_plan(problem: PlanningProblem, genes: npt.ArrayLike, method: str, **k
 PLAN_ENDPOINT_TOL_M = 1e-6
 
 
-# The `scenario_kind` of a spatial plan file (planners/spatial_plan_io.py); planar files have none.
-SPATIAL_PLAN_KIND = "spatial_transfer"
-
-
 def read_plan_file(path: str | Path) -> dict:
-    """The JSON mapping of a plan file (planar or spatial) with 'scenario' and 'trajectory' keys;
+    """The JSON mapping of a plan file (any scenario kind) with 'scenario' and 'trajectory' keys;
     one-line QmtInputError naming the file otherwise."""
     path = Path(path)
     if path.is_dir():
@@ -217,21 +243,84 @@ def read_plan_file(path: str | Path) -> dict:
         raise QmtInputError(f"plan file {path} is not a UTF-8 JSON text file") from None
     except json.JSONDecodeError as exc:
         raise QmtInputError(f"plan file {path} is not valid JSON ({exc})") from None
-    if not isinstance(d, dict) or not isinstance(d.get("trajectory"), dict) or "scenario" not in d:
+    legacy_energy = isinstance(d, dict) and d.get("kind") == ENERGY_PLAN_KIND  # before `trajectory` was written
+    if not isinstance(d, dict) or "scenario" not in d or not (isinstance(d.get("trajectory"), dict) or legacy_energy):
         raise QmtInputError(f"plan file {path} lacks the 'scenario' or 'trajectory' key; write it "
                             "with `qmt-drake plan ... --json PATH`")
     return d
 
 
-def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
-    """Read a plan file written by `Plan.write_json`; the scenario is reloaded from the path
-    stored in it unless one is given. The plan must fit the scenario (module docstring). Errors
-    name the file and the problem in one line."""
+def ratio_report(rate_hz: float, motion_time_s: float, peak_ratios: dict[str, float],
+                 feasible: bool | None = None) -> LimitReport:
+    """The LimitReport of a plan whose limits are ratio terms only (a spatial arm's joint speed,
+    acceleration, torque and hand terms; an energy-time plan has none): peak_ratios name -> peak /
+    limit, feasible (default: every ratio <= 1). The planar magnet's own fields (moment, per-motor
+    torque) do not apply and are nan / empty."""
+    ratios = {k: float(v) for k, v in peak_ratios.items()}
+    ok = all(v <= 1.0 for v in ratios.values()) if feasible is None else bool(feasible)
+    nan = float("nan")
+    return LimitReport(rate_hz=float(rate_hz), motion_time_s=float(motion_time_s), peak_moment_Nm=nan,
+                       moment_limit_Nm=None, peak_moment_ratio=nan, peak_moment_time_s=None,
+                       peak_motor_torque_Nm=[], motor_torque_limit_Nm=[], peak_motor_torque_ratio=nan,
+                       joint_range_ok=True, feasible=ok, peak_ratios=ratios)
+
+
+# A kind's plan-file loader: (path, the file's mapping, the scenario or None) -> Plan of that kind.
+PlanLoader = Callable[[Path, dict, Any], Plan]
+
+
+@dataclass(frozen=True)
+class PlanKind:
+    scenario_type: type  # what load_scenario returns for this kind
+    load: PlanLoader
+
+
+# Each scenario kind registers its plan files' loader once (register_plan_kind): transfer here,
+# spatial in planners/spatial_plan_io.py, energy-time in energy/energy_plan.py (qmt_drake.api imports them).
+PLAN_KINDS: dict[str, PlanKind] = {}
+
+
+def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader) -> None:
+    PLAN_KINDS[kind] = PlanKind(scenario_type, load)
+
+
+def plan_file_kind(d: dict) -> str:
+    """The scenario kind of a plan file's mapping (files older than `scenario_kind` included)."""
+    kind = d.get("scenario_kind") or (ENERGY_PLAN_KIND if d.get("kind") == ENERGY_PLAN_KIND else TRANSFER_PLAN_KIND)
+    return str(kind)
+
+
+def scenario_kind_of(scenario: Any) -> str:
+    """The kind of a scenario object (transfer, spatial_transfer, energy_time); QmtInputError if it is
+    none that load_scenario returns."""
+    for kind, k in PLAN_KINDS.items():
+        if isinstance(scenario, k.scenario_type):
+            return kind
+    raise QmtInputError(f"{type(scenario).__name__} is not a scenario; load one with qmt_drake.load_scenario")
+
+
+def load_plan(path: str | Path, scenario: Any = None) -> Plan:
+    """Read a plan file of any scenario kind (written by `Plan.write_json` or `qmt-drake plan --json`);
+    the scenario is reloaded from the file unless one is given. The plan must fit the scenario: a
+    file of another scenario kind, or of another scenario of the same kind, is refused with one
+    line naming the file (QmtInputError). Returns the kind's Plan, re-checked on the scenario."""
     path = Path(path)
     d = read_plan_file(path)
-    if d.get("scenario_kind") == SPATIAL_PLAN_KIND:
-        raise QmtInputError(f"plan file {path} is a spatial (3-D) plan for scenario {d['scenario']}; simulate it "
-                            f"with `qmt-drake simulate {d['scenario']} --plan {path}`")
+    kind = plan_file_kind(d)
+    if kind not in PLAN_KINDS:
+        raise QmtInputError(f"plan file {path} has scenario_kind {kind!r}; known: {', '.join(PLAN_KINDS)}")
+    if scenario is not None:
+        mine = scenario_kind_of(scenario)
+        if mine != kind:
+            name = getattr(scenario, "name", "?")
+            raise QmtInputError(f"plan file {path} is {a_kind(kind)} plan for scenario "
+                                f"{d['scenario']}, not one for the {KIND_WORDS.get(mine, mine)} scenario {name}; "
+                                f"plan it with `qmt-drake plan {name} --json PATH`")
+    return PLAN_KINDS[kind].load(path, d, scenario)
+
+
+def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
+    """A transfer plan file against its scenario (module docstring)."""
     if scenario is None:
         src = d.get("scenario_path")
         scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
@@ -277,6 +366,9 @@ def load_plan(path: str | Path, scenario: Scenario | None = None) -> Plan:
         setattr(plan, k, v if isinstance(v, (int, float)) and not isinstance(v, bool) else getattr(plan, k))
     plan.extra = d.get("extra", {}) if isinstance(d.get("extra", {}), dict) else {}
     return plan
+
+
+register_plan_kind(TRANSFER_PLAN_KIND, Scenario, _load_transfer_plan)
 
 
 def _check_plan_fits(d: dict, path: Path, scenario: Scenario) -> None:

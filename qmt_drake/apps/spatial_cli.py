@@ -36,18 +36,12 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import jsonable
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
-from qmt_drake.planners.spatial_methods import METHODS, PLANNERS, plan_toppra_spatial
-from qmt_drake.planners.spatial_plan_io import (
-    load_spatial_plan,
-    plan_file_dict,
-    write_spatial_csv,
-    write_spatial_plan,
-)
+from qmt_drake.planners.spatial_methods import ALIASES, METHODS, PLANNERS, plan_toppra_spatial
+from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_cosim import TAIL_S, simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
 
-ALIASES = {"optimum": "family_optimum"}  # the planar scenarios' name of the family optimum
 SPATIAL_METHODS = METHODS
 GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
 # plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
@@ -152,11 +146,11 @@ def plan(args, energy_options) -> bool:
         search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress)
         p = carried_plan(sc, p, search)
     if args.json == "-":
-        print(json.dumps(jsonable(plan_file_dict(sc, p))))
+        print(json.dumps(p.to_json_dict()))
     elif args.json:
-        write_spatial_plan(sc, p, args.json)
+        p.write_json(args.json)
     if args.trajectory_csv:
-        write_spatial_csv(p, args.trajectory_csv)
+        p.write_csv(args.trajectory_csv)
     if args.json != "-":
         print(summary_line(sc, p, bound))
     return p.recheck["max"] <= 1.0

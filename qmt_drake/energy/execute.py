@@ -26,6 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
+from qmt_drake.energy.energy_plan import EnergyPlan
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 
 
@@ -129,6 +132,24 @@ def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: floa
     qp, qdp, qddp = family.sample(x, ts)
     tau_plan = inverse_dynamics_with_gravity(qp, qdp, qddp, derivatives=False)
     return Execution(ts, X[:, :n], Dd[:, :n], U, tau_plan, T, rec)
+
+
+def execute_plan(plan, record_path: str | Path | None = None) -> dict:
+    """`plan` (an EnergyPlan) executed by `execute`: its summary with the scenario, the method, the
+    motion time [s], whether the arm reached the goal (outcome.py's arrival tolerance [rad]) and the
+    outcome word: seed 001 carries nothing that can be lost, so it is carried (goal reached) or
+    unfinished. Another kind's plan: QmtInputError."""
+    if not isinstance(plan, EnergyPlan) or plan.problem is None:
+        raise QmtInputError(f"a {getattr(plan, 'scenario_kind', type(plan).__name__)} plan cannot run in the "
+                            "energy-time execution; plan this energy-time scenario first")
+    summary = execute(plan.problem.family, plan.x, recording_path=record_path).summary()
+    # the one outcome vocabulary: nothing can be lost (the tip mass is welded), so carried = reached the goal
+    outcome = transfer_outcome(None, False, summary["final_error_rad"], ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+    summary.update(scenario=plan.scenario.name, method=plan.method, motion_time_s=plan.motion_time_s,
+                   outcome=outcome, held=outcome == "carried", final_goal_error_rad=summary["final_error_rad"],
+                   reached_goal=bool(summary["final_error_rad"] <= ARRIVAL_TOLERANCE_DC_MOTOR_RAD),
+                   arrival_tolerance_rad=ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+    return summary
 
 
 def plot_execution(ex: Execution, path, title: str = "") -> None:

@@ -14,8 +14,8 @@ from __future__ import annotations
 import time
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.planners.spatial_methods import SpatialPlan
-from qmt_drake.planners.spatial_trajectory import TimeScaled, check, pose_errors
+from qmt_drake.planners.spatial_plan_io import SpatialPlan, make_spatial_plan
+from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 
 
@@ -65,6 +65,5 @@ def carried_plan(sc, plan: SpatialPlan, search: dict) -> SpatialPlan:
     times = plan.pose_times_s * k
     lost = search["lost_below"]
     info = dict(plan.info, carried_search=dict(search, margin=None if lost is None else k / lost - 1.0))
-    return SpatialPlan(f"{plan.method}-carried", traj, times, plan.planning_s + search["wall_s"],
-                       plan.raw_duration_s, plan.hold_scale * k, check(sc, traj, sc.recheck_rate_hz),
-                       pose_errors(sc, traj, times), info)
+    return make_spatial_plan(sc, f"{plan.method}-carried", traj, times, planning_s=plan.planning_s + search["wall_s"],
+                             raw_duration_s=plan.raw_duration_s, hold_scale=plan.hold_scale * k, info=info)

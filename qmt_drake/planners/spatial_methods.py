@@ -25,6 +25,7 @@
   1e-10 feasibility tolerance. Torque and suction are not in its program (nonlinear in the spline's control points),
   so the result is time-scaled uniformly (scale_to_hold) until their re-check holds.
 
+Every planner returns a SpatialPlan (planners/spatial_plan_io: a plan.Plan of the spatial kind).
 Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
 the check rate), so a plan that only holds at its own grid is slowed by the smallest factor that
 makes the fine check hold (the factor is reported: 1 when nothing was needed).
@@ -34,72 +35,39 @@ from __future__ import annotations
 
 import hashlib
 import time
-from dataclasses import dataclass
 
 import numpy as np
 from pydrake.multibody.inverse_kinematics import AngleBetweenVectorsConstraint
 from pydrake.planning import KinematicTrajectoryOptimization
 from pydrake.solvers import SnoptSolver, Solve, SolverOptions
 from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
-from ruckig import InputParameter, Result, Ruckig, Trajectory
 from scipy.optimize import minimize
 
 from qmt_drake.config.scenario import GaSettings
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.ga import run_ga
+from qmt_drake.planners.spatial_plan_io import SpatialPlan, make_spatial_plan
+from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
 from qmt_drake.planners.spatial_trajectory import (
     PolyTrajectory,
     RuckigTrajectory,
     ToppraTrajectory,
     check,
-    pose_errors,
     scale_to_hold,
 )
 from qmt_drake.problem import Evaluation, MinimumTime
 
 METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
-
-
-@dataclass
-class SpatialPlan:
-    method: str
-    trajectory: object  # spatial_trajectory kind, already scaled to hold
-    pose_times_s: np.ndarray  # when the hand is at each task pose
-    planning_s: float
-    raw_duration_s: float  # before scale_to_hold
-    hold_scale: float  # scale_to_hold's k (1: none needed)
-    recheck: dict  # check at the re-check rate
-    pose_error: np.ndarray  # (K, 2) Drake FK errors (m, rad)
-    info: dict
-
-    @property
-    def duration_s(self) -> float:
-        return self.trajectory.duration_s
-
-    def summary(self) -> dict:
-        return {"method": self.method, "duration_s": self.duration_s, "planning_s": self.planning_s,
-                "raw_duration_s": self.raw_duration_s, "hold_scale": self.hold_scale,
-                "recheck_max_ratio": self.recheck["max"], "recheck": self.recheck,
-                "max_pose_position_error_m": float(self.pose_error[:, 0].max()),
-                "max_pose_angle_error_rad": float(self.pose_error[:, 1].max()), **self.info}
-
-    def to_json_dict(self, rate_hz: float = 1000.0) -> dict:
-        """summary() plus the trajectory sampled at rate_hz (t, q, qd, qdd) and the task-pose times:
-        what a later replay needs (the planar Plan of plan.py takes only planar scenarios)."""
-        t = np.linspace(0.0, self.duration_s, int(np.ceil(self.duration_s * rate_hz)) + 1)
-        q, qd, qdd = self.trajectory.sample(t)
-        return {**self.summary(), "pose_times_s": self.pose_times_s,
-                "trajectory": {"kind": "samples", "t_s": t, "q_rad": q, "qd_rad_s": qd, "qdd_rad_s2": qdd}}
+ALIASES = {"optimum": "family_optimum"}  # the planar scenarios' name of the family optimum
 
 
 def _finish(sc, method, traj, pose_times, t0, info) -> SpatialPlan:
     raw = traj.duration_s
     held, k = scale_to_hold(sc, traj, sc.recheck_rate_hz)
     planning_s = time.perf_counter() - t0
-    times = np.asarray(pose_times, float) * k
-    return SpatialPlan(method, held, times, planning_s, raw, k, check(sc, held, sc.recheck_rate_hz),
-                       pose_errors(sc, held, times), info)
+    return make_spatial_plan(sc, method, held, np.asarray(pose_times, float) * k, planning_s=planning_s,
+                             raw_duration_s=raw, hold_scale=k, info=info)
 
 
 def plan_toppra_spatial(sc, *, n_grid: int = 1000) -> SpatialPlan:
@@ -111,29 +79,6 @@ def plan_toppra_spatial(sc, *, n_grid: int = 1000) -> SpatialPlan:
     s_poses = np.asarray(pp.get_segment_times())[sc.path_pose_index]
     return _finish(sc, "toppra", traj, traj.time_at(s_poses), t0,
                    {"n_grid": n_grid, "toppra_solve_s": r["planning_s"]})
-
-
-def ruckig_rest_to_rest(qa, qb, max_velocity, max_acceleration, max_jerk):
-    """Ruckig's time-optimal rest-to-rest motion qa -> qb (rad) under these joint limits (rad/s,
-    rad/s^2, rad/s^3); deterministic, so a plan file rebuilds a segment from these five inputs."""
-    n = len(qa)
-    inp = InputParameter(n)
-    inp.current_position, inp.target_position = np.asarray(qa, float).tolist(), np.asarray(qb, float).tolist()
-    inp.current_velocity = inp.current_acceleration = [0.0] * n
-    inp.target_velocity = inp.target_acceleration = [0.0] * n
-    inp.max_velocity = np.asarray(max_velocity, float).tolist()
-    inp.max_acceleration = np.asarray(max_acceleration, float).tolist()
-    inp.max_jerk = np.asarray(max_jerk, float).tolist()
-    traj = Trajectory(n)
-    res = Ruckig(n).calculate(inp, traj)
-    if res not in (Result.Working, Result.Finished):
-        raise QmtInputError(f"Ruckig found no trajectory between task poses ({res}); check the limits")
-    return traj
-
-
-def ruckig_segment_limits(sc, factor: float):
-    """(velocity, acceleration, jerk) limits of a Ruckig segment: acceleration and jerk times factor."""
-    return sc.velocity_limit_rad_s, sc.acceleration_limit_rad_s2 * factor, sc.jerk_limit_rad_s3 * factor
 
 
 def _ruckig(sc, qa, qb, factor: float):

@@ -1,7 +1,10 @@
-"""Spatial plan files: written atomically with what rebuilds the trajectory exactly, loaded back only
-against the scenario they were made for; the trajectory as CSV.
+"""The spatial Plan and its files: `SpatialPlan`, the plan.Plan of a spatial scenario (same surface:
+motion_time_s, sample, feasible, check, summary, to_json_dict, write_json, write_csv), written
+atomically with what rebuilds the trajectory exactly, loaded back only against the scenario it was
+made for (also through plan.load_plan, registered here for `scenario_kind: spatial_transfer`); the
+trajectory as CSV.
 
-A file is SpatialPlan.to_json_dict() (the summary, the task-pose times, 1 kHz samples to plot) plus
+A file is the plan's summary, the task-pose times and 1 kHz samples to plot, plus
 what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KIND, `n_dof`,
 `joint_names`, `poses_m`, `face_normal`), `info` and `rebuild`, the trajectory's own data:
 
@@ -26,6 +29,9 @@ itself (nothing the file claims is trusted).
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 from pydrake.math import BsplineBasis
@@ -33,8 +39,16 @@ from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import SPATIAL_PLAN_KIND, read_plan_file
-from qmt_drake.planners.spatial_methods import SpatialPlan, ruckig_rest_to_rest, ruckig_segment_limits
+from qmt_drake.plan import (
+    SPATIAL_PLAN_KIND,
+    Plan,
+    a_kind,
+    plan_file_kind,
+    ratio_report,
+    read_plan_file,
+    register_plan_kind,
+)
+from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_trajectory import (
     PolyTrajectory,
     RuckigTrajectory,
@@ -43,9 +57,84 @@ from qmt_drake.planners.spatial_trajectory import (
     check,
     pose_errors,
 )
+from qmt_drake.spatial_task import SpatialScenario, load_spatial_scenario
 
 REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: rebuilt vs planned (only rounding may differ, ~1e-13)
 POSE_TOL = 1e-6  # m and rad: the plan's first/last sample on the scenario's first/last task pose (Drake FK)
+
+
+@dataclass(eq=False)
+class SpatialPlan(Plan):
+    """A spatial scenario's Plan: `scenario` a SpatialScenario, `trajectory` a spatial_trajectory kind
+    already scaled to hold; `check` the re-check at the re-check rate (10x the check rate) as a
+    LimitReport of ratios (plan.ratio_report), `recheck` the same as a dict ('max' the largest);
+    pose_times_s when the hand is at each task pose, pose_error (K, 2) their Drake-FK errors (m, rad),
+    raw_duration_s before scale_to_hold, hold_scale its k (1: none needed); `info` (= extra) the planner's facts."""
+
+    pose_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    raw_duration_s: float = 0.0
+    hold_scale: float = 1.0
+    recheck: dict = field(default_factory=dict)
+    pose_error: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    scenario_kind: ClassVar[str] = SPATIAL_PLAN_KIND
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.trajectory.duration_s)
+
+    @property
+    def planning_s(self) -> float:
+        return self.planner_wall_s
+
+    @property
+    def info(self) -> dict:
+        return self.extra
+
+    @property
+    def n_dof(self) -> int:
+        return int(self.scenario.n_dof)
+
+    def to_piecewise_polynomial(self, rate_hz: float = 1000.0) -> PiecewisePolynomial:
+        t, q, qd, _ = _samples(self.trajectory, rate_hz)
+        return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
+
+    def summary(self) -> dict:
+        c = self.check
+        return {"scenario": self.scenario.name, "scenario_kind": self.scenario_kind, "method": self.method,
+                "feasible": c.feasible, "motion_time_s": self.duration_s, "peak_ratios": dict(c.peak_ratios),
+                "check_rate_hz": c.rate_hz, "planner_wall_s": self.planner_wall_s, "n_dof": self.n_dof,
+                "duration_s": self.duration_s, "planning_s": self.planning_s,
+                "raw_duration_s": self.raw_duration_s, "hold_scale": self.hold_scale,
+                "recheck_max_ratio": self.recheck["max"], "recheck": self.recheck,
+                "max_pose_position_error_m": float(self.pose_error[:, 0].max()),
+                "max_pose_angle_error_rad": float(self.pose_error[:, 1].max()), **self.info}
+
+    def to_json_dict(self) -> dict:
+        """The plan file's mapping (module docstring), JSON-ready."""
+        return jsonable(plan_file_dict(self.scenario, self))
+
+    def write_json(self, path) -> None:
+        write_spatial_plan(self.scenario, self, path)
+
+    def write_csv(self, path, rate_hz: float = 1000.0) -> None:
+        write_spatial_csv(self, path, rate_hz)
+
+
+def make_spatial_plan(sc, method: str, traj, pose_times_s, *, planning_s: float, raw_duration_s: float,
+                      hold_scale: float, info: dict) -> SpatialPlan:
+    """A SpatialPlan of `traj` on sc, re-checked at sc's re-check rate and its task poses measured by
+    Drake FK at pose_times_s (nothing the planner says is taken on trust)."""
+    times = np.asarray(pose_times_s, float)
+    rc = check(sc, traj, sc.recheck_rate_hz)
+    ratios = {k: v for k, v in rc.items() if k not in ("max", "n_samples")}
+    seg = info.get("segment_times_s")
+    return SpatialPlan(scenario=sc, method=method, trajectory=traj,
+                       check=ratio_report(sc.recheck_rate_hz, traj.duration_s, ratios),
+                       genes=None if seg is None else {f"T{i + 1}": float(v) for i, v in enumerate(seg)},
+                       planner_wall_s=float(planning_s), evaluations=int(info.get("evaluations", 0)),
+                       generations=int(info.get("generations", 0)), extra=dict(info), pose_times_s=times,
+                       raw_duration_s=float(raw_duration_s), hold_scale=float(hold_scale), recheck=rc,
+                       pose_error=pose_errors(sc, traj, times))
 
 
 def _cubic_spec(pp) -> dict:
@@ -135,7 +224,10 @@ def plan_file_dict(sc, plan: SpatialPlan) -> dict:
     err = _max_difference(planned, rebuilt.sample(t))
     if not (abs(rebuilt.duration_s - plan.duration_s) <= REBUILD_TOL and err <= REBUILD_TOL):
         raise RuntimeError(f"the {plan.method} plan's file form does not rebuild it (difference {err:.3g}); a bug")
-    return {**plan.to_json_dict(), "scenario": sc.name, "scenario_kind": SPATIAL_PLAN_KIND,
+    t, q, qd, qdd = _samples(plan.trajectory)  # 1 kHz and the end time, to plot
+    samples = {"kind": "samples", "t_s": t, "q_rad": q, "qd_rad_s": qd, "qdd_rad_s2": qdd}
+    return {**plan.summary(), "pose_times_s": plan.pose_times_s, "trajectory": samples,
+            "scenario": sc.name, "scenario_kind": SPATIAL_PLAN_KIND,
             "scenario_path": str(sc.path), "n_dof": sc.n_dof, "joint_names": list(sc.joint_names),
             "poses_m": sc.poses_m, "face_normal": sc.face_normal, "info": plan.info, "rebuild": spec}
 
@@ -156,8 +248,8 @@ def write_spatial_csv(plan: SpatialPlan, path, rate_hz: float = 1000.0) -> None:
 
 def _check_fits(d: dict, path, sc) -> None:
     """The file's scenario against sc (module docstring), before rebuilding anything."""
-    if d.get("scenario_kind") != SPATIAL_PLAN_KIND:
-        raise QmtInputError(f"plan file {path} is a planar plan (scenario {d.get('scenario')}); spatial scenario "
+    if plan_file_kind(d) != SPATIAL_PLAN_KIND:
+        raise QmtInputError(f"plan file {path} is {a_kind(plan_file_kind(d))} plan (scenario {d.get('scenario')}); spatial scenario "
                             f"{sc.name} needs a plan written by `qmt-drake plan {sc.name} --json PATH`")
     again = f"plan again with `qmt-drake plan {sc.name} --json PATH`"
     if d.get("scenario") != sc.name:  # same geometry may carry another part or hand (ur5-magnet-part)
@@ -177,7 +269,14 @@ def _check_fits(d: dict, path, sc) -> None:
 def load_spatial_plan(path, sc) -> SpatialPlan:
     """The plan of a file written by write_spatial_plan, rebuilt exactly and re-checked on sc
     (module docstring); one-line QmtInputError naming the file for any misfit."""
-    d = read_plan_file(path)
+    return _load(Path(path), read_plan_file(path), sc)
+
+
+def _load(path: Path, d: dict, sc) -> SpatialPlan:
+    """plan.load_plan's loader of spatial files: sc None reloads the file's own scenario."""
+    if sc is None:
+        src = d.get("scenario_path")
+        sc = load_spatial_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
     _check_fits(d, path, sc)
     try:
         traj = trajectory_from_spec(d["rebuild"])
@@ -201,5 +300,8 @@ def load_spatial_plan(path, sc) -> SpatialPlan:
     if np.any(ends > POSE_TOL):
         raise QmtInputError(f"plan file {path} starts/ends {ends[0, 0] * 1e3:.3g}/{ends[1, 0] * 1e3:.3g} mm "
                             f"away from scenario {sc.name}'s first/last task pose; plan again for this scenario")
-    return SpatialPlan(str(d.get("method", "loaded")), traj, times, nums["planning_s"], nums["raw_duration_s"],
-                       nums["hold_scale"], check(sc, traj, sc.recheck_rate_hz), pose_errors(sc, traj, times), info)
+    return make_spatial_plan(sc, str(d.get("method", "loaded")), traj, times, planning_s=nums["planning_s"],
+                             raw_duration_s=nums["raw_duration_s"], hold_scale=nums["hold_scale"], info=info)
+
+
+register_plan_kind(SPATIAL_PLAN_KIND, SpatialScenario, _load)
