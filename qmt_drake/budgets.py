@@ -33,6 +33,7 @@ import os
 import sys
 from dataclasses import dataclass
 
+from qmt_drake.config.registry import hand_entry
 from qmt_drake.errors import QmtInputError
 
 GIB = 1024 ** 3
@@ -72,6 +73,21 @@ class Estimate:
 
     def describe(self) -> str:
         return f"~{fmt_bytes(self.bytes)} and ~{fmt_seconds(self.seconds)}"
+
+
+@dataclass(frozen=True)
+class ReplayCost:
+    """What a hand's co-simulation costs per plant step: s_per_step [s of wall time] and
+    bytes_per_step [B] on top of SIM_BASE_BYTES; default_step_s [s]: its plant step when none is
+    asked. Each hand plug-in carries one (hands.HandPlugin.replay_cost)."""
+    default_step_s: float
+    s_per_step: float
+    bytes_per_step: float
+
+
+MAGNET_REPLAY = ReplayCost(2e-3, SIM_S_PER_STEP, SIM_BYTES_PER_STEP)
+# measured per simulated second at the servos' 1 ms step: per step at that step
+TRAY_REPLAY = ReplayCost(TRAY_TIME_STEP_S, TRAY_S_PER_SIM_S * TRAY_TIME_STEP_S, TRAY_BYTES_PER_SIM_S * TRAY_TIME_STEP_S)
 
 
 def fmt_bytes(b: float) -> str:
@@ -153,19 +169,15 @@ def ga_estimate(population: int, generations: int, *, plan_rate_hz: float, motio
 
 
 def replay_estimate(time_scale: float, motion_time_s: float, time_step_s: float | None = None, *,
-                    tray: bool = False) -> Estimate:
-    """One co-simulated replay of a motion of `motion_time_s` stretched by `time_scale`: the magnet
-    arm costs 0.15 ms and 4.8 kB per plant step (default 2 ms), the tray 0.5 s and 1 MB per
-    simulated second at its 1 ms step (proportionally more at a smaller step)."""
+                    cost: ReplayCost = MAGNET_REPLAY) -> Estimate:
+    """One co-simulated replay of a motion of `motion_time_s` stretched by `time_scale`, priced by
+    the hand's `cost` (the magnet arm: 0.15 ms and 4.8 kB per plant step, default 2 ms; the tray:
+    0.5 s and 1 MB per simulated second at its 1 ms step, proportionally more at a smaller step)."""
     sim_s = _f(time_scale) * _f(motion_time_s)
     if time_step_s is None:
-        time_step_s = TRAY_TIME_STEP_S if tray else 2e-3
-    if tray:
-        k = TRAY_TIME_STEP_S / _f(time_step_s)
-        seconds, mem = sim_s * TRAY_S_PER_SIM_S * k, SIM_BASE_BYTES + sim_s * TRAY_BYTES_PER_SIM_S * k
-    else:
-        steps = sim_s / _f(time_step_s)
-        seconds, mem = steps * SIM_S_PER_STEP, SIM_BASE_BYTES + steps * SIM_BYTES_PER_STEP
+        time_step_s = cost.default_step_s
+    steps = sim_s / _f(time_step_s)
+    seconds, mem = steps * cost.s_per_step, SIM_BASE_BYTES + steps * cost.bytes_per_step
     return Estimate(mem, seconds, f"a replay at time scale {_f(time_scale):g} ({sim_s:.3g} s simulated, "
                     f"step {_f(time_step_s) * 1e3:g} ms)",
                     "use a time scale near 1 (0.5-5 covers the thesis's studies) or a larger step")
@@ -258,7 +270,7 @@ def check_replay_budget(scenario, time_scale: float, time_step_s: float | None =
     """`qmt-drake simulate`: the replay at `time_scale` (motion time: the plan's, or before planning
     the scenario's bound), before planning and simulating."""
     T = motion_time_s if motion_time_s is not None else motion_time_bound_s(scenario)
-    return check_budget(replay_estimate(time_scale, T, time_step_s, tray=bool(scenario.is_tray)),
+    return check_budget(replay_estimate(time_scale, T, time_step_s, cost=hand_entry(scenario).replay_cost),
                         allow_large=allow_large)
 
 

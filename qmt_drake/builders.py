@@ -9,8 +9,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from qmt_drake.actuators import actuator_plugin
 from qmt_drake.config.hooks import register_builders
-from qmt_drake.config.scenario import IdealTorque, Scenario
+from qmt_drake.config.scenario import Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
 from qmt_drake.limits import JointRangeTerm, LimitSet, MotorTorqueTerm
@@ -20,13 +21,10 @@ from qmt_drake.systems.tray_object import BottleSpec
 
 
 def build_bottle(scenario: Scenario) -> BottleSpec | None:
-    """Tray scenarios: the BottleSpec (systems/tray_object.py) of the payload and the tray hand;
-    None for other hands."""
-    if not scenario.is_tray:
-        return None
-    b, p, h = scenario.payload.body, scenario.payload, scenario.hand
-    return BottleSpec(p.name, float(p.mass_kg), b.radius_m, b.length_m, float(p.com_offset_m), b.shell_mass_kg,
-                      h.contact_radius_m, friction=h.friction, n_contact_points=h.n_contact_points)
+    """The BottleSpec (systems/tray_object.py) of a hand that carries a bottle (its plug-in's
+    `bottle`: the tray's); None for other hands."""
+    make = hand_plugin(scenario).bottle
+    return None if make is None else make(scenario)
 
 
 def build_arm(scenario: Scenario) -> ArmModel:
@@ -38,8 +36,9 @@ def build_arm(scenario: Scenario) -> ArmModel:
     if urdf.is_dir():
         raise QmtInputError(f"{where}: arm.urdf {urdf} is a directory; give the URDF file")
     try:
+        act = actuator_plugin(scenario)
         return ArmModel.from_urdf(urdf, hand_frame=scenario.hand_frame, carried_inertia=carried,
-                                  require_gear_ratio=not isinstance(scenario.actuator, IdealTorque),
+                                  require_gear_ratio=act is None or act.gear_ratio_required,
                                   gravity_m_s2=scenario.world.gravity_m_s2)
     except QmtInputError as exc:
         raise QmtInputError(f"{where}: {exc}") from None
@@ -55,8 +54,8 @@ def build_limit_set(scenario: Scenario) -> LimitSet:
     terms = hand_plugin(scenario).limit_terms(scenario, arm)  # what the hand adds (hands.py)
     terms.append(MotorTorqueTerm(arm, scenario.limits.motor_torque_limit_Nm))
     if scenario.limits.joint_speed_fraction is not None:
-        sheets = getattr(scenario.actuator, "datasheets", None)
-        v = [s.no_load_speed_rad_s for s in sheets()] if sheets else None
+        act = actuator_plugin(scenario)  # its joints' speeds (the servos' no-load speeds), else the URDF's
+        v = act.joint_speeds_rad_s(scenario.actuator) if act is not None and act.joint_speeds_rad_s else None
         terms.append(JointSpeedTerm(arm, scenario.limits.joint_speed_fraction, v))
     return LimitSet(arm, terms + [JointRangeTerm(arm)])
 

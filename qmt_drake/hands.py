@@ -6,9 +6,10 @@ planning arm, and how its transfer is co-simulated and built as a Drake Diagram.
     tray    seed 002's tray with a bottle standing free: slide / tip / lift-off terms; the CRANE-X7's
             Dynamixel servos; tray/ builds and runs the diagram
 
-`hand_plugin(scenario)` looks a scenario's hand up; `run_simulate` and `build_diagram` dispatch on
-it, so the core (sim/, builders.py) holds no `is_tray` branch and seed packages only plug in.
-A new hand (e.g. a suction cup on a spatial arm) is one `register_hand` call.
+`hand_plugin(scenario)` looks a scenario's hand up (config/registry.HANDS); the scenario loader,
+the builders, `run_simulate`, `build_diagram`, the CLI, the benchmark, the budgets and the sweeps
+ask it instead of branching on the hand, so a new hand is one `register_hand` call and seed
+packages only plug in (tests/test_architecture.py checks that no `is_tray` branch is left).
 """
 
 from __future__ import annotations
@@ -20,13 +21,27 @@ from typing import Any
 
 from pydrake.geometry import Meshcat
 
-from qmt_drake.config.scenario import DynamixelServos, Scenario
-from qmt_drake.errors import QmtInputError
+from qmt_drake.budgets import MAGNET_REPLAY, TRAY_REPLAY, ReplayCost
+from qmt_drake.config.registry import HANDS, hand_entry
+from qmt_drake.config.scenario import (
+    DynamixelServos,
+    Scenario,
+    TrayHand,
+    check_tray_payload,
+    check_tray_scenario,
+    magnet_moment_limit,
+    tray_moment_limit,
+)
+from qmt_drake.config.validate import parse_magnet_hand, parse_tray_hand
 from qmt_drake.limits import PayloadMomentTerm
-from qmt_drake.plan import Motion, check_plan_fits
+from qmt_drake.outcome import verdict_line
+from qmt_drake.plan import Motion, Plan, check_plan_fits
+from qmt_drake.sim.actuation import FEEDFORWARD_OPTIONS
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
-from qmt_drake.sim.runner import run_transfer_simulate
+from qmt_drake.sim.runner import check_simulation_inputs, run_transfer_simulate, simulate_transfer
 from qmt_drake.systems.payload import PayloadSpec
+from qmt_drake.systems.tray_object import BottleSpec
+from qmt_drake.tray.conditions import level_tray_acceleration_cap_m_s2
 from qmt_drake.tray.cosim import TrayDiagram, build_tray_diagram
 from qmt_drake.tray.execute import (
     TRAY_CASE_PARAMETERS,
@@ -40,39 +55,70 @@ from qmt_drake.tray.limit_terms import tray_terms
 
 @dataclass(frozen=True)
 class HandPlugin:
-    """What one hand kind adds. limit_terms(scenario, arm) -> the hand's limit terms (before the
-    motor torques); carried_inertia(scenario) -> the Drake SpatialInertia welded to the planning
-    arm's hand; simulate(scenario, plan, **options) -> the co-simulation summary (the CLI's JSON);
-    build_diagram(scenario, plan, **options) -> the diagram; refused_methods: planners that cannot
-    serve it, with the reason. For sweeps (sweep/cases.py): case_parameters, the sweep parameters its
-    cases may vary (None: the magnet hand's own case runner, every parameter), and
-    case_overrides(scenario, payload) -> the scenario overrides of a case's drawn payload, whose
-    scenario is then passed to simulate(..., physical=) while the plan and the controller keep the
-    nominal one."""
+    """What one hand kind adds (config/registry.HANDS holds one per kind).
+
+    The scenario: parse(raw_section, where) -> its typed hand section; check_payload(payload, where)
+    (None: any payload) before the section is read; moment_limit(hand, payload, world, raw_limits,
+    where) -> Limits.moment_limit_Nm [N*m]; check_loaded(scenario, where) (None: nothing) once the arm
+    is loaded. What is built from it: limit_terms(scenario, arm) -> the hand's limit terms (before the
+    motor torques); carried_inertia(scenario) -> the Drake SpatialInertia welded to the planning arm's
+    hand; bottle(scenario) -> the BottleSpec of a hand that carries one (None: no bottle).
+
+    The co-simulation: simulate(scenario, plan, **options) -> the summary (the CLI's JSON), in which
+    lost_at_key names the time the payload was lost [s]; build_diagram(scenario, plan, **options) ->
+    the diagram; check_simulation(scenario, *, time_step_s, implicit_loop_damping, feedforward) refuses
+    (one line) what it cannot simulate, before any planning; carried_check(scenario, plan, *,
+    time_scale, feedforward, time_step_s) -> {held, outcome, max_slip_m, detached_at_s, max_tilt_rad,
+    sim_wall_s} of one nominal run (the carried search); replay_cost: its budgets.ReplayCost.
+
+    Reports: bang_bang_acceleration_m_s2(scenario) -> the largest tip acceleration [m/s^2] its limit
+    allows on a level line (apps/bang_bang.py); limit_caption(scenario, A) names that limit in the
+    benchmark's figures, figure_peak_ratio(plan) the ratio their titles show, moment_axis whether a
+    payload-moment axis applies; plan_ratios_text(plan) and simulate_text(result): the CLI's lines;
+    carried_search_note: why the benchmark does not search its fastest carried plan (None: it does).
+
+    Planners and sweeps: refused_methods, planners that cannot serve it, with the reason;
+    case_parameters, the sweep parameters its cases may vary (None: the magnet hand's own case
+    runner, every parameter); case_overrides(scenario, payload) -> the scenario overrides of a
+    case's drawn payload, whose scenario is then passed to simulate(..., physical=) while the plan
+    and the controller keep the nominal one; case_refused: sweep parameters of other hands that this
+    one cannot vary."""
 
     kind: str
+    parse: Callable[[dict, str], Any]
+    moment_limit: Callable[..., float]
     limit_terms: Callable
     carried_inertia: Callable
     simulate: Callable[..., dict]
     build_diagram: Callable[..., TransferDiagram | TrayDiagram]
+    check_simulation: Callable[..., Any]
+    carried_check: Callable[..., dict]
+    bang_bang_acceleration_m_s2: Callable[[Scenario], float]
+    limit_caption: Callable[[Scenario, float], str]
+    figure_peak_ratio: Callable[[Plan], float]
+    plan_ratios_text: Callable[[Plan], str]
+    simulate_text: Callable[[dict], str]
+    check_payload: Callable[..., None] | None = None
+    check_loaded: Callable[..., None] | None = None
+    bottle: Callable[[Scenario], BottleSpec] | None = None
+    lost_at_key: str = "detached_at_s"
+    replay_cost: ReplayCost = MAGNET_REPLAY
+    moment_axis: bool = True
+    carried_search_note: str | None = None
     refused_methods: dict = field(default_factory=dict)
     case_parameters: frozenset | None = None
     case_overrides: Callable | None = None
-    case_refused: frozenset = frozenset()  # sweep parameters of other hands that this one cannot vary
+    case_refused: frozenset = frozenset()
 
 
-HANDS: dict[str, HandPlugin] = {}
-
-
-def register_hand(plugin: HandPlugin) -> None:
-    HANDS[plugin.kind] = plugin
+def register_hand(plugin: HandPlugin, *, replace: bool = False) -> None:
+    HANDS.register(plugin, replace=replace)
 
 
 def hand_plugin(scenario: Scenario) -> HandPlugin:
-    kind = getattr(scenario.hand, "kind", "magnet") if scenario.hand is not None else "magnet"
-    if kind not in HANDS:
-        raise QmtInputError(f"scenario {scenario.name}: hand kind {kind!r} has no plug-in (known: {sorted(HANDS)})")
-    return HANDS[kind]
+    """The registered plug-in of the scenario's hand (the magnet's without a hand section)."""
+    plugin: HandPlugin = hand_entry(scenario)
+    return plugin
 
 
 def run_simulate(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, record_path: str | Path | None = None,
@@ -90,12 +136,41 @@ def build_diagram(scenario: Scenario, plan: Motion, **options: Any) -> TransferD
 
 
 # ------------------------------------------------------------------------------------- magnet
+def _magnet_carried(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, feedforward: str = "full",
+                    time_step_s: float | None = None) -> dict:
+    r = simulate_transfer(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, keep_series=False,
+                          **FEEDFORWARD_OPTIONS[feedforward])
+    return {"held": bool(r.held), "outcome": r.outcome, "max_slip_m": float(r.max_slip_m),
+            "detached_at_s": r.detached_at_s, "max_tilt_rad": float(r.max_tilt_rad), "sim_wall_s": float(r.sim_wall_s)}
+
+
+def _magnet_ratios_text(plan: Plan) -> str:
+    s = plan.summary()
+    return (f"moment {s['peak_moment_ratio']:.4f} of limit, motor torque {s['peak_motor_torque_ratio']:.4f} "
+            "of limit")
+
+
+def _magnet_simulate_text(r: dict) -> str:
+    return (f"{verdict_line(r['outcome'], r['detached_at_s'])}, max slip {r['max_slip_m'] * 1e3:.3f} mm, "
+            f"tracking error {r['max_tracking_error_rad']:.2e} rad, real-time factor {r['real_time_factor']:.1f}")
+
+
 register_hand(HandPlugin(
     kind="magnet",
+    parse=parse_magnet_hand,
+    moment_limit=magnet_moment_limit,
     limit_terms=lambda sc, arm: [PayloadMomentTerm(arm, sc.moment_per_accel_kgm, sc.limits.moment_limit_Nm)],
     carried_inertia=lambda sc: PayloadSpec.for_scenario(sc).spatial_inertia_about_origin(),
     simulate=run_transfer_simulate,
     build_diagram=build_transfer_diagram,
+    check_simulation=check_simulation_inputs,
+    carried_check=_magnet_carried,
+    # the moment limit over m_o r_G (eq. 2-24)
+    bang_bang_acceleration_m_s2=lambda sc: float(sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm),
+    limit_caption=lambda sc, A: f"the limit A = {A:.4g} m/s² = {sc.limits.moment_limit_Nm * 1e3:.4g} mN·m",
+    figure_peak_ratio=lambda plan: plan.check.peak_moment_ratio,
+    plan_ratios_text=_magnet_ratios_text,
+    simulate_text=_magnet_simulate_text,
     case_refused=frozenset({"servo_delay_s"}),  # DC motors with PID: no goal stream to delay
 ))
 
@@ -108,6 +183,20 @@ def _simulate_tray(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0,
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
     return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path, time_step_s=time_step_s,
                               physical=physical, servo_delay_s=servo_delay_s)
+
+
+def _check_tray_simulation(scenario: Scenario, *, time_step_s: float | None = None,
+                           implicit_loop_damping: bool | None = None, feedforward: str = "none") -> None:
+    check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
+
+
+def _tray_carried(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, feedforward: str = "full",
+                  time_step_s: float | None = None) -> dict:
+    # through the servos' own firmware loop: the DC-motor feedforward does not apply
+    r = _simulate_tray(scenario, plan, time_scale=time_scale, time_step_s=time_step_s)
+    return {"held": bool(r["held"]), "outcome": r["outcome"], "max_slip_m": float(r["max_slip_m"]),
+            "detached_at_s": r.get("lost_at_s"), "max_tilt_rad": float(r["max_tilt_rad"]),
+            "sim_wall_s": float(r["sim_wall_s"])}
 
 
 def _tray_diagram(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, time_step_s: float | None = None,
@@ -123,12 +212,52 @@ def _tray_diagram(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, 
                               meshcat=meshcat, **kw, **options)
 
 
+def _tray(scenario: Scenario) -> TrayHand:
+    assert isinstance(scenario.hand, TrayHand)  # this plug-in serves tray hands only
+    return scenario.hand
+
+
+def _tray_bottle(scenario: Scenario) -> BottleSpec:
+    b, p, h = scenario.payload.body, scenario.payload, scenario.hand
+    assert b is not None and isinstance(h, TrayHand)  # check_tray_payload and parse_tray_hand at load
+    return BottleSpec(p.name, float(p.mass_kg), b.radius_m, b.length_m, float(p.com_offset_m), b.shell_mass_kg,
+                      h.contact_radius_m, friction=h.friction, n_contact_points=h.n_contact_points)
+
+
+def _tray_simulate_text(r: dict) -> str:
+    return (f"{verdict_line(r['outcome'], r['lost_at_s'])}, slip {r['max_slip_m'] * 1e3:.3f} mm, creep "
+            f"{r['creep_m'] * 1e3:.3f} mm, tilt {r['max_tilt_rad']:.2e} rad, tracking error "
+            f"{r['max_tracking_error_rad']:.2e} rad, real-time factor {r['real_time_factor']:.2f}")
+
+
 register_hand(HandPlugin(
     kind="tray",
-    limit_terms=lambda sc, arm: tray_terms(sc.bottle, sc.hand.plan_margin, gravity_m_s2=sc.world.gravity_m_s2),
+    parse=parse_tray_hand,
+    check_payload=check_tray_payload,
+    moment_limit=tray_moment_limit,
+    check_loaded=check_tray_scenario,
+    limit_terms=lambda sc, arm: tray_terms(sc.bottle, _tray(sc).plan_margin, gravity_m_s2=sc.world.gravity_m_s2),
     carried_inertia=lambda sc: sc.bottle.spatial_inertia(),
+    bottle=_tray_bottle,
     simulate=_simulate_tray,
     build_diagram=_tray_diagram,
+    check_simulation=_check_tray_simulation,
+    carried_check=_tray_carried,
+    lost_at_key="lost_at_s",
+    replay_cost=TRAY_REPLAY,
+    # the level tray: the smaller of the planning friction's mu g (no slide) and g r_c / h_G (no tip)
+    bang_bang_acceleration_m_s2=lambda sc: level_tray_acceleration_cap_m_s2(sc.bottle, _tray(sc).plan_margin,
+                                                                            sc.world.g_m_s2),
+    limit_caption=lambda sc, A: (f"the level tray's bang-bang acceleration A = {A:.4g} m/s² (slide or tip at the "
+                                 "planning margin); titles: worst limit ratio"),
+    figure_peak_ratio=lambda plan: plan.check.worst_ratio,  # the worst of slide / tip / lift / motors / speeds
+    moment_axis=False,
+    plan_ratios_text=lambda plan: "peak ratios " + ", ".join(f"{k} {v:.4f}" for k, v in plan.check.peak_ratios.items()),
+    simulate_text=_tray_simulate_text,
+    # the benchmark's search converges the magnet co-simulation's plant step; the tray's servos fix it
+    # at their control period, and its search per bottle is a study of its own
+    carried_search_note=("not searched here for a tray scenario: qmt-drake plan crane-tray --method toppra "
+                         "--carried, or per friction and fill python -m studies.tray_carried"),
     # its B-spline path does not hold the tray level and its constraints have no tray terms: the
     # re-check's slow-down search (finish.py) cannot make it keep the tray limits
     refused_methods={"trajopt": "its path does not hold the tray level and its constraints have no tray terms"},

@@ -18,6 +18,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from qmt_drake.config.registry import OBJECTIVES, TRANSFER, ObjectivePlugin, for_scenario_kind
 from qmt_drake.config.scenario import Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
@@ -77,13 +78,24 @@ class MinimumTime:
         return np.where(ev.feasible, np.exp(-self.fitness_c_per_s * np.where(ev.feasible, ev.cost, 0.0)), 0.0)
 
 
-class PlanningProblem:
-    """A scenario's transfer task as a Problem (minimum time under its limit set)."""
+# the transfer scenarios' objective: make(scenario) -> MinimumTime with the scenario's GA fitness constant
+OBJECTIVES.register(ObjectivePlugin("min_time", lambda scenario: MinimumTime(scenario.ga.fitness_c_per_s),
+                                    summary="T0, the motion time; GA fitness exp(-c T0) when every limit holds"))
+DEFAULT_OBJECTIVE = "min_time"
 
-    def __init__(self, scenario: Scenario, objective: MinimumTime | None = None) -> None:
+
+class PlanningProblem:
+    """A scenario's transfer task as a Problem (minimum time under its limit set, or the registered
+    transfer objective `objective` names)."""
+
+    def __init__(self, scenario: Scenario, objective: MinimumTime | str | None = None) -> None:
         self.scenario = scenario
         self.name = scenario.name
-        self.objective = objective or MinimumTime(scenario.ga.fitness_c_per_s)
+        if objective is None or isinstance(objective, str):
+            entry = OBJECTIVES.get(objective or DEFAULT_OBJECTIVE, "PlanningProblem objective",
+                                   accept=for_scenario_kind(TRANSFER))
+            objective = entry.make(scenario)
+        self.objective = objective
         self.arm = scenario.arm
         self.limit_set = scenario.limit_set
         self.family = make_family(scenario)

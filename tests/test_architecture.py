@@ -136,3 +136,19 @@ def test_modules_stay_small():
     stale = [m for m in BIG_MODULES if not (ROOT / m).is_file()
              or len((ROOT / m).read_text(encoding="utf-8").splitlines()) < MAX_MODULE_LINES]
     assert stale == [], f"drop from BIG_MODULES (gone or small now): {stale}"
+
+
+def test_no_hand_kind_branch_outside_the_hand_plug_ins():
+    """Code asks the hand's plug-in (hands.HandPlugin) instead of branching on the hand kind: no
+    `is_tray` and no TrayHand outside the tray plug-in (hands.py, tray/) and the scenario's own
+    section types and parsers (config/)."""
+    allowed = ("qmt_drake/hands.py", "qmt_drake/tray/")
+    typed = allowed + ("qmt_drake/config/",)
+    found = []
+    for p in sorted([*PKG.rglob("*.py"), *(ROOT / "studies").rglob("*.py")]):
+        rel, text = p.relative_to(ROOT).as_posix(), p.read_text(encoding="utf-8")
+        if "is_tray" in text and not rel.startswith(allowed):
+            found.append(f"{rel}: is_tray")
+        if "TrayHand" in text and not rel.startswith(typed):
+            found.append(f"{rel}: TrayHand")
+    assert found == [], "ask the hand plug-in (hands.hand_plugin(scenario)) instead: " + "; ".join(found)

@@ -80,7 +80,7 @@ def test_user_file_plans_through_qmt_drake_plan(tmp_path, capsys):
     ({"limits": {"joint_torque_Nm": [200, -1, 200]}}, "joint_torque_Nm[1] = -1 must be > 0"),
     ({"limits": {"joint_torque_Nm": [200, 200]}}, "list of 3 numbers"),
     ({"family__moving_joints": [4]}, "moving_joints"),
-    ({"family__kind": "via_cubic"}, "only fourier_velocity"),
+    ({"family__kind": "via_cubic"}, "family.kind 'via_cubic' is not one of fourier_velocity"),
     ({"payload": {"mass_kg": 1}}, "unknown key(s) ['payload']"),
     ({"task__start_posture": "highest"}, "only lowest_cog"),
     ({"arm__urdf": "/nonexistent.urdf"}, "does not exist"),

@@ -143,7 +143,7 @@ def test_ctrl_c_exits_130_with_one_line(monkeypatch, capsys):
     ({"hand__kind": "tray"}, "hand.kind 'tray' is not available"),
     ({"actuator__motors": ["maxon_RE30_60W_24V"]}, "actuator.motors has 1 entries but the arm"),
     ({"actuator__motors": ["maxon_RE99", "maxon_RE30_60W_24V"]}, "actuator.motors: 'maxon_RE99' is not in the catalogue"),
-    ({"actuator__kind": "servo"}, "actuator.kind must be 'dc_motor_gear' or 'ideal'"),
+    ({"actuator__kind": "servo"}, "actuator.kind 'servo' is not one of dc_motor_gear, ideal, dynamixel"),
     ({"payload__body": {"kind": "cylinder", "length_m": 0.05}}, "payload.body: missing key 'radius_m'"),
     ({"payload__body": "bolt"}, "payload.body must be a mapping"),
     ({"task": 5}, "'task' must be a mapping, got 5"),

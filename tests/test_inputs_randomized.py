@@ -17,6 +17,7 @@ import pytest
 from qmt_drake.budgets import (
     MEMORY_BUDGET_BYTES,
     TIME_BUDGET_S,
+    TRAY_REPLAY,
     check_budget,
     fourier_estimate,
     replay_estimate,
@@ -113,7 +114,7 @@ def test_estimates_grow_with_their_sizes():
     assert fourier_estimate(5, 4000).bytes > fourier_estimate(5, 40).bytes
     assert replay_estimate(10, 2.0).seconds > replay_estimate(1, 2.0).seconds
     assert replay_estimate(1, 2.0, 1e-4).bytes > replay_estimate(1, 2.0, 2e-3).bytes
-    assert replay_estimate(1, 2.0, 1e-4, tray=True).seconds > replay_estimate(1, 2.0, tray=True).seconds
+    assert replay_estimate(1, 2.0, 1e-4, cost=TRAY_REPLAY).seconds > replay_estimate(1, 2.0, cost=TRAY_REPLAY).seconds
 
 
 def test_check_rate_estimate_against_a_measured_recheck():

@@ -7,16 +7,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmt_drake.tray.conditions import level_tray_acceleration_cap_m_s2
+from qmt_drake.hands import hand_plugin
 
 
 def bang_bang_acceleration_m_s2(scenario) -> float:
-    """The largest tip acceleration the payload limit allows on a level straight line, m/s^2:
-    moment limit / (m_o r_G) for the magnet hand; for a tray, the smaller of the planning
-    friction's mu g (no slide) and g r_c / h_G (no tip; both with the plan margin)."""
-    if getattr(scenario, "is_tray", False):
-        return level_tray_acceleration_cap_m_s2(scenario.bottle, scenario.hand.plan_margin, scenario.world.g_m_s2)
-    return float(scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm)
+    """The largest tip acceleration the payload limit allows on a level straight line, m/s^2, as the
+    hand's plug-in states it (hands.py): moment limit / (m_o r_G) for the magnet hand; for a tray,
+    the smaller of the planning friction's mu g (no slide) and g r_c / h_G (no tip; both with the
+    plan margin)."""
+    return float(hand_plugin(scenario).bang_bang_acceleration_m_s2(scenario))
 
 
 def closed_form_bound_s(scenario) -> float | None:

@@ -42,7 +42,7 @@ import numpy as np
 from qmt_drake.apps.bang_bang import bang_bang_acceleration_m_s2, closed_form_bound_s
 from qmt_drake.apps.benchmark_report import CARRIED_LABEL, benchmark_markdown, write_figures
 from qmt_drake.config.scenario import load_scenario
-from qmt_drake.hands import run_simulate
+from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import Plan, family_plan, load_plan
 from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
@@ -84,7 +84,7 @@ def cosim_outcome(scenario, plan: Plan) -> dict:
         return {"held": None, "max_slip_m": None,
                 "cosim_note": f"co-simulation failed: {type(exc).__name__}: {exc}"}
     return {"held": r.get("held"), "max_slip_m": r.get("max_slip_m"),
-            "detached_at_s": r.get("detached_at_s"),
+            "detached_at_s": r.get(hand_plugin(scenario).lost_at_key),  # the tray's: lost_at_s
             "max_tracking_error_rad": r.get("max_tracking_error_rad"),
             "cosim_sim_wall_s": r.get("sim_wall_s"), "cosim_note": None}
 
@@ -253,12 +253,9 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
                 say(f"{name}: co-simulating {label}")
             rows.append(_row(sc, label, plan, cosim))
         fc_row = None
-        if cosim and carried and getattr(sc, "is_tray", False):
-            # this search converges the magnet co-simulation's plant step; the tray's servos fix it at
-            # their control period, and its search per bottle is a study of its own
-            result["scenarios"].setdefault(name, {})["fastest_carried_note"] = (
-                "not searched here for a tray scenario: qmt-drake plan crane-tray --method toppra --carried, "
-                "or per friction and fill python -m studies.tray_carried")
+        no_search = hand_plugin(sc).carried_search_note  # why the hand's own search is elsewhere
+        if cosim and carried and no_search is not None:
+            result["scenarios"].setdefault(name, {})["fastest_carried_note"] = no_search
         elif cosim and carried:
             say(f"{name}: searching the fastest plan carried in the co-simulation")
             try:

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.apps.bang_bang import bang_bang_acceleration_m_s2, closed_form_bound_s
+from qmt_drake.hands import hand_plugin
 from qmt_drake.plan import Plan
 
 CARRIED_LABEL = "fastest carried"  # the label of the fastest carried row (the figures single it out)
@@ -137,16 +138,8 @@ def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict 
             continue
         sc = plans[0][1].scenario
         A = bang_bang_acceleration_m_s2(sc)
-        tray = getattr(sc, "is_tray", False)
-        if tray:  # the bottle's limits: the worst of slide / tip / lift / motors / speeds
-            def peak_of(p):
-                return p.check.worst_ratio
-            limit_text = (f"the level tray's bang-bang acceleration A = {A:.4g} m/s² (slide or tip at the "
-                          "planning margin); titles: worst limit ratio")
-        else:
-            def peak_of(p):
-                return p.check.peak_moment_ratio
-            limit_text = f"the limit A = {A:.4g} m/s² = {sc.limits.moment_limit_Nm*1e3:.4g} mN·m"
+        hand = hand_plugin(sc)  # how its payload limit reads: the caption, the titles' ratio, a moment axis
+        peak_of, limit_text = hand.figure_peak_ratio, hand.limit_caption(sc, A)
         X = sc.moment_per_accel_kgm
         shown = [(lb, p) for lb, p in plans if p.motion_time_s > 0]
         # the time axis of the feasible plans (an infeasible one may rest at the family's slowest)
@@ -167,7 +160,7 @@ def write_figures(plans_by_scenario: dict, out: Path, carried_by_scenario: dict 
                 ax.set_ylim(0, 1.2 * A)
                 ax.grid(alpha=0.3)
                 ax.tick_params(labelsize=9)
-                if not tray:
+                if hand.moment_axis:
                     sec = ax.secondary_yaxis("right", functions=(lambda v: v * X * 1e3,
                                                                  lambda m: m / (X * 1e3)))
                     sec.tick_params(labelsize=9)

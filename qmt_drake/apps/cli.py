@@ -37,15 +37,12 @@ from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
 from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.hands import hand_plugin, run_simulate
-from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import check_output_dir, check_output_path
 from qmt_drake.plan import load_plan
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
-from qmt_drake.sim import check_simulation_inputs
 from qmt_drake.sweep.cli import add_parser as add_sweep_parser
 from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success, success_spec
-from qmt_drake.tray.execute import check_tray_simulation
 
 # sim.FEEDFORWARD_OPTIONS keys (kept here so `--help` does not import Drake; a test checks they agree).
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
@@ -174,22 +171,14 @@ def cmd_plan(args) -> int:
             plan, _ = plan_for_success(plan, base_file, args.success_out, target=args.success,
                                        check_cases=args.success_check_cases, s_max=args.success_max_scale,
                                        progress=None if args.quiet else progress)
-    summary = plan.summary()
     if args.json and args.json != "-":
         plan.write_json(args.json)
     elif args.json == "-":
         emit_json(plan.to_json_dict(), "-")
     if args.trajectory_csv:
         plan.write_csv(args.trajectory_csv)
-    if getattr(sc, "is_tray", False) and args.json != "-":
-        ratios = ", ".join(f"{k} {v:.4f}" for k, v in plan.check.peak_ratios.items())
-        print(f"{sc.name} {args.method}: T0 = {plan.motion_time_s:.4f} s, peak ratios {ratios}, "
-              f"{'feasible' if plan.feasible else 'INFEASIBLE (least-violating plan)'}, "
-              f"{plan.planner_wall_s:.2f} s")
-    elif args.json != "-":
-        print(f"{sc.name} {args.method}: T0 = {plan.motion_time_s:.4f} s, moment "
-              f"{summary['peak_moment_ratio']:.4f} of limit, motor torque "
-              f"{summary['peak_motor_torque_ratio']:.4f} of limit, "
+    if args.json != "-":
+        print(f"{sc.name} {args.method}: T0 = {plan.motion_time_s:.4f} s, {hand_plugin(sc).plan_ratios_text(plan)}, "
               f"{'feasible' if plan.feasible else 'INFEASIBLE (least-violating plan)'}, "
               f"{plan.planner_wall_s:.2f} s")
     return 0 if plan.feasible else EXIT_INFEASIBLE
@@ -227,26 +216,23 @@ def cmd_simulate(args) -> int:
     check_plan_budget(sc, "thesis" if args.plan else args.method, allow_large=args.allow_large)
     check_replay_budget(sc, args.time_scale, None if args.time_step_ms is None else args.time_step_ms * 1e-3,
                         allow_large=args.allow_large)
-    if getattr(sc, "is_tray", False):
-        return _simulate_tray(args, sc)
+    hand = hand_plugin(sc)
+    time_step_s = None if args.time_step_ms is None else args.time_step_ms * 1e-3
     # What the co-simulation needs from the scenario and the options, before planning.
-    check_simulation_inputs(sc, time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
-                            implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
+    hand.check_simulation(sc, time_step_s=time_step_s, implicit_loop_damping=not args.explicit,
+                          feedforward=args.feedforward)
     if args.plan:
         plan = load_plan(args.plan, scenario=sc)
     else:
+        _check_tray_method(sc, args.method)
         _say_planning_first(args)
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else progress)
-    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record,
-                          time_step_s=None if args.time_step_ms is None else args.time_step_ms * 1e-3,
+    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s,
                           implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
     emit_json(result, args.json)
     if args.json != "-":
-        print(f"{sc.name} {plan.method} x{args.time_scale}: "
-              f"{verdict_line(result['outcome'], result['detached_at_s'])}, max slip {result['max_slip_m'] * 1e3:.3f} mm, "
-              f"tracking error {result['max_tracking_error_rad']:.2e} rad, "
-              f"real-time factor {result['real_time_factor']:.1f}")
+        print(f"{sc.name} {plan.method} x{args.time_scale}: {hand.simulate_text(result)}")
     return 0
 
 
@@ -255,27 +241,6 @@ def _say_planning_first(args) -> None:
     if not args.quiet:
         print(f"qmt-drake: no --plan given: planning with --method {args.method} (seed {args.seed}) first; "
               "give --plan FILE to simulate a saved plan", file=sys.stderr)
-
-
-def _simulate_tray(args, sc) -> int:
-    """simulate for a tray scenario (seed 002): the plan streamed to the Dynamixel servos, the bottle
-    free on the tray (qmt_drake/tray/execute.py)."""
-    time_step_s = None if args.time_step_ms is None else args.time_step_ms * 1e-3
-    check_tray_simulation(sc, time_step_s, args.feedforward, not args.explicit)  # before any planning
-    if not args.plan:
-        _check_tray_method(sc, args.method)
-        _say_planning_first(args)
-    plan = load_plan(args.plan, scenario=sc) if args.plan else plan_with(
-        args.method, sc, seed=args.seed, progress=None if args.quiet else progress)
-    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s)
-    emit_json(result, args.json)
-    if args.json != "-":
-        verdict = verdict_line(result["outcome"], result["lost_at_s"])
-        print(f"{sc.name} {plan.method} x{args.time_scale}: {verdict}"
-              f", slip {result['max_slip_m'] * 1e3:.3f} mm, creep {result['creep_m'] * 1e3:.3f} "
-              f"mm, tilt {result['max_tilt_rad']:.2e} rad, tracking error {result['max_tracking_error_rad']:.2e} rad, "
-              f"real-time factor {result['real_time_factor']:.2f}")
-    return 0
 
 
 def cmd_bench(args) -> int:

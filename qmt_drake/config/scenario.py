@@ -38,6 +38,7 @@ from pathlib import Path
 import yaml
 
 from qmt_drake.config import fields as fields_mod
+from qmt_drake.config.registry import ACTUATORS, DEFAULT_HAND_KIND, ENERGY_TIME, HANDS
 from qmt_drake.config.sections import (  # noqa: F401 (re-exported: the scenario's types)
     STANDARD_GRAVITY_M_S2,
     DcMotorGear,
@@ -90,7 +91,7 @@ _SECTION_KEYS = {
 }
 
 
-ENERGY_TIME_KIND = "energy_time"  # seed 001's scenarios (qmt_drake/energy/scenario.py) share the folder
+ENERGY_TIME_KIND = ENERGY_TIME  # seed 001's scenarios (qmt_drake/energy/scenario.py) share the folder
 
 
 # planners/spatial_methods.METHODS (named here: config imports nothing above it; a test checks they agree)
@@ -174,22 +175,12 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     world = parse_world(raw.get("world") or {}, f"{where}: world")
     lim = raw["limits"]
     h = raw.get("hand")
-    if isinstance(h, dict) and h.get("kind") == "tray" and (payload.body is None or payload.body.shell_mass_kg <= 0):
-        raise QmtInputError(f"{where}: hand.kind 'tray' is not available for this payload: a tray carries a "
-                            "bottle; give payload.body kind 'bottle' (radius_m, height_m, shell_mass_kg)")
+    hand_plugin = HANDS.get(h.get("kind", DEFAULT_HAND_KIND) if isinstance(h, dict) else DEFAULT_HAND_KIND,
+                            f"{where}: hand")
+    if hand_plugin.check_payload is not None:
+        hand_plugin.check_payload(payload, where)  # before the section's keys: e.g. a tray carries a bottle
     hand = parse_hand(h, f"{where}: hand")
-    tray = isinstance(hand, TrayHand)
-    if isinstance(hand, TrayHand):
-        if lim.get("moment_limit_Nm") is not None:
-            raise QmtInputError(f"{where}: limits.moment_limit_Nm does not apply to a tray hand (its limits "
-                                "are no slide, no tip, no lift-off from hand.friction and hand.contact_radius_m); "
-                                "remove it")
-        # Not a planning limit here: the bottle's tipping moment m g r_c (with the planning margin),
-        # so that moment_limit / moment_per_accel = g r_c / h_G is the level tray's tipping
-        # acceleration, the starting acceleration scale of the Ruckig baseline.
-        moment = payload.mass_kg * world.g_m_s2 * hand.contact_radius_m * hand.plan_margin
-    else:
-        moment = _num(lim, "moment_limit_Nm", f"{where}: limits", positive=True)
+    moment = hand_plugin.moment_limit(hand, payload, world, lim, where)  # its payload limit [N*m]
     speed = lim.get("joint_speed_fraction")
     if speed is not None:
         speed = _num(lim, "joint_speed_fraction", f"{where}: limits", positive=True)
@@ -207,10 +198,10 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
                                         default=f.default) for f in fields(Sampling)})
     control = {}
     act_kind = (raw.get("actuator") or {}).get("kind") if isinstance(raw.get("actuator"), dict) else None
-    if raw.get("control") and act_kind == "dynamixel":
+    refused = ACTUATORS[act_kind].control_refused if isinstance(act_kind, str) and act_kind in ACTUATORS else None
+    if raw.get("control") and refused:
         raise QmtInputError(f"{where}: control.{'/'.join(raw['control'])} are the PID gains of DC motors or ideal "
-                            "actuators; a Dynamixel scenario sets its firmware gains in actuator.p / i / d "
-                            "(control-table units): move them there and drop the control section")
+                            f"actuators; {refused}")
     for k, v in (raw.get("control") or {}).items():
         control[k] = _vector({k: v}, k, f"{where}: control", nonnegative=True,
                              what="gains, one per joint").tolist()
@@ -241,8 +232,8 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         actuator=parse_actuator(raw.get("actuator"), limits, f"{where}: actuator"), world=world,
         uncertainty=parse_uncertainty(raw.get("uncertainty"), f"{where}: uncertainty"))
     _check_against_arm(sc, where)
-    if tray:
-        _check_tray(sc, where)
+    if hand_plugin.check_loaded is not None:
+        hand_plugin.check_loaded(sc, where)  # e.g. the tray: its points reachable, the bottle at rest
     return sc
 
 
@@ -271,11 +262,35 @@ def _arm(a: dict, path: Path, where: str) -> UrdfArm:
     return UrdfArm(urdf_path=urdf, hand_frame=frame)
 
 
-def _check_tray(sc: Scenario, where: str) -> None:
+def magnet_moment_limit(hand: MagnetHand | None, payload: Payload, world: World, lim: dict, where: str) -> float:
+    """The magnet hand's payload limit: limits.moment_limit_Nm [N*m] as given."""
+    return _num(lim, "moment_limit_Nm", f"{where}: limits", positive=True)
+
+
+def tray_moment_limit(hand: TrayHand, payload: Payload, world: World, lim: dict, where: str) -> float:
+    """The tray's: not a planning limit but the bottle's tipping moment m g r_c (with the planning
+    margin) [N*m], so that moment_limit / moment_per_accel = g r_c / h_G is the level tray's tipping
+    acceleration, the starting acceleration scale of the Ruckig baseline. limits.moment_limit_Nm
+    does not apply: one line."""
+    if lim.get("moment_limit_Nm") is not None:
+        raise QmtInputError(f"{where}: limits.moment_limit_Nm does not apply to a tray hand (its limits "
+                            "are no slide, no tip, no lift-off from hand.friction and hand.contact_radius_m); "
+                            "remove it")
+    return payload.mass_kg * world.g_m_s2 * hand.contact_radius_m * hand.plan_margin
+
+
+def check_tray_payload(payload: Payload, where: str) -> None:
+    """A tray carries a bottle: one line otherwise."""
+    if payload.body is None or payload.body.shell_mass_kg <= 0:
+        raise QmtInputError(f"{where}: hand.kind 'tray' is not available for this payload: a tray carries a "
+                            "bottle; give payload.body kind 'bottle' (radius_m, height_m, shell_mass_kg)")
+
+
+def check_tray_scenario(sc: Scenario, where: str) -> None:
     """The task's tray points inside the joint ranges (tray level: task.tool_angle_rad) and the
     bottle standing at rest: one line each, before any planning."""
     b, hand = sc.payload.body, sc.hand
-    assert b is not None and isinstance(hand, TrayHand)  # scenario_from_dict checked both before calling
+    assert b is not None and isinstance(hand, TrayHand)  # check_tray_payload and the parser checked both
     if hand.contact_radius_m > b.radius_m:
         raise QmtInputError(f"{where}: hand.contact_radius_m {hand.contact_radius_m} m is wider than the bottle "
                             f"(payload.body.radius_m {b.radius_m} m)")
@@ -292,16 +307,14 @@ def _check_tray(sc: Scenario, where: str) -> None:
             raise QmtInputError(f"{where}: task.points_m[{i}] ({p[0]:g}, {p[1]:g}) m: {exc}") from None
 
 
-
 def _check_against_arm(sc: Scenario, where: str) -> None:
     """Lists that go one per joint must match the arm's joint count (loads the arm once)."""
     n = sc.arm.n_dof
     checks: list[tuple[str, Sized]] = [("limits.motor_torque_limit_Nm", sc.limits.motor_torque_limit_Nm)]
     checks += [(f"control.{k}", v) for k, v in sc.control.items()]
-    if isinstance(sc.actuator, DcMotorGear):
-        checks.append(("actuator.motors", sc.actuator.motors))
-    if isinstance(sc.actuator, DynamixelServos):
-        checks.append(("actuator.servos", sc.actuator.servos))
+    per_joint = ACTUATORS[sc.actuator.kind].per_joint if sc.actuator is not None else None
+    if per_joint is not None:  # the actuator's list with one entry per joint (motors, servos)
+        checks.append((f"actuator.{per_joint}", getattr(sc.actuator, per_joint)))
     for key, v in checks:
         if len(v) != n:
             raise QmtInputError(f"{where}: {key} has {len(v)} entries but the arm "

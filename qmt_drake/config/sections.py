@@ -233,10 +233,6 @@ class Scenario:
     # `plan --success P` (validated there by sweep/parameters.py)
     uncertainty: dict = field(default_factory=dict)
 
-    @property
-    def is_tray(self) -> bool:
-        return isinstance(self.hand, TrayHand)
-
     # What a scenario turns into (the arm model, the limit set, the tray's bottle) is built by
     # qmt_drake/builders.py, which registers its builders in config/hooks.py (register_builders): this module
     # imports nothing above config/, and every object is built once per scenario object. Their types

@@ -25,6 +25,14 @@ from qmt_drake.catalog import (
 )
 from qmt_drake.config import fields as fields_mod
 from qmt_drake.config.hooks import registered_validator
+from qmt_drake.config.registry import (
+    ACTUATORS,
+    DEFAULT_HAND_KIND,
+    FAMILIES,
+    HANDS,
+    TRANSFER,
+    for_scenario_kind,
+)
 from qmt_drake.config.sections import (
     DcMotorGear,
     DynamixelServos,
@@ -41,7 +49,6 @@ from qmt_drake.config.sections import (
 )
 from qmt_drake.errors import QmtInputError
 
-FAMILY_KINDS = ("line_cubic_velocity", "trapezoid_ptp", "via_cubic")
 WORLD_KEYS = {"gravity_m_s2"}
 
 _HAND_KEYS = {"kind", "coil", "slip_boundary_Nm", "coil_current_A", "effective_gap_m", "friction",
@@ -120,10 +127,10 @@ def parse_task(t: dict, where: str) -> Task:
 
 
 def parse_family(fam: dict, where: str) -> Family:
-    """`family`: the trajectory family and its genes' [min, max] bounds (all positive)."""
+    """`family`: a registered transfer family (config/registry.FAMILIES) and its genes' [min, max]
+    bounds (all positive; the family checks the gene names against its own when it is built)."""
     kind = _need(fam, "kind", where)
-    if kind not in FAMILY_KINDS:
-        raise QmtInputError(f"{where}.kind {_show(kind)} is not one of {FAMILY_KINDS}")
+    FAMILIES.get(kind, where, accept=for_scenario_kind(TRANSFER))
     genes = _need(fam, "genes", where)
     if not isinstance(genes, dict) or not genes:
         raise QmtInputError(f"{where}.genes must map gene names to [min, max] bounds")
@@ -172,17 +179,18 @@ def parse_ga(g: dict, where: str) -> GaSettings:
     return GaSettings(**kw)
 
 
-def parse_hand(h, where: str) -> MagnetHand | TrayHand | None:
-    """`hand`: a magnet (coil, current or slip boundary, contact) or a tray; None without a hand."""
+def parse_hand(h, where: str):
+    """`hand`: the section of a registered hand kind (config/registry.HANDS: magnet, tray, ...),
+    parsed by its plug-in; None without a hand."""
     if h is None:
         return None
     if not isinstance(h, dict):
-        raise QmtInputError(f"{where} must be a mapping with kind: magnet, got {_show(h)}")
-    kind = h.get("kind", "magnet")
-    if kind == "tray":
-        return _tray_hand(h, where)
-    if kind != "magnet":
-        raise QmtInputError(f"{where}.kind {_show(kind)} is not available; use 'magnet' or 'tray'")
+        raise QmtInputError(f"{where} must be a mapping with kind: {' | '.join(HANDS.kinds())}, got {_show(h)}")
+    return HANDS.get(h.get("kind", DEFAULT_HAND_KIND), where).parse(h, where)
+
+
+def parse_magnet_hand(h: dict, where: str) -> MagnetHand:
+    """hand.kind 'magnet': the coil, its current or slip boundary, the contact."""
     _check_keys(h, _HAND_KEYS, where)
     c = _need(h, "coil", where)
     if isinstance(c, str):
@@ -224,7 +232,8 @@ def parse_hand(h, where: str) -> MagnetHand | TrayHand | None:
 _TRAY_KEYS = {f.name for f in fields(TrayHand)}
 
 
-def _tray_hand(h: dict, where: str) -> TrayHand:
+def parse_tray_hand(h: dict, where: str) -> TrayHand:
+    """hand.kind 'tray': the bottle-tray friction and ring, the planning margin, the rest tilt."""
     _check_keys(h, _TRAY_KEYS, where)
     d = TrayHand()
     fr = h.get("friction", d.friction)
@@ -242,21 +251,24 @@ def _tray_hand(h: dict, where: str) -> TrayHand:
 
 
 
-def parse_actuator(a, limits: Limits, where: str) -> DcMotorGear | IdealTorque | DynamixelServos | None:
-    """`actuator`: DC motors with gears, ideal torque sources or Dynamixel servos; None without one."""
+def parse_actuator(a, limits: Limits, where: str):
+    """`actuator`: the section of a registered actuator kind (config/registry.ACTUATORS: DC motors
+    with gears, ideal torque sources, Dynamixel servos, ...), parsed by its plug-in; None without one."""
     if a is None:
         return None
     if not isinstance(a, dict):
-        raise QmtInputError(f"{where} must be a mapping with kind dc_motor_gear, ideal or dynamixel, got {_show(a)}")
-    kind = a.get("kind")
-    if kind == "dynamixel":
-        return _dynamixel(a, where)
-    if kind == "ideal":
-        _check_keys(a, {"kind"}, where)
-        return IdealTorque()
-    if kind != "dc_motor_gear":
-        raise QmtInputError(f"{where}.kind must be 'dc_motor_gear' or 'ideal' (motor models) or 'dynamixel' "
-                            f"(position servos), got {_show(kind)}")
+        raise QmtInputError(f"{where} must be a mapping with kind {' | '.join(ACTUATORS.kinds())}, got {_show(a)}")
+    return ACTUATORS.get(a.get("kind"), where).parse(a, limits, where)
+
+
+def parse_ideal_torque(a: dict, limits: Limits, where: str) -> IdealTorque:
+    """actuator.kind 'ideal': no keys besides the kind."""
+    _check_keys(a, {"kind"}, where)
+    return IdealTorque()
+
+
+def parse_dc_motor_gear(a: dict, limits: Limits, where: str) -> DcMotorGear:
+    """actuator.kind 'dc_motor_gear': catalogue motors (or 'by_rated_torque') and the gear efficiency."""
     _check_keys(a, {"kind", "motors", "efficiency"}, where)
     motors = a.get("motors", "by_rated_torque")
     if motors == "by_rated_torque":
@@ -306,7 +318,8 @@ def parse_world(w: dict, where: str) -> World:
     return World(tuple(float(x) for x in g))
 
 
-def _dynamixel(a: dict, where: str) -> DynamixelServos:
+def parse_dynamixel(a: dict, limits: Limits, where: str) -> DynamixelServos:
+    """actuator.kind 'dynamixel': servo models, firmware gains (control-table units), period, goal stream."""
     _check_keys(a, {"kind", "servos", "p", "i", "d", "ff1", "ff2", "control_period_s", "reference"}, where)
     reference = a.get("reference", "plain")
     if reference not in ("plain", "shaped"):

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from qmt_drake.config.registry import ENERGY_TIME, FAMILIES, FamilyPlugin
 from qmt_drake.errors import QmtInputError
 from qmt_drake.trajectory import JointTrajectory
 
@@ -206,3 +207,7 @@ class FourierTrajectory(JointTrajectory):
         t = np.linspace(0.0, self.duration_s, max(int(np.ceil(self.duration_s * rate_hz)), 1) + 1)
         q, qd, _ = self.family.sample(self.x, t)
         return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
+
+
+# seed 001 eq. 5; the energy problem builds it from the start posture and m (energy/problem.py)
+FAMILIES.register(FamilyPlugin("fourier_velocity", FourierVelocityFamily, scenario_kind=ENERGY_TIME))

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from qmt_drake.config.registry import ENERGY_TIME, OBJECTIVES, ObjectivePlugin
 from qmt_drake.energy.dynamics import VerticalArm, inverse_dynamics_with_gravity
 from qmt_drake.energy.fourier import Basis, FourierVelocityFamily, basis
 from qmt_drake.errors import QmtInputError
@@ -117,3 +118,7 @@ class EnergyObjective:
         x, J = self.family.reduced_to_full(y)
         z, g = self.value_and_gradient(x)
         return z, g @ J
+
+
+OBJECTIVES.register(ObjectivePlugin(ENERGY_TIME, EnergyObjective, scenario_kind=ENERGY_TIME,
+                                    summary="z = integral (c1 tau'tau + c2) dt (seed 001)"))

@@ -33,7 +33,7 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 
-from qmt_drake.config.scenario import IdealTorque
+from qmt_drake.config.scenario import IdealTorque, MagnetHand
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import check_plan_fits
 from qmt_drake.recording import add_floor, add_meshcat_visualizer, frame_arm
@@ -163,7 +163,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     if time_step_s is None:
         time_step_s = default_time_step_s(implicit_loop_damping)
     check_time_step(time_step_s, implicit_loop_damping, refuse_unstable=not allow_unstable_step)
-    if getattr(scenario.hand, "kind", "magnet") != "magnet":
+    if scenario.hand is not None and not isinstance(scenario.hand, MagnetHand):
         raise QmtInputError(f"build_transfer_diagram builds the magnet hand's diagram; scenario {scenario.name} "
                             f"has a {scenario.hand.kind} hand (on a tray: Dynamixel servos): use qmt_drake.build_diagram")
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused here, not only by the CLI

@@ -8,9 +8,9 @@ draw; the plans run first (a GA plan costs its population x generations evaluati
 from __future__ import annotations
 
 from qmt_drake.budgets import Estimate, ga_estimate, motion_time_bound_s, replay_estimate, sweep_estimate
+from qmt_drake.config.registry import hand_entry
 from qmt_drake.sweep.spec import SweepSpec
 
-DEFAULT_TIME_STEP_S = 2e-3  # sim.simulate_transfer's default with implicit loop damping
 NORMAL_REACH_STD = 6.0  # a normal draw is bounded by mean + 6 std for the estimate
 
 
@@ -36,8 +36,9 @@ def estimate_sweep(spec: SweepSpec, scenario, workers: int) -> Estimate:
     """An upper bound of the sweep's memory and wall time on `workers` processes."""
     T = motion_time_bound_s(scenario)
     ts = _extreme(spec, "time_scale", True) or 1.0
-    step = _extreme(spec, "time_step_s", False) or spec.sim.get("time_step_s") or DEFAULT_TIME_STEP_S
-    per_case = replay_estimate(ts, T, step)
+    cost = hand_entry(scenario).replay_cost  # the hand's co-simulation (its default step when none is set)
+    step = _extreme(spec, "time_step_s", False) or spec.sim.get("time_step_s") or cost.default_step_s
+    per_case = replay_estimate(ts, T, step, cost=cost)
     plans = None
     n_dof = len(scenario.limits.motor_torque_limit_Nm)
     for p in spec.plans:

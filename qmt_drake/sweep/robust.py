@@ -27,10 +27,10 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
-from qmt_drake.hands import run_simulate
+from qmt_drake.hands import hand_plugin
 from qmt_drake.plan import make_plan
 from qmt_drake.planners import plan_with
-from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer
+from qmt_drake.sim import FEEDFORWARD_OPTIONS
 from qmt_drake.sweep.cases import check_hand_can_vary
 from qmt_drake.sweep.runner import dask_client, run_sweep
 from qmt_drake.sweep.spec import SweepSpec, load_spec
@@ -131,24 +131,15 @@ def plan_robust(plan, spec: SweepSpec | dict | str, out_dir="out", **kw):
 # ------------------------------------------------------------ fastest carried (nominal co-sim)
 def carried_in_cosim(scenario, plan, *, time_scale: float = 1.0, feedforward: str = "full",
                      time_step_s: float | None = None) -> dict:
-    """One nominal co-simulation: {'held', 'outcome', 'max_slip_m', 'detached_at_s', 'sim_wall_s'} (a
-    failed simulation counts as not carried). A tray scenario runs through its servos (the DC-motor
-    feedforward does not apply there)."""
-    if getattr(scenario, "is_tray", False):
-        try:
-            r = run_simulate(scenario, plan, time_scale=time_scale, time_step_s=time_step_s)
-        except QmtSimulationError as exc:
-            return {"held": False, "outcome": "failed", "max_slip_m": None, "detached_at_s": None, "error": str(exc)}
-        return {"held": bool(r["held"]), "outcome": r["outcome"], "max_slip_m": float(r["max_slip_m"]),
-                "detached_at_s": r.get("lost_at_s"), "max_tilt_rad": float(r["max_tilt_rad"]),
-                "sim_wall_s": float(r["sim_wall_s"])}
+    """One nominal co-simulation through the hand's plug-in (hands.HandPlugin.carried_check): {'held',
+    'outcome', 'max_slip_m', 'detached_at_s', 'max_tilt_rad', 'sim_wall_s'} (a failed simulation counts
+    as not carried). A tray scenario runs through its servos (the DC-motor feedforward does not
+    apply there)."""
     try:
-        r = simulate_transfer(scenario, plan, time_scale=time_scale, time_step_s=time_step_s,
-                              keep_series=False, **FEEDFORWARD_OPTIONS[feedforward])
+        return hand_plugin(scenario).carried_check(scenario, plan, time_scale=time_scale, feedforward=feedforward,
+                                                   time_step_s=time_step_s)
     except QmtSimulationError as exc:
         return {"held": False, "outcome": "failed", "max_slip_m": None, "detached_at_s": None, "error": str(exc)}
-    return {"held": bool(r.held), "outcome": r.outcome, "max_slip_m": float(r.max_slip_m),
-            "detached_at_s": r.detached_at_s, "max_tilt_rad": float(r.max_tilt_rad), "sim_wall_s": float(r.sim_wall_s)}
 
 
 def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str = "full",

@@ -1,0 +1,64 @@
+"""Actuator plug-ins: each actuator kind registers once (config/registry.ACTUATORS) what it adds to
+the scenario and to what is built from it.
+
+    dc_motor_gear  catalogue DC motors behind the URDF's gears (seed 000): the magnet co-simulation's
+                   motors with PID (sim/actuation.py)
+    ideal          joint torque sources with joint-side PD gains: the magnet co-simulation without motors
+    dynamixel      Dynamixel position servos with firmware gains (seed 002): the tray co-simulation
+
+What an entry says: how its YAML section is parsed, which of its lists goes one per joint, whether
+the scenario's `control` gains apply, whether the planning arm needs the URDF's gear ratios (motor
+torque limits are motor side), the joint speeds that `limits.joint_speed_fraction` scales (the limit
+set's joint-speed term), and which co-simulation drives it. Register a new kind with `register_actuator`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from qmt_drake.config.registry import ACTUATORS
+from qmt_drake.config.validate import parse_dc_motor_gear, parse_dynamixel, parse_ideal_torque
+
+
+@dataclass(frozen=True)
+class ActuatorPlugin:
+    """parse(raw_section, limits, where) -> the typed section; per_joint: the section's attribute
+    with one entry per joint (checked against the arm), None if none; control_refused: None when
+    the scenario's control.kp/ki/kd drive it, else the fix the loader prints for a control section;
+    gear_ratio_required: the planning arm refuses a URDF without gear ratios (motor-side torque
+    limits); joint_speeds_rad_s(section) -> each joint's speed [rad/s] that limits.joint_speed_fraction
+    scales (None: the URDF's velocity limits); drives: the co-simulation that runs it (prose)."""
+
+    kind: str
+    parse: Callable[..., Any]
+    per_joint: str | None = None
+    control_refused: str | None = None
+    gear_ratio_required: bool = True
+    joint_speeds_rad_s: Callable[[Any], list[float]] | None = None
+    drives: str = ""
+
+
+def register_actuator(plugin: ActuatorPlugin, *, replace: bool = False) -> None:
+    ACTUATORS.register(plugin, replace=replace)
+
+
+def actuator_plugin(scenario: Any) -> ActuatorPlugin | None:
+    """The registered plug-in of the scenario's actuator (None without an actuator section)."""
+    act = scenario.actuator
+    return None if act is None else ACTUATORS.get(act.kind, f"scenario {scenario.name}: actuator")
+
+
+register_actuator(ActuatorPlugin(
+    kind="dc_motor_gear", parse=parse_dc_motor_gear, per_joint="motors",
+    drives="the magnet co-simulation: PID on motor voltages, the motors behind the gears (sim/actuation.py)"))
+register_actuator(ActuatorPlugin(
+    kind="ideal", parse=parse_ideal_torque, gear_ratio_required=False,
+    drives="the magnet co-simulation: a joint-side PD torque source (sim/actuation.add_ideal_torque_actuation)"))
+register_actuator(ActuatorPlugin(
+    kind="dynamixel", parse=parse_dynamixel, per_joint="servos",
+    control_refused=("a Dynamixel scenario sets its firmware gains in actuator.p / i / d (control-table units): "
+                     "move them there and drop the control section"),
+    joint_speeds_rad_s=lambda act: [s.no_load_speed_rad_s for s in act.datasheets()],
+    drives="the tray co-simulation: the servos' firmware loop (systems/dynamixel_servo.py)"))

@@ -1,0 +1,115 @@
+"""The plug-in registries of the scenario's kinds: hands, actuators, objectives and trajectory families.
+
+Each kind registers once, from the layer that owns it (hands.py: magnet and tray; actuators.py:
+dc_motor_gear, ideal, dynamixel; problem.py and energy/objective.py: min_time, energy_time;
+families/ and energy/fourier.py: the trajectory families), an entry that says what it adds (its
+parser, limit terms, co-simulation, constructor, ...). config/ looks kinds up here by their
+string and never imports those layers: the entries are typed Any at this level. An unknown kind
+is refused in one line that lists the registered ones.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from qmt_drake.errors import QmtInputError
+
+
+class Registry:
+    """kind -> entry (an object with a `kind` attribute) of one scenario section (e.g. 'hand')."""
+
+    def __init__(self, section: str) -> None:
+        self.section = section
+        self._entries: dict[str, Any] = {}
+
+    def register(self, entry: Any, *, replace: bool = False) -> Any:
+        """Register `entry` under entry.kind; a kind registers once (replace=True to swap it)."""
+        kind = entry.kind
+        if not isinstance(kind, str) or not kind:
+            raise ValueError(f"a {self.section} plug-in needs a non-empty string kind, got {kind!r}")
+        if kind in self._entries and not replace:
+            raise ValueError(f"{self.section}.kind {kind!r} is already registered")
+        self._entries[kind] = entry
+        return entry
+
+    def unregister(self, kind: str) -> None:
+        self._entries.pop(kind, None)
+
+    def kinds(self, accept: Callable[[Any], bool] | None = None) -> tuple[str, ...]:
+        """The registered kinds (those whose entry `accept` takes), in registration order."""
+        return tuple(k for k, e in self._entries.items() if accept is None or accept(e))
+
+    def get(self, kind: Any, where: str = "", accept: Callable[[Any], bool] | None = None) -> Any:
+        """The entry of `kind`; else a one-line QmtInputError naming the input (`where`: the
+        section's place, e.g. 'models/x.yaml: hand') and listing the registered kinds (those
+        `accept` takes)."""
+        entry = self._entries.get(kind) if isinstance(kind, str) else None
+        if entry is None or (accept is not None and not accept(entry)):
+            known = self.kinds(accept)
+            raise QmtInputError(f"{where or self.section}.kind {kind!r} is not one of "
+                                f"{', '.join(known) if known else '(none registered)'} (the registered kinds)")
+        return entry
+
+    def __contains__(self, kind: object) -> bool:
+        return kind in self._entries
+
+    def __getitem__(self, kind: str) -> Any:
+        return self._entries[kind]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._entries)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+
+TRANSFER = "transfer"  # the scenario kinds (config/scenario.scenario_kind): a transfer ...
+ENERGY_TIME = "energy_time"  # ... or seed 001's energy-time experiment
+
+
+@dataclass(frozen=True)
+class FamilyPlugin:
+    """A trajectory family: make(scenario) -> the family object (genes -> q, qd, qdd), which checks
+    the scenario's gene names against its own and takes their [min, max] bounds from `family.genes`;
+    scenario_kind: which scenarios use it (TRANSFER, or ENERGY_TIME for seed 001's Fourier family,
+    whose genes the energy problem builds)."""
+
+    kind: str
+    make: Callable[..., Any]
+    scenario_kind: str = TRANSFER
+
+
+@dataclass(frozen=True)
+class ObjectivePlugin:
+    """An objective: make(problem data) -> the object whose cost (and, for the GA, `fitness`) a
+    planner optimises; scenario_kind: which scenarios use it; summary: the cost in one line."""
+
+    kind: str
+    make: Callable[..., Any]
+    scenario_kind: str = TRANSFER
+    summary: str = ""
+
+
+def for_scenario_kind(scenario_kind: str) -> Callable[[Any], bool]:
+    """`accept` of the entries that serve scenarios of `scenario_kind`."""
+    return lambda entry: entry.scenario_kind == scenario_kind
+
+
+HANDS = Registry("hand")  # hands.HandPlugin
+ACTUATORS = Registry("actuator")  # actuators.ActuatorPlugin
+OBJECTIVES = Registry("objective")  # ObjectivePlugin
+FAMILIES = Registry("family")  # FamilyPlugin
+
+DEFAULT_HAND_KIND = "magnet"  # a scenario without a hand section: the thesis's magnet (its terms, its co-simulation)
+
+
+def hand_kind(scenario: Any) -> str:
+    """The kind of a scenario's hand (DEFAULT_HAND_KIND without a hand section)."""
+    return str(getattr(scenario.hand, "kind", DEFAULT_HAND_KIND)) if scenario.hand is not None else DEFAULT_HAND_KIND
+
+
+def hand_entry(scenario: Any) -> Any:
+    """The registered hand plug-in of `scenario` (hands.HandPlugin); one line if its kind has none."""
+    return HANDS.get(hand_kind(scenario), f"scenario {scenario.name}: hand")
