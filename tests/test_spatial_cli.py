@@ -181,6 +181,13 @@ def planar_plan(tmp_path_factory):
     (["simulate", "thesis-ch4", "--plan", "{spatial}"], "is a spatial (3-D) plan for scenario ur5-suction-bins"),
     (["simulate", "ur5-magnet-part", "--plan", "{spatial}"], "was made for scenario ur5-suction-bins, not ur5-magnet-part"),
     (["simulate", SC, "--plan", "{spatial}", "--time-scale", "-1"], "--time-scale -1.0 must be a finite positive"),
+    (["simulate", SC, "--plan", "{spatial}", "--time-scale", "5000"], "a replay at time scale 5000"),
+    (["simulate", SC, "--plan", "{spatial}", "--time-scale", "1e6", "--allow-large"], "more memory than this machine"),
+    (["simulate", SC, "--plan", "{spatial}", "--actuator", "stepper"], "invalid choice: 'stepper'"),
+    (["simulate", SC, "--plan", "{spatial}", "--feedforward", "none"], "applies to actuator dc_motor"),
+    (["simulate", SC, "--plan", "{spatial}", "--explicit"], "--explicit: not for spatial scenario"),
+    (["simulate", "thesis-ch4", "--plan", "{planar}", "--actuator", "dc_motor"], "--actuator: for spatial scenarios"),
+    (["simulate", "ohsaka-fig3", "--actuator", "ideal"], "--actuator is an option of the transfer co-simulation"),
 ])
 def test_refusals_are_one_line_exit_2(sc, planned, planar_plan, tmp_path, argv, needle):
     files = {"{missing}": tmp_path / "none.json", "{planar}": planar_plan, "{spatial}": planned["plan"]}
@@ -214,3 +221,15 @@ def test_a_tray_hand_plans_and_simulates_through_the_cli(tmp_path):
     rc, out, err = _main("simulate", "panda-tray-cup", "--plan", plan)
     assert rc == 0 and "Traceback" not in err, err
     assert out.startswith("panda-tray-cup toppra x1: carried") and "from its seat on the tray" in out
+
+
+def test_simulate_through_dc_motors(planned):
+    """--actuator dc_motor (the scenario's actuators.motor, full feedforward by default) on the planned
+    family optimum: carried like the ideal run, with the motor columns in the JSON."""
+    out = planned["dir"] / "dc.json"
+    rc, text, err = _main("simulate", SC, "--plan", planned["plan"], "--actuator", "dc_motor", "--json", out)
+    assert rc == 0, err
+    d, ideal = json.loads(out.read_text()), json.loads(planned["sim"].read_text())
+    assert d["actuator"] == "dc_motor" and ideal["actuator"] == "ideal"
+    assert d["outcome"] == ideal["outcome"] == "carried" and text.startswith(f"{SC} family_optimum x1: carried")
+    assert d["max_motor_torque_over_limit"] <= 1.0 + 1e-9 and len(d["max_current_A"]) == 6

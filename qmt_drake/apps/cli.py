@@ -41,6 +41,7 @@ from qmt_drake.outputs import check_output_dir, check_output_path
 from qmt_drake.plan import load_plan
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
+from qmt_drake.sim.spatial_actuation import ACTUATORS as SPATIAL_ACTUATORS
 from qmt_drake.sweep.cli import add_parser as add_sweep_parser
 from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success, success_spec
 
@@ -197,10 +198,18 @@ def cmd_simulate(args) -> int:
     if spatial_cli.is_spatial_scenario(args.scenario):
         return spatial_cli.simulate(args)
     if is_energy_scenario(args.scenario):
+        args.feedforward = args.feedforward or "none"
+        if args.actuator is not None:
+            raise QmtInputError("--actuator is an option of the transfer co-simulation; the energy-time execution "
+                                "runs the plan as planned: drop --actuator")
         if args.method not in (None, "snopt"):
             raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
                                 "energy-time: give --plan FILE or no --method (it plans with snopt)")
         return simulate_energy(args)
+    if args.actuator is not None:
+        raise QmtInputError(f"--actuator: for spatial scenarios; {args.scenario}'s actuator is its YAML actuator "
+                            "section: drop --actuator")
+    args.feedforward = args.feedforward or "none"
     args.method = args.method or "ga"
     _refuse_spatial_method(args)
     check_outputs(args, "--json", "--record")
@@ -327,9 +336,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--record", metavar="PATH.html", help="save a Meshcat recording")
     s.add_argument("--time-step-ms", type=float, default=None,
                    help="plant step in ms (default 2 with implicit loop damping, 1 with --explicit)")
-    s.add_argument("--feedforward", choices=FEEDFORWARD_CHOICES, default="none",
-                   help="controller feedforward: none (the thesis's PID), back-emf (Ke N qd_des), "
-                        "full (back-emf plus Drake inverse dynamics of the reference)")
+    s.add_argument("--feedforward", choices=FEEDFORWARD_CHOICES, default=None,
+                   help="controller feedforward: none (the thesis's PID; the default), back-emf (Ke N qd_des), "
+                        "full (back-emf plus Drake inverse dynamics of the reference; the default of a spatial "
+                        "scenario's dc_motor actuator)")
+    s.add_argument("--actuator", choices=SPATIAL_ACTUATORS, default=None,
+                   help="spatial scenarios: ideal (Drake's inverse-dynamics controller, the default) or dc_motor "
+                        "(PD/PID voltage law, DC motors with gears: the scenario's actuators.motor)")
     s.add_argument("--explicit", action="store_true",
                    help="motors drive the plant directly (no implicit loop damping; needs <= 1 ms)")
     s.add_argument("--json", metavar="PATH|-")

@@ -21,6 +21,7 @@ from __future__ import annotations
 import inspect
 import json
 import time
+from dataclasses import replace
 
 from qmt_drake.apps.arg_checks import (
     check_int,
@@ -31,6 +32,7 @@ from qmt_drake.apps.arg_checks import (
     parse_options,
     progress,
 )
+from qmt_drake.budgets import SPATIAL_REPLAY, announce, check_budget, replay_estimate
 from qmt_drake.config.scenario import SCENARIO_DIR, builtin_scenarios, scenario_kind
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import verdict_line
@@ -39,6 +41,7 @@ from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_methods import ALIASES, METHODS, PLANNERS, plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
+from qmt_drake.sim.spatial_actuation import spatial_drive
 from qmt_drake.sim.spatial_cosim import TAIL_S, simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
 
@@ -46,15 +49,13 @@ SPATIAL_METHODS = METHODS
 GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
 # plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
 PLAN_REFUSED = (("checkpoint", None), ("success", None), ("carried_feedforward", "full"), ("allow_large", False))
-SIMULATE_REFUSED = (("time_step_ms", None), ("feedforward", "none"), ("explicit", False),
-                    ("allow_large", False))
+SIMULATE_REFUSED = (("time_step_ms", None), ("explicit", False))
 NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "success": "spatial scenarios have no "
                    "uncertainty section to sweep", "carried_feedforward": "the spatial co-simulation's controller "
                    "is Drake's inverse dynamics (feedforward always on)", "allow_large": "spatial runs have no "
                    "memory/time budget",
-                   "time_step_ms": "the spatial co-simulation steps at 1 ms", "feedforward": "the spatial "
-                   "co-simulation's controller is Drake's inverse dynamics", "explicit": "the spatial co-simulation "
-                   "has no motor loop"}
+                   "time_step_ms": "the spatial co-simulation steps at 1 ms", "explicit": "the spatial "
+                   "co-simulation steps its motor loop's damping implicitly"}
 
 
 def is_spatial_scenario(name_or_path) -> bool:
@@ -174,6 +175,9 @@ def simulate(args, energy_options=()) -> int:
     check_outputs(args, "--json", "--record")
     check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
     sc = load_spatial_scenario(args.scenario)
+    actuator = args.actuator or "ideal"
+    feedforward = args.feedforward or "full"
+    spatial_drive(sc, sc.q_poses_rad[0], actuator, feedforward)  # refusals (no motor constants, ...) before planning
     if args.plan:
         if args.seed != 0:
             raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")
@@ -182,9 +186,14 @@ def simulate(args, energy_options=()) -> int:
         method = _method(args)
         opts = _planner_options(args, method)
         p = _plan(args, sc, method, opts)
+    est = replace(replay_estimate(args.time_scale, p.duration_s, cost=SPATIAL_REPLAY),  # its step is fixed
+                  fix="use a time scale near 1 (the shipped plans are carried at 1-1.5)")
+    est = check_budget(est, allow_large=args.allow_large)
+    if not args.quiet:
+        announce(est)
     traj = p.trajectory if args.time_scale == 1.0 else TimeScaled(p.trajectory, args.time_scale)
     t0 = time.perf_counter()
-    r = simulate_spatial(sc, traj, record_path=args.record)
+    r = simulate_spatial(sc, traj, record_path=args.record, actuator=actuator, feedforward=feedforward)
     wall = time.perf_counter() - t0
     emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
                         **r, "wall_s": wall}), args.json)
