@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -89,11 +90,16 @@ def executed(row: dict) -> dict:
     return {**row, "executed": out}
 
 
+def _ratio(v) -> str:
+    # unbounded (JSON null): the motion would need the tray to pull the bottle down (lift ratio > 1)
+    return "∞" if v is None or not math.isfinite(v) else f"{v:.2f}"
+
+
 def _ratios(e: dict | None) -> str:
     if e is None:
         return "—"
     p, x = e["planned_peak_ratio"], e["executed_peak_ratio"]
-    return f"{p['tray_slide']:.2f} → {x['tray_slide']:.2f} / {p['tray_tip']:.2f} → {x['tray_tip']:.2f}"
+    return " / ".join(f"{_ratio(p[k])} → {_ratio(x[k])}" for k in ("tray_slide", "tray_tip"))
 
 
 def _errors(e: dict | None) -> str:
@@ -115,7 +121,8 @@ def markdown(rows: list[dict]) -> str:
     note = ("\nRatios: the planner's tray limit terms (friction and ring radius x the plan margin 0.8: 1.25 is the "
             "friction cone, 1.0 the planned limit) on the plan replayed at that scale (planned) and on the "
             "co-simulated joint motion, accelerations over 10 ms (executed); error: logged joint positions minus "
-            "the plan's over the move and the tail (tray/executed.py).\n")
+            "the plan's over the move and the tail (tray/executed.py); ∞: the executed motion would need the tray to pull "
+            "the bottle down (lift ratio > 1; a rocking bottle's feet jolting the arm).\n")
     return "\n".join(lines) + "\n" + note
 
 
