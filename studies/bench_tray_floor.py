@@ -1,7 +1,7 @@
 """Tray co-simulation cost per plant step against a floor of Drake primitives, side by side, and the
 resident memory over many runs (issue 20).
 
-    .venv/bin/python -m studies.bench_tray_floor --out out [--runs 200] [--repeats 3] [--trim]
+    .venv/bin/python -m studies.bench_tray_floor --out out [--runs 200] [--repeats 3] [--trim] [--tracemalloc]
 
 ours      the default tray diagram (tray/cosim.build_tray_diagram: compiled servo law and motors,
           loggers of plant and primitive ports every 5 ms; the bottle's motion is derived from its
@@ -16,7 +16,8 @@ the floor. Then `runs` short transfers in one process record, every 20 runs, the
 only if something is kept, a leak) and the number of Python objects the collector tracks (after a
 gc.collect()). RSS can also grow without a leak, as freed memory fragments the heap until the pattern
 repeats (qmt_drake/malloc_tuning.py keeps up to 256 MiB of freed memory mapped); --trim calls glibc's
-malloc_trim(0) after every run to tell the two apart. The JSON's `rss_plateau` fits the slope of RSS
+malloc_trim(0) after every run to tell the two apart; --tracemalloc also records the memory Python
+itself holds (tracemalloc, started before the loop; it slows the runs). The JSON's `rss_plateau` fits the slope of RSS
 and of the heap in use over the last half of the runs and calls it a plateau when RSS grew by less
 than PLATEAU_MIB over that half. Prints the figures and writes OUT/bench_tray_floor.json (atomic).
 """
@@ -30,6 +31,7 @@ import json
 import resource
 import sys
 import time
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -92,8 +94,10 @@ def rss_plateau(rows: list[dict], runs: int) -> dict:
     growth = tail[-1]["rss_mib"] - tail[0]["rss_mib"] if len(tail) > 1 else None
     rss_slope = slope_per_run(rows, "rss_mib", half)
     heap_slope = slope_per_run(rows, "heap_in_use_mib", half)
+    traced_slope = slope_per_run(rows, "python_traced_mib", half)
     return {"from_run": half, "to_run": runs, "rss_growth_mib": growth, "rss_slope_mib_per_run": rss_slope,
             "heap_in_use_slope_kib_per_run": None if heap_slope is None else heap_slope * 1024,
+            "python_traced_slope_kib_per_run": None if traced_slope is None else traced_slope * 1024,
             "python_objects_growth": (tail[-1]["python_objects"] - tail[0]["python_objects"]) if len(tail) > 1 else None,
             "plateau_mib": PLATEAU_MIB, "plateau": growth is not None and growth < PLATEAU_MIB}
 
@@ -128,6 +132,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--runs", type=int, default=200)
     ap.add_argument("--trim", action="store_true", help="malloc_trim(0) after every run of the RSS loop")
+    ap.add_argument("--tracemalloc", action="store_true", help="record Python's traced memory in the RSS loop")
     args = ap.parse_args(argv)
     if args.runs < 2 * RSS_EVERY or args.repeats < 1:
         print(f"--runs {args.runs} / --repeats {args.repeats}: give --runs >= {2 * RSS_EVERY} and --repeats >= 1",
@@ -152,10 +157,14 @@ def main(argv=None) -> int:
     short = plan_schedule(plan, time_scale=1.1, period_s=sc.actuator.control_period_s, shaped_for=sc,
                           settle_s=0.05, tail_s=0.05)
     rss = []
+    if args.tracemalloc:
+        tracemalloc.start()
     for k in range(args.runs + 1):
         if k % RSS_EVERY == 0:
             gc.collect()
             rss.append({"run": k, "rss_mib": _rss_mib(), **heap_mib(), "python_objects": len(gc.get_objects())})
+            if args.tracemalloc:
+                rss[-1]["python_traced_mib"] = tracemalloc.get_traced_memory()[0] / 2**20
             print(f"run {k}: RSS {rss[-1]['rss_mib']:.1f} MiB, heap in use {rss[-1].get('heap_in_use_mib', 0):.2f} "
                   f"MiB, {rss[-1]['python_objects']} Python objects", flush=True)
         if k < args.runs:
