@@ -11,7 +11,12 @@ from qmt_drake import load_scenario, plan_with
 from qmt_drake.errors import QmtInputError
 from qmt_drake.tray import cosim
 from qmt_drake.tray.execute import plan_schedule
-from qmt_drake.tray.executed import ACCEL_WINDOW_S, central_acceleration, executed_against_plan
+from qmt_drake.tray.executed import (
+    ACCEL_WINDOW_S,
+    central_acceleration,
+    execute_and_measure,
+    executed_against_plan,
+)
 
 H = 1e-3
 
@@ -112,3 +117,15 @@ def test_refuses_a_run_not_logged_every_step(tray):
         executed_against_plan(sc, plan, {"t": np.arange(3.0)}, move_start_s=0.0)
     with pytest.raises(QmtInputError, match="uniformly"):
         central_acceleration(np.array([0.0, 1e-3, 3e-3, 4e-3]), np.zeros((4, 3)))
+
+
+def test_shaped_goals_track_the_plan_closer_than_the_plan_streamed(tray):
+    """execute_and_measure runs the scenario's reference: the shaped stream (the default) follows the
+    plan several times closer than the plan streamed as goals, at the same scale."""
+    sc, plan = tray
+    plain_sc = load_scenario("crane-tray", overrides={"actuator": {"reference": "plain"}})
+    shaped = execute_and_measure(sc, plan, 1.2)
+    plain = execute_and_measure(plain_sc, plan, 1.2)
+    assert (shaped["reference"], plain["reference"]) == ("shaped", "plain")
+    assert 3 * shaped["tracking_error_rms_rad"] < plain["tracking_error_rms_rad"]
+    assert shaped["planned_peak_ratio"] == plain["planned_peak_ratio"]  # the same plan at the same scale
