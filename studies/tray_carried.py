@@ -13,12 +13,21 @@ time scale s in [1, s_max] until the nominal co-simulation carries the bottle (t
 ratio carried / planned is how much of the physical bound the servos give away. Prints a table and
 writes OUT/tray_carried/tray_carried.json, .md and tray_carried.png (atomically); a rerun reuses
 the cells already in the JSON.
+
+Each cell also replays its plan at x1.0 and at the fastest carried scale with the arm logged every
+plant step (tray/executed.execute_and_measure): the joint tracking error against the plan (RMS and
+max over the move and the tail) and the executed limit ratio, the tray terms of the planner's own
+LimitSet (friction and ring radius x plan_margin 0.8, so 1.25 is the friction cone itself)
+evaluated on the executed joint motion, accelerations the 10 ms central difference of the logged
+velocities, next to the plan's peak at the same scale. Cells in the JSON without it get it on a
+rerun without a new search.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -34,6 +43,7 @@ from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic  # n
 from qmt_drake.planners import plan_with  # noqa: E402
 from qmt_drake.sweep.robust import plan_fastest_carried  # noqa: E402
 from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
+from qmt_drake.tray.executed import execute_and_measure  # noqa: E402
 
 FRICTIONS = (0.2, 0.3, 0.4, 0.6)
 WATER_KG = (0.030, 0.150, 0.300, 0.480)  # the seed's 30 g, then fuller bottles (500 mL holds 0.5 kg)
@@ -69,15 +79,51 @@ def cell(mu: float, water_kg: float, reference: str) -> dict:
     return row
 
 
+def executed(row: dict) -> dict:
+    """The row with `executed`: {"x1": ..., "carried": ...} (execute_and_measure at x1.0 and at the
+    fastest carried scale; the latter absent when none carried)."""
+    sc = load_scenario("crane-tray", overrides=bottle_overrides(row["friction"], row["water_kg"], row["reference"]))
+    base = plan_with("toppra", sc)
+    out = {"x1": execute_and_measure(sc, base, 1.0)}
+    if row.get("time_scale") is not None:
+        out["carried"] = execute_and_measure(sc, base, row["time_scale"])
+    return {**row, "executed": out}
+
+
+def _ratio(v) -> str:
+    # unbounded (JSON null): the motion would need the tray to pull the bottle down (lift ratio > 1)
+    return "∞" if v is None or not math.isfinite(v) else f"{v:.2f}"
+
+
+def _ratios(e: dict | None) -> str:
+    if e is None:
+        return "—"
+    p, x = e["planned_peak_ratio"], e["executed_peak_ratio"]
+    return " / ".join(f"{_ratio(p[k])} → {_ratio(x[k])}" for k in ("tray_slide", "tray_tip"))
+
+
+def _errors(e: dict | None) -> str:
+    return "—" if e is None else f"{e['tracking_error_rms_rad'] * 1e3:.1f} / {e['tracking_error_max_rad'] * 1e3:.1f}"
+
+
 def markdown(rows: list[dict]) -> str:
-    lines = ["| friction | water [g] | reference | planned (bound) [s] | fastest carried [s] | carried / bound |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| friction | water [g] | reference | planned (bound) [s] | fastest carried [s] | carried / bound | "
+             "x1.0: slide / tip ratio, planned → executed | x1.0: error RMS / max [mrad] | "
+             "fastest carried: slide / tip ratio, planned → executed | fastest carried: error RMS / max [mrad] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         c = f"lost at x{S_MAX:g}" if r["carried_s"] is None else f"{r['carried_s']:.3f}"
         k = "—" if r["carried_s"] is None else f"{r['carried_s'] / r['planned_s']:.3f}"
+        e = r.get("executed", {})
         lines.append(f"| {r['friction']:g} | {r['water_kg'] * 1e3:.0f} | {r['reference']} | {r['planned_s']:.3f} | "
-                     f"{c} | {k} |")
-    return "\n".join(lines) + "\n"
+                     f"{c} | {k} | {_ratios(e.get('x1'))} | {_errors(e.get('x1'))} | {_ratios(e.get('carried'))} | "
+                     f"{_errors(e.get('carried'))} |")
+    note = ("\nRatios: the planner's tray limit terms (friction and ring radius x the plan margin 0.8: 1.25 is the "
+            "friction cone, 1.0 the planned limit) on the plan replayed at that scale (planned) and on the "
+            "co-simulated joint motion, accelerations over 10 ms (executed); error: logged joint positions minus "
+            "the plan's over the move and the tail (tray/executed.py); ∞: the executed motion would need the tray to pull "
+            "the bottle down (lift ratio > 1; a rocking bottle's feet jolting the arm).\n")
+    return "\n".join(lines) + "\n" + note
 
 
 def figure(rows: list[dict], path: Path) -> None:
@@ -121,6 +167,8 @@ def main(argv=None) -> int:
     rows = []
     for i, k in enumerate(keys):
         r = done.get(k) or cell(*k)
+        if "executed" not in r:
+            r = executed(r)
         rows.append(r)
         print(f"[{i + 1}/{len(keys)}] mu {k[0]:g}, {k[1] * 1e3:.0f} g, {k[2]}: planned {r['planned_s']:.3f} s, "
               f"carried {'-' if r['carried_s'] is None else format(r['carried_s'], '.3f')} s", flush=True)

@@ -107,7 +107,8 @@ def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
 def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                        time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                        bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None,
-                       motor=None, compiled_servo: bool = True, python_monitor: bool = False) -> TrayDiagram:
+                       motor=None, compiled_servo: bool = True, python_monitor: bool = False,
+                       step_log: bool = False) -> TrayDiagram:
     """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps.
     motor: DcMotorParams of the three servos' motors (default motor_params(CRANE_X7_PLANAR_SERVOS),
     the lossless equivalent). compiled_servo: the servo law as Drake primitives (systems/servo_law.py,
@@ -116,7 +117,10 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     current and torque, the bottle's joint state and its generalized contact forces, all plant or
     primitive ports, so the default diagram holds no Python system and is freed after the run (a
     pydrake diagram holding one never is). python_monitor: also log the Python TrayBottleMonitor's
-    outputs as monitor_* (the same quantities from poses and contact results: a cross-check)."""
+    outputs as monitor_* (the same quantities from poses and contact results: a cross-check).
+    step_log: also log the arm's state and the plant's generalized acceleration of the arm (its
+    discrete step's (v_next - v) / h) at every plant step, as arm_state_step / arm_accel_step (the
+    executed motion that tray/executed.py evaluates the limits on)."""
     if not time_step_s > 0 or not servo_period_s > 0:
         raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
     bottle = bottle or BottleSpec.pet_500ml()
@@ -170,6 +174,10 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
             ports.update({f"monitor_{k}": monitor.GetOutputPort(k)
                           for k in ("slide", "tilt", "base_height", "contact_force")})
         loggers = {k: LogVectorOutput(p, builder, log_period_s) for k, p in ports.items()}
+    if step_log:
+        loggers["arm_state_step"] = LogVectorOutput(arm_state, builder, time_step_s)
+        loggers["arm_accel_step"] = LogVectorOutput(plant.get_generalized_acceleration_output_port(arm), builder,
+                                                    time_step_s)
     visualizer = None
     if meshcat is not None:
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
@@ -271,7 +279,7 @@ def logged_series(td: TrayDiagram, root_context) -> dict:
     series = {}
     for k, lg in td.loggers.items():
         log = lg.FindLog(root_context)
-        series["t"] = log.sample_times()
+        series["t_step" if k.endswith("_step") else "t"] = log.sample_times()  # step_log: every plant step
         series[k] = log.data()
     q = series["bottle_state"][:7]
     series["slide"] = q[4:6] - np.asarray(td.X_TB0.translation())[:2, None]
@@ -324,14 +332,17 @@ def classify(series: dict, bottle: BottleSpec) -> tuple[str, float | None]:
 
 def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                   time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
-                  keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None) -> TrayResult:
-    """Run the diagram over the schedule; with recording_path, write a Meshcat HTML replay there."""
+                  keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None,
+                  step_log: bool = False) -> TrayResult:
+    """Run the diagram over the schedule; with recording_path, write a Meshcat HTML replay there.
+    step_log: the series also hold the arm's state and acceleration at every plant step
+    (build_tray_diagram)."""
     bottle = bottle or BottleSpec.pet_500ml()
     meshcat = None
     if recording_path is not None:
         meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
-                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor)
+                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor, step_log=step_log)
     sim = Simulator(td.diagram)
     set_initial_state(td, sim.get_mutable_context())
     sim.Initialize()
