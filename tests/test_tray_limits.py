@@ -105,22 +105,24 @@ def test_batched_toppra_parameters_equal_toppras_per_gridpoint_evaluation():
     path = ta.SplineInterpolator(s, theta)
     batched = LS.toppra_constraint(tray_polygon_sides=8).compute_constraint_params(path, s)
     plain = LS.toppra_constraint(tray_polygon_sides=8, batched=False).compute_constraint_params(path, s)
-    for x, y in zip(batched[:3], plain[:3]):  # a, b, c
-        np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-12)
-    # the same rows F w <= g at every grid point, the batched ones scaled to unit norm in (u, x)
-    # (limits/toppra_form.unit_rows): equal after normalising each row of both
-    a, b, c = batched[:3]
+    # the same rows A u + B x + C <= 0 at every grid point: the batched ones multiplied out (F the
+    # identity, g zero) and scaled to unit norm in (u, x) (limits/toppra_form.py), toppra's plain
+    # ones F (a u + b x + c) <= g; equal after normalising each row of both
+    assert np.array_equal(batched[3], np.eye(len(batched[3]))) and not np.any(batched[4])
 
-    def normalised(F, g):
+    def rows(params):
+        a, b, c, F, g = params[:5]
         F = np.broadcast_to(F, (len(a),) + np.shape(F)[-2:])
         g = np.broadcast_to(g, (len(a),) + np.shape(g)[-1:])
         A, B = np.einsum("nkm,nm->nk", F, a), np.einsum("nkm,nm->nk", F, b)
-        C = np.einsum("nkm,nm->nk", F, c) - g
+        return A, B, np.einsum("nkm,nm->nk", F, c) - g
+
+    def normalised(A, B, C):
         nrm = np.hypot(A, B)
         return np.stack([A, B, C]) / np.where(nrm > 0, nrm, 1.0)
 
-    np.testing.assert_allclose(normalised(*batched[3:5]), normalised(*plain[3:5]), rtol=1e-10, atol=1e-12)
-    A, B = np.einsum("nkm,nm->nk", batched[3], a), np.einsum("nkm,nm->nk", batched[3], b)
+    np.testing.assert_allclose(normalised(*rows(batched)), normalised(*rows(plain)), rtol=1e-10, atol=1e-12)
+    A, B, _ = rows(batched)
     nrm = np.hypot(A, B)
     np.testing.assert_allclose(nrm[nrm > 1e-9], 1.0, rtol=1e-12)
 

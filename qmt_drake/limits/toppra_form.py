@@ -1,52 +1,56 @@
-"""The toppra form of limits: F w(q, qd, qdd) <= g on a fixed path as one toppra constraint.
+"""The toppra form of limits: F w(q, qd, qdd) <= g on a fixed path as toppra constraints.
 
 On a path q(s), w(q, q' sdot, q' sddot + q'' sdot^2) = a(s) sddot + b(s) sdot^2 + c(s) for any w
 that is affine in qdd and quadratic in qd (joint torques with gravity, the payload moment's
-vector, the tray wrench): c = w(q, 0, 0), a = w(q, 0, q') - c, b = w(q, q', q'') - c. The
-parameters of ALL grid points come from three batched calls of w, instead of toppra's default of
-three Python calls per grid point. Used by LimitSet.toppra_constraint (every scenario's TOPP-RA)
-and by seed 001's time-optimal end of the front (energy/time_optimal.py).
+vector, the tray wrench, the suction wrench): c = w(q, 0, 0), a = w(q, 0, q') - c, b = w(q, q', q'')
+- c. The parameters of ALL grid points come from three batched calls of w, instead of toppra's
+default of three Python calls per grid point.
+
+The rows are handed to toppra already multiplied out, per grid point i and row r: A_ir u + B_ir x +
+C_ir <= 0 with (A, B, C) = (F a_i, F b_i, F c_i - g), interpolated (rows of grid points i and i+1,
+toppra's Interpolation scheme) and scaled to unit norm (`unit_rows`). Each toppra constraint then
+has the identity as its (identical) F, so toppra's Seidel wrapper copies them with one matrix
+product instead of three Python np.dot calls per grid point (37 ms of the 78 ms of a 1000-point
+suction path); `rows_constraints` splits the rows into blocks so that product (N k_block^2) stays
+small. The LP is the same rows in the same order. Used by LimitSet.toppra_constraint (every
+scenario's TOPP-RA), seed 001's time-optimal end of the front (energy/time_optimal.py) and the
+spatial TOPP-RA (planners/spatial_toppra.py).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+ROW_BLOCK = 8  # rows per toppra constraint in `rows_constraints`: toppra multiplies by an identity of this size
 
-def rows_constraint(w, F, g, n_dof: int):
-    """A toppra SecondOrderConstraint F w(q, qd, qdd) <= g: w a batched function of (S, n) arrays
-    returning (S, m), affine in qdd and quadratic in qd; F (k, m), g (k,) the same at every grid
-    point; Interpolation discretisation; rows scaled to unit norm per grid point (`unit_rows`)."""
-    from toppra.constraint import DiscretizationType, SecondOrderConstraint
-    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
 
+def path_row_params(w, F, g, path, gridpoints):
+    """(A, B, C), each (N+1, 2k): the rows F w <= g of every grid point of `path` as A u + B x + C <= 0
+    (u = sddot, x = sdot^2), rows of point i then of point i+1 (the last point repeats its own),
+    each scaled to unit norm of (A, B). w batched over (S, n) arrays; F (k, m), g (k,)."""
+    s = np.asarray(gridpoints, dtype=float)
+    q, qs, qss = path(s), path(s, 1), path(s, 2)
+    zero = np.zeros_like(q)
+    c = w(q, zero, zero)
+    a = w(q, zero, qs) - c
+    b = w(q, qs, qss) - c
     F = np.asarray(F, dtype=float)
-    g = np.asarray(g, dtype=float)
-
-    class _Rows(SecondOrderConstraint):
-        def compute_constraint_params(self, path, gridpoints):
-            s = np.asarray(gridpoints, dtype=float)
-            q, qs, qss = path(s), path(s, 1), path(s, 2)
-            zero = np.zeros_like(q)
-            c = w(q, zero, zero)
-            a = w(q, zero, qs) - c
-            b = w(q, qs, qss) - c
-            Fv = np.broadcast_to(F, (len(q),) + F.shape).copy()
-            gv = np.broadcast_to(g, (len(q),) + g.shape).copy()
-            if self.discretization_type == DiscretizationType.Interpolation:
-                a, b, c, Fv, gv, _, _ = canlinear_colloc_to_interpolate(a, b, c, Fv, gv, None, None, s)
-            Fv, gv = unit_rows(a, b, Fv, gv)
-            return a, b, c, Fv, gv, None, None
-
-    def w_one(q, qd, qdd):  # toppra's own per-point interface (unused by the batched parameters)
-        return w(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd))[0]
-
-    return _Rows(w_one, lambda q: F, lambda q: g, n_dof, discretization_scheme=DiscretizationType.Interpolation)
+    # einsum, not BLAS: a threaded dgemm here stalls when another process holds the second core
+    A, B, C = (np.einsum("nm,km->nk", x, F) for x in (a, b, c))
+    C = C - np.asarray(g, dtype=float)
+    # toppra's Interpolation scheme (canlinear_colloc_to_interpolate): point i+1's rows reached
+    # from point i with x_{i+1} = x_i + 2 delta_i u_i; the last point repeats its own rows
+    delta = np.diff(s)[:, None]
+    A2 = np.concatenate([A[1:] + 2.0 * delta * B[1:], A[-1:]])
+    B2, C2 = np.concatenate([B[1:], B[-1:]]), np.concatenate([C[1:], C[-1:]])
+    A, B, C = np.hstack([A, A2]), np.hstack([B, B2]), np.hstack([C, C2])
+    scale = unit_scale(A, B)
+    return A * scale, B * scale, C * scale
 
 
-def unit_rows(a, b, F, g):
-    """Each row k of F w <= g at grid point i divided by |(F_ik . a_i, F_ik . b_i)|, the norm of
-    its coefficients of (u, x) = (sddot, sdot^2); rows with zero coefficients are left as they are.
+def unit_scale(A, B):
+    """Factor per row that scales (A, B), the coefficients of (u, x) = (sddot, sdot^2), to unit norm;
+    1 for rows with zero coefficients.
 
     Why: toppra's Seidel LP (cy_seidel_solverwrapper) starts each stage at the corner of its
     +-1e8 box, and when a row is violated there it solves a 1-D LP along that row's line, whose
@@ -58,8 +62,54 @@ def unit_rows(a, b, F, g):
     on a feasible path (seen on joint lines of a vertical arm; which rows trigger it depends on
     the warm-started row order). A row's set is unchanged by a positive factor, so scaling
     (a, b) to unit norm removes the trigger without changing the problem."""
-    A = np.einsum("nkm,nm->nk", F, a)
-    B = np.einsum("nkm,nm->nk", F, b)
     nrm = np.hypot(A, B)
-    scale = np.where(nrm > 0.0, 1.0 / np.where(nrm > 0.0, nrm, 1.0), 1.0)
+    return np.where(nrm > 0.0, 1.0 / np.where(nrm > 0.0, nrm, 1.0), 1.0)
+
+
+def unit_rows(a, b, F, g):
+    """Rows F w <= g per grid point ((N, k, m), (N, k)) scaled as `unit_scale` says, with w = a u + b x + c."""
+    scale = unit_scale(np.einsum("nkm,nm->nk", F, a), np.einsum("nkm,nm->nk", F, b))
     return F * scale[:, :, None], g * scale
+
+
+def rows_constraints(w, F, g, n_dof: int, block: int | None = ROW_BLOCK) -> list:
+    """toppra constraints F w(q, qd, qdd) <= g (module docstring): w a batched function of (S, n)
+    arrays returning (S, m), affine in qdd and quadratic in qd; F (k, m), g (k,) the same at every
+    grid point; `block` rows per constraint (None: all in one). The rows are evaluated once per
+    (path, grid) and shared by the blocks."""
+    from toppra.constraint import ConstraintType, DiscretizationType, LinearConstraint
+
+    F = np.asarray(F, dtype=float)
+    g = np.asarray(g, dtype=float)
+    k2 = 2 * len(F)  # rows after interpolation
+    size = k2 if block is None else max(1, int(block))
+    cache: dict = {}
+
+    def rows(path, gridpoints):
+        s = np.asarray(gridpoints, dtype=float)
+        if cache.get("path") is not path or not np.array_equal(cache.get("grid"), s):
+            cache.update(path=path, grid=s.copy(), rows=path_row_params(w, F, g, path, s))
+        return cache["rows"]
+
+    class _Rows(LinearConstraint):
+        def __init__(self, lo: int, hi: int) -> None:
+            super().__init__()
+            self.constraint_type = ConstraintType.CanonicalLinear
+            self.discretization_type = DiscretizationType.Interpolation
+            self.identical = True
+            self.dof = n_dof
+            self._lo, self._hi = lo, hi
+            self._F, self._g = np.eye(hi - lo), np.zeros(hi - lo)
+            self._format_string = f"    F w <= g rows {lo}..{hi - 1} of {k2} (unit scale, interpolated)\n"
+
+        def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
+            A, B, C = rows(path, gridpoints)
+            sl = slice(self._lo, self._hi)
+            return A[:, sl], B[:, sl], C[:, sl], self._F, self._g, None, None
+
+    return [_Rows(lo, min(lo + size, k2)) for lo in range(0, k2, size)]
+
+
+def rows_constraint(w, F, g, n_dof: int):
+    """`rows_constraints` as one toppra constraint (all rows in one block: for few rows)."""
+    return rows_constraints(w, F, g, n_dof, block=None)[0]

@@ -3,8 +3,11 @@
 The path q(s) is a Drake PiecewisePolynomial (`joint_path`: cubic through IK waypoints with
 continuous second derivatives and zero end slopes, s the cumulative joint-space chord length, rad).
 `plan_toppra` hands the same object to the `toppra` package (wrapped as its geometric path) with
-joint velocity and acceleration limits and any LimitTerm whose `toppra_w` / `toppra_rows` exist,
-w evaluated by SpatialChain for all grid points in three batched calls (limits/toppra_form.py).
+joint velocity limits, and the joint accelerations and every LimitTerm whose `toppra_w` / `toppra_rows`
+exist as rows precomputed for all grid points (w of all terms by SpatialChain in three batched calls,
+limits/toppra_form.py), solved by TOPP-RA's two passes over toppra's Seidel LP
+(planners/toppra_passes.py: the same LPs as toppra's TOPPRA, bit for bit, 1000 grid points with
+the UR5's suction rows in about 30 ms instead of 78 ms: studies/bench_spatial.py).
 `plan_drake_toppra` runs pydrake's Toppra on the same path and grid with the limits it has (joint
 velocity, acceleration and torque). Both return the duration of their parameterisation (constant s-ddot
 between grid points) and the planning time. `recheck` samples a plan: the terms' columns at every
@@ -19,10 +22,12 @@ import time
 import numpy as np
 from pydrake.multibody.optimization import Toppra
 from pydrake.trajectories import PiecewisePolynomial
+from scipy.linalg import block_diag
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.base import RowOptions
-from qmt_drake.limits.toppra_form import rows_constraint
+from qmt_drake.limits.toppra_form import rows_constraints
+from qmt_drake.planners.toppra_passes import seidel_parameterization
 
 
 def joint_path(q_waypoints) -> PiecewisePolynomial:
@@ -38,15 +43,24 @@ def joint_path(q_waypoints) -> PiecewisePolynomial:
 
 class DrakePath:
     """A Drake trajectory q(s) with toppra's geometric-path interface (so both solvers see the same
-    path); `_toppra_path` makes it one of toppra's classes for its solver."""
+    path); `_toppra_path` makes it one of toppra's classes for its solver. The last array of path
+    positions and its values are kept per derivative order: toppra's constraints ask for the same
+    grid several times."""
 
     def __init__(self, pp: PiecewisePolynomial) -> None:
         self.pp = pp
         self._d = [pp, pp.derivative(1), pp.derivative(2)]
+        self._last: dict = {}
 
     def __call__(self, path_positions, order: int = 0):
         s = np.atleast_1d(np.asarray(path_positions, float))
-        out = self._d[order].vector_values(s).T
+        hit = self._last.get(order)
+        if hit is not None and hit[0].shape == s.shape and np.array_equal(hit[0], s):
+            out = hit[1]
+        else:
+            out = self._d[order].vector_values(s).T
+            out.flags.writeable = False  # shared between callers
+            self._last[order] = (s.copy(), out)
         return out if np.ndim(path_positions) else out[0]
 
     @property
@@ -88,30 +102,46 @@ def _duration(grid, sd) -> float:
     return float(np.sum(2.0 * ds / (sd[:-1] + sd[1:])))
 
 
-def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000, **row_options):
-    """dict(duration_s, planning_s, grid, sd, sdd) or QmtInputError when no parameterisation exists."""
+def toppra_problem(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000,
+                   **row_options):
+    """(path, constraints, grid) of `plan_toppra` for toppra: joint speed limits as toppra's
+    JointVelocityConstraint (bounds on sdot^2); the joint accelerations qdd = q' sddot + q'' sdot^2 and
+    the terms' rows F w <= g as precomputed rows (limits/toppra_form.py), the acceleration rows first,
+    then every term's rows stacked, w of all terms from one batched SpatialChain evaluation."""
     import toppra  # see _toppra_path
 
-    t0 = time.perf_counter()
     path = _toppra_path(pp)
     n = chain.n_dof
-    vlim = np.stack([-np.asarray(velocity_limit, float), np.asarray(velocity_limit, float)], axis=1)
-    alim = np.stack([-np.asarray(acceleration_limit, float), np.asarray(acceleration_limit, float)], axis=1)
-    cons = [toppra.constraint.JointVelocityConstraint(vlim),
-            toppra.constraint.JointAccelerationConstraint(
-                alim, discretization_scheme=toppra.constraint.DiscretizationType.Interpolation)]
+    v = np.asarray(velocity_limit, float)
+    a = np.asarray(acceleration_limit, float)
+    cons = [toppra.constraint.JointVelocityConstraint(np.stack([-v, v], axis=1))]
+    eye = np.eye(n)
+    cons += rows_constraints(lambda q, qd, qdd: qdd, np.vstack([eye, -eye]), np.r_[a, a], n)
     options = RowOptions.from_keywords(**row_options)
-    for term in terms:
-        F, g = term.toppra_rows(options)
-        cons.append(rows_constraint(lambda q, qd, qdd, term=term: term.toppra_w(chain.evaluate(q, qd, qdd)), F, g, n))
-    grid = np.linspace(*path.path_interval, n_grid)
-    algo = toppra.algorithm.TOPPRA(cons, path, gridpoints=grid, solver_wrapper="seidel")
-    sdd, sd, _ = algo.compute_parameterization(0.0, 0.0)
+    if terms:
+        rows = [term.toppra_rows(options) for term in terms]
+        F, g = block_diag(*[r[0] for r in rows]), np.concatenate([r[1] for r in rows])
+
+        def w(q, qd, qdd):
+            state = chain.evaluate(q, qd, qdd)
+            return np.concatenate([term.toppra_w(state) for term in terms], axis=1)
+
+        cons += rows_constraints(w, F, g, n)
+    return path, cons, np.linspace(*path.path_interval, n_grid)
+
+
+def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000, **row_options):
+    """dict(duration_s, planning_s, grid, sd, sdd) or QmtInputError when no parameterisation exists:
+    `toppra_problem` solved by TOPP-RA's passes over toppra's Seidel LP (planners/toppra_passes.py,
+    equal to toppra's TOPPRA with solver_wrapper="seidel")."""
+    t0 = time.perf_counter()
+    path, cons, grid = toppra_problem(pp, chain, velocity_limit=velocity_limit, acceleration_limit=acceleration_limit,
+                                      terms=terms, n_grid=n_grid, **row_options)
+    sdd, sd = seidel_parameterization(cons, path, grid)
     planning_s = time.perf_counter() - t0
     if sd is None or not np.all(np.isfinite(sd)):
         raise QmtInputError("TOPP-RA found no parameterisation of the path under the limits (the path starts or "
                             "passes where the limits cannot hold even at rest); relax a limit or change the path")
-    sd = np.asarray(sd, float)
     return {"duration_s": _duration(grid, sd), "planning_s": planning_s, "grid": grid, "sd": sd,
             "sdd": np.asarray(sdd, float), "n_grid": n_grid}
 
