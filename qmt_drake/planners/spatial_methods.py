@@ -48,6 +48,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.ga import run_ga
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, make_spatial_plan
 from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
+from qmt_drake.planners.spatial_tight import tight_scales
 from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
 from qmt_drake.planners.spatial_trajectory import (
     PolyTrajectory,
@@ -178,20 +179,54 @@ class SpatialViaProblem:
         return hashlib.sha256(data.tobytes() + self.sc.name.encode()).hexdigest()[:16]
 
 
+class SpatialTightViaProblem(SpatialViaProblem):
+    """The via-cubic family with every candidate played at its tight time scale (planners/spatial_tight.py,
+    as the planar GA's ga.tight_timing): the genes T1..T_m give the shape (their shares), the cost is the
+    tight duration k * sum(T), so the GA searches shapes and never the feasibility boundary."""
+
+    def __init__(self, sc, *, samples: int = 500, **kwargs) -> None:
+        super().__init__(sc, **kwargs)
+        self.samples = samples
+        self.name += " (tight timing)"
+
+    def scales(self, G) -> np.ndarray:
+        return tight_scales(self.sc, [via_cubic(self.sc, g) for g in np.atleast_2d(G)], self.samples)
+
+    def evaluate(self, genes, exact: bool = False) -> Evaluation:
+        G = np.atleast_2d(np.asarray(genes, float))
+        k = self.scales(G)
+        ok = np.isfinite(k)
+        return Evaluation(cost=np.where(ok, k * G.sum(axis=1), np.inf), violation=np.where(ok, 0.0, np.inf))
+
+    def realize(self, genes) -> np.ndarray:
+        """The segment times (s) of the tight motion of `genes`."""
+        g = np.asarray(genes, float)
+        return g * self.scales(g)[0]
+
+    def confirm(self, genes) -> bool:  # the plan is held at the re-check rate by _finish's scale_to_hold
+        return bool(np.isfinite(self.scales(genes)[0]))
+
+    def fingerprint(self) -> str:
+        return super().fingerprint() + f":tight{self.samples}"
+
+
 def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40, stall: int = 60,
-                    progress=None) -> SpatialPlan:
+                    tight_timing: bool = True, progress=None) -> SpatialPlan:
+    """The binary GA (planners/ga.run_ga) on the via-cubic segment times; tight_timing plays every
+    candidate at its tight time scale (SpatialTightViaProblem), else a candidate is feasible or not
+    as its genes give it (the thesis's GA: it must find the feasibility boundary itself)."""
     t0 = time.perf_counter()
-    problem = SpatialViaProblem(sc)
+    problem = SpatialTightViaProblem(sc) if tight_timing else SpatialViaProblem(sc)
     settings = GaSettings(population=population, max_generations=generations, stall_generations=stall,
-                          fitness_c_per_s=1.0, selection="tournament", encoding="gray")
+                          fitness_c_per_s=1.0, selection="tournament", encoding="gray", tight_timing=tight_timing)
     res = run_ga(problem, settings, seed=seed, progress=progress)
     if not res.feasible:
         raise QmtInputError(f"the GA found no via-cubic within the limits in {res.generations} generations; "
                             "give it more generations or relax a limit")
-    T = np.asarray(res.genes, float)
+    T = problem.realize(res.genes) if tight_timing else np.asarray(res.genes, float)
     return _finish(sc, "ga", via_cubic(sc, T), np.r_[0.0, np.cumsum(T)], t0,
                    {"segment_times_s": T, "generations": res.generations, "evaluations": res.evaluations,
-                    "seed": seed})
+                    "seed": seed, "tight_timing": tight_timing})
 
 
 def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, max_tilt_rad: float = 0.02,
