@@ -1,9 +1,12 @@
-"""TOPP-RA on a 6-DOF UR5 suction pick-and-place path: Drake's Toppra agrees, the grip holds when sampled."""
+"""TOPP-RA on a 6-DOF UR5 suction pick-and-place path: Drake's Toppra agrees, the grip holds when sampled,
+and the fast path (rows precomputed for all grid points, TOPP-RA's passes over toppra's Seidel LP)
+equals toppra's own driver bit for bit and toppra's per-grid-point constraints to rounding."""
 
 import numpy as np
 import pytest
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.contact_wrench import CarriedBody
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.model.spatial_ik import SpatialIK
@@ -14,6 +17,7 @@ from qmt_drake.planners.spatial_toppra import (
     plan_drake_toppra,
     plan_toppra,
     recheck,
+    toppra_problem,
 )
 
 PICK, PLACE, SEED = [0.45, -0.30, 0.10], [0.30, 0.45, 0.10], np.array([-0.6, -1.3, 1.6, -1.9, -1.57, 0.0])
@@ -96,3 +100,44 @@ def test_torque_limits_equal_drake_toppra(ur5):
     assert ours["duration_s"] > free["duration_s"] * 1.05  # the torque limits bind
     assert abs(ours["duration_s"] / drake["duration_s"] - 1) < 1e-4
     assert recheck(ours, pp, chain, [term])["motor_torque"] <= 1.0 + 1e-3
+
+
+def test_fast_path_equals_toppras_driver_and_its_per_gridpoint_constraints(ur5):
+    """plan_toppra against (1) toppra's TOPPRA driver on the same constraints (the same LPs: equal bit
+    for bit) and (2) the problem as toppra states it itself: its joint velocity and acceleration
+    constraints and a SecondOrderConstraint that evaluates the grip's wrench one grid point at a time
+    (rows neither multiplied out nor scaled): the same parameterisation to rounding."""
+    import toppra
+    from toppra.constraint import (
+        DiscretizationType,
+        JointAccelerationConstraint,
+        JointVelocityConstraint,
+        SecondOrderConstraint,
+    )
+
+    plant, ik, pp, _ = ur5
+    vel, acc = plant.GetVelocityUpperLimits(), np.full(6, 15.0)
+    term = SuctionTerm(GripModel(0.015, 40.0, 0.5), BODY, plant.gravity_field().gravity_vector())
+    kw = dict(velocity_limit=vel, acceleration_limit=acc, terms=[term], n_grid=1000)
+    ours = plan_toppra(pp, ik.chain, **kw)
+    path, cons, grid = toppra_problem(pp, ik.chain, **kw)
+    sdd, sd, _ = toppra.algorithm.TOPPRA(cons, path, gridpoints=grid, solver_wrapper="seidel") \
+        .compute_parameterization(0.0, 0.0)
+    assert np.array_equal(ours["sd"], sd) and np.array_equal(ours["sdd"], sdd)
+
+    F, g = term.toppra_rows(RowOptions())
+    calls = []
+
+    def w_one(q, qd, qdd):
+        calls.append(1)
+        return term.toppra_w(ik.chain.evaluate(q[None], qd[None], qdd[None]))[0]
+
+    interp = DiscretizationType.Interpolation
+    plain = [JointVelocityConstraint(np.stack([-vel, vel], axis=1)),
+             JointAccelerationConstraint(np.stack([-acc, acc], axis=1), discretization_scheme=interp),
+             SecondOrderConstraint(w_one, lambda q: F, lambda q: g, 6, discretization_scheme=interp)]
+    _, sd_plain, _ = toppra.algorithm.TOPPRA(plain, path, gridpoints=grid, solver_wrapper="seidel") \
+        .compute_parameterization(0.0, 0.0)
+    assert len(calls) >= 3 * len(grid)  # toppra evaluated the wrench point by point
+    np.testing.assert_allclose(ours["sd"], sd_plain, rtol=1e-9, atol=1e-12)
+    assert ours["duration_s"] > plan_toppra(pp, ik.chain, velocity_limit=vel, acceleration_limit=acc)["duration_s"]

@@ -48,7 +48,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.ga import run_ga
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, make_spatial_plan
 from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
-from qmt_drake.planners.spatial_tight import tight_scales
+from qmt_drake.planners.spatial_tight import TIGHT_SAMPLES, tight_scales
 from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
 from qmt_drake.planners.spatial_trajectory import (
     PolyTrajectory,
@@ -125,16 +125,24 @@ def via_cubic(sc, T) -> PolyTrajectory:
                                                                                    zero, zero))
 
 
-def tight_time(sc, shares) -> tuple[float, np.ndarray]:
-    """(T0, segment times) of the via cubic with these relative segment times at the smallest time
-    scale whose check (the planners' rate) holds."""
+def tight_time(sc, shares, samples: int = TIGHT_SAMPLES) -> tuple[float, np.ndarray]:
+    """(T0, segment times) of the via cubic with these relative segment times at its tight time scale
+    (planners/spatial_tight.py: in closed form on `samples` points, as the GA's candidates);
+    QmtInputError naming the limit when no time scale makes it hold."""
     w = np.abs(np.asarray(shares, float)) + 1e-6
     T = w / w.sum()
-    _, k = scale_to_hold(sc, via_cubic(sc, T), sc.check_rate_hz, k_max=12.0, rel_tol=2e-4)
-    return float(k), T * k
+    traj = via_cubic(sc, T)
+    k = float(tight_scales(sc, [traj], samples)[0])
+    if not np.isfinite(k):
+        scale_to_hold(sc, traj, sc.check_rate_hz, k_max=12.0)  # raises naming the limit broken at rest
+        raise QmtInputError("no time scale makes the via cubic hold its limits; relax a limit")
+    return k, T * k
 
 
 def plan_family_optimum(sc, *, restarts: int = 1) -> SpatialPlan:
+    """Nelder-Mead over the segment-time shares, each share vector at its tight time (`tight_time`),
+    from `restarts` starts (shares ~ sqrt of the joint distance, equal shares); the best start's
+    evaluations are reported."""
     t0 = time.perf_counter()
     m = len(sc.q_poses_rad) - 1
     d = np.linalg.norm(np.diff(sc.q_poses_rad, axis=0), ord=np.inf, axis=1)
@@ -142,7 +150,7 @@ def plan_family_optimum(sc, *, restarts: int = 1) -> SpatialPlan:
     best = None
     for x0 in starts:
         r = minimize(lambda x: tight_time(sc, x)[0], x0 / x0.sum(), method="Nelder-Mead",
-                     options={"xatol": 1e-3, "fatol": 1e-4, "maxiter": 150})
+                     options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 600})
         if best is None or r.fun < best.fun:
             best = r
     _, T = tight_time(sc, best.x)
@@ -184,7 +192,7 @@ class SpatialTightViaProblem(SpatialViaProblem):
     as the planar GA's ga.tight_timing): the genes T1..T_m give the shape (their shares), the cost is the
     tight duration k * sum(T), so the GA searches shapes and never the feasibility boundary."""
 
-    def __init__(self, sc, *, samples: int = 500, **kwargs) -> None:
+    def __init__(self, sc, *, samples: int = TIGHT_SAMPLES, **kwargs) -> None:
         super().__init__(sc, **kwargs)
         self.samples = samples
         self.name += " (tight timing)"

@@ -10,7 +10,7 @@ spatial_trajectory.scale_to_hold. Joint speed and acceleration limits give k >= 
 |qdd| / a. `tight_scales` takes the largest over `samples` points of each trajectory, all
 trajectories in two batched SpatialChain evaluations: the exact tight scale on those samples, where
 scale_to_hold bisects with one check per step. Rows that are polygons inside a circle or cone (the
-tray's) are stricter than its ratio column, so there k is on the safe side.
+magnet's moment, the tray's) are stricter than the ratio column, so there k is on the safe side.
 """
 
 from __future__ import annotations
@@ -20,12 +20,19 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.base import RowOptions
 
+# samples per motion: about the planners' check rate (200 Hz) over a 2.4 s transfer; the plans are
+# then re-checked and held at the re-check rate (10x) like every spatial plan
+TIGHT_SAMPLES = 500
+# the magnet's moment circle and the tray's cone and disc as 64-gons inside them (RowOptions): the
+# scale is then at most ~0.1 % on the safe side where those terms bind (32 and 4 sides: 0.2 %)
+TIGHT_ROWS = RowOptions(polygon_sides=64, tray_polygon_sides=64)
 
-def tight_scales(sc, trajectories, samples: int = 500, options: RowOptions | None = None) -> np.ndarray:
+
+def tight_scales(sc, trajectories, samples: int = TIGHT_SAMPLES, options: RowOptions | None = None) -> np.ndarray:
     """(P,) smallest time scale k of each trajectory (k < 1: it may be played faster) at which its
     joint speed/acceleration limits and every term of sc.terms() hold at `samples` points evenly
     spaced in its own time; inf where no scale makes it hold."""
-    options = options or RowOptions()
+    options = options or TIGHT_ROWS
     trajectories = list(trajectories)
     t_of = [np.linspace(0.0, tr.duration_s, samples) for tr in trajectories]
     Q, QD, QDD = (np.concatenate(parts) for parts in zip(*(tr.sample(t) for tr, t in zip(trajectories, t_of))))
