@@ -120,7 +120,8 @@ def test_every_trajectory_kind_rebuilds_exactly(sc, method, tmp_path):
 
 def test_a_tampered_plan_file_is_refused(sc, planned, tmp_path):
     d = json.loads(planned["plan"].read_text())
-    d["rebuild"]["qd_rad_s"][1][0] += 0.1  # a via velocity changed by hand: the samples disagree
+    spec = d["rebuild"]["inner"] if d["rebuild"]["kind"] == "time_scaled" else d["rebuild"]  # held by scale_to_hold
+    spec["qd_rad_s"][1][0] += 0.1  # a via velocity changed by hand: the samples disagree
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps(d))
     rc, out, err = _main("simulate", SC, "--plan", bad)
