@@ -1,5 +1,7 @@
-"""Tight timing of spatial via cubics (planners/spatial_tight.py): the closed-form scale against the
-limits evaluated at that scale on the same samples, and against scale_to_hold's bisection."""
+"""Tight timing of spatial via cubics (planners/spatial_tight.py): the scale against the limits
+evaluated by SpatialChain at that scale on the same samples (not through the three-evaluation
+interpolation), and against scale_to_hold's bisection; on the suction cup (exact rows), the tray (its
+polygon rows inside the circles: refined on the columns) and the magnet, with the arms' joint damping."""
 
 from types import SimpleNamespace
 
@@ -26,7 +28,9 @@ def _max_ratio(sc, traj, t):
     return max(float(np.max(c)) for c in cols + [t_.columns(state) for t_ in sc.terms()])
 
 
-def test_tight_scale_puts_each_shape_exactly_on_its_limits(sc):
+@pytest.mark.parametrize("name", ["ur5-suction-bins", "panda-tray-cup", "ur5-magnet-part"])
+def test_tight_scale_puts_each_shape_exactly_on_its_limits(name):
+    sc = load_or_skip(name)
     rng = np.random.default_rng(4)
     G = rng.uniform(0.2, 2.0, (5, len(sc.q_poses_rad) - 1))
     trajs = [via_cubic(sc, g) for g in G]
