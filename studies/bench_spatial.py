@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -175,6 +176,7 @@ def bench_toppra(n_grid: int, rounds: int) -> dict:
                                                               n_grid=n_grid)
     times = {k: [] for k in runs}
     last = {}
+    load_before = os.getloadavg()  # the machine is shared: its load says what the milliseconds mean
     for f in runs.values():
         f()  # warm-up (imports, first-call allocations) outside the timing
     for _ in range(rounds):
@@ -182,7 +184,8 @@ def bench_toppra(n_grid: int, rounds: int) -> dict:
             last[k] = f()
             times[k].append(last[k]["planning_s"])
     med = {k: 1e3 * float(np.median(v)) for k, v in times.items()}
-    out = {"task": t, "n_grid": n_grid, "rounds": rounds, "waypoints_rad": Q,
+    out = {"task": t, "n_grid": n_grid, "rounds": rounds, "waypoints_rad": Q, "cpus": os.cpu_count(),
+           "load_average_1_5_15min": {"before": load_before, "after": os.getloadavg()},
            "planning_ms_median": med,
            "planning_ms": {k: [1e3 * x for x in v] for k, v in times.items()},
            "duration_s": {k: r["duration_s"] for k, r in last.items()},
@@ -233,7 +236,9 @@ def main(argv=None) -> int:
               f"{m['drake_inverse_dynamics'] * 1e6:.1f} | {r['ratio_drake_chain_over_spatial']:.1f} | "
               f"{r['ratio_drake_inverse_dynamics_over_spatial']:.1f} |")
     tp = results["toppra"]
-    print(f"\nTOPP-RA, UR5 suction pick-and-place, {tp['n_grid']} grid points (median of {tp['rounds']}):\n"
+    load = tp["load_average_1_5_15min"]
+    print(f"\nTOPP-RA, UR5 suction pick-and-place, {tp['n_grid']} grid points (median of {tp['rounds']}; load average "
+          f"{load['before'][0]:.1f} before, {load['after'][0]:.1f} after on {tp['cpus']} CPUs):\n"
           "| run | rows | planning ms | duration s | max ratio, own grip (10x re-check) | max ratio, "
           f"{tp['fine_grip']['rim_points']}x{tp['fine_grip']['pyramid_edges']} grip |\n|---|---|---|---|---|---|")
     for k, ms in tp["planning_ms_median"].items():
