@@ -30,7 +30,8 @@ from qmt_drake.model.spatial_chain import HandSample
 # samples per motion: about the planners' check rate (200 Hz) over a 2.4 s transfer; the plans are
 # then re-checked and held at the re-check rate (10x) like every spatial plan
 TIGHT_SAMPLES = 500
-TIGHT_ITERATIONS = 40  # bisection halvings of a bracket of at most a factor 2 in v: ~1e-12
+TIGHT_REL_TOL = 1e-9  # the columns' refinement stops when its bracket in v is this narrow (relative)
+TIGHT_MAX_STEPS = 60
 
 
 def _first_root(Q, L, s):
@@ -42,29 +43,53 @@ def _first_root(Q, L, s):
     return v
 
 
-def _state_at(parts, v) -> HandSample:
-    """The hand state at speed factor v (S,) from the three evaluations (rest, +qd, -qd)."""
-    rest, plus, minus = parts
+def _state_at(parts, v, sel) -> HandSample:
+    """The hand state of samples `sel` at speed factors v (len(sel),) from the three evaluations
+    (rest, +qd, -qd)."""
+    rest, plus, minus = ({k: x[sel] for k, x in p.items()} for p in parts)
     v1, v2 = v[:, None], (v * v)[:, None]
-    lin = 0.5 * (plus.joint_torque_Nm - minus.joint_torque_Nm)
-    quad = 0.5 * (plus.joint_torque_Nm + minus.joint_torque_Nm) - rest.joint_torque_Nm
-    return HandSample(position_m=rest.position_m, rotation=rest.rotation,
-                      angular_velocity_rad_s=plus.angular_velocity_rad_s * v1,
-                      linear_velocity_m_s=plus.linear_velocity_m_s * v1,
-                      angular_acceleration_rad_s2=plus.angular_acceleration_rad_s2 * v2,
-                      linear_acceleration_m_s2=plus.linear_acceleration_m_s2 * v2,
-                      joint_torque_Nm=rest.joint_torque_Nm + lin * v1 + quad * v2)
+    lin = 0.5 * (plus["joint_torque_Nm"] - minus["joint_torque_Nm"])
+    quad = 0.5 * (plus["joint_torque_Nm"] + minus["joint_torque_Nm"]) - rest["joint_torque_Nm"]
+    return HandSample(position_m=rest["position_m"], rotation=rest["rotation"],
+                      angular_velocity_rad_s=plus["angular_velocity_rad_s"] * v1,
+                      linear_velocity_m_s=plus["linear_velocity_m_s"] * v1,
+                      angular_acceleration_rad_s2=plus["angular_acceleration_rad_s2"] * v2,
+                      linear_acceleration_m_s2=plus["linear_acceleration_m_s2"] * v2,
+                      joint_torque_Nm=rest["joint_torque_Nm"] + lin * v1 + quad * v2)
 
 
-def _column_max(sc, terms, parts, QD, QDD, v, P: int):
-    """(P,) the largest ratio of each trajectory's samples at speed factors v (P,)."""
-    vs = np.repeat(v, len(QD) // P)
-    state = _state_at(parts, vs)
-    worst = np.maximum(np.max(np.abs(QD) / sc.velocity_limit_rad_s, axis=1) * vs,
-                       np.max(np.abs(QDD) / sc.acceleration_limit_rad_s2, axis=1) * vs * vs)
+def _column_max(sc, terms, parts, QD, QDD, v, which, samples: int):
+    """(len(which),) the largest ratio over the samples of trajectories `which` at speed factors v."""
+    sel = (np.asarray(which)[:, None] * samples + np.arange(samples)).ravel()
+    vs = np.repeat(v, samples)
+    state = _state_at(parts, vs, sel)
+    worst = np.maximum(np.max(np.abs(QD[sel]) / sc.velocity_limit_rad_s, axis=1) * vs,
+                       np.max(np.abs(QDD[sel]) / sc.acceleration_limit_rad_s2, axis=1) * vs * vs)
     for term in terms:
         worst = np.maximum(worst, np.max(term.columns(state), axis=1))
-    return worst.reshape(P, -1).max(axis=1)
+    return worst.reshape(len(which), samples).max(axis=1)
+
+
+def _illinois(g, lo, hi, g_lo, g_hi):
+    """Root of g (vectorised, increasing through 0) bracketed by lo (g_lo <= 0) and hi (g_hi > 0):
+    regula falsi with the Illinois halving; returns the feasible end lo once hi / lo - 1 <= TIGHT_REL_TOL."""
+    kept = np.zeros(len(lo), dtype=int)  # +1: lo kept last step, -1: hi kept
+    for _ in range(TIGHT_MAX_STEPS):
+        open_ = hi > lo * (1.0 + TIGHT_REL_TOL)
+        if not np.any(open_):
+            break
+        i = np.flatnonzero(open_)
+        m = (lo[i] * g_hi[i] - hi[i] * g_lo[i]) / (g_hi[i] - g_lo[i])
+        inside = (m > lo[i]) & (m < hi[i])
+        m = np.where(inside, m, 0.5 * (lo[i] + hi[i]))
+        gm = g(m, i)
+        left = gm <= 0.0
+        j, k = i[left], i[~left]
+        g_hi[j] = np.where(kept[j] == 1, 0.5 * g_hi[j], g_hi[j])  # lo moves again: halve hi's value
+        g_lo[k] = np.where(kept[k] == -1, 0.5 * g_lo[k], g_lo[k])
+        lo[j], g_lo[j], kept[j] = m[left], gm[left], 1
+        hi[k], g_hi[k], kept[k] = m[~left], gm[~left], -1
+    return lo
 
 
 def tight_scales(sc, trajectories, samples: int = TIGHT_SAMPLES, options: RowOptions | None = None) -> np.ndarray:
@@ -97,16 +122,21 @@ def tight_scales(sc, trajectories, samples: int = TIGHT_SAMPLES, options: RowOpt
         v_rows = np.minimum(v_rows, v.min(axis=1))
     # lo: every row holds, so every column; hi: the joint limits' own bound (the slowest sample of each)
     lo, hi = v_rows.reshape(P, samples).min(axis=1), v_joint.reshape(P, samples).min(axis=1)
-    ready = np.isfinite(lo) & (lo > 0.0) & (hi > lo)
-    worst = _column_max(sc, terms, parts, QD, QDD, np.where(ready, lo, 0.0), P)
-    loose = ready & (worst < 1.0 - 1e-9)  # polygon rows inside the columns' circles: room left
-    if np.any(loose):
-        at_hi = _column_max(sc, terms, parts, QD, QDD, np.where(loose, hi, 0.0), P)
-        lo = np.where(loose & (at_hi <= 1.0), hi, lo)
-        loose &= at_hi > 1.0
-        for _ in range(TIGHT_ITERATIONS if np.any(loose) else 0):
-            mid = 0.5 * (lo + hi)
-            ok = _column_max(sc, terms, parts, QD, QDD, np.where(loose, mid, 0.0), P) <= 1.0
-            lo, hi = np.where(loose & ok, mid, lo), np.where(loose & ~ok, mid, hi)
+    ready = np.flatnonzero(np.isfinite(lo) & (lo > 0.0) & (hi > lo))
+
+    def excess(v, which):  # largest ratio - 1 of trajectories `which` (indices into ready) at v
+        return _column_max(sc, terms, parts, QD, QDD, v, ready[which], samples) - 1.0
+
+    if len(ready):
+        g_lo = excess(lo[ready], np.arange(len(ready)))
+        loose = np.flatnonzero(g_lo < -1e-9)  # polygon rows inside the columns' circles: room left
+        if len(loose):
+            g_hi = excess(hi[ready][loose], loose)
+            done = g_hi <= 0.0  # the joint limits bind first
+            lo[ready[loose[done]]] = hi[ready[loose[done]]]
+            rest = loose[~done]
+            if len(rest):
+                lo[ready[rest]] = _illinois(lambda v, i: excess(v, rest[i]), lo[ready[rest]].copy(),
+                                            hi[ready[rest]].copy(), g_lo[rest].copy(), g_hi[~done].copy())
     with np.errstate(divide="ignore"):
         return 1.0 / lo
