@@ -92,11 +92,12 @@ def _illinois(g, lo, hi, g_lo, g_hi):
     return lo
 
 
-def tight_scales(sc, trajectories, samples: int = TIGHT_SAMPLES, options: RowOptions | None = None) -> np.ndarray:
+def tight_scales(sc, trajectories, samples: int = TIGHT_SAMPLES) -> np.ndarray:
     """(P,) smallest time scale k of each trajectory (k < 1: it may be played faster) at which its
     joint speed/acceleration limits and every term of sc.terms() hold at `samples` points evenly
-    spaced in its own time; inf where no scale makes it hold (a limit broken at rest)."""
-    options = options or RowOptions()
+    spaced in its own time; inf where no scale makes it hold (a limit broken at rest). The terms'
+    rows are RowOptions' defaults: polygons inside the circles, never looser than the columns."""
+    options = RowOptions()
     trajectories = list(trajectories)
     P = len(trajectories)
     terms = sc.terms()
