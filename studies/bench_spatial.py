@@ -228,30 +228,35 @@ def main(argv=None) -> int:
     except QmtInputError as exc:
         print(f"bench_spatial: error: {exc}", file=sys.stderr)
         return 2
-    print("| arm | spatial_chain us/sample | DrakeChain us/sample | Drake ID us/sample | DrakeChain / spatial "
-          "| Drake ID / spatial |\n|---|---|---|---|---|---|")
+    lines = ["Batched spatial hand state against Drake, per sample (median of the rounds):", "",
+             "| arm | spatial_chain us/sample | DrakeChain us/sample | Drake ID us/sample | DrakeChain / spatial "
+             "| Drake ID / spatial |", "|---|---|---|---|---|---|"]
     for r in results["hand_state"]:
         m = r["median_per_sample_s"]
-        print(f"| {r['arm']} | {m['spatial_chain'] * 1e6:.2f} | {m['drake_chain'] * 1e6:.1f} | "
-              f"{m['drake_inverse_dynamics'] * 1e6:.1f} | {r['ratio_drake_chain_over_spatial']:.1f} | "
-              f"{r['ratio_drake_inverse_dynamics_over_spatial']:.1f} |")
+        lines.append(f"| {r['arm']} | {m['spatial_chain'] * 1e6:.2f} | {m['drake_chain'] * 1e6:.1f} | "
+                     f"{m['drake_inverse_dynamics'] * 1e6:.1f} | {r['ratio_drake_chain_over_spatial']:.1f} | "
+                     f"{r['ratio_drake_inverse_dynamics_over_spatial']:.1f} |")
     tp = results["toppra"]
     load = tp["load_average_1_5_15min"]
-    print(f"\nTOPP-RA, UR5 suction pick-and-place, {tp['n_grid']} grid points (median of {tp['rounds']}; load average "
-          f"{load['before'][0]:.1f} before, {load['after'][0]:.1f} after on {tp['cpus']} CPUs):\n"
-          "| run | rows | planning ms | duration s | max ratio, own grip (10x re-check) | max ratio, "
-          f"{tp['fine_grip']['rim_points']}x{tp['fine_grip']['pyramid_edges']} grip |\n|---|---|---|---|---|---|")
+    lines += ["", f"TOPP-RA, UR5 suction pick-and-place, {tp['n_grid']} grid points (median of {tp['rounds']}; load "
+              f"average {load['before'][0]:.1f} before, {load['after'][0]:.1f} after on {tp['cpus']} CPUs):", "",
+              "| run | rows | planning ms | duration s | max ratio, own grip (10x re-check) | max ratio, "
+              f"{tp['fine_grip']['rim_points']}x{tp['fine_grip']['pyramid_edges']} grip |", "|---|---|---|---|---|---|"]
     for k, ms in tp["planning_ms_median"].items():
         own, fine = tp["recheck_max_ratio"].get(k), tp["recheck_max_ratio_fine_grip"].get(k)
-        print(f"| {k} | {tp['rows'].get(k, '-')} | {ms:.1f} | {tp['duration_s'][k]:.4f} | "
-              f"{'-' if own is None else f'{own:.4f}'} | {'-' if fine is None else f'{fine:.4f}'} |")
+        lines.append(f"| {k} | {tp['rows'].get(k, '-')} | {ms:.1f} | {tp['duration_s'][k]:.4f} | "
+                     f"{'-' if own is None else f'{own:.4f}'} | {'-' if fine is None else f'{fine:.4f}'} |")
+    lines.append("")
     for lim, rel in tp["duration_toppra_vs_drake_rel"].items():
-        print(f"toppra vs Drake Toppra ({lim}): duration relative difference {rel:.2e}, Drake's planning time "
-              f"{tp['drake_over_toppra_time'][lim]:.2f}x ours")
+        lines.append(f"toppra vs Drake Toppra ({lim}): duration relative difference {rel:.2e}, Drake's planning "
+                     f"time {tp['drake_over_toppra_time'][lim]:.2f}x ours.")
     for k, r in tp["suction_over_drake_joint_limits_time"].items():
-        print(f"{k}: our planning time with the suction rows {r:.2f}x Drake's Toppra with the joint limits only")
-    print(f"toppra's own TOPPRA driver on the same rows: {tp['toppra_driver_over_ours_time']:.2f}x our planning "
-          f"time, largest sd difference {tp['toppra_driver_max_sd_difference']:.1e}")
+        lines.append(f"{k}: our planning time with the suction rows {r:.2f}x Drake's Toppra with the joint limits only.")
+    lines.append(f"toppra's own TOPPRA driver on the same rows: {tp['toppra_driver_over_ours_time']:.2f}x our planning "
+                 f"time, largest sd difference {tp['toppra_driver_max_sd_difference']:.1e}.")
+    print("\n".join(lines))
+    # the report's spatial section shows every table of out/spatial/
+    write_text_atomic(Path(a.out) / "spatial" / "bench_spatial.md", "\n".join(lines) + "\n")
     write_text_atomic(Path(a.out) / "bench_spatial.json", json.dumps(jsonable(results), indent=1))
     return 0
 

@@ -73,6 +73,9 @@ def main(argv=None) -> int:
     from studies import spatial_benchmark
     step("spatial arms: UR5 with a suction cup and with the magnet, Panda with a cup on a tray", lambda: spatial_benchmark.main(
         ["--out", str(out)]))
+    from studies import bench_spatial
+    step("spatial arms: the batched hand state and TOPP-RA against Drake (planning speed)",
+         lambda: bench_spatial.main(["--out", str(out)]))
     from studies import spatial_ga_seeds
     step("spatial arms: the GA over 10 seeds against the family optimum (UR5, suction)",
          lambda: spatial_ga_seeds.main(["--out", str(out)]))

@@ -75,7 +75,8 @@ SECTIONS: list[Section] = [
                  "BP 1.9951; without obstacles BP is best; about 60 generations (some 360).",
             tables=("*.md",)),
     Section("Spatial arms: a UR5 with a suction cup between two bins and with the thesis's magnet, a Panda with "
-            "a cup on a tray", ".venv/bin/python -m studies.spatial_benchmark --out out", "spatial",
+            "a cup on a tray", ".venv/bin/python -m studies.spatial_benchmark --out out (and studies.spatial_ga_seeds, "
+            "studies.bench_spatial: the planning-speed tables)", "spatial",
             seed="Not in the seeds: issue 19's arms from the field (Pham & Pham's suction-cup transfer).",
             tables=("*.md",), figures=(), recordings=(),
             raw=("ur5-suction-bins.json", "ur5-magnet-part.json", "panda-tray-cup.json")),
