@@ -81,7 +81,6 @@ class MinimumTime:
 # the transfer scenarios' objective: make(scenario) -> MinimumTime with the scenario's GA fitness constant
 OBJECTIVES.register(ObjectivePlugin("min_time", lambda scenario: MinimumTime(scenario.ga.fitness_c_per_s),
                                     summary="T0, the motion time; GA fitness exp(-c T0) when every limit holds"))
-DEFAULT_OBJECTIVE = "min_time"
 
 
 class PlanningProblem:
@@ -92,7 +91,7 @@ class PlanningProblem:
         self.scenario = scenario
         self.name = scenario.name
         if objective is None or isinstance(objective, str):
-            entry = OBJECTIVES.get(objective or DEFAULT_OBJECTIVE, "PlanningProblem objective",
+            entry = OBJECTIVES.get(objective or scenario.objective, "PlanningProblem objective",
                                    accept=for_scenario_kind(TRANSFER))
             objective = entry.make(scenario)
         self.objective = objective

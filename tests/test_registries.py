@@ -159,3 +159,32 @@ def test_a_transfer_objective_is_picked_by_kind(registered):
     assert P.fitness(ev)[0] == (1.0 if ev.feasible[0] else 0.0)
     with pytest.raises(QmtInputError, match=r"objective.kind 'energy_time' is not one of min_time, feasible_only"):
         PlanningProblem(sc, "energy_time")  # registered, but for energy-time scenarios
+
+
+def test_the_scenario_objective_section_picks_a_registered_objective(tmp_path, registered):
+    """`objective: {kind: ...}` in a transfer scenario: the default min_time keeps the fingerprint of a file
+    without the section (saved plans stay valid), another registered kind is what PlanningProblem
+    minimises and changes the fingerprint, an unknown or energy-time kind is refused in one line."""
+    base = load_scenario("thesis-ch4")
+
+    def with_objective(kind):
+        raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
+        raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
+        raw["objective"] = {"kind": kind}
+        p = tmp_path / f"ch4-{kind}.yaml"
+        p.write_text(yaml.safe_dump(raw))
+        return load_scenario(str(p))
+
+    same = with_objective("min_time")
+    assert same.objective == base.objective == "min_time" and same.fingerprint() == base.fingerprint()
+
+    class Flat:
+        def fitness(self, ev):
+            return np.where(ev.feasible, 1.0, 0.0)
+    registered(OBJECTIVES, ObjectivePlugin("feasible_only", lambda scenario: Flat()))
+    other = with_objective("feasible_only")
+    assert isinstance(PlanningProblem(other).objective, Flat) and other.fingerprint() != base.fingerprint()
+    for kind in ("energy_time", "fastest"):
+        with pytest.raises(QmtInputError, match=rf"objective.kind '{kind}' is not one of min_time, feasible_only") as e:
+            with_objective(kind)
+        assert "\n" not in str(e.value)

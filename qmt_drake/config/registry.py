@@ -65,6 +65,7 @@ class Registry:
         return len(self._entries)
 
 
+DEFAULT_OBJECTIVE_KIND = "min_time"  # a transfer scenario without an objective section
 TRANSFER = "transfer"  # the scenario kinds (config/scenario.scenario_kind): a transfer ...
 ENERGY_TIME = "energy_time"  # ... or seed 001's energy-time experiment
 

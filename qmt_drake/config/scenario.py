@@ -38,7 +38,16 @@ from pathlib import Path
 import yaml
 
 from qmt_drake.config import fields as fields_mod
-from qmt_drake.config.registry import ACTUATORS, DEFAULT_HAND_KIND, ENERGY_TIME, HANDS
+from qmt_drake.config.registry import (
+    ACTUATORS,
+    DEFAULT_HAND_KIND,
+    DEFAULT_OBJECTIVE_KIND,
+    ENERGY_TIME,
+    HANDS,
+    OBJECTIVES,
+    TRANSFER,
+    for_scenario_kind,
+)
 from qmt_drake.config.sections import (  # noqa: F401 (re-exported: the scenario's types)
     STANDARD_GRAVITY_M_S2,
     DcMotorGear,
@@ -76,7 +85,7 @@ SCENARIO_DIR = MODELS_DIR / "scenarios"
 
 # ---------------------------------------------------------------------------------------- loading
 _TOP_KEYS = {"name", "description", "world", "uncertainty", "arm", "hand", "actuator", "payload", "task", "limits",
-             "family", "ga", "sampling", "control", "reported", "notes", "source"}
+             "family", "objective", "ga", "sampling", "control", "reported", "notes", "source"}
 _SECTION_KEYS = {
     "world": WORLD_KEYS,
     "arm": {"kind", "urdf", "hand_frame"},
@@ -84,6 +93,7 @@ _SECTION_KEYS = {
     "task": {"points_m", "tool_angle_rad", "ik_branch"},
     "limits": {"moment_limit_Nm", "motor_torque_limit_Nm", "joint_speed_fraction"},
     "family": {"kind", "genes"},
+    "objective": {"kind"},
     "ga": {f.name for f in fields(GaSettings)},
     "sampling": {f.name for f in fields(Sampling)},
     "control": {"kp", "ki", "kd"},
@@ -192,6 +202,8 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
                                                   positive=True, what="motor torque limits [N*m]"),
                     joint_speed_fraction=speed)
     family = parse_family(raw["family"], f"{where}: family")
+    objective = (raw.get("objective") or {}).get("kind", DEFAULT_OBJECTIVE_KIND)
+    OBJECTIVES.get(objective, f"{where}: objective", accept=for_scenario_kind(TRANSFER))  # one line if unknown
     ga = parse_ga(raw.get("ga") or {}, f"{where}: ga")
     sm = raw.get("sampling") or {}
     sampling = Sampling(**{f.name: _num(sm, f.name, f"{where}: sampling", positive=True,
@@ -226,7 +238,7 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     sc = Scenario(
         name=name, description=description, source_path=path, urdf_path=arm_spec.urdf_path,
         hand_frame=arm_spec.hand_frame, payload=payload, task=task, limits=limits, family=family,
-        ga=ga, sampling=sampling, control=control, reported=reported,
+        objective=objective, ga=ga, sampling=sampling, control=control, reported=reported,
         notes=tuple(notes), arm_spec=arm_spec,
         hand=hand,
         actuator=parse_actuator(raw.get("actuator"), limits, f"{where}: actuator"), world=world,

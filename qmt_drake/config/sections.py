@@ -18,6 +18,7 @@ import numpy as np
 
 from qmt_drake.catalog import SERVO_CATALOG, CoilSpec, ServoGains
 from qmt_drake.config.hooks import registered_builder
+from qmt_drake.config.registry import DEFAULT_OBJECTIVE_KIND
 
 STANDARD_GRAVITY_M_S2 = 9.81  # the value every model here was calibrated with (and Drake's default)
 
@@ -232,6 +233,9 @@ class Scenario:
     # ({friction: {dist: normal, mean: 0.3, std: 0.03}, ...}, monte_carlo: {cases, seed}); used by
     # `plan --success P` (validated there by sweep/parameters.py)
     uncertainty: dict = field(default_factory=dict)
+    # `objective: {kind: ...}`: what the planners minimise, a kind registered in config/registry.OBJECTIVES
+    # for transfer scenarios (problem.py: min_time, the motion time under the limits)
+    objective: str = DEFAULT_OBJECTIVE_KIND
 
     # What a scenario turns into (the arm model, the limit set, the tray's bottle) is built by
     # qmt_drake/builders.py, which registers its builders in config/hooks.py (register_builders): this module
@@ -285,6 +289,8 @@ class Scenario:
         simulation changes the fingerprint."""
         data = {f.name: _canonical(getattr(self, f.name)) for f in fields(self)
                 if f.name not in ("source_path", "urdf_path", "description", "notes", "reported", "uncertainty")}
+        if data.get("objective") == DEFAULT_OBJECTIVE_KIND:  # the default leaves plans and checkpoints of older files valid
+            del data["objective"]
         if isinstance(data.get("arm_spec"), dict):
             data["arm_spec"].pop("urdf_path", None)
         h = hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode())
