@@ -92,22 +92,27 @@ def main(argv=None) -> int:
     ap.add_argument("--ref", required=True, help="another qmt_drake checkout (its qmt_drake/ folder is imported)")
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--out", default="out")
+    ap.add_argument("--measures", nargs="+", choices=MEASURES, default=list(MEASURES), metavar="MEASURE",
+                    help=f"which measures (default all: {' '.join(MEASURES)})")
     a = ap.parse_args(argv)
     this, ref = Path(__file__).resolve().parents[1], Path(a.ref).resolve()
     if not (ref / "qmt_drake" / "__init__.py").is_file():
         print(f"bench_versions: error: --ref {ref} is not a qmt_drake checkout (no qmt_drake/__init__.py)",
               file=sys.stderr)
         return 2
-    results = {m: {"this": [], "ref": []} for m in MEASURES}
+    measures = [m for m in MEASURES if m in a.measures]  # in MEASURES' order: the ratio reads the run before it
+    if "cosim_us_per_step_best" in measures and "cosim_cost_ratio_to_floor" not in measures:
+        measures.insert(measures.index("cosim_us_per_step_best"), "cosim_cost_ratio_to_floor")
+    results = {m: {"this": [], "ref": []} for m in measures}
     scratch = {"ref": Path(tempfile.mkdtemp(prefix="bench_ref_")), "this": Path(tempfile.mkdtemp(prefix="bench_this_"))}
     for r in range(a.rounds):
-        for m in MEASURES:
+        for m in measures:
             for name, tree in (("ref", ref), ("this", this)):
                 v = _probe(tree, m, scratch[name])
                 results[m][name].append(v)
                 print(f"round {r + 1} {m} {name}: {v:.4g}", file=sys.stderr, flush=True)
     print("| measure | this (median) | ref (median) | this / ref |\n|---|---|---|---|")
-    for m in MEASURES:
+    for m in measures:
         t, f = np.median(results[m]["this"]), np.median(results[m]["ref"])
         print(f"| {m} | {t:.4g} | {f:.4g} | {t / f:.3f} |")
     from qmt_drake.outputs import write_text_atomic
