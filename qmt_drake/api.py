@@ -8,7 +8,7 @@
 Every scenario kind goes through the same four calls and gives a Plan: transfer scenarios (a
 Scenario), spatial (3-D) ones (`kind: spatial_transfer`: a SpatialScenario, plans are SpatialPlans)
 and seed 001's energy-time ones (`kind: energy_time`: an Experiment, plans are EnergyPlans);
-`qmt_drake.plan.load_plan` reads the files of all three.
+`load_plan` (qmt_drake.plan_files) reads the files of all three.
 
 Units: SI throughout (m, s, rad, N m, kg); times in seconds, joint angles in radians.
 """
@@ -32,7 +32,8 @@ from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import build_diagram as _build_diagram
 from qmt_drake.hands import run_simulate
-from qmt_drake.plan import KIND_WORDS, Plan, a_kind, scenario_kind_of
+from qmt_drake.plan import KIND_WORDS, Plan, a_kind
+from qmt_drake.plan_files import load_plan, scenario_kind_of
 from qmt_drake.planners import plan_with as _plan_with
 from qmt_drake.planners.spatial_methods import ALIASES as SPATIAL_ALIASES
 from qmt_drake.planners.spatial_methods import METHODS as SPATIAL_METHODS
@@ -46,7 +47,7 @@ from qmt_drake.tray.cosim import TrayDiagram
 
 AnyScenario = Scenario | SpatialScenario | Experiment
 
-__all__ = ["Plan", "Scenario", "build_diagram", "load_scenario", "plan_with", "simulate"]
+__all__ = ["Plan", "Scenario", "build_diagram", "load_plan", "load_scenario", "plan_with", "simulate"]
 
 
 def _kind_of_file(name_or_path: str | Path) -> str:

@@ -35,7 +35,8 @@ from qmt_drake.config.scenario import (
 from qmt_drake.config.validate import parse_magnet_hand, parse_tray_hand
 from qmt_drake.limits import PayloadMomentTerm
 from qmt_drake.outcome import verdict_line
-from qmt_drake.plan import Motion, Plan, check_plan_fits
+from qmt_drake.plan import Motion, Plan
+from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.sim.actuation import FEEDFORWARD_OPTIONS
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.runner import check_simulation_inputs, run_transfer_simulate, simulate_transfer

@@ -4,7 +4,7 @@
 check rate (10 kHz; both one-sided values at every phase boundary) with the same limit code for
 every method, and `feasible`, the peaks and the ratios come from that re-check.
 
-Files: `write_json` (atomic) holds the keys of the CLI contract plus what `load_plan` needs to
+Files: `write_json` (atomic) holds the keys of the CLI contract plus what `load_plan` (plan_files.py) needs to
 rebuild the trajectory: the genes for a family plan, 1 kHz samples (t, q, qd) for any other, and
 what it needs to recognise its scenario: the task points, the joint count and the scenario's
 fingerprint. A plan loads back with the same re-check (tests/test_plan_io.py), and only against a
@@ -24,7 +24,6 @@ file given with a scenario of another kind is refused in one line.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
@@ -33,8 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from pydrake.trajectories import PiecewisePolynomial
 
-from qmt_drake.config.scenario import Scenario, load_scenario
-from qmt_drake.errors import QmtInputError
+from qmt_drake.config.scenario import Scenario
 from qmt_drake.families import make_family
 from qmt_drake.limits import LimitReport
 from qmt_drake.outputs import jsonable, write_text_atomic
@@ -223,33 +221,6 @@ def family_plan(problem: PlanningProblem, genes: npt.ArrayLike, method: str, **k
 
 
 # A sampled plan must start and end on the task's first and last points to this tolerance [m].
-PLAN_ENDPOINT_TOL_M = 1e-6
-
-
-def read_plan_file(path: str | Path) -> dict:
-    """The JSON mapping of a plan file (any scenario kind) with 'scenario' and 'trajectory' keys;
-    one-line QmtInputError naming the file otherwise."""
-    path = Path(path)
-    if path.is_dir():
-        raise QmtInputError(f"plan file {path} is a directory; give the JSON file written by "
-                            "`qmt-drake plan ... --json PATH`")
-    try:
-        d = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise QmtInputError(f"plan file {path} does not exist") from None
-    except OSError as exc:
-        raise QmtInputError(f"plan file {path} cannot be read ({exc.strerror})") from None
-    except UnicodeDecodeError:
-        raise QmtInputError(f"plan file {path} is not a UTF-8 JSON text file") from None
-    except json.JSONDecodeError as exc:
-        raise QmtInputError(f"plan file {path} is not valid JSON ({exc})") from None
-    legacy_energy = isinstance(d, dict) and d.get("kind") == ENERGY_PLAN_KIND  # before `trajectory` was written
-    if not isinstance(d, dict) or "scenario" not in d or not (isinstance(d.get("trajectory"), dict) or legacy_energy):
-        raise QmtInputError(f"plan file {path} lacks the 'scenario' or 'trajectory' key; write it "
-                            "with `qmt-drake plan ... --json PATH`")
-    return d
-
-
 def ratio_report(rate_hz: float, motion_time_s: float, peak_ratios: dict[str, float],
                  feasible: bool | None = None) -> LimitReport:
     """The LimitReport of a plan whose limits are ratio terms only (a spatial arm's joint speed,
@@ -263,159 +234,3 @@ def ratio_report(rate_hz: float, motion_time_s: float, peak_ratios: dict[str, fl
                        moment_limit_Nm=None, peak_moment_ratio=nan, peak_moment_time_s=None,
                        peak_motor_torque_Nm=[], motor_torque_limit_Nm=[], peak_motor_torque_ratio=nan,
                        joint_range_ok=True, feasible=ok, peak_ratios=ratios)
-
-
-# A kind's plan-file loader: (path, the file's mapping, the scenario or None) -> Plan of that kind.
-PlanLoader = Callable[[Path, dict, Any], Plan]
-
-
-@dataclass(frozen=True)
-class PlanKind:
-    scenario_type: type  # what load_scenario returns for this kind
-    load: PlanLoader
-
-
-# Each scenario kind registers its plan files' loader once (register_plan_kind): transfer here,
-# spatial in planners/spatial_plan_io.py, energy-time in energy/energy_plan.py (qmt_drake.api imports them).
-PLAN_KINDS: dict[str, PlanKind] = {}
-
-
-def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader) -> None:
-    PLAN_KINDS[kind] = PlanKind(scenario_type, load)
-
-
-def plan_file_kind(d: dict) -> str:
-    """The scenario kind of a plan file's mapping (files older than `scenario_kind` included)."""
-    kind = d.get("scenario_kind") or (ENERGY_PLAN_KIND if d.get("kind") == ENERGY_PLAN_KIND else TRANSFER_PLAN_KIND)
-    return str(kind)
-
-
-def scenario_kind_of(scenario: Any) -> str:
-    """The kind of a scenario object (transfer, spatial_transfer, energy_time); QmtInputError if it is
-    none that load_scenario returns."""
-    for kind, k in PLAN_KINDS.items():
-        if isinstance(scenario, k.scenario_type):
-            return kind
-    raise QmtInputError(f"{type(scenario).__name__} is not a scenario; load one with qmt_drake.load_scenario")
-
-
-def load_plan(path: str | Path, scenario: Any = None) -> Plan:
-    """Read a plan file of any scenario kind (written by `Plan.write_json` or `qmt-drake plan --json`);
-    the scenario is reloaded from the file unless one is given. The plan must fit the scenario: a
-    file of another scenario kind, or of another scenario of the same kind, is refused with one
-    line naming the file (QmtInputError). Returns the kind's Plan, re-checked on the scenario."""
-    path = Path(path)
-    d = read_plan_file(path)
-    kind = plan_file_kind(d)
-    if kind not in PLAN_KINDS:
-        raise QmtInputError(f"plan file {path} has scenario_kind {kind!r}; known: {', '.join(PLAN_KINDS)}")
-    if scenario is not None:
-        mine = scenario_kind_of(scenario)
-        if mine != kind:
-            name = getattr(scenario, "name", "?")
-            raise QmtInputError(f"plan file {path} is {a_kind(kind)} plan for scenario "
-                                f"{d['scenario']}, not one for the {KIND_WORDS.get(mine, mine)} scenario {name}; "
-                                f"plan it with `qmt-drake plan {name} --json PATH`")
-    return PLAN_KINDS[kind].load(path, d, scenario)
-
-
-def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
-    """A transfer plan file against its scenario (module docstring)."""
-    if scenario is None:
-        src = d.get("scenario_path")
-        scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
-    _check_plan_fits(d, path, scenario)
-    traj = d["trajectory"]
-    try:
-        if traj.get("kind") == "family":
-            if traj.get("family", scenario.family.kind) != scenario.family.kind:
-                raise QmtInputError(f"plan file {path} is a {traj.get('family')} plan but scenario "
-                                    f"{scenario.name} uses family {scenario.family.kind}; plan again "
-                                    "for this scenario")
-            problem = PlanningProblem(scenario)
-            if not isinstance(d.get("genes"), dict):
-                raise ValueError("'genes' must map gene names to values")
-            genes = problem.genes_vector(d["genes"])
-            _check_genes(genes, scenario, path)
-            plan = family_plan(problem, genes, str(d.get("method", "loaded")))
-        elif traj.get("kind") == "samples":
-            t, q, qd, qdd = (np.asarray(traj[k], dtype=float)
-                             for k in ("t_s", "q_rad", "qd_rad_s", "qdd_rad_s2"))
-            if q.ndim != 2 or not q.shape == qd.shape == qdd.shape or q.shape[0] != t.size:
-                raise ValueError("t_s, q_rad, qd_rad_s and qdd_rad_s2 disagree in shape")
-            if t.size < 2 or not all(np.all(np.isfinite(a)) for a in (t, q, qd, qdd)) \
-                    or np.any(np.diff(t) < 0) or t[0] != 0.0 or not t[-1] > 0:
-                raise ValueError("samples must be finite with t_s rising from 0 to a positive motion time")
-            if q.shape[1] != scenario.arm.n_dof:
-                raise QmtInputError(f"plan file {path} has {q.shape[1]} joints but scenario "
-                                    f"{scenario.name}'s arm has {scenario.arm.n_dof}; plan again for it")
-            _check_endpoints(q[0], q[-1], scenario, f"plan file {path}")
-            traj_obj = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
-            plan = make_plan(scenario, str(d.get("method", "loaded")), traj_obj, genes=d.get("genes"))
-        else:
-            raise ValueError(f"unknown trajectory kind {traj.get('kind')!r}")
-    except (KeyError, TypeError, ValueError) as exc:
-        if isinstance(exc, QmtInputError):
-            raise
-        raise QmtInputError(f"plan file {path}: cannot rebuild its trajectory ({exc})") from None
-    if plan.n_dof != scenario.arm.n_dof:
-        raise QmtInputError(f"plan file {path} has {plan.n_dof} joints but scenario "
-                            f"{scenario.name}'s arm has {scenario.arm.n_dof}")
-    for k in ("planner_wall_s", "evaluations", "generations"):
-        v = d.get(k, getattr(plan, k))
-        setattr(plan, k, v if isinstance(v, (int, float)) and not isinstance(v, bool) else getattr(plan, k))
-    plan.extra = d.get("extra", {}) if isinstance(d.get("extra", {}), dict) else {}
-    return plan
-
-
-register_plan_kind(TRANSFER_PLAN_KIND, Scenario, _load_transfer_plan)
-
-
-def _check_plan_fits(d: dict, path: Path, scenario: Scenario) -> None:
-    """What the file says about its scenario against the one it is run with (files written
-    before these keys existed skip the checks they lack)."""
-    n = d.get("n_dof")
-    if n is not None and n != scenario.arm.n_dof:
-        raise QmtInputError(f"plan file {path} has {n} joints but scenario {scenario.name}'s arm has "
-                            f"{scenario.arm.n_dof}; plan again for this scenario")
-    pts = d.get("task_points_m")
-    if pts is not None:
-        try:
-            pts = np.asarray(pts, dtype=float)
-        except (TypeError, ValueError):
-            raise QmtInputError(f"plan file {path}: task_points_m is not a list of points") from None
-        mine = np.asarray(scenario.task.points_m, float)
-        if pts.shape != mine.shape or not np.allclose(pts, mine, rtol=0.0, atol=1e-12):
-            raise QmtInputError(f"plan file {path} was made for task points {pts.tolist()} but scenario "
-                                f"{scenario.name} has {mine.tolist()}; plan again for this scenario")
-
-
-def _check_genes(genes: np.ndarray, scenario: Scenario, path: Path) -> None:
-    lo, hi = scenario.family.gene_bounds[:, 0], scenario.family.gene_bounds[:, 1]
-    for name, g, a, b in zip(scenario.family.gene_names, genes, lo, hi):
-        if not np.isfinite(g) or g < a * (1 - 1e-12) or g > b * (1 + 1e-12):
-            raise QmtInputError(f"plan file {path}: gene {name} = {g:g} lies outside the family's bounds "
-                                f"[{a:g}, {b:g}] of scenario {scenario.name}; plan again or widen "
-                                f"family.genes.{name}")
-
-
-def _check_endpoints(q_start: np.ndarray, q_end: np.ndarray, scenario: Scenario, path: Path | str) -> None:
-    arm = scenario.arm
-    ends = arm.tip_position(np.stack([q_start, q_end]))
-    want = np.asarray(scenario.task.points_m, float)[[0, -1]]
-    err = np.linalg.norm(np.asarray(ends)[:, :2] - want, axis=1)
-    if np.any(err > PLAN_ENDPOINT_TOL_M):
-        raise QmtInputError(f"{path} starts/ends {err[0] * 1e3:.3g}/{err[1] * 1e3:.3g} mm away from "
-                            f"scenario {scenario.name}'s start and goal points; plan again for this scenario")
-
-
-def check_plan_fits(plan: Motion, scenario: Scenario) -> None:
-    """One-line QmtInputError unless `plan` (anything with n_dof, motion_time_s and sample) has the
-    scenario's joint count and starts and ends within PLAN_ENDPOINT_TOL_M of its task's start and
-    goal points: the library's own guard against running a plan made for another scenario."""
-    n = int(getattr(plan, "n_dof", scenario.arm.n_dof))
-    if n != scenario.arm.n_dof:
-        raise QmtInputError(f"the plan has {n} joints but scenario {scenario.name}'s arm has "
-                            f"{scenario.arm.n_dof}; plan again for this scenario")
-    q = plan.sample(np.array([0.0, float(plan.motion_time_s)]))[0]
-    _check_endpoints(q[0], q[-1], scenario, f"the {getattr(plan, 'method', '')} plan".replace("the  ", "the "))

@@ -42,7 +42,7 @@ def test_plan_json_and_csv(tmp_path, capsys):
     assert max(b - a for a, b in zip(t, t[1:])) <= 1e-3 + 1e-12
     assert t[-1] == pytest.approx(d["motion_time_s"])
     # The file loads again and re-checks to the same numbers.
-    from qmt_drake.plan import load_plan
+    from qmt_drake.plan_files import load_plan
     assert load_plan(j).check.peak_moment_ratio == pytest.approx(d["peak_moment_ratio"], rel=1e-12)
 
 

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from qmt_drake.plan import family_plan, load_plan, make_plan
+from qmt_drake.plan import family_plan, make_plan
+from qmt_drake.plan_files import load_plan
 from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory
 
 

@@ -13,7 +13,7 @@ import pytest
 from qmt_drake import api
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import OUTCOMES
-from qmt_drake.plan import load_plan
+from qmt_drake.plan_files import load_plan
 
 # kind -> (scenario, method, options): the quickest planner of each kind
 CASES = {

@@ -44,7 +44,8 @@ from qmt_drake.apps.benchmark_report import CARRIED_LABEL, benchmark_markdown, w
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import Plan, family_plan, load_plan
+from qmt_drake.plan import Plan, family_plan
+from qmt_drake.plan_files import load_plan
 from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt

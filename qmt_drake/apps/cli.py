@@ -38,7 +38,7 @@ from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outputs import check_output_dir, check_output_path
-from qmt_drake.plan import load_plan
+from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
 from qmt_drake.sim.spatial_actuation import ACTUATORS as SPATIAL_ACTUATORS

@@ -3,7 +3,7 @@ optimum, the figures and a table, all written to `out/<scenario>/`.
 
 GA runs go to a process pool (one process per core) and each run's plan is written as it
 finishes (`ga_seed<k>.json`), so an interrupted study resumes where it stopped. The JSON files
-load again with `qmt_drake.plan.load_plan`.
+load again with `qmt_drake.load_plan`.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from qmt_drake.apps import plots
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.hands import run_simulate
 from qmt_drake.outputs import write_text_atomic
-from qmt_drake.plan import load_plan
+from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import plan_with
 
 

@@ -27,7 +27,7 @@ from qmt_drake.energy.execute import execute, execute_plan, plot_execution
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_path, jsonable, write_text_atomic
-from qmt_drake.plan import load_plan
+from qmt_drake.plan_files import load_plan
 
 ENERGY_ONLY_OPTIONS = ("c1", "c2", "m", "divisions", "coords", "pattern", "max_iter", "execute", "recording")
 

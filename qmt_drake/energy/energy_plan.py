@@ -49,7 +49,8 @@ from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.steepest import restore_endpoint, steepest_descent
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, ratio_report, register_plan_kind
+from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, ratio_report
+from qmt_drake.plan_files import register_plan_kind
 
 METHODS = ("snopt", "ipopt", "steepest", "collocation")
 END_TOL_M = 1e-6  # the plan's end tip on the experiment's X(T) [m]

@@ -39,15 +39,8 @@ from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import (
-    SPATIAL_PLAN_KIND,
-    Plan,
-    a_kind,
-    plan_file_kind,
-    ratio_report,
-    read_plan_file,
-    register_plan_kind,
-)
+from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, ratio_report
+from qmt_drake.plan_files import plan_file_kind, read_plan_file, register_plan_kind
 from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_trajectory import (
     PolyTrajectory,

@@ -35,7 +35,7 @@ from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, Trajector
 
 from qmt_drake.config.scenario import IdealTorque, MagnetHand
 from qmt_drake.errors import QmtInputError
-from qmt_drake.plan import check_plan_fits
+from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.recording import add_floor, add_meshcat_visualizer, frame_arm
 from qmt_drake.sim.actuation import (
     add_ideal_torque_actuation,

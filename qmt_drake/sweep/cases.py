@@ -30,7 +30,7 @@ from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.hands import hand_plugin
 from qmt_drake.outputs import jsonable
-from qmt_drake.plan import load_plan
+from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import plan_with
 from qmt_drake.sim import FEEDFORWARD_OPTIONS, calibrated_coil_current_A, motor_params_for, simulate_transfer
 from qmt_drake.sweep.parameters import PARAMETERS

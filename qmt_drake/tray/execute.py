@@ -17,7 +17,7 @@ import numpy as np
 from qmt_drake.config.scenario import World
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
-from qmt_drake.plan import check_plan_fits
+from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
 from qmt_drake.systems.servo_reference import shaped_goals
 from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, simulate_tray
