@@ -172,6 +172,25 @@ def ga_estimate(population: int, generations: int, *, plan_rate_hz: float, motio
                     "use fewer generations (--generations, or a stall limit) or a smaller population")
 
 
+# the spatial GA (planners/spatial_methods.plan_ga_spatial, tight timing), measured on the UR5 suction task:
+# 3.2-4.2 ms per candidate at population 40 (150 generations in 19-25 s, studies/spatial_ga_seeds), 7 ms at
+# 1000 and 4000; peak RSS 0.39 / 4.2 / 16.1 GiB at population 40 / 1000 / 4000 (`/usr/bin/time -f %M qmt-drake
+# plan ur5-suction-bins --method ga --option population=N --generations 2`): a generation's candidates are
+# evaluated in one batch, about 4.1 MB each
+SPATIAL_GA_S_PER_EVAL = 7e-3
+SPATIAL_GA_BASE_BYTES = 400e6
+SPATIAL_GA_BYTES_PER_CANDIDATE = 4.2e6
+
+
+def spatial_ga_estimate(population: int, generations: int) -> Estimate:
+    """A spatial GA of population x generations candidates (an upper bound: repeats are cached and the
+    stall rule may stop it early), its memory the batch of one generation."""
+    p, g = _f(population), _f(generations)
+    return Estimate(SPATIAL_GA_BASE_BYTES + p * SPATIAL_GA_BYTES_PER_CANDIDATE, p * g * SPATIAL_GA_S_PER_EVAL,
+                    f"a spatial GA of population {p:g} x {g:g} generations",
+                    "use fewer generations (--generations, or --stall) or a smaller population (--option population=N)")
+
+
 def replay_estimate(time_scale: float, motion_time_s: float, time_step_s: float | None = None, *,
                     cost: ReplayCost = MAGNET_REPLAY) -> Estimate:
     """One co-simulated replay of a motion of `motion_time_s` stretched by `time_scale`, priced by

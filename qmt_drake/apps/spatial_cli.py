@@ -32,7 +32,7 @@ from qmt_drake.apps.arg_checks import (
     parse_options,
     progress,
 )
-from qmt_drake.budgets import SPATIAL_REPLAY, announce, check_budget, replay_estimate
+from qmt_drake.budgets import SPATIAL_REPLAY, announce, check_budget, replay_estimate, spatial_ga_estimate
 from qmt_drake.config.scenario import SCENARIO_DIR, builtin_scenarios, scenario_kind
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import verdict_line
@@ -48,12 +48,11 @@ from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
 SPATIAL_METHODS = METHODS
 GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
 # plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
-PLAN_REFUSED = (("checkpoint", None), ("success", None), ("carried_feedforward", "full"), ("allow_large", False))
+PLAN_REFUSED = (("checkpoint", None), ("success", None), ("carried_feedforward", "full"))
 SIMULATE_REFUSED = (("time_step_ms", None), ("explicit", False))
 NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "success": "spatial scenarios have no "
                    "uncertainty section to sweep", "carried_feedforward": "the spatial co-simulation's controller "
-                   "is Drake's inverse dynamics (feedforward always on)", "allow_large": "spatial runs have no "
-                   "memory/time budget",
+                   "is Drake's inverse dynamics (feedforward always on)",
                    "time_step_ms": "the spatial co-simulation steps at 1 ms", "explicit": "the spatial "
                    "co-simulation steps its motor loop's damping implicitly"}
 
@@ -122,6 +121,13 @@ def _planner_options(args, method: str) -> dict:
 
 
 def _plan(args, sc, method: str, opts: dict):
+    if method == "ga":  # the one spatial planner whose run time the user sizes
+        defaults = inspect.signature(PLANNERS["ga"]).parameters
+        size = {k: opts.get(k, defaults[k].default) for k in ("population", "generations")}
+        est = check_budget(spatial_ga_estimate(size["population"], size["generations"]),
+                           allow_large=getattr(args, "allow_large", False))
+        if not args.quiet:
+            announce(est)
     if not args.quiet:
         progress(f"qmt-drake: planning {sc.name} with {method}")
     return PLANNERS[method](sc, **opts)
