@@ -173,13 +173,13 @@ def ga_estimate(population: int, generations: int, *, plan_rate_hz: float, motio
 
 
 # the spatial GA (planners/spatial_methods.plan_ga_spatial, tight timing), measured on the UR5 suction task:
-# 3.2-4.2 ms per candidate at population 40 (150 generations in 19-25 s, studies/spatial_ga_seeds), 7 ms at
-# 1000 and 4000; peak RSS 0.39 / 4.2 / 16.1 GiB at population 40 / 1000 / 4000 (`/usr/bin/time -f %M qmt-drake
-# plan ur5-suction-bins --method ga --option population=N --generations 2`): a generation's candidates are
-# evaluated in one batch, about 4.1 MB each
-SPATIAL_GA_S_PER_EVAL = 7e-3
-SPATIAL_GA_BASE_BYTES = 400e6
-SPATIAL_GA_BYTES_PER_CANDIDATE = 4.2e6
+# 3.2-4.2 ms per candidate at population 40 (150 generations in 19-25 s, studies/spatial_ga_seeds), 2.4 ms at
+# 1000 and 4000; peak RSS 0.39 / 0.42 / 0.42 GiB at population 40 / 1000 / 4000 (`/usr/bin/time -f %M qmt-drake
+# plan ur5-suction-bins --method ga --option population=N --generations 2`; candidates are evaluated in
+# batches of 50), the GA's own arrays a few kB a candidate
+SPATIAL_GA_S_PER_EVAL = 4e-3
+SPATIAL_GA_BASE_BYTES = 450e6
+SPATIAL_GA_BYTES_PER_CANDIDATE = 1e4
 
 
 def spatial_ga_estimate(population: int, generations: int) -> Estimate:

@@ -183,7 +183,7 @@ def planar_plan(tmp_path_factory):
     (["simulate", "ur5-magnet-part", "--plan", "{spatial}"], "was made for scenario ur5-suction-bins, not ur5-magnet-part"),
     (["simulate", SC, "--plan", "{spatial}", "--time-scale", "-1"], "--time-scale -1.0 must be a finite positive"),
     (["plan", SC, "--method", "ga", "--generations", "1000000"], "a spatial GA of population 40 x 1e+06 generations"),
-    (["plan", SC, "--method", "ga", "--option", "population=10000", "--allow-large"], "more memory than this machine"),
+    (["plan", SC, "--method", "ga", "--option", "population=10000000", "--allow-large"], "more memory than this machine"),
     (["simulate", SC, "--plan", "{spatial}", "--time-scale", "5000"], "a replay at time scale 5000"),
     (["simulate", SC, "--plan", "{spatial}", "--time-scale", "1e6", "--allow-large"], "more memory than this machine"),
     (["simulate", SC, "--plan", "{spatial}", "--actuator", "stepper"], "invalid choice: 'stepper'"),
