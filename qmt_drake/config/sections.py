@@ -12,7 +12,7 @@ import json
 import numbers
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -67,6 +67,12 @@ class Payload:
     com_offset_m: float
     length_m: float | None = None  # kept for old callers: body.length_m
     body: PayloadBody | None = None
+
+
+class HandSection(Protocol):
+    """What every hand section has: the kind its plug-in registered under (config/registry.HANDS)."""
+
+    kind: str
 
 
 @dataclass(frozen=True)
@@ -226,7 +232,8 @@ class Scenario:
     reported: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     arm_spec: UrdfArm | None = None
-    hand: MagnetHand | TrayHand | None = None
+    # a registered hand kind's typed section (config/registry.HANDS: magnet, tray, or a plug-in's own)
+    hand: MagnetHand | TrayHand | HandSection | None = None
     actuator: DcMotorGear | IdealTorque | DynamixelServos | None = None
     world: World = field(default_factory=World)
     # `uncertainty`: what a part, a hand or a servo may differ by, in the sweep spec's parameter form
