@@ -87,9 +87,10 @@ class ReplayCost:
 
 MAGNET_REPLAY = ReplayCost(2e-3, SIM_S_PER_STEP, SIM_BYTES_PER_STEP)
 # measured per simulated second at the servos' 1 ms step: per step at that step
-# spatial arms (sim/spatial_cosim.py, 1 ms SAP plant, any hand and actuator): 0.64-0.78 s of wall time per
-# simulated second on the UR5 and the Panda (a 6 s hold against a 1 s one, idle machine); the per-step logs
-# (arm state, plan, motor currents: 5 n doubles) under 1 kB a step
+# spatial arms (sim/spatial_cosim.py, 1 ms SAP plant, any hand and actuator): `qmt-drake simulate ur5-suction-bins
+# (or panda-tray-cup) --method toppra --time-scale 3 [--actuator dc_motor]` prints real-time factors 1.49-1.95,
+# 0.51-0.67 s of wall time per simulated second with the diagram's build; 0.8 ms a step keeps a margin for a busy
+# machine. The per-step logs (arm state, plan, motor currents: 5 n doubles) stay under 1 kB a step
 SPATIAL_REPLAY = ReplayCost(1e-3, 0.8e-3, 1e3)
 TRAY_REPLAY = ReplayCost(TRAY_TIME_STEP_S, TRAY_S_PER_SIM_S * TRAY_TIME_STEP_S, TRAY_BYTES_PER_SIM_S * TRAY_TIME_STEP_S)
 

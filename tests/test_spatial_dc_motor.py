@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.suction import GripModel
@@ -20,7 +19,7 @@ from qmt_drake.spatial_motor import parse_motor_section
 from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
 from qmt_drake.systems.dc_motor import motor_inverse, motor_joints
 from qmt_drake.systems.joint_tracking import JointPidController, pd_voltage
-from tests.spatial_fixtures import load_or_skip
+from tests.spatial_fixtures import edited_copy, load_or_skip
 
 SHIPPED = SCENARIO_DIR / "ur5-suction-bins.yaml"
 
@@ -53,11 +52,7 @@ def _strong_grip(sc):
 
 
 def test_dc_motor_refused_without_motor_constants(sc, tmp_path):
-    raw = yaml.safe_load(SHIPPED.read_text())
-    del raw["actuators"]["motor"]
-    p = tmp_path / "no-motor.yaml"
-    p.write_text(yaml.safe_dump(raw))
-    bare = load_spatial_scenario(p)
+    bare = load_spatial_scenario(edited_copy(SHIPPED, tmp_path, lambda raw: raw["actuators"].pop("motor")))
     assert bare.motor is None
     hold = Hold(bare.q_poses_rad[0], 0.1)
     with pytest.raises(QmtInputError, match="actuators.motor with torque_constant_Nm_per_A, resistance_ohm, "
@@ -162,11 +157,8 @@ def test_integral_term_removes_the_gravity_sag(sc, tmp_path):
     """With the PID's integral (actuators.motor.integral_rate_per_s) and no feedforward, the hold's sag
     (the closed form of the test above: e = R tau_g / (N^2 k_t Kp)) decays at about that rate: after
     2 s at 5 1/s it is under 1 % of the PD's, and the current still carries the gravity torque."""
-    raw = yaml.safe_load(SHIPPED.read_text())
-    raw["actuators"]["motor"]["integral_rate_per_s"] = 5.0
-    p = tmp_path / "pid.yaml"
-    p.write_text(yaml.safe_dump(raw))
-    pid_sc = load_spatial_scenario(p)
+    pid_sc = load_spatial_scenario(edited_copy(SHIPPED, tmp_path,
+                                               lambda raw: raw["actuators"]["motor"].update(integral_rate_per_s=5.0)))
     q0 = pid_sc.q_poses_rad[0]
     drive = SpatialMotorDrive.for_scenario(pid_sc, q0, "none")
     np.testing.assert_allclose(drive.gains.ki_V_per_rad_s, 5.0 * drive.gains.kp_V_per_rad)

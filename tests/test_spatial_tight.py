@@ -68,3 +68,15 @@ def test_tight_problem_costs_are_scale_free_and_realised_motions_hold(sc):
     assert T.sum() == pytest.approx(ev.cost[0], rel=1e-12) and problem.confirm(g)
     t = np.linspace(0.0, T.sum(), problem.samples)
     assert _max_ratio(sc, via_cubic(sc, T), t) == pytest.approx(1.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["ur5-suction-bins", "panda-tray-cup"])
+def test_batched_scales_equal_one_call_over_the_population(name):
+    """SpatialTightViaProblem.scales works in batches of TIGHT_BATCH (a whole population in one call
+    held ~4 MB a candidate): each candidate's scale is its own, equal to the bit to one tight_scales call."""
+    sc = load_or_skip(name)
+    P = SpatialTightViaProblem(sc)
+    G = P.lower + (P.upper - P.lower) * np.random.default_rng(3).random((120, len(P.lower)))
+    one_call = tight_scales(sc, [via_cubic(sc, g) for g in G], P.samples)
+    np.testing.assert_array_equal(P.scales(G), one_call)
+    assert np.isfinite(one_call).sum() > 60  # most candidates have a scale: the comparison is not of infs

@@ -41,7 +41,7 @@ from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_methods import ALIASES, METHODS, PLANNERS, plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
-from qmt_drake.sim.spatial_actuation import spatial_drive
+from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import TAIL_S, simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
 
@@ -183,7 +183,7 @@ def simulate(args, energy_options=()) -> int:
     sc = load_spatial_scenario(args.scenario)
     actuator = args.actuator or "ideal"
     feedforward = args.feedforward or "full"
-    spatial_drive(sc, sc.q_poses_rad[0], actuator, feedforward)  # refusals (no motor constants, ...) before planning
+    check_drive(sc, actuator, feedforward)  # refusals (no motor constants, ...) before planning
     if args.plan:
         if args.seed != 0:
             raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")

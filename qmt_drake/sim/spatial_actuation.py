@@ -154,17 +154,23 @@ class SpatialMotorDrive:
                                               self.loop_damping_Nms, time_step_s, mp)
 
 
-def spatial_drive(sc, q_start_rad, actuator: str, feedforward: str) -> SpatialMotorDrive | None:
-    """None for `ideal` (feedforward must stay 'full': the inverse-dynamics controller has it built in);
-    the dc_motor drive otherwise. One-line QmtInputError for an unknown choice or missing motor constants."""
+def check_drive(sc, actuator: str, feedforward: str) -> None:
+    """One-line QmtInputError for an unknown actuator, a feedforward other than 'full' on
+    the ideal actuator (its inverse-dynamics controller has it built in), or dc_motor without the
+    scenario's motor constants; builds nothing (the CLI asks before planning)."""
     if actuator not in ACTUATORS:
         raise QmtInputError(f"actuator {actuator!r}: choose one of {', '.join(ACTUATORS)}")
-    if actuator == "ideal":
-        if feedforward != "full":
-            raise QmtInputError(f"feedforward {feedforward!r} applies to actuator dc_motor; the ideal actuator's "
-                                "inverse-dynamics controller always has the full feedforward")
-        return None
-    return SpatialMotorDrive.for_scenario(sc, q_start_rad, feedforward)
+    if actuator == "ideal" and feedforward != "full":
+        raise QmtInputError(f"feedforward {feedforward!r} applies to actuator dc_motor; the ideal actuator's "
+                            "inverse-dynamics controller always has the full feedforward")
+    if actuator == "dc_motor":
+        motor_params_for_spatial(sc)  # (the feedforward's own choices: SpatialMotorDrive.for_scenario)
+
+
+def spatial_drive(sc, q_start_rad, actuator: str, feedforward: str) -> SpatialMotorDrive | None:
+    """None for `ideal`, the dc_motor drive otherwise (check_drive's refusals first)."""
+    check_drive(sc, actuator, feedforward)
+    return None if actuator == "ideal" else SpatialMotorDrive.for_scenario(sc, q_start_rad, feedforward)
 
 
 def add_tracking_logs(builder, arm_state_port, desired_state_port, period_s: float, motors=None) -> dict:

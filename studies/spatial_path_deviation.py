@@ -1,0 +1,46 @@
+"""How far the hand leaves the task's straight lines on each shipped spatial scenario's geometric path.
+
+The path (the planners' IK'd path: task poses and transfer points, a joint-space C2 spline between
+them, planners/spatial_toppra.joint_path) is sampled at 400 path parameters; Drake's forward kinematics
+gives the hand's position, and its distance to the polyline of the path points is reported [mm].
+
+    .venv/bin/python -m studies.spatial_path_deviation
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from qmt_drake.planners.spatial_toppra import joint_path
+from qmt_drake.spatial_task import load_spatial_scenario
+
+SCENARIOS = ("ur5-suction-bins", "ur5-magnet-part", "panda-tray-cup")
+
+
+def distance_to_polyline_m(p, points) -> float:
+    """Distance [m] of point p to the polyline through `points` (P, 3)."""
+    a, b = points[:-1], points[1:]
+    d = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-18), 0.0, 1.0)
+    return float(np.min(np.linalg.norm(p - (a + t[:, None] * d), axis=1)))
+
+
+def max_deviation_m(sc, samples: int = 400) -> float:
+    pp = joint_path(sc.q_path_rad)
+    pts = np.asarray(sc.path_points_m, float)
+    s = np.linspace(pp.start_time(), pp.end_time(), samples)
+    return max(distance_to_polyline_m(sc.ik.pose(pp.value(x).ravel())[0], pts) for x in s)
+
+
+def main(argv=None) -> int:
+    for name in SCENARIOS:
+        sc = load_spatial_scenario(name)
+        print(f"{name}: {len(sc.path_points_m)} path points, the hand up to "
+              f"{max_deviation_m(sc) * 1e3:.1f} mm off the straight lines between them")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
