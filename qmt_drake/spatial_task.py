@@ -19,9 +19,10 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   friction, cup {radius_m, height_m, mass_kg, com_height_m (default height / 2)}, margin (0, 1],
   pyramid_edges, tray_size_m: an unfixed cup standing on a tray in the face plane
   (limits/tray_contact.py; no payload section: the cup is the carried body; the tray is massless).
-- task: seed_rad (the IK branch), face_normal (world), poses_m (K >= 2 hand positions, the cup facing
-  along face_normal at each), transfer_points (inner points of the geometric path between poses 1 and
-  K-2, straight in Cartesian space at constant orientation).
+- task: seed_rad (the IK branch), poses_m (K >= 2 hand positions), and the hand's orientation at them:
+  face_normal (world; the same at every pose) or face_normals (one per pose: e.g. a part picked from
+  a tilted bin), transfer_points (inner points of the geometric path between poses 1 and K-2, on the
+  straight line between them, the face normal interpolated along it by slerp).
 - limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
 
 Every task pose is solved by SpatialIK on the seed's branch and checked by Drake's forward kinematics
@@ -43,7 +44,7 @@ from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.spatial_chain import SpatialChain
-from qmt_drake.model.spatial_ik import SpatialIK
+from qmt_drake.model.spatial_ik import SpatialIK, slerp_unit
 from qmt_drake.model.urdf_check import EXAMPLE_ARMS, drive_parameters, example_robot_urdf, load_arm_plant
 from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 
@@ -71,7 +72,7 @@ class SpatialScenario:
     jerk_limit_rad_s3: np.ndarray
     torque_limit_Nm: np.ndarray
     drive: dict
-    face_normal: np.ndarray
+    face_normal: np.ndarray  # the first pose's face normal (world)
     poses_m: np.ndarray  # (K, 3) task poses
     q_poses_rad: np.ndarray  # (K, n) their IK solutions
     path_points_m: np.ndarray  # (P, 3) the geometric path's points (poses + transfer points)
@@ -83,6 +84,8 @@ class SpatialScenario:
     face_axis: np.ndarray | None = None
     cup: TrayCup | None = None  # tray hand: the unfixed cup standing on the tray
     motor: SpatialMotors | None = None  # actuators.motor (DC-motor co-simulation); None: not given
+    pose_normals: np.ndarray | None = None  # (K, 3) the face normal at each task pose (world, unit)
+    path_normals: np.ndarray | None = None  # (P, 3) the face normal at each path point
 
     @property
     def n_dof(self) -> int:
@@ -190,13 +193,13 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     w = f"{where}: task"
     tk = F.mapping(raw, "task", where)
-    F.check_keys(tk, {"seed_rad", "face_normal", "poses_m", "transfer_points"}, w)
+    F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "poses_m", "transfer_points"}, w)
     seed = F.vector(tk, "seed_rad", w, length=n, what="one joint angle per joint")
-    normal = F.vector(tk, "face_normal", w, length=3)
     poses = tk.get("poses_m")
     if not isinstance(poses, list) or len(poses) < 2:
         raise QmtInputError(f"{w}.poses_m must be a list of >= 2 positions [x, y, z] (m)")
     P = np.array([F.vector({"p": p}, "p", f"{w}.poses_m[{k}]", length=3) for k, p in enumerate(poses)])
+    pose_normals = _pose_normals(tk, len(P), w)
     n_tr = F.integer(tk, "transfer_points", w, minimum=0, default=0)
     lim = F.mapping(raw, "limits", where)
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
@@ -204,8 +207,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     ik = SpatialIK(plant, H, face_axis=face_axis, name=str(raw.get("name", path.stem)))
     chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())
-    pts, idx = _path_points(P, n_tr)
-    normals = np.repeat((normal / np.linalg.norm(normal))[None], len(pts), axis=0)
+    pts, idx, normals = _path_points(P, n_tr, pose_normals)
     q_path = ik.solve_path(pts, normals=normals, seed=seed, max_joint_step_rad=1.0, what=f"{where}: task path point")
     if cup is not None:
         _check_cup_rests(TrayContactTerm(cup, plant.gravity_field().gravity_vector(), face_axis=face_axis), chain,
@@ -218,7 +220,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
                            hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
-                           motor=motor)
+                           motor=motor, pose_normals=pose_normals, path_normals=normals)
 
 
 def _payload(raw: dict, where: str) -> CarriedBody:
@@ -269,13 +271,41 @@ def _tray_cup(hd: dict, w: str) -> TrayCup:
                    tray_size_m=tuple(float(x) for x in size))
 
 
-def _path_points(P: np.ndarray, n_transfer: int):
+def _pose_normals(tk: dict, n_poses: int, w: str) -> np.ndarray:
+    """(K, 3) unit face normals: task.face_normal for every pose, or task.face_normals one per pose."""
+    if ("face_normal" in tk) == ("face_normals" in tk):
+        raise QmtInputError(f"{w}: give exactly one of face_normal (one normal for every pose) or face_normals "
+                            "(one per pose)")
+    if "face_normal" in tk:
+        raw = [tk["face_normal"]] * n_poses
+        names = ["face_normal"] * n_poses
+    else:
+        raw = tk["face_normals"]
+        if not isinstance(raw, list) or len(raw) != n_poses:
+            raise QmtInputError(f"{w}.face_normals must list one normal [x, y, z] per task pose ({n_poses})")
+        names = [f"face_normals[{k}]" for k in range(n_poses)]
+    out = np.array([F.vector({"n": r}, "n", f"{w}.{name}", length=3) for r, name in zip(raw, names)])
+    norm = np.linalg.norm(out, axis=1)
+    if np.any(norm < 1e-9):
+        raise QmtInputError(f"{w}.{names[int(np.argmin(norm))]} has no direction; give a nonzero vector")
+    out /= norm[:, None]
+    for k in range(n_poses - 1):
+        if out[k] @ out[k + 1] < -1.0 + 1e-6:
+            raise QmtInputError(f"{w}.{names[k + 1]} is opposite to the normal before it, so the turn between "
+                                "them has no unique axis; add a pose in between")
+    return out
+
+
+def _path_points(P: np.ndarray, n_transfer: int, normals: np.ndarray):
     """The geometric path: the task poses with n_transfer straight-line points between poses 1 and K-2
-    (the carry between the two lifts); (points, index of each pose)."""
+    (the carry between the two lifts), the face normal slerped along; (points, index of each pose,
+    normals)."""
     if len(P) < 4 or n_transfer == 0:
-        return P.copy(), np.arange(len(P))
+        return P.copy(), np.arange(len(P)), normals.copy()
     a, b = P[1], P[-2]
-    inner = [(1 - t) * a + t * b for t in np.linspace(0, 1, n_transfer + 2)[1:-1]]
+    u = np.linspace(0, 1, n_transfer + 2)[1:-1]
+    inner = (1 - u)[:, None] * a + u[:, None] * b
+    inner_normals = slerp_unit(normals[1], normals[-2], u)
     pts = np.vstack([P[:2], inner, P[2:]])
     idx = np.r_[0, 1, np.arange(2, len(P)) + n_transfer]
-    return pts, idx
+    return pts, idx, np.vstack([normals[:2], inner_normals, normals[2:]])

@@ -3,7 +3,10 @@
     cd <checkout> && PYTHONPATH=. .venv/bin/python -m studies.spatial_benchmark [--scenario ur5-suction-bins ur5-magnet-part panda-tray-cup]
         [--out out] [--ga-generations 150] [--actuator ideal|dc_motor]
 
-For each method of planners/spatial_methods (TOPP-RA, Ruckig, the via-cubic family optimum, the GA):
+For each method of planners/spatial_methods (TOPP-RA, Ruckig, the via-cubic family optimum, the GA,
+trajopt), and for the rest-to-rest families (planners/spatial_families: the hand on straight Cartesian
+lines, `<method>-line_cubic_velocity`, and the joint-space trapezoidal PTP, `<method>-trapezoid_ptp`)
+TOPP-RA on their own path (stopping at every task pose), their family optimum and the GA:
 motion time, its ratio to the bound (TOPP-RA's time-optimal duration along the IK'd geometric path;
 the joint-space methods follow other paths, so a ratio below 1 would be possible and is not an
 error), planning time, the time scale applied so the fine re-check holds, the largest limit ratio
@@ -31,7 +34,7 @@ from pathlib import Path
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
-from qmt_drake.planners.spatial_methods import PLANNERS, plan_ga_spatial
+from qmt_drake.planners.spatial_methods import FAMILY_METHODS, PLANNERS, plan_ga_spatial
 from qmt_drake.planners.spatial_plan_io import write_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_actuation import ACTUATORS, motor_params_for_spatial
@@ -39,6 +42,7 @@ from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 
 FAST_SCALE = 0.67
+FAMILY_ROWS = ("line_cubic_velocity", "trapezoid_ptp")
 NOTES = {"suction": "The co-simulation checks the cup on a finer grip polyhedron than the planners (24x8 rim/pyramid "
                     "vs 8x4); on the pull-off face both coincide, so a plan resting on that face has no margin left "
                     "for tracking error (the co-sim hand ratio column: the largest ratio while the part was held).",
@@ -60,6 +64,9 @@ def run(scenario: str, ga_generations: int, actuator: str = "ideal") -> dict:
     if actuator != "ideal":  # refused before any planning when the scenario has no motor constants
         motor_params_for_spatial(sc)
     planners = dict(PLANNERS, ga=partial(plan_ga_spatial, generations=ga_generations))
+    for family in FAMILY_ROWS:  # the rest-to-rest families: TOPP-RA on their path, their optimum, the GA
+        for m in FAMILY_METHODS:
+            planners[f"{m}-{family}"] = partial(planners[m], family=family)
     rows, plans, errors = {}, {}, {}
     for m, f in planners.items():
         try:
@@ -67,7 +74,7 @@ def run(scenario: str, ga_generations: int, actuator: str = "ideal") -> dict:
         except QmtInputError as exc:  # one method's refusal is a row of the table, not the end of the study
             errors[m] = str(exc)
             continue
-        rows[m] = p.summary()
+        rows[m] = dict(p.summary(), method=m)
     if "toppra" not in plans:
         raise QmtInputError(f"{sc.name}: TOPP-RA (the bound) failed: {errors['toppra']}")
     bound = plans["toppra"].raw_duration_s

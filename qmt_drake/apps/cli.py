@@ -90,6 +90,9 @@ def _refuse_spatial_method(args) -> None:
 def cmd_plan(args) -> int:
     if spatial_cli.is_spatial_scenario(args.scenario):
         return 0 if spatial_cli.plan(args, ENERGY_ONLY_OPTIONS) else EXIT_INFEASIBLE
+    if args.family is not None:
+        raise QmtInputError(f"--family: for spatial scenarios; {args.scenario} sets its family in its file "
+                            "(family.kind); drop --family")
     if is_energy_scenario(args.scenario):
         args.method = args.method or "snopt"
         if args.method not in ENERGY_METHODS:
@@ -302,6 +305,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--stall", type=int, help="GA: stop after this many generations without "
                    "improvement")
     s.add_argument("--checkpoint", metavar="PATH", help="GA: resumable checkpoint file")
+    s.add_argument("--family", choices=spatial_cli.SPATIAL_FAMILIES, default=None,
+                   help="spatial scenarios, methods toppra, family_optimum, ga: the trajectory family (default "
+                        "via_cubic; line_cubic_velocity: the hand on straight lines; trapezoid_ptp: joint PTP)")
     s.add_argument("--option", action="append", metavar="KEY=VALUE",
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")

@@ -1,13 +1,13 @@
 """`qmt-drake plan` and `simulate` on a spatial (3-D) scenario (`kind: spatial_transfer`, spatial_task.py).
 
     qmt-drake plan ur5-suction-bins --method toppra|ruckig|family_optimum|ga|trajopt --json p.json
-        [--trajectory-csv p.csv] [--carried [--carried-max-scale K]] [--seed N --generations G --stall S]
+        [--family via_cubic|line_cubic_velocity|trapezoid_ptp (toppra, family_optimum, ga)] [--trajectory-csv p.csv] [--carried [--carried-max-scale K]] [--seed N --generations G --stall S]
         [--option KEY=VALUE] [--quiet]
     qmt-drake simulate ur5-suction-bins --plan p.json [--time-scale S] [--json out.json]
 
 `plan` runs planners/spatial_methods (every result re-checked at 10x the check rate and slowed by the
 smallest time scale that makes that check hold), prints one summary line (motion time, its ratio to
-TOPP-RA's time-optimal duration on the IK'd path, the re-check's largest ratio, the time scale applied)
+TOPP-RA's time-optimal duration on the family's path (via_cubic: the IK'd path), the re-check's largest ratio, the time scale applied)
 and writes the plan file (planners/spatial_plan_io: rebuilds the trajectory exactly) and the CSV.
 `--carried` then slows the plan to the fastest time scale the co-simulation carries
 (planners/spatial_carried). `simulate` loads a plan file back (refused in one line when made for
@@ -38,7 +38,8 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import jsonable
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
-from qmt_drake.planners.spatial_methods import ALIASES, METHODS, PLANNERS, plan_toppra_spatial
+from qmt_drake.planners.spatial_families import FAMILIES
+from qmt_drake.planners.spatial_methods import ALIASES, FAMILY_METHODS, METHODS, PLANNERS, plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_actuation import check_drive
@@ -46,6 +47,7 @@ from qmt_drake.sim.spatial_cosim import TAIL_S, simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
 
 SPATIAL_METHODS = METHODS
+SPATIAL_FAMILIES = FAMILIES
 GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
 # plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
 PLAN_REFUSED = (("checkpoint", None), ("success", None), ("carried_feedforward", "full"))
@@ -114,6 +116,12 @@ def _planner_options(args, method: str) -> dict:
                                 f"{', '.join(sorted(allowed)) or 'no options'}")
         if not isinstance(v, (int, float)) or (isinstance(allowed[k], int) and not isinstance(v, int)):
             raise QmtInputError(f"--option {k}={v}: give a{'n integer' if isinstance(allowed[k], int) else ' number'}")
+    family = getattr(args, "family", None)
+    if family is not None:
+        if method not in FAMILY_METHODS:
+            raise QmtInputError(f"--family: {method} plans its own motion; --family applies to --method "
+                                f"{'|'.join(FAMILY_METHODS)}")
+        opts["family"] = family
     if method == "ga":
         opts.update(seed=args.seed, **{k: getattr(args, k) for k in GA_FLAGS if getattr(args, k, None) is not None})
         opts["progress"] = None if args.quiet else progress
@@ -145,8 +153,9 @@ def plan(args, energy_options) -> bool:
     opts = _planner_options(args, method)
     sc = load_spatial_scenario(args.scenario)
     p = _plan(args, sc, method, opts)
-    try:  # TOPP-RA's duration on the IK'd path: the benchmark's bound (well under a second on a UR5)
-        bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc).raw_duration_s
+    try:  # TOPP-RA's duration on the family's path: the bound (well under a second on a UR5)
+        family = opts.get("family", "via_cubic")
+        bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc, family=family).raw_duration_s
     except QmtInputError:
         bound = None
     if args.carried:

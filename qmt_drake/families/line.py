@@ -63,33 +63,7 @@ class LineCubicVelocity(TrajectoryFamily):
 
     def path_coordinate(self, T1, T2, t, t_piece):
         """s, s_dot, s_ddot along the line (m, m/s, m/s^2) for per-sample T1, T2."""
-        L = self.length_m
-        T0 = 2 * T1 + T2
-        k = L / (2 * T1**3 * (T1 + T2))
-        vmax = 2 * k * T1**3
-        s_acc_end = k * T1**4
-        s = np.empty_like(t)
-        v = np.empty_like(t)
-        a = np.empty_like(t)
-        acc = t_piece < T1
-        dec = (t_piece > T1 + T2) & (t_piece < T0)
-        cru = ~acc & ~dec & (t_piece < T0)
-        rest = t_piece >= T0
-        tt = t[acc]
-        kk, T1a = k[acc], T1[acc]
-        s[acc] = kk * (2 * T1a * tt**3 - tt**4)
-        v[acc] = kk * (6 * T1a * tt**2 - 4 * tt**3)
-        a[acc] = kk * (12 * T1a * tt - 12 * tt**2)
-        s[cru] = s_acc_end[cru] + vmax[cru] * (t[cru] - T1[cru])
-        v[cru] = vmax[cru]
-        a[cru] = 0.0
-        u = T0[dec] - t[dec]
-        kk, T1d = k[dec], T1[dec]
-        s[dec] = L - kk * (2 * T1d * u**3 - u**4)
-        v[dec] = kk * (6 * T1d * u**2 - 4 * u**3)
-        a[dec] = -kk * (12 * T1d * u - 12 * u**2)
-        s[rest], v[rest], a[rest] = L, 0.0, 0.0
-        return s, v, a
+        return cubic_velocity_law(self.length_m, T1, T2, t, t_piece)
 
     def evaluate(self, genes, candidate, t_s, t_piece_s):
         g = np.atleast_2d(genes)
@@ -100,3 +74,39 @@ class LineCubicVelocity(TrajectoryFamily):
         return self.arm.joint_motion_on_tip_path(self.start_m + s[:, None] * self.direction,
                                                  v[:, None] * self.direction, a[:, None] * self.direction,
                                                  self.tool_angle_rad, self.scenario.task.ik_branch)
+
+
+def cubic_velocity_law(L, T1, T2, t, t_phase=None):
+    """The chapter-2 time law (eq. 2-10..2-12) of a rest-to-rest move over a distance L: (s, s_dot,
+    s_ddot) at times t (s) for per-sample accel/decel time T1 and cruise time T2 (arrays broadcast
+    with t); t_phase (default t) picks the phase, so a caller can pass the times its pieces start at.
+    Used by the planar line family and by the spatial Cartesian-line and joint families."""
+    t = np.asarray(t, float)
+    t_piece = t if t_phase is None else np.asarray(t_phase, float)
+    T1, T2, L = (np.broadcast_to(np.asarray(x, float), t.shape) for x in (T1, T2, L))
+    T0 = 2 * T1 + T2
+    k = L / (2 * T1**3 * (T1 + T2))
+    vmax = 2 * k * T1**3
+    s_acc_end = k * T1**4
+    s = np.empty_like(t)
+    v = np.empty_like(t)
+    a = np.empty_like(t)
+    acc = t_piece < T1
+    dec = (t_piece > T1 + T2) & (t_piece < T0)
+    cru = ~acc & ~dec & (t_piece < T0)
+    rest = t_piece >= T0
+    tt = t[acc]
+    kk, T1a = k[acc], T1[acc]
+    s[acc] = kk * (2 * T1a * tt**3 - tt**4)
+    v[acc] = kk * (6 * T1a * tt**2 - 4 * tt**3)
+    a[acc] = kk * (12 * T1a * tt - 12 * tt**2)
+    s[cru] = s_acc_end[cru] + vmax[cru] * (t[cru] - T1[cru])
+    v[cru] = vmax[cru]
+    a[cru] = 0.0
+    u = T0[dec] - t[dec]
+    kk, T1d = k[dec], T1[dec]
+    s[dec] = L[dec] - kk * (2 * T1d * u**3 - u**4)
+    v[dec] = kk * (6 * T1d * u**2 - 4 * u**3)
+    a[dec] = -kk * (12 * T1d * u - 12 * u**2)
+    s[rest], v[rest], a[rest] = L[rest], 0.0, 0.0
+    return s, v, a

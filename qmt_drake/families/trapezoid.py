@@ -64,21 +64,26 @@ class TrapezoidPtp(TrajectoryFamily):
         T0 = self.motion_time_s(g)[candidate]
         Ta = np.stack(self._accel_times(g), axis=1)[candidate]  # (S, 2)
         w = self.cruise_rates(g)[candidate]  # (S, 2)
-        t = t_s[:, None]
-        tp = t_piece_s[:, None]
-        T0c = T0[:, None]
-        acc = tp < Ta
-        dec = (tp > T0c - Ta) & (tp < T0c)
-        rest = tp >= T0c
-        u = T0c - t
-        alpha = w / Ta
-        q_acc = 0.5 * alpha * t**2
-        q_cru = w * (t - 0.5 * Ta)
-        q_dec = self.delta - 0.5 * alpha * u**2
-        q = np.where(acc, q_acc, np.where(dec, q_dec, q_cru))
-        qd = np.where(acc, alpha * t, np.where(dec, alpha * u, w))
-        qdd = np.where(acc, alpha, np.where(dec, -alpha, 0.0))
-        q = np.where(rest, self.delta, q) + self.q_start
-        qd = np.where(rest, 0.0, qd)
-        qdd = np.where(rest, 0.0, qdd)
-        return q, qd, qdd
+        q, qd, qdd = trapezoid_law(self.delta, Ta, T0[:, None], w, t_s[:, None], t_piece_s[:, None])
+        return q + self.q_start, qd, qdd
+
+
+def trapezoid_law(delta, Ta, T0, w, t, t_phase=None):
+    """The chapter-3 trapezoidal velocity (eq. 3-2..3-9) of a rest-to-rest move by delta: (q - q_start,
+    qd, qdd) at times t for accel/decel time Ta, motion time T0 and cruise rate w = delta / (T0 - Ta)
+    (arrays broadcast together); t_phase (default t) picks the phase. Used by the planar trapezoid
+    family and by the spatial joint-space PTP family."""
+    t = np.asarray(t, float)
+    tp = t if t_phase is None else np.asarray(t_phase, float)
+    acc = tp < Ta
+    dec = (tp > T0 - Ta) & (tp < T0)
+    rest = tp >= T0
+    u = T0 - t
+    alpha = w / Ta
+    q_acc = 0.5 * alpha * t**2
+    q_cru = w * (t - 0.5 * Ta)
+    q_dec = delta - 0.5 * alpha * u**2
+    q = np.where(acc, q_acc, np.where(dec, q_dec, q_cru))
+    qd = np.where(acc, alpha * t, np.where(dec, alpha * u, w))
+    qdd = np.where(acc, alpha, np.where(dec, -alpha, 0.0))
+    return np.where(rest, delta, q), np.where(rest, 0.0, qd), np.where(rest, 0.0, qdd)

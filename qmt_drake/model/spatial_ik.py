@@ -96,6 +96,23 @@ class SpatialIK:
             out[k] = prev = q
         return out
 
+    def follow(self, positions_m, normals, q_start, *, what: str = "path point") -> np.ndarray:
+        """(K, n) joint positions along closely spaced targets by continuation: q_start must reach target
+        0; each next target is reached by minimum-norm Gauss-Newton steps from the previous solution
+        (the redundant joints move least), or by `solve` seeded there when that fails; every point is
+        checked by Drake's forward kinematics and the joint limits like `solve`'s."""
+        P = np.atleast_2d(np.asarray(positions_m, float))
+        out = np.empty((len(P), self.chain.n_dof))
+        out[0] = prev = np.asarray(q_start, float)
+        for k in range(1, len(P)):
+            q = self._polish(prev, P[k], normals[k], None, iterations=20)
+            ep, ea = self.errors(q, P[k], normals[k])
+            inside = np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9)
+            if ep > POSITION_TOL_M or ea > ANGLE_TOL_RAD or not inside:
+                q = self.solve(P[k], normal=normals[k], seed=prev, what=f"{what} {k}")
+            out[k] = prev = q
+        return out
+
     def _drake_ik(self, p, n_t, R_t, seed):
         ik = InverseKinematics(self.plant, with_joint_limits=True)
         W = self.plant.world_frame()
@@ -150,3 +167,14 @@ def _target_orientation(normal, rotation, what):
             raise QmtInputError(f"{what}: the face normal {n.tolist()} has no direction; give a nonzero vector")
         return n / np.linalg.norm(n), None
     return None, None
+
+
+def slerp_unit(a, b, u) -> np.ndarray:
+    """(len(u), 3) unit vectors from a (u = 0) to b (u = 1) along the great circle at constant angular
+    rate (slerp); a and b unit, not opposite."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    u = np.atleast_1d(np.asarray(u, float))[:, None]
+    angle = float(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))
+    if angle < 1e-12:
+        return np.repeat(a[None], len(u), axis=0)
+    return (np.sin((1 - u) * angle) * a + np.sin(u * angle) * b) / np.sin(angle)

@@ -6,13 +6,16 @@ trajectory as CSV.
 
 A file is the plan's summary, the task-pose times and 1 kHz samples to plot, plus
 what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KIND, `n_dof`,
-`joint_names`, `poses_m`, `face_normal`), `info` and `rebuild`, the trajectory's own data:
+`joint_names`, `poses_m`, `face_normal`, `pose_normals`), `info` and `rebuild`, the trajectory's own data:
 
     {"kind": "time_scaled", "k": k, "inner": {...}}             played k times slower (TimeScaled)
     {"kind": "piecewise_cubic", "breaks_s", "q_rad", "qd_rad_s"}  a C1 piecewise cubic (the via cubic):
                                                                   Drake's CubicHermite through its breaks
     {"kind": "bspline", "order", "knots_s", "control_points_rad"}  trajopt's BsplineTrajectory
     {"kind": "toppra", "path": {piecewise_cubic in s}, "grid", "sd"}  TOPP-RA's profile on its path
+    {"kind": "sequence", "parts": [{...}, ...]}                trajectories one after another
+    {"kind": "segments", "law", "T1_s", "T2_s", "paths": [{piecewise_cubic in u}]}  rest-to-rest
+              segments of a family (planners/spatial_families.SegmentTrajectory)
     {"kind": "ruckig", "segments": [{q_start_rad, q_goal_rad, max_velocity_rad_s,
               max_acceleration_rad_s2, max_jerk_rad_s3}]}         Ruckig run again (deterministic)
 
@@ -29,6 +32,7 @@ itself (nothing the file claims is trusted).
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -41,14 +45,17 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, ratio_report
 from qmt_drake.plan_files import plan_file_kind, read_plan_file, register_plan_kind
+from qmt_drake.planners.spatial_families import SegmentTrajectory
 from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_trajectory import (
     PolyTrajectory,
     RuckigTrajectory,
+    SequenceTrajectory,
     TimeScaled,
     ToppraTrajectory,
     check,
     pose_errors,
+    scale_to_hold,
 )
 from qmt_drake.spatial_task import SpatialScenario, load_spatial_scenario
 
@@ -121,13 +128,24 @@ def make_spatial_plan(sc, method: str, traj, pose_times_s, *, planning_s: float,
     rc = check(sc, traj, sc.recheck_rate_hz)
     ratios = {k: v for k, v in rc.items() if k not in ("max", "n_samples")}
     seg = info.get("segment_times_s")
+    genes = info.get("genes") or (None if seg is None else {f"T{i + 1}": v for i, v in enumerate(seg)})
     return SpatialPlan(scenario=sc, method=method, trajectory=traj,
                        check=ratio_report(sc.recheck_rate_hz, traj.duration_s, ratios),
-                       genes=None if seg is None else {f"T{i + 1}": float(v) for i, v in enumerate(seg)},
+                       genes=None if genes is None else {k: float(v) for k, v in genes.items()},
                        planner_wall_s=float(planning_s), evaluations=int(info.get("evaluations", 0)),
                        generations=int(info.get("generations", 0)), extra=dict(info), pose_times_s=times,
                        raw_duration_s=float(raw_duration_s), hold_scale=float(hold_scale), recheck=rc,
                        pose_error=pose_errors(sc, traj, times))
+
+
+def finish_plan(sc, method: str, traj, pose_times, t0: float, info: dict) -> SpatialPlan:
+    """The planner's trajectory held at the re-check rate (spatial_trajectory.scale_to_hold) as a
+    SpatialPlan; t0 the planner's start (time.perf_counter) for its planning time."""
+    raw = traj.duration_s
+    held, k = scale_to_hold(sc, traj, sc.recheck_rate_hz)
+    planning_s = time.perf_counter() - t0
+    return make_spatial_plan(sc, method, held, np.asarray(pose_times, float) * k, planning_s=planning_s,
+                             raw_duration_s=raw, hold_scale=k, info=info)
 
 
 def _cubic_spec(pp) -> dict:
@@ -145,6 +163,11 @@ def trajectory_spec(traj, ruckig_segments=None) -> dict:
         return {"kind": "time_scaled", "k": traj.k, "inner": trajectory_spec(traj.inner, ruckig_segments)}
     if isinstance(traj, ToppraTrajectory):
         return {"kind": "toppra", "path": _cubic_spec(traj.path.pp), "grid": traj.grid, "sd": traj.sd}
+    if isinstance(traj, SequenceTrajectory):
+        return {"kind": "sequence", "parts": [trajectory_spec(p) for p in traj.parts]}
+    if isinstance(traj, SegmentTrajectory):
+        return {"kind": "segments", "law": traj.law, "T1_s": traj.T1_s, "T2_s": traj.T2_s,
+                "paths": [_cubic_spec(p.pp) for p in traj.paths]}
     if isinstance(traj, RuckigTrajectory):
         if ruckig_segments is None or len(ruckig_segments) != len(traj.segments):
             raise ValueError("a Ruckig trajectory needs the inputs of each of its segments")
@@ -182,6 +205,11 @@ def trajectory_from_spec(spec: dict):
     if kind == "toppra":
         path = trajectory_from_spec(spec["path"]).pp
         return ToppraTrajectory(path, _arr(spec, "grid", 1), _arr(spec, "sd", 1))
+    if kind == "sequence":
+        return SequenceTrajectory([trajectory_from_spec(p) for p in spec["parts"]])
+    if kind == "segments":
+        paths = [trajectory_from_spec(p).pp for p in spec["paths"]]
+        return SegmentTrajectory(paths, str(spec["law"]), _arr(spec, "T1_s", 1), _arr(spec, "T2_s", 1))
     if kind == "ruckig":
         keys = ("q_start_rad", "q_goal_rad", "max_velocity_rad_s", "max_acceleration_rad_s2", "max_jerk_rad_s3")
         return RuckigTrajectory([ruckig_rest_to_rest(*(_arr(s, k, 1) for k in keys)) for s in spec["segments"]])
@@ -222,7 +250,8 @@ def plan_file_dict(sc, plan: SpatialPlan) -> dict:
     return {**plan.summary(), "pose_times_s": plan.pose_times_s, "trajectory": samples,
             "scenario": sc.name, "scenario_kind": SPATIAL_PLAN_KIND,
             "scenario_path": str(sc.path), "n_dof": sc.n_dof, "joint_names": list(sc.joint_names),
-            "poses_m": sc.poses_m, "face_normal": sc.face_normal, "info": plan.info, "rebuild": spec}
+            "poses_m": sc.poses_m, "face_normal": sc.face_normal, "pose_normals": sc.pose_normals,
+            "info": plan.info, "rebuild": spec}
 
 
 def write_spatial_plan(sc, plan: SpatialPlan, path) -> None:
@@ -257,6 +286,13 @@ def _check_fits(d: dict, path, sc) -> None:
     if poses.shape != sc.poses_m.shape or not np.allclose(poses, sc.poses_m, rtol=0.0, atol=1e-12):
         raise QmtInputError(f"plan file {path} was made for task poses {poses.tolist()} (scenario {d.get('scenario')}) "
                             f"but scenario {sc.name} has {sc.poses_m.tolist()}; {again}")
+    try:
+        normals = np.asarray(d.get("pose_normals", sc.pose_normals), dtype=float)
+    except (TypeError, ValueError):
+        raise QmtInputError(f"plan file {path}: pose_normals is not a list of vectors") from None
+    if normals.shape != sc.pose_normals.shape or not np.allclose(normals, sc.pose_normals, rtol=0.0, atol=1e-12):
+        raise QmtInputError(f"plan file {path} was made for face normals {np.round(normals, 6).tolist()} at the task "
+                            f"poses but scenario {sc.name} has {np.round(sc.pose_normals, 6).tolist()}; {again}")
 
 
 def load_spatial_plan(path, sc) -> SpatialPlan:
@@ -288,8 +324,8 @@ def _load(path: Path, d: dict, sc) -> SpatialPlan:
     if times.size != len(sc.poses_m):
         raise QmtInputError(f"plan file {path} has {times.size} task-pose times; scenario {sc.name} has "
                             f"{len(sc.poses_m)} task poses")
-    ends = np.array([sc.ik.errors(q, p, sc.face_normal) for q, p in
-                          zip(traj.sample([0.0, traj.duration_s])[0], sc.poses_m[[0, -1]])])
+    ends = np.array([sc.ik.errors(q, p, n) for q, p, n in
+                     zip(traj.sample([0.0, traj.duration_s])[0], sc.poses_m[[0, -1]], sc.pose_normals[[0, -1]])])
     if np.any(ends > POSE_TOL):
         raise QmtInputError(f"plan file {path} starts/ends {ends[0, 0] * 1e3:.3g}/{ends[1, 0] * 1e3:.3g} mm "
                             f"away from scenario {sc.name}'s first/last task pose; plan again for this scenario")

@@ -2,7 +2,7 @@
 
 A trajectory is any object with `duration_s` and `sample(t) -> (q, qd, qdd)` ((S, n) arrays for (S,)
 times in s). Three kinds: `ToppraTrajectory` (a path q(s) with TOPP-RA's constant-s-ddot profile on
-its grid), `PolyTrajectory` (a Drake trajectory in time: a via-point cubic PiecewisePolynomial, trajopt's
+its grid), `SequenceTrajectory` (trajectories one after another), `PolyTrajectory` (a Drake trajectory in time: a via-point cubic PiecewisePolynomial, trajopt's
 BsplineTrajectory), `RuckigTrajectory` (Ruckig segments, each from rest to rest). `TimeScaled(traj, k)` plays
 one k times slower: q(t / k), qd / k, qdd / k^2 (positions, hence every task pose, unchanged).
 
@@ -12,7 +12,7 @@ the carried part, reflected rotor inertia), suction grip (limits/suction.py); 1 
 `scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
 smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
 check holds. `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
-hand is from each task pose at the given times (m, rad).
+hand is from each task pose (position and face normal) at the given times (m, rad).
 """
 
 from __future__ import annotations
@@ -80,6 +80,30 @@ class RuckigTrajectory:
         return tuple(out)
 
 
+class SequenceTrajectory:
+    """Trajectories played one after another (each ends at rest where the next starts, e.g. TOPP-RA per
+    rest-to-rest segment); `t_start` their start times (s) and the end."""
+
+    def __init__(self, parts) -> None:
+        self.parts = list(parts)
+        self.t_start = np.r_[0.0, np.cumsum([p.duration_s for p in self.parts])]
+        self.duration_s = float(self.t_start[-1])
+
+    def sample(self, t):
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        k = np.clip(np.searchsorted(self.t_start, t, side="right") - 1, 0, len(self.parts) - 1)
+        out = None
+        for i, part in enumerate(self.parts):
+            m = k == i
+            if np.any(m):
+                vals = part.sample(t[m] - self.t_start[i])
+                if out is None:
+                    out = [np.empty((len(t), v.shape[1])) for v in vals]
+                for o, v in zip(out, vals):
+                    o[m] = v
+        return tuple(out)
+
+
 class TimeScaled:
     def __init__(self, traj, k: float) -> None:
         if not k > 0:
@@ -135,4 +159,4 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
 def pose_errors(sc, traj, times_s) -> np.ndarray:
     """(K, 2) Drake-FK (position m, face-normal angle rad) errors to the task poses at times_s."""
     q, _, _ = traj.sample(np.asarray(times_s, float))
-    return np.array([sc.ik.errors(qk, p, sc.face_normal) for qk, p in zip(q, sc.poses_m)])
+    return np.array([sc.ik.errors(qk, p, n) for qk, p, n in zip(q, sc.poses_m, sc.pose_normals)])

@@ -1,0 +1,205 @@
+"""The family optimum and the GA on a spatial scenario, over any spatial family (planners/spatial_families).
+
+- `plan_family_optimum(sc, family=...)`: the family's fastest member within the limits.
+  * via_cubic: Nelder-Mead over the segment-time shares, each share vector at its tight time scale
+    (`tight_time`; planners/spatial_tight.py), from `restarts` starts (shares ~ sqrt of the joint
+    distance, equal shares).
+  * line_cubic_velocity, trapezoid_ptp: the segments are rest to rest, so the optimum is each
+    segment's own: per segment, its tight time (2 + r) k(r) over the cruise/accel ratio r = T2 / T1,
+    on a grid of OPT_GRID ratios and then by bounded Brent around the best.
+- `plan_ga_spatial(sc, family=...)`: the binary GA (planners/ga.run_ga) on the family's genes; with
+  tight timing (default) every candidate is played at its tight time scale (SpatialFamilyProblem: the
+  genes give the shape, the cost is the tight duration), else a candidate is feasible or not as its
+  genes give it (the thesis's GA: it must find the feasibility boundary itself).
+
+Both return a SpatialPlan held at the re-check rate (spatial_plan_io.finish_plan).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+
+import numpy as np
+from scipy.optimize import minimize, minimize_scalar
+
+from qmt_drake.config.scenario import GaSettings
+from qmt_drake.errors import QmtInputError
+from qmt_drake.planners.ga import run_ga
+from qmt_drake.planners.spatial_families import spatial_family
+from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan
+from qmt_drake.planners.spatial_tight import TIGHT_SAMPLES, tight_scales
+from qmt_drake.planners.spatial_trajectory import check, scale_to_hold
+from qmt_drake.problem import Evaluation, MinimumTime
+
+TIGHT_BATCH = 50  # candidates per tight_scales call
+OPT_GRID = 41  # cruise/accel ratios tried per rest-to-rest segment before Brent
+OPT_RATIO_MAX = 20.0
+
+
+def _tight_or_refuse(sc, traj, samples: int) -> float:
+    k = float(tight_scales(sc, [traj], samples)[0])
+    if not np.isfinite(k):
+        scale_to_hold(sc, traj, sc.check_rate_hz, k_max=12.0)  # raises naming the limit broken at rest
+        raise QmtInputError("no time scale makes the trajectory hold its limits; relax a limit")
+    return k
+
+
+def tight_time(sc, shares, samples: int = TIGHT_SAMPLES) -> tuple[float, np.ndarray]:
+    """(T0, segment times) of the via cubic with these relative segment times at its tight time scale
+    (planners/spatial_tight.py: in closed form on `samples` points, as the GA's candidates);
+    QmtInputError naming the limit when no time scale makes it hold."""
+    fam = spatial_family(sc, "via_cubic")
+    w = np.abs(np.asarray(shares, float)) + 1e-6
+    T = w / w.sum()
+    k = _tight_or_refuse(sc, fam.trajectory(T), samples)
+    return k, T * k
+
+
+def _via_optimum(sc, restarts: int):
+    m = len(sc.q_poses_rad) - 1
+    d = np.linalg.norm(np.diff(sc.q_poses_rad, axis=0), ord=np.inf, axis=1)
+    starts = [np.sqrt(d), np.ones(m)][:restarts]
+    best = None
+    for x0 in starts:
+        r = minimize(lambda x: tight_time(sc, x)[0], x0 / x0.sum(), method="Nelder-Mead",
+                     options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 600})
+        if best is None or r.fun < best.fun:
+            best = r
+    return tight_time(sc, best.x)[1], int(best.nfev)
+
+
+def _segment_optimum(sc, fam, i: int) -> tuple[np.ndarray, int]:
+    """(T1, T2) of segment i's fastest member at its tight scale, and the evaluations it took."""
+    seg = fam.trajectory(np.tile([1.0, 0.0], fam.n_segments)).segment(i)
+    paths, law = [p.pp for p in seg.paths], seg.law
+
+    def times(ratios):  # tight durations of shapes (1, r)
+        trajs = [type(seg)(paths, law, [1.0], [r]) for r in ratios]
+        return np.array([(2.0 + r) * k for r, k in zip(ratios, tight_scales(sc, trajs))])
+
+    grid = np.r_[0.0, np.geomspace(0.01, OPT_RATIO_MAX, OPT_GRID - 1)]
+    T = times(grid)
+    if not np.isfinite(T).any():
+        _tight_or_refuse(sc, type(seg)(paths, law, [1.0], [0.0]), TIGHT_SAMPLES)
+    j = int(np.argmin(T))
+    lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
+    r = minimize_scalar(lambda x: times([x])[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-6})
+    ratio, best = (r.x, r.fun) if r.fun < T[j] else (grid[j], T[j])
+    k = best / (2.0 + ratio)
+    return np.array([k, k * ratio]), len(grid) + int(r.nfev)
+
+
+def plan_family_optimum(sc, *, restarts: int = 1, family: str = "via_cubic") -> SpatialPlan:
+    """The family's fastest member within the limits (module docstring)."""
+    t0 = time.perf_counter()
+    fam = spatial_family(sc, family)
+    if family == "via_cubic":
+        genes, evaluations = _via_optimum(sc, restarts)
+    else:
+        parts = [_segment_optimum(sc, fam, i) for i in range(fam.n_segments)]
+        genes, evaluations = np.concatenate([p[0] for p in parts]), sum(p[1] for p in parts)
+    return finish_plan(sc, "family_optimum", fam.trajectory(genes), fam.pose_times(genes), t0,
+                       {"family": family, **fam.facts, "genes": dict(zip(fam.gene_names, genes)),
+                        **_segment_times(fam, genes), "evaluations": evaluations})
+
+
+def _segment_times(fam, genes) -> dict:
+    """info['segment_times_s']: the time between neighbouring task poses (s)."""
+    return {"segment_times_s": fam.segment_times(genes)}
+
+
+class SpatialFamilyProblem:
+    """A spatial family as a GA Problem (problem.py protocol), a candidate feasible or not as its genes give it."""
+
+    def __init__(self, sc, family: str = "via_cubic", *, fitness_c_per_s: float = 1.0) -> None:
+        self.sc = sc
+        self.family = spatial_family(sc, family)
+        self.name = f"{sc.name} {family.replace('_', '-')}"
+        self.gene_names = self.family.gene_names
+        self.lower, self.upper = self.family.lower, self.family.upper
+        self.objective = MinimumTime(fitness_c_per_s)
+
+    def evaluate(self, genes, exact: bool = False) -> Evaluation:
+        G = np.atleast_2d(np.asarray(genes, float))
+        viol = np.array([max(check(self.sc, self.family.trajectory(g), self.sc.check_rate_hz)["max"] - 1.0, 0.0)
+                         for g in G])
+        return Evaluation(cost=np.array([self.family.trajectory(g).duration_s for g in G]), violation=viol)
+
+    def fitness(self, ev: Evaluation) -> np.ndarray:
+        return self.objective.fitness(ev)
+
+    def realize(self, genes) -> np.ndarray:
+        return np.asarray(genes, float)
+
+    def confirm(self, genes) -> bool:
+        return check(self.sc, self.family.trajectory(genes), self.sc.recheck_rate_hz)["max"] <= 1.0
+
+    def fingerprint(self) -> str:
+        data = np.r_[self.sc.q_poses_rad.ravel(), self.lower, self.upper]
+        kind = "" if self.family.kind == "via_cubic" else self.family.kind  # via-cubic prints as before
+        return hashlib.sha256(data.tobytes() + self.sc.name.encode() + kind.encode()).hexdigest()[:16]
+
+
+class SpatialTightFamilyProblem(SpatialFamilyProblem):
+    """The family with every candidate played at its tight time scale (planners/spatial_tight.py, as the
+    planar GA's ga.tight_timing): the genes give the shape, the cost is the tight duration k * T(genes),
+    so the GA searches shapes and never the feasibility boundary."""
+
+    def __init__(self, sc, family: str = "via_cubic", *, samples: int = TIGHT_SAMPLES, **kwargs) -> None:
+        super().__init__(sc, family, **kwargs)
+        self.samples = samples
+        self.name += " (tight timing)"
+
+    def scales(self, G) -> np.ndarray:
+        # in batches: each trajectory's scale is its own (the same to the bit in any batch), and one batch of
+        # a whole population held ~4 MB a candidate (16 GiB at 4000); batches of 50 are also faster (cache)
+        G = np.atleast_2d(G)
+        trajs = [self.family.trajectory(g) for g in G]
+        return np.concatenate([tight_scales(self.sc, trajs[i:i + TIGHT_BATCH], self.samples)
+                               for i in range(0, len(G), TIGHT_BATCH)] or [np.zeros(0)])
+
+    def evaluate(self, genes, exact: bool = False) -> Evaluation:
+        G = np.atleast_2d(np.asarray(genes, float))
+        k = self.scales(G)
+        ok = np.isfinite(k)
+        T = np.array([self.family.trajectory(g).duration_s for g in G])
+        return Evaluation(cost=np.where(ok, k * T, np.inf), violation=np.where(ok, 0.0, np.inf))
+
+    def realize(self, genes) -> np.ndarray:
+        """The genes (s) of the tight motion of `genes` (every time gene times the scale)."""
+        g = np.asarray(genes, float)
+        return g * self.scales(g)[0]
+
+    def confirm(self, genes) -> bool:  # the plan is held at the re-check rate by finish_plan's scale_to_hold
+        return bool(np.isfinite(self.scales(genes)[0]))
+
+    def fingerprint(self) -> str:
+        return super().fingerprint() + f":tight{self.samples}"
+
+
+def SpatialViaProblem(sc, **kwargs) -> SpatialFamilyProblem:  # noqa: N802 - the via-cubic problem's old name
+    return SpatialFamilyProblem(sc, "via_cubic", **kwargs)
+
+
+def SpatialTightViaProblem(sc, **kwargs) -> SpatialTightFamilyProblem:  # noqa: N802 - its old name
+    return SpatialTightFamilyProblem(sc, "via_cubic", **kwargs)
+
+
+def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40, stall: int = 60,
+                    tight_timing: bool = True, family: str = "via_cubic", progress=None) -> SpatialPlan:
+    """The binary GA (planners/ga.run_ga) on the family's genes (module docstring)."""
+    t0 = time.perf_counter()
+    problem = (SpatialTightFamilyProblem if tight_timing else SpatialFamilyProblem)(sc, family)
+    settings = GaSettings(population=population, max_generations=generations, stall_generations=stall,
+                          fitness_c_per_s=1.0, selection="tournament", encoding="gray", tight_timing=tight_timing)
+    res = run_ga(problem, settings, seed=seed, progress=progress)
+    if not res.feasible:
+        raise QmtInputError(f"the GA found no {family} motion within the limits in {res.generations} generations; "
+                            "give it more generations or relax a limit")
+    genes = problem.realize(res.genes)
+    fam = problem.family
+    return finish_plan(sc, "ga", fam.trajectory(genes), fam.pose_times(genes), t0,
+                       {"family": family, **fam.facts, "genes": dict(zip(fam.gene_names, genes)),
+                        **_segment_times(fam, genes), "generations": res.generations,
+                        "evaluations": res.evaluations, "seed": seed, "tight_timing": tight_timing})
