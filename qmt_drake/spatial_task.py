@@ -19,10 +19,12 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   friction, cup {radius_m, height_m, mass_kg, com_height_m (default height / 2)}, margin (0, 1],
   pyramid_edges, tray_size_m: an unfixed cup standing on a tray in the face plane
   (limits/tray_contact.py; no payload section: the cup is the carried body; the tray is massless).
-- task: seed_rad (the IK branch), poses_m (K >= 2 hand positions), and the hand's orientation at them:
-  face_normal (world; the same at every pose) or face_normals (one per pose: e.g. a part picked from
-  a tilted bin), transfer_points (inner points of the geometric path between poses 1 and K-2, on the
-  straight line between them, the face normal interpolated along it by slerp).
+- task: seed_rad (the IK branch), poses_m (K >= 2 hand positions), and the hand's orientation at them,
+  one of: face_normal (world; the same at every pose; the spin about it is free), face_normals (one
+  per pose: e.g. a part picked from a tilted bin), hand_rpy_rad (a full rotation per pose: roll,
+  pitch, yaw of the hand frame in the world, Drake's RollPitchYaw); transfer_points (inner points of
+  the geometric path between poses 1 and K-2, on the straight line between them, the orientation
+  interpolated along it by slerp).
 - limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
 
 Every task pose is solved by SpatialIK on the seed's branch and checked by Drake's forward kinematics
@@ -36,6 +38,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+from pydrake.math import RollPitchYaw
 
 from qmt_drake.config import fields as F
 from qmt_drake.errors import QmtInputError
@@ -44,7 +47,7 @@ from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.spatial_chain import SpatialChain
-from qmt_drake.model.spatial_ik import SpatialIK, slerp_unit
+from qmt_drake.model.spatial_ik import SpatialIK, slerp_rotations, slerp_unit
 from qmt_drake.model.urdf_check import EXAMPLE_ARMS, drive_parameters, example_robot_urdf, load_arm_plant
 from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 
@@ -86,6 +89,8 @@ class SpatialScenario:
     motor: SpatialMotors | None = None  # actuators.motor (DC-motor co-simulation); None: not given
     pose_normals: np.ndarray | None = None  # (K, 3) the face normal at each task pose (world, unit)
     path_normals: np.ndarray | None = None  # (P, 3) the face normal at each path point
+    pose_rotations: np.ndarray | None = None  # (K, 3, 3) R_WH at each task pose (task.hand_rpy_rad); None: normals
+    path_rotations: np.ndarray | None = None  # (P, 3, 3)
 
     @property
     def n_dof(self) -> int:
@@ -94,6 +99,12 @@ class SpatialScenario:
     @property
     def gravity_m_s2(self) -> np.ndarray:
         return self.plant.gravity_field().gravity_vector()
+
+    def pose_target(self, k: int) -> dict:
+        """Task pose k's orientation as SpatialIK's keyword: {'rotation': R_WH} or {'normal': n}."""
+        if self.pose_rotations is not None:
+            return {"rotation": self.pose_rotations[k]}
+        return {"normal": self.pose_normals[k]}
 
     @property
     def recheck_rate_hz(self) -> float:
@@ -193,13 +204,15 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     w = f"{where}: task"
     tk = F.mapping(raw, "task", where)
-    F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "poses_m", "transfer_points"}, w)
+    F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points"}, w)
     seed = F.vector(tk, "seed_rad", w, length=n, what="one joint angle per joint")
     poses = tk.get("poses_m")
     if not isinstance(poses, list) or len(poses) < 2:
         raise QmtInputError(f"{w}.poses_m must be a list of >= 2 positions [x, y, z] (m)")
     P = np.array([F.vector({"p": p}, "p", f"{w}.poses_m[{k}]", length=3) for k, p in enumerate(poses)])
-    pose_normals = _pose_normals(tk, len(P), w)
+    pose_rotations = _pose_rotations(tk, len(P), w)
+    pose_normals = (_pose_normals(tk, len(P), w) if pose_rotations is None
+                    else np.einsum("kij,j->ki", pose_rotations, face_axis))
     n_tr = F.integer(tk, "transfer_points", w, minimum=0, default=0)
     lim = F.mapping(raw, "limits", where)
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
@@ -207,8 +220,9 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     ik = SpatialIK(plant, H, face_axis=face_axis, name=str(raw.get("name", path.stem)))
     chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())
-    pts, idx, normals = _path_points(P, n_tr, pose_normals)
-    q_path = ik.solve_path(pts, normals=normals, seed=seed, max_joint_step_rad=1.0, what=f"{where}: task path point")
+    pts, idx, normals, rotations = _path_points(P, n_tr, pose_normals, pose_rotations, face_axis)
+    q_path = ik.solve_path(pts, normals=None if rotations is not None else normals, rotations=rotations, seed=seed,
+                           max_joint_step_rad=1.0, what=f"{where}: task path point")
     if cup is not None:
         _check_cup_rests(TrayContactTerm(cup, plant.gravity_field().gravity_vector(), face_axis=face_axis), chain,
                          q_path, f"{where}: task")
@@ -220,7 +234,8 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
                            hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
-                           motor=motor, pose_normals=pose_normals, path_normals=normals)
+                           motor=motor, pose_normals=pose_normals, path_normals=normals,
+                           pose_rotations=pose_rotations, path_rotations=rotations)
 
 
 def _payload(raw: dict, where: str) -> CarriedBody:
@@ -271,11 +286,28 @@ def _tray_cup(hd: dict, w: str) -> TrayCup:
                    tray_size_m=tuple(float(x) for x in size))
 
 
+def _pose_rotations(tk: dict, n_poses: int, w: str) -> np.ndarray | None:
+    """(K, 3, 3) R_WH from task.hand_rpy_rad (one [roll, pitch, yaw] per pose), None when not given."""
+    given = [k for k in ("face_normal", "face_normals", "hand_rpy_rad") if k in tk]
+    if len(given) != 1:
+        raise QmtInputError(f"{w}: give exactly one of face_normal (one normal for every pose), face_normals "
+                            f"(one per pose) or hand_rpy_rad (a rotation per pose){'; got ' + ', '.join(given) if given else ''}")
+    if "hand_rpy_rad" not in tk:
+        return None
+    raw = tk["hand_rpy_rad"]
+    if not isinstance(raw, list) or len(raw) != n_poses:
+        raise QmtInputError(f"{w}.hand_rpy_rad must list one [roll, pitch, yaw] (rad) per task pose ({n_poses})")
+    rpy = [F.vector({"r": r}, "r", f"{w}.hand_rpy_rad[{k}]", length=3) for k, r in enumerate(raw)]
+    out = np.array([RollPitchYaw(r).ToRotationMatrix().matrix() for r in rpy])
+    for k in range(n_poses - 1):
+        if np.arccos(np.clip((np.trace(out[k].T @ out[k + 1]) - 1.0) / 2.0, -1.0, 1.0)) > np.pi - 1e-6:
+            raise QmtInputError(f"{w}.hand_rpy_rad[{k + 1}] turns the hand by 180 degrees from the pose before, so "
+                                "the turn has no unique axis; add a pose in between")
+    return out
+
+
 def _pose_normals(tk: dict, n_poses: int, w: str) -> np.ndarray:
     """(K, 3) unit face normals: task.face_normal for every pose, or task.face_normals one per pose."""
-    if ("face_normal" in tk) == ("face_normals" in tk):
-        raise QmtInputError(f"{w}: give exactly one of face_normal (one normal for every pose) or face_normals "
-                            "(one per pose)")
     if "face_normal" in tk:
         raw = [tk["face_normal"]] * n_poses
         names = ["face_normal"] * n_poses
@@ -296,16 +328,18 @@ def _pose_normals(tk: dict, n_poses: int, w: str) -> np.ndarray:
     return out
 
 
-def _path_points(P: np.ndarray, n_transfer: int, normals: np.ndarray):
+def _path_points(P: np.ndarray, n_transfer: int, normals: np.ndarray, rotations, face_axis):
     """The geometric path: the task poses with n_transfer straight-line points between poses 1 and K-2
-    (the carry between the two lifts), the face normal slerped along; (points, index of each pose,
-    normals)."""
+    (the carry between the two lifts), the face normal (or the rotation) slerped along; (points, index
+    of each pose, normals, rotations or None)."""
     if len(P) < 4 or n_transfer == 0:
-        return P.copy(), np.arange(len(P)), normals.copy()
+        return P.copy(), np.arange(len(P)), normals.copy(), None if rotations is None else rotations.copy()
     a, b = P[1], P[-2]
     u = np.linspace(0, 1, n_transfer + 2)[1:-1]
     inner = (1 - u)[:, None] * a + u[:, None] * b
-    inner_normals = slerp_unit(normals[1], normals[-2], u)
     pts = np.vstack([P[:2], inner, P[2:]])
     idx = np.r_[0, 1, np.arange(2, len(P)) + n_transfer]
-    return pts, idx, np.vstack([normals[:2], inner_normals, normals[2:]])
+    if rotations is None:
+        return pts, idx, np.vstack([normals[:2], slerp_unit(normals[1], normals[-2], u), normals[2:]]), None
+    R = np.concatenate([rotations[:2], slerp_rotations(rotations[1], rotations[-2], u), rotations[2:]])
+    return pts, idx, np.einsum("kij,j->ki", R, face_axis), R

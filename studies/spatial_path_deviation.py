@@ -1,8 +1,10 @@
-"""How far the hand leaves the task's straight lines on each shipped spatial scenario's geometric path.
+"""How far the hand leaves the task's straight lines on each shipped spatial scenario, per family.
 
-The path (the planners' IK'd path: task poses and transfer points, a joint-space C2 spline between
-them, planners/spatial_toppra.joint_path) is sampled at 400 path parameters; Drake's forward kinematics
-gives the hand's position, and its distance to the polyline of the path points is reported [mm].
+The via-cubic family's geometric path (the planners' IK'd path: task poses and transfer points, a
+joint-space C2 spline between them, planners/spatial_toppra.joint_path) and the line_cubic_velocity
+family's (IK by continuation along each straight line, planners/spatial_families.line_paths) are
+sampled at 400 path parameters (per segment for the line); Drake's forward kinematics gives the
+hand's position, and its distance to the polyline of the path points is reported [mm].
 
     .venv/bin/python -m studies.spatial_path_deviation
 """
@@ -13,6 +15,7 @@ import sys
 
 import numpy as np
 
+from qmt_drake.planners.spatial_families import line_paths
 from qmt_drake.planners.spatial_toppra import joint_path
 from qmt_drake.spatial_task import load_spatial_scenario
 
@@ -34,11 +37,19 @@ def max_deviation_m(sc, samples: int = 400) -> float:
     return max(distance_to_polyline_m(sc.ik.pose(pp.value(x).ravel())[0], pts) for x in s)
 
 
+def line_family_deviation_m(sc, samples: int = 400) -> float:
+    paths, _ = line_paths(sc)
+    pts = np.asarray(sc.path_points_m, float)
+    return max(distance_to_polyline_m(sc.ik.pose(q)[0], pts)
+               for pp in paths for q in pp.vector_values(np.linspace(0.0, 1.0, samples)).T)
+
+
 def main(argv=None) -> int:
     for name in SCENARIOS:
         sc = load_spatial_scenario(name)
-        print(f"{name}: {len(sc.path_points_m)} path points, the hand up to "
-              f"{max_deviation_m(sc) * 1e3:.1f} mm off the straight lines between them")
+        print(f"{name}: {len(sc.path_points_m)} path points; the hand up to {max_deviation_m(sc) * 1e3:.1f} mm off "
+              f"the straight lines between them on the via-cubic path, {line_family_deviation_m(sc) * 1e3:.2g} mm on "
+              "the line_cubic_velocity family's")
     return 0
 
 

@@ -4,10 +4,11 @@ co-simulation; checked by Drake's forward kinematics, a closed form and a second
 
 import numpy as np
 import pytest
+from pydrake.math import RollPitchYaw, RotationMatrix
 
 from qmt_drake.apps.cli import main as cli_main
 from qmt_drake.errors import QmtInputError
-from qmt_drake.model.spatial_ik import slerp_unit
+from qmt_drake.model.spatial_ik import slerp_rotations, slerp_unit
 from qmt_drake.planners.spatial_families import LINE_TOL_M, LINE_TOL_RAD, spatial_family
 from qmt_drake.planners.spatial_methods import plan_family_optimum, plan_ga_spatial, plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
@@ -159,3 +160,63 @@ def test_family_refusals(tmp_path, capsys):
     bad([[0.0, 0.0, -1.0]] * 3 + [[0.0, 0.0, 0.0]], "no direction")
     bad([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]] + [[0.0, 0.0, -1.0]] * 2, "opposite")
     bad([[0.0, 0.0, -1.0]] * 3 + ["down"], "face_normals\\[3\\]")
+
+
+def test_full_rotations_per_pose_are_reached_and_slerped_along_the_line(tmp_path):
+    """task.hand_rpy_rad: the hand's whole rotation at every pose (the spin about the normal fixed too),
+    quaternion-slerped along each straight line; Drake FK checks every pose and the path."""
+    sc0 = load_or_skip("ur5-suction-bins")
+    R0 = [sc0.ik.pose(q)[1] for q in sc0.q_poses_rad]  # the rotations the normal-only IK chose ...
+    rpy = [RollPitchYaw(RotationMatrix(R)).vector() for R in R0]
+    rpy[2] = rpy[2] + np.array([0.0, 0.0, 0.6])  # ... with the hand spun 0.6 rad about the vertical at the place
+    rpy[3] = rpy[3] + np.array([0.0, 0.0, 0.6])
+
+    def edit(raw):
+        del raw["task"]["face_normal"]
+        raw["task"]["hand_rpy_rad"] = [r.tolist() for r in rpy]
+    sc = load_spatial_scenario(edited_copy(sc0.path, tmp_path, edit))
+    assert sc.pose_rotations is not None
+    plan = plan_family_optimum(sc, family=LINE)
+    assert plan.pose_error[:, 0].max() < 1e-6 and plan.pose_error[:, 1].max() < 1e-6
+    t = np.linspace(0.0, plan.duration_s, 1500)
+    seg = np.clip(np.searchsorted(plan.pose_times_s, t, side="right") - 1, 0, 2)
+    worst_m = worst_rad = 0.0
+    for qk, i in zip(plan.trajectory.sample(t)[0], seg):
+        p, R = sc.ik.pose(qk)
+        a, d = sc.poses_m[i], sc.poses_m[i + 1] - sc.poses_m[i]
+        x = float(np.clip((p - a) @ d / (d @ d), 0.0, 1.0))
+        worst_m = max(worst_m, float(np.linalg.norm(p - a - x * d)))
+        R_ref = slerp_rotations(sc.pose_rotations[i], sc.pose_rotations[i + 1], x)[0]
+        worst_rad = max(worst_rad, float(RotationMatrix(R_ref.T @ R).ToAngleAxis().angle()))
+    assert worst_m < LINE_TOL_M and worst_rad < LINE_TOL_RAD
+    # the spin is really imposed: at the place the hand is turned 0.6 rad from where the normal-only task left it
+    q_end = plan.trajectory.sample([plan.duration_s])[0][0]
+    turn = RotationMatrix(R0[3].T @ sc.ik.pose(q_end)[1]).ToAngleAxis().angle()
+    assert turn == pytest.approx(0.6, abs=1e-6)
+    toppra = plan_toppra_spatial(sc, n_grid=300)
+    assert toppra.pose_error.max() < 1e-6 and toppra.recheck["max"] <= 1.0
+    path = tmp_path / "p.json"
+    plan.write_json(path)
+    assert load_spatial_plan(path, sc).duration_s == plan.duration_s
+    with pytest.raises(QmtInputError, match="other hand rotations"):
+        load_spatial_plan(path, sc0)
+
+
+def test_hand_rotation_refusals(tmp_path):
+    sc = load_or_skip("ur5-suction-bins")
+
+    def edit_with(value):
+        def edit(raw):
+            del raw["task"]["face_normal"]
+            raw["task"]["hand_rpy_rad"] = value
+        return edit
+    with pytest.raises(QmtInputError, match="one \\[roll, pitch, yaw\\]"):
+        load_spatial_scenario(edited_copy(sc.path, tmp_path, edit_with([[3.14159, 0.0, 0.0]] * 3)))
+    with pytest.raises(QmtInputError, match="180 degrees"):
+        load_spatial_scenario(edited_copy(sc.path, tmp_path, edit_with(
+            [[np.pi, 0.0, 0.0], [np.pi, 0.0, np.pi], [np.pi, 0.0, 0.0], [np.pi, 0.0, 0.0]])))
+
+    def three(raw):
+        raw["task"]["hand_rpy_rad"] = [[np.pi, 0.0, 0.0]] * 4
+    with pytest.raises(QmtInputError, match="exactly one of face_normal.*got face_normal, hand_rpy_rad"):
+        load_spatial_scenario(edited_copy(sc.path, tmp_path, three))

@@ -19,6 +19,7 @@ import numpy as np
 from pydrake.math import RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.solvers import Solve
+from scipy.spatial.transform import Rotation, Slerp
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.spatial_chain import SpatialChain
@@ -96,20 +97,22 @@ class SpatialIK:
             out[k] = prev = q
         return out
 
-    def follow(self, positions_m, normals, q_start, *, what: str = "path point") -> np.ndarray:
-        """(K, n) joint positions along closely spaced targets by continuation: q_start must reach target
-        0; each next target is reached by minimum-norm Gauss-Newton steps from the previous solution
-        (the redundant joints move least), or by `solve` seeded there when that fails; every point is
-        checked by Drake's forward kinematics and the joint limits like `solve`'s."""
+    def follow(self, positions_m, normals, q_start, *, rotations=None, what: str = "path point") -> np.ndarray:
+        """(K, n) joint positions along closely spaced targets (face normals, or full rotations when
+        given) by continuation: q_start must reach target 0; each next target is reached by minimum-norm
+        Gauss-Newton steps from the previous solution (the redundant joints move least), or by `solve`
+        seeded there when that fails; every point is checked by Drake's forward kinematics and the
+        joint limits like `solve`'s."""
         P = np.atleast_2d(np.asarray(positions_m, float))
         out = np.empty((len(P), self.chain.n_dof))
         out[0] = prev = np.asarray(q_start, float)
         for k in range(1, len(P)):
-            q = self._polish(prev, P[k], normals[k], None, iterations=20)
-            ep, ea = self.errors(q, P[k], normals[k])
+            n_k, R_k = (None, rotations[k]) if rotations is not None else (normals[k], None)
+            q = self._polish(prev, P[k], n_k, R_k, iterations=20)
+            ep, ea = self.errors(q, P[k], n_k, R_k)
             inside = np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9)
             if ep > POSITION_TOL_M or ea > ANGLE_TOL_RAD or not inside:
-                q = self.solve(P[k], normal=normals[k], seed=prev, what=f"{what} {k}")
+                q = self.solve(P[k], normal=n_k, rotation=R_k, seed=prev, what=f"{what} {k}")
             out[k] = prev = q
         return out
 
@@ -167,6 +170,13 @@ def _target_orientation(normal, rotation, what):
             raise QmtInputError(f"{what}: the face normal {n.tolist()} has no direction; give a nonzero vector")
         return n / np.linalg.norm(n), None
     return None, None
+
+
+def slerp_rotations(Ra, Rb, u) -> np.ndarray:
+    """(len(u), 3, 3) rotations from Ra (u = 0) to Rb (u = 1) about one fixed axis at a constant rate
+    (quaternion slerp, scipy's Slerp)."""
+    u = np.atleast_1d(np.asarray(u, float))
+    return Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([Ra, Rb])))(np.clip(u, 0.0, 1.0)).as_matrix()
 
 
 def slerp_unit(a, b, u) -> np.ndarray:

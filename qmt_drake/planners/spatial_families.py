@@ -4,7 +4,8 @@
                     times; the arm passes the inner poses without stopping)
     line_cubic_velocity
                     the hand on the straight line between neighbouring task poses, its face normal
-                    slerped from one pose's to the next (model/spatial_ik.slerp_unit); each segment from
+                    (or, for a task of rotations, its rotation) slerped from one pose's to the next
+                    (model/spatial_ik.slerp_unit, slerp_rotations); each segment from
                     rest to rest with the chapter-2 cubic-velocity time law (families/line.cubic_velocity_law;
                     genes per segment: T1 accel/decel time, T2 cruise time)
     trapezoid_ptp   joint-space point-to-point: the joints on the straight joint-space segment between
@@ -30,14 +31,14 @@ from pydrake.trajectories import PiecewisePolynomial
 from qmt_drake.errors import QmtInputError
 from qmt_drake.families.line import cubic_velocity_law
 from qmt_drake.families.trapezoid import trapezoid_law
-from qmt_drake.model.spatial_ik import slerp_unit
+from qmt_drake.model.spatial_ik import slerp_rotations, slerp_unit
 from qmt_drake.planners.spatial_toppra import DrakePath
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
 
 FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")  # the planar families' names (families/)
 LAWS = {"line_cubic_velocity": "cubic_velocity", "trapezoid_ptp": "trapezoid"}
 LINE_TOL_M = 1e-5  # the hand's largest distance to the straight line between task poses
-LINE_TOL_RAD = 1e-4  # the face normal's largest angle to the slerped normal
+LINE_TOL_RAD = 1e-4  # the face normal's largest angle to the slerped normal (the rotation's, for rotations)
 LINE_STEP_M = 0.02  # first IK point spacing along a line; halved until the tolerances hold
 LINE_MAX_POINTS = 4096  # per segment
 T1_MIN_S = 0.02  # gene bounds (s): accel/decel times at least this, cruise times from 0
@@ -91,28 +92,34 @@ class SegmentTrajectory:
         return SegmentTrajectory([self.paths[i].pp], self.law, self.T1_s[i:i + 1], self.T2_s[i:i + 1])
 
 
-def line_targets(sc, i: int, u) -> tuple[np.ndarray, np.ndarray]:
-    """Hand positions (m) and face normals on the straight line from task pose i to i + 1 at fractions u."""
+def line_targets(sc, i: int, u):
+    """Hand positions (m), face normals and rotations R_WH (None for a task of face normals) on the
+    straight line from task pose i to i + 1 at fractions u, the orientation slerped."""
     u = np.atleast_1d(np.asarray(u, float))
     a, b = sc.poses_m[i], sc.poses_m[i + 1]
-    return (1 - u)[:, None] * a + u[:, None] * b, slerp_unit(sc.pose_normals[i], sc.pose_normals[i + 1], u)
+    pos = (1 - u)[:, None] * a + u[:, None] * b
+    if sc.pose_rotations is None:
+        return pos, slerp_unit(sc.pose_normals[i], sc.pose_normals[i + 1], u), None
+    R = slerp_rotations(sc.pose_rotations[i], sc.pose_rotations[i + 1], u)
+    return pos, R @ sc.ik.face_axis, R
 
 
 def line_deviation(sc, i: int, pp, per_interval: int = 4) -> tuple[float, float]:
     """(m, rad): the largest distance of the hand (Drake FK on pp) to the line from pose i to i + 1 and
-    of its face normal to the slerped one, at per_interval points inside every interval of pp."""
+    of its face normal (or its rotation) to the slerped one, at per_interval points inside every
+    interval of pp."""
     b = np.asarray(pp.get_segment_times())
     f = np.arange(1, per_interval + 1) / (per_interval + 1)
     u = (b[:-1, None] + np.diff(b)[:, None] * f).ravel()
     a, d = sc.poses_m[i], sc.poses_m[i + 1] - sc.poses_m[i]
-    _, normals = line_targets(sc, i, u)
+    _, normals, rotations = line_targets(sc, i, u)
     worst_m = worst_rad = 0.0
-    for qk, nk in zip(pp.vector_values(u).T, normals):
-        p, R = sc.ik.pose(qk)
+    for k, qk in enumerate(pp.vector_values(u).T):
+        target = {"normal": normals[k]} if rotations is None else {"rotation": rotations[k]}
+        p = sc.ik.pose(qk)[0]
         x = np.clip((p - a) @ d / max(d @ d, 1e-300), 0.0, 1.0)
         worst_m = max(worst_m, float(np.linalg.norm(p - a - x * d)))
-        n = R @ sc.ik.face_axis
-        worst_rad = max(worst_rad, float(np.arctan2(np.linalg.norm(np.cross(n, nk)), n @ nk)))
+        worst_rad = max(worst_rad, sc.ik.errors(qk, p, **target)[1])
     return worst_m, worst_rad
 
 
@@ -130,8 +137,9 @@ def line_paths(sc) -> tuple[list, dict]:
         n = max(int(np.ceil(length / LINE_STEP_M)), 4)
         while True:
             u = np.linspace(0.0, 1.0, n + 1)
-            pos, nor = line_targets(sc, i, u)
-            Q = sc.ik.follow(pos, nor, q0, what=f"{sc.name}: the straight line from task pose {i} to {i + 1}, point")
+            pos, nor, rot = line_targets(sc, i, u)
+            Q = sc.ik.follow(pos, nor, q0, rotations=rot,
+                             what=f"{sc.name}: the straight line from task pose {i} to {i + 1}, point")
             pp = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(u, Q.T, False)
             e_m, e_rad = line_deviation(sc, i, pp)
             if e_m <= LINE_TOL_M and e_rad <= LINE_TOL_RAD:

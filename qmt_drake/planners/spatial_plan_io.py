@@ -6,7 +6,7 @@ trajectory as CSV.
 
 A file is the plan's summary, the task-pose times and 1 kHz samples to plot, plus
 what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KIND, `n_dof`,
-`joint_names`, `poses_m`, `face_normal`, `pose_normals`), `info` and `rebuild`, the trajectory's own data:
+`joint_names`, `poses_m`, `face_normal`, `pose_normals`, `pose_rotations`), `info` and `rebuild`, the trajectory's own data:
 
     {"kind": "time_scaled", "k": k, "inner": {...}}             played k times slower (TimeScaled)
     {"kind": "piecewise_cubic", "breaks_s", "q_rad", "qd_rad_s"}  a C1 piecewise cubic (the via cubic):
@@ -251,6 +251,7 @@ def plan_file_dict(sc, plan: SpatialPlan) -> dict:
             "scenario": sc.name, "scenario_kind": SPATIAL_PLAN_KIND,
             "scenario_path": str(sc.path), "n_dof": sc.n_dof, "joint_names": list(sc.joint_names),
             "poses_m": sc.poses_m, "face_normal": sc.face_normal, "pose_normals": sc.pose_normals,
+            "pose_rotations": sc.pose_rotations,
             "info": plan.info, "rebuild": spec}
 
 
@@ -293,6 +294,16 @@ def _check_fits(d: dict, path, sc) -> None:
     if normals.shape != sc.pose_normals.shape or not np.allclose(normals, sc.pose_normals, rtol=0.0, atol=1e-12):
         raise QmtInputError(f"plan file {path} was made for face normals {np.round(normals, 6).tolist()} at the task "
                             f"poses but scenario {sc.name} has {np.round(sc.pose_normals, 6).tolist()}; {again}")
+    file_R, own_R = d.get("pose_rotations"), sc.pose_rotations
+    try:
+        same = (file_R is None and own_R is None) or (
+            file_R is not None and own_R is not None and np.shape(file_R) == own_R.shape
+            and np.allclose(np.asarray(file_R, dtype=float), own_R, rtol=0.0, atol=1e-12))
+    except (TypeError, ValueError):
+        raise QmtInputError(f"plan file {path}: pose_rotations is not a list of matrices") from None
+    if not same:
+        raise QmtInputError(f"plan file {path} was made for other hand rotations at the task poses than scenario "
+                            f"{sc.name}'s (task.hand_rpy_rad); {again}")
 
 
 def load_spatial_plan(path, sc) -> SpatialPlan:
@@ -324,8 +335,8 @@ def _load(path: Path, d: dict, sc) -> SpatialPlan:
     if times.size != len(sc.poses_m):
         raise QmtInputError(f"plan file {path} has {times.size} task-pose times; scenario {sc.name} has "
                             f"{len(sc.poses_m)} task poses")
-    ends = np.array([sc.ik.errors(q, p, n) for q, p, n in
-                     zip(traj.sample([0.0, traj.duration_s])[0], sc.poses_m[[0, -1]], sc.pose_normals[[0, -1]])])
+    ends = np.array([sc.ik.errors(q, sc.poses_m[k], **sc.pose_target(k)) for q, k in
+                     zip(traj.sample([0.0, traj.duration_s])[0], (0, len(sc.poses_m) - 1))])
     if np.any(ends > POSE_TOL):
         raise QmtInputError(f"plan file {path} starts/ends {ends[0, 0] * 1e3:.3g}/{ends[1, 0] * 1e3:.3g} mm "
                             f"away from scenario {sc.name}'s first/last task pose; plan again for this scenario")

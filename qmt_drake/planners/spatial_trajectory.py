@@ -12,7 +12,7 @@ the carried part, reflected rotor inertia), suction grip (limits/suction.py); 1 
 `scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
 smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
 check holds. `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
-hand is from each task pose (position and face normal) at the given times (m, rad).
+hand is from each task pose (position, and face normal or rotation) at the given times (m, rad).
 """
 
 from __future__ import annotations
@@ -159,4 +159,4 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
 def pose_errors(sc, traj, times_s) -> np.ndarray:
     """(K, 2) Drake-FK (position m, face-normal angle rad) errors to the task poses at times_s."""
     q, _, _ = traj.sample(np.asarray(times_s, float))
-    return np.array([sc.ik.errors(qk, p, n) for qk, p, n in zip(q, sc.poses_m, sc.pose_normals)])
+    return np.array([sc.ik.errors(qk, p, **sc.pose_target(k)) for k, (qk, p) in enumerate(zip(q, sc.poses_m))])
