@@ -99,11 +99,12 @@ def test_checkpoint_of_the_same_scenario_is_accepted(tmp_path, capsys):
 
 def test_ctrl_c_exits_130_with_one_line(monkeypatch, capsys):
     import qmt_drake.apps.cli as cli
+    import qmt_drake.apps.plan_command as plan_command
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "plan_with", interrupted)  # the name cmd_plan calls
+    monkeypatch.setattr(plan_command, "plan_with", interrupted)  # the name cmd_plan calls
     rc, _, err, _ = _run(capsys, "plan", "thesis-ch4", "--quiet")
     assert rc == cli.EXIT_INTERRUPTED == 130
     assert _one_line(err).startswith("qmt-drake: interrupted")
