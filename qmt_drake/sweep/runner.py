@@ -94,6 +94,7 @@ def _dask_identity(addr: str, timeout_s: float) -> str | None:
     """None if a Dask scheduler at `addr` answers the identity request within timeout_s, else why not."""
     import asyncio
 
+    # lazy: Dask (~0.4 s) only when a sweep runs
     from distributed.comm import connect
 
     async def ask():
@@ -118,6 +119,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *,
                 allowed_failures: int = DEFAULT_ALLOWED_FAILURES, connect_timeout_s: float = CONNECT_TIMEOUT_S):
     """A distributed.Client on a new LocalCluster (`workers` single-threaded processes, default one
     per core) or on the scheduler at `scheduler`; closed (and the local cluster shut down) on exit."""
+    # lazy: Dask (~0.4 s) only when a sweep runs
     import dask
     from distributed import Client, LocalCluster
     # worker-saturation 1.0: a worker holds only the case it runs (default 1.1 rounds up to two per
@@ -264,6 +266,7 @@ def _reuse(client):
 
 def _plan_phase(cl, store: SweepStore, refs: dict, plan_fn, failures: list) -> dict:
     """Plan documents by plan key: from the store, else planned in the workers and stored."""
+    # lazy: Dask (~0.4 s) only when a sweep runs
     from distributed import as_completed
     docs, futs = {}, {}
     for k, ref in refs.items():
@@ -297,6 +300,7 @@ def _describe_ref(ref) -> str:
 
 def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failures: list, prog: Progress) -> int:
     """Submit the pending cases, store each result as it arrives; returns how many were stored."""
+    # lazy: Dask (~0.4 s) only when a sweep runs
     from distributed import as_completed
     # Plan documents enter the graph as the result of a task, not scattered: data scattered to a
     # worker that dies is gone for good, a task's result is recomputed from its inputs.
