@@ -9,7 +9,9 @@ the scenario and to what is built from it.
 What an entry says: how its YAML section is parsed, which of its lists goes one per joint, whether
 the scenario's `control` gains apply, whether the planning arm needs the URDF's gear ratios (motor
 torque limits are motor side), the joint speeds that `limits.joint_speed_fraction` scales (the limit
-set's joint-speed term), and which co-simulation drives it. Register a new kind with `register_actuator`.
+set's joint-speed term), which co-simulation drives it, and, for the magnet co-simulation, how
+(`magnet_actuation`: sim/magnet_actuation.MagnetActuation, which build_transfer_diagram and the
+runner ask instead of branching on the kind). Register a new kind with `register_actuator`.
 """
 
 from __future__ import annotations
@@ -18,8 +20,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from qmt_drake.config.registry import ACTUATORS
+from qmt_drake.config.registry import ACTUATORS, actuator_entry
 from qmt_drake.config.validate import parse_dc_motor_gear, parse_dynamixel, parse_ideal_torque
+from qmt_drake.sim.magnet_actuation import DC_MOTOR_ACTUATION, IDEAL_TORQUE_ACTUATION, MagnetActuation
 
 
 @dataclass(frozen=True)
@@ -29,7 +32,9 @@ class ActuatorPlugin:
     the scenario's control.kp/ki/kd drive it, else the fix the loader prints for a control section;
     gear_ratio_required: the planning arm refuses a URDF without gear ratios (motor-side torque
     limits); joint_speeds_rad_s(section) -> each joint's speed [rad/s] that limits.joint_speed_fraction
-    scales (None: the URDF's velocity limits); drives: the co-simulation that runs it (prose)."""
+    scales (None: the URDF's velocity limits); drives: the co-simulation that runs it (prose);
+    magnet_actuation: how the magnet co-simulation drives it (sim/magnet_actuation.MagnetActuation:
+    its checks, gains and the systems it adds; None: that co-simulation refuses it in one line)."""
 
     kind: str
     parse: Callable[..., Any]
@@ -38,6 +43,7 @@ class ActuatorPlugin:
     gear_ratio_required: bool = True
     joint_speeds_rad_s: Callable[[Any], list[float]] | None = None
     drives: str = ""
+    magnet_actuation: MagnetActuation | None = None
 
 
 def register_actuator(plugin: ActuatorPlugin, *, replace: bool = False) -> None:
@@ -46,15 +52,17 @@ def register_actuator(plugin: ActuatorPlugin, *, replace: bool = False) -> None:
 
 def actuator_plugin(scenario: Any) -> ActuatorPlugin | None:
     """The registered plug-in of the scenario's actuator (None without an actuator section)."""
-    act = scenario.actuator
-    return None if act is None else ACTUATORS.get(act.kind, f"scenario {scenario.name}: actuator")
+    entry: ActuatorPlugin | None = actuator_entry(scenario)
+    return entry
 
 
 register_actuator(ActuatorPlugin(
     kind="dc_motor_gear", parse=parse_dc_motor_gear, per_joint="motors",
+    magnet_actuation=DC_MOTOR_ACTUATION,
     drives="the magnet co-simulation: PID on motor voltages, the motors behind the gears (sim/actuation.py)"))
 register_actuator(ActuatorPlugin(
     kind="ideal", parse=parse_ideal_torque, gear_ratio_required=False,
+    magnet_actuation=IDEAL_TORQUE_ACTUATION,
     drives="the magnet co-simulation: a joint-side PD torque source (sim/actuation.add_ideal_torque_actuation)"))
 register_actuator(ActuatorPlugin(
     kind="dynamixel", parse=parse_dynamixel, per_joint="servos",

@@ -24,6 +24,7 @@ file given with a scenario of another kind is refused in one line.
 from __future__ import annotations
 
 import json
+import pickle
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
@@ -172,7 +173,6 @@ class Plan:
         if isinstance(traj, FamilyTrajectory):
             state["trajectory"] = ("family", np.asarray(traj.genes[0], float))
         else:
-            import pickle
             try:
                 pickle.dumps(traj)
             except Exception:  # noqa: BLE001 - any unpicklable part: fall back to samples

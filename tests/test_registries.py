@@ -17,11 +17,13 @@ from qmt_drake.apps.cli import main
 from qmt_drake.budgets import check_replay_budget
 from qmt_drake.config.registry import ACTUATORS, FAMILIES, HANDS, OBJECTIVES, ObjectivePlugin, Registry
 from qmt_drake.config.scenario import SCENARIO_DIR
-from qmt_drake.config.validate import parse_dc_motor_gear, parse_magnet_hand
+from qmt_drake.config.validate import parse_dc_motor_gear, parse_ideal_torque, parse_magnet_hand
 from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
 from qmt_drake.hands import hand_plugin
 from qmt_drake.problem import PlanningProblem
+from qmt_drake.sim import GenesPlan, build_transfer_diagram, run_transfer_simulate
+from qmt_drake.sim.magnet_actuation import IDEAL_TORQUE_ACTUATION
 
 
 @pytest.fixture
@@ -143,6 +145,44 @@ def test_a_new_actuator_kind_says_what_it_adds(tmp_path, registered):
                                   control_refused="this copy takes no PID gains: drop the control section"))
     with pytest.raises(QmtInputError, match="this copy takes no PID gains"):
         load_scenario(path)
+
+
+def test_a_new_actuator_kind_brings_its_own_magnet_actuation(tmp_path, registered):
+    """A copy of `ideal` under the kind 'ideal_copy' whose magnet actuation records each call: the
+    magnet co-simulation checks and builds through it (sim/ names no actuator kind), runs to ideal's
+    outcome and max slip exactly, and refuses motor options naming the copy's kind."""
+    calls = []
+
+    class Recorded:  # ideal's magnet actuation, each call recorded
+        def __getattr__(self, name):
+            def call(*args, **kwargs):
+                calls.append(name)
+                return getattr(IDEAL_TORQUE_ACTUATION, name)(*args, **kwargs)
+            return call
+
+    def parse(a, limits, where):
+        return replace(parse_ideal_torque(a, limits, where), kind="ideal_copy")
+    registered(ACTUATORS, replace(ACTUATORS["ideal"], kind="ideal_copy", parse=parse, magnet_actuation=Recorded()))
+    ref = load_scenario("thesis-ch4")
+    plant = ref.arm.plant
+    J, w = np.diag(plant.CalcMassMatrix(plant.CreateDefaultContext())), 60.0  # a 60 rad/s PD loop
+    raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
+    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
+    raw["control"] = {"kp": (J * w**2).tolist(), "kd": (2 * J * w).tolist()}
+    results = {}
+    for kind in ("ideal_copy", "ideal"):
+        raw["actuator"] = {"kind": kind}
+        path = tmp_path / f"{kind}.yaml"
+        path.write_text(yaml.safe_dump(raw))
+        sc = load_scenario(str(path))
+        assert actuator_plugin(sc).kind == kind
+        results[kind] = run_transfer_simulate(sc, GenesPlan(sc, (0.622, 0.532, 0.562)), feedforward="full")
+    assert calls == ["feedforward_keywords", "check", "loop_scheme", "setup", "add"]
+    assert results["ideal_copy"]["outcome"] == results["ideal"]["outcome"] == "carried"
+    assert results["ideal_copy"]["max_slip_m"] == results["ideal"]["max_slip_m"]
+    copy = load_scenario(str(tmp_path / "ideal_copy.yaml"))
+    with pytest.raises(QmtInputError, match="has actuator.kind ideal_copy [(]no motors[)]"):
+        build_transfer_diagram(copy, GenesPlan(copy, (0.622, 0.532, 0.562)), back_emf_feedforward=True)
 
 
 def test_a_transfer_objective_is_picked_by_kind(registered):

@@ -114,3 +114,10 @@ def hand_kind(scenario: Any) -> str:
 def hand_entry(scenario: Any) -> Any:
     """The registered hand plug-in of `scenario` (hands.HandPlugin); one line if its kind has none."""
     return HANDS.get(hand_kind(scenario), f"scenario {scenario.name}: hand")
+
+
+def actuator_entry(scenario: Any) -> Any:
+    """The registered actuator plug-in of `scenario` (actuators.ActuatorPlugin; None without an
+    actuator section); one line if its kind has none."""
+    act = scenario.actuator
+    return None if act is None else ACTUATORS.get(act.kind, f"scenario {scenario.name}: actuator")

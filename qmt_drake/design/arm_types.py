@@ -42,6 +42,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.geometry import Box, Capsule, MeshcatVisualizer, MeshcatVisualizerParams, Role
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, CoulombFriction
+from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint, SpatialInertia, UnitInertia
+from pydrake.systems.framework import DiagramBuilder
 
 from qmt_drake.errors import QmtInputError
 
@@ -259,7 +264,6 @@ def urdf_text(type_name: str, lengths, link_radius_m: float = 0.04, relations: d
                    f'rpy="0 0 0"/><axis xyz="{a[0]:.9g} {a[1]:.9g} {a[2]:.9g}"/></joint>')
         parent = child
     off = o[6] - o[5]
-    from pydrake.math import RollPitchYaw, RotationMatrix
     rpy = RollPitchYaw(RotationMatrix(at.tool_rotation)).vector()
     out.append(f'  <link name="tool">{_link_inertial(0.01)}</link>')
     out.append(f'  <joint name="tool_fixed" type="fixed"><parent link="link6"/><child link="tool"/>'
@@ -286,7 +290,6 @@ class DrakeArm:
     def set_lengths(self, plant_context, lengths) -> None:
         """Move the joint frames for new link lengths in this context (no rebuild). Collision
         geometry keeps the lengths the plant was built with."""
-        from pydrake.math import RigidTransform
         o = self.type.origins(np.asarray(lengths, dtype=float))
         for i, fr in enumerate(self.joint_frames):
             prev = o[i - 1] if i > 0 else np.zeros(3)
@@ -299,7 +302,6 @@ class DrakeArm:
         """Smallest SceneGraph signed distance (m) between an arm link and a work/obstacle box
         (negative: penetration), queried pair by pair: only arm-environment pairs matter, and
         Drake 1.51 did not return from the all-pairs query for collinear arm capsules."""
-        from pydrake.geometry import Role
         qo = self.plant.get_geometry_query_input_port().Eval(plant_context)
         insp = qo.inspector()
         env = set(self.env_geometry_ids)
@@ -309,7 +311,6 @@ class DrakeArm:
 
 
 def _rot(R):
-    from pydrake.math import RotationMatrix
     return RotationMatrix(np.asarray(R))
 
 
@@ -319,12 +320,6 @@ def build_plant(type_name: str, lengths, *, boxes=(), link_radius_m: float = 0.0
     """Drake plant of the arm with capsule collision geometry along each link (radius
     link_radius_m; the tool L6 with tool_radius_m) and anchored boxes [(center (3,), size (3,)),
     ...] for the work and obstacles, in a diagram with a SceneGraph."""
-    from pydrake.geometry import Box, Capsule
-    from pydrake.math import RigidTransform, RotationMatrix
-    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, CoulombFriction
-    from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint, SpatialInertia, UnitInertia
-    from pydrake.systems.framework import DiagramBuilder
-
     at = arm_type(type_name, relations)
     L = np.asarray(lengths, dtype=float)
     o = at.origins(L)
@@ -365,7 +360,6 @@ def build_plant(type_name: str, lengths, *, boxes=(), link_radius_m: float = 0.0
     plant.Finalize()
     vis = None
     if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role
         vis = MeshcatVisualizer.AddToBuilder(builder, sg, meshcat,
                                              MeshcatVisualizerParams(role=Role.kIllustration))
     diagram = builder.Build()

@@ -4,7 +4,10 @@ lengths in m."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+from pydrake.geometry import Meshcat, MeshcatParams
 
 from qmt_drake.design.arm_types import TYPES, arm_type, build_plant, forward
 from qmt_drake.outputs import write_text_atomic
@@ -57,6 +60,7 @@ def _equal(ax, pts):
 
 def plot_types(path, lengths=(0.3, 0.25, 0.25, 0.15, 0.0, 0.1), q=(0.0, 0.5, 0.9, 0.0, 0.7, 0.0)):
     """Fig. 4 counterpart: each type with the same lengths at one joint configuration."""
+    # lazy: plots only; start-up time, headless runs never load it
     import matplotlib.pyplot as plt
     fig = plt.figure(figsize=(16, 7))
     for k, T in enumerate(TYPES):
@@ -77,6 +81,7 @@ def plot_types(path, lengths=(0.3, 0.25, 0.25, 0.15, 0.0, 0.1), q=(0.0, 0.5, 0.9
 
 def plot_arm_at_task(path, task, type_name, lengths, q_units, title=""):
     """Fig. 6 counterpart: the arm at every reachable unit task (3D, top and side views)."""
+    # lazy: plots only; start-up time, headless runs never load it
     import matplotlib.pyplot as plt
     at = arm_type(type_name)
     fig = plt.figure(figsize=(15, 5))
@@ -105,6 +110,7 @@ def plot_arm_at_task(path, task, type_name, lengths, q_units, title=""):
 
 def plot_convergence(path, histories: dict, xlabel="batch of 200 designs", title=""):
     """Fig. 7 counterpart: best E so far against batch (a generation of 200 for the GA)."""
+    # lazy: plots only; start-up time, headless runs never load it
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 4))
     for name, h in histories.items():
@@ -123,10 +129,6 @@ def meshcat_arm_at_task(path, task, type_name, lengths, q_units, dwell_s: float 
                         relations: dict | None = None):
     """Fig. 6 in Meshcat: a static HTML animation visiting the reachable unit tasks in order
     (dwell_s each), with the work and obstacle boxes. Returns the path."""
-    from pathlib import Path
-
-    from pydrake.geometry import Meshcat, MeshcatParams
-
     meshcat = Meshcat(MeshcatParams(host="localhost", port=0))
     arm = build_plant(type_name, lengths, boxes=task.boxes, link_radius_m=task.link_radius_m,
                       tool_radius_m=task.tool_radius_m, relations=relations, meshcat=meshcat)

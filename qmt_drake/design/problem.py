@@ -21,7 +21,10 @@ from SceneGraph signed distances, and requires the same E.
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
+from pydrake.multibody.tree import JacobianWrtVariable
 
 from qmt_drake.design import ik
 from qmt_drake.design.arm_types import (
@@ -99,7 +102,6 @@ class DesignProblem:
 
     def fingerprint(self) -> str:
         """Identifies type, level step and every number of the task (for GA checkpoints)."""
-        import hashlib
         h = hashlib.sha256(f"{self.type.name}|{self.relations}|{LEVEL_STEP_M}|{self.task.link_radius_m}|"
                            f"{self.task.tool_radius_m}|{self.branch}".encode())
         for arr in (self._P, self._R, self._W, self._C, self._a):
@@ -218,8 +220,6 @@ class DesignProblem:
     def confirm_report(self, genes) -> dict:
         """Independent re-check of one design with Drake (plant kinematics, spatial Jacobian,
         SceneGraph collision) at the branches the batched evaluation chose."""
-        from pydrake.multibody.tree import JacobianWrtVariable
-
         g = np.atleast_2d(np.asarray(genes, dtype=float))[:1]
         det = self.details(g)
         L = lengths6(g)[0]

@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -52,7 +53,6 @@ def _ga_settings_class():
 def run_ga_adapter(problem: DesignProblem, *, seed: int = 0, max_generations: int = 400,
                    stall_generations: int = 150, progress=None):
     """The single call into the project's GA. Returns its GaResult."""
-    import dataclasses
     ga, Settings = _ga_settings_class()
     names = {f.name for f in dataclasses.fields(Settings)}
     settings = Settings(**{k: v for k, v in SEED_GA.items() if k in names},

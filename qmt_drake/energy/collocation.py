@@ -20,6 +20,11 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue
+from pydrake.math import cos, sin
+from pydrake.planning import DirectCollocation
+from pydrake.solvers import SnoptSolver, SolverOptions
+from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity, make_plant
 from qmt_drake.energy.kinematics import tip_position
@@ -41,9 +46,6 @@ class CollocationResult:
 
 def solve_collocation(problem: EnergyProblem, x_init, knots: int = 41,
                       major_iterations: int = 400) -> CollocationResult:
-    from pydrake.planning import DirectCollocation
-    from pydrake.solvers import SnoptSolver, SolverOptions
-    from pydrake.trajectories import PiecewisePolynomial
 
     plant = make_plant(str(problem.arm.urdf_path or OHSAKA_URDF))
     ctx = plant.CreateDefaultContext()
@@ -65,7 +67,6 @@ def solve_collocation(problem: EnergyProblem, x_init, knots: int = 41,
 
     def fk(qv):
         if qv.dtype == object:
-            from pydrake.math import cos, sin
             phi = np.cumsum(qv)
             return np.array([sum(arm.length_m[i] * cos(phi[i]) for i in range(n)),
                              sum(arm.length_m[i] * sin(phi[i]) for i in range(n))])
@@ -78,7 +79,6 @@ def solve_collocation(problem: EnergyProblem, x_init, knots: int = 41,
     def end_static(v):  # u(T) - g(q(T)) = 0
         qv, uv = v[:n], v[n:]
         if v.dtype == object:
-            from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue
             qf = ExtractValue(qv).ravel()
             tau, Jq, _, _ = inverse_dynamics_with_gravity(qf[None], np.zeros((1, n)), np.zeros((1, n)), arm)
             dq = ExtractGradient(qv)

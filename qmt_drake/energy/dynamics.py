@@ -21,11 +21,15 @@ entry [s, i, j] = d tau_i / d x_j at sample s.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JointIndex, MultibodyForces, MultibodyForces_
 
 from qmt_drake.config.scenario import MODELS_DIR  # noqa: E402
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2  # the one value
@@ -71,14 +75,12 @@ class VerticalArm:
         return _planar_chain(str(self.urdf_path or OHSAKA_URDF))
 
     def with_gravity_sign(self, sign: float) -> VerticalArm:
-        from dataclasses import replace
         return replace(self, gravity_up_sign=float(sign))
 
     @classmethod
     def from_urdf(cls, path: str | Path = OHSAKA_URDF) -> VerticalArm:
         plant = make_plant(str(path))
         ctx = plant.CreateDefaultContext()
-        from pydrake.multibody.tree import JointIndex
         joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
         joints = [j for j in joints if j.num_velocities() > 0]
         L, M, C, I = [], [], [], []  # noqa: E741 - I: the links' inertias, as in the paper
@@ -99,8 +101,6 @@ class VerticalArm:
 @lru_cache(maxsize=4)
 def make_plant(urdf: str):
     """A finalized continuous MultibodyPlant of the URDF (gravity -z, Drake's default)."""
-    from pydrake.multibody.parsing import Parser
-    from pydrake.multibody.plant import MultibodyPlant
     plant = MultibodyPlant(0.0)
     Parser(plant).AddModels(urdf)
     plant.Finalize()
@@ -150,7 +150,6 @@ def _flipped_chain(urdf: str, g: tuple):
 # ------------------------------------------------------------------ Drake references (tests)
 def drake_inverse_dynamics(q, qd, qdd, urdf: str | Path = OHSAKA_URDF, gravity_up_sign: float = 1.0):
     """Drake's CalcInverseDynamics with gravity, sample by sample (the independent reference)."""
-    from pydrake.multibody.tree import MultibodyForces
     plant = make_plant(str(urdf))
     ctx = plant.CreateDefaultContext()
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
@@ -171,8 +170,6 @@ def drake_inverse_dynamics(q, qd, qdd, urdf: str | Path = OHSAKA_URDF, gravity_u
 
 def drake_inverse_dynamics_jacobians(q, qd, qdd, urdf: str | Path = OHSAKA_URDF):
     """(dtau/dq, dtau/dqd, dtau/dqdd) per sample from MultibodyPlant<AutoDiffXd>."""
-    from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
-    from pydrake.multibody.tree import MultibodyForces_
     plant = make_plant(str(urdf)).ToAutoDiffXd()
     ctx = plant.CreateDefaultContext()
     q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))

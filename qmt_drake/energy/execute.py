@@ -24,6 +24,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.controllers import InverseDynamicsController
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
 from qmt_drake.energy.energy_plan import EnergyPlan
@@ -65,13 +72,6 @@ class Execution:
 def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: float = 1.0,
             recording_path: str | Path | None = None, initial_error_rad=None,
             urdf: str | Path = OHSAKA_URDF) -> Execution:
-    from pydrake.multibody.parsing import Parser
-    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
-    from pydrake.systems.analysis import Simulator
-    from pydrake.systems.controllers import InverseDynamicsController
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
-    from pydrake.trajectories import PiecewisePolynomial
 
     T = float(family.unpack(x)[2])
     n = family.n
@@ -153,6 +153,7 @@ def execute_plan(plan, record_path: str | Path | None = None) -> dict:
 
 
 def plot_execution(ex: Execution, path, title: str = "") -> None:
+    # lazy: plots only; start-up time, headless runs never load it
     import matplotlib.pyplot as plt
     fig, axs = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     for i in range(ex.q_rad.shape[1]):

@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.config.registry import ENERGY_TIME, FAMILIES, FamilyPlugin
 from qmt_drake.errors import QmtInputError
@@ -203,7 +204,6 @@ class FourierTrajectory(JointTrajectory):
     def to_piecewise_polynomial(self, rate_hz: float = 1000.0):
         """Drake PiecewisePolynomial: cubic Hermite through q with the exact qd at every sample
         (pydrake 1.51 has no quintic Hermite)."""
-        from pydrake.trajectories import PiecewisePolynomial
         t = np.linspace(0.0, self.duration_s, max(int(np.ceil(self.duration_s * rate_hz)), 1) + 1)
         q, qd, _ = self.family.sample(self.x, t)
         return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)

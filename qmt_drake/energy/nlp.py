@@ -13,10 +13,15 @@ call); IPOPT's own count is read from its output file (`iterations`).
 
 from __future__ import annotations
 
+import os
+import re
+import tempfile
 import time
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue, InitializeAutoDiff
+from pydrake.solvers import IpoptSolver, MathematicalProgram, SnoptSolver, SolverOptions
 
 from qmt_drake.energy.problem import EnergyProblem
 from qmt_drake.errors import QmtInputError
@@ -44,8 +49,6 @@ class NlpResult:
 
 def _ad_wrap(fun_val_grad):
     """A Drake callback: float arrays -> value, AutoDiffXd arrays -> value with chained gradient."""
-    from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue, InitializeAutoDiff
-
     def f(v):
         if v.dtype != object:
             val, _ = fun_val_grad(np.asarray(v, dtype=float))
@@ -60,7 +63,6 @@ def _ad_wrap(fun_val_grad):
 
 
 def build_program(problem: EnergyProblem, counter: list):
-    from pydrake.solvers import MathematicalProgram
     prog = MathematicalProgram()
     y = prog.NewContinuousVariables(problem.family.n_reduced, "y")
     obj = problem.objective
@@ -83,7 +85,6 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
               max_iter: int = 3000, options: dict | None = None) -> NlpResult:
     """One local optimum from reduced genes y0. `options`: extra solver options (name -> value),
     e.g. IPOPT_COLD_OPTIONS."""
-    from pydrake.solvers import IpoptSolver, SnoptSolver, SolverOptions
     if solver not in SOLVERS:
         raise QmtInputError(f"NLP solver '{solver}' is not one of {SOLVERS}")
     counter = [0]
@@ -109,7 +110,6 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
         opts.SetOption(sid, "limited_memory_initialization", "constant")
         opts.SetOption(sid, "limited_memory_init_val", 1e2)
         opts.SetOption(sid, "max_iter", int(max_iter))
-        import tempfile
         log = tempfile.NamedTemporaryFile(prefix="qmt_ipopt_", suffix=".out", delete=False)
         log.close()
         opts.SetOption(sid, "output_file", log.name)
@@ -124,8 +124,6 @@ def solve_nlp(problem: EnergyProblem, y0, solver: str = "snopt", tol: float = 1e
     yv = result.GetSolution(y)
     iterations = None
     if solver == "ipopt":
-        import os
-        import re
         try:
             with open(log.name, encoding="utf-8", errors="replace") as f:
                 found = re.findall(r"Number of Iterations\.*:\s*(\d+)", f.read())

@@ -10,7 +10,7 @@ errors (out of reach, m < 1, bad c1/c2) raise QmtInputError here, before any sol
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -64,7 +64,6 @@ class EnergyProblem:
 
     def with_travel_signs(self, signs) -> EnergyProblem:
         """The same problem restricted to one rotation-direction pattern."""
-        from dataclasses import replace
         return replace(self, travel_signs=None if signs is None else tuple(int(v) for v in signs))
 
     def with_divisions(self, divisions: int) -> EnergyObjective:

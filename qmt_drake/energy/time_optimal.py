@@ -45,6 +45,7 @@ class TimeOptimalResult:
 
 
 def _fourier_path(family, x):
+    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
     from toppra.interpolator import AbstractGeometricPath
     T = float(family.unpack(x)[2])
 
@@ -79,6 +80,7 @@ def _torques(arm, traj, t, lam: float = 1.0):
 def time_optimal_on_path(problem, x, torque_limit_Nm, grid_points: int = 400,
                          check_samples: int = 20001) -> TimeOptimalResult:
     """TOPP-RA on the path of the Fourier trajectory x of `problem` (module docstring)."""
+    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
     from toppra.algorithm import TOPPRA
 
     lim = np.asarray(torque_limit_Nm, dtype=float)

@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from scipy.linalg import block_diag
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.base import RowOptions
@@ -71,7 +72,6 @@ class LimitSet:
         """(terms, F, g): the terms with a linear form and their stacked rows F w <= g (F block
         diagonal in term order). row_options: the fields of base.RowOptions (typed; an unknown name
         is a one-line QmtInputError)."""
-        from scipy.linalg import block_diag
         options = RowOptions.from_keywords(**row_options)
         terms, blocks = [], []
         for t in self.terms:
@@ -95,8 +95,8 @@ class LimitSet:
         limits/toppra_form.py: parameters of all grid points in one batch, unit-norm rows).
         batched=False leaves the parameters to toppra (three w calls per grid point), to measure
         the difference. row_options go to every term's toppra_rows."""
+        # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
         from toppra.constraint import DiscretizationType, SecondOrderConstraint
-
 
         terms, F, g = self.toppra_rows(**row_options)
         if batched:

@@ -82,6 +82,7 @@ def rows_constraints(w, F, g, n_dof: int, block: int | None = ROW_BLOCK) -> list
     arrays returning (S, m), affine in qdd and quadratic in qd; F (k, m), g (k,) the same at every
     grid point; `block` rows per constraint (None: all in one). The rows are evaluated once per
     (path, grid) and shared by the blocks."""
+    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
     from toppra.constraint import ConstraintType, DiscretizationType, LinearConstraint
 
     F = np.asarray(F, dtype=float)

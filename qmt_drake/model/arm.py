@@ -28,7 +28,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import JointIndex
+from pydrake.multibody.tree import FrameIndex, JointIndex
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.drake_chain import DrakeChain
@@ -239,7 +239,6 @@ def add_arm(plant, urdf_path):
 
 
 def _all_frames(plant):
-    from pydrake.multibody.tree import FrameIndex
     return [FrameIndex(i) for i in range(plant.num_frames())]
 
 

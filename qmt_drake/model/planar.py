@@ -32,8 +32,10 @@ m/s^2, N*m.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
-from pydrake.multibody.tree import RevoluteJoint
+from pydrake.multibody.tree import BodyIndex, RevoluteJoint
 
 from qmt_drake.catalog import IK_BRANCHES  # noqa: F401 (re-exported)
 from qmt_drake.errors import QmtInputError
@@ -106,7 +108,6 @@ class PlanarChain:
         next_pts = [origins[i + 1] for i in range(len(joints) - 1)]
         next_pts.append(hand_frame.CalcPoseInWorld(context).translation())
         masses, coms, izzs = [], [], []
-        from pydrake.multibody.tree import BodyIndex
         for i, j in enumerate(joints):
             own = affected[i] - (affected[i + 1] if i + 1 < len(joints) else set())
             if i + 1 < len(joints):
@@ -261,7 +262,6 @@ class PlanarChain:
 
     def with_gravity(self, gravity_in_plane_m_s2) -> PlanarChain:
         """A copy of this chain under another in-plane gravity vector (m/s^2)."""
-        import copy
         other = copy.copy(self)
         other.gravity_in_plane_m_s2 = np.asarray(gravity_in_plane_m_s2, float)
         return other

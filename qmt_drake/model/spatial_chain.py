@@ -7,7 +7,7 @@ so the joint axis is its z axis (frame K_i = the joint's child frame times a con
 with E_i e_z = axis), so every joint rotation is about z.
 
 Then for S samples of (q, qd, qdd), shape (S, n), one pass loops over the n joints only, each step
-vectorised over samples on a stacked state of S columns (rows: see W, AL, ... below):
+vectorised over samples on a stacked state of S columns (rows: W, AL, ... in spatial_rows.py):
 
 - forward, in each link's own frame K_i: angular velocity and acceleration, velocity and classical
   acceleration of its origin, the world axes and origin; the base accelerates at -g (any gravity
@@ -30,25 +30,28 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.tree import JointIndex
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.spatial_rows import (
+    AL,
+    DYN,
+    KIN,
+    NR,
+    ONE,
+    QI,
+    QJ,
+    A,
+    D,
+    E,
+    Q,
+    V,
+    W,
+    centripetal,
+    cos_sin,
+    cross,
+    gyroscopic,
+    skew,
+)
 
 CHUNK = 2048  # samples per pass: memory stays bounded
-
-# Rows of the stacked state of a frame K (S columns): eight 3-vectors expressed in K, then the six
-# products of the angular velocity's components (w x (w x p) and w x (I w) are linear in them),
-# then a row of ones. ex, ey, ez: the world axes; d: the world origin relative to K's origin;
-# w, alpha: angular velocity and acceleration; v, a: velocity and classical acceleration of K's
-# origin minus g. The rows a link's wrench needs (alpha .. Q) are contiguous: DYN.
-E, D, W, AL, V, A = slice(0, 9), slice(9, 12), slice(12, 15), slice(15, 18), slice(18, 21), slice(21, 24)
-Q = slice(24, 30)  # wx wx, wy wy, wz wz, wx wy, wx wz, wy wz
-ONE = 30
-NR = 31
-DYN, KIN = slice(15, 30), slice(12, 30)  # alpha..Q (wrench), w..Q (hand velocity and acceleration)
-_QI, _QJ = [12, 13, 14, 12, 12, 13], [12, 13, 14, 13, 14, 14]  # rows of w
-
-
-def _cross(a, b):
-    """Row-wise cross product of (3, S) arrays."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 class HandSample(dict):
@@ -173,26 +176,26 @@ class SpatialChain:
                                        self.inertia_com_kgm2):
             pJ = R.T @ p
             Kc = np.zeros((6, 6))
-            Kc[:3, :3] = Kc[3:, 3:] = -_skew(pJ)  # x x pJ = -[pJ]x x
-            C = _skew(c)
+            Kc[:3, :3] = Kc[3:, 3:] = -skew(pJ)  # x x pJ = -[pJ]x x
+            C = skew(c)
             G = np.zeros((6, NR))  # f = m (a + alpha x c + w x (w x c)); n = I alpha + w x (I w) + c x f
-            G[:3, A], G[:3, AL], G[:3, Q] = m * np.eye(3), -m * C, m * _centripetal(c)
-            G[3:, AL], G[3:, Q] = inertia, _gyroscopic(inertia)
+            G[:3, A], G[:3, AL], G[:3, Q] = m * np.eye(3), -m * C, m * centripetal(c)
+            G[3:, AL], G[3:, Q] = inertia, gyroscopic(inertia)
             G[3:] += C @ G[:3]
             X = np.zeros((6, 6))
             X[:3, :3] = X[3:, 3:] = R
-            X[3:, :3] = _skew(p) @ R
+            X[3:, :3] = skew(p) @ R
             self._Rt.append(np.ascontiguousarray(R.T))
             self._Kc.append(Kc)
-            self._RL.append(R.T @ _centripetal(p))
+            self._RL.append(R.T @ centripetal(p))
             self._pJ.append(pJ[:, None])
             self._G.append(np.ascontiguousarray(G[:, DYN]))
             self._X.append(X)
         r = self.p_K_H
         Mh = np.zeros((6, NR))
-        Mh[0:3, W] = Mh[3:6, AL] = -_skew(r)
+        Mh[0:3, W] = Mh[3:6, AL] = -skew(r)
         Mh[0:3, V] = Mh[3:6, A] = np.eye(3)
-        Mh[3:6, Q] = _centripetal(r)
+        Mh[3:6, Q] = centripetal(r)
         self._Mh = np.ascontiguousarray(Mh[:, KIN])
 
     def _columns(self, a):
@@ -262,7 +265,7 @@ class SpatialChain:
         constant matrix G_i, plus the outboard wrench turned back. tau_i = the moment's z."""
         n, S = self.n_dof, q.shape[1]
         ws = self._workspace(S)
-        c, s = _cos_sin(q, ws["c"], ws["s"])
+        c, s = cos_sin(q, ws["c"], ws["s"])
         Ys = ws["Y"]
         Ys[0] = 0.0
         Ys[0, A] = -g[:, None]
@@ -288,7 +291,7 @@ class SpatialChain:
             Y[16] -= Y[12] * qd[i]
             Y[17] += qdd[i]
             Y[14] += qd[i]
-            np.multiply(Y[_QI], Y[_QJ], out=Y[Q])
+            np.multiply(Y[QI], Y[QJ], out=Y[Q])
         tau = ws["tau"]
         Wc = None  # wrench [f; n] of links i+1.. at K_{i+1}'s origin, K_{i+1} axes
         for i in range(n - 1, -1, -1):
@@ -356,49 +359,8 @@ class SpatialChain:
         for i in range(self.n_dof):
             col = self.velocity_index[i]
             J[:, :3, col] = zs[i].T
-            J[:, 3:, col] = _cross(zs[i], pH - ps[i]).T
+            J[:, 3:, col] = cross(zs[i], pH - ps[i]).T
         return J
-
-
-def _cos_sin(q, c, s):
-    """cos q and sin q into c, s from t = tan(q / 2) (c = (1 - t^2) / (1 + t^2), s = 2 t / (1 + t^2)):
-    one transcendental instead of two, and numpy's tan is several times faster than its cos/sin
-    here; the absolute error stays at a few 1e-16 (checked against Drake to 1e-9 in the tests)."""
-    t = np.tan(0.5 * q)
-    t2 = t * t
-    inv = 1.0 / (1.0 + t2)
-    np.multiply(np.subtract(1.0, t2, out=t2), inv, out=c)
-    np.multiply(2.0 * t, inv, out=s)
-    return c, s
-
-
-def _quadratic_rows(mats) -> np.ndarray:
-    """(3, 6) coefficients on the products Q of w's components of the three quadratic forms
-    w^T M_k w."""
-    out = np.empty((3, 6))
-    for k, M in enumerate(mats):
-        B = 0.5 * (M + M.T)
-        out[k] = [B[0, 0], B[1, 1], B[2, 2], 2 * B[0, 1], 2 * B[0, 2], 2 * B[1, 2]]
-    return out
-
-
-def _centripetal(p) -> np.ndarray:
-    """w x (w x p) = (w w^T - |w|^2 I) p as (3, 6) rows on Q."""
-    p = np.asarray(p, float)
-    return _quadratic_rows([np.outer(np.eye(3)[k], p) - p[k] * np.eye(3) for k in range(3)])
-
-
-def _gyroscopic(inertia) -> np.ndarray:
-    """w x (I w) as (3, 6) rows on Q: component k is eps_kij w_i (I w)_j."""
-    eps = np.zeros((3, 3, 3))
-    eps[0, 1, 2] = eps[1, 2, 0] = eps[2, 0, 1] = 1.0
-    eps[0, 2, 1] = eps[2, 1, 0] = eps[1, 0, 2] = -1.0
-    return _quadratic_rows([eps[k] @ inertia for k in range(3)])
-
-
-def _skew(p) -> np.ndarray:
-    """[p]x: _skew(p) @ x = p x x."""
-    return np.array([[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]])
 
 
 def _pose(R: RotationMatrix) -> RigidTransform:

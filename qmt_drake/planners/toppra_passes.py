@@ -23,6 +23,7 @@ def seidel_parameterization(constraints, path, gridpoints, sd_start: float = 0.0
     """(sdd (N,), sd (N+1,)) of the time-optimal parameterisation of `path` on `gridpoints` under
     toppra `constraints` (canonical linear only), or (None, None) when the path is not controllable
     or the start velocity sd_start is outside the controllable set (toppra's return codes)."""
+    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
     from toppra.constants import MAX_TRIES, SMALL, TINY
     from toppra.solverwrapper.cy_seidel_solverwrapper import seidelWrapper
 

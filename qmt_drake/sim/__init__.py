@@ -4,6 +4,8 @@
                     finalize_transfer_plant (default state = plan start, payload seated), set_initial_state
     magnet_hand.py  coil current (given or calibrated from the thesis's slip boundary), magnet wiring
     actuation.py    motors and gains from the scenario, implicit loop damping, feedforward, step limits
+    magnet_actuation.py  what each actuator kind checks and builds (its plug-in's MagnetActuation:
+                    DC motors with PID, ideal torque sources); the diagram and the runner ask it
     reference.py    the plan as time-scaled Drake trajectories; GenesPlan
     diagram.py      build_transfer_diagram -> TransferDiagram (default context ready to simulate)
     runner.py       run_diagram, simulate_transfer -> TransferResult, run_transfer_simulate (JSON summary)
@@ -28,6 +30,16 @@ from qmt_drake.sim.actuation import (
                                      pid_gains_for,
 )
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
+from qmt_drake.sim.magnet_actuation import (
+                                     DC_MOTOR_ACTUATION,
+                                     IDEAL_TORQUE_ACTUATION,
+                                     ActuationOptions,
+                                     ActuationPorts,
+                                     ActuationSetup,
+                                     ActuationSite,
+                                     MagnetActuation,
+                                     magnet_actuation_of,
+)
 from qmt_drake.sim.magnet_hand import (
                                      MAGNET_EFFECTIVE_GAP_M,
                                      add_magnet_hand,

@@ -17,7 +17,8 @@ studies/contact_drift.py reads), or with the explicit scheme, the TransferMonito
 is ready to simulate: the plant's default state is the plan's start with the payload seated, so
 `Simulator(td.diagram)` run to td.t_final_s gives the runner's numbers (tests/test_cosim.py).
 Everything about the hand, the motors and the payload comes from the scenario's typed sections.
-With actuator.kind 'ideal' the PID and the motors are replaced by a joint-side PD torque source
+What drives the arm is the scenario's actuator plug-in's (`sim.magnet_actuation.magnet_actuation_of`):
+with actuator.kind 'ideal' the PID and the motors are replaced by a joint-side PD torque source
 (`add_ideal_torque_actuation`; control.kp/kd in N*m/rad, N*m*s/rad), its damping stepped implicitly.
 
 The payload's coordinates are its pose in the hand frame (systems/payload.py): a held part creeps
@@ -31,24 +32,14 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
+from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 
-from qmt_drake.config.scenario import IdealTorque, MagnetHand
+from qmt_drake.config.scenario import MagnetHand
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.recording import add_floor, add_meshcat_visualizer, frame_arm
-from qmt_drake.sim.actuation import (
-    add_ideal_torque_actuation,
-    add_implicit_damping_actuation,
-    add_inverse_dynamics_feedforward,
-    add_motor_actuation_law,
-    check_time_step,
-    default_time_step_s,
-    ideal_joint_gains,
-    motor_actuation_law,
-    motor_params_for,
-    pid_gains_for,
-)
+from qmt_drake.sim.actuation import add_inverse_dynamics_feedforward, check_time_step, default_time_step_s
+from qmt_drake.sim.magnet_actuation import ActuationOptions, ActuationSite, magnet_actuation_of
 from qmt_drake.sim.magnet_hand import add_magnet_hand, coil_current_for
 from qmt_drake.sim.plant import (
     add_transfer_plant,
@@ -58,12 +49,7 @@ from qmt_drake.sim.plant import (
 )
 from qmt_drake.sim.posthoc import add_step_logs, summary_from_logs
 from qmt_drake.sim.reference import plan_start, reference_trajectories
-from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear, dc_motors_as_primitives
-from qmt_drake.systems.joint_tracking import (
-    JointPidController,
-    effective_joint_gains,
-    primitive_pd_controller,
-)
+from qmt_drake.systems.dc_motor import DcMotorParams
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.transfer_monitor import TransferMonitor, payload_motion_as_primitives
 
@@ -149,17 +135,12 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     has no `summary` output port. monitor_period_s samples the per-step monitor more sparsely.
     primitive_controller: a PD law (no integral term) runs as Drake primitives
     (joint_tracking.primitive_pd_controller; False: the Python JointPidController, the same law)."""
-    ideal = isinstance(getattr(scenario, "actuator", None), IdealTorque)
-    if ideal:
-        if motor_inductance or back_emf_feedforward or implicit_loop_damping is False:
-            raise QmtInputError(f"scenario '{scenario.name}' has actuator.kind ideal (no motors): drop the motor "
-                                "options (inductance, back-EMF feedforward, explicit motor loop)")
-        implicit_loop_damping = True
-    if implicit_loop_damping is None:
-        implicit_loop_damping = not motor_inductance
-    if implicit_loop_damping and motor_inductance:
-        raise QmtInputError("implicit_loop_damping needs the quasi-static armature; with motor_inductance=True "
-                            "pass implicit_loop_damping=False and time_step_s <= 1e-3")
+    actuation = magnet_actuation_of(scenario)  # the actuator plug-in's: what to check and build
+    options = ActuationOptions(implicit_loop_damping=implicit_loop_damping, motor_inductance=motor_inductance,
+                               back_emf_feedforward=back_emf_feedforward,
+                               inverse_dynamics_feedforward=inverse_dynamics_feedforward,
+                               primitive_controller=primitive_controller, motor_params=motor_params)
+    implicit_loop_damping = actuation.loop_scheme(scenario, options)
     if time_step_s is None:
         time_step_s = default_time_step_s(implicit_loop_damping)
     check_time_step(time_step_s, implicit_loop_damping, refuse_unstable=not allow_unstable_step)
@@ -172,15 +153,9 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                             n_dof_expected=int(plan.n_dof))
     plant, arm, hand, payload, spec, n = (tp.plant, tp.arm_instance, tp.hand_body, tp.payload_body,
                                           tp.payload_spec, tp.n_dof)
-    if ideal:
-        kp, loop_damping = ideal_joint_gains(scenario)
-        gains = mp = None
-    else:
-        gains = pid_gains_for(scenario)
-        mp = motor_params or motor_params_for(scenario, with_inductance=motor_inductance)
-        loop_damping = effective_joint_gains(gains, mp)[1] if implicit_loop_damping else None
-    if loop_damping is not None:
-        move_loop_damping_into_plant(plant, arm, loop_damping)
+    setup = actuation.setup(scenario, options, implicit_loop_damping)
+    if setup.loop_damping is not None:
+        move_loop_damping_into_plant(plant, arm, setup.loop_damping)
     q0 = plan_start(plan)
     if meshcat is not None:
         add_floor(plant, arm)
@@ -191,32 +166,9 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
 
     ref = builder.AddNamedSystem("reference", TrajectorySource(pp_q, output_derivative_order=1))
     arm_state = plant.get_state_output_port(arm)
-    ctrl = motors = None
-    if ideal:
-        split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
-        builder.Connect(arm_state, split.get_input_port())
-        delivered, feedforward_input = add_ideal_torque_actuation(
-            builder, plant, arm, ref.get_output_port(), arm_state, split.get_output_port(1), kp, loop_damping,
-            scenario.gear_ratio, time_step_s)
-    else:
-        pid = JointPidController(gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s, motor=mp,
-                                 back_emf_feedforward=back_emf_feedforward,
-                                 torque_feedforward=inverse_dynamics_feedforward)
-        # With implicit loop damping, a PD law (no integral) and quasi-static motors, controller, motors
-        # and damping add-back are one compiled law (sim.actuation.motor_actuation_law); otherwise the
-        # controller (a PD law as Drake primitives, or the Python PID) and the motors (primitives, or
-        # the LeafSystem whose armature current is a continuous state with inductance) run apart.
-        law = motor_actuation_law(pid, mp, loop_damping) if (primitive_controller and loop_damping is not None) \
-            else None
-        if law is not None:
-            ctrl = motors = builder.AddNamedSystem("motor_actuation", law)
-        else:
-            prim = primitive_pd_controller(pid, host_has_continuous_state=bool(motor_inductance)) \
-                if primitive_controller else None
-            ctrl = builder.AddNamedSystem("controller", prim or pid)
-            motors = builder.AddNamedSystem("motors", DcMotorWithGear(mp) if mp.inductance_H is not None
-                                            else dc_motors_as_primitives(mp))
-        split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
+    ports = actuation.add(ActuationSite(builder, plant, arm, n, ref.get_output_port(), arm_state, time_step_s),
+                          scenario, setup, options)
+    ctrl, motors, delivered = ports.controller, ports.motors, ports.delivered
     magnet = add_magnet_hand(builder, plant, hand, payload, scenario, spec, current, magnet_effective_gap_m,
                              host_has_continuous_state=bool(motor_inductance))
     # Per-step logs instead of a per-step Python monitor when the loop is stepped implicitly (the
@@ -233,25 +185,6 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
             n, hand.index(), payload.index(), period_s=monitor_period_s or time_step_s))
         motion = monitor
 
-    if not ideal:
-        feedforward_input = ctrl.GetInputPort("feedforward_torque") if inverse_dynamics_feedforward else None
-        builder.Connect(ref.get_output_port(), ctrl.GetInputPort("desired_state"))
-        builder.Connect(arm_state, ctrl.GetInputPort("estimated_state"))
-        builder.Connect(arm_state, split.get_input_port())
-        if law is None:
-            builder.Connect(ctrl.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
-            builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
-        # What the motors deliver: their own outputs when stepped explicitly; with implicit loop
-        # damping, the torque applied over the last step, read back through the motor model.
-        delivered = motors
-        if law is not None:
-            delivered = add_motor_actuation_law(builder, plant, arm, law, split.get_output_port(1), loop_damping,
-                                                time_step_s, mp)
-        elif loop_damping is None:
-            builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
-        else:
-            delivered = add_implicit_damping_actuation(builder, plant, arm, motors, split.get_output_port(1),
-                                                       loop_damping, time_step_s, mp)
     step_logs = None
     if log_steps:
         step_logs = add_step_logs(builder, plant, ref.get_output_port(),
@@ -264,11 +197,7 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         builder.Connect(delivered.GetOutputPort("electrical_power"), monitor.GetInputPort("electrical_power"))
 
     if inverse_dynamics_feedforward:
-        add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(), feedforward_input)
-    elif ideal:  # the ideal source's feedforward input is an Adder port: zero unless fed
-        from pydrake.systems.primitives import ConstantVectorSource
-        zero = builder.AddNamedSystem("no_feedforward", ConstantVectorSource(np.zeros(n)))
-        builder.Connect(zero.get_output_port(), feedforward_input)
+        add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, ref.get_output_port(), ports.feedforward_input)
 
     exports = {
         "desired_state": ref.get_output_port(),
@@ -306,5 +235,5 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         ctx = diagram.CreateDefaultContext()
         frame_arm(meshcat, plant, plant.GetMyContextFromRoot(ctx), arm)
     return TransferDiagram(diagram, plant, tp.scene_graph, arm, payload, hand, motors, ctrl, magnet, monitor,
-                           loggers, q0, t_end, t_end + settle_s, current, spec, mp, time_step_s,
+                           loggers, q0, t_end, t_end + settle_s, current, spec, setup.motor_params, time_step_s,
                            bool(implicit_loop_damping), visualizer, step_logs=step_logs, delivered=delivered)

@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.systems.primitives import LogVectorOutput
+from pydrake.systems.primitives import LogVectorOutput, Multiplexer
 
 from qmt_drake.systems.dc_motor import motor_inverse, motor_joints
 from qmt_drake.systems.payload import payload_joint
@@ -44,7 +44,6 @@ STEP_LOGS = ("plant_state", "desired_state", "applied_joint_torque")
 def add_step_logs(builder, plant, desired_state_port, applied_joint_torque_port, time_step_s: float) -> dict:
     """One C++ logger sampling every plant step the STEP_LOGS signals side by side (a Multiplexer in
     front: one publish per step instead of three). Returns {"logger": VectorLogSink, "widths": {name: size}}."""
-    from pydrake.systems.primitives import Multiplexer
     ports = dict(zip(STEP_LOGS, (plant.get_state_output_port(), desired_state_port, applied_joint_torque_port)))
     widths = {name: port.size() for name, port in ports.items()}
     mux = builder.AddNamedSystem("step_log_signals", Multiplexer(list(widths.values())))

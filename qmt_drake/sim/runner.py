@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.analysis import Simulator
 
-from qmt_drake.config.scenario import IdealTorque
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.recording import make_headless_meshcat, save_recording, start_recording
@@ -20,11 +19,9 @@ from qmt_drake.sim.actuation import (
     check_time_step,
     default_time_step_s,
     explicit_step_known_unstable,
-    ideal_joint_gains,
-    motor_params_for,
-    pid_gains_for,
 )
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
+from qmt_drake.sim.magnet_actuation import magnet_actuation_of
 from qmt_drake.sim.magnet_hand import magnet_hand_of
 from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
 
@@ -216,35 +213,23 @@ def make_result(scenario, plan, td, summary, wall, time_scale, series) -> Transf
 
 
 def feedforward_keywords(scenario, feedforward: str) -> dict:
-    """build_transfer_diagram keywords of a CLI --feedforward choice for this scenario's actuator
-    (an ideal torque source has no back EMF: 'full' is the inverse dynamics alone, 'back-emf' is
-    refused). One-line QmtInputError for an unknown choice."""
+    """build_transfer_diagram keywords of a CLI --feedforward choice for this scenario's actuator, as
+    its plug-in's magnet actuation takes it (an ideal torque source has no back EMF: 'full' is the
+    inverse dynamics alone, 'back-emf' is refused). One-line QmtInputError for an unknown choice."""
     if feedforward not in FEEDFORWARD_OPTIONS:
         raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
-    kw = dict(FEEDFORWARD_OPTIONS[feedforward])
-    if isinstance(getattr(scenario, "actuator", None), IdealTorque):
-        if feedforward == "back-emf":
-            raise QmtInputError(f"--feedforward back-emf needs DC motors; scenario '{scenario.name}' has "
-                                "actuator.kind ideal: use none or full")
-        kw.pop("back_emf_feedforward", None)
-    return kw
+    return magnet_actuation_of(scenario).feedforward_keywords(scenario, feedforward)
 
 
 def check_simulation_inputs(scenario, *, time_step_s: float | None = None,
                             implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
     """Everything `run_simulate` needs from the scenario and the options, checked before any planning
-    or building: the hand, the actuator and its gains, the feedforward choice, the step (explicit
-    steps above the known stable limit are refused). Returns the feedforward keywords."""
+    or building: the hand, the actuator and its gains (its plug-in's magnet actuation checks them),
+    the feedforward choice, the step (explicit steps above the known stable limit are refused).
+    Returns the feedforward keywords."""
     magnet_hand_of(scenario)
     kw = feedforward_keywords(scenario, feedforward)
-    if isinstance(getattr(scenario, "actuator", None), IdealTorque):
-        ideal_joint_gains(scenario)
-        if implicit_loop_damping is False:
-            raise QmtInputError(f"--explicit drives DC motors explicitly; scenario '{scenario.name}' has "
-                                "actuator.kind ideal (always stepped implicitly): drop --explicit")
-    else:
-        motor_params_for(scenario)
-        pid_gains_for(scenario)
+    magnet_actuation_of(scenario).check(scenario, implicit_loop_damping=implicit_loop_damping)
     implicit = True if implicit_loop_damping is None else bool(implicit_loop_damping)
     if time_step_s is not None:
         check_time_step(time_step_s, implicit, refuse_unstable=True)

@@ -3,6 +3,8 @@ parameter against the largest slip of every case (carried green, lost red, the 1
 
 from __future__ import annotations
 
+import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -11,13 +13,13 @@ HELD_SLIP_LIMIT_M = 1e-3  # sim.HELD_SLIP_LIMIT_M (not imported: figures need no
 
 
 def write_figures(spec, root: Path, results: list[dict], rows: list[dict]) -> dict:
+    # lazy: plots only; start-up time, headless runs never load it (Agg chosen before pyplot loads)
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     paths = {}
     grid = list(spec.grid)
 
-    import textwrap
     fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(rows) + 2), 3.8))
     names = [textwrap.fill(r["label"], 16) + "".join(f"\n{g}={r[g]:g}" for g in grid) for r in rows]
     x = np.arange(len(rows))
@@ -67,7 +69,6 @@ def write_figures(spec, root: Path, results: list[dict], rows: list[dict]) -> di
 
 def _save(fig, path: Path) -> str:
     """savefig to a temporary name, then rename (atomic, like write_text_atomic)."""
-    import os
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
     fig.savefig(tmp, dpi=110)

@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import truncnorm
 
 from qmt_drake.config.fields import check_keys, is_number, show
 from qmt_drake.config.hooks import register_validator
@@ -106,7 +107,6 @@ class Distribution:
 def _truncated_normal(rng, mean, std, lo, hi, n) -> np.ndarray:
     if std == 0:
         return np.full(n, float(mean))
-    from scipy.stats import truncnorm
     a, b = (lo - mean) / std, (hi - mean) / std
     return truncnorm.ppf(rng.uniform(size=n), a, b, loc=mean, scale=std)
 

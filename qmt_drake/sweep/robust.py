@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import nullcontext
 
 import numpy as np
 
@@ -85,7 +86,6 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
             f"[{lo:.3f}, {hi:.3f}] -> {'meets' if ok else 'misses'} {target}")
         return point
 
-    from contextlib import nullcontext
     ctx = nullcontext(client) if client is not None else dask_client(scheduler, workers)
     t0 = time.perf_counter()
     with ctx as cl:

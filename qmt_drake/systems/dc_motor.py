@@ -75,7 +75,9 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake import symbolic
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import Multiplexer, PassThrough
 
 from qmt_drake.catalog import HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, MotorDatasheet, motor_for_rated_torque  # noqa: F401 (re-exported)
 from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
@@ -332,10 +334,6 @@ def _per_joint_laws_diagram(name: str, params: DcMotorParams, law, input_names: 
     law(input_0, input_1, MotorJoint, SYMBOLIC), whose results' entries outputs {port name: index}
     are each compiled into their own stateless SymbolicVectorSystem (evaluating one output computes
     nothing else); pass_through_first exports the first input again under that name."""
-    from pydrake import symbolic
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Multiplexer, PassThrough
-
     n = params.n
     u = [symbolic.Variable(f"{input_names[0]}_{k}") for k in range(n)]
     qd = [symbolic.Variable(f"{input_names[1]}_{k}") for k in range(n)]

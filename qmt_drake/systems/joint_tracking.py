@@ -67,7 +67,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake import symbolic
+from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import Multiplexer
 
 from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
@@ -178,7 +180,6 @@ def pd_voltage(pid: JointPidController, x_des, x, feedforward_torque=None, ops=F
 
 def pd_law_inputs(pid: JointPidController):
     """Symbolic variables of the PD law's inputs: (x_des (2n), x (2n), feedforward torque (n) or None)."""
-    from pydrake import symbolic
     n = pid._n
     x_des = [symbolic.Variable(f"desired_state_{k}") for k in range(2 * n)]
     x = [symbolic.Variable(f"estimated_state_{k}") for k in range(2 * n)]
@@ -192,8 +193,6 @@ def pd_law_diagram(pid: JointPidController, name: str, more_outputs=None, *,
     feedforward_torque]) whose output voltage_command is `pd_voltage` compiled into a
     SymbolicVectorSystem; more_outputs(voltage, x) -> {port name: expressions} adds laws built on the
     same (symbolic) voltage and estimated state, each its own system (evaluated only when read)."""
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Multiplexer
     n = pid._n
     x_des, x, ff = pd_law_inputs(pid)
     voltage = pd_voltage(pid, x_des, x, ff, SYMBOLIC)

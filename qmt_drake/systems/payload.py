@@ -42,7 +42,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import AddContactMaterial, Box, Cylinder, ProximityProperties, Sphere
+from pydrake.geometry import (
+    AddContactMaterial,
+    Box,
+    CollisionFilterDeclaration,
+    Cylinder,
+    GeometrySet,
+    ProximityProperties,
+    Sphere,
+)
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import QuaternionFloatingJoint, SpatialInertia, UnitInertia
@@ -165,7 +173,6 @@ def payload_joint(plant, payload_body):
 def allow_contact(plant, scene_graph, body_a, body_b) -> None:
     """After Finalize: make sure the two bodies' collision geometries may collide (Drake's filter
     between a joint's bodies must not hide the contact of a carried part with its carrier)."""
-    from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
     a = GeometrySet(plant.GetCollisionGeometriesForBody(body_a))
     b = GeometrySet(plant.GetCollisionGeometriesForBody(body_b))
     scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().AllowBetween(a, b))

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 from pydrake import symbolic
+from pydrake.systems.primitives import SymbolicVectorSystem
 
 
 class FLOAT:
@@ -59,7 +60,6 @@ def symbolic_law(inputs: list, outputs: list, *, host_has_continuous_state: bool
     inductance): Drake 1.51's SymbolicVectorSystem without state aborts when a simulator asks every
     subsystem for time derivatives ("dynamics_.size() > 0" failed), so it gets one constant
     continuous state (d/dt = 0) that lets it answer."""
-    from pydrake.systems.primitives import SymbolicVectorSystem
     idle = [symbolic.Variable("idle")] if host_has_continuous_state else []
     return SymbolicVectorSystem(state=idle, dynamics=[symbolic.Expression(0.0)] * len(idle), input=inputs,
                                 output=outputs)

@@ -43,9 +43,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from pydrake import symbolic
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import Demultiplexer, MatrixGain
 
 from qmt_drake.errors import QmtSimulationError
 from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
@@ -86,9 +88,6 @@ def payload_motion_as_primitives(plant, payload_joint, *, host_has_continuous_st
     """slip, tilt and gap (`motion_from_joint`) of the payload on `payload_joint` as a Diagram of Drake
     primitives: input plant_state (nq + nv) of the finalised plant; outputs slip (1) [m], tilt (1)
     [rad], gap (1) [m]. host_has_continuous_state: see scalar_ops.symbolic_law."""
-    from pydrake import symbolic
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import Demultiplexer, MatrixGain
     q = [symbolic.Variable(v) for v in ("w", "x", "y", "z", "px", "py", "pz")]
     pick = np.zeros((7, plant.num_positions() + plant.num_velocities()))
     pick[np.arange(7), payload_joint.position_start() + np.arange(7)] = 1.0

@@ -40,7 +40,7 @@ import numpy as np
 from pydrake.geometry import AddContactMaterial, Box, Cylinder, ProximityProperties, Sphere
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
-from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+from pydrake.multibody.tree import QuaternionFloatingJoint, RotationalInertia, SpatialInertia
 from pydrake.systems.framework import LeafSystem
 
 from qmt_drake.errors import QmtInputError
@@ -149,7 +149,6 @@ def add_bottle(plant, spec: BottleSpec, name: str = "bottle", *, tray_body=None)
     tray is at rest in them and the first-order discrete step adds no drift to its slide (see
     systems/payload.py, which measured it for the magnet hand's part); without, it floats in the
     world frame (a tray welded to the world, as in tests/test_tray_object.py, is the same)."""
-    from pydrake.multibody.tree import QuaternionFloatingJoint
     instance = plant.AddModelInstance(name)
     body = plant.AddRigidBody(name, instance, spec.spatial_inertia())
     if tray_body is not None:

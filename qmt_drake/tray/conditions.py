@@ -33,6 +33,9 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2
 from qmt_drake.limits.tray_contact import lift_ratio, slide_ratio, slide_rows, tip_ratio, tip_rows
@@ -54,8 +57,6 @@ class TrayKinematics:
 
 @lru_cache(maxsize=2)
 def _arm_plant(urdf: str):
-    from pydrake.multibody.parsing import Parser
-    from pydrake.multibody.plant import MultibodyPlant
     plant = MultibodyPlant(0.0)
     Parser(plant).AddModels(urdf)
     plant.Finalize()
@@ -65,7 +66,6 @@ def _arm_plant(urdf: str):
 def tray_kinematics(q, qd, qdd, p_TG, urdf=None) -> TrayKinematics:
     """ADAPTER (the only Drake call here): (S, 3) joint samples -> TrayKinematics of the point G
     fixed in the tray frame at p_TG [m] (the bottle's centre of mass when seated)."""
-    from pydrake.multibody.tree import JacobianWrtVariable
     plant, ctx = _arm_plant(str(urdf or URDF_PATH))
     frame = plant.GetFrameByName("tray")
     W = plant.world_frame()

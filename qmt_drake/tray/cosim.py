@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
@@ -228,7 +229,6 @@ class TrayResult:
 
 def holding_torque_Nm(plant, ctx, arm, tray_body, bottle_body, bottle: BottleSpec, X_TB0) -> np.ndarray:
     """Joint torques [N m] that hold the arm and the seated bottle still at the context's q."""
-    from pydrake.multibody.tree import JacobianWrtVariable
     idx = [plant.GetJointByName(j, arm).velocity_start() for j in JOINTS]
     tau = -plant.CalcGravityGeneralizedForces(ctx)[idx]
     p_TG = X_TB0.multiply(np.array([0.0, 0.0, bottle.com_height_m]))

@@ -32,6 +32,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from qmt_drake.config.scenario import MODELS_DIR
 from qmt_drake.errors import QmtInputError
@@ -127,7 +128,6 @@ def seed_joint_residual(tool_offset_m: float | None = None, geom: CraneGeometry 
 def fit_tool_offset(geom: CraneGeometry = TABLE1) -> tuple[float, float]:
     """The tool offset h [m] (tray target height minus the wrist axis's height above the shoulder,
     L0 + L3 in Table 1) that best reproduces the seed's printed joints, and the max residual [rad]."""
-    from scipy.optimize import minimize_scalar
     res = minimize_scalar(lambda h: float(np.sum(seed_joint_residual(h, geom) ** 2)), bounds=(0.05, 0.2),
                           method="bounded", options={"xatol": 1e-7})
     return float(res.x), float(np.max(np.abs(seed_joint_residual(res.x, geom))))

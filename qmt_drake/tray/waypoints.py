@@ -21,9 +21,11 @@ the goal then stops abruptly; linear spacing jumps to the mean speed at both end
 
 from __future__ import annotations
 
+import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np
+from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
@@ -129,11 +131,9 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     Returns (GoalSchedule, info dict) or (None, info) when TOPP-RA finds no parametrisation;
     info["solve_s"] / ["solve_cpu_s"] are the TOPP-RA wall / process CPU time (constraint
     parameters + solve + parametrisation; CPU time is less disturbed by other loads)."""
-    import time as _time
-
+    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
     import toppra as ta
     import toppra.algorithm as algo
-
 
     if not 0 < margin <= 1:
         raise QmtInputError(f"planning margin {margin} must be in (0, 1]")
@@ -195,9 +195,6 @@ def ruckig_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, mar
     speed_fraction of the servos' no-load speeds through the IK Jacobian along the line (the worst
     waypoint). Each streamed sample is solved by IK; time_scale > 1 streams it slowed down
     (speed / k, acceleration / k^2, jerk / k^3). Returns (GoalSchedule, info)."""
-    from ruckig import InputParameter, Result, Ruckig, Trajectory
-
-
     if not 0 < margin <= 1 or not jerk_m_s3 > 0:
         raise QmtInputError(f"margin {margin} must be in (0, 1] and jerk {jerk_m_s3} m/s^3 positive")
     a, b = np.asarray(start_xy, float), np.asarray(goal_xy, float)

@@ -39,6 +39,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
@@ -95,7 +96,6 @@ class RuckigProfile:
 
 def ruckig_profile(start, goal, v_max, a_max, j_max, phase: bool = True) -> RuckigProfile:
     """Rest-to-rest time-optimal profile (raises RuntimeError if ruckig fails)."""
-    from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
     n = len(start)
     inp = InputParameter(n)
     inp.current_position = list(map(float, start))

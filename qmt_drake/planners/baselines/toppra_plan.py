@@ -48,6 +48,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from pydrake.multibody.optimization import Toppra
+from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
@@ -76,6 +78,7 @@ class _ToppraPath:
     """Adapter: a GeometricPath as toppra's AbstractGeometricPath."""
 
     def __new__(cls, path: GeometricPath):
+        # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
         from toppra.interpolator import AbstractGeometricPath
 
         class _P(AbstractGeometricPath):
@@ -100,6 +103,7 @@ def toppra_segment(scenario, segment: GeometricPath, *, polygon_sides: int = 32,
                    grid_points: int = 200, inscribed: bool = True,
                    parametrizer: str = "ParametrizeConstAccel", vertex_on_chord: bool = True):
     """Time one rest-to-rest segment; (trajectory or None, return code, solve wall s)."""
+    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
     from toppra.algorithm import TOPPRA
     t0 = time.perf_counter()
     c = _constraint(scenario, chord_angle_rad(scenario, segment), polygon_sides, inscribed,
@@ -213,9 +217,6 @@ def plan_toppra_drake(scenario, path: str = "family", grid_points: int = 200,
     The path is handed to Drake as a C2 cubic spline through `path_knots` samples of q(s) per
     segment; the result is q(s(t)) with Drake's s(t), re-checked like every plan.
     """
-    from pydrake.multibody.optimization import Toppra
-    from pydrake.trajectories import PiecewisePolynomial
-
     if box not in ("inscribed", "circumscribed"):
         raise QmtInputError("box must be 'inscribed' or 'circumscribed'")
     method = "toppra-drake"

@@ -25,6 +25,9 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from pydrake.planning import KinematicTrajectoryOptimization
+from pydrake.solvers import SnoptSolver, SolverOptions
+from pydrake.trajectories import BsplineTrajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
@@ -40,7 +43,6 @@ from qmt_drake.trajectory import JointTrajectory
 
 def basis_weights(basis, s: float, order: int = 2):
     """(active indices, weights (order+1, len(active))): q^(k)(s) = P[:, idx] @ weights[k]."""
-    from pydrake.trajectories import BsplineTrajectory
     m = basis.num_basis_functions()
     eye = [np.eye(m)[:, [i]] for i in range(m)]
     traj = BsplineTrajectory(basis, eye)
@@ -102,10 +104,6 @@ def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: 
     over the reported motion time). max_motion_time_s: the duration's upper bound and time budget
     (default: the family's slowest allowed motion). major_iterations: SNOPT's limit.
     """
-    from pydrake.planning import KinematicTrajectoryOptimization
-    from pydrake.solvers import SnoptSolver, SolverOptions
-    from pydrake.trajectories import BsplineTrajectory
-
     if initial_guess not in ("family", "joint_line"):
         raise QmtInputError("initial_guess must be 'family' or 'joint_line'")
     if num_control_points < 6 or constraint_samples < 3:
