@@ -82,6 +82,25 @@ def test_no_import_circle_and_no_qmt_drake_import_inside_a_function():
     assert inner == [], "import these at the module's top (an import inside a function hides a circle)"
 
 
+# the only packages imported inside functions, each lazy for a stated reason: toppra loads
+# matplotlib.pyplot (about 0.2 s at every CLI start), matplotlib only draws figures, Dask (with asyncio
+# for its event loop) only runs sweeps
+LAZY_PACKAGES = {"toppra", "matplotlib", "dask", "distributed", "asyncio"}
+
+
+def test_no_other_import_inside_a_function():
+    found = []
+    for name, path in _modules().items():
+        for fn in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(fn):
+                mods = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                        [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])
+                found += [(name, node.lineno, m) for m in mods if m.split(".")[0] not in LAZY_PACKAGES]
+    assert found == [], "import these at the module's top: " + repr(found)
+
+
 def test_the_scenario_imports_nothing_above_config():
     edges, _ = _imports(_modules())
     allowed = {"qmt_drake", "qmt_drake.errors", "qmt_drake.catalog"}  # and config/'s own modules

@@ -161,8 +161,7 @@ def _chosen_points(search: dict) -> list[dict]:
 def reusable_fastest_carried(path, scenario):
     """(Plan, row-like dict) of a fastest-carried plan the benchmark wrote (`fastest_carried_<name>.json`)
     if it was searched as `fastest_carried` searches now (steps, feedforward), else None."""
-    from pathlib import Path as _P
-    if not _P(path).is_file():
+    if not Path(path).is_file():
         return None
     plan = load_plan(path, scenario)
     s = (plan.extra or {}).get("carried_search") or {}

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import sys
 from pathlib import Path
 
@@ -256,7 +257,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def cmd_reproduce(args) -> int:
     """Runs studies/run_all.py of this checkout (the studies are scripts beside the package)."""
-    import subprocess
     root = Path(__file__).resolve().parents[2]
     if not (root / "studies" / "run_all.py").is_file():
         raise QmtInputError("reproduce needs the qmt_drake source checkout (studies/ beside the package); "
