@@ -163,15 +163,15 @@ def trajectory_spec(traj, ruckig_segments=None) -> dict:
         return {"kind": "time_scaled", "k": traj.k, "inner": trajectory_spec(traj.inner, ruckig_segments)}
     if isinstance(traj, ToppraTrajectory):
         return {"kind": "toppra", "path": _cubic_spec(traj.path.pp), "grid": traj.grid, "sd": traj.sd}
+    if isinstance(traj, RuckigTrajectory):  # before SequenceTrajectory, its base
+        if ruckig_segments is None or len(ruckig_segments) != len(traj.segments):
+            raise ValueError("a Ruckig trajectory needs the inputs of each of its segments")
+        return {"kind": "ruckig", "segments": ruckig_segments}
     if isinstance(traj, SequenceTrajectory):
         return {"kind": "sequence", "parts": [trajectory_spec(p) for p in traj.parts]}
     if isinstance(traj, SegmentTrajectory):
         return {"kind": "segments", "law": traj.law, "T1_s": traj.T1_s, "T2_s": traj.T2_s,
                 "paths": [_cubic_spec(p.pp) for p in traj.paths]}
-    if isinstance(traj, RuckigTrajectory):
-        if ruckig_segments is None or len(ruckig_segments) != len(traj.segments):
-            raise ValueError("a Ruckig trajectory needs the inputs of each of its segments")
-        return {"kind": "ruckig", "segments": ruckig_segments}
     if isinstance(traj, PolyTrajectory) and isinstance(traj.pp, BsplineTrajectory):
         bs = traj.pp
         return {"kind": "bspline", "order": bs.basis().order(), "knots_s": np.asarray(bs.basis().knots()),

@@ -62,24 +62,6 @@ class PolyTrajectory:
         return tuple(d.vector_values(t).T for d in self._d)
 
 
-class RuckigTrajectory:
-    """Ruckig trajectories played one after another (each segment from rest to rest)."""
-
-    def __init__(self, segments) -> None:
-        self.segments = list(segments)
-        self.t_start = np.r_[0.0, np.cumsum([s.duration for s in self.segments])]
-        self.duration_s = float(self.t_start[-1])
-
-    def sample(self, t):
-        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
-        out = [np.empty((len(t), self.segments[0].degrees_of_freedom)) for _ in range(3)]
-        k = np.clip(np.searchsorted(self.t_start, t, side="right") - 1, 0, len(self.segments) - 1)
-        for j, (seg, tj) in enumerate(zip(k, t)):
-            p, v, a = self.segments[seg].at_time(float(tj - self.t_start[seg]))
-            out[0][j], out[1][j], out[2][j] = p, v, a
-        return tuple(out)
-
-
 class SequenceTrajectory:
     """Trajectories played one after another (each ends at rest where the next starts, e.g. TOPP-RA per
     rest-to-rest segment); `t_start` their start times (s) and the end."""
@@ -102,6 +84,29 @@ class SequenceTrajectory:
                 for o, v in zip(out, vals):
                     o[m] = v
         return tuple(out)
+
+
+class _RuckigSegment:
+    """One Ruckig trajectory with the sample() of this module."""
+
+    def __init__(self, segment) -> None:
+        self.segment = segment
+        self.duration_s = float(segment.duration)
+
+    def sample(self, t):
+        out = [np.empty((len(t), self.segment.degrees_of_freedom)) for _ in range(3)]
+        for j, tj in enumerate(t):
+            out[0][j], out[1][j], out[2][j] = self.segment.at_time(float(tj))
+        return tuple(out)
+
+
+class RuckigTrajectory(SequenceTrajectory):
+    """Ruckig trajectories played one after another (each segment from rest to rest); `segments`
+    Ruckig's own."""
+
+    def __init__(self, segments) -> None:
+        self.segments = list(segments)
+        super().__init__([_RuckigSegment(s) for s in self.segments])
 
 
 class TimeScaled:
