@@ -15,6 +15,7 @@ Units: SI throughout (m, s, rad, N m, kg); times in seconds, joint angles in rad
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -84,7 +85,8 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
     family's deterministic best), "thesis" (the reported genes), "toppra", "ruckig", "trajopt"
     (time-optimal baselines under the same limits), re-checked at the scenario's check rate (10 kHz).
     Spatial scenarios (a SpatialPlan): "toppra", "ruckig", "family_optimum" (or "optimum"), "ga",
-    "trajopt", re-checked at 10x the check rate. Energy-time scenarios (an EnergyPlan, the lowest
+    "trajopt", re-checked at 10x the check rate; toppra, family_optimum and ga take
+    family="via_cubic" | "line_cubic_velocity" | "trapezoid_ptp" (planners/spatial_families.py). Energy-time scenarios (an EnergyPlan, the lowest
     cost of the multi-start): "snopt", "ipopt", "steepest", "collocation"; options c1, c2, m,
     divisions, coords [m], pattern, max_iter. seed: the GA's generator (and the optimum's); progress:
     a callable taking one line of text; options: the planner's keywords (e.g. max_generations for the
@@ -95,6 +97,13 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
             raise QmtInputError(f"method {method!r} does not plan spatial scenarios; use {'|'.join(SPATIAL_METHODS)}")
         if m == "ga":
             options = {"seed": seed, "progress": progress, **options}
+        known = [k for k in inspect.signature(SPATIAL_PLANNERS[m]).parameters if k != "sc"]
+        unknown = sorted(set(options) - set(known))
+        if unknown:
+            raise QmtInputError(f"option {unknown[0]!r}: the spatial {m} planner takes "
+                                f"{', '.join(known) or 'no options'}"
+                                + (" (family: only toppra, family_optimum and ga take one)" if unknown[0] == "family"
+                                   else ""))
         plan: Plan = SPATIAL_PLANNERS[m](scenario, **options)
         return plan
     if isinstance(scenario, Experiment):

@@ -220,3 +220,13 @@ def test_hand_rotation_refusals(tmp_path):
         raw["task"]["hand_rpy_rad"] = [[np.pi, 0.0, 0.0]] * 4
     with pytest.raises(QmtInputError, match="exactly one of face_normal.*got face_normal, hand_rpy_rad"):
         load_spatial_scenario(edited_copy(sc.path, tmp_path, three))
+
+
+def test_python_api_takes_the_family_and_refuses_it_where_it_does_not_apply():
+    from qmt_drake import plan_with
+    sc = load_or_skip("ur5-suction-bins")
+    assert plan_with("optimum", sc, family="trapezoid_ptp").info["family"] == "trapezoid_ptp"
+    with pytest.raises(QmtInputError, match="ruckig planner takes no options.*only toppra, family_optimum and ga"):
+        plan_with("ruckig", sc, family=LINE)
+    with pytest.raises(QmtInputError, match="'generation': the spatial ga planner takes seed, generations"):
+        plan_with("ga", sc, generation=3)
