@@ -213,6 +213,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     pose_rotations = _pose_rotations(tk, len(P), w)
     pose_normals = (_pose_normals(tk, len(P), w) if pose_rotations is None
                     else np.einsum("kij,j->ki", pose_rotations, face_axis))
+    _refuse_repeated_poses(P, pose_normals, pose_rotations, w)
     n_tr = F.integer(tk, "transfer_points", w, minimum=0, default=0)
     lim = F.mapping(raw, "limits", where)
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
@@ -284,6 +285,16 @@ def _tray_cup(hd: dict, w: str) -> TrayCup:
                    com_height_m=com, margin=F.num(hd, "margin", w, positive=True, maximum=1.0, default=1.0),
                    pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, default=8),
                    tray_size_m=tuple(float(x) for x in size))
+
+
+def _refuse_repeated_poses(P, normals, rotations, w: str) -> None:
+    """One line when a task pose repeats the one before (position and orientation): the hand would not move."""
+    for k in range(1, len(P)):
+        same_turn = (np.allclose(normals[k], normals[k - 1], rtol=0.0, atol=1e-12) if rotations is None
+                     else np.allclose(rotations[k], rotations[k - 1], rtol=0.0, atol=1e-12))
+        if np.linalg.norm(P[k] - P[k - 1]) < 1e-9 and same_turn:
+            raise QmtInputError(f"{w}.poses_m[{k}] repeats pose {k - 1} (same position and orientation), so the hand "
+                                "would not move between them; drop one")
 
 
 def _pose_rotations(tk: dict, n_poses: int, w: str) -> np.ndarray | None:

@@ -161,6 +161,11 @@ def test_family_refusals(tmp_path, capsys):
     bad([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]] + [[0.0, 0.0, -1.0]] * 2, "opposite")
     bad([[0.0, 0.0, -1.0]] * 3 + ["down"], "face_normals\\[3\\]")
 
+    def repeated(raw):
+        raw["task"]["poses_m"].append(raw["task"]["poses_m"][-1])
+    with pytest.raises(QmtInputError, match="poses_m\\[4\\] repeats pose 3"):
+        load_spatial_scenario(edited_copy(sc.path, tmp_path, repeated))
+
 
 def test_full_rotations_per_pose_are_reached_and_slerped_along_the_line(tmp_path):
     """task.hand_rpy_rad: the hand's whole rotation at every pose (the spin about the normal fixed too),
