@@ -48,8 +48,9 @@ NOTES = {"suction": "The co-simulation checks the cup on a finer grip polyhedron
                     "for tracking error (the co-sim hand ratio column: the largest ratio while the part was held).",
          "magnet": "The magnet's moment limit is the same in the planners and the co-simulation: a plan resting on it "
                    "has no margin for tracking error, and TOPP-RA's steps in joint acceleration (bang-bang s-ddot) "
-                   "make the 30 g part on its weld constraint overshoot the limit by about 2 % in the closed loop; "
-                   "the smooth via-cubic plans stay within it (co-sim hand ratio column).",
+                   "make the 30 g part on its weld constraint overshoot the limit by about 2 % in the closed loop, "
+                   "as do the trapezoid's; the smooth via-cubic and straight-line family plans stay within it "
+                   "(co-sim hand ratio column).",
          "tray": "The cup stands unfixed on the tray: in the co-simulation only point contacts with Coulomb friction hold "
                  "it (no weld), so the outcome is the contact's own (slid off / tipped / slipped beyond 5 mm); the co-sim "
                  "hand ratio column is the planners' tray ratio (friction cone, centre of pressure, lift-off) of the "
