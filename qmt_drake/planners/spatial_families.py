@@ -57,10 +57,11 @@ def law_values(law: str, T1, T2, t):
 
 class SegmentTrajectory:
     """Rest-to-rest segments played one after another (module docstring): `paths` joint paths q_i(u)
-    (Drake PiecewisePolynomials on [0, 1]), `law` a law_values name, T1_s, T2_s per segment."""
+    (Drake PiecewisePolynomials on [0, 1], or their DrakePaths, shared between trajectories so their
+    derivatives are made once), `law` a law_values name, T1_s, T2_s per segment."""
 
     def __init__(self, paths, law: str, T1_s, T2_s) -> None:
-        self.paths = [DrakePath(pp) for pp in paths]
+        self.paths = [p if isinstance(p, DrakePath) else DrakePath(p) for p in paths]
         self.law = law
         self.T1_s, self.T2_s = np.asarray(T1_s, float), np.asarray(T2_s, float)
         if not (len(self.paths) == self.T1_s.size == self.T2_s.size) or np.any(self.T1_s <= 0) or np.any(self.T2_s < 0):
@@ -87,9 +88,6 @@ class SegmentTrajectory:
             qd[m] = qu * ud[:, None]
             qdd[m] = qu * udd[:, None] + quu * (ud * ud)[:, None]
         return q, qd, qdd
-
-    def segment(self, i: int) -> SegmentTrajectory:
-        return SegmentTrajectory([self.paths[i].pp], self.law, self.T1_s[i:i + 1], self.T2_s[i:i + 1])
 
 
 def line_targets(sc, i: int, u):
@@ -183,6 +181,10 @@ class ViaCubicFamily:
     def pose_times(self, genes) -> np.ndarray:
         return np.r_[0.0, np.cumsum(genes)]
 
+    def duration_s(self, G) -> np.ndarray:
+        """(P,) motion times of (P, m) genes."""
+        return np.atleast_2d(G).sum(axis=1)
+
     def segment_times(self, genes) -> np.ndarray:
         return np.asarray(genes, float)
 
@@ -206,6 +208,7 @@ class RestToRestFamily:
             self.paths, self.facts = line_paths(sc)
         else:
             self.paths, self.facts = joint_segment_paths(sc), {}
+        self._drake_paths = [DrakePath(pp) for pp in self.paths]  # derivatives made once, for every candidate
         m = len(self.paths)
         self.gene_names = tuple(f"{name}_{i + 1}" for i in range(m) for name in ("T1", "T2"))
         self.lower = np.tile([T1_MIN_S, 0.0], m)
@@ -217,7 +220,16 @@ class RestToRestFamily:
 
     def trajectory(self, genes) -> SegmentTrajectory:
         g = np.asarray(genes, float).reshape(-1, 2)
-        return SegmentTrajectory(self.paths, self.law, g[:, 0], g[:, 1])
+        return SegmentTrajectory(self._drake_paths, self.law, g[:, 0], g[:, 1])
+
+    def segment_trajectory(self, i: int, T1_s: float, T2_s: float) -> SegmentTrajectory:
+        """Segment i alone with accel/decel time T1_s and cruise time T2_s."""
+        return SegmentTrajectory([self._drake_paths[i]], self.law, [T1_s], [T2_s])
+
+    def duration_s(self, G) -> np.ndarray:
+        """(P,) motion times of (P, 2m) genes: the sum of 2 T1 + T2 over the segments."""
+        g = np.atleast_2d(G)
+        return 2.0 * g[:, 0::2].sum(axis=1) + g[:, 1::2].sum(axis=1)
 
     def pose_times(self, genes) -> np.ndarray:
         return self.trajectory(genes).t_start

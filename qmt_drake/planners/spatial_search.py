@@ -71,17 +71,14 @@ def _via_optimum(sc, restarts: int):
 
 def _segment_optimum(sc, fam, i: int) -> tuple[np.ndarray, int]:
     """(T1, T2) of segment i's fastest member at its tight scale, and the evaluations it took."""
-    seg = fam.trajectory(np.tile([1.0, 0.0], fam.n_segments)).segment(i)
-    paths, law = [p.pp for p in seg.paths], seg.law
-
     def times(ratios):  # tight durations of shapes (1, r)
-        trajs = [type(seg)(paths, law, [1.0], [r]) for r in ratios]
+        trajs = [fam.segment_trajectory(i, 1.0, r) for r in ratios]
         return np.array([(2.0 + r) * k for r, k in zip(ratios, tight_scales(sc, trajs))])
 
     grid = np.r_[0.0, np.geomspace(0.01, OPT_RATIO_MAX, OPT_GRID - 1)]
     T = times(grid)
     if not np.isfinite(T).any():
-        _tight_or_refuse(sc, type(seg)(paths, law, [1.0], [0.0]), TIGHT_SAMPLES)
+        _tight_or_refuse(sc, fam.segment_trajectory(i, 1.0, 0.0), TIGHT_SAMPLES)
     j = int(np.argmin(T))
     lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
     r = minimize_scalar(lambda x: times([x])[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-6})
@@ -124,7 +121,7 @@ class SpatialFamilyProblem:
         G = np.atleast_2d(np.asarray(genes, float))
         viol = np.array([max(check(self.sc, self.family.trajectory(g), self.sc.check_rate_hz)["max"] - 1.0, 0.0)
                          for g in G])
-        return Evaluation(cost=np.array([self.family.trajectory(g).duration_s for g in G]), violation=viol)
+        return Evaluation(cost=self.family.duration_s(G), violation=viol)
 
     def fitness(self, ev: Evaluation) -> np.ndarray:
         return self.objective.fitness(ev)
@@ -163,8 +160,7 @@ class SpatialTightFamilyProblem(SpatialFamilyProblem):
         G = np.atleast_2d(np.asarray(genes, float))
         k = self.scales(G)
         ok = np.isfinite(k)
-        T = np.array([self.family.trajectory(g).duration_s for g in G])
-        return Evaluation(cost=np.where(ok, k * T, np.inf), violation=np.where(ok, 0.0, np.inf))
+        return Evaluation(cost=np.where(ok, k * self.family.duration_s(G), np.inf), violation=np.where(ok, 0.0, np.inf))
 
     def realize(self, genes) -> np.ndarray:
         """The genes (s) of the tight motion of `genes` (every time gene times the scale)."""
