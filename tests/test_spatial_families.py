@@ -8,32 +8,16 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 
 from qmt_drake.apps.cli import main as cli_main
 from qmt_drake.errors import QmtInputError
-from qmt_drake.model.spatial_ik import slerp_rotations, slerp_unit
+from qmt_drake.model.spatial_ik import slerp_rotations
 from qmt_drake.planners.spatial_families import LINE_TOL_M, LINE_TOL_RAD, spatial_family
 from qmt_drake.planners.spatial_methods import plan_family_optimum, plan_ga_spatial, plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
+from studies.spatial_path_deviation import line_errors
 from tests.spatial_fixtures import edited_copy, load_or_skip
 
 LINE = "line_cubic_velocity"
-
-
-def line_errors(sc, plan, rate_hz: float = 1000.0):
-    """(m, rad): the largest distance of the hand (Drake FK) to the straight line of the segment it is on
-    and of its face normal to the normal slerped between the segment's poses, at rate_hz."""
-    t = np.linspace(0.0, plan.duration_s, int(plan.duration_s * rate_hz) + 1)
-    q = plan.trajectory.sample(t)[0]
-    seg = np.clip(np.searchsorted(plan.pose_times_s, t, side="right") - 1, 0, len(sc.poses_m) - 2)
-    worst_m = worst_rad = 0.0
-    for qk, i in zip(q, seg):
-        p, R = sc.ik.pose(qk)
-        a, d = sc.poses_m[i], sc.poses_m[i + 1] - sc.poses_m[i]
-        x = float(np.clip((p - a) @ d / (d @ d), 0.0, 1.0))
-        worst_m = max(worst_m, float(np.linalg.norm(p - a - x * d)))
-        n, n_ref = R @ sc.ik.face_axis, slerp_unit(sc.pose_normals[i], sc.pose_normals[i + 1], x)[0]
-        worst_rad = max(worst_rad, float(np.arctan2(np.linalg.norm(np.cross(n, n_ref)), n @ n_ref)))
-    return worst_m, worst_rad
 
 
 @pytest.mark.parametrize("name", ["ur5-suction-bins", "panda-tray-cup"])
