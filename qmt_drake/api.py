@@ -24,7 +24,8 @@ from pydrake.geometry import Meshcat
 
 import qmt_drake.builders  # noqa: F401  (registers the scenario's builders)
 import qmt_drake.sweep.parameters  # noqa: F401  (registers the check of the scenario's uncertainty section)
-from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, Scenario, scenario_kind
+from qmt_drake.config.resolve import kind_of
+from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.energy.energy_plan import EnergyPlan, plan_energy_time
 from qmt_drake.energy.execute import execute_plan
@@ -54,9 +55,7 @@ __all__ = ["Plan", "Scenario", "build_diagram", "load_plan", "load_scenario", "p
 def _kind_of_file(name_or_path: str | Path) -> str:
     """The `kind` of a built-in name's or a YAML path's file ('' when it is neither: the transfer loader
     then says why in one line)."""
-    p = SCENARIO_DIR / f"{name_or_path}.yaml"
-    path = p if isinstance(name_or_path, str) and "/" not in name_or_path and p.is_file() else Path(name_or_path)
-    return scenario_kind(path) if path.is_file() else ""
+    return kind_of(name_or_path)
 
 
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> AnyScenario:

@@ -41,6 +41,7 @@ import numpy as np
 from pydrake.math import RollPitchYaw
 
 from qmt_drake.config import fields as F
+from qmt_drake.config.resolve import SCENARIO_DIR, SPATIAL, resolve_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
@@ -51,8 +52,7 @@ from qmt_drake.model.spatial_ik import SpatialIK, slerp_rotations, slerp_unit
 from qmt_drake.model.urdf_check import EXAMPLE_ARMS, drive_parameters, example_robot_urdf, load_arm_plant
 from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 
-SPATIAL_KIND = "spatial_transfer"
-SCENARIO_DIR = Path(__file__).resolve().parent.parent / "models" / "scenarios"
+SPATIAL_KIND = SPATIAL
 RECHECK_FACTOR = 10
 TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits"}
 
@@ -127,14 +127,8 @@ class SpatialScenario:
 
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:
-    p = Path(name_or_path)
-    if not p.suffix and (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
-        p = SCENARIO_DIR / f"{name_or_path}.yaml"
-    if not p.is_file():
-        raise QmtInputError(f"spatial scenario '{name_or_path}' is neither a built-in (ur5-suction-bins, "
-                            "ur5-magnet-part, panda-tray-cup) nor a "
-                            "YAML file that exists")
-    return p
+    """The YAML file of a built-in name or a path (config/resolve.py); one line if neither or of another kind."""
+    return resolve_scenario(name_or_path, SPATIAL_KIND)
 
 
 def _arm(raw: dict, where: str, base: Path):

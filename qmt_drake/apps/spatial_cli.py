@@ -33,7 +33,7 @@ from qmt_drake.apps.arg_checks import (
     progress,
 )
 from qmt_drake.budgets import SPATIAL_REPLAY, announce, check_budget, replay_estimate, spatial_ga_estimate
-from qmt_drake.config.scenario import SCENARIO_DIR, builtin_scenarios, scenario_kind
+from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import jsonable
@@ -61,13 +61,7 @@ NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "success"
 
 def is_spatial_scenario(name_or_path) -> bool:
     """A built-in name or a YAML file with `kind: spatial_transfer`; never raises (a probe)."""
-    p = SCENARIO_DIR / f"{name_or_path}.yaml"
-    if not (isinstance(name_or_path, str) and "/" not in name_or_path and p.is_file()):
-        p = name_or_path
-    try:
-        return scenario_kind(p) == SPATIAL_KIND
-    except (OSError, TypeError, ValueError):
-        return False
+    return kind_of(name_or_path) == SPATIAL_KIND
 
 
 def list_scenarios() -> None:

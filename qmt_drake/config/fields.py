@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +37,12 @@ class _UniqueKeyLoader(yaml.SafeLoader):
                 raise QmtInputError(f"duplicated key '{key}' at line {line}; give each key once")
             seen.add(key)
         return super().construct_mapping(node, deep=deep)
+
+
+# YAML 1.2 reads 1e5 and 1e-5 (no dot) as numbers; PyYAML follows YAML 1.1 and reads them as text. Every
+# scenario, sweep and task file goes through this loader, so one number rule holds for all of them.
+_UniqueKeyLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float", re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"), list("-+0123456789"))
 
 
 def load_yaml_text(text: str, where: str) -> Any:
@@ -113,7 +120,7 @@ def num(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: b
         return default
     v = need(d, key, where)
     if not is_number(v):
-        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}{_float_text_hint(v)}")
+        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}{float_text_hint(v)}")
     v = float(v)
     if not math.isfinite(v) or (positive and v <= 0) or (nonnegative and v < 0):
         want = "positive" if positive else "non-negative" if nonnegative else "finite"
@@ -166,7 +173,7 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     """A non-empty list of finite numbers (positive / non-negative if asked; `length` entries)."""
     v = need(d, key, where)
     if not isinstance(v, list) or not v or not all(is_number(x) for x in v):
-        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}{_float_text_hint(v)}")
+        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}{float_text_hint(v)}")
     a = np.asarray(v, dtype=float)
     bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
     if np.any(bad):
@@ -177,7 +184,7 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     return a
 
 
-def _float_text_hint(v) -> str:
+def float_text_hint(v) -> str:
     """The fix when YAML 1.1 read a number as text (PyYAML takes 1e-5 without a dot for a string)."""
     items = v if isinstance(v, list) else [v]
     for x in items:
