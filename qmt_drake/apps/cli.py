@@ -36,6 +36,7 @@ from qmt_drake.apps.plan_command import (
     cmd_plan,
     refuse_spatial_method,
 )
+from qmt_drake.apps.retime_command import add_parser as add_retime_parser
 from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
 from qmt_drake.design.cli import add_parser as add_design_parser
@@ -248,6 +249,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_sweep_parser(sub)
     add_design_parser(sub)
+    add_retime_parser(sub)
 
     s = sub.add_parser("reproduce", help="the main job (make run): every seed, the benchmark and out/report.html")
     s.add_argument("--out", default="out")
