@@ -27,6 +27,9 @@ result goes through the spatial re-check (spatial_plan_io.finish_plan: sampled a
 rate, slowed by the smallest time scale that makes it hold). The hand's pose error at the path's
 ends against the scenario's first/last task pose is reported as information only (info
 'end_pose_error': [[m, rad] start, [m, rad] end]); plan.pose_times_s are the path's start and end.
+A retimed plan's file (plan.write_json) loads back with `load_plan_file` (also any other plan file of
+the scenario, through spatial_plan_io.load_spatial_plan): same scenario name and joints, the rebuilt
+trajectory equal to the file's own samples, re-checked afresh.
 """
 
 from __future__ import annotations
@@ -41,7 +44,15 @@ import numpy as np
 import yaml
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan
+from qmt_drake.plan_files import read_plan_file
+from qmt_drake.planners.spatial_plan_io import (
+    REBUILD_TOL,
+    SpatialPlan,
+    finish_plan,
+    load_spatial_plan,
+    make_spatial_plan,
+    trajectory_from_spec,
+)
 from qmt_drake.planners.spatial_search import plan_ga_spatial
 from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
 from qmt_drake.planners.spatial_trajectory import ToppraTrajectory
@@ -230,3 +241,31 @@ def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid:
     ends = end_pose_errors(scenario, plan.trajectory)
     plan = replace(plan, pose_error=ends, extra={**plan.extra, "end_pose_error": ends})
     return plan
+
+
+def load_plan_file(path, sc) -> SpatialPlan:
+    """A plan file of sc: a retimed path's (module docstring) or any other (load_spatial_plan)."""
+    d = read_plan_file(path)
+    method = d.get("method")
+    if method not in ("retime_toppra", "retime_ga"):
+        return load_spatial_plan(path, sc)
+    if d.get("scenario") != sc.name or d.get("joint_names") != list(sc.joint_names):
+        raise QmtInputError(f"plan file {path} retimes a path of scenario {d.get('scenario')} (joints "
+                            f"{d.get('joint_names')}), not of {sc.name}; retime the path for {sc.name}")
+    try:
+        traj = trajectory_from_spec(d["rebuild"])
+        stored = d["trajectory"]
+        t = np.asarray(stored["t_s"], float)
+        err = float(np.max(np.abs(np.asarray(stored["q_rad"], float) - traj.sample(t)[0])))
+        nums = {k: float(d[k]) for k in ("planning_s", "raw_duration_s", "hold_scale")}
+        info = dict(d["info"])
+    except (KeyError, TypeError, ValueError, RuntimeError, AttributeError) as exc:
+        raise QmtInputError(f"plan file {path}: cannot rebuild its trajectory ({str(exc).splitlines()[0]}); "
+                            f"write it again with `qmt-drake retime {sc.name} --path FILE --json PATH`") from None
+    if not err <= REBUILD_TOL:
+        raise QmtInputError(f"plan file {path}: its rebuilt trajectory differs from its own samples by {err:.3g} rad "
+                            "(edited by hand?); write it again with `qmt-drake retime`")
+    plan = make_spatial_plan(sc, method, traj, [0.0, traj.duration_s], planning_s=nums["planning_s"],
+                             raw_duration_s=nums["raw_duration_s"], hold_scale=nums["hold_scale"], info=info)
+    ends = end_pose_errors(sc, traj)
+    return replace(plan, pose_error=ends, extra={**info, "end_pose_error": ends})

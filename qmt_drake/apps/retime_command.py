@@ -72,7 +72,7 @@ def cmd_retime(args) -> int:
 
 def binding(recheck: dict) -> str:
     """The name of the largest ratio of a re-check dict."""
-    ratios = {k: v for k, v in recheck.items() if k not in ("max", "n_samples")}
+    ratios = {k: v for k, v in recheck.items() if k not in ("max", "n_samples", "check_rate_hz")}
     return max(ratios, key=ratios.get)
 
 
