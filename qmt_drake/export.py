@@ -137,7 +137,9 @@ def write_stream(path, fmt: str, joint_names, t, q, qd, qdd) -> None:
         rows += [",".join([repr(float(tk))] + [repr(float(v)) for v in qk]) for tk, qk in zip(t, q)]
         write_text_atomic(path, "\n".join(rows) + "\n")
     else:
-        write_text_atomic(path, yaml.safe_dump(ros2_joint_trajectory(joint_names, t, q, qd, qdd), sort_keys=False))
+        dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's emitter when built: ~10x faster
+        write_text_atomic(path, yaml.dump(ros2_joint_trajectory(joint_names, t, q, qd, qdd), Dumper=dumper,
+                                          sort_keys=False))
 
 
 def stream_check(sc, stream, rate_hz: float) -> dict:

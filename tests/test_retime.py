@@ -10,7 +10,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.planners.spatial_toppra import joint_path, plan_drake_toppra
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
-from qmt_drake.retime import retime_path
+from qmt_drake.retime import load_plan_file, retime_path
 from tests.spatial_fixtures import load_or_skip
 
 NAMES = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
@@ -123,3 +123,13 @@ def test_cli_refuses_an_unknown_joint_in_one_line(tmp_path, capsys):
     assert err.count("\n") == 0 and "base_joint" in err
     assert main(["retime", "thesis-ch2", "--path", path]) == 2
     assert "spatial scenario" in capsys.readouterr().err
+
+
+def test_a_retimed_plan_file_loads_back_for_export(sc, csv_plan, tmp_path):
+    csv_plan.write_json(tmp_path / "r.json")
+    back = load_plan_file(tmp_path / "r.json", sc)
+    assert back.method == "retime_toppra" and back.duration_s == csv_plan.duration_s
+    assert back.recheck == pytest.approx(csv_plan.recheck, rel=1e-9)  # rebuilt to rounding (REBUILD_TOL)
+    np.testing.assert_allclose(back.pose_error, csv_plan.pose_error, rtol=1e-9)
+    with pytest.raises(QmtInputError, match="retimes a path of scenario ur5-suction-bins"):
+        load_plan_file(tmp_path / "r.json", load_or_skip("ur5-magnet-part"))
