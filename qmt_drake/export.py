@@ -22,6 +22,7 @@ take a plan:
 
 The check samples the interpolated stream at CHECK_FACTOR (10) times the stream rate, or at the
 scenario's re-check rate if that is finer, and states its peak jerk there (qmt_drake/jerk.py).
+`hold` (--hold) first slows the plan (TimeScaled) by the time scale at which its stream keeps the limits.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from qmt_drake.budgets import Estimate, check_budget
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import peak_jerk
 from qmt_drake.outputs import write_text_atomic
-from qmt_drake.planners.spatial_trajectory import PolyTrajectory, check
+from qmt_drake.planners.spatial_trajectory import PolyTrajectory, TimeScaled, check
 
 FORMATS = ("ros2", "csv")
 INTERPOLATIONS = ("linear", "cubic")
@@ -45,6 +46,8 @@ CHECK_FACTOR = 10
 # by `check` on 3974 / 39722 samples of a TOPP-RA plan); the stream and the plan are checked, the jerk sampled: x3
 CHECK_S_PER_SAMPLE = 3 * 40e-6
 CHECK_BYTES_PER_SAMPLE = 3e3
+HOLD_MAX_SCALE = 3.0  # --hold: the slowest time scale tried
+HOLD_REL_TOL = 1e-3
 
 
 def stream_times(duration_s: float, rate_hz: float) -> np.ndarray:
@@ -148,18 +151,42 @@ def stream_check(sc, stream, rate_hz: float) -> dict:
     return {**check(sc, stream, rate), "check_rate_hz": rate}
 
 
-def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", *, allow_large: bool = False) -> dict:
-    """Write `plan` (a SpatialPlan of sc) as the stream (module docstring) and re-check the stream as
-    `interp` interpolates it; the report: the stream, its re-check against the plan's own, peak jerks."""
-    check_export_inputs(sc, plan.duration_s, fmt, rate_hz, interp, allow_large=allow_large)
-    t, q, qd, qdd = stream_samples(plan.trajectory, rate_hz)
-    write_stream(out, fmt, sc.joint_names, t, q, qd, qdd)
+def _stream_of(sc, traj, rate_hz: float, interp: str):
+    t, q, qd, qdd = stream_samples(traj, rate_hz)
     stream = interpolated(t, q, qd, interp)
-    rc = stream_check(sc, stream, rate_hz)
-    plan_rate = check_rate(sc, rate_hz)
-    own = check(sc, plan.trajectory, plan_rate)
+    return (t, q, qd, qdd), stream, stream_check(sc, stream, rate_hz)
+
+
+def hold_scale(sc, traj, rate_hz: float, interp: str, *, k_max: float = HOLD_MAX_SCALE, rel_tol: float = HOLD_REL_TOL):
+    """The time scale k in [1, k_max] (bisection to rel_tol) at which the stream of traj played k times
+    slower keeps every limit as interpolated; each k tried is checked, and the one returned holds. The
+    ratio is not monotone in k (the samples fall elsewhere on the plan), so a smaller k may hold too."""
+    if _stream_of(sc, traj, rate_hz, interp)[2]["max"] <= 1.0:
+        return 1.0
+    if _stream_of(sc, TimeScaled(traj, k_max), rate_hz, interp)[2]["max"] > 1.0:
+        raise QmtInputError(f"--hold: the stream at {rate_hz:g} Hz breaks a limit even {k_max:g} times slower; "
+                            "raise the rate or use the other --interp")
+    lo, hi = 1.0, k_max
+    while hi / lo - 1.0 > rel_tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if _stream_of(sc, TimeScaled(traj, mid), rate_hz, interp)[2]["max"] <= 1.0 else (mid, hi)
+    return hi
+
+
+def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", *, hold: bool = False,
+                allow_large: bool = False) -> dict:
+    """Write `plan` (a SpatialPlan of sc) as the stream (module docstring) and re-check the stream as
+    `interp` interpolates it; hold: first slow the plan by hold_scale so that the stream keeps the limits.
+    The report: the stream's re-check beside the plan's own at the same rate, peak jerks, the scale."""
+    check_export_inputs(sc, plan.duration_s * (HOLD_MAX_SCALE if hold else 1.0), fmt, rate_hz, interp,
+                        allow_large=allow_large)
+    k = hold_scale(sc, plan.trajectory, rate_hz, interp) if hold else 1.0
+    traj = plan.trajectory if k == 1.0 else TimeScaled(plan.trajectory, k)
+    (t, q, qd, qdd), stream, rc = _stream_of(sc, traj, rate_hz, interp)
+    write_stream(out, fmt, sc.joint_names, t, q, qd, qdd)
+    own = check(sc, plan.trajectory, check_rate(sc, rate_hz))
     return {"scenario": sc.name, "method": plan.method, "format": fmt, "rate_hz": float(rate_hz), "interp": interp,
             "out": str(out), "n_samples": int(len(t)), "stream_end_s": float(t[-1]), "plan_duration_s": plan.duration_s,
-            "stream_recheck": rc, "stream_holds": rc["max"] <= 1.0, "plan_recheck_same_rate": own,
+            "hold_scale": k, "stream_recheck": rc, "stream_holds": rc["max"] <= 1.0, "plan_recheck_same_rate": own,
             "stream_peak_jerk": peak_jerk(sc, stream, rc["check_rate_hz"]),
             "plan_peak_jerk": peak_jerk(sc, plan.trajectory, sc.recheck_rate_hz), "stream": stream}

@@ -125,3 +125,20 @@ def test_export_refuses_a_plan_of_another_scenario(sc, plan, tmp_path):
 
 def test_check_rate_is_ten_times_the_stream_or_the_scenarios_recheck(sc):
     assert check_rate(sc, 125.0) == sc.recheck_rate_hz and check_rate(sc, 1000.0) == 10000.0
+
+
+def test_hold_slows_the_plan_until_its_stream_keeps_the_limits(sc, plan, tmp_path):
+    rep = export_plan(sc, plan, "csv", 125.0, tmp_path / "h.csv", "cubic", hold=True)
+    k = rep["hold_scale"]
+    assert 1.0 < k <= 3.0 and rep["stream_holds"]
+    # the written stream is the slowed plan's: it lasts k times the plan
+    data = np.loadtxt(tmp_path / "h.csv", delimiter=",", skiprows=1)
+    assert data[-1, 0] >= plan.duration_s * k - 1e-9
+    again = export_plan(sc, plan, "csv", 125.0, tmp_path / "h2.csv", "cubic")  # unheld: breaks
+    assert not again["stream_holds"]
+
+
+def test_jerk_limited_is_refused_for_other_methods_in_one_line(capsys):
+    assert main(["plan", "ur5-suction-bins", "--method", "ruckig", "--jerk-limited", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--method toppra" in err

@@ -1,14 +1,14 @@
 """`qmt-drake export PLAN.json --scenario SCENARIO`: a plan as a controller's stream, re-checked as interpolated.
 
     qmt-drake export plan.json --scenario ur5-suction-bins --format ros2|csv --rate 125 --out plan.yaml
-        [--interp linear|cubic] [--simulate] [--json report.json] [--allow-large]
+        [--interp linear|cubic] [--hold] [--simulate] [--json report.json] [--allow-large]
 
 Writes the stream (qmt_drake/export.py: samples at --rate, CSV of time_s and the joint names, or a
 ROS 2 JointTrajectory YAML), re-checks it as the controller interpolates it (--interp, at 10x the
 rate or the scenario's re-check rate if finer: joint speed, acceleration, torque, the hand's ratio)
 and prints one line: the largest ratio and its term, whether the stream keeps the limits, the plan's
 own largest ratio at the same rate, and the peak jerks. --simulate co-simulates the interpolated
-stream as the reference. The plan file may be any spatial plan of the scenario (`plan --json`) or a
+stream as the reference; --hold first slows the plan until its stream keeps the limits. The plan file may be any spatial plan of the scenario (`plan --json`) or a
 retimed path's (`retime --json`). Exit 0 when the stream keeps every limit, 3 when it does not (the
 stream is written either way).
 """
@@ -39,6 +39,8 @@ def add_parser(subparsers):
     s.add_argument("--out", required=True, metavar="FILE", help="the stream file")
     s.add_argument("--interp", default="cubic", help=f"{'|'.join(INTERPOLATIONS)}: the controller's interpolation "
                    "between samples (cubic: Hermite through positions and velocities, as ROS 2's controller)")
+    s.add_argument("--hold", action="store_true", help="first slow the plan until its interpolated stream keeps "
+                   "every limit (bisection up to 3x; the scale is printed)")
     s.add_argument("--simulate", action="store_true", help="co-simulate the interpolated stream (carried or not)")
     s.add_argument("--json", metavar="PATH|-", help="write the report")
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
@@ -54,7 +56,8 @@ def cmd_export(args) -> int:
                             "e.g. ur5-suction-bins); `qmt-drake scenarios` lists them")
     sc = load_spatial_scenario(args.scenario)
     plan = load_plan_file(args.plan, sc)
-    rep = export_plan(sc, plan, args.format, args.rate, args.out, args.interp, allow_large=args.allow_large)
+    rep = export_plan(sc, plan, args.format, args.rate, args.out, args.interp, hold=args.hold,
+                      allow_large=args.allow_large)
     stream = rep.pop("stream")
     if args.simulate:
         rep["simulation"] = simulate_spatial(sc, stream)
@@ -72,6 +75,8 @@ def summary_line(rep: dict) -> str:
             f"{rc['max']:.4f} ({binding(rc)}), the stream {'keeps' if rep['stream_holds'] else 'BREAKS'} the limits "
             f"(the plan itself {own['max']:.5f} at that rate); peak jerk {sj['peak_jerk_ratio']:.3g} x the limit "
             f"at {sj['jerk_rate_hz']:g} Hz (the plan's {pj['peak_jerk_ratio']:.3g} x at {pj['jerk_rate_hz']:g} Hz)")
+    if rep["hold_scale"] != 1.0:
+        line += f"; played {rep['hold_scale']:.4f} x slower (--hold): T = {rep['plan_duration_s'] * rep['hold_scale']:.4f} s"
     sim = rep.get("simulation")
     if sim is not None:
         line += f"; co-simulation of the stream: {verdict_line(sim['outcome'], sim['lost_at_s'])}"
