@@ -56,6 +56,8 @@ def refuse_spatial_method(args) -> None:
 def cmd_plan(args) -> int:
     if spatial_cli.is_spatial_scenario(args.scenario):
         return 0 if spatial_cli.plan(args, ENERGY_ONLY_OPTIONS) else EXIT_INFEASIBLE
+    if getattr(args, "jerk_limited", False):
+        raise QmtInputError(f"--jerk-limited: for spatial scenarios' --method toppra; {args.scenario} is not one: drop it")
     if args.family is not None:
         raise QmtInputError(f"--family: for spatial scenarios; {args.scenario} sets its family in its file "
                             "(family.kind); drop --family")

@@ -35,6 +35,7 @@ from qmt_drake.apps.arg_checks import (
 from qmt_drake.budgets import SPATIAL_REPLAY, announce, check_budget, replay_estimate, spatial_ga_estimate
 from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
+from qmt_drake.jerk import jerk_limited_plan, peak_jerk
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import jsonable
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
@@ -140,6 +141,9 @@ def plan(args, energy_options) -> bool:
     every limit on the re-check."""
     _refuse_given(args, PLAN_REFUSED, energy_options)
     method = _method(args)
+    if getattr(args, "jerk_limited", False) and method != "toppra":
+        raise QmtInputError(f"--jerk-limited slows a TOPP-RA plan to the jerk limits; --method {method} does not "
+                            "take it (use --method toppra; ruckig plans jerk-limited motions itself)")
     check_outputs(args, "--json", "--trajectory-csv")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
     if args.carried_max_scale <= 1:
@@ -147,6 +151,8 @@ def plan(args, energy_options) -> bool:
     opts = _planner_options(args, method)
     sc = load_spatial_scenario(args.scenario)
     p = _plan(args, sc, method, opts)
+    if getattr(args, "jerk_limited", False):  # qmt_drake/jerk.py: slowed until its jerk is within the limits
+        p = jerk_limited_plan(sc, p)
     try:  # TOPP-RA's duration on the family's path: the bound (well under a second on a UR5)
         family = opts.get("family", "via_cubic")
         bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc, family=family).raw_duration_s
@@ -171,6 +177,10 @@ def summary_line(sc, p, bound) -> str:
     line = (f"{sc.name} {p.method}: T = {p.duration_s:.4f} s ({ratio}), re-check max ratio {p.recheck['max']:.5f} "
             f"at {sc.recheck_rate_hz:g} Hz, time scale applied {p.hold_scale:.4f}, task poses within "
             f"{p.pose_error[:, 0].max():.1e} m, {p.planning_s:.2f} s")
+    pj = peak_jerk(sc, p.trajectory, sc.recheck_rate_hz)
+    line += f", peak jerk {pj['peak_jerk_ratio']:.3g} x the limit at {sc.recheck_rate_hz:g} Hz"
+    if p.info.get("jerk_limited"):
+        line += f" (jerk-limited: {p.info['jerk_time_scale']:.4f} x slower than {p.info['duration_before_jerk_limit_s']:.4f} s)"
     s = p.info.get("carried_search")
     if s:
         lost = f", lost at x{s['lost_below']:.4f}" if s["lost_below"] else ", as planned"
