@@ -32,6 +32,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.actuator_order import actuator_joint_names, actuator_specs, add_actuators_in_order
 
 DRAKE_NS = "http://drake.mit.edu"
 ET.register_namespace("drake", DRAKE_NS)
@@ -216,24 +217,21 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
     _strip_and_lock(root, tuple(lock_joints), source)
     names = check_urdf(root, hand_frame, source=source, effort_limit_Nm=effort_limit_Nm,
                        velocity_limit_rad_s=velocity_limit_rad_s)
-    plant = MultibodyPlant(time_step_s)
-    try:
-        model = Parser(plant).AddModelsFromString(ET.tostring(root, encoding="unicode"), "urdf")[0]
-    except RuntimeError as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise QmtInputError(f"{source}: Drake cannot parse it ({msg}); fix the URDF") from None
+    plant, model = _parse(root, time_step_s, source)
+    if actuator_joint_names(plant, model) != names:
+        # Drake's actuators follow the <transmission> order and skip the ones it does not support: parse
+        # again without them and add one actuator per chain joint in chain order (model/actuator_order.py)
+        specs = actuator_specs(plant, model, names, source)
+        for tr in root.findall("transmission"):
+            root.remove(tr)
+        plant, model = _parse(root, time_step_s, source)
+        add_actuators_in_order(plant, model, names, specs)
     root_link = chain_root_link(root, hand_frame)
     if root_link != "world":
         base = plant.GetBodyByName(root_link, model)
         welded = {b.index() for b in plant.GetBodiesWeldedTo(plant.world_body())}
         if base.index() not in welded:
             plant.WeldFrames(plant.world_frame(), base.body_frame(), RigidTransform())
-    # An actuator on every chain joint that has none (example-robot-data's Panda URDF declares no
-    # transmissions): the arm is torque-driven; its limits are the scenario's torque limits.
-    have = {plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()}
-    for name in names:
-        if name not in have:
-            plant.AddJointActuator(f"{name}_actuator", plant.GetJointByName(name, model))
     hand = plant.GetFrameByName(hand_frame, model)
     if carried is not None:
         inertia = RotationalInertia(*_inertia_args(np.asarray(carried["inertia_kgm2"], float)))
@@ -244,6 +242,16 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
     if finalize:
         plant.Finalize()
     return plant, hand, names
+
+
+def _parse(root: ET.Element, time_step_s: float, source: str):
+    plant = MultibodyPlant(time_step_s)
+    try:
+        model = Parser(plant).AddModelsFromString(ET.tostring(root, encoding="unicode"), "urdf")[0]
+    except RuntimeError as exc:
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise QmtInputError(f"{source}: Drake cannot parse it ({msg}); fix the URDF") from None
+    return plant, model
 
 
 def drive_parameters(urdf: str | Path, joint_names, *, gear_ratio=None, rotor_inertia_kgm2=None,
