@@ -24,6 +24,7 @@ or takes them from the scenario's actuator section; without either, an ideal joi
 
 from __future__ import annotations
 
+import logging
 import re
 import warnings
 import xml.etree.ElementTree as ET
@@ -274,7 +275,13 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
         specs = actuator_specs(plant, model, names, source)
         for tr in root.findall("transmission"):
             root.remove(tr)
-        plant, model = _parse(root, time_step_s, source)
+        drake_log = logging.getLogger("drake")
+        level = drake_log.level
+        drake_log.setLevel(logging.ERROR)  # its warnings about this URDF were given by the first parse
+        try:
+            plant, model = _parse(root, time_step_s, source)
+        finally:
+            drake_log.setLevel(level)
         add_actuators_in_order(plant, model, names, specs)
     root_link = chain_root_link(root, hand_frame)
     if root_link != "world":
