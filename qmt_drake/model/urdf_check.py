@@ -185,8 +185,10 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
     on_path = {j.get("name") for j in path}
     off = [j.get("name") for j in root.findall("joint") if j.get("type") in MOVABLE_OK and j.get("name") not in on_path]
     if off:
-        raise QmtInputError(f"{source}: movable joints {off} are not on the chain from the base to "
-                            f"{hand_frame!r} (a branch); lock them (lock_joints) or name a hand frame after them")
+        shown = str(off) if len(off) <= 8 else f"{off[:6]} and {len(off) - 6} more"
+        raise QmtInputError(f"{source}: movable joints {shown} are not on the chain from the base to "
+                            f"{hand_frame!r} (a branch); lock them (lock_joints, or lock: off_chain for every one) "
+                            "or name a hand frame after them")
     movable = [j for j in path if j.get("type") in MOVABLE_OK]
     if not movable:
         raise QmtInputError(f"{source}: no revolute joint between the base and {hand_frame!r}; "
