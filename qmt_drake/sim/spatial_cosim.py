@@ -45,6 +45,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
+from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.spatial_actuation import (
@@ -128,7 +129,7 @@ def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
     builder.Connect(src.get_output_port(), ctrl.get_input_port_desired_state())
     builder.Connect(src_a.get_output_port(), ctrl.get_input_port_desired_acceleration())
     builder.Connect(ctrl.get_output_port_control(), sat.get_input_port())
-    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port(arm))
+    connect_joint_torques(builder, plant, arm, sc.joint_names, sat.get_output_port())  # by name, not index
     return None
 
 
