@@ -88,3 +88,18 @@ def test_a_joint_leaving_its_range_between_poses_is_reported_and_flagged(ur5):
     assert rc["joint_range"] == pytest.approx(abs(dense.max() - 0.5 * (upper[j] + lower[j])) / half, rel=1e-6)
     assert not plan.check.feasible and rc["max"] > 1.0 and rc["max_timed"] <= 1.0
     assert plan.hold_scale == 1.0  # slowing down cannot bring a joint back into its range
+
+
+def test_toppra_path_kept_inside_the_ranges_where_the_spline_would_overshoot():
+    """Waypoints along a joint's upper limit: the C2 spline overshoots it between them (seen by brute
+    force), the path joint_path gives with the ranges does not."""
+    from qmt_drake.planners.spatial_toppra import joint_path
+
+    Q = np.array([[0.0, 0.5], [0.8, 0.6], [1.0, 0.7], [0.3, 0.8], [0.0, 0.9]])
+    lower, upper = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
+    free, kept = joint_path(Q), joint_path(Q, lower, upper)
+    s = np.linspace(free.start_time(), free.end_time(), 100001)
+    assert free.vector_values(s)[0].max() > upper[0] + 1e-3
+    q = kept.vector_values(s)
+    assert np.all(q <= upper[:, None]) and np.all(q >= lower[:, None])
+    assert np.allclose(kept.vector_values(free.get_segment_times()).T, Q, atol=1e-12)

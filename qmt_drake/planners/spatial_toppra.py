@@ -30,7 +30,6 @@ from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.toppra_form import rows_constraints
 from qmt_drake.planners.toppra_passes import seidel_parameterization
 
-
 RANGE_SAMPLES_PER_SEGMENT = 64  # where the C2 cubic is looked at for leaving a joint's range
 
 
