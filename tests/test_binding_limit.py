@@ -63,3 +63,24 @@ def test_a_toppra_plan_names_its_binding_limit():
     rc = plan.recheck
     assert rc["binding"] == "suction" and rc["max"] == rc["suction"] > 0.999  # time-optimal: on the grip
     assert 0.0 <= rc["binding_time_s"] <= plan.duration_s
+
+
+def test_drakes_toppra_names_the_joint_gravity_overloads():
+    from qmt_drake.planners.spatial_toppra import joint_path, plan_drake_toppra
+
+    sc = load_spatial_scenario("ur5-suction-bins")
+    plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints)  # the arm alone
+    ctx = plant.CreateDefaultContext()
+    j = plant.GetJointByName(JOINT).velocity_start()
+    need = []
+    for q in sc.q_path_rad:
+        plant.SetPositions(ctx, q)
+        need.append(abs(plant.CalcGravityGeneralizedForces(ctx)[j]))
+    torque = np.array(sc.torque_limit_Nm, float)
+    torque[j] = 0.9 * max(need)
+    with pytest.raises(QmtInputError) as exc:
+        plan_drake_toppra(joint_path(sc.q_path_rad), plant, velocity_limit=sc.velocity_limit_rad_s,
+                          acceleration_limit=sc.acceleration_limit_rad_s2, torque_limit=torque, n_grid=200)
+    msg = str(exc.value)
+    ratio = float(re.search(rf"joint_torque\[{JOINT}\] needs ([\d.]+) of its limit at rest", msg).group(1))
+    assert ratio >= 1.0 / 0.9 * (1 - 1e-3)

@@ -201,9 +201,31 @@ def plan_drake_toppra(pp, plant, *, velocity_limit, acceleration_limit, torque_l
     s_traj = solver.SolvePathParameterization()
     planning_s = time.perf_counter() - t0
     if s_traj is None:
-        raise QmtInputError("Drake's Toppra found no parameterisation of the path; relax a limit")
+        raise QmtInputError("Drake's Toppra found no parameterisation of the path"
+                            + _drake_at_rest(pp, plant, grid, torque_limit) + "; relax a limit")
     return {"duration_s": float(s_traj.end_time() - s_traj.start_time()), "planning_s": planning_s,
             "n_grid": n_grid, "s_of_t": s_traj}
+
+
+def _drake_at_rest(pp, plant, grid, torque_limit) -> str:
+    """': <joint torque> needs r of its limit at rest (...)' by Drake's gravity forces along the path
+    (plant positions = the path's rows), or '' without torque limits."""
+    if torque_limit is None:
+        return ""
+    ctx = plant.CreateDefaultContext()
+    tau = []
+    for q in pp.vector_values(grid).T:
+        plant.SetPositions(ctx, q)
+        tau.append(plant.CalcGravityGeneralizedForces(ctx))  # the torque holding q still is its negative
+    tl = np.asarray(torque_limit, float)
+    labels = [f"joint_torque[{j}]" for j in range(tl.size)]
+    for idx in plant.GetJointIndices():
+        j = plant.get_joint(idx)
+        if j.num_velocities() == 1 and j.velocity_start() < tl.size:
+            labels[j.velocity_start()] = f"joint_torque[{j.name()}]"
+    w = worst_at_rest(np.abs(np.array(tau)) / tl, labels, limits_Nm=tl)
+    k = w["sample"]
+    return ": " + describe_at_rest(w, f"path point s = {grid[k]:.4g} rad")
 
 
 def recheck(plan: dict, pp, chain, terms, *, refine: int = 10) -> dict:
