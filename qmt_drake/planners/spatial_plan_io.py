@@ -55,6 +55,7 @@ from qmt_drake.planners.spatial_trajectory import (
     ToppraTrajectory,
     check,
     pose_errors,
+    ratios_of,
     scale_to_hold,
 )
 from qmt_drake.spatial_task import SpatialScenario, load_spatial_scenario
@@ -125,8 +126,8 @@ def make_spatial_plan(sc, method: str, traj, pose_times_s, *, planning_s: float,
     """A SpatialPlan of `traj` on sc, re-checked at sc's re-check rate and its task poses measured by
     Drake FK at pose_times_s (nothing the planner says is taken on trust)."""
     times = np.asarray(pose_times_s, float)
-    rc = check(sc, traj, sc.recheck_rate_hz)
-    ratios = {k: v for k, v in rc.items() if k not in ("max", "n_samples")}
+    rc = check(sc, traj, sc.recheck_rate_hz, refine=True)
+    ratios = ratios_of(rc)
     seg = info.get("segment_times_s")
     genes = info.get("genes") or (None if seg is None else {f"T{i + 1}": v for i, v in enumerate(seg)})
     return SpatialPlan(scenario=sc, method=method, trajectory=traj,
@@ -142,7 +143,7 @@ def finish_plan(sc, method: str, traj, pose_times, t0: float, info: dict) -> Spa
     """The planner's trajectory held at the re-check rate (spatial_trajectory.scale_to_hold) as a
     SpatialPlan; t0 the planner's start (time.perf_counter) for its planning time."""
     raw = traj.duration_s
-    held, k = scale_to_hold(sc, traj, sc.recheck_rate_hz)
+    held, k = scale_to_hold(sc, traj, sc.recheck_rate_hz, refine=True)
     planning_s = time.perf_counter() - t0
     return make_spatial_plan(sc, method, held, np.asarray(pose_times, float) * k, planning_s=planning_s,
                              raw_duration_s=raw, hold_scale=k, info=info)
