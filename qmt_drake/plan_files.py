@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from qmt_drake.config.registry import check_registration
 from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import (
@@ -76,7 +77,12 @@ class PlanKind:
 PLAN_KINDS: dict[str, PlanKind] = {}
 
 
-def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader) -> None:
+def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader, *, replace: bool = False) -> None:
+    """A scenario kind's plan-file loader; a kind registers once (replace=True to swap it)."""
+    check_registration("plan kind", kind, kind in PLAN_KINDS, replace)
+    if not isinstance(scenario_type, type) or not callable(load):
+        raise QmtInputError(f"plan kind {kind!r}: give the scenario's class and a loader load(path, mapping, "
+                            "scenario) -> Plan")
     PLAN_KINDS[kind] = PlanKind(scenario_type, load)
 
 
