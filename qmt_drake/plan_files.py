@@ -32,6 +32,7 @@ from qmt_drake.plan import (
     family_plan,
     make_plan,
 )
+from qmt_drake.plan_identity import check_identity, transfer_sections
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.trajectory import SampledTrajectory
 
@@ -126,6 +127,7 @@ def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
     if scenario is None:
         src = d.get("scenario_path")
         scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
+    check_identity(d, path, transfer_sections(scenario), scenario.name)  # content, whatever the names say
     _check_plan_fits(d, path, scenario)
     traj = d["trajectory"]
     try:
