@@ -5,6 +5,7 @@ differs, whatever the names say; a file without the record keeps today's checks.
 import dataclasses
 import json
 
+import pytest  # noqa: I001
 import yaml
 
 from qmt_drake.apps.cli import main
@@ -21,8 +22,6 @@ from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import write_spatial_plan
 from qmt_drake.spatial_task import load_spatial_scenario
 from tests.scenario_files import scenario_yaml
-
-import pytest  # noqa: I001
 
 
 def _refusal(call) -> str:
