@@ -9,6 +9,7 @@ or /dev/stdout is written through, never replaced by a regular file.
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import sys
@@ -89,22 +90,26 @@ def check_output_dir(path: str | Path, flag: str) -> None:
     _probe_folder(Path(path), f"{flag} {path}")
 
 
-def _through_proc(p: Path) -> bool:
-    """True when the chain of symlinks from `p` passes through /proc (/dev/stdout -> /proc/self/fd/1):
-    such a link names an open file of this process, to be written through, not replaced."""
+def _own_fd(p: Path) -> int | None:
+    """The descriptor N when the chain of symlinks from `p` reaches /proc/self/fd/N (/dev/stdout,
+    /dev/fd/1, a link to /proc/self/fd/1): an open file of this process, written through that very
+    descriptor (its offset shared with the shell's redirection), never replaced. None otherwise."""
+    own = (f"/proc/{os.getpid()}/fd/", "/proc/self/fd/")
     cur = os.path.abspath(p)
     for _ in range(40):  # the kernel's own limit on a chain of links
+        cur = os.path.join(os.path.realpath(os.path.dirname(cur)), os.path.basename(cur))  # /dev/fd -> /proc/PID/fd
+        for prefix in own:
+            if cur.startswith(prefix) and cur[len(prefix):].isdigit():
+                return int(cur[len(prefix):])
         if not os.path.islink(cur):
-            return False
+            return None
         cur = os.path.normpath(os.path.join(os.path.dirname(cur), os.readlink(cur)))
-        if cur.startswith("/proc/"):
-            return True
-    return False
+    return None
 
 
 def _classify(p: Path, what: str):
     """The file to replace atomically (a Path: `p`, or a symlink's regular target) or "through" (a
-    character device, FIFO, or a link into /proc: opened and written, never replaced). Anything
+    character device, FIFO, or a link to this process's descriptor: written through, never replaced). Anything
     else (a folder, a dangling link, a socket, a block device): one-line QmtInputError."""
     try:
         lst = os.lstat(p)
@@ -124,9 +129,9 @@ def _classify(p: Path, what: str):
     if not stat.S_ISREG(st.st_mode):
         raise QmtInputError(f"{what} {p} is a socket or block device, not a file; choose another path")
     if stat.S_ISLNK(lst.st_mode):
-        # a link into /proc is an open file (e.g. stdout redirected to a file): append to it, as the
-        # shell would; any other link keeps pointing at its target, which is replaced atomically.
-        return "through" if _through_proc(p) else Path(os.path.realpath(p))
+        # a link to this process's descriptor (stdout redirected to a file) is written through it; any
+        # other link keeps pointing at its target, which is replaced atomically.
+        return "through" if _own_fd(p) is not None else Path(os.path.realpath(p))
     return p
 
 
@@ -160,8 +165,8 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     """Write `text` to `path` so that a crash never leaves half a file: into a temporary file of an
     unpredictable name created exclusively in the target's folder (mkstemp: O_EXCL, a planted
     symlink is never followed), then renamed over `path`; the temporary is removed on any failure.
-    '-' is stdout. A character device or FIFO (/dev/null, a pipe) and a link into /proc
-    (/dev/stdout) are written through, never replaced by a regular file; a symlink to a regular file
+    '-' is stdout. A character device or FIFO (/dev/null, a pipe) and a link to this process's own
+    descriptor (/dev/stdout, /dev/fd/N) are written through, never replaced by a regular file; a symlink to a regular file
     stays a symlink (its target is replaced). A folder, an unwritable folder, a dangling link:
     one-line QmtInputError."""
     if is_stdout(path):
@@ -173,11 +178,29 @@ def write_text_atomic(path: str | Path, text: str) -> None:
 
 def _write_through(p: Path, data: bytes) -> None:
     """Open an existing device node, FIFO or /proc link (no create, no truncate: a redirected stdout
-    keeps what it had) and write `data`."""
+    keeps what it had) and write `data`; this process's own descriptor (/dev/stdout) is written as it
+    is. A FIFO nobody reads is one line, not a hang (O_NONBLOCK open)."""
+    fd = _own_fd(p)
+    if fd is not None:
+        for stream in (sys.stdout, sys.stderr):  # what Python buffered for it goes first
+            try:
+                same = stream is not None and not stream.closed and stream.fileno() == fd
+            except (OSError, ValueError, AttributeError):  # a stream without a descriptor (captured)
+                same = False
+            if same:
+                stream.flush()
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view):]
+        return
     try:
-        fd = os.open(p, os.O_WRONLY | os.O_APPEND)
+        fd = os.open(p, os.O_WRONLY | os.O_APPEND | os.O_NONBLOCK)
     except OSError as exc:
-        raise QmtInputError(f"{p}: cannot open for writing ({exc.strerror}); choose another path") from None
+        if exc.errno == errno.ENXIO:
+            raise QmtInputError(f"output {p} is a FIFO that nobody reads; start its reader first or choose "
+                                "another path") from None
+        raise QmtInputError(f"output {p}: cannot open for writing ({exc.strerror}); choose another path") from None
+    os.set_blocking(fd, True)  # non-blocking only to open: the write waits for a slow reader
     with os.fdopen(fd, "wb") as fh:
         fh.write(data)
 

@@ -85,22 +85,38 @@ def has_identity(d: dict) -> bool:
     return isinstance(rec, dict) and isinstance(rec.get("sha256"), str)
 
 
-def check_identity(d: dict, path: str | Path, sections: dict[str, Any], scenario_name: str) -> bool:
-    """True when the plan file's mapping `d` carries an identity and it equals that of `sections`
-    (the scenario the plan is run on); False for a file written before identities (the caller keeps
-    its name check then). A different identity: one-line QmtInputError naming the sections that
-    differ, whatever the names say."""
+def differing_sections(d: dict, sections: dict[str, Any]) -> list[str] | None:
+    """The plan file's mapping `d` against the scenario it is run on (its `sections`): None for a
+    file written before identities, [] for the same content, else the names of the sections that
+    differ (['content'] if the file's record names none)."""
     if not has_identity(d):
-        return False
+        return None
     rec, mine = d[IDENTITY_KEY], identity(sections)
     if rec["sha256"] == mine["sha256"]:
-        return True
+        return []
     theirs = rec.get("sections") if isinstance(rec.get("sections"), dict) else {}
-    differ = sorted(k for k in set(theirs) | set(mine["sections"]) if theirs.get(k) != mine["sections"].get(k))
-    what = ", ".join(differ) if differ else "its content"
-    raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')!r} with other content than "
-                        f"scenario {scenario_name!r} ({what} differ); plan again with `qmt-drake plan "
-                        f"{scenario_name} --json PATH`")
+    return sorted(k for k in set(theirs) | set(mine["sections"]) if theirs.get(k) != mine["sections"].get(k)) \
+        or ["content"]
+
+
+def differ_note(differ: list[str] | None) -> str:
+    """' (limits, task differ)' for a refusal's line; '' without a record."""
+    return f" ({', '.join(differ)} differ)" if differ else ""
+
+
+def check_identity(d: dict, path: str | Path, sections: dict[str, Any], scenario_name: str) -> bool:
+    """True when the plan file's mapping `d` carries an identity equal to that of `sections` (the
+    scenario the plan is run on); False for a file written before identities (the caller keeps its
+    name check then). Other content: one-line QmtInputError naming the sections that differ,
+    whatever the names say."""
+    differ = differing_sections(d, sections)
+    if differ is None:
+        return False
+    if differ:
+        raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')!r} with other content than "
+                            f"scenario {scenario_name!r}{differ_note(differ)}; plan again with `qmt-drake plan "
+                            f"{scenario_name} --json PATH`")
+    return True
 
 
 def transfer_sections(sc: Any) -> dict[str, Any]:

@@ -85,8 +85,8 @@ def test_plug_ins_are_checked_for_their_callables_when_registered():
     _refused(lambda: register_actuator(ActuatorPlugin(kind="broken", parse=42)),
              "actuator.kind 'broken': parse must be a callable")
     _refused(lambda: FAMILIES.register(FamilyPlugin("broken", make=None)), "family.kind 'broken': make must be")
-    _refused(lambda: OBJECTIVES.register(ObjectivePlugin("broken", make=len, scenario_kind="spatial")),
-             "scenario_kind 'spatial' must be")
+    _refused(lambda: OBJECTIVES.register(ObjectivePlugin("broken", make=len, scenario_kind=None)),
+             "scenario_kind None must name a scenario kind")
     _refused(lambda: register_hand("magnet"), "register_hand needs a HandPlugin, got str")
     _refused(lambda: register_actuator(object()), "register_actuator needs an ActuatorPlugin")
     assert all("broken" not in reg for reg in (HANDS, ACTUATORS, FAMILIES, OBJECTIVES))

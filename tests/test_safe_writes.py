@@ -4,7 +4,7 @@ unwritable folder in one line without leaving a temporary, and '-' is stdout on 
 
 import os
 import stat
-import threading
+from pathlib import Path
 
 import pytest
 
@@ -64,28 +64,36 @@ def test_dev_null_is_written_through_not_replaced(tmp_path, monkeypatch):
     assert link.is_symlink() and stat.S_ISCHR(os.stat("/dev/null").st_mode)
 
 
-def test_link_to_proc_fd_appends_to_the_open_file(tmp_path):
-    """/dev/stdout -> /proc/self/fd/1: stdout redirected to a file (`>>`) keeps what it had."""
-    log = tmp_path / "log.txt"
-    with open(log, "a") as fh:
-        fh.write("first\n")
-        fh.flush()
-        link = tmp_path / "stdout"
-        link.symlink_to(f"/proc/self/fd/{fh.fileno()}")
-        write_text_atomic(link, "second\n")
-    assert log.read_text() == "first\nsecond\n"
-    assert link.is_symlink() and sorted(p.name for p in tmp_path.iterdir()) == ["log.txt", "stdout"]
+def test_link_to_own_descriptor_writes_through_it(tmp_path):
+    """/dev/stdout -> /proc/self/fd/1 with stdout redirected to a file (`>` or `>>`): the text goes
+    through that descriptor, between what was written before and after, and the file is not replaced."""
+    for mode in ("w", "a"):
+        log = tmp_path / f"log_{mode}.txt"
+        with open(log, mode) as fh:
+            fh.write("first\n")
+            fh.flush()
+            for link in (tmp_path / f"stdout_{mode}", f"/dev/fd/{fh.fileno()}"):
+                if isinstance(link, Path):
+                    link.symlink_to(f"/proc/self/fd/{fh.fileno()}")
+                write_text_atomic(link, "second\n")
+            fh.write("third\n")
+        assert log.read_text() == "first\nsecond\nsecond\nthird\n"
+        assert (tmp_path / f"stdout_{mode}").is_symlink()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log_a.txt", "log_w.txt", "stdout_a", "stdout_w"]
 
 
-def test_fifo_is_written_through(tmp_path):
+def test_fifo_is_written_through_and_one_without_reader_is_one_line(tmp_path):
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
-    got = []
-    reader = threading.Thread(target=lambda: got.append(open(fifo).read()), daemon=True)
-    reader.start()
-    write_text_atomic(fifo, "through the pipe\n")
-    reader.join(5.0)
-    assert got == ["through the pipe\n"]
+    with pytest.raises(QmtInputError) as exc:  # nobody reads: refused at once, not a hang
+        write_text_atomic(fifo, "lost\n")
+    assert "is a FIFO that nobody reads" in _one_line(exc)
+    reader = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)  # the reader's end, open before the write
+    try:
+        write_text_atomic(fifo, "through the pipe\n")
+        assert os.read(reader, 1000) == b"through the pipe\n"
+    finally:
+        os.close(reader)
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
     assert [p.name for p in tmp_path.iterdir()] == ["pipe"]
 

@@ -60,8 +60,8 @@ class Registry:
         check_registration(what, kind, kind in self._entries, replace)
         check_callable_fields(f"{what} {kind!r}", entry)
         sk = getattr(entry, "scenario_kind", TRANSFER)
-        if sk not in (TRANSFER, ENERGY_TIME):
-            raise QmtInputError(f"{what} {kind!r}: scenario_kind {sk!r} must be {TRANSFER!r} or {ENERGY_TIME!r}")
+        if not isinstance(sk, str) or not sk:
+            raise QmtInputError(f"{what} {kind!r}: scenario_kind {sk!r} must name a scenario kind, e.g. {TRANSFER!r}")
         self._entries[kind] = entry
         return entry
 

@@ -51,7 +51,14 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, ratio_report
 from qmt_drake.plan_files import register_plan_kind
-from qmt_drake.plan_identity import IDENTITY_KEY, check_identity, energy_sections, identity
+from qmt_drake.plan_identity import (
+    IDENTITY_KEY,
+    check_identity,
+    differ_note,
+    differing_sections,
+    energy_sections,
+    identity,
+)
 
 METHODS = ("snopt", "ipopt", "steepest", "collocation")
 END_TOL_M = 1e-6  # the plan's end tip on the experiment's X(T) [m]
@@ -223,10 +230,11 @@ def _load(path: Path, d: dict, E: Experiment | None) -> EnergyPlan:
         same_start = theta0.shape == P0.theta0.shape and np.allclose(theta0, P0.theta0, atol=1e-9, rtol=0)
     except (KeyError, TypeError, ValueError):
         raise QmtInputError(f"plan file {path}: its trajectory has no start posture theta0_rad; {again}") from None
-    same_content = check_identity(d, path, energy_sections(E), E.name)  # content, whatever the names say
-    if (not same_content and d.get("scenario") != E.name) or not same_start:
-        why = "" if d.get("scenario") != E.name else " (other start posture)"
+    differ = differing_sections(d, energy_sections(E))  # content decides, whatever the names say
+    if (differ != [] and d.get("scenario") != E.name) or not same_start:
+        why = differ_note(differ) if d.get("scenario") != E.name else " (other start posture)"
         raise QmtInputError(f"plan file {path} was made for {d.get('scenario')!r}, not {E.name!r}{why}; {again}")
+    check_identity(d, path, energy_sections(E), E.name)  # the same name, other content
     try:
         x = np.asarray(traj["x"], float)
         m = traj["m"]

@@ -45,7 +45,14 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, ratio_report
 from qmt_drake.plan_files import plan_file_kind, read_plan_file, register_plan_kind
-from qmt_drake.plan_identity import IDENTITY_KEY, check_identity, identity, spatial_sections
+from qmt_drake.plan_identity import (
+    IDENTITY_KEY,
+    check_identity,
+    differ_note,
+    differing_sections,
+    identity,
+    spatial_sections,
+)
 from qmt_drake.planners.spatial_families import SegmentTrajectory
 from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_trajectory import (
@@ -276,9 +283,11 @@ def _check_fits(d: dict, path, sc) -> None:
         raise QmtInputError(f"plan file {path} is {a_kind(plan_file_kind(d))} plan (scenario {d.get('scenario')}); spatial scenario "
                             f"{sc.name} needs a plan written by `qmt-drake plan {sc.name} --json PATH`")
     again = f"plan again with `qmt-drake plan {sc.name} --json PATH`"
-    same_content = check_identity(d, path, spatial_sections(sc), sc.name)  # content, whatever the names say
-    if not same_content and d.get("scenario") != sc.name:  # a file without identity: by its name
-        raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')}, not {sc.name}; {again}")
+    differ = differing_sections(d, spatial_sections(sc))  # content decides, whatever the names say
+    if differ != [] and d.get("scenario") != sc.name:  # other content, or no record: by its name
+        raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')}, not {sc.name}"
+                            f"{differ_note(differ)}; {again}")
+    check_identity(d, path, spatial_sections(sc), sc.name)  # the same name, other content
     if d.get("n_dof") != sc.n_dof or d.get("joint_names") != list(sc.joint_names):
         raise QmtInputError(f"plan file {path} is for joints {d.get('joint_names')} (scenario {d.get('scenario')}) "
                             f"but scenario {sc.name} has {list(sc.joint_names)}; {again}")
