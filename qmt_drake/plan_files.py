@@ -127,7 +127,6 @@ def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
     if scenario is None:
         src = d.get("scenario_path")
         scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
-    check_identity(d, path, transfer_sections(scenario), scenario.name)  # content, whatever the names say
     _check_plan_fits(d, path, scenario)
     traj = d["trajectory"]
     try:
@@ -165,6 +164,9 @@ def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
     if plan.n_dof != scenario.arm.n_dof:
         raise QmtInputError(f"plan file {path} has {plan.n_dof} joints but scenario "
                             f"{scenario.name}'s arm has {scenario.arm.n_dof}")
+    # After the checks that name one misfit (joints, task points, genes, start and goal): any other
+    # difference of content (limits, payload, hand, ...) refuses it too, whatever the names say.
+    check_identity(d, path, transfer_sections(scenario), scenario.name)
     for k in ("planner_wall_s", "evaluations", "generations"):
         v = d.get(k, getattr(plan, k))
         setattr(plan, k, v if isinstance(v, (int, float)) and not isinstance(v, bool) else getattr(plan, k))
