@@ -25,13 +25,19 @@ import numpy as np
 
 
 def _plans(names):
-    """{scenario name: (scenario, TOPP-RA plan's trajectory)} (planned once, outside any timing)."""
+    """{name: (scenario, TOPP-RA plan's trajectory)} (planned once, outside any timing); a name
+    SCENARIO@K plays the plan time-scaled by K (K > 1: slower)."""
     from qmt_drake.planners.spatial_methods import PLANNERS
+    from qmt_drake.planners.spatial_trajectory import TimeScaled
     from qmt_drake.spatial_task import load_spatial_scenario
-    out = {}
+    out, planned = {}, {}
     for name in names:
-        sc = load_spatial_scenario(name)
-        out[name] = (sc, PLANNERS["toppra"](sc).trajectory)
+        base, _, k = name.partition("@")
+        if base not in planned:
+            sc = load_spatial_scenario(base)
+            planned[base] = (sc, PLANNERS["toppra"](sc).trajectory)
+        sc, traj = planned[base]
+        out[name] = (sc, TimeScaled(traj, float(k)) if k else traj)
     return out
 
 
