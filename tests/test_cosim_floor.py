@@ -1,18 +1,22 @@
 """The spatial co-simulation's logged hold check (sim/spatial_hold.py) against the former per-step Python
-monitor (kept here as the test-only reference: a LeafSystem evaluating the hand's limit term on the
+monitors (kept here as the test-only reference: a LeafSystem evaluating the hand's limit term on the
 part's body pose, spatial velocity and acceleration ports at every step, and a Simulator monitor that
-stops the run one step after the first ratio above 1): on the same plans, the same outcome, detach time,
-final arm and part state and tracking, and the same largest ratio to rounding."""
+stops the run at the first state with a ratio above 1; the tray's TrayBottleMonitor): on the same
+plans, the same outcome, detach time, final arm and part state and tracking, and the same ratios to
+rounding. The cost against the Drake-primitives floor: python -m studies.bench_cosim_floor."""
 
 import numpy as np
 import pytest
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import SpatialInertia
 from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.primitives import LogVectorOutput
 
+from qmt_drake.limits.tray_contact import TrayContactTerm
 from qmt_drake.sim import spatial_cosim, spatial_hold
 from qmt_drake.sim.spatial_cosim import TIME_STEP_S, simulate_spatial
 from qmt_drake.sim.spatial_hold import rotation_from_quaternion
+from qmt_drake.systems.tray_object import TrayBottleMonitor, seated_pose_on_tray
 from tests.spatial_fixtures import load_or_skip
 
 
@@ -28,22 +32,24 @@ class PerStepHoldMonitor(LeafSystem):
                                                   plant.get_body_spatial_velocities_output_port().Allocate())
         self.accs = self.DeclareAbstractInputPort("accelerations",
                                                   plant.get_body_spatial_accelerations_output_port().Allocate())
-        self.DeclareDiscreteState(3)
+        self.DeclareDiscreteState(3)  # detached, its time, the largest ratio while held
+        self.ratio_port = self.DeclareStateOutputPort("ratio", self.DeclareDiscreteState(1))  # the last ratio
         self.DeclarePeriodicDiscreteUpdateEvent(TIME_STEP_S, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        x = context.get_discrete_state_vector().CopyToVector()
+        x = context.get_discrete_state(0).CopyToVector()
+        i = int(self.part.index())
+        X, V, A = self.poses.Eval(context)[i], self.vels.Eval(context)[i], self.accs.Eval(context)[i]
+        state = {"rotation": X.rotation().matrix()[None], "angular_velocity_rad_s": V.rotational()[None],
+                 "angular_acceleration_rad_s2": A.rotational()[None],
+                 "linear_acceleration_m_s2": A.translational()[None]}
+        r = float(np.max(self.term.columns(state)))
         if x[0] < 0.5:
-            i = int(self.part.index())
-            X, V, A = self.poses.Eval(context)[i], self.vels.Eval(context)[i], self.accs.Eval(context)[i]
-            state = {"rotation": X.rotation().matrix()[None], "angular_velocity_rad_s": V.rotational()[None],
-                     "angular_acceleration_rad_s2": A.rotational()[None],
-                     "linear_acceleration_m_s2": A.translational()[None]}
-            r = float(np.max(self.term.columns(state)))
             x[2] = max(x[2], r)
             if r > 1.0:
                 x[0], x[1] = 1.0, context.get_time()
-        discrete_state.get_mutable_vector().SetFromVector(x)
+        discrete_state.get_mutable_vector(0).SetFromVector(x)
+        discrete_state.get_mutable_vector(1).SetFromVector([r])
 
 
 def simulate_the_former_way(monkeypatch, sc, traj, **kw) -> dict:
@@ -62,9 +68,9 @@ def simulate_the_former_way(monkeypatch, sc, traj, **kw) -> dict:
         ctx = sim.get_mutable_context()
         mctx = made["mon"].GetMyContextFromRoot(ctx)
         sim.set_monitor(lambda c: EventStatus.ReachedTermination(made["mon"], "detached")
-                        if mctx.get_discrete_state_vector()[0] > 0.5 else EventStatus.DidNothing())
+                        if mctx.get_discrete_state(0)[0] > 0.5 else EventStatus.DidNothing())
         sim.AdvanceTo(t_end_s)
-        x = mctx.get_discrete_state_vector().CopyToVector()
+        x = mctx.get_discrete_state(0).CopyToVector()
         if x[0] > 0.5:
             sim.clear_monitor()
             release(ctx)
@@ -154,3 +160,54 @@ def test_rotation_from_quaternion_is_drakes():
         ref = plant.EvalBodyPoseInWorld(ctx, body).rotation().matrix()
         worst = max(worst, float(np.abs(R[k] - ref).max()))
     assert worst <= 1e-15
+
+
+SEEN = {}
+
+
+def test_tray_log_equals_the_per_step_monitors(monkeypatch):
+    """The tray hand: slide and tilt from the cup's joint coordinates against the former Python monitor
+    (systems/tray_object.TrayBottleMonitor, through world poses) and the tray ratio from the logged states
+    against the per-step monitor's, on the same run (a move fast enough to take the ratio over 1)."""
+    sc = load_or_skip("panda-tray-cup")
+    seen = SEEN
+    real_tray_log = spatial_cosim.TrayLog
+
+    class Both:
+        def __init__(self, builder, plant, cup, period_s):
+            tray = plant.GetBodyByName("tray")
+            self.real = real_tray_log(builder, plant, cup, period_s)
+            mon = builder.AddSystem(TrayBottleMonitor(plant, tray, cup, seated_pose_on_tray()))
+            builder.Connect(plant.get_body_poses_output_port(), mon.GetInputPort("body_poses"))
+            builder.Connect(plant.get_contact_results_output_port(), mon.GetInputPort("contact_results"))
+            self.old = {k: LogVectorOutput(mon.GetOutputPort(k), builder, period_s) for k in ("slide", "tilt")}
+            hold = self.hold = builder.AddSystem(PerStepHoldMonitor(plant, cup, TrayContactTerm(sc.cup, sc.gravity_m_s2)))
+            builder.Connect(plant.get_body_poses_output_port(), hold.poses)
+            builder.Connect(plant.get_body_spatial_velocities_output_port(), hold.vels)
+            builder.Connect(plant.get_body_spatial_accelerations_output_port(), hold.accs)
+            self.hold_log = LogVectorOutput(hold.ratio_port, builder, period_s)
+
+        def slide_tilt(self, ctx):
+            t, slide, tilt = self.real.slide_tilt(ctx)
+            seen["slide"] = (slide, self.old["slide"].FindLog(ctx).data())
+            seen["tilt"] = (tilt, self.old["tilt"].FindLog(ctx).data()[0])
+            return t, slide, tilt
+
+        def ratios(self, ctx, term, start_s):
+            t_up, r = self.real.ratios(ctx, term, start_s)
+            log = self.hold_log.FindLog(ctx)  # the monitor's ratio after its update at t_k, logged at t_{k+1}
+            keep = log.sample_times()[:-1] >= start_s
+            seen["ratio"] = (r, log.data()[0, 1:][keep])
+            return t_up, r
+
+    monkeypatch.setattr(spatial_cosim, "TrayLog", Both)
+    monkeypatch.setattr(spatial_cosim, "TAIL_S", 0.02)
+    dq = np.zeros(sc.n_dof)
+    dq[0] = 0.6
+    r = simulate_spatial(sc, RestThenMove(sc.q_poses_rad[0], dq, 0.0, 0.3))
+    assert r["contact_ratio_first_above_1_s"] is not None
+    np.testing.assert_allclose(*seen["slide"], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(*seen["tilt"], rtol=0, atol=1e-14)
+    new, old = seen["ratio"]
+    assert len(new) == len(old) > 100
+    np.testing.assert_allclose(new, old, rtol=1e-10, atol=0)  # 1.6e-11 seen: near lift-off the ratio magnifies rounding

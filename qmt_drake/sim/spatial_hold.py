@@ -36,6 +36,10 @@ import numpy as np
 from pydrake.systems.analysis import InitializeParams
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
+from qmt_drake.systems.payload import six_dof_joint_of
+from qmt_drake.systems.scalar_ops import NUMPY
+from qmt_drake.systems.transfer_monitor import motion_from_joint
+
 CHECK_CHUNK_S = 0.25  # how often the logged steps are checked; a detachment costs at most one chunk re-run
 
 
@@ -75,6 +79,54 @@ class HoldLog:
         if len(t) == 0:
             return t, np.zeros(0)
         return t, np.max(self.term.columns(state), axis=1)
+
+
+class TrayLog:
+    """The tray hand's per-step log (sim/spatial_cosim.simulate_tray_hand): the whole plant's state and
+    generalized acceleration every step, in C++. After the run: the cup's slide and tilt on the tray from
+    its 6-DOF joint's coordinates (its pose in the tray frame; tilt by transfer_monitor.motion_from_joint,
+    as the planar co-simulation's log summary), and the tray term's ratio of the cup's contact wrench
+    from its world pose, spatial velocity and acceleration, which Drake computes for each logged state
+    on a scratch context (no closed loop runs Python: this pass is after it, once per sample). The
+    ratios equal the former per-step monitor's to ~1e-11 relative (the tray ratio divides by the normal
+    force: near lift-off it magnifies the last bits of the acceleration; tests/test_cosim_floor.py)."""
+
+    def __init__(self, builder, plant, cup_body, time_step_s: float) -> None:
+        self.plant, self.cup = plant, cup_body
+        self.nx, nv = plant.num_multibody_states(), plant.num_velocities()
+        self.q0 = six_dof_joint_of(plant, cup_body).position_start()
+        mux = builder.AddNamedSystem("tray_motion", Multiplexer([self.nx, nv]))
+        builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
+        builder.Connect(plant.get_generalized_acceleration_output_port(), mux.get_input_port(1))
+        self.logger = LogVectorOutput(mux.get_output_port(), builder, time_step_s)
+
+    def slide_tilt(self, root_context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(times (S,), slide (2, S) [m] of the cup's base from its seat at the tray frame's origin, tilt (S,) [rad])."""
+        log = self.logger.FindLog(root_context)
+        q = log.data()[self.q0:self.q0 + 7]
+        return log.sample_times(), q[4:6].copy(), motion_from_joint(tuple(q), NUMPY)[1]
+
+    def ratios(self, root_context, term, start_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(update times, ratios): sample j as the former monitor's update at t_{j-1} (HoldLog's
+        samples), for the updates at or after start_s."""
+        log = self.logger.FindLog(root_context)
+        t, d = log.sample_times(), log.data()
+        j = np.flatnonzero(t[:-1] >= start_s) + 1
+        ctx = self.plant.CreateDefaultContext()
+        i = int(self.cup.index())
+        R, w, al, a = (np.zeros((len(j), 3, 3)), np.zeros((len(j), 3)), np.zeros((len(j), 3)), np.zeros((len(j), 3)))
+        for m, k in enumerate(j):
+            # Drake's sampled body acceleration of the step into x_k: the step's vdot through the
+            # kinematics of the state it started from, x_{k-1} (its J vdot + Jdot v)
+            self.plant.SetPositionsAndVelocities(ctx, d[:self.nx, k - 1])
+            A = self.plant.CalcSpatialAccelerationsFromVdot(ctx, d[self.nx:, k])[i]
+            al[m], a[m] = A.rotational(), A.translational()
+            self.plant.SetPositionsAndVelocities(ctx, d[:self.nx, k])
+            R[m] = self.plant.EvalBodyPoseInWorld(ctx, self.cup).rotation().matrix()
+            w[m] = self.plant.EvalBodySpatialVelocityInWorld(ctx, self.cup).rotational()
+        state = {"rotation": R, "angular_velocity_rad_s": w, "angular_acceleration_rad_s2": al,
+                 "linear_acceleration_m_s2": a}
+        return t[j - 1], (np.max(term.columns(state), axis=1) if len(j) else np.zeros(0))
 
 
 def _cut_logs(diagram, root_context, before_s: float) -> None:
