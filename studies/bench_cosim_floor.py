@@ -341,6 +341,7 @@ def main(argv=None) -> int:
         print_rows(sp)
         write_text_atomic(out_file, json.dumps(jsonable(data), indent=1))
     if a.repeats <= 0:
+        write_text_atomic(out_file, json.dumps(jsonable(data), indent=1))
         print(f"wrote {out_file}")
         return 0
     data["cost"] = c = cost_ratio(a.repeats, a.time_step_ms * 1e-3)
