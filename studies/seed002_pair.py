@@ -32,7 +32,7 @@ from qmt_drake.systems.dynamixel_servo import (
     motor_params,
 )
 from qmt_drake.systems.tray_object import BottleSpec
-from qmt_drake.tray.cosim import SEATING_S, simulate_tray
+from qmt_drake.tray.cosim import SEATING_S, required_friction, simulate_tray
 from qmt_drake.tray.crane_ik import SEED_GOAL_XY_M, SEED_START_XY_M, fit_tool_offset, tray_ik
 from qmt_drake.tray.waypoints import SEED_WAYPOINTS, GoalSchedule, spacing
 
@@ -51,8 +51,9 @@ def schedule(exponent: float, *, tool_offset_m=None, pre_move_s: float = 0.0, pr
         7 s) and move there to the line's start in a joint line with the same spacing law, then
         wait pre_wait_s (the seed: 7 -> 13 s);
     return_mode: "spaced" (a joint line to the initial posture with the same spacing law and
-        waypoint count: the default's assumption) or "step" (the initial posture sent as one goal:
-        each servo runs to it as fast as its loop makes it)."""
+        waypoint count: the default's assumption), "step" (the initial posture sent as one goal:
+        each servo runs to it as fast as its loop makes it) or "trapezoid" (the same MoveIt-style
+        joint move in both runs, `_trapezoid_fraction`)."""
     n = SEED_WAYPOINTS
     s = spacing(n, exponent)
     a, b = np.asarray(SEED_START_XY_M), np.asarray(SEED_GOAL_XY_M)
@@ -86,12 +87,34 @@ def schedule(exponent: float, *, tool_offset_m=None, pre_move_s: float = 0.0, pr
     elif return_mode == "step":
         times.append([t + 1e-3])
         goals.append(q0[None])
+    elif return_mode == "trapezoid":
+        # a MoveIt-style joint-space move: trapezoidal speed along the joint line, the joint that
+        # travels furthest accelerating at MOVEIT_ACCEL_RAD_S2 (crane_x7_moveit_config), goals
+        # streamed every 4 ms (the arm controller's 250 Hz)
+        u = _trapezoid_fraction(np.arange(1, int(round(return_s / 4e-3)) + 1) * 4e-3, return_s,
+                                float(np.max(np.abs(line[-1] - q0))))
+        times.append(t + np.arange(1, u.size + 1) * 4e-3)
+        goals.append(line[-1] + (q0 - line[-1]) * u[:, None])
     else:
         raise ValueError(return_mode)
     phases["return"] = (t, t + return_s)
     t += return_s
     return GoalSchedule(np.concatenate(times), np.concatenate(goals), t + tail_s, phases,
                         f"p={exponent:g}")
+
+
+MOVEIT_ACCEL_RAD_S2 = 8.0   # rt-net/crane_x7_ros crane_x7_moveit_config/config/joint_limits.yaml
+
+
+def _trapezoid_fraction(t, T: float, travel_rad: float) -> np.ndarray:
+    """Path fraction u(t) in [0, 1] of a trapezoidal speed profile lasting T whose largest joint
+    travel travel_rad accelerates at MOVEIT_ACCEL_RAD_S2."""
+    a = MOVEIT_ACCEL_RAD_S2 / travel_rad            # path fraction per s^2
+    ta = T / 2 - np.sqrt(max(T * T / 4 - 1.0 / a, 0.0))   # u(T) = 1: a ta (T - ta) = 1
+    t = np.clip(t, 0.0, T)
+    v = a * ta
+    return np.where(t < ta, 0.5 * a * t * t,
+                    np.where(t < T - ta, 0.5 * a * ta * ta + v * (t - ta), 1.0 - 0.5 * a * (T - t) ** 2))
 
 
 def _where(t, phases) -> str:
@@ -111,7 +134,10 @@ def describe(r) -> dict:
     after = t >= SEATING_S
     k1 = np.flatnonzero(after & (dist > SLID_M))
     first = None if k1.size == 0 else float(t[k1[0]])
-    out = {"outcome": r.outcome, "slip_mm": 1e3 * r.slip_m, "max_slide_mm": 1e3 * r.max_slide_m,
+    m1 = r.phases["move"][1]
+    r0 = r.phases["return"][0]
+    need = {"arrival": required_friction(ser, m1, m1 + 1.0), "return start": required_friction(ser, r0, r0 + 0.5)}
+    out = {"need": need, "outcome": r.outcome, "slip_mm": 1e3 * r.slip_m, "max_slide_mm": 1e3 * r.max_slide_m,
            "first_slid": "-" if first is None else f"{first:.2f} s ({_where(first, r.phases)})",
            "lost": "-", "place_mm": "-", "max_tilt_deg": float(np.degrees(r.max_tilt_rad))}
     if r.lost_at_s is not None:
@@ -142,6 +168,11 @@ def setups(mu: float) -> dict:
                          {"bottle_offset_xy": (0.06, 0.0)}),
         "bottle_inner": ("the bottle stood 60 mm off-centre towards the start (tray -x)", {},
                          {"bottle_offset_xy": (-0.06, 0.0)}),
+        "return_fast": ("the return in 2.5 s (each run its own spacing law)", {"return_s": 2.5}, {}),
+        "return_moveit": ("the same MoveIt-style trapezoid return in both runs (8 rad/s^2, 5 s)",
+                          {"return_mode": "trapezoid"}, {}),
+        "return_moveit_fast": ("the same MoveIt-style trapezoid return in both runs, 2.5 s",
+                               {"return_mode": "trapezoid", "return_s": 2.5}, {}),
         "all_seed": ("printed joints + whole run + switched efficiency", {"tool_offset_m": h_fit, "pre_move_s": 5.0},
                      {"motor": switched}),
     }, bottle
@@ -160,8 +191,9 @@ def main(argv=None) -> int:
             return 2
     print(f"friction {a.mu:g}; place: the base centre's offset from its seat in the tray frame (x towards "
           "the end point)")
-    print("| set-up | case | outcome | slip (mm) | first slid 1 mm | lost at | place (mm) | wall s |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| set-up | case | outcome | slip (mm) | first slid 1 mm | lost at | place (mm) | friction used: arrival / "
+          "return start | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for n in names:
         desc, skw, rkw = table[n]
         for case, (expo, gains) in CASES.items():
@@ -169,7 +201,8 @@ def main(argv=None) -> int:
             r = simulate_tray(schedule(expo, **skw), gains, bottle, **rkw)
             d = describe(r)
             print(f"| {n}: {desc} | {case} | {d['outcome']} | {d['slip_mm']:.1f} | {d['first_slid']} | "
-                  f"{d['lost']} | {d['place_mm']} | {time.perf_counter() - w0:.0f} |", flush=True)
+                  f"{d['lost']} | {d['place_mm']} | {d['need']['arrival']:.3f} / {d['need']['return start']:.3f} | "
+                  f"{time.perf_counter() - w0:.0f} |", flush=True)
     return 0
 
 
