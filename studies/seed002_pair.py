@@ -169,6 +169,7 @@ def setups(mu: float) -> dict:
         "bottle_inner": ("the bottle stood 60 mm off-centre towards the start (tray -x)", {},
                          {"bottle_offset_xy": (-0.06, 0.0)}),
         "return_fast": ("the return in 2.5 s (each run its own spacing law)", {"return_s": 2.5}, {}),
+        "return_2s": ("the return in 2 s (each run its own spacing law)", {"return_s": 2.0}, {}),
         "return_moveit": ("the same MoveIt-style trapezoid return in both runs (8 rad/s^2, 5 s)",
                           {"return_mode": "trapezoid"}, {}),
         "return_moveit_fast": ("the same MoveIt-style trapezoid return in both runs, 2.5 s",
