@@ -14,7 +14,7 @@ posture, SNOPT) and re-solves:
 - whether the order (+,-,-) > (+,+,+) > (-,+,-) of the paper holds.
 
 Run: PYTHONPATH=. python -m studies.ohsaka_gap [--only NAME,NAME] [--no-fig4]
-Prints the table (and writes nothing). A run of every row takes about a minute of CPU.
+Prints the table (and writes nothing): about 4 min of CPU, half of it the two power rows.
 """
 
 from __future__ import annotations
