@@ -167,6 +167,8 @@ def setups(mu: float) -> dict:
         "return_step": ("the return sent as one goal (the initial posture)", {"return_mode": "step"}, {}),
         "switched_eta": ("the servos' datasheet gear efficiency switched at zero speed (not the lossless "
                          "equivalent)", {}, {"motor": switched}),
+        "servo_4ms": ("the servos' control loop at 4 ms instead of 1 ms (both runs)", {}, {"servo_period_s": 4e-3}),
+        "servo_8ms": ("the servos' control loop at 8 ms (both runs)", {}, {"servo_period_s": 8e-3}),
         "bottle_outer": ("the bottle stood 60 mm off-centre towards the end point (tray +x)", {},
                          {"bottle_offset_xy": (0.06, 0.0)}),
         "bottle_inner": ("the bottle stood 60 mm off-centre towards the start (tray -x)", {},
