@@ -8,6 +8,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from qmt_drake.config.registry import load_providers
+
 _BUILDERS: dict[str, Callable[[Any], Any]] = {}
 _VALIDATORS: dict[str, Callable[[dict, str], None]] = {}
 
@@ -19,6 +21,7 @@ def register_validator(section: str, check: Callable[[dict, str], None]) -> None
 
 
 def registered_validator(section: str) -> Callable[[dict, str], None] | None:
+    load_providers()  # the shipped validators (config/registry.PROVIDERS)
     return _VALIDATORS.get(section)
 
 
@@ -29,4 +32,5 @@ def register_builders(**builders: Callable[[Any], Any]) -> None:
 
 def registered_builder(what: str) -> Callable[[Any], Any] | None:
     """The builder of scenario.<what> (called with the Scenario), None if none is registered."""
+    load_providers()  # the shipped builders (config/registry.PROVIDERS)
     return _BUILDERS.get(what)
