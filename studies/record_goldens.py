@@ -21,6 +21,7 @@ exact (==, NaN equal to NaN, int and float kept apart). Files are small (no 1 kH
   PYTHONPATH=. python -m studies.record_goldens --out tests/golden            # record every case
   PYTHONPATH=. python -m studies.record_goldens --out tests/golden --check    # recompute, compare
   PYTHONPATH=. python -m studies.record_goldens --check --only ch4-toppra     # some cases (repeat --only)
+  PYTHONPATH=/other/checkout python studies/record_goldens.py --check         # another checkout's code
 
 --check prints, per case, `same` or the file and the first differing field, and exits 1 if any differ.
 tests/test_golden.py recomputes the FAST subset on every test run.
@@ -43,10 +44,14 @@ from typing import Any
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder_
 
+import qmt_drake
 from qmt_drake import load_scenario, plan_with, simulate
 from qmt_drake.outputs import jsonable, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
+# the checkout whose qmt_drake runs (paths are made relative to it, so another checkout can be checked:
+# PYTHONPATH=/other/checkout python studies/record_goldens.py --check)
+CHECKOUT = Path(qmt_drake.__file__).resolve().parents[1]
 DEFAULT_DIR = ROOT / "tests" / "golden"
 RESAMPLE_POINTS = 41
 DIGEST_OVER = 64  # a list holding more numbers than this is stored as its length and SHA-256
@@ -177,8 +182,8 @@ def compact(x: Any, key: str = "") -> Any:
         if _count_numbers(x) > DIGEST_OVER:
             return _digest(x)
         return [compact(v, key) for v in x]
-    if isinstance(x, str) and key.endswith("path") and x.startswith(str(ROOT)):
-        return Path(x).relative_to(ROOT).as_posix()
+    if isinstance(x, str) and key.endswith("path") and x.startswith(str(CHECKOUT)):
+        return Path(x).relative_to(CHECKOUT).as_posix()
     return x
 
 
