@@ -199,9 +199,10 @@ def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = build_parser(_command_of(argv)).parse_args(argv)
-        run = _resolve(args.func)
-        malloc_tuning.tune()  # the command line's allocator settings (malloc_tuning.py); the library leaves them
-        return run(args)
+        # The command line's allocator settings (malloc_tuning.py), before the command's modules load, as
+        # they were when `import qmt_drake` made them; the library leaves the allocator alone.
+        malloc_tuning.tune()
+        return _resolve(args.func)(args)
     except QmtInputError as exc:
         print(f"qmt-drake: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
