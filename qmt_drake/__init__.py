@@ -7,10 +7,35 @@ planned, benchmarked and executed in Drake co-simulations.
 sampling), `simulate` executes a plan in the co-simulation and says whether the part was carried,
 `build_diagram` gives the Drake Diagram itself, `load_plan` reads a plan file back; their docstrings give inputs, outputs and units
 (SI). The command line is `qmt-drake` (qmt_drake/apps/cli.py); README.md and docs/ describe both.
+
+`import qmt_drake` is light and has no side effect: it loads no submodule (no pydrake) until a
+public name is first used (module `__getattr__`, PEP 562), registers nothing and leaves the
+process's allocator alone (the glibc tuning is an explicit call, `qmt_drake.malloc_tuning.tune()`,
+which the `qmt-drake` command makes).
 """
 
-from qmt_drake import malloc_tuning  # noqa: F401 (first: glibc's thresholds, see the module)
-from qmt_drake.api import Plan, Scenario, build_diagram, load_plan, load_scenario, plan_with, simulate
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # for type checkers and readers; at run time __getattr__ loads them on first use
+    from qmt_drake.api import Plan, Scenario, build_diagram, load_plan, load_scenario, plan_with, simulate
 
 __version__ = "0.1.0"
 __all__ = ["Plan", "Scenario", "__version__", "build_diagram", "load_plan", "load_scenario", "plan_with", "simulate"]
+
+# public name -> the module that defines it (imported on first use)
+_PUBLIC = {name: "qmt_drake.api" for name in __all__ if name != "__version__"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name]), name)
+        globals()[name] = value  # once: later lookups do not come back here
+        return value
+    raise AttributeError(f"module 'qmt_drake' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,7 +1,7 @@
 """Builders: a scenario (plain data, config/) turned into the numpy and Drake objects the planners
 and the co-simulation use. One builder for each thing: the arm model, the limit set, the tray's
-bottle. They are registered with config/hooks.py at import (qmt_drake's __init__ imports this
-module), so `scenario.arm`, `scenario.limit_set` and `scenario.bottle` build once per scenario
+bottle. They are registered with config/hooks.py at import (config/registry.PROVIDERS imports this
+module when a scenario first needs them), so `scenario.arm`, `scenario.limit_set` and `scenario.bottle` build once per scenario
 object while the scenario module imports nothing above config/.
 """
 

@@ -10,8 +10,12 @@ variables below): the same evaluation code ran at 8,150 evaluations/s in a proce
 little and at 7,100-7,400 in one that had imported scipy or pydrake.all, and at 9,600-10,000 in both
 with a fixed mmap threshold of 32 MiB and a trim threshold of 256 MiB.
 
-`tune()` sets those two (mallopt) at `import qmt_drake`, unless the user set either through glibc's
-own MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ or opted out with QMT_DRAKE_MALLOC_TUNING=0.
+`tune()` sets those two (mallopt), unless the user set either through glibc's own
+MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ or opted out with QMT_DRAKE_MALLOC_TUNING=0. It is an
+explicit call, made by the programs that own their process: the `qmt-drake` command line
+(apps/cli.main) and the studies that time things (studies/run_all.py, studies/bench_*.py).
+`import qmt_drake` does not call it: a library leaves the allocator of the process that imports
+it alone. A program of yours that runs many GA evaluations may call it first.
 Cost: up to 256 MiB of freed memory stays mapped in the process instead of going back to the kernel.
 """
 
@@ -41,5 +45,3 @@ def tune() -> bool:
         return False
     return bool(mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)) and bool(mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES))
 
-
-TUNED = tune()

@@ -4,6 +4,12 @@ A JointTrajectory has `duration_s`, `breakpoints_s` (0, the instants where accel
 and the duration), `n_dof`, and `evaluate(t_s, t_piece_s)` giving q, qd, qdd with the formula of
 the piece that contains `t_piece_s` (so one-sided values at a boundary can be asked for). After
 the duration the arm rests at the final position.
+
+The spatial planners' trajectories (planners/spatial_trajectory.py) know `duration_s` and
+`sample(t)` only (no breakpoints, no evaluate). TimeScaledTrajectory and ConcatenatedTrajectory
+take either kind (`_evaluates` tells them apart): one implementation of time scaling and of
+playing trajectories one after another for both (spatial_trajectory's TimeScaled and
+SequenceTrajectory are these classes).
 """
 
 from __future__ import annotations
@@ -157,31 +163,77 @@ class CallableTrajectory(JointTrajectory):
         return q, qd, qdd
 
 
-class TimeScaledTrajectory(JointTrajectory):
-    """`inner` played `factor` times slower: q(t) = q_in(t/factor) (every inertial ratio / factor^2)."""
+def _evaluates(traj) -> bool:
+    """True for a trajectory of this module's protocol (evaluate with breakpoints_s), False for one
+    that only samples (the spatial planners')."""
+    return hasattr(traj, "breakpoints_s")
 
-    def __init__(self, inner: JointTrajectory, factor: float) -> None:
+
+def _slowed(q, qd, qdd, k: float):
+    """The values of q(t / k), from q's at t / k: a trajectory played k times slower."""
+    return q, qd / k, qdd / k**2
+
+
+class TimeScaledTrajectory(JointTrajectory):
+    """`inner` played `factor` times slower: q(t) = q_in(t/factor) (every inertial ratio / factor^2);
+    `k` is `factor`. inner: a JointTrajectory or a sampling-only one (module docstring)."""
+
+    def __init__(self, inner, factor: float) -> None:
+        if not factor > 0:
+            raise ValueError("time scale must be positive")
         self.inner, self.factor = inner, float(factor)
         self.duration_s = inner.duration_s * self.factor
-        self.breakpoints_s = inner.breakpoints_s * self.factor
-        self.n_dof = inner.n_dof
+        if _evaluates(inner):
+            self.breakpoints_s = inner.breakpoints_s * self.factor
+            self.n_dof = inner.n_dof
+
+    @property
+    def k(self) -> float:
+        return self.factor
 
     def evaluate(self, t_s, t_piece_s):
         f = self.factor
-        q, qd, qdd = self.inner.evaluate(np.asarray(t_s) / f, np.asarray(t_piece_s) / f)
-        return q, qd / f, qdd / f**2
+        return _slowed(*self.inner.evaluate(np.asarray(t_s) / f, np.asarray(t_piece_s) / f), f)
+
+    def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if _evaluates(self):
+            return super().sample(t_s)
+        return _slowed(*self.inner.sample(np.asarray(t_s, float) / self.factor), self.factor)
 
 
 class ConcatenatedTrajectory(JointTrajectory):
-    """Rest-to-rest pieces played one after another (via points chained segment by segment)."""
+    """Trajectories played one after another, each ending at rest where the next starts (via points
+    chained segment by segment; TOPP-RA or Ruckig per rest-to-rest segment); `offsets` (also
+    `t_start`) their start times [s] and the end. parts: JointTrajectories or sampling-only ones."""
 
-    def __init__(self, parts: list[JointTrajectory]) -> None:
-        self.parts = parts
-        self.offsets = np.concatenate([[0.0], np.cumsum([p.duration_s for p in parts])])
+    def __init__(self, parts) -> None:
+        self.parts = list(parts)
+        self.offsets = np.concatenate([[0.0], np.cumsum([p.duration_s for p in self.parts])])
         self.duration_s = float(self.offsets[-1])
-        self.breakpoints_s = np.unique(np.concatenate(
-            [p.breakpoints_s + o for p, o in zip(parts, self.offsets[:-1])]))
-        self.n_dof = parts[0].n_dof
+        if all(_evaluates(p) for p in self.parts):
+            self.breakpoints_s = np.unique(np.concatenate(
+                [p.breakpoints_s + o for p, o in zip(self.parts, self.offsets[:-1])]))
+            self.n_dof = self.parts[0].n_dof
+
+    @property
+    def t_start(self) -> np.ndarray:
+        return self.offsets
+
+    def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if _evaluates(self):
+            return super().sample(t_s)
+        t = np.clip(np.atleast_1d(np.asarray(t_s, float)), 0.0, self.duration_s)
+        k = np.clip(np.searchsorted(self.offsets, t, side="right") - 1, 0, len(self.parts) - 1)
+        out = None
+        for i, part in enumerate(self.parts):
+            m = k == i
+            if np.any(m):
+                vals = part.sample(t[m] - self.offsets[i])
+                if out is None:
+                    out = [np.empty((len(t), v.shape[1])) for v in vals]
+                for o, v in zip(out, vals):
+                    o[m] = v
+        return tuple(out)
 
     def evaluate(self, t_s, t_piece_s):
         t = np.atleast_1d(np.asarray(t_s, dtype=float))

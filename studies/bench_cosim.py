@@ -39,6 +39,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from qmt_drake import malloc_tuning  # noqa: E402
 from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.errors import QmtSimulationError  # noqa: E402
 from qmt_drake.outputs import write_text_atomic  # noqa: E402
@@ -105,6 +106,7 @@ def describe(r: dict) -> str:
 
 
 def main(argv=None):
+    malloc_tuning.tune()  # as the command line does (qmt_drake/malloc_tuning.py)
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", default=str(ROOT / "out"))

@@ -33,6 +33,7 @@ from types import SimpleNamespace
 import numpy as np
 from pydrake.multibody.tree import MultibodyForces
 
+from qmt_drake import malloc_tuning
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
@@ -211,6 +212,7 @@ def bench_toppra(n_grid: int, rounds: int) -> dict:
 
 
 def main(argv=None) -> int:
+    malloc_tuning.tune()  # as the command line does (qmt_drake/malloc_tuning.py)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=1000, help="samples per evaluation (default 1000)")
     ap.add_argument("--rounds", type=int, default=5)

@@ -127,6 +127,7 @@ def run_once(sched, sc, variant: str) -> float:
 
 
 def main(argv=None) -> int:
+    tuned = malloc_tuning.tune()  # as the command line does (qmt_drake/malloc_tuning.py)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="out")
     ap.add_argument("--repeats", type=int, default=3)
@@ -178,7 +179,7 @@ def main(argv=None) -> int:
           f"{plateau['heap_in_use_slope_kib_per_run'] or 0:+.4f} KiB/run, plateau {plateau['plateau']}", flush=True)
     data = {"scenario": "crane-tray", "plan": "toppra x1.1, shaped goals", "plant_steps": steps,
             "repeats": args.repeats, "variants": rows, "rss": rss, "malloc_trim_after_each_run": bool(args.trim),
-            "malloc_tuned_at_import": bool(malloc_tuning.TUNED), "rss_plateau": plateau,
+            "malloc_tuned": tuned, "rss_plateau": plateau,
             "rss_growth_mib_after_first_20": rss[-1]["rss_mib"] - rss[1]["rss_mib"] if len(rss) > 1 else None}
     write_text_atomic(out / "bench_tray_floor.json", json.dumps(data, indent=1) + "\n")
     print(f"wrote {out / 'bench_tray_floor.json'}")

@@ -9,6 +9,8 @@ import time
 import traceback
 from pathlib import Path
 
+from qmt_drake import malloc_tuning
+
 
 def _log(msg):
     print(msg, file=sys.stderr, flush=True)
@@ -20,6 +22,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--workers", type=int, default=2)
     a = ap.parse_args(argv)
+    malloc_tuning.tune()  # as the command line does: the GA's and the simulator's temporaries (malloc_tuning.py)
     out = Path(a.out)
     failed = []
 

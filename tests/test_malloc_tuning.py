@@ -1,5 +1,6 @@
-"""glibc malloc tuning at import: applied on Linux/glibc, and left alone when the user set glibc's
-own variables or opted out (each checked in a fresh interpreter, since it acts at import)."""
+"""glibc malloc tuning (an explicit call: the CLI's main makes it, `import qmt_drake` does not): applied
+on Linux/glibc, and left alone when the user set glibc's own variables or opted out (each checked in a
+fresh interpreter, since it changes the process)."""
 
 import os
 import subprocess
@@ -9,7 +10,7 @@ import pytest
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc only")
 
-PROBE = "import qmt_drake.malloc_tuning as m; print(m.TUNED)"
+PROBE = "import qmt_drake.malloc_tuning as m; print(m.tune())"
 
 
 def _tuned(**env) -> str:

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from qmt_drake.config.registry import check_registration
+from qmt_drake.config.registry import check_registration, load_providers
 from qmt_drake.errors import QmtInputError
 
 _BUILDERS: dict[str, Callable[[Any], Any]] = {}
@@ -26,6 +26,7 @@ def register_validator(section: str, check: Callable[[dict, str], None], *, repl
 
 
 def registered_validator(section: str) -> Callable[[dict, str], None] | None:
+    load_providers()  # the shipped validators (config/registry.PROVIDERS)
     return _VALIDATORS.get(section)
 
 
@@ -41,4 +42,5 @@ def register_builders(*, replace: bool = False, **builders: Callable[[Any], Any]
 
 def registered_builder(what: str) -> Callable[[Any], Any] | None:
     """The builder of scenario.<what> (called with the Scenario), None if none is registered."""
+    load_providers()  # the shipped builders (config/registry.PROVIDERS)
     return _BUILDERS.get(what)

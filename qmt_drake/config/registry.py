@@ -11,11 +11,30 @@ is refused in one line that lists the registered ones.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
 from qmt_drake.errors import QmtInputError
+
+# The modules that register the shipped kinds (hands, actuators, objectives, families), the scenario's
+# builders and the `uncertainty` validator (config/hooks.py), imported by name the first time a registry
+# is consulted: whoever loads or unpickles a scenario gets them, whatever else they imported, instead of
+# as a side effect of `import qmt_drake`; config/ still imports nothing above itself at import time.
+PROVIDERS = ("qmt_drake.hands", "qmt_drake.actuators", "qmt_drake.problem", "qmt_drake.families",
+             "qmt_drake.builders", "qmt_drake.sweep.parameters", "qmt_drake.energy.objective",
+             "qmt_drake.energy.fourier")
+_providers_loaded = False
+
+
+def load_providers() -> None:
+    """Import PROVIDERS (once)."""
+    global _providers_loaded
+    if not _providers_loaded:
+        _providers_loaded = True
+        for name in PROVIDERS:
+            importlib.import_module(name)
 
 
 def check_registration(what: str, name: Any, registered: bool, replace: Any) -> None:
@@ -70,12 +89,14 @@ class Registry:
 
     def kinds(self, accept: Callable[[Any], bool] | None = None) -> tuple[str, ...]:
         """The registered kinds (those whose entry `accept` takes), in registration order."""
+        load_providers()
         return tuple(k for k, e in self._entries.items() if accept is None or accept(e))
 
     def get(self, kind: Any, where: str = "", accept: Callable[[Any], bool] | None = None) -> Any:
         """The entry of `kind`; else a one-line QmtInputError naming the input (`where`: the
         section's place, e.g. 'models/x.yaml: hand') and listing the registered kinds (those
         `accept` takes)."""
+        load_providers()
         entry = self._entries.get(kind) if isinstance(kind, str) else None
         if entry is None or (accept is not None and not accept(entry)):
             known = self.kinds(accept)
@@ -84,15 +105,19 @@ class Registry:
         return entry
 
     def __contains__(self, kind: object) -> bool:
+        load_providers()
         return kind in self._entries
 
     def __getitem__(self, kind: str) -> Any:
+        load_providers()
         return self._entries[kind]
 
     def __iter__(self) -> Iterator[str]:
+        load_providers()
         return iter(self._entries)
 
     def __len__(self) -> int:
+        load_providers()
         return len(self._entries)
 
 

@@ -268,8 +268,8 @@ class Scenario:
         if what not in cache:
             build = registered_builder(what)
             if build is None:
-                raise RuntimeError(f"no builder registered for scenario.{what}: import qmt_drake (its "
-                                   "__init__ registers qmt_drake.builders)")
+                raise RuntimeError(f"no builder registered for scenario.{what} (qmt_drake.builders registers "
+                                   "them; config/registry.PROVIDERS imports it)")
             cache[what] = build(self)
         return cache[what]
 

@@ -1,7 +1,8 @@
 """Seed 001 behind the one CLI: `qmt-drake plan ohsaka-fig3 --method snopt|steepest|ipopt|collocation`
 and `qmt-drake simulate ohsaka-fig3 --plan p.json` (apps/cli.py routes energy-time scenarios here).
 
-`add_energy_options(parser)` adds the energy-time options to `plan`; `plan_energy(args)` runs it:
+energy/cli_options.add_energy_options(parser) adds the energy-time options to `plan` (a module of its own,
+so that the parser loads no Drake); `plan_energy(args)` runs it:
 SCENARIO is one of the built-in experiments (ohsaka-fig2, ohsaka-fig3, ohsaka-fig4) or a YAML file
 of kind energy_time; `--coords X1 X2 X1 X2` replaces its coordinate vector, `--pattern` picks one
 rotation-direction start like "-+-" (default: all 8, every local optimum reported). The work is
@@ -16,7 +17,6 @@ optimum with "feasible": false).
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 
@@ -30,23 +30,6 @@ from qmt_drake.outputs import check_one_stdout, check_output_path, is_stdout, js
 from qmt_drake.plan_files import load_plan
 
 ENERGY_ONLY_OPTIONS = ("c1", "c2", "m", "divisions", "coords", "pattern", "max_iter", "execute", "recording")
-
-
-def add_energy_options(p: argparse.ArgumentParser) -> None:
-    """The options of `plan` that only energy-time scenarios take (--method snopt|steepest|ipopt|collocation)."""
-    g = p.add_argument_group("energy-time scenarios (seed 001: --method snopt, steepest, ipopt, collocation)")
-    g.add_argument("--c1", type=float, default=None, help="weight of tau'tau (default: the experiment's)")
-    g.add_argument("--c2", type=float, default=None, help="weight of time, > 0 (default: the experiment's)")
-    g.add_argument("--m", type=int, default=None, help="Fourier terms per joint, >= 1 (default 5)")
-    g.add_argument("--divisions", type=int, default=None, help="time divisions of the integral (default 40)")
-    g.add_argument("--coords", type=float, nargs=4, default=None, metavar="X",
-                   help="coordinate vector X1(0) X2(0) X1(T) X2(T) in m (X2 up)")
-    g.add_argument("--pattern", default=None,
-                   help='rotation-direction start: "--pattern=-+-" or "npn" (p = +, n = -), or "all" (default)')
-    g.add_argument("--max-iter", type=int, default=None, help="steepest: iteration cap (default 20000)")
-    g.add_argument("--execute", default=None, metavar="PNG",
-                   help="run the best optimum in the Drake co-simulation and plot tracking to PNG")
-    g.add_argument("--recording", default=None, metavar="HTML", help="Meshcat recording of that execution")
 
 
 def _pattern(s: str | None):

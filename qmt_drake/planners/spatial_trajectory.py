@@ -5,6 +5,8 @@ times in s). Three kinds: `ToppraTrajectory` (a path q(s) with TOPP-RA's constan
 its grid), `SequenceTrajectory` (trajectories one after another), `PolyTrajectory` (a Drake trajectory in time: a via-point cubic PiecewisePolynomial, trajopt's
 BsplineTrajectory), `RuckigTrajectory` (Ruckig segments, each from rest to rest). `TimeScaled(traj, k)` plays
 one k times slower: q(t / k), qd / k, qdd / k^2 (positions, hence every task pose, unchanged).
+TimeScaled and SequenceTrajectory are qmt_drake.trajectory's TimeScaledTrajectory and
+ConcatenatedTrajectory (one implementation for planar and spatial trajectories; the names stay).
 
 `check(sc, traj, rate_hz)` samples at rate_hz (and both ends) and returns the largest ratio of every
 limit: joint speed, joint acceleration, joint torque (through the scenario's SpatialChain: gravity,
@@ -25,6 +27,10 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.spatial_columns import TIMED_GROUPS_EXCLUDE, SpatialColumns, binding, peaks
 from qmt_drake.planners.spatial_toppra import DrakePath
+from qmt_drake.trajectory import ConcatenatedTrajectory, TimeScaledTrajectory
+
+SequenceTrajectory = ConcatenatedTrajectory  # `t_start`: ConcatenatedTrajectory.offsets
+TimeScaled = TimeScaledTrajectory  # `k`: TimeScaledTrajectory.factor
 
 
 class ToppraTrajectory:
@@ -66,30 +72,6 @@ class PolyTrajectory:
         return tuple(d.vector_values(t).T for d in self._d)
 
 
-class SequenceTrajectory:
-    """Trajectories played one after another (each ends at rest where the next starts, e.g. TOPP-RA per
-    rest-to-rest segment); `t_start` their start times (s) and the end."""
-
-    def __init__(self, parts) -> None:
-        self.parts = list(parts)
-        self.t_start = np.r_[0.0, np.cumsum([p.duration_s for p in self.parts])]
-        self.duration_s = float(self.t_start[-1])
-
-    def sample(self, t):
-        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
-        k = np.clip(np.searchsorted(self.t_start, t, side="right") - 1, 0, len(self.parts) - 1)
-        out = None
-        for i, part in enumerate(self.parts):
-            m = k == i
-            if np.any(m):
-                vals = part.sample(t[m] - self.t_start[i])
-                if out is None:
-                    out = [np.empty((len(t), v.shape[1])) for v in vals]
-                for o, v in zip(out, vals):
-                    o[m] = v
-        return tuple(out)
-
-
 class _RuckigSegment:
     """One Ruckig trajectory with the sample() of this module."""
 
@@ -111,18 +93,6 @@ class RuckigTrajectory(SequenceTrajectory):
     def __init__(self, segments) -> None:
         self.segments = list(segments)
         super().__init__([_RuckigSegment(s) for s in self.segments])
-
-
-class TimeScaled:
-    def __init__(self, traj, k: float) -> None:
-        if not k > 0:
-            raise ValueError("time scale must be positive")
-        self.inner, self.k = traj, float(k)
-        self.duration_s = traj.duration_s * self.k
-
-    def sample(self, t):
-        q, qd, qdd = self.inner.sample(np.asarray(t, float) / self.k)
-        return q, qd / self.k, qdd / self.k ** 2
 
 
 def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:

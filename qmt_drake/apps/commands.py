@@ -1,0 +1,138 @@
+"""What the `qmt-drake` commands scenarios, simulate, bench, benchmark and reproduce run (apps/cli.py parses their
+arguments and calls these by name, so that the parser itself loads no Drake). Exit codes and
+the order of checks: apps/cli.py's docstring."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from qmt_drake.apps import spatial_cli
+from qmt_drake.apps.arg_checks import (
+    check_int,
+    check_outputs,
+    check_positive_finite,
+    emit_json,
+    progress,
+)
+from qmt_drake.apps.bench import run_bench
+from qmt_drake.apps.benchmark import run_benchmark
+from qmt_drake.apps.cli import EXPLICIT_MAX_TIME_STEP_MS
+from qmt_drake.apps.plan_command import check_tray_method, refuse_spatial_method
+from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
+from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
+from qmt_drake.energy.cli import simulate_energy
+from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
+from qmt_drake.errors import QmtInputError
+from qmt_drake.hands import hand_plugin, run_simulate
+from qmt_drake.outputs import check_output_dir, check_output_path
+from qmt_drake.plan_files import load_plan
+from qmt_drake.planners import plan_with
+
+
+def cmd_scenarios(args) -> int:
+    for name in builtin_scenarios():
+        sc = load_scenario(name)
+        print(f"{name:12s} {sc.family.kind:20s} genes {', '.join(sc.family.gene_names):22s} "
+              f"{sc.arm.n_dof}-link arm, payload {sc.payload.mass_kg * 1e3:.0f} g")
+    for name in builtin_scenarios(ENERGY_TIME_KIND):
+        ex = get_experiment(name)
+        print(f"{name:12s} {'fourier_velocity':20s} energy-time (seed 001), c2 = {ex.c2:g}, m = {ex.m}; "
+              f"plan with --method snopt|steepest|ipopt|collocation")
+    spatial_cli.list_scenarios()
+    return 0
+
+
+def cmd_simulate(args) -> int:
+    if spatial_cli.is_spatial_scenario(args.scenario):
+        return spatial_cli.simulate(args)
+    if is_energy_scenario(args.scenario):
+        args.feedforward = args.feedforward or "none"
+        if args.actuator is not None:
+            raise QmtInputError("--actuator is an option of the transfer co-simulation; the energy-time execution "
+                                "runs the plan as planned: drop --actuator")
+        if args.method not in (None, "snopt"):
+            raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
+                                "energy-time: give --plan FILE or no --method (it plans with snopt)")
+        return simulate_energy(args)
+    if args.actuator is not None:
+        raise QmtInputError(f"--actuator: for spatial scenarios; {args.scenario}'s actuator is its YAML actuator "
+                            "section: drop --actuator")
+    args.feedforward = args.feedforward or "none"
+    args.method = args.method or "ga"
+    refuse_spatial_method(args)
+    check_outputs(args, "--json", "--record")
+    check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
+    check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
+    if args.explicit and args.time_step_ms is not None and args.time_step_ms > EXPLICIT_MAX_TIME_STEP_MS:
+        raise QmtInputError(f"--explicit --time-step-ms {args.time_step_ms:g}: the explicit motor loop is "
+                            f"known unstable above {EXPLICIT_MAX_TIME_STEP_MS:g} ms (a loss would be the "
+                            f"loop's, not the physics'); use --time-step-ms {EXPLICIT_MAX_TIME_STEP_MS:g} "
+                            "or less, or drop --explicit")
+    sc = load_scenario(args.scenario)
+    check_plan_budget(sc, "thesis" if args.plan else args.method, allow_large=args.allow_large)
+    check_replay_budget(sc, args.time_scale, None if args.time_step_ms is None else args.time_step_ms * 1e-3,
+                        allow_large=args.allow_large)
+    hand = hand_plugin(sc)
+    time_step_s = None if args.time_step_ms is None else args.time_step_ms * 1e-3
+    # What the co-simulation needs from the scenario and the options, before planning.
+    hand.check_simulation(sc, time_step_s=time_step_s, implicit_loop_damping=not args.explicit,
+                          feedforward=args.feedforward)
+    if args.plan:
+        plan = load_plan(args.plan, scenario=sc)
+    else:
+        check_tray_method(sc, args.method)
+        _say_planning_first(args)
+        plan = plan_with(args.method, sc, seed=args.seed,
+                         progress=None if args.quiet else progress)
+    result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s,
+                          implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
+    emit_json(result, args.json)
+    if args.json != "-":
+        print(f"{sc.name} {plan.method} x{args.time_scale}: {hand.simulate_text(result)}")
+    return 0
+
+
+def _say_planning_first(args) -> None:
+    """simulate without --plan plans first: say so, since a GA takes tens of seconds."""
+    if not args.quiet:
+        print(f"qmt-drake: no --plan given: planning with --method {args.method} (seed {args.seed}) first; "
+              "give --plan FILE to simulate a saved plan", file=sys.stderr)
+
+
+def cmd_bench(args) -> int:
+    check_output_dir(args.out, "--out")
+    check_int(args.seeds, "--seeds", 1, "run at least one seed")
+    check_ga_runs_budget(load_scenario(args.scenario), args.seeds, 3000, allow_large=args.allow_large)
+    data = run_bench(scenario=args.scenario, out_dir=Path(args.out), progress=progress,
+                     seeds=args.seeds)
+    print(json.dumps(data, indent=1))
+    return 0
+
+
+def cmd_benchmark(args) -> int:
+    check_output_dir(args.out, "--out")
+    for seed in args.ga_seeds:
+        check_int(seed, "--ga-seeds", 0, "seeds are non-negative integers")
+    for j in args.jerk_limits:
+        check_positive_finite(j, "--jerk-limits", "tip jerk limits in m/s^3, e.g. 1 10 100")
+    for name in args.scenarios:
+        check_ga_runs_budget(load_scenario(name), len(args.ga_seeds), 30 if args.quick else 1000,
+                             allow_large=args.allow_large)
+    run_benchmark(scenarios=tuple(args.scenarios), out_dir=Path(args.out), progress=progress,
+                  jerk_limits=tuple(args.jerk_limits), ga_seeds=tuple(args.ga_seeds),
+                  quick=args.quick, cosim=not args.no_cosim)
+    return 0
+
+
+def cmd_reproduce(args) -> int:
+    """Runs studies/run_all.py of this checkout (the studies are scripts beside the package)."""
+    root = Path(__file__).resolve().parents[2]
+    if not (root / "studies" / "run_all.py").is_file():
+        raise QmtInputError("reproduce needs the qmt_drake source checkout (studies/ beside the package); "
+                            "run it from a clone installed with `make run`")
+    check_output_path(Path(args.out) / "report.html", "--out")
+    return subprocess.call([sys.executable, "-m", "studies.run_all", "--out", str(args.out)], cwd=root)
