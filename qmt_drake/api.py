@@ -120,40 +120,32 @@ def _scenario_arg(scenario: Any, where: str) -> AnyScenario:
     raise QmtInputError(f"{where}: scenario {show(scenario)} is not a scenario; pass load_scenario(NAME_OR_PATH)")
 
 
-def _check_plan_options(method: str, sc: AnyScenario, seed: Any, progress: Any, options: dict,
-                        allow_large: bool) -> None:
-    """plan_with's arguments: the method's name, seed, progress, every option by its planner's keywords,
-    types and ranges (api_checks), and the run's budget (budgets.py, as the CLI) before any work."""
-    if not isinstance(method, str):
-        raise QmtInputError(f"plan_with: method {show(method)} must be a planner's name (a str)")
-    C.number(seed, "plan_with: seed", minimum=0, integer=True, fix="seeds are non-negative integers")
-    if progress is not None and not callable(progress):
-        raise QmtInputError(f"plan_with: progress {show(progress)} must be a callable taking one line, or None")
-    if not isinstance(allow_large, bool):
-        raise QmtInputError(f"plan_with: allow_large {show(allow_large)} must be True or False")
-    where = f"plan_with {method!r}"
+def check_plan_options(method: str, sc: AnyScenario, options: dict, *, allow_large: bool = False,
+                       where: str = "plan_with option") -> None:
+    """A planner's options by its keywords, types and ranges (api_checks), and the run's budget
+    (budgets.py) before any work; `where` names the options in the message (the CLI: "--option")."""
     if isinstance(sc, SpatialScenario):
         m = SPATIAL_ALIASES.get(method, method)
         if m not in SPATIAL_PLANNERS:
             raise QmtInputError(f"method {method!r} does not plan spatial scenarios; use {'|'.join(SPATIAL_METHODS)}")
-        C.check_options(SPATIAL_PLANNERS[m], options, f"{where} (spatial)", skip=("sc", "seed", "progress"))
+        C.check_options(SPATIAL_PLANNERS[m], options, where, f"the spatial {m} planner", skip=("sc", "seed", "progress"))
         if "family" in options and options["family"] is not None and not isinstance(options["family"], str):
-            raise QmtInputError(f"{where}: family {show(options['family'])} must be a family's name (a str)")
+            raise QmtInputError(f"{where} family {show(options['family'])} must be a family's name (a str)")
         if m == "ga":
             d = inspect.signature(SPATIAL_PLANNERS["ga"]).parameters
             size = {k: options.get(k, d[k].default) for k in ("population", "generations")}
             check_budget(spatial_ga_estimate(size["population"], size["generations"]), allow_large=allow_large)
     elif isinstance(sc, Experiment):
-        C.check_options(plan_energy_time, options, f"{where} (energy-time)", skip=("E", "method", "progress"))
+        C.check_options(plan_energy_time, options, where, "the energy-time planners", skip=("E", "method", "progress"))
         check_energy_budget(options.get("m") or sc.m, options.get("divisions") or sc.divisions,
                             allow_large=allow_large)
     else:
         if method == "ga" and "population" in options:
-            raise QmtInputError(f"{where}: population is the scenario's ga.population; load the scenario with "
-                                "overrides={'ga': {'population': N}}")
+            raise QmtInputError(f"{where} population: the transfer GA's population is the scenario's "
+                                "ga.population; set it there (the API: overrides={'ga': {'population': N}})")
         if method in TRANSFER_OPTIONS:
             func, skip = TRANSFER_OPTIONS[method]
-            C.check_options(func, options, f"{where} (transfer)", skip=skip)
+            C.check_options(func, options, where, f"the transfer {method} planner", skip=skip)
         if method in TRANSFER_PLANNERS:
             check_plan_budget(sc, method, options.get("max_generations"), allow_large=allow_large)
 
@@ -178,7 +170,14 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
     options' names) and the run priced as the CLI prices it (budgets.py): over the budget raises
     QmtInputError unless allow_large=True."""
     scenario = _scenario_arg(scenario, "plan_with")
-    _check_plan_options(method, scenario, seed, progress, options, allow_large)
+    if not isinstance(method, str):
+        raise QmtInputError(f"plan_with: method {show(method)} must be a planner's name (a str)")
+    C.number(seed, "plan_with: seed", minimum=0, integer=True, fix="seeds are non-negative integers")
+    if progress is not None and not callable(progress):
+        raise QmtInputError(f"plan_with: progress {show(progress)} must be a callable taking one line, or None")
+    if not isinstance(allow_large, bool):
+        raise QmtInputError(f"plan_with: allow_large {show(allow_large)} must be True or False")
+    check_plan_options(method, scenario, options, allow_large=allow_large)
     if isinstance(scenario, SpatialScenario):
         m = SPATIAL_ALIASES.get(method, method)
         if m == "ga":
@@ -294,6 +293,7 @@ def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0,
     _check_run_args(scenario, plan, time_scale, time_step_s, None, allow_large, "build_diagram")
     if meshcat is not None and not isinstance(meshcat, Meshcat):
         raise QmtInputError(f"build_diagram: meshcat {show(meshcat)} must be a pydrake Meshcat (or None)")
-    C.check_options(hand_plugin(scenario).build_diagram, options, "build_diagram",
+    C.check_options(hand_plugin(scenario).build_diagram, options, "build_diagram option",
+                    f"the {hand_plugin(scenario).kind} hand's diagram",
                     skip=("scenario", "plan", "time_scale", "time_step_s", "meshcat"))
     return _build_diagram(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, meshcat=meshcat, **options)

@@ -144,9 +144,9 @@ def times(t_s: Any, name: str = "t_s") -> Any:
     return t_s
 
 
-def option_value(key: str, value: Any, default: Any, where: str) -> Any:
-    """One planner keyword checked by its default's type and its range (OPTION_RANGES, REAL_RANGES)."""
-    name = f"{where} option {key}"
+def option_value(key: str, value: Any, default: Any, name: str) -> Any:
+    """One planner keyword (`name` names it in the message) checked by its default's type and its range
+    (OPTION_RANGES, REAL_RANGES)."""
     if value is None and default is None:  # None: the planner's own default
         return None
     if key in OPTION_RANGES or (isinstance(default, int) and not isinstance(default, bool)):
@@ -162,18 +162,20 @@ def option_value(key: str, value: Any, default: Any, where: str) -> Any:
     return value
 
 
-def check_options(func: Callable, options: dict, where: str, *, skip=(), extra_known=()) -> None:
-    """`options` against `func`'s keywords (minus `skip`): an unknown one with the closest known
-    keyword, then each value by option_value. A function taking **kwargs accepts any key."""
-    params = {k: p for k, p in inspect.signature(func).parameters.items()
+def check_options(func: Callable, options: dict, where: str, planner: str, *, skip=()) -> None:
+    """`options` against `func`'s keywords (minus `skip`): an unknown one refused with the closest known
+    keyword, then each value by option_value. A function taking **kwargs accepts any key. `where`
+    names the options ("plan_with option", "--option"), `planner` the planner ("the spatial ga planner")."""
+    sig = inspect.signature(func)
+    params = {k: p for k, p in sig.parameters.items()
               if k not in skip and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}
-    if not any(p.kind is p.VAR_KEYWORD for p in inspect.signature(func).parameters.values()):
-        known = sorted(set(params) | set(extra_known))
+    if not any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values()):
+        known = sorted(params)
         for key in options:
             if key not in known:
-                raise QmtInputError(f"{where}: unknown option {key!r}; {_closest(key, known)}"
+                raise QmtInputError(f"{where} {key}: not an option of {planner}; {_closest(key, known)}"
                                     f"it takes {', '.join(known) or 'no options'}")
     for key, value in options.items():
         if key in params and not callable(value):
             default = params[key].default
-            option_value(key, value, None if default is inspect.Parameter.empty else default, where)
+            option_value(key, value, None if default is inspect.Parameter.empty else default, f"{where} {key}")

@@ -23,6 +23,7 @@ import json
 import time
 from dataclasses import replace
 
+from qmt_drake.api_checks import option_value
 from qmt_drake.apps.arg_checks import (
     check_int,
     check_outputs,
@@ -116,6 +117,7 @@ def _planner_options(args, method: str) -> dict:
                                 f"{', '.join(sorted(allowed)) or 'no options'}")
         if not isinstance(v, (int, float)) or (isinstance(allowed[k], int) and not isinstance(v, int)):
             raise QmtInputError(f"--option {k}={v}: give a{'n integer' if isinstance(allowed[k], int) else ' number'}")
+        option_value(k, v, allowed[k], f"--option {k}")  # the API's ranges (api_checks.OPTION_RANGES)
     family = getattr(args, "family", None)
     if family is not None:
         if method not in FAMILY_METHODS:
@@ -158,7 +160,10 @@ def plan(args, energy_options) -> bool:
         bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc, family=family).raw_duration_s
     except QmtInputError:
         bound = None
-    if args.carried:
+    if args.carried:  # the slowest replay the search may run, priced before the first
+        est = replay_estimate(args.carried_max_scale, p.duration_s, cost=SPATIAL_REPLAY)
+        check_budget(replace(est, what=f"--carried-max-scale {args.carried_max_scale:g}: {est.what}"),
+                     allow_large=getattr(args, "allow_large", False))
         search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress)
         p = carried_plan(sc, p, search)
     if args.json == "-":
