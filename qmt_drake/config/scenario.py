@@ -68,6 +68,7 @@ from qmt_drake.config.sections import (  # noqa: F401 (re-exported: the scenario
 )
 from qmt_drake.config.validate import (
     WORLD_KEYS,
+    check_scenario_kind,
     parse_actuator,
     parse_family,
     parse_ga,
@@ -143,6 +144,7 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
         raise QmtInputError(f"scenario '{name_or_path}' is neither a built-in "
                             f"({', '.join(builtin_scenarios())}) nor a YAML file that exists")
     raw = read_scenario_yaml(path)
+    check_scenario_kind(raw, str(path))
     if raw.get("kind") == "spatial_transfer":  # issue 19: qmt_drake/spatial_task.py loads these
         raise QmtInputError(f"scenario '{name_or_path}' is a spatial (3-D) scenario: plan it with `qmt-drake plan "
                             f"{name_or_path} --method {'|'.join(SPATIAL_METHODS)} --json PLAN.json` and co-simulate "
