@@ -248,10 +248,12 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     allow_large=True) raises QmtInputError (one line) before anything runs; the spatial and
     energy-time runs take time_scale (spatial) and record_path only."""
     scenario = _scenario_arg(scenario, "simulate")
-    _check_run_args(scenario, plan, time_scale, time_step_s, record_path, allow_large, "simulate")
     for name, value in (("feedforward", feedforward), ("actuator", actuator)):
         if value is not None and not isinstance(value, str):
             raise QmtInputError(f"simulate: {name} {show(value)} must be a str (or None: the default)")
+    if isinstance(scenario, SpatialScenario):  # the drive's refusals (no motor constants, ...) first
+        check_drive(scenario, actuator or "ideal", feedforward or "full")
+    _check_run_args(scenario, plan, time_scale, time_step_s, record_path, allow_large, "simulate")
     if isinstance(scenario, Scenario):
         if actuator is not None:
             raise QmtInputError(f"simulate: actuator: the planar scenario {scenario.name} takes its actuator from its "
@@ -267,7 +269,6 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
                                 f"does not take it; drop {name}")
     if spatial:
         actuator, feedforward = actuator or "ideal", feedforward or "full"
-        check_drive(scenario, actuator, feedforward)
         traj = plan.trajectory if time_scale == 1.0 else TimeScaled(plan.trajectory, time_scale)
         return simulate_spatial(scenario, traj, record_path=record_path, actuator=actuator, feedforward=feedforward)
     return execute_plan(plan, record_path=record_path)
