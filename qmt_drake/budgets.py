@@ -33,6 +33,8 @@ import os
 import sys
 from dataclasses import dataclass
 
+import numpy as np
+
 from qmt_drake.config.registry import hand_entry
 from qmt_drake.errors import QmtInputError
 
@@ -341,3 +343,10 @@ def check_spatial_sizes(where: str, *, rim_points: int | None = None, pyramid_ed
         if v > cap:
             raise QmtInputError(f"{where}: {key} {v:g} is over the cap of {cap:g} (each costs planning time: "
                                 f"budgets.py); {fix}")
+
+
+def path_time_lower_bound_s(q_path_rad, velocity_limit_rad_s) -> float:
+    """A lower bound of any motion time along a joint path [s] (before planning): every segment takes at
+    least its largest joint step over that joint's speed limit."""
+    dq = np.abs(np.diff(np.asarray(q_path_rad, float), axis=0)) / np.asarray(velocity_limit_rad_s, float)
+    return float(dq.max(axis=1).sum()) if dq.size else 0.0

@@ -33,7 +33,14 @@ from qmt_drake.apps.arg_checks import (
     parse_options,
     progress,
 )
-from qmt_drake.budgets import SPATIAL_REPLAY, announce, check_budget, replay_estimate, spatial_ga_estimate
+from qmt_drake.budgets import (
+    SPATIAL_REPLAY,
+    announce,
+    check_budget,
+    path_time_lower_bound_s,
+    replay_estimate,
+    spatial_ga_estimate,
+)
 from qmt_drake.config.scenario import SCENARIO_DIR, builtin_scenarios, scenario_kind
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import verdict_line
@@ -154,16 +161,16 @@ def plan(args, energy_options) -> bool:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     opts = _planner_options(args, method)
     sc = load_spatial_scenario(args.scenario)
+    if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
+        _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
     p = _plan(args, sc, method, opts)
     try:  # TOPP-RA's duration on the family's path: the bound (well under a second on a UR5)
         family = opts.get("family", "via_cubic")
         bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc, family=family).raw_duration_s
     except QmtInputError:
         bound = None
-    if args.carried:  # the slowest replay the search may run, priced before the first
-        est = replay_estimate(args.carried_max_scale, p.duration_s, cost=SPATIAL_REPLAY)
-        check_budget(replace(est, what=f"--carried-max-scale {args.carried_max_scale:g}: {est.what}"),
-                     allow_large=getattr(args, "allow_large", False))
+    if args.carried:
+        _check_carried_budget(args, p.duration_s)
         search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress)
         p = carried_plan(sc, p, search)
     if args.json == "-":
@@ -175,6 +182,13 @@ def plan(args, energy_options) -> bool:
     if args.json != "-":
         print(summary_line(sc, p, bound))
     return p.recheck["max"] <= 1.0
+
+
+def _check_carried_budget(args, motion_time_s: float) -> None:
+    """The slowest replay the carried search may run (--carried-max-scale x the motion time), priced."""
+    est = replay_estimate(args.carried_max_scale, motion_time_s, cost=SPATIAL_REPLAY)
+    check_budget(replace(est, what=f"--carried-max-scale {args.carried_max_scale:g}: {est.what}"),
+                 allow_large=getattr(args, "allow_large", False))
 
 
 def summary_line(sc, p, bound) -> str:

@@ -35,8 +35,6 @@ from collections.abc import Sized
 from dataclasses import fields
 from pathlib import Path
 
-import yaml
-
 from qmt_drake.config import fields as fields_mod
 from qmt_drake.config.registry import (
     ACTUATORS,
@@ -112,11 +110,11 @@ SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
 def scenario_kind(path: Path) -> str:
     """A scenario file's top-level `kind` (transfer scenarios have none: 'transfer'); '' if the
     file cannot be read as a YAML mapping (load_scenario then says why)."""
-    try:
-        raw = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+    try:  # the loaders' reader: size cap, no aliases, libyaml
+        raw = fields_mod.read_yaml_mapping(Path(path))
+    except (QmtInputError, OSError, TypeError):
         return ""
-    return str(raw.get("kind", "transfer")) if isinstance(raw, dict) else ""
+    return str(raw.get("kind", "transfer"))
 
 
 def builtin_scenarios(kind: str = "transfer") -> list[str]:
