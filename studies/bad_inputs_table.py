@@ -130,6 +130,8 @@ def rows(d: Path) -> list:
         ("size", "task.transfer_points: 1000000", "ur5-suction-bins", {"task.transfer_points": 10 ** 6}),
         ("size", "task.poses_m: 10,000 poses", "ur5-suction-bins",
          {"task.poses_m": [[0.45, -0.3, 0.1 + 1e-5 * k] for k in range(10000)]}),
+        ("size", "task.poses_m: 150 poses", "ur5-suction-bins",
+         {"task.poses_m": [[0.45, -0.3, 0.1 + 1e-3 * k] for k in range(150)]}),
         ("value", "payload.inertia_kgm2: [0.001, 0.001, 0.05]", "ur5-suction-bins",
          {"payload.inertia_kgm2": [0.001, 0.001, 0.05]}),
         ("value", "payload.mass_kg: 1e9", "ur5-suction-bins", {"payload.mass_kg": 1e9}),
