@@ -120,10 +120,19 @@ def _scenario_arg(scenario: Any, where: str) -> AnyScenario:
     raise QmtInputError(f"{where}: scenario {show(scenario)} is not a scenario; pass load_scenario(NAME_OR_PATH)")
 
 
+def _priced(check: Callable, *args: Any, cli: bool = False, **kwargs: Any) -> None:
+    """A budgets.py check whose refusal names the API's keyword (allow_large=True), not the CLI's flag."""
+    try:
+        check(*args, **kwargs)
+    except QmtInputError as exc:
+        raise QmtInputError(str(exc) if cli else str(exc).replace("--allow-large", "allow_large=True")) from None
+
+
 def check_plan_options(method: str, sc: AnyScenario, options: dict, *, allow_large: bool = False,
                        where: str = "plan_with option") -> None:
     """A planner's options by its keywords, types and ranges (api_checks), and the run's budget
     (budgets.py) before any work; `where` names the options in the message (the CLI: "--option")."""
+    cli = where.startswith("--")
     if isinstance(sc, SpatialScenario):
         m = SPATIAL_ALIASES.get(method, method)
         if m not in SPATIAL_PLANNERS:
@@ -134,11 +143,11 @@ def check_plan_options(method: str, sc: AnyScenario, options: dict, *, allow_lar
         if m == "ga":
             d = inspect.signature(SPATIAL_PLANNERS["ga"]).parameters
             size = {k: options.get(k, d[k].default) for k in ("population", "generations")}
-            check_budget(spatial_ga_estimate(size["population"], size["generations"]), allow_large=allow_large)
+            _priced(check_budget, spatial_ga_estimate(size["population"], size["generations"]), allow_large=allow_large, cli=cli)
     elif isinstance(sc, Experiment):
         C.check_options(plan_energy_time, options, where, "the energy-time planners", skip=("E", "method", "progress"))
-        check_energy_budget(options.get("m") or sc.m, options.get("divisions") or sc.divisions,
-                            allow_large=allow_large)
+        _priced(check_energy_budget, options.get("m") or sc.m, options.get("divisions") or sc.divisions,
+                allow_large=allow_large, cli=cli)
     else:
         if method == "ga" and "population" in options:
             raise QmtInputError(f"{where} population: the transfer GA's population is the scenario's "
@@ -147,7 +156,7 @@ def check_plan_options(method: str, sc: AnyScenario, options: dict, *, allow_lar
             func, skip = TRANSFER_OPTIONS[method]
             C.check_options(func, options, where, f"the transfer {method} planner", skip=skip)
         if method in TRANSFER_PLANNERS:
-            check_plan_budget(sc, method, options.get("max_generations"), allow_large=allow_large)
+            _priced(check_plan_budget, sc, method, options.get("max_generations"), allow_large=allow_large, cli=cli)
 
 
 @C.strict_call
@@ -222,10 +231,10 @@ def _check_run_args(scenario: AnyScenario, plan: Plan, time_scale: Any, time_ste
     if not isinstance(allow_large, bool):
         raise QmtInputError(f"{where}: allow_large {show(allow_large)} must be True or False")
     if isinstance(scenario, Scenario):
-        check_replay_budget(scenario, time_scale, time_step_s, motion_time_s=plan.motion_time_s,
-                            allow_large=allow_large)
+        _priced(check_replay_budget, scenario, time_scale, time_step_s, motion_time_s=plan.motion_time_s,
+                allow_large=allow_large)
     elif isinstance(scenario, SpatialScenario):
-        check_budget(replay_estimate(time_scale, plan.motion_time_s, cost=SPATIAL_REPLAY), allow_large=allow_large)
+        _priced(check_budget, replay_estimate(time_scale, plan.motion_time_s, cost=SPATIAL_REPLAY), allow_large=allow_large)
 
 
 @C.strict_call
@@ -297,4 +306,10 @@ def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0,
     C.check_options(hand_plugin(scenario).build_diagram, options, "build_diagram option",
                     f"the {hand_plugin(scenario).kind} hand's diagram",
                     skip=("scenario", "plan", "time_scale", "time_step_s", "meshcat"))
-    return _build_diagram(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, meshcat=meshcat, **options)
+    try:
+        return _build_diagram(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, meshcat=meshcat,
+                              **options)
+    except TypeError as exc:  # a plug-in taking **options passes them on: an unknown one surfaces here
+        if "unexpected keyword argument" not in str(exc):
+            raise
+        raise QmtInputError(f"build_diagram: {exc}; see the hand's diagram builder for its options") from None

@@ -32,7 +32,7 @@ from qmt_drake.errors import QmtInputError
 # where a run stops being a plan and becomes a budget question (budgets.py prices the GA's population
 # and generations, the energy planner's m and divisions; these are the rest).
 OPTION_RANGES: dict[str, tuple[float, float, str]] = {
-    "population": (2, 10 ** 6, "the GA needs at least 2 chromosomes to cross (default 40)"),
+    "population": (2, 10 ** 12, "the GA needs at least 2 chromosomes to cross (default 40); budgets.py prices it"),
     "generations": (1, 10 ** 9, "run at least one generation (default 150)"),
     "max_generations": (1, 10 ** 9, "run at least one generation"),
     "stall": (0, 10 ** 9, "0 never stops early"),

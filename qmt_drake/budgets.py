@@ -133,7 +133,7 @@ def check_budget(est: Estimate, *, allow_large: bool = False, memory_bytes: floa
     if not allow_large and not (est.bytes <= memory_bytes and est.seconds <= time_s):
         raise QmtInputError(f"{est.what} needs {est.describe()}, over the budget of "
                             f"{fmt_bytes(memory_bytes)} and {fmt_seconds(time_s)}; {est.fix}, or add "
-                            "--allow-large (the API: allow_large=True) to run it anyway")
+                            "--allow-large to run it anyway")
     return est
 
 
