@@ -35,7 +35,8 @@ from qmt_drake.budgets import (
     spatial_ga_estimate,
 )
 from qmt_drake.config.fields import show
-from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, Scenario, scenario_kind
+from qmt_drake.config.resolve import kind_of
+from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.energy.energy_plan import EnergyPlan, plan_energy_time
 from qmt_drake.energy.execute import execute_plan
@@ -84,9 +85,7 @@ TRANSFER_OPTIONS: dict[str, tuple[Callable, tuple[str, ...]]] = {
 def _kind_of_file(name_or_path: str | Path) -> str:
     """The `kind` of a built-in name's or a YAML path's file ('' when it is neither: the transfer loader
     then says why in one line)."""
-    p = SCENARIO_DIR / f"{name_or_path}.yaml"
-    path = p if isinstance(name_or_path, str) and "/" not in name_or_path and p.is_file() else Path(name_or_path)
-    return scenario_kind(path) if path.is_file() else ""
+    return kind_of(name_or_path)
 
 
 @C.strict_call

@@ -4,13 +4,19 @@ suction hand and a 3-D pick-and-place task, validated into planning objects with
     sc = load_spatial_scenario("ur5-suction-bins")     # or a path to a YAML file
 
 Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
-- arm: `package: example-robot-data/<arm>` (an arm of urdf_check.EXAMPLE_ARMS; refused in one line
-  when the package is not installed) or `urdf: <path>` (relative to the file) with `hand_frame`;
-  `face_axis` the hand-frame axis the cup faces along (default z).
+- arm: `package: <robot-description package>/<arm or URDF file>` (model/urdf_package.py: an arm of
+  EXAMPLE_ARMS such as example-robot-data/ur5, or any URDF file the installed package ships, then with
+  `hand_frame`; refused in one line when the package is not installed) or `urdf: <path>` (relative to
+  the file) with `hand_frame`; `face_axis` the hand-frame axis the cup faces along (default z);
+  `lock_joints` a list of joints fixed at 0 or a mapping joint -> value (rad or m: {torso_lift_joint:
+  0.25}); `lock: off_chain` also fixes every movable joint off the base-to-hand chain (at its
+  lock_joints value, else 0). docs/arms.md is the user's guide.
 - actuators: velocity_limit_rad_s, acceleration_limit_rad_s2, jerk_limit_rad_s3, torque_limit_Nm
   (joint side), gear_ratio, rotor_inertia_kgm2 (motor side; the reflected inertia N^2 J_r enters the
-  joint torques), one value per chain joint; optional `motor` (spatial_motor.py: k_t, R, voltage limit) for
-  the DC-motor co-simulation.
+  joint torques), one value per chain joint; velocity_limit_rad_s and torque_limit_Nm default to the
+  URDF's <limit velocity effort>, gear_ratio and rotor_inertia_kgm2 to the URDF's drake:gear_ratio /
+  drake:rotor_inertia, else (no `motor`) to an ideal joint-torque source, N = 1 and J_r = 0; optional
+  `motor` (spatial_motor.py: k_t, R, voltage limit) for the DC-motor co-simulation, which needs them.
 - payload: mass_kg, com_m (hand frame, from the cup's centre), inertia_kgm2 (principal central moments
   in the hand axes).
 - hand: kind suction: cup_radius_m, vacuum_force_N, friction, rim_points, pyramid_edges; or kind
@@ -24,7 +30,10 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   per pose: e.g. a part picked from a tilted bin), hand_rpy_rad (a full rotation per pose: roll,
   pitch, yaw of the hand frame in the world, Drake's RollPitchYaw); transfer_points (inner points of
   the geometric path between poses 1 and K-2, on the straight line between them, the orientation
-  interpolated along it by slerp).
+  interpolated along it by slerp); free_spin_about_normal (default false; true lets the hand spin
+  freely about its face normal at every pose: a suction cup or a magnet does not care, and a 5-joint
+  arm can then reach a face-down pose its hand_rpy_rad would over-constrain; with face_normal(s) the
+  spin is always free).
 - limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
 
 Every task pose is solved by SpatialIK on the seed's branch and checked by Drake's forward kinematics
@@ -42,6 +51,7 @@ from pydrake.math import RollPitchYaw
 
 from qmt_drake.budgets import SPATIAL_MAX_GRIP_COUNT, check_spatial_sizes
 from qmt_drake.config import fields as F
+from qmt_drake.config.resolve import SCENARIO_DIR, SPATIAL, resolve_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
@@ -49,12 +59,13 @@ from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.spatial_ik import SpatialIK, slerp_rotations, slerp_unit
-from qmt_drake.model.urdf_check import EXAMPLE_ARMS, drive_parameters, example_robot_urdf, load_arm_plant
+from qmt_drake.model.urdf_check import drive_parameters, load_arm_plant, off_chain_locks, urdf_joint_limits
+from qmt_drake.model.urdf_package import EXAMPLE_ARMS, package_urdf
 from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 
-SPATIAL_KIND = "spatial_transfer"
-SCENARIO_DIR = Path(__file__).resolve().parent.parent / "models" / "scenarios"
+SPATIAL_KIND = SPATIAL
 RECHECK_FACTOR = 10
+OPTIONAL_ACTUATOR_KEYS = ("velocity_limit_rad_s", "torque_limit_Nm", "gear_ratio", "rotor_inertia_kgm2")
 TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits"}
 
 
@@ -64,7 +75,7 @@ class SpatialScenario:
     path: Path
     urdf: Path
     hand_frame: str
-    lock_joints: tuple
+    lock_joints: dict  # joint -> locked value (rad or m): arm.lock_joints, lock: off_chain
     joint_names: list
     plant: object  # continuous MultibodyPlant of the arm alone (IK, Drake FK)
     ik: SpatialIK
@@ -128,34 +139,40 @@ class SpatialScenario:
 
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:
-    p = Path(name_or_path)
-    if not p.suffix and (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
-        p = SCENARIO_DIR / f"{name_or_path}.yaml"
-    if not p.is_file():
-        raise QmtInputError(f"spatial scenario '{name_or_path}' is neither a built-in (ur5-suction-bins, "
-                            "ur5-magnet-part, panda-tray-cup) nor a "
-                            "YAML file that exists")
-    return p
+    """The YAML file of a built-in name or a path (config/resolve.py); one line if neither or of another kind."""
+    return resolve_scenario(name_or_path, SPATIAL_KIND)
 
 
 def _arm(raw: dict, where: str, base: Path):
-    F.check_keys(raw, {"package", "urdf", "hand_frame", "face_axis", "lock_joints"}, where)
+    F.check_keys(raw, {"package", "urdf", "hand_frame", "face_axis", "lock_joints", "lock"}, where)
     if ("package" in raw) == ("urdf" in raw):
-        raise QmtInputError(f"{where}: give exactly one of 'package' (example-robot-data/<arm>) or 'urdf' (a path)")
+        raise QmtInputError(f"{where}: give exactly one of 'package' (<robot-description package>/<arm or URDF "
+                            "file>, e.g. example-robot-data/ur5) or 'urdf' (the path of a URDF file of your own)")
     if "package" in raw:
-        ref = F.string(raw, "package", where)
-        pkg, _, arm = ref.partition("/")
-        if pkg != "example-robot-data" or arm not in EXAMPLE_ARMS:
-            raise QmtInputError(f"{where}.package {ref!r}: give example-robot-data/<arm>, <arm> one of "
-                                f"{sorted(EXAMPLE_ARMS)}")
-        urdf, hand, lock = example_robot_urdf(arm)
+        urdf, hand, lock = package_urdf(F.string(raw, "package", where), f"{where}.package")
+        if hand is None and "hand_frame" not in raw:
+            raise QmtInputError(f"{where}: {raw['package']!r} is not one of the known arms {sorted(EXAMPLE_ARMS)}; "
+                                "give hand_frame, the link the hand is fixed to")
         hand = F.string(raw, "hand_frame", where, default=hand)
     else:
         urdf = F.xml_file((base / F.string(raw, "urdf", where)).resolve(), "robot", f"{where}.urdf", "URDF")
         hand, lock = F.string(raw, "hand_frame", where), ()
-    lock = tuple(F.string_list(raw, "lock_joints", where, default=list(lock)))
+    lock = _lock_joints(raw.get("lock_joints", lock), f"{where}.lock_joints")
+    if "lock" in raw:
+        F.string(raw, "lock", where, choices=("off_chain",))
+        lock = off_chain_locks(urdf, hand, lock, source=str(urdf))
     face = F.direction(raw, "face_axis", where) if "face_axis" in raw else np.array([0.0, 0.0, 1.0])
     return urdf, hand, lock, face
+
+
+def _lock_joints(raw, where: str) -> dict:
+    """arm.lock_joints: a list of joint names (each locked at 0) or a mapping joint -> value (rad or m)."""
+    if isinstance(raw, dict):
+        return {str(k): F.num(raw, k, where) for k in raw}
+    if isinstance(raw, (list, tuple)) and all(isinstance(k, str) for k in raw):
+        return {k: 0.0 for k in raw}
+    raise QmtInputError(f"{where} must be a list of joint names (locked at 0) or a mapping joint: value "
+                        f"(rad or m, e.g. {{torso_lift_joint: 0.25}}); got {F.show(raw)}")
 
 
 def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
@@ -173,15 +190,18 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     keys = ("velocity_limit_rad_s", "acceleration_limit_rad_s2", "jerk_limit_rad_s3", "torque_limit_Nm",
             "gear_ratio", "rotor_inertia_kgm2")
     F.check_keys(act, set(keys) | {"motor"}, w)
-    vals = {k: F.vector(act, k, w, positive=True) for k in keys}
-    plant, H, names = load_arm_plant(urdf, hand, lock_joints=lock, effort_limit_Nm=vals["torque_limit_Nm"],
-                                     velocity_limit_rad_s=vals["velocity_limit_rad_s"])
+    # the URDF's velocity and effort limits, the gear ratio and rotor inertia are defaults (module docstring)
+    vals = {k: F.vector(act, k, w, positive=True) for k in keys if k in act or k not in OPTIONAL_ACTUATOR_KEYS}
+    plant, H, names = load_arm_plant(urdf, hand, lock_joints=lock, effort_limit_Nm=vals.get("torque_limit_Nm"),
+                                     velocity_limit_rad_s=vals.get("velocity_limit_rad_s"))
     n = len(names)
     for k, v in vals.items():
         if v.shape != (n,):
             raise QmtInputError(f"{w}.{k} has {v.size} entries; give {n}, one per joint {names}")
-    drive = drive_parameters(urdf, names, gear_ratio=vals["gear_ratio"], rotor_inertia_kgm2=vals["rotor_inertia_kgm2"],
-                             source=str(urdf))
+    vals = _urdf_limit_defaults(vals, urdf, names)
+    drive = drive_parameters(urdf, names, gear_ratio=vals.get("gear_ratio"),
+                             rotor_inertia_kgm2=vals.get("rotor_inertia_kgm2"), source=str(urdf),
+                             required=act.get("motor") is not None)
     motor = parse_motor_section(act.get("motor"), names, vals["torque_limit_Nm"], drive["gear_ratio"], f"{w}.motor")
 
     w = f"{where}: hand"
@@ -205,7 +225,8 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     w = f"{where}: task"
     tk = F.mapping(raw, "task", where)
-    F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points"}, w)
+    F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points",
+                      "free_spin_about_normal"}, w)
     seed = F.radians(tk, "seed_rad", w, length=n, what="one joint angle per joint")
     poses = tk.get("poses_m")
     if not isinstance(poses, list) or len(poses) < 2:
@@ -215,6 +236,11 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     pose_rotations = _pose_rotations(tk, len(P), w)
     pose_normals = (_pose_normals(tk, len(P), w) if pose_rotations is None
                     else np.einsum("kij,j->ki", pose_rotations, face_axis))
+    if F.boolean(tk, "free_spin_about_normal", w, default=False):
+        pose_rotations = None  # only the face normal of each hand_rpy_rad is kept
+    elif "hand_rpy_rad" not in tk and "free_spin_about_normal" in tk:
+        raise QmtInputError(f"{w}.free_spin_about_normal: false needs hand_rpy_rad (a face normal leaves the "
+                            "spin free); give hand_rpy_rad to fix the spin, or drop the key")
     _refuse_repeated_poses(P, pose_normals, pose_rotations, w)
     n_tr = F.integer(tk, "transfer_points", w, minimum=0, default=0)
     lim = F.mapping(raw, "limits", where)
@@ -243,6 +269,16 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     if cup is None:
         _check_holds_at_rest(sc, f"{where}: payload")
     return sc
+
+
+def _urdf_limit_defaults(vals: dict, urdf, names) -> dict:
+    """The actuator section's velocity and torque limits, each defaulting to the URDF's own <limit>
+    (load_arm_plant has refused a joint without either when the section does not give them)."""
+    own = urdf_joint_limits(urdf, names)
+    for key, urdf_key in (("velocity_limit_rad_s", "velocity_limit_rad_s"), ("torque_limit_Nm", "effort_limit_Nm")):
+        if key not in vals:
+            vals[key] = own[urdf_key]
+    return vals
 
 
 def _payload(raw: dict, where: str) -> CarriedBody:

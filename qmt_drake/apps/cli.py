@@ -26,6 +26,7 @@ from qmt_drake.apps.arg_checks import (
 )
 from qmt_drake.apps.bench import run_bench
 from qmt_drake.apps.benchmark import run_benchmark
+from qmt_drake.apps.export_command import add_parser as add_export_parser
 from qmt_drake.apps.one_line_parser import OneLineParser
 from qmt_drake.apps.plan_command import (
     EXIT_INPUT,
@@ -36,6 +37,7 @@ from qmt_drake.apps.plan_command import (
     cmd_plan,
     refuse_spatial_method,
 )
+from qmt_drake.apps.retime_command import add_parser as add_retime_parser
 from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
 from qmt_drake.design.cli import add_parser as add_design_parser
@@ -184,6 +186,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
+    s.add_argument("--jerk-limited", action="store_true", help="spatial --method toppra: slowed until its peak jerk "
+                   "is within the scenario's jerk limits (qmt_drake/jerk.py)")
     s.add_argument("--carried", action="store_true",
                    help="then slow the plan to the fastest time scale the nominal co-simulation carries "
                         "(bisection; every try's verdict and the margin kept go to the plan file)")
@@ -248,6 +252,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_sweep_parser(sub)
     add_design_parser(sub)
+    add_retime_parser(sub)
+    add_export_parser(sub)
 
     s = sub.add_parser("reproduce", help="the main job (make run): every seed, the benchmark and out/report.html")
     s.add_argument("--out", default="out")

@@ -41,10 +41,11 @@ from qmt_drake.budgets import (
     replay_estimate,
     spatial_ga_estimate,
 )
-from qmt_drake.config.scenario import SCENARIO_DIR, builtin_scenarios, scenario_kind
+from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
+from qmt_drake.jerk import jerk_limited_plan, peak_jerk
 from qmt_drake.outcome import verdict_line
-from qmt_drake.outputs import jsonable
+from qmt_drake.outputs import is_stdout, jsonable
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_families import FAMILIES
 from qmt_drake.planners.spatial_methods import ALIASES, FAMILY_METHODS, METHODS, PLANNERS, plan_toppra_spatial
@@ -69,13 +70,7 @@ NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "success"
 
 def is_spatial_scenario(name_or_path) -> bool:
     """A built-in name or a YAML file with `kind: spatial_transfer`; never raises (a probe)."""
-    p = SCENARIO_DIR / f"{name_or_path}.yaml"
-    if not (isinstance(name_or_path, str) and "/" not in name_or_path and p.is_file()):
-        p = name_or_path
-    try:
-        return scenario_kind(p) == SPATIAL_KIND
-    except (OSError, TypeError, ValueError):
-        return False
+    return kind_of(name_or_path) == SPATIAL_KIND
 
 
 def list_scenarios() -> None:
@@ -155,6 +150,9 @@ def plan(args, energy_options) -> bool:
     every limit on the re-check."""
     _refuse_given(args, PLAN_REFUSED, energy_options)
     method = _method(args)
+    if getattr(args, "jerk_limited", False) and method != "toppra":
+        raise QmtInputError(f"--jerk-limited slows a TOPP-RA plan to the jerk limits; --method {method} does not "
+                            "take it (use --method toppra; ruckig plans jerk-limited motions itself)")
     check_outputs(args, "--json", "--trajectory-csv")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
     if args.carried_max_scale <= 1:
@@ -164,6 +162,8 @@ def plan(args, energy_options) -> bool:
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
     p = _plan(args, sc, method, opts)
+    if getattr(args, "jerk_limited", False):  # qmt_drake/jerk.py: slowed until its jerk is within the limits
+        p = jerk_limited_plan(sc, p)
     try:  # TOPP-RA's duration on the family's path: the bound (well under a second on a UR5)
         family = opts.get("family", "via_cubic")
         bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc, family=family).raw_duration_s
@@ -179,7 +179,7 @@ def plan(args, energy_options) -> bool:
         p.write_json(args.json)
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
-    if args.json != "-":
+    if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
         print(summary_line(sc, p, bound))
     return p.recheck["max"] <= 1.0
 
@@ -196,6 +196,10 @@ def summary_line(sc, p, bound) -> str:
     line = (f"{sc.name} {p.method}: T = {p.duration_s:.4f} s ({ratio}), re-check max ratio {p.recheck['max']:.5f} "
             f"at {sc.recheck_rate_hz:g} Hz, time scale applied {p.hold_scale:.4f}, task poses within "
             f"{p.pose_error[:, 0].max():.1e} m, {p.planning_s:.2f} s")
+    pj = peak_jerk(sc, p.trajectory, sc.recheck_rate_hz)
+    line += f", peak jerk {pj['peak_jerk_ratio']:.3g} x the limit at {sc.recheck_rate_hz:g} Hz"
+    if p.info.get("jerk_limited"):
+        line += f" (jerk-limited: {p.info['jerk_time_scale']:.4f} x slower than {p.info['duration_before_jerk_limit_s']:.4f} s)"
     s = p.info.get("carried_search")
     if s:
         lost = f", lost at x{s['lost_below']:.4f}" if s["lost_below"] else ", as planned"

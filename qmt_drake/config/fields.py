@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +46,12 @@ class _UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # libyam
                 raise QmtInputError(f"duplicated key '{key}' at line {line}; give each key once")
             seen.add(key)
         return super().construct_mapping(node, deep=deep)
+
+
+# YAML 1.2 reads 1e5 and 1e-5 (no dot) as numbers; PyYAML follows YAML 1.1 and reads them as text. Every
+# scenario, sweep and task file goes through this loader, so one number rule holds for all of them.
+_UniqueKeyLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float", re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"), list("-+0123456789"))
 
 
 def _refuse_aliases(root) -> None:
@@ -144,7 +151,7 @@ def num(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: b
         return default
     v = need(d, key, where)
     if not is_number(v):
-        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}{_float_text_hint(v)}")
+        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}{float_text_hint(v)}")
     v = float(v)
     if not math.isfinite(v) or (positive and v <= 0) or (nonnegative and v < 0):
         want = "positive" if positive else "non-negative" if nonnegative else "finite"
@@ -197,7 +204,7 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     """A non-empty list of finite numbers (positive / non-negative if asked; `length` entries)."""
     v = need(d, key, where)
     if not isinstance(v, list) or not v or not all(is_number(x) for x in v):
-        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}{_float_text_hint(v)}")
+        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}{float_text_hint(v)}")
     a = np.asarray(v, dtype=float)
     bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
     if np.any(bad):
@@ -208,7 +215,7 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     return a
 
 
-def _float_text_hint(v) -> str:
+def float_text_hint(v) -> str:
     """The fix when YAML 1.1 read a number as text (PyYAML takes 1e-5 without a dot for a string)."""
     items = v if isinstance(v, list) else [v]
     for x in items:
@@ -220,17 +227,6 @@ def _float_text_hint(v) -> str:
             return f"; YAML reads {x} as text: write it with a decimal point, e.g. {float(x):.1e}"
     return ""
 
-
-
-def string_list(d: dict, key: str, where: str, *, default=MISSING) -> list[str]:
-    """A list of non-empty strings (a single string is refused, not read letter by letter)."""
-    if default is not MISSING and key not in d:
-        return default
-    v = d.get(key)
-    if not isinstance(v, list) or not all(isinstance(x, str) and x for x in v):
-        hint = f" (write [{v}])" if isinstance(v, str) else ""
-        raise QmtInputError(f"{where}.{key} must be a list of names, got {show(v)}{hint}")
-    return list(v)
 
 
 def direction(d: dict, key: str, where: str, *, what: str = "a direction [x, y, z]") -> np.ndarray:

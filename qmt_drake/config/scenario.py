@@ -46,6 +46,14 @@ from qmt_drake.config.registry import (
     TRANSFER,
     for_scenario_kind,
 )
+from qmt_drake.config.resolve import (  # noqa: F401 (re-exported: the one resolver)
+    MODELS_DIR,
+    SCENARIO_DIR,
+    SPATIAL_METHODS,
+    builtin_scenarios,
+    resolve_scenario,
+    scenario_kind,
+)
 from qmt_drake.config.sections import (  # noqa: F401 (re-exported: the scenario's types)
     STANDARD_GRAVITY_M_S2,
     DcMotorGear,
@@ -78,10 +86,6 @@ from qmt_drake.config.validate import (
 )
 from qmt_drake.errors import QmtInputError
 
-MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
-SCENARIO_DIR = MODELS_DIR / "scenarios"
-
-
 # ---------------------------------------------------------------------------------------- loading
 _TOP_KEYS = {"name", "description", "world", "uncertainty", "arm", "hand", "actuator", "payload", "task", "limits",
              "family", "objective", "ga", "sampling", "control", "reported", "notes", "source"}
@@ -103,26 +107,6 @@ _SECTION_KEYS = {
 ENERGY_TIME_KIND = ENERGY_TIME  # seed 001's scenarios (qmt_drake/energy/scenario.py) share the folder
 
 
-# planners/spatial_methods.METHODS (named here: config imports nothing above it; a test checks they agree)
-SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
-
-
-def scenario_kind(path: Path) -> str:
-    """A scenario file's top-level `kind` (transfer scenarios have none: 'transfer'); '' if the
-    file cannot be read as a YAML mapping (load_scenario then says why)."""
-    try:  # the loaders' reader: size cap, no aliases, libyaml
-        raw = fields_mod.read_yaml_mapping(Path(path))
-    except (QmtInputError, OSError, TypeError):
-        return ""
-    return str(raw.get("kind", "transfer"))
-
-
-def builtin_scenarios(kind: str = "transfer") -> list[str]:
-    """Names of the built-in scenarios of one kind ('transfer': the planners' and co-simulation's;
-    ENERGY_TIME_KIND: seed 001's energy-time experiments)."""
-    return sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml") if scenario_kind(p) == kind)
-
-
 def read_scenario_yaml(path: Path, example: str = "thesis-ch4") -> dict:
     """The YAML mapping of a scenario file (duplicated keys refused); QmtInputError (one line) if it
     is not one."""
@@ -132,25 +116,9 @@ def read_scenario_yaml(path: Path, example: str = "thesis-ch4") -> dict:
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
     """Load a built-in scenario by name or a YAML file by path; `overrides` is merged into the
     raw YAML mapping first (nested dicts merge key by key)."""
-    path = Path(name_or_path)
-    if not path.suffix and (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
-        path = SCENARIO_DIR / f"{name_or_path}.yaml"
-    if path.is_dir():
-        raise QmtInputError(f"scenario '{name_or_path}' is a directory; give a built-in name "
-                            f"({', '.join(builtin_scenarios())}) or a YAML file")
-    if not path.is_file():
-        raise QmtInputError(f"scenario '{name_or_path}' is neither a built-in "
-                            f"({', '.join(builtin_scenarios())}) nor a YAML file that exists")
+    path = resolve_scenario(name_or_path, TRANSFER)
     raw = read_scenario_yaml(path)
     check_scenario_kind(raw, str(path))
-    if raw.get("kind") == "spatial_transfer":  # issue 19: qmt_drake/spatial_task.py loads these
-        raise QmtInputError(f"scenario '{name_or_path}' is a spatial (3-D) scenario: plan it with `qmt-drake plan "
-                            f"{name_or_path} --method {'|'.join(SPATIAL_METHODS)} --json PLAN.json` and co-simulate "
-                            f"it with `qmt-drake simulate {name_or_path} --plan PLAN.json`")
-    if raw.get("kind") == ENERGY_TIME_KIND:
-        raise QmtInputError(f"scenario '{name_or_path}' is a seed-001 energy-time scenario: plan it with "
-                            f"`qmt-drake plan {name_or_path} --method snopt|steepest|ipopt|collocation`; "
-                            "simulate, benchmark and sweeps take transfer scenarios")
     if overrides:
         raw = _merge(raw, overrides)
     return scenario_from_dict(raw, path)

@@ -24,14 +24,14 @@ any computation.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
 
-import numpy as np
-import yaml
-
+from qmt_drake.config import fields as F
 from qmt_drake.config.registry import FAMILIES, OBJECTIVES, for_scenario_kind
+from qmt_drake.config.resolve import kind_of, resolve_scenario
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, builtin_scenarios, read_scenario_yaml
 from qmt_drake.energy.dynamics import OHSAKA_URDF, VerticalArm, ohsaka_arm
 from qmt_drake.energy.experiments import Experiment
@@ -60,32 +60,14 @@ def builtin_energy_scenarios() -> list[str]:
 
 
 def resolve(name_or_path: str | Path) -> Path:
-    """The YAML file of a built-in name or a path; QmtInputError if neither."""
-    p = Path(name_or_path)
-    if not p.suffix and str(name_or_path) in builtin_energy_scenarios():
-        return ENERGY_SCENARIO_DIR / f"{name_or_path}.yaml"
-    if p.is_file():
-        return p
-    if str(name_or_path) in builtin_scenarios():
-        raise QmtInputError(f"scenario '{name_or_path}' is a transfer scenario, not an energy-time one; "
-                            f"plan it with `qmt-drake plan {name_or_path} --method ga|optimum|toppra|...`")
-    raise QmtInputError(f"energy scenario '{name_or_path}' is neither a built-in "
-                        f"({', '.join(builtin_energy_scenarios())}) nor a YAML file that exists")
+    """The YAML file of a built-in name or a path; QmtInputError if neither, or of another kind."""
+    return resolve_scenario(name_or_path, KIND)
 
 
 def is_energy_scenario(name_or_path) -> bool:
     """True for a built-in energy scenario name or a readable YAML file with `kind: energy_time`
     (lets `qmt-drake plan FILE` route such a file to the energy planner); never raises."""
-    try:
-        if str(name_or_path) in builtin_energy_scenarios():
-            return True
-        p = Path(str(name_or_path))
-        if p.suffix not in (".yaml", ".yml") or not p.is_file():
-            return False
-        raw = yaml.safe_load(p.read_text(encoding="utf-8"))
-        return isinstance(raw, dict) and raw.get("kind") == KIND
-    except Exception:  # noqa: BLE001 - a probe: anything unreadable is simply not ours
-        return False
+    return kind_of(name_or_path) == KIND
 
 
 def read_raw(name_or_path) -> tuple[dict, Path]:
@@ -94,13 +76,9 @@ def read_raw(name_or_path) -> tuple[dict, Path]:
 
 
 def _number(path, key, v, *, lo=None, lo_open=False, integer=False):
-    if isinstance(v, str):  # YAML 1.1 reads 1e5 (no dot/sign) as a string
-        try:
-            v = float(v)
-        except ValueError:
-            pass
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-        raise QmtInputError(f"{path}: {key} = {v!r} must be a finite number")
+    """The number rule of every loader (config/fields.is_number): a finite number, not a bool, not text."""
+    if not F.is_number(v) or not math.isfinite(v):
+        raise QmtInputError(f"{path}: {key} = {v!r} must be a finite number{F.float_text_hint(v)}")
     if integer:
         if float(v) != int(v):
             raise QmtInputError(f"{path}: {key} = {v!r} must be an integer")

@@ -31,6 +31,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import FrameIndex, JointIndex
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.actuator_order import actuator_joint_names
 from qmt_drake.model.drake_chain import DrakeChain
 from qmt_drake.model.hand_state import HandState
 from qmt_drake.model.planar import IK_BRANCHES, PlanarChain  # noqa: F401  (IK_BRANCHES is re-exported)
@@ -233,9 +234,28 @@ def add_arm(plant, urdf_path):
     if not path.is_file():
         raise QmtInputError(f"URDF file not found: {path}; check arm.urdf in the scenario")
     try:
-        return Parser(plant).AddModels(str(path))[0]
+        model = Parser(plant).AddModels(str(path))[0]
     except RuntimeError as exc:
         raise QmtInputError(f"{path}: Drake cannot parse this URDF ({_first_line(exc)})") from None
+    _refuse_actuators_out_of_joint_order(plant, model, path)
+    return model
+
+
+def _refuse_actuators_out_of_joint_order(plant, model, path) -> None:
+    """The co-simulation writes one torque per joint, base to tip, into the actuation input, whose order
+    is the <transmission> elements' (Drake's parser): refuse a file whose order differs (by name)."""
+    joints = [plant.get_joint(i) for i in plant.GetJointIndices(model)]
+    inboard = {j.child_body().index(): j for j in joints}
+
+    def depth(j) -> int:
+        parent = inboard.get(j.parent_body().index())
+        return 0 if parent is None else 1 + depth(parent)
+
+    acting = actuator_joint_names(plant, model)
+    order = [j.name() for j in sorted(joints, key=depth) if j.name() in acting]
+    if acting != order:
+        raise QmtInputError(f"{path}: its <transmission> elements drive {acting}, not the joints base to tip "
+                            f"{order}; list the transmissions in that order")
 
 
 def _all_frames(plant):

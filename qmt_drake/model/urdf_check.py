@@ -2,72 +2,49 @@
 
 `load_arm_plant(urdf, hand_frame, ...)` turns a URDF (path or XML text) into a finalized continuous
 MultibodyPlant of the arm alone: visual and collision geometry dropped (planning needs none, and
-`package://` meshes would need a package map), the joints named in `lock_joints` turned into fixed
-joints at their zero position (e.g. a gripper's fingers), the root link welded to the world when the
-URDF does not do it (URDF's convention for a fixed base), and the carried body, if given, welded to
-the hand frame.
+`package://` meshes would need a package map), the joints in `lock_joints` (a list: each at 0; or a
+mapping joint -> value, rad or m, e.g. a torso height) turned into fixed joints at that value (e.g. a
+gripper's fingers), the root link welded to the world when the URDF does not do it (URDF's convention
+for a fixed base), one actuator per chain joint in chain order (model/actuator_order.py), and the
+carried body, if given, welded to the hand frame. `off_chain_locks` adds every movable joint off the
+base-to-hand chain to the locks (`lock: off_chain` in a scenario).
 
 `check_urdf(root, hand_frame, ...)` refuses, in one line naming the problem and the fix
 (QmtInputError), every URDF that is not a serial chain of revolute (or continuous) joints from a
 fixed base to the hand frame: floating/planar joints, prismatic joints, a link with two parents
 (closed chain), a movable joint that is not on the path to the hand (branching), links on the chain
-without an inertial element (or with a mass < 0 or an inertia no body has: Drake only warns and
-substitutes), and joints without effort or velocity limits when no actuator section supplies them.
+without an inertial element, a link moved by the chain with a mass < 0 or an inertia no body has
+(Drake only warns and substitutes; for a link that does not move with the arm, such as an antenna
+welded to a mobile base, a warning naming the link), and joints without effort or velocity limits
+when no actuator section supplies them. `urdf_joint_limits` reads those limits (the scenario's defaults).
 
 `drive_parameters(urdf, joints, ...)` reads gear ratios and rotor inertias from the URDF's actuators
-or takes them from the scenario's actuator section, refusing a joint left without them.
-"""
+or takes them from the scenario's actuator section; without either, an ideal joint-torque source
+(N = 1, J_r = 0, marked not given: the DC-motor drive refuses it)."""
 
 from __future__ import annotations
 
-import importlib.metadata
+import logging
 import re
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
-from pydrake.math import RigidTransform
+from pydrake.common.eigen_geometry import AngleAxis
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.actuator_order import actuator_joint_names, actuator_specs, add_actuators_in_order
+from qmt_drake.model.urdf_package import EXAMPLE_ARMS, example_robot_urdf  # noqa: F401 (re-exported)
 
 DRAKE_NS = "http://drake.mit.edu"
 ET.register_namespace("drake", DRAKE_NS)
 
 MOVABLE_OK = ("revolute", "continuous")
-
-# Arms of the `example-robot-data` package (a test extra): name -> (URDF path under robots/, hand
-# frame, joints to lock).
-EXAMPLE_ARMS = {
-    "ur3": ("ur_description/urdf/ur3_robot.urdf", "tool0", ()),
-    "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0", ()),
-    "ur10": ("ur_description/urdf/ur10_robot.urdf", "tool0", ()),
-    "panda": ("panda_description/urdf/panda.urdf", "panda_hand_tcp",
-              ("panda_finger_joint1", "panda_finger_joint2")),
-    "kinova": ("kinova_description/robots/kinova.urdf", "j2s6s200_end_effector", ()),
-    "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_eef", ()),
-    "z1": ("z1_description/urdf/z1.urdf", "gripperStator", ("jointGripper",)),
-}
-
-
-def example_robot_urdf(name: str) -> tuple[Path, str, tuple]:
-    """(URDF path, hand frame, joints to lock) of an arm shipped by `example-robot-data`; QmtInputError
-    when the package is not installed."""
-    if name not in EXAMPLE_ARMS:
-        raise QmtInputError(f"unknown example arm {name!r}; choose one of {sorted(EXAMPLE_ARMS)}")
-    try:
-        files = importlib.metadata.files("example-robot-data") or []
-    except importlib.metadata.PackageNotFoundError:
-        raise QmtInputError("the example arms need the 'example-robot-data' package; "
-                            "pip install example-robot-data") from None
-    rel, hand, lock = EXAMPLE_ARMS[name]
-    for f in files:
-        if str(f).endswith("example-robot-data/robots/" + rel):
-            return Path(f.locate()).resolve(), hand, lock
-    raise QmtInputError(f"example-robot-data does not ship robots/{rel}; upgrade example-robot-data")
-
 
 def _read_root(urdf: str | Path, source: str) -> ET.Element:
     text = str(urdf)
@@ -84,7 +61,15 @@ def _read_root(urdf: str | Path, source: str) -> ET.Element:
         raise QmtInputError(f"{source}: not well-formed XML ({exc}); fix the URDF's XML") from None
 
 
+def lock_values(lock_joints) -> dict:
+    """{joint name: value [rad or m]}: a list of names (each locked at 0) or a mapping name -> value."""
+    if isinstance(lock_joints, dict):
+        return {str(k): float(v) for k, v in lock_joints.items()}
+    return {str(n): 0.0 for n in lock_joints}
+
+
 def _strip_and_lock(root: ET.Element, lock_joints, source: str) -> None:
+    lock = lock_values(lock_joints)
     for link in root.findall("link"):
         for tag in ("visual", "collision"):
             for el in link.findall(tag):
@@ -97,19 +82,63 @@ def _strip_and_lock(root: ET.Element, lock_joints, source: str) -> None:
     for el in root.iter("mechanicalReduction"):  # Drake ignores it too (drive_parameters explains) and warns
         el.text = "1"
     names = {j.get("name") for j in root.findall("joint")}
-    unknown = [n for n in lock_joints if n not in names]
+    unknown = [n for n in lock if n not in names]
     if unknown:
         raise QmtInputError(f"{source}: lock_joints names {unknown}, which are not joints of the URDF; "
                             f"use joint names from {sorted(n for n in names if n)}")
     for j in root.findall("joint"):
-        if j.get("name") in lock_joints:
-            j.set("type", "fixed")
-            for tag in ("axis", "limit", "dynamics", "mimic", "calibration"):
-                for el in j.findall(tag):
-                    j.remove(el)
+        if j.get("name") in lock:
+            _fix_joint_at(j, lock[j.get("name")], source)
     for tr in root.findall("transmission"):
-        if any(j.get("name") in lock_joints for j in tr.findall("joint")):
+        if any(j.get("name") in lock for j in tr.findall("joint")):
             root.remove(tr)
+
+
+def _fix_joint_at(j: ET.Element, value: float, source: str) -> None:
+    """Turn joint j into a fixed joint at `value` (rad about its axis, or m along it): its origin
+    becomes the joint's pose at that value (URDF: origin, then the motion along/about the axis)."""
+    kind, name = j.get("type"), j.get("name")
+    lim = j.find("limit")
+    if kind in ("revolute", "prismatic") and lim is not None and value != 0.0:
+        lo, hi = float(lim.get("lower", "-inf")), float(lim.get("upper", "inf"))
+        if not lo <= value <= hi:
+            raise QmtInputError(f"{source}: lock_joints {name}: {value:g} is outside the joint's range "
+                                f"[{lo:g}, {hi:g}]; give a value inside it")
+    if value != 0.0:
+        if kind not in ("revolute", "continuous", "prismatic"):
+            raise QmtInputError(f"{source}: lock_joints {name}: a {kind} joint locks at 0 only; give 0 or "
+                                "drop the value")
+        origin = j.find("origin")
+        xyz = np.array([float(x) for x in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()])
+        rpy = np.array([float(x) for x in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()])
+        axis_el = j.find("axis")
+        axis = np.array([float(x) for x in (axis_el.get("xyz", "1 0 0") if axis_el is not None else "1 0 0").split()])
+        axis = axis / np.linalg.norm(axis)
+        X = RigidTransform(RollPitchYaw(rpy), xyz)
+        motion = (RigidTransform(axis * value) if kind == "prismatic"
+                  else RigidTransform(RotationMatrix(AngleAxis(value, axis)), np.zeros(3)))
+        X = X @ motion
+        if origin is None:
+            origin = ET.SubElement(j, "origin")
+        origin.set("xyz", " ".join(repr(float(v)) for v in X.translation()))
+        origin.set("rpy", " ".join(repr(float(v)) for v in RollPitchYaw(X.rotation()).vector()))
+    j.set("type", "fixed")
+    for tag in ("axis", "limit", "dynamics", "mimic", "calibration"):
+        for el in j.findall(tag):
+            j.remove(el)
+
+
+def off_chain_locks(urdf: str | Path, hand_frame: str, lock_joints=(), source: str | None = None) -> dict:
+    """`lock: off_chain`: lock_values(lock_joints) plus every movable joint not on the chain from the
+    root link to `hand_frame`, at 0 (a joint named in lock_joints keeps its value)."""
+    source = source or (str(urdf) if not str(urdf).lstrip().startswith("<") else "URDF text")
+    root = _read_root(urdf, source)
+    lock = lock_values(lock_joints)
+    on_chain = {j.get("name") for j in chain_joints(root, hand_frame, source)}
+    for j in root.findall("joint"):
+        if j.get("type") != "fixed" and j.get("name") not in on_chain:
+            lock.setdefault(j.get("name"), 0.0)
+    return lock
 
 
 def chain_joints(root: ET.Element, hand_frame: str, source: str = "URDF") -> list[ET.Element]:
@@ -156,8 +185,10 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
     on_path = {j.get("name") for j in path}
     off = [j.get("name") for j in root.findall("joint") if j.get("type") in MOVABLE_OK and j.get("name") not in on_path]
     if off:
-        raise QmtInputError(f"{source}: movable joints {off} are not on the chain from the base to "
-                            f"{hand_frame!r} (a branch); lock them (lock_joints) or name a hand frame after them")
+        shown = str(off) if len(off) <= 8 else f"{off[:6]} and {len(off) - 6} more"
+        raise QmtInputError(f"{source}: movable joints {shown} are not on the chain from the base to "
+                            f"{hand_frame!r} (a branch); lock them (lock_joints, or lock: off_chain for every one) "
+                            "or name a hand frame after them")
     movable = [j for j in path if j.get("type") in MOVABLE_OK]
     if not movable:
         raise QmtInputError(f"{source}: no revolute joint between the base and {hand_frame!r}; "
@@ -168,9 +199,18 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
         if inertials.get(child) is None:
             raise QmtInputError(f"{source}: link {child!r} (moved by joint {j.get('name')!r}) has no "
                                 "<inertial>; give it mass, origin and inertia")
+    moving = _links_below(root, movable[0].find("child").get("link"))
     for name, el in inertials.items():
-        if el is not None:
+        if el is None:
+            continue
+        try:
             _check_inertial(name, el, source)
+        except QmtInputError as exc:
+            if name in moving:
+                raise
+            # a link that does not move with the arm (welded to the base: an antenna, a sensor) plays no
+            # part in the arm's dynamics; Drake substitutes a valid inertia and warns too
+            warnings.warn(f"{exc} (ignored: the link does not move with the arm)", stacklevel=3)
     for j in movable:
         lim = j.find("limit")
         for attr, supplied, what in (("effort", effort_limit_Nm, "effort"),
@@ -180,6 +220,20 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
                 raise QmtInputError(f"{source}: joint {j.get('name')!r} has no {what} limit; add "
                                     f"<limit {attr}=\"...\"/> or give the actuator section's {what} limits")
     return [j.get("name") for j in movable]
+
+
+def _links_below(root: ET.Element, link: str) -> set[str]:
+    """`link` and every link whose chain of parents reaches it (all move when it does)."""
+    children: dict[str, list[str]] = {}
+    for j in root.findall("joint"):
+        children.setdefault(j.find("parent").get("link"), []).append(j.find("child").get("link"))
+    out, todo = set(), [link]
+    while todo:
+        k = todo.pop()
+        if k not in out:
+            out.add(k)
+            todo.extend(children.get(k, ()))
+    return out
 
 
 def _check_inertial(link: str, el: ET.Element, source: str) -> None:
@@ -213,27 +267,30 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
     centre of mass, hand-frame axes); welded to the hand frame as body "carried"."""
     source = source or (str(urdf) if not str(urdf).lstrip().startswith("<") else "URDF text")
     root = _read_root(urdf, source)
-    _strip_and_lock(root, tuple(lock_joints), source)
+    _strip_and_lock(root, lock_joints, source)
     names = check_urdf(root, hand_frame, source=source, effort_limit_Nm=effort_limit_Nm,
                        velocity_limit_rad_s=velocity_limit_rad_s)
-    plant = MultibodyPlant(time_step_s)
-    try:
-        model = Parser(plant).AddModelsFromString(ET.tostring(root, encoding="unicode"), "urdf")[0]
-    except RuntimeError as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise QmtInputError(f"{source}: Drake cannot parse it ({msg}); fix the URDF") from None
+    plant, model = _parse(root, time_step_s, source)
+    if actuator_joint_names(plant, model) != names:
+        # Drake's actuators follow the <transmission> order and skip the ones it does not support: parse
+        # again without them and add one actuator per chain joint in chain order (model/actuator_order.py)
+        specs = actuator_specs(plant, model, names, source)
+        for tr in root.findall("transmission"):
+            root.remove(tr)
+        drake_log = logging.getLogger("drake")
+        level = drake_log.level
+        drake_log.setLevel(logging.ERROR)  # its warnings about this URDF were given by the first parse
+        try:
+            plant, model = _parse(root, time_step_s, source)
+        finally:
+            drake_log.setLevel(level)
+        add_actuators_in_order(plant, model, names, specs)
     root_link = chain_root_link(root, hand_frame)
     if root_link != "world":
         base = plant.GetBodyByName(root_link, model)
         welded = {b.index() for b in plant.GetBodiesWeldedTo(plant.world_body())}
         if base.index() not in welded:
             plant.WeldFrames(plant.world_frame(), base.body_frame(), RigidTransform())
-    # An actuator on every chain joint that has none (example-robot-data's Panda URDF declares no
-    # transmissions): the arm is torque-driven; its limits are the scenario's torque limits.
-    have = {plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()}
-    for name in names:
-        if name not in have:
-            plant.AddJointActuator(f"{name}_actuator", plant.GetJointByName(name, model))
     hand = plant.GetFrameByName(hand_frame, model)
     if carried is not None:
         inertia = RotationalInertia(*_inertia_args(np.asarray(carried["inertia_kgm2"], float)))
@@ -246,14 +303,25 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
     return plant, hand, names
 
 
+def _parse(root: ET.Element, time_step_s: float, source: str):
+    plant = MultibodyPlant(time_step_s)
+    try:
+        model = Parser(plant).AddModelsFromString(ET.tostring(root, encoding="unicode"), "urdf")[0]
+    except RuntimeError as exc:
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise QmtInputError(f"{source}: Drake cannot parse it ({msg}); fix the URDF") from None
+    return plant, model
+
+
 def drive_parameters(urdf: str | Path, joint_names, *, gear_ratio=None, rotor_inertia_kgm2=None,
-                     source: str | None = None) -> dict:
+                     source: str | None = None, required: bool = True) -> dict:
     """Gear ratios N and motor-side rotor inertias J_r of the chain's joints (for a DC-motor model and
     the reflected inertia N^2 J_r): from each joint's `<transmission><actuator>` `drake:gear_ratio` /
     `drake:rotor_inertia`, replaced by `gear_ratio` / `rotor_inertia_kgm2` (per joint, the scenario's
-    actuator section) when given. A joint left without either is refused in one line (a
-    `<mechanicalReduction>` is not read: Drake ignores it too). Returns gear_ratio, rotor_inertia_kgm2,
-    reflected_inertia_kgm2 (n,) arrays."""
+    actuator section) when given. A joint left without either is refused in one line when `required`
+    (a `<mechanicalReduction>` is not read: Drake ignores it too), else it gets N = 1, J_r = 0 (an ideal
+    joint-torque source). Returns gear_ratio, rotor_inertia_kgm2, reflected_inertia_kgm2 (n,) arrays
+    and `given` (False when a default was used)."""
     source = source or (str(urdf) if not str(urdf).lstrip().startswith("<") else "URDF text")
     root = _read_root(urdf, source)
     names = list(joint_names)
@@ -266,23 +334,44 @@ def drive_parameters(urdf: str | Path, joint_names, *, gear_ratio=None, rotor_in
                 if tag in found and child.tag.startswith("{" + DRAKE_NS):
                     for j in joints:
                         found[tag][j] = float(child.get("value"))
-    out = {}
-    for tag, given, unit in (("gear_ratio", gear_ratio, ""), ("rotor_inertia", rotor_inertia_kgm2, " kg m^2")):
-        if given is not None:
-            vals = np.asarray(given, float).reshape(-1)
+    out, given = {}, {"gear_ratio": True, "rotor_inertia": True}
+    for tag, value, unit in (("gear_ratio", gear_ratio, ""), ("rotor_inertia", rotor_inertia_kgm2, " kg m^2")):
+        if value is not None:
+            vals = np.asarray(value, float).reshape(-1)
             if vals.shape != (len(names),) or not np.all(np.isfinite(vals)) or np.any(vals < 0):
                 raise QmtInputError(f"{source}: the actuator section's {tag} has {vals.size} values; give "
                                     f"{len(names)} finite values >= 0{unit}, one per joint {names}")
             out[tag] = vals
             continue
         missing = [j for j in names if j not in found[tag]]
+        if missing and not required:  # an ideal joint-torque source: no gear, no rotor
+            given[tag] = False
+            out[tag] = np.array([found[tag].get(j, 1.0 if tag == "gear_ratio" else 0.0) for j in names])
+            continue
         if missing:
             raise QmtInputError(f"{source}: joints {missing} declare no drake:{tag} in their <transmission><actuator> "
                                 f"(<mechanicalReduction> is not read); add it there or give the actuator "
                                 f"section's {tag} per joint")
         out[tag] = np.array([found[tag][j] for j in names])
     return {"gear_ratio": out["gear_ratio"], "rotor_inertia_kgm2": out["rotor_inertia"],
-            "reflected_inertia_kgm2": out["gear_ratio"] ** 2 * out["rotor_inertia"]}
+            "reflected_inertia_kgm2": out["gear_ratio"] ** 2 * out["rotor_inertia"],
+            "given": given["gear_ratio"] and given["rotor_inertia"]}
+
+
+def urdf_joint_limits(urdf: str | Path, joint_names, source: str | None = None) -> dict:
+    """The URDF's own <limit velocity effort> of each joint [rad/s, N*m]: {"velocity_limit_rad_s",
+    "effort_limit_Nm"} (n,) arrays, NaN where the URDF gives none (or a value <= 0)."""
+    source = source or (str(urdf) if not str(urdf).lstrip().startswith("<") else "URDF text")
+    joints = {j.get("name"): j for j in _read_root(urdf, source).findall("joint")}
+    out = {}
+    for attr, key in (("velocity", "velocity_limit_rad_s"), ("effort", "effort_limit_Nm")):
+        vals = []
+        for name in joint_names:
+            lim = joints[name].find("limit")
+            v = float(lim.get(attr, "nan")) if lim is not None else float("nan")
+            vals.append(v if v > 0 else float("nan"))
+        out[key] = np.array(vals)
+    return out
 
 
 def chain_root_link(root: ET.Element, hand_frame: str) -> str:

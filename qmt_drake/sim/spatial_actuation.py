@@ -40,6 +40,7 @@ from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.actuator_order import actuator_joint_names
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.sim.actuation import (
     FEEDFORWARD_OPTIONS,
@@ -67,6 +68,15 @@ def set_drive_inertia(plant, arm_instance, sc) -> None:
         k = sc.joint_names.index(a.joint().name())
         a.set_default_gear_ratio(float(sc.drive["gear_ratio"][k]))
         a.set_default_rotor_inertia(float(sc.drive["rotor_inertia_kgm2"][k]))
+
+
+def require_joint_order(plant, arm_instance, joint_names) -> None:
+    """The arm's actuators drive `joint_names` in this order (load_arm_plant builds them so, by name);
+    anything else would send each motor's torque into another joint."""
+    acting = actuator_joint_names(plant, arm_instance)
+    if acting != list(joint_names):
+        raise RuntimeError(f"the arm's actuators drive {acting}, not the joints {list(joint_names)} in order; "
+                           "build the plant with load_arm_plant (a defect, please report it)")
 
 
 def motor_params_for_spatial(sc) -> DcMotorParams:
@@ -118,7 +128,9 @@ class SpatialMotorDrive:
         return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant)
 
     def prepare_plant(self, plant, arm_instance, sc) -> None:
-        """Before the simulated plant's Finalize: reflected inertia, and the loop damping in the joints."""
+        """Before the simulated plant's Finalize: reflected inertia, and the loop damping in the joints
+        (move_loop_damping_into_plant and the motor wiring go by actuator order: it must be the joints')."""
+        require_joint_order(plant, arm_instance, sc.joint_names)
         set_drive_inertia(plant, arm_instance, sc)
         move_loop_damping_into_plant(plant, arm_instance, self.loop_damping_Nms)
 
@@ -126,6 +138,7 @@ class SpatialMotorDrive:
         """Wire law, motors and feedforward into the builder (after Finalize); returns the applied
         motor signals system (joint_torque, voltage, current, motor_torque, electrical_power)."""
         mp, n = self.params, self.params.n
+        require_joint_order(plant, arm_instance, mp.names)  # the motors' torques go to the actuators in this order
         opts = FEEDFORWARD_OPTIONS[self.feedforward]
         pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
                                  motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),

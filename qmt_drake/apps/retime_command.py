@@ -1,0 +1,88 @@
+"""`qmt-drake retime SCENARIO --path FILE`: the fastest timing of a joint path made elsewhere (qmt_drake/retime.py).
+
+    qmt-drake retime ur5-suction-bins --path moveit_path.yaml [--method toppra|ga] [--json plan.json]
+        [--trajectory-csv t.csv] [--simulate] [--n-grid 1000] [--seed N --generations G] [--quiet]
+
+Prints one line: the motion time, the re-check's largest ratio and its term, the time scale the
+re-check applied, the hand's pose error at the path's ends against the scenario's first/last task
+pose (information: the path is the task), and with --simulate the co-simulation's verdict. --json
+writes the plan file (spatial_plan_io form; `qmt-drake export` reads it). Exit 0 when the plan holds
+every limit, 3 when it does not.
+"""
+
+from __future__ import annotations
+
+from qmt_drake.apps.arg_checks import check_int, check_outputs, emit_json, progress
+from qmt_drake.apps.spatial_cli import is_spatial_scenario
+from qmt_drake.errors import QmtInputError
+from qmt_drake.outcome import verdict_line
+from qmt_drake.outputs import jsonable
+from qmt_drake.retime import METHODS, retime_path
+from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.spatial_task import load_spatial_scenario
+
+EXIT_INFEASIBLE = 3
+
+
+def add_parser(subparsers):
+    s = subparsers.add_parser("retime", help="fastest timing of your own joint path (CSV or a ROS 2 JointTrajectory)",
+                              description=__doc__.splitlines()[0])
+    s.add_argument("scenario", help="a spatial scenario (built-in name or YAML path)")
+    s.add_argument("--path", required=True, metavar="FILE",
+                   help=".csv (header of joint names, one waypoint a row, rad) or .yaml/.json JointTrajectory")
+    s.add_argument("--method", choices=METHODS, default="toppra",
+                   help="toppra: the time-optimal timing of the path itself; ga: the via cubic through its waypoints")
+    s.add_argument("--n-grid", type=int, default=1000, help="toppra: grid points along the path")
+    s.add_argument("--seed", type=int, default=None, help="ga: the generator's seed (default 0)")
+    s.add_argument("--generations", type=int, default=None, help="ga: maximum generations")
+    s.add_argument("--json", metavar="PATH|-", help="write the plan file")
+    s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
+    s.add_argument("--simulate", action="store_true", help="then co-simulate it (carried or not)")
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_retime)
+    return s
+
+
+def cmd_retime(args) -> int:
+    check_outputs(args, "--json", "--trajectory-csv")
+    if not is_spatial_scenario(args.scenario):
+        raise QmtInputError(f"scenario {args.scenario}: retime takes a spatial scenario (kind: spatial_transfer, "
+                            "e.g. ur5-suction-bins); `qmt-drake scenarios` lists them")
+    check_int(args.n_grid, "--n-grid", 10, "TOPP-RA needs a grid (1000 by default)")
+    ga = {k: getattr(args, k) for k in ("seed", "generations") if getattr(args, k) is not None}
+    if args.method == "toppra" and ga:
+        raise QmtInputError(f"--{sorted(ga)[0]}: an option of --method ga; drop it")
+    check_int(ga.get("seed"), "--seed", 0, "seeds are non-negative integers")
+    check_int(ga.get("generations"), "--generations", 1, "run at least one generation")
+    if args.method == "ga":
+        ga["progress"] = None if args.quiet else progress
+    sc = load_spatial_scenario(args.scenario)
+    p = retime_path(sc, args.path, args.method, n_grid=args.n_grid, **ga)
+    sim = simulate_spatial(sc, p.trajectory) if args.simulate else None
+    if args.json == "-":
+        emit_json(jsonable({**p.to_json_dict(), "simulation": sim}), "-")
+    elif args.json:
+        p.write_json(args.json)
+    if args.trajectory_csv:
+        p.write_csv(args.trajectory_csv)
+    if args.json != "-":
+        print(summary_line(sc, p, sim))
+    return 0 if p.recheck["max"] <= 1.0 else EXIT_INFEASIBLE
+
+
+def binding(recheck: dict) -> str:
+    """The name of the largest ratio of a re-check dict."""
+    ratios = {k: v for k, v in recheck.items() if k not in ("max", "n_samples", "check_rate_hz")}
+    return max(ratios, key=ratios.get)
+
+
+def summary_line(sc, p, sim) -> str:
+    e = p.info["end_pose_error"]
+    line = (f"{sc.name} retime {p.method.removeprefix('retime_')} of {p.info['path_waypoints']} waypoints: "
+            f"T = {p.duration_s:.4f} s (time scale applied {p.hold_scale:.4f}), re-check max ratio "
+            f"{p.recheck['max']:.5f} ({binding(p.recheck)}) at {sc.recheck_rate_hz:g} Hz; hand at the path's "
+            f"start/end {e[0, 0] * 1e3:.3g}/{e[1, 0] * 1e3:.3g} mm and {e[0, 1]:.2g}/{e[1, 1]:.2g} rad from the "
+            f"first/last task pose (information); {p.planning_s:.2f} s")
+    if sim is not None:
+        line += f"; co-simulation: {verdict_line(sim['outcome'], sim['lost_at_s'])}"
+    return line

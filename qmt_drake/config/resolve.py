@@ -1,0 +1,90 @@
+"""Where a scenario is and what kind it is: the one resolver for every scenario kind.
+
+A scenario is named by a built-in name (a file `models/scenarios/NAME.yaml`) or by the path of a YAML
+file. Its kind is the file's top-level `kind:` (transfer scenarios have none). Every loader (transfer,
+spatial, energy-time), the API and the CLI ask this module, so a name resolves the same way everywhere
+and a file of the wrong kind is answered with the command that takes it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from qmt_drake.config.fields import read_yaml_mapping
+from qmt_drake.config.registry import ENERGY_TIME, TRANSFER
+from qmt_drake.errors import QmtInputError
+
+MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
+SCENARIO_DIR = MODELS_DIR / "scenarios"
+SPATIAL = "spatial_transfer"  # spatial_task.SPATIAL_KIND (config imports nothing above it)
+# planners/spatial_methods.METHODS (named here for the same reason; a test checks they agree)
+SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
+
+# What each kind is called in a message, and the command that takes it.
+_KIND_ROUTES = {
+    TRANSFER: ("a transfer scenario", "`qmt-drake plan {name} --method ga|optimum|toppra|...`"),
+    SPATIAL: ("a spatial (3-D) scenario", f"`qmt-drake plan {{name}} --method {'|'.join(SPATIAL_METHODS)} "
+              "--json PLAN.json` and co-simulate it with `qmt-drake simulate {name} --plan PLAN.json`"),
+    ENERGY_TIME: ("a seed-001 energy-time scenario", "`qmt-drake plan {name} --method snopt|steepest|ipopt|"
+                  "collocation`; simulate, benchmark and sweeps take transfer scenarios"),
+}
+
+
+def builtin_path(name_or_path) -> Path | None:
+    """The file of a built-in name (no folder, no suffix), or None."""
+    if not isinstance(name_or_path, str) or "/" in name_or_path or Path(name_or_path).suffix:
+        return None
+    p = SCENARIO_DIR / f"{name_or_path}.yaml"
+    return p if p.is_file() else None
+
+
+def scenario_kind(path: str | Path) -> str:
+    """A scenario file's top-level `kind` (none: 'transfer'); '' when the file cannot be read as a
+    YAML mapping (the loader then says why in one line). Never raises: a probe."""
+    try:
+        raw = read_yaml_mapping(path)  # the loaders' reader: its size cap and alias refusal apply to the probe
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, QmtInputError):
+        return ""
+    return str(raw.get("kind", TRANSFER)) if isinstance(raw, dict) else ""
+
+
+def kind_of(name_or_path) -> str:
+    """The kind of a built-in name or a YAML path; '' when it is neither (never raises)."""
+    if not isinstance(name_or_path, (str, Path)):
+        return ""
+    path = builtin_path(name_or_path) or Path(name_or_path)
+    try:
+        return scenario_kind(path) if path.is_file() else ""
+    except OSError:  # a name too long for the file system, ...
+        return ""
+
+
+def builtin_scenarios(kind: str = TRANSFER) -> list[str]:
+    """Names of the built-in scenarios of one kind."""
+    return sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml") if scenario_kind(p) == kind)
+
+
+def resolve_scenario(name_or_path, kind: str | None = None) -> Path:
+    """The YAML file of a built-in name or a path; with `kind`, a file of another kind is refused with
+    the command that takes it. QmtInputError (one line) when it is neither a built-in nor a file."""
+    if not isinstance(name_or_path, (str, Path)) or str(name_or_path) == "":
+        raise QmtInputError(f"scenario {name_or_path!r}: give a built-in name ({', '.join(_all_builtins())}) "
+                            "or the path of a YAML file")
+    path = builtin_path(name_or_path) or Path(name_or_path)
+    if path.is_dir():
+        raise QmtInputError(f"scenario '{name_or_path}' is a directory; give a built-in name "
+                            f"({', '.join(_all_builtins())}) or a YAML file")
+    if not path.is_file():
+        what = _KIND_ROUTES[kind][0].split(" ", 1)[1] if kind in _KIND_ROUTES else "scenario"
+        names = builtin_scenarios(kind) if kind else _all_builtins()
+        raise QmtInputError(f"{what} '{name_or_path}' is neither a built-in ({', '.join(names)}) nor a YAML "
+                            "file that exists")
+    found = scenario_kind(path)
+    if kind is not None and found in _KIND_ROUTES and found != kind:
+        what, route = _KIND_ROUTES[found]
+        raise QmtInputError(f"scenario '{name_or_path}' is {what}: plan it with {route.format(name=name_or_path)}")
+    return path
+
+
+def _all_builtins() -> list[str]:
+    return sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))

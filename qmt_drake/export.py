@@ -1,0 +1,192 @@
+"""A spatial plan as a controller sees it: a stream of samples at the controller's rate, written as CSV
+or a ROS 2 JointTrajectory, and re-checked as the controller interpolates it.
+
+    report = export_plan(sc, plan, fmt="ros2", rate_hz=125, out="plan.yaml", interp="linear")
+
+The stream: samples at t_k = k / rate, k = 0 .. ceil(T rate), every one uniformly spaced (the ones at or
+past the plan's end T hold the end pose at rest), positions (rad) and, in the ROS 2 form, the
+velocities (rad/s) and accelerations (rad/s^2) of the plan at t_k and time_from_start {sec, nanosec}.
+
+The controller's interpolation between the samples, each a trajectory with spatial_trajectory's
+sample() protocol so the scenario's own limit check (spatial_trajectory.check: joint speed,
+acceleration, torque with the carried part, the hand's ratio) and the co-simulation take it as they
+take a plan:
+
+- `cubic`: the cubic Hermite through the samples' positions and velocities (what ROS 2's
+  joint_trajectory_controller does when velocities are given): Drake's CubicHermite, a PolyTrajectory;
+- `linear` (`LinearStream`): positions joined by straight lines, so the velocity is each interval's
+  chord slope and steps at every sample; the acceleration is that step over one stream period,
+  (v_k - v_(k-1)) / dt, held over interval k (what a controller differentiating its reference once
+  a period sees; a step is no finite acceleration at any finer scale), and the stop at the end
+  (-v_last / dt) at the last sample.
+
+The check samples the interpolated stream at CHECK_FACTOR (10) times the stream rate, or at the
+scenario's re-check rate if that is finer, and states its peak jerk there (qmt_drake/jerk.py).
+`hold` (--hold) first slows the plan (TimeScaled) by the time scale at which its stream keeps the limits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import yaml
+from pydrake.trajectories import PiecewisePolynomial
+
+from qmt_drake.budgets import Estimate, check_budget
+from qmt_drake.errors import QmtInputError
+from qmt_drake.jerk import peak_jerk
+from qmt_drake.outputs import write_text_atomic
+from qmt_drake.planners.spatial_trajectory import PolyTrajectory, TimeScaled, check
+
+FORMATS = ("ros2", "csv")
+INTERPOLATIONS = ("linear", "cubic")
+CHECK_FACTOR = 10
+# a spatial check sample (UR5, 6 joints: chain dynamics and the suction rows): 39 us, 2.8 kB in the batch (measured
+# by `check` on 3974 / 39722 samples of a TOPP-RA plan); the stream and the plan are checked, the jerk sampled: x3
+CHECK_S_PER_SAMPLE = 3 * 40e-6
+CHECK_BYTES_PER_SAMPLE = 3e3
+HOLD_MAX_SCALE = 3.0  # --hold: the slowest time scale tried
+HOLD_REL_TOL = 1e-3
+
+
+def stream_times(duration_s: float, rate_hz: float) -> np.ndarray:
+    """t_k = k / rate_hz, k = 0 .. ceil(duration rate) (the last at or past the end)."""
+    n = int(math.ceil(duration_s * rate_hz - 1e-9))
+    return np.arange(n + 1) / rate_hz
+
+
+def stream_samples(traj, rate_hz: float):
+    """(t, q, qd, qdd) of the stream (module docstring); past the end: the end pose at rest."""
+    t = stream_times(traj.duration_s, rate_hz)
+    q, qd, qdd = traj.sample(np.minimum(t, traj.duration_s))
+    after = t >= traj.duration_s
+    qd[after], qdd[after] = 0.0, 0.0
+    return t, q, qd, qdd
+
+
+class LinearStream:
+    """Positions joined by straight lines (module docstring), sample() as spatial_trajectory's kinds."""
+
+    def __init__(self, t, q) -> None:
+        self.t, self.q = np.asarray(t, float), np.asarray(q, float)
+        if len(self.t) < 2:
+            raise QmtInputError("a stream needs at least 2 samples; raise the rate")
+        self.dt = float(self.t[1] - self.t[0])
+        self.v = np.diff(self.q, axis=0) / self.dt  # interval k's velocity
+        self.a = np.diff(np.vstack([np.zeros_like(self.v[:1]), self.v]), axis=0) / self.dt  # its step at t_k
+        self.duration_s = float(self.t[-1])
+
+    def sample(self, t):
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        k = np.clip(np.floor(t / self.dt + 1e-9).astype(int), 0, len(self.v) - 1)
+        q = self.q[k] + self.v[k] * (t - self.t[k])[:, None]
+        qd, qdd = self.v[k].copy(), self.a[k].copy()
+        end = t >= self.duration_s
+        qd[end], qdd[end] = 0.0, -self.v[-1] / self.dt
+        return q, qd, qdd
+
+
+def interpolated(t, q, qd, interp: str):
+    """The controller's interpolation of the stream: LinearStream or the cubic Hermite (PolyTrajectory)."""
+    if interp == "linear":
+        return LinearStream(t, q)
+    if interp == "cubic":
+        return PolyTrajectory(PiecewisePolynomial.CubicHermite(t, q.T, qd.T))
+    raise QmtInputError(f"--interp {interp!r}: give {'|'.join(INTERPOLATIONS)}")
+
+
+def check_rate(sc, rate_hz: float) -> float:
+    return max(CHECK_FACTOR * rate_hz, sc.recheck_rate_hz)
+
+
+def check_stream_options(fmt: str, rate_hz, interp: str) -> None:
+    """One line for a bad format, interpolation or rate (before anything is loaded)."""
+    if fmt not in FORMATS:
+        raise QmtInputError(f"--format {fmt!r}: give {'|'.join(FORMATS)} (ros2: a JointTrajectory YAML)")
+    if interp not in INTERPOLATIONS:
+        raise QmtInputError(f"--interp {interp!r}: give {'|'.join(INTERPOLATIONS)}")
+    if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
+        raise QmtInputError(f"--rate {rate_hz}: give the controller's rate in Hz, a finite positive number "
+                            "(UR: 125 or 500, Franka: 1000)")
+
+
+def check_export_inputs(sc, duration_s: float, fmt: str, rate_hz, interp: str, *, allow_large: bool = False) -> None:
+    """check_stream_options, then the budget of the stream's check (budgets.check_budget)."""
+    check_stream_options(fmt, rate_hz, interp)
+    n = duration_s * check_rate(sc, rate_hz)
+    check_budget(Estimate(n * CHECK_BYTES_PER_SAMPLE, n * CHECK_S_PER_SAMPLE,
+                          f"export at {rate_hz:g} Hz of a {duration_s:.3g} s plan ({n:.3g} check samples at "
+                          f"{check_rate(sc, rate_hz):g} Hz)", "give the controller's rate (125 to 1000 Hz typical)"),
+                 allow_large=allow_large)
+
+
+def ros2_joint_trajectory(joint_names, t, q, qd, qdd) -> dict:
+    """A trajectory_msgs/JointTrajectory mapping (ROS 2 field names)."""
+    sec = np.floor(t + 1e-12).astype(int)
+    nsec = np.round((t - sec) * 1e9).astype(int)
+    carry = nsec >= 1_000_000_000
+    sec, nsec = sec + carry, np.where(carry, nsec - 1_000_000_000, nsec)
+    return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""}, "joint_names": list(joint_names),
+            "points": [{"positions": q[k].tolist(), "velocities": qd[k].tolist(), "accelerations": qdd[k].tolist(),
+                        "effort": [], "time_from_start": {"sec": int(sec[k]), "nanosec": int(nsec[k])}}
+                       for k in range(len(t))]}
+
+
+def write_stream(path, fmt: str, joint_names, t, q, qd, qdd) -> None:
+    """The stream as CSV (time_s and the joint names, rad) or a ROS 2 JointTrajectory YAML, atomically."""
+    if fmt == "csv":
+        rows = [",".join(["time_s"] + list(joint_names))]
+        rows += [",".join([repr(float(tk))] + [repr(float(v)) for v in qk]) for tk, qk in zip(t, q)]
+        write_text_atomic(path, "\n".join(rows) + "\n")
+    else:
+        dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's emitter when built: ~10x faster
+        write_text_atomic(path, yaml.dump(ros2_joint_trajectory(joint_names, t, q, qd, qdd), Dumper=dumper,
+                                          sort_keys=False))
+
+
+def stream_check(sc, stream, rate_hz: float) -> dict:
+    """The scenario's limit check of the interpolated stream at check_rate(rate_hz) ('check_rate_hz' added)."""
+    rate = check_rate(sc, rate_hz)
+    return {**check(sc, stream, rate), "check_rate_hz": rate}
+
+
+def _stream_of(sc, traj, rate_hz: float, interp: str):
+    t, q, qd, qdd = stream_samples(traj, rate_hz)
+    stream = interpolated(t, q, qd, interp)
+    return (t, q, qd, qdd), stream, stream_check(sc, stream, rate_hz)
+
+
+def hold_scale(sc, traj, rate_hz: float, interp: str, *, k_max: float = HOLD_MAX_SCALE, rel_tol: float = HOLD_REL_TOL):
+    """The time scale k in [1, k_max] (bisection to rel_tol) at which the stream of traj played k times
+    slower keeps every limit as interpolated; each k tried is checked, and the one returned holds. The
+    ratio is not monotone in k (the samples fall elsewhere on the plan), so a smaller k may hold too."""
+    if _stream_of(sc, traj, rate_hz, interp)[2]["max"] <= 1.0:
+        return 1.0
+    if _stream_of(sc, TimeScaled(traj, k_max), rate_hz, interp)[2]["max"] > 1.0:
+        raise QmtInputError(f"--hold: the stream at {rate_hz:g} Hz breaks a limit even {k_max:g} times slower; "
+                            "raise the rate or use the other --interp")
+    lo, hi = 1.0, k_max
+    while hi / lo - 1.0 > rel_tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if _stream_of(sc, TimeScaled(traj, mid), rate_hz, interp)[2]["max"] <= 1.0 else (mid, hi)
+    return hi
+
+
+def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", *, hold: bool = False,
+                allow_large: bool = False) -> dict:
+    """Write `plan` (a SpatialPlan of sc) as the stream (module docstring) and re-check the stream as
+    `interp` interpolates it; hold: first slow the plan by hold_scale so that the stream keeps the limits.
+    The report: the stream's re-check beside the plan's own at the same rate, peak jerks, the scale."""
+    check_export_inputs(sc, plan.duration_s * (HOLD_MAX_SCALE if hold else 1.0), fmt, rate_hz, interp,
+                        allow_large=allow_large)
+    k = hold_scale(sc, plan.trajectory, rate_hz, interp) if hold else 1.0
+    traj = plan.trajectory if k == 1.0 else TimeScaled(plan.trajectory, k)
+    (t, q, qd, qdd), stream, rc = _stream_of(sc, traj, rate_hz, interp)
+    write_stream(out, fmt, sc.joint_names, t, q, qd, qdd)
+    own = check(sc, plan.trajectory, check_rate(sc, rate_hz))
+    return {"scenario": sc.name, "method": plan.method, "format": fmt, "rate_hz": float(rate_hz), "interp": interp,
+            "out": str(out), "n_samples": int(len(t)), "stream_end_s": float(t[-1]), "plan_duration_s": plan.duration_s,
+            "hold_scale": k, "stream_recheck": rc, "stream_holds": rc["max"] <= 1.0, "plan_recheck_same_rate": own,
+            "stream_peak_jerk": peak_jerk(sc, stream, rc["check_rate_hz"]),
+            "plan_peak_jerk": peak_jerk(sc, plan.trajectory, sc.recheck_rate_hz), "stream": stream}

@@ -1,0 +1,76 @@
+"""Where a scenario's URDF comes from: `arm.package` names a file of an installed robot-description
+package (a Python distribution, e.g. `example-robot-data`), `arm.urdf` a file of one's own.
+
+    package: example-robot-data/ur5                                   # an arm of EXAMPLE_ARMS (hand frame known)
+    package: example-robot-data/tiago                                 # any URDF of the package by its name
+    package: example-robot-data/tiago_description/robots/tiago.urdf   # or by its path in the package
+
+`package_urdf(ref)` resolves these (a unique file name or path ending among the distribution's .urdf
+files), refusing in one line, with the package's URDFs and `urdf:` for a file of one's own.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+
+from qmt_drake.errors import QmtInputError
+
+# Arms of the `example-robot-data` package (a test extra): name -> (URDF path under robots/, hand
+# frame, joints to lock).
+EXAMPLE_ARMS = {
+    "ur3": ("ur_description/urdf/ur3_robot.urdf", "tool0", ()),
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0", ()),
+    "ur10": ("ur_description/urdf/ur10_robot.urdf", "tool0", ()),
+    "panda": ("panda_description/urdf/panda.urdf", "panda_hand_tcp",
+              ("panda_finger_joint1", "panda_finger_joint2")),
+    "kinova": ("kinova_description/robots/kinova.urdf", "j2s6s200_end_effector", ()),
+    "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_eef", ()),
+    "z1": ("z1_description/urdf/z1.urdf", "gripperStator", ("jointGripper",)),
+}
+
+
+def example_robot_urdf(name: str) -> tuple[Path, str, tuple]:
+    """(URDF path, hand frame, joints to lock) of an arm shipped by `example-robot-data`; QmtInputError
+    when the package is not installed."""
+    if name not in EXAMPLE_ARMS:
+        raise QmtInputError(f"unknown example arm {name!r}; choose one of {sorted(EXAMPLE_ARMS)}")
+    try:
+        files = importlib.metadata.files("example-robot-data") or []
+    except importlib.metadata.PackageNotFoundError:
+        raise QmtInputError("the example arms need the 'example-robot-data' package; "
+                            "pip install example-robot-data") from None
+    rel, hand, lock = EXAMPLE_ARMS[name]
+    for f in files:
+        if str(f).endswith("example-robot-data/robots/" + rel):
+            return Path(f.locate()).resolve(), hand, lock
+    raise QmtInputError(f"example-robot-data does not ship robots/{rel}; upgrade example-robot-data")
+
+
+def _package_urdfs(dist: str, where: str) -> list:
+    try:
+        files = importlib.metadata.files(dist) or []
+    except importlib.metadata.PackageNotFoundError:
+        raise QmtInputError(f"{where}: package {dist!r} is not installed (pip install {dist}); for a URDF file of "
+                            "your own give urdf: <path> instead") from None
+    return [f for f in files if str(f).endswith(".urdf")]
+
+
+def package_urdf(ref: str, where: str = "arm.package") -> tuple[Path, str | None, tuple]:
+    """(URDF path, hand frame or None, joints to lock) of `ref` = '<distribution>/<arm, file name or path>'
+    (module docstring); QmtInputError (one line) when the package is missing or has no such URDF."""
+    dist, _, rest = ref.partition("/")
+    if dist == "example-robot-data" and rest in EXAMPLE_ARMS:
+        return example_robot_urdf(rest)
+    urdfs = _package_urdfs(dist, where)
+    name = rest.removesuffix(".urdf")
+    hits = [f for f in urdfs if str(f).endswith("/" + name + ".urdf") or str(f) == name + ".urdf"] if rest else []
+    if len(hits) == 1:
+        return Path(hits[0].locate()).resolve(), None, ()
+    names = sorted({Path(str(f)).stem for f in urdfs})
+    shown = ", ".join(names[:12]) + (", ..." if len(names) > 12 else "")
+    what = f"is ambiguous in {dist} ({len(hits)} files; give more of the path)" if hits else \
+        f"names no URDF file of the installed package {dist}"
+    arms = f"{dist}/<arm> with <arm> one of {sorted(EXAMPLE_ARMS)}, or " if dist == "example-robot-data" else ""
+    raise QmtInputError(f"{where} {ref!r} {what}; give {arms}{dist}/<file> with <file> one of {shown or 'none'} "
+                        "(or its path in the package), or urdf: <path> for a URDF file of your own")

@@ -1,0 +1,271 @@
+"""Retime a joint path made elsewhere (MoveIt, a hand-written list) under a spatial scenario's limits.
+
+    plan = retime_path(load_scenario("ur5-suction-bins"), "path.csv")            # or .yaml / .json / (K, n)
+    plan.duration_s, plan.recheck["max"], plan.info["end_pose_error"]
+
+A path is the task: its waypoints (radians) are read, mapped to the arm's joints BY NAME
+(`read_joint_path`), and joined by the C2 cubic in the joint-space chord length that the spatial
+TOPP-RA uses for the IK'd path (planners/spatial_toppra.joint_path: zero slopes at the ends, the
+arm starts and stops at rest). Inputs:
+
+- CSV: a header row of joint names, one waypoint a row (an optional `time_s` / `time_from_start`
+  column is read and ignored, as any timing);
+- a ROS 2 `trajectory_msgs/JointTrajectory` as YAML or JSON (`joint_names`, `points[].positions`,
+  optional `time_from_start` {sec, nanosec}; also inside a moveit_msgs/RobotTrajectory's
+  `joint_trajectory`): only the geometric path is kept; times, if given, must rise.
+
+Refused in one line, before any planning: an unknown or missing joint name, a row of another length,
+a non-finite value, fewer than 2 waypoints, two neighbouring waypoints closer than SAME_RAD, a
+waypoint or the spline between waypoints outside the URDF's joint range, falling time_from_start.
+
+Methods: `toppra` (the fastest timing of that very path: planners/spatial_toppra.plan_toppra with the
+scenario's joint speed and acceleration limits, joint torques and the hand's contact rows, the same
+rows the spatial TOPP-RA uses), `ga` (the spatial GA over the via-point cubic through the path's
+waypoints, genes the segment times: it passes every waypoint, but between them its shape depends on
+the segment times, so it follows the path only at the waypoints; at most GA_MAX_WAYPOINTS). Either
+result goes through the spatial re-check (spatial_plan_io.finish_plan: sampled at 10x the check
+rate, slowed by the smallest time scale that makes it hold). The hand's pose error at the path's
+ends against the scenario's first/last task pose is reported as information only (info
+'end_pose_error': [[m, rad] start, [m, rad] end]); plan.pose_times_s are the path's start and end.
+A retimed plan's file (plan.write_json) loads back with `load_plan_file` (also any other plan file of
+the scenario, through spatial_plan_io.load_spatial_plan): same scenario name and joints, the rebuilt
+trajectory equal to the file's own samples, re-checked afresh.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.plan_files import read_plan_file
+from qmt_drake.planners.spatial_plan_io import (
+    REBUILD_TOL,
+    SpatialPlan,
+    finish_plan,
+    load_spatial_plan,
+    make_spatial_plan,
+    trajectory_from_spec,
+)
+from qmt_drake.planners.spatial_search import plan_ga_spatial
+from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
+from qmt_drake.planners.spatial_trajectory import ToppraTrajectory
+
+METHODS = ("toppra", "ga")
+SAME_RAD = 1e-9  # neighbouring waypoints closer than this (joint-space norm) are one waypoint given twice
+RANGE_SAMPLES = 20  # spline points per waypoint interval checked against the joint range
+GA_MAX_WAYPOINTS = 16  # the GA's genes are the segment times: one per interval
+TIME_KEYS = ("time_s", "t_s", "time", "time_from_start")
+
+
+def _where(source) -> str:
+    return f"path {source}" if source is not None else "joint path"
+
+
+def _rows_to_array(names, rows, joint_names, where: str) -> np.ndarray:
+    """(K, n) in the scenario's joint order from rows of values under `names` (one line per misfit)."""
+    names = [str(x).strip() for x in names]
+    arm = list(joint_names)
+    unknown = [x for x in names if x not in arm]
+    if unknown:
+        raise QmtInputError(f"{where}: joint {unknown[0]!r} is not a moving joint of the arm; its joints are "
+                            f"{', '.join(arm)} (rename the column, drop it, or unlock that joint in the scenario)")
+    missing = [x for x in arm if x not in names]
+    if missing:
+        raise QmtInputError(f"{where}: no column for joint {missing[0]!r}; give every joint of the arm: {', '.join(arm)}")
+    if len(set(names)) != len(names):
+        twice = next(x for x in names if names.count(x) > 1)
+        raise QmtInputError(f"{where}: joint {twice!r} is named twice; give each joint once")
+    out = []
+    for k, row in enumerate(rows):
+        if len(row) != len(names):
+            raise QmtInputError(f"{where}: waypoint {k} has {len(row)} values for {len(names)} joints; give one "
+                                "value per named joint")
+        try:
+            vals = [float(v) for v in row]
+        except (TypeError, ValueError):
+            raise QmtInputError(f"{where}: waypoint {k} has a value that is not a number ({row}); give radians") from None
+        out.append(vals)
+    Q = np.array(out, float).reshape(len(out), len(names))
+    return Q[:, [names.index(x) for x in arm]]
+
+
+def parse_csv(text: str, joint_names, where: str = "joint path") -> np.ndarray:
+    """(K, n) waypoints of a CSV with a header row of joint names (a time column is dropped)."""
+    rows = [r for r in csv.reader(io.StringIO(text)) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise QmtInputError(f"{where}: empty; give a header row of joint names and one waypoint a row")
+    header = [c.strip() for c in rows[0]]
+    keep = [i for i, c in enumerate(header) if c not in TIME_KEYS]
+    body = [[r[i] for i in keep] if len(r) == len(header) else r for r in rows[1:]]
+    return _rows_to_array([header[i] for i in keep], body, joint_names, where)
+
+
+def _seconds(t, where: str, k: int) -> float:
+    """time_from_start as seconds: {sec, nanosec} (ROS 2), {secs, nsecs} (ROS 1) or a number."""
+    try:
+        if isinstance(t, dict):
+            return float(t.get("sec", t.get("secs", 0))) + 1e-9 * float(t.get("nanosec", t.get("nsecs", 0)))
+        return float(t)
+    except (TypeError, ValueError):
+        raise QmtInputError(f"{where}: point {k}'s time_from_start {t!r} is not a time; give {{sec, nanosec}}") from None
+
+
+def parse_joint_trajectory(msg, joint_names, where: str = "joint path") -> np.ndarray:
+    """(K, n) waypoints of a JointTrajectory mapping (or a RobotTrajectory's joint_trajectory)."""
+    if isinstance(msg, dict) and "joint_names" not in msg and isinstance(msg.get("joint_trajectory"), dict):
+        msg = msg["joint_trajectory"]
+    if not isinstance(msg, dict) or "joint_names" not in msg or not isinstance(msg.get("points"), list):
+        raise QmtInputError(f"{where}: not a trajectory_msgs/JointTrajectory (needs joint_names and points); "
+                            "give the message as MoveIt writes it, or a CSV with a header of joint names")
+    points = msg["points"]
+    if any(not isinstance(p, dict) or not isinstance(p.get("positions"), list) for p in points):
+        raise QmtInputError(f"{where}: every point needs a positions list (radians)")
+    times = [_seconds(p["time_from_start"], where, k) for k, p in enumerate(points) if "time_from_start" in p]
+    if len(times) == len(points) and len(times) > 1 and np.any(np.diff(times) <= 0):
+        k = int(np.argmax(np.diff(times) <= 0)) + 1
+        raise QmtInputError(f"{where}: time_from_start does not rise at point {k} ({times[k - 1]:g} s then "
+                            f"{times[k]:g} s); the points are out of order or repeated")
+    return _rows_to_array(msg["joint_names"] or [], [p["positions"] for p in points], joint_names, where)
+
+
+def read_joint_path(source, joint_names) -> np.ndarray:
+    """(K, n) waypoints (rad) in `joint_names` order from a file (.csv, or .yaml/.yml/.json: a
+    JointTrajectory), a JointTrajectory mapping, or a (K, n) array already in that order."""
+    if isinstance(source, (str, Path)):
+        p = Path(source)
+        where = _where(p)
+        try:
+            text = p.read_text()
+        except OSError as exc:
+            raise QmtInputError(f"{where}: cannot read it ({exc.strerror}); give a CSV or a JointTrajectory "
+                                "YAML/JSON file") from None
+        if p.suffix.lower() == ".csv":
+            return parse_csv(text, joint_names, where)
+        if p.suffix.lower() not in (".yaml", ".yml", ".json"):
+            raise QmtInputError(f"{where}: unknown file type {p.suffix!r}; give .csv (header of joint names) or "
+                                ".yaml/.yml/.json (a JointTrajectory)")
+        try:
+            msg = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise QmtInputError(f"{where}: not YAML/JSON ({str(exc).splitlines()[0]})") from None
+        return parse_joint_trajectory(msg, joint_names, where)
+    if isinstance(source, dict):
+        return parse_joint_trajectory(source, joint_names)
+    Q = np.asarray(source, float)
+    if Q.ndim != 2 or Q.shape[1] != len(joint_names):
+        raise QmtInputError(f"joint path: give a (K, {len(joint_names)}) array in the order {', '.join(joint_names)} "
+                            f"(got shape {Q.shape}), or a file with joint names")
+    return Q
+
+
+def check_waypoints(sc, Q: np.ndarray, where: str = "joint path") -> None:
+    """The refusals of the module docstring on (K, n) waypoints in sc's joint order."""
+    bad = np.argwhere(~np.isfinite(Q))
+    if bad.size:
+        k, j = bad[0]
+        raise QmtInputError(f"{where}: waypoint {k} joint {sc.joint_names[j]} is {Q[k, j]} (not a finite number); "
+                            "give radians")
+    if len(Q) < 2:
+        raise QmtInputError(f"{where}: {len(Q)} waypoint(s); a path needs at least 2 (start and end)")
+    step = np.linalg.norm(np.diff(Q, axis=0), axis=1)
+    if np.any(step < SAME_RAD):
+        k = int(np.argmax(step < SAME_RAD))
+        raise QmtInputError(f"{where}: waypoints {k} and {k + 1} are the same point (a duplicate); drop one")
+    lo, hi = sc.plant.GetPositionLowerLimits(), sc.plant.GetPositionUpperLimits()
+    pp = joint_path(Q)
+    s = np.linspace(pp.start_time(), pp.end_time(), RANGE_SAMPLES * (len(Q) - 1) + 1)
+    q = np.vstack([Q, pp.vector_values(s).T])
+    out = np.maximum(lo - q, q - hi)
+    if np.any(out > 1e-12):
+        i, j = np.unravel_index(int(np.argmax(out)), out.shape)
+        what = f"waypoint {i}" if i < len(Q) else "the spline between the waypoints"
+        raise QmtInputError(f"{where}: {what} takes joint {sc.joint_names[j]} to {q[i, j]:.4f} rad, outside its "
+                            f"range [{lo[j]:.4f}, {hi[j]:.4f}] rad; move the path inside the range")
+
+
+def end_pose_errors(sc, traj) -> np.ndarray:
+    """(2, 2) Drake-FK (m, rad) errors of the hand at the trajectory's start/end to the first/last task pose."""
+    q = traj.sample([0.0, traj.duration_s])[0]
+    last = len(sc.poses_m) - 1
+    return np.array([sc.ik.errors(q[0], sc.poses_m[0], **sc.pose_target(0)),
+                     sc.ik.errors(q[1], sc.poses_m[last], **sc.pose_target(last))])
+
+
+def _retime_toppra(sc, Q, n_grid: int, info: dict) -> SpatialPlan:
+    t0 = time.perf_counter()
+    pp = joint_path(Q)
+    r = plan_toppra(pp, sc.chain, velocity_limit=sc.velocity_limit_rad_s,
+                    acceleration_limit=sc.acceleration_limit_rad_s2, terms=sc.terms(), n_grid=n_grid)
+    traj = ToppraTrajectory(pp, r["grid"], r["sd"])
+    return finish_plan(sc, "retime_toppra", traj, [0.0, traj.duration_s], t0,
+                       {**info, "n_grid": n_grid, "toppra_solve_s": r["planning_s"]})
+
+
+def _retime_ga(sc, Q, info: dict, **ga_options) -> SpatialPlan:
+    if len(Q) > GA_MAX_WAYPOINTS:
+        raise QmtInputError(f"--method ga: the path has {len(Q)} waypoints; the GA takes at most {GA_MAX_WAYPOINTS} "
+                            "(one gene per interval): use --method toppra, or thin the path")
+    # the via-cubic family through the path's waypoints instead of the task poses' IK
+    p = plan_ga_spatial(replace(sc, q_poses_rad=Q), family="via_cubic", **ga_options)
+    return replace(p, scenario=sc, method="retime_ga", extra={**info, **p.extra},
+                   pose_times_s=np.array([0.0, p.duration_s]))
+
+
+def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid: int = 1000,
+                **ga_options) -> SpatialPlan:
+    """The fastest timing of a given joint path on a spatial scenario (module docstring): a SpatialPlan
+    re-checked at the scenario's re-check rate. joint_path_or_file: a .csv / .yaml / .json file, a
+    JointTrajectory mapping, or a (K, n) array in scenario.joint_names order (rad). method: "toppra"
+    (n_grid grid points) or "ga" (ga_options: plan_ga_spatial's seed, generations, population, stall,
+    progress)."""
+    if method not in METHODS:
+        raise QmtInputError(f"method {method!r}: retime takes {'|'.join(METHODS)}")
+    if not (isinstance(n_grid, int) and n_grid >= 10):
+        raise QmtInputError(f"n_grid {n_grid!r} must be an integer >= 10 (TOPP-RA's grid points; 1000 by default)")
+    if method == "toppra" and ga_options:
+        raise QmtInputError(f"option {sorted(ga_options)[0]!r} is a GA option; drop it for method toppra")
+    src = joint_path_or_file if isinstance(joint_path_or_file, (str, Path)) else None
+    where = _where(src)
+    Q = read_joint_path(joint_path_or_file, scenario.joint_names)
+    check_waypoints(scenario, Q, where)
+    info = {"path_source": None if src is None else str(src), "path_waypoints": len(Q),
+            "path_q_rad": Q, "path_length_rad": float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))}
+    plan = _retime_toppra(scenario, Q, n_grid, info) if method == "toppra" else _retime_ga(scenario, Q, info, **ga_options)
+    ends = end_pose_errors(scenario, plan.trajectory)
+    plan = replace(plan, pose_error=ends, extra={**plan.extra, "end_pose_error": ends})
+    return plan
+
+
+def load_plan_file(path, sc) -> SpatialPlan:
+    """A plan file of sc: a retimed path's (module docstring) or any other (load_spatial_plan)."""
+    d = read_plan_file(path)
+    method = d.get("method")
+    if method not in ("retime_toppra", "retime_ga"):
+        return load_spatial_plan(path, sc)
+    if d.get("scenario") != sc.name or d.get("joint_names") != list(sc.joint_names):
+        raise QmtInputError(f"plan file {path} retimes a path of scenario {d.get('scenario')} (joints "
+                            f"{d.get('joint_names')}), not of {sc.name}; retime the path for {sc.name}")
+    try:
+        traj = trajectory_from_spec(d["rebuild"])
+        stored = d["trajectory"]
+        t = np.asarray(stored["t_s"], float)
+        err = float(np.max(np.abs(np.asarray(stored["q_rad"], float) - traj.sample(t)[0])))
+        nums = {k: float(d[k]) for k in ("planning_s", "raw_duration_s", "hold_scale")}
+        info = dict(d["info"])
+    except (KeyError, TypeError, ValueError, RuntimeError, AttributeError) as exc:
+        raise QmtInputError(f"plan file {path}: cannot rebuild its trajectory ({str(exc).splitlines()[0]}); "
+                            f"write it again with `qmt-drake retime {sc.name} --path FILE --json PATH`") from None
+    if not err <= REBUILD_TOL:
+        raise QmtInputError(f"plan file {path}: its rebuilt trajectory differs from its own samples by {err:.3g} rad "
+                            "(edited by hand?); write it again with `qmt-drake retime`")
+    plan = make_spatial_plan(sc, method, traj, [0.0, traj.duration_s], planning_s=nums["planning_s"],
+                             raw_duration_s=nums["raw_duration_s"], hold_scale=nums["hold_scale"], info=info)
+    ends = end_pose_errors(sc, traj)
+    return replace(plan, pose_error=ends, extra={**info, "end_pose_error": ends})
