@@ -307,17 +307,17 @@ def _check_cup_rests(term: TrayContactTerm, chain: SpatialChain, q_path: np.ndar
 
 
 def _check_holds_at_rest(sc: SpatialScenario, w: str) -> None:
-    """Refuse a payload the hand (suction cup, magnet) or the joint torques cannot hold even at rest on the
-    path (mass_kg 1e9, a centre of mass far out): the planners would only find no motion, without saying why."""
+    """Refuse a payload the suction cup or the magnet cannot hold even at rest on the path (mass_kg 1e9, a
+    centre of mass far out): the planners would only find no motion, without saying why. (Joint torques at
+    rest are named when TOPP-RA finds no motion: limits/at_rest.py.)"""
+    term = sc.hand_term()
     zero = np.zeros_like(sc.q_path_rad)
-    state = sc.chain.evaluate(sc.q_path_rad, zero, zero)
-    for term in sc.terms():
-        r = term.columns(state)
-        k, j = np.unravel_index(np.argmax(r), r.shape)
-        if r[k, j] > 1.0:
-            raise QmtInputError(f"{w}: the arm cannot hold the payload even at rest at path point {k} (its "
-                                f"{term.column_names[j]} ratio at rest is {r[k, j]:.3g} > 1); lower mass_kg or move "
-                                "com_m nearer the hand, or give a stronger hand or stronger joints")
+    r = term.columns(sc.chain.evaluate(sc.q_path_rad, zero, zero))
+    k, j = np.unravel_index(np.argmax(r), r.shape)
+    if r[k, j] > 1.0:
+        raise QmtInputError(f"{w}: the {sc.hand_kind} hand cannot hold the payload even at rest at path point {k} "
+                            f"(its {term.column_names[j]} ratio at rest is {r[k, j]:.3g} > 1); lower mass_kg or move "
+                            "com_m nearer the hand, or give a stronger hand")
 
 
 def _tray_cup(hd: dict, w: str) -> TrayCup:

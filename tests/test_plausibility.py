@@ -56,7 +56,7 @@ CASES = [  # (base scenario, changes, words the one line must have)
     ("ur5-suction-bins", {"payload.inertia_kgm2": [0.001, 0.001, 0.05]}, ["payload.inertia_kgm2", "no rigid body"]),
     ("ur5-suction-bins", {"payload.inertia_kgm2": [0.0, 0.01, 0.01]}, ["payload.inertia_kgm2", "positive"]),
     ("ur5-suction-bins", {"payload.mass_kg": 1e9}, ["payload", "at rest", "mass_kg"]),
-    ("ur5-magnet-part", {"payload.mass_kg": 1e6}, ["payload", "motor_torque", "at rest"]),
+    ("ur5-suction-bins", {"payload.com_m": [1.0, 0.0, 0.08]}, ["payload", "suction hand", "at rest"]),
     ("ur5-suction-bins", {"arm.face_axis": [0, 0, 0]}, ["arm.face_axis", "no direction"]),
     ("ur5-suction-bins", {"task.face_normal": [0.0, 0.0, 0.0]}, ["face_normal", "no direction"]),
     ("panda-tray-cup", {"arm.lock_joints": None}, ["arm.lock_joints", "list of joint names"]),
