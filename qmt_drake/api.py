@@ -24,6 +24,17 @@ from pydrake.geometry import Meshcat
 
 import qmt_drake.builders  # noqa: F401  (registers the scenario's builders)
 import qmt_drake.sweep.parameters  # noqa: F401  (registers the check of the scenario's uncertainty section)
+from qmt_drake import api_checks as C
+from qmt_drake.budgets import (
+    SPATIAL_REPLAY,
+    check_budget,
+    check_energy_budget,
+    check_plan_budget,
+    check_replay_budget,
+    replay_estimate,
+    spatial_ga_estimate,
+)
+from qmt_drake.config.fields import show
 from qmt_drake.config.resolve import kind_of
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
@@ -33,16 +44,24 @@ from qmt_drake.energy.experiments import Experiment
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import build_diagram as _build_diagram
-from qmt_drake.hands import run_simulate
+from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.plan import KIND_WORDS, Plan, a_kind
-from qmt_drake.plan_files import load_plan, scenario_kind_of
+from qmt_drake.plan_files import load_plan as _load_plan
+from qmt_drake.plan_files import scenario_kind_of
+from qmt_drake.planners import PLANNERS as TRANSFER_PLANNERS
 from qmt_drake.planners import plan_with as _plan_with
+from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
+from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
+from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
+from qmt_drake.planners.ga import run_ga
+from qmt_drake.planners.optimum import plan_family_optimum
 from qmt_drake.planners.spatial_methods import ALIASES as SPATIAL_ALIASES
 from qmt_drake.planners.spatial_methods import METHODS as SPATIAL_METHODS
 from qmt_drake.planners.spatial_methods import PLANNERS as SPATIAL_PLANNERS
 from qmt_drake.planners.spatial_plan_io import SpatialPlan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.diagram import TransferDiagram
+from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, SpatialScenario, load_spatial_scenario
 from qmt_drake.tray.cosim import TrayDiagram
@@ -52,12 +71,24 @@ AnyScenario = Scenario | SpatialScenario | Experiment
 __all__ = ["Plan", "Scenario", "build_diagram", "load_plan", "load_scenario", "plan_with", "simulate"]
 
 
+# The transfer planners' own functions, for their keywords (plan_with's wrappers take **options); the
+# planner's positional inputs and plan_with's own keywords are not options.
+TRANSFER_OPTIONS: dict[str, tuple[Callable, tuple[str, ...]]] = {
+    "ga": (run_ga, ("problem", "settings", "seed", "progress")),
+    "optimum": (plan_family_optimum, ("problem", "seed", "progress")),
+    "thesis": (lambda: None, ()),
+    "toppra": (plan_toppra, ("scenario",)), "toppra-drake": (plan_toppra_drake, ("scenario",)),
+    "ruckig": (plan_ruckig, ("scenario",)), "trajopt": (plan_trajopt, ("scenario",)),
+}
+
+
 def _kind_of_file(name_or_path: str | Path) -> str:
     """The `kind` of a built-in name's or a YAML path's file ('' when it is neither: the transfer loader
     then says why in one line)."""
     return kind_of(name_or_path)
 
 
+@C.strict_call
 def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> AnyScenario:
     """The scenario `name_or_path`: a built-in name (`qmt-drake scenarios` lists them: thesis-ch2/3/4,
     via5-ch4, crane-tray; ur5-suction-bins, ur5-magnet-part, panda-tray-cup; ohsaka-fig2/3/4) or the
@@ -65,6 +96,10 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> An
     and the fix). Returns a Scenario (transfer), a SpatialScenario (`kind: spatial_transfer`) or an
     Experiment (`kind: energy_time`). `overrides` (transfer scenarios only) is merged into the YAML
     mapping first, key by key (e.g. {"limits": {"moment_limit_Nm": 6e-4}})."""
+    C.path_arg(name_or_path, "load_scenario: name_or_path", "scenario YAML file, or a built-in scenario name")
+    if overrides is not None and not isinstance(overrides, dict):
+        raise QmtInputError(f"load_scenario: overrides {show(overrides)} must be a dict of sections, e.g. "
+                            "{'limits': {'moment_limit_Nm': 6e-4}}")
     kind = _kind_of_file(name_or_path)
     if kind in (SPATIAL_KIND, ENERGY_TIME_KIND):
         if overrides:
@@ -75,8 +110,57 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> An
     return _load_scenario(name_or_path, overrides)
 
 
+def _scenario_arg(scenario: Any, where: str) -> AnyScenario:
+    """A loaded scenario; a built-in name or a YAML path is loaded (load_scenario), anything else refused."""
+    if isinstance(scenario, (Scenario, SpatialScenario, Experiment)):
+        return scenario
+    if isinstance(scenario, (str, Path)):
+        return load_scenario(scenario)
+    raise QmtInputError(f"{where}: scenario {show(scenario)} is not a scenario; pass load_scenario(NAME_OR_PATH)")
+
+
+def _priced(check: Callable, *args: Any, cli: bool = False, **kwargs: Any) -> None:
+    """A budgets.py check whose refusal names the API's keyword (allow_large=True), not the CLI's flag."""
+    try:
+        check(*args, **kwargs)
+    except QmtInputError as exc:
+        raise QmtInputError(str(exc) if cli else str(exc).replace("--allow-large", "allow_large=True")) from None
+
+
+def check_plan_options(method: str, sc: AnyScenario, options: dict, *, allow_large: bool = False,
+                       where: str = "plan_with option") -> None:
+    """A planner's options by its keywords, types and ranges (api_checks), and the run's budget
+    (budgets.py) before any work; `where` names the options in the message (the CLI: "--option")."""
+    cli = where.startswith("--")
+    if isinstance(sc, SpatialScenario):
+        m = SPATIAL_ALIASES.get(method, method)
+        if m not in SPATIAL_PLANNERS:
+            raise QmtInputError(f"method {method!r} does not plan spatial scenarios; use {'|'.join(SPATIAL_METHODS)}")
+        C.check_options(SPATIAL_PLANNERS[m], options, where, f"the spatial {m} planner", skip=("sc", "seed", "progress"))
+        if "family" in options and options["family"] is not None and not isinstance(options["family"], str):
+            raise QmtInputError(f"{where} family {show(options['family'])} must be a family's name (a str)")
+        if m == "ga":
+            d = inspect.signature(SPATIAL_PLANNERS["ga"]).parameters
+            size = {k: options.get(k, d[k].default) for k in ("population", "generations")}
+            _priced(check_budget, spatial_ga_estimate(size["population"], size["generations"]), allow_large=allow_large, cli=cli)
+    elif isinstance(sc, Experiment):
+        C.check_options(plan_energy_time, options, where, "the energy-time planners", skip=("E", "method", "progress"))
+        _priced(check_energy_budget, options.get("m") or sc.m, options.get("divisions") or sc.divisions,
+                allow_large=allow_large, cli=cli)
+    else:
+        if method == "ga" and "population" in options:
+            raise QmtInputError(f"{where} population: the transfer GA's population is the scenario's "
+                                "ga.population; set it there (the API: overrides={'ga': {'population': N}})")
+        if method in TRANSFER_OPTIONS:
+            func, skip = TRANSFER_OPTIONS[method]
+            C.check_options(func, options, where, f"the transfer {method} planner", skip=skip)
+        if method in TRANSFER_PLANNERS:
+            _priced(check_plan_budget, sc, method, options.get("max_generations"), allow_large=allow_large, cli=cli)
+
+
+@C.strict_call
 def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Callable[[str], None] | None = None,
-              **options: Any) -> Plan:
+              allow_large: bool = False, **options: Any) -> Plan:
     """Plan `scenario` with `method` and return a Plan whose `feasible`, peaks and ratios come from
     re-sampling the trajectory, not from the planner: plan.motion_time_s [s], plan.sample(t) ->
     (q [rad], qd [rad/s], qdd [rad/s^2]), plan.summary(), plan.write_json(path).
@@ -89,20 +173,23 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
     cost of the multi-start): "snopt", "ipopt", "steepest", "collocation"; options c1, c2, m,
     divisions, coords [m], pattern, max_iter. seed: the GA's generator (and the optimum's); progress:
     a callable taking one line of text; options: the planner's keywords (e.g. max_generations for the
-    transfer GA, jerk_limit [m/s^3] for Ruckig, generations for the spatial GA)."""
+    transfer GA, jerk_limit [m/s^3] for Ruckig, generations for the spatial GA). `scenario` may be a
+    built-in name or a YAML path (loaded first). Every argument is checked first (types, ranges, the
+    options' names) and the run priced as the CLI prices it (budgets.py): over the budget raises
+    QmtInputError unless allow_large=True."""
+    scenario = _scenario_arg(scenario, "plan_with")
+    if not isinstance(method, str):
+        raise QmtInputError(f"plan_with: method {show(method)} must be a planner's name (a str)")
+    C.number(seed, "plan_with: seed", minimum=0, integer=True, fix="seeds are non-negative integers")
+    if progress is not None and not callable(progress):
+        raise QmtInputError(f"plan_with: progress {show(progress)} must be a callable taking one line, or None")
+    if not isinstance(allow_large, bool):
+        raise QmtInputError(f"plan_with: allow_large {show(allow_large)} must be True or False")
+    check_plan_options(method, scenario, options, allow_large=allow_large)
     if isinstance(scenario, SpatialScenario):
         m = SPATIAL_ALIASES.get(method, method)
-        if m not in SPATIAL_PLANNERS:
-            raise QmtInputError(f"method {method!r} does not plan spatial scenarios; use {'|'.join(SPATIAL_METHODS)}")
         if m == "ga":
             options = {"seed": seed, "progress": progress, **options}
-        known = [k for k in inspect.signature(SPATIAL_PLANNERS[m]).parameters if k != "sc"]
-        unknown = sorted(set(options) - set(known))
-        if unknown:
-            raise QmtInputError(f"option {unknown[0]!r}: the spatial {m} planner takes "
-                                f"{', '.join(known) or 'no options'}"
-                                + (" (family: only toppra, family_optimum and ga take one)" if unknown[0] == "family"
-                                   else ""))
         plan: Plan = SPATIAL_PLANNERS[m](scenario, **options)
         return plan
     if isinstance(scenario, Experiment):
@@ -110,9 +197,19 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
     return _plan_with(method, scenario, seed=seed, progress=progress, **options)
 
 
+@C.strict_call
+def load_plan(path: str | Path, scenario: AnyScenario | None = None) -> Plan:
+    """Read a plan file of any scenario kind (plan_files.load_plan: refused in one line when it does not
+    fit `scenario`); `scenario` None reloads the plan's own scenario, a name or a path is loaded."""
+    C.path_arg(path, "load_plan: path", "plan file (JSON)")
+    return _load_plan(path, None if scenario is None else _scenario_arg(scenario, "load_plan"))
+
+
 def _check_plan_kind(scenario: AnyScenario, plan: Plan) -> None:
     """One line unless `plan` is a plan of this scenario's kind made for a scenario of this name (a
     transfer plan's fit is checked by its end points, hands.run_simulate; any Motion passes here)."""
+    if not isinstance(plan, Plan):
+        raise QmtInputError(f"plan {show(plan)} is not a Plan; pass plan_with(METHOD, scenario) or load_plan(PATH)")
     kind = scenario_kind_of(scenario)
     if getattr(plan, "scenario_kind", kind) != kind or (kind != "transfer" and plan.scenario.name != scenario.name):
         raise QmtInputError(f"the {plan.method} plan is {a_kind(plan.scenario_kind)} plan for scenario "
@@ -120,8 +217,29 @@ def _check_plan_kind(scenario: AnyScenario, plan: Plan) -> None:
                             "plan this scenario with plan_with")
 
 
+def _check_run_args(scenario: AnyScenario, plan: Plan, time_scale: Any, time_step_s: Any, record_path: Any,
+                    allow_large: Any, where: str) -> None:
+    """simulate's and build_diagram's shared arguments, and the replay's budget (budgets.py) before it runs."""
+    _check_plan_kind(scenario, plan)
+    C.number(time_scale, f"{where}: time_scale", positive=True, fix="1 replays the plan as planned, 2 twice as slow")
+    if time_step_s is not None:
+        C.number(time_step_s, f"{where}: time_step_s", positive=True, maximum=0.1,
+                 fix="the plant step [s], e.g. 0.002 (None: the scenario's stable default)")
+    if record_path is not None:
+        C.path_arg(record_path, f"{where}: record_path", "HTML recording")
+    if not isinstance(allow_large, bool):
+        raise QmtInputError(f"{where}: allow_large {show(allow_large)} must be True or False")
+    if isinstance(scenario, Scenario):
+        _priced(check_replay_budget, scenario, time_scale, time_step_s, motion_time_s=plan.motion_time_s,
+                allow_large=allow_large)
+    elif isinstance(scenario, SpatialScenario):
+        _priced(check_budget, replay_estimate(time_scale, plan.motion_time_s, cost=SPATIAL_REPLAY), allow_large=allow_large)
+
+
+@C.strict_call
 def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
-             feedforward: str = "none", record_path: str | Path | None = None) -> dict:
+             feedforward: str | None = None, actuator: str | None = None, record_path: str | Path | None = None,
+             allow_large: bool = False) -> dict:
     """Execute `plan` in the Drake co-simulation of `scenario` (magnet hand: DC motors with gears,
     PID, the magnet and the part in friction contact; tray: the Dynamixel servos and the bottle
     standing free; spatial arms: Drake's inverse-dynamics controller on ideal joint torques, the part
@@ -131,38 +249,66 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     "final_goal_error_rad", "max_tracking_error_rad", ... (energy-time: "reached_goal",
     "max_tracking_error_rad", "final_error_rad"). time_scale: replay the plan time_scale times slower
     (< 1 faster); time_step_s: the plant step [s] (default: the scenario's stable default);
-    feedforward: "none", "back-emf" or "full" (DC motors); record_path: write a Meshcat HTML replay
-    there. A plan made for another scenario, an unstable step or a bad option raises QmtInputError
-    (one line) before anything runs; the spatial and energy-time runs take time_scale (spatial) and
-    record_path only."""
-    _check_plan_kind(scenario, plan)
+    feedforward: "none" (default), "back-emf" or "full" (DC motors; spatial dc_motor: "full" default,
+    "gravity", ...); actuator (spatial only): "ideal" (default) or "dc_motor" (the scenario's
+    actuators.motor constants); record_path: write a Meshcat HTML replay there. A plan made for
+    another scenario, an unstable step, a bad option or a replay over the budget (budgets.py; unless
+    allow_large=True) raises QmtInputError (one line) before anything runs; the spatial and
+    energy-time runs take time_scale (spatial) and record_path only."""
+    scenario = _scenario_arg(scenario, "simulate")
+    for name, value in (("feedforward", feedforward), ("actuator", actuator)):
+        if value is not None and not isinstance(value, str):
+            raise QmtInputError(f"simulate: {name} {show(value)} must be a str (or None: the default)")
+    if isinstance(scenario, SpatialScenario):  # the drive's refusals (no motor constants, ...) first
+        check_drive(scenario, actuator or "ideal", feedforward or "full")
+    _check_run_args(scenario, plan, time_scale, time_step_s, record_path, allow_large, "simulate")
     if isinstance(scenario, Scenario):
+        if actuator is not None:
+            raise QmtInputError(f"simulate: actuator: the planar scenario {scenario.name} takes its actuator from its "
+                                "YAML actuator section; drop actuator")
         return run_simulate(scenario, plan, time_scale=time_scale, record_path=record_path,
-                            time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward)
-    for name, given in (("time_step_s", time_step_s is not None), ("feedforward", feedforward != "none"),
+                            time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward or "none")
+    spatial = isinstance(plan, SpatialPlan)
+    for name, given in (("time_step_s", time_step_s is not None), ("feedforward", feedforward is not None and not spatial),
+                        ("actuator", actuator is not None and not spatial),
                         ("time_scale", isinstance(plan, EnergyPlan) and time_scale != 1.0)):
         if given:
             raise QmtInputError(f"{name}: the {KIND_WORDS[plan.scenario_kind]} co-simulation of {scenario.name} "
                                 f"does not take it; drop {name}")
-    if isinstance(plan, SpatialPlan):
-        if not (time_scale > 0 and time_scale < float("inf")):
-            raise QmtInputError(f"time_scale {time_scale!r} must be a finite positive number (1: as planned)")
+    if spatial:
+        actuator, feedforward = actuator or "ideal", feedforward or "full"
         traj = plan.trajectory if time_scale == 1.0 else TimeScaled(plan.trajectory, time_scale)
-        return simulate_spatial(scenario, traj, record_path=record_path)
+        return simulate_spatial(scenario, traj, record_path=record_path, actuator=actuator, feedforward=feedforward)
     return execute_plan(plan, record_path=record_path)
 
 
+@C.strict_call
 def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
-                  meshcat: Meshcat | None = None, **options: Any) -> TransferDiagram | TrayDiagram:
+                  meshcat: Meshcat | None = None, allow_large: bool = False,
+                  **options: Any) -> TransferDiagram | TrayDiagram:
     """The co-simulation Diagram of `plan` on `scenario`, ready to run: td.diagram (a Drake Diagram
     whose default context starts at the plan's start with the part seated), td.plant, and the
     exported ports and loggers its docstring lists. Magnet scenarios: sim.build_transfer_diagram
     (options: its keywords, e.g. inverse_dynamics_feedforward=True, coil_current_A); tray
     scenarios: tray.cosim.build_tray_diagram with the plan streamed to the servos every servo
-    period. time_scale and time_step_s [s] as in `simulate`; meshcat: a pydrake Meshcat to draw in.
+    period. time_scale and time_step_s [s] as in `simulate` (checked the same way, the replay
+    priced); meshcat: a pydrake Meshcat to draw in.
     Transfer scenarios only (spatial and energy-time ones run through `simulate`)."""
+    scenario = _scenario_arg(scenario, "build_diagram")
     if not isinstance(scenario, Scenario):
         kind = scenario_kind_of(scenario)
         raise QmtInputError(f"build_diagram composes transfer scenarios; {scenario.name} is {a_kind(kind)} one: "
                             "run it with simulate(scenario, plan)")
-    return _build_diagram(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, meshcat=meshcat, **options)
+    _check_run_args(scenario, plan, time_scale, time_step_s, None, allow_large, "build_diagram")
+    if meshcat is not None and not isinstance(meshcat, Meshcat):
+        raise QmtInputError(f"build_diagram: meshcat {show(meshcat)} must be a pydrake Meshcat (or None)")
+    C.check_options(hand_plugin(scenario).build_diagram, options, "build_diagram option",
+                    f"the {hand_plugin(scenario).kind} hand's diagram",
+                    skip=("scenario", "plan", "time_scale", "time_step_s", "meshcat"))
+    try:
+        return _build_diagram(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, meshcat=meshcat,
+                              **options)
+    except TypeError as exc:  # a plug-in taking **options passes them on: an unknown one surfaces here
+        if "unexpected keyword argument" not in str(exc):
+            raise
+        raise QmtInputError(f"build_diagram: {exc}; see the hand's diagram builder for its options") from None

@@ -33,6 +33,8 @@ import os
 import sys
 from dataclasses import dataclass
 
+import numpy as np
+
 from qmt_drake.config.registry import hand_entry
 from qmt_drake.errors import QmtInputError
 
@@ -308,3 +310,43 @@ def check_ga_runs_budget(scenario, runs: int, generations: int, *, allow_large: 
     (g,) = [e for e in scenario_estimates(scenario, generations=generations) if e.what.startswith("a GA")]
     return check_budget(Estimate(g.bytes, g.seconds * _f(runs), f"{_f(runs):g} runs of {g.what}",
                                  "use fewer seeds (--seeds / --ga-seeds)"), allow_large=allow_large)
+
+
+# ------------------------------------------------------------ spatial scenario sizes, at load
+# Sizes a spatial scenario file sets, refused at load before any IK or planning (spatial_task.py), each cap
+# from a measurement on this machine (2026-11-26, shared, `studies/bad_inputs_table.py` prints the refusals):
+# - the suction grip polyhedron (limits/suction.GripModel, qhull over rim_points x pyramid_edges contact
+#   generators): 8x4 0.04 s, 16x16 2.2 s, 32x8 3.6 s, 8x32 3.6 s, 24x32 34 s, 8x64 28 s to build, and qhull
+#   fails outright at 64x4 and 16x64: at most 256 generators, each count at most 32;
+# - transfer_points (one IK solve each, then every planner's path): 100 points 1.8 s, 400 points 6.8 s to load;
+# - check_rate_hz: a UR5 Ruckig plan of a 3.74 s motion took 5 s at 200 Hz, 24 s at 2 kHz, 260 s at 20 kHz
+#   (the re-check samples at 10x): above 2e4 Hz a plan takes over 5 minutes;
+# - task poses: each one an IK solve and a segment of every planner (the shipped tasks have 4).
+SPATIAL_MAX_GRIP_GENERATORS = 256
+SPATIAL_MAX_GRIP_COUNT = 32
+SPATIAL_MAX_TRANSFER_POINTS = 1000
+SPATIAL_MAX_CHECK_RATE_HZ = 2e4
+SPATIAL_MAX_TASK_POSES = 100
+
+
+def check_spatial_sizes(where: str, *, rim_points: int | None = None, pyramid_edges: int | None = None,
+                        transfer_points: int = 0, check_rate_hz: float = 0.0, task_poses: int = 0) -> None:
+    """One line for a spatial scenario's size over its cap (above), naming the key and the fix."""
+    if rim_points is not None and pyramid_edges is not None and rim_points * pyramid_edges > SPATIAL_MAX_GRIP_GENERATORS:
+        raise QmtInputError(f"{where}: hand.rim_points x pyramid_edges = {rim_points} x {pyramid_edges} contact "
+                            f"generators, over {SPATIAL_MAX_GRIP_GENERATORS} (the grip polyhedron's hull takes seconds "
+                            "to minutes, or fails); use e.g. 8 x 4 (the shipped grip)")
+    for key, v, cap, fix in (("transfer_points", transfer_points, SPATIAL_MAX_TRANSFER_POINTS, "5-50 points draw a line"),
+                             ("check_rate_hz", check_rate_hz, SPATIAL_MAX_CHECK_RATE_HZ,
+                              "200 Hz is the shipped rate (the re-check samples at 10x)"),
+                             ("poses_m", task_poses, SPATIAL_MAX_TASK_POSES, "split the task into several scenarios")):
+        if v > cap:
+            raise QmtInputError(f"{where}: {key} {v:g} is over the cap of {cap:g} (each costs planning time: "
+                                f"budgets.py); {fix}")
+
+
+def path_time_lower_bound_s(q_path_rad, velocity_limit_rad_s) -> float:
+    """A lower bound of any motion time along a joint path [s] (before planning): every segment takes at
+    least its largest joint step over that joint's speed limit."""
+    dq = np.abs(np.diff(np.asarray(q_path_rad, float), axis=0)) / np.asarray(velocity_limit_rad_s, float)
+    return float(dq.max(axis=1).sum()) if dq.size else 0.0

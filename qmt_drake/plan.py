@@ -33,7 +33,9 @@ import numpy as np
 import numpy.typing as npt
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.api_checks import number, path_arg, times
 from qmt_drake.config.scenario import Scenario
+from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
 from qmt_drake.limits import LimitReport
 from qmt_drake.outputs import jsonable, write_text_atomic
@@ -112,7 +114,9 @@ class Plan:
         return self.check.peak_moment_ratio
 
     def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return self.trajectory.sample(t_s)
+        """(q [rad], qd [rad/s], qdd [rad/s^2]) at the times t_s [s] (finite numbers: a NaN would reach a
+        Drake assertion that ends the process; one QmtInputError line instead)."""
+        return self.trajectory.sample(times(t_s, "Plan.sample: t_s"))
 
     def to_piecewise_polynomial(self, rate_hz: float = 1000.0) -> PiecewisePolynomial:
         return self.trajectory.to_piecewise_polynomial(rate_hz)
@@ -192,9 +196,10 @@ class Plan:
         self.__dict__.update(state)
 
     def write_json(self, path: str | Path) -> None:
-        write_text_atomic(path, json.dumps(self.to_json_dict(), indent=1))
+        write_text_atomic(path_arg(path, "write_json: path", "JSON file"), json.dumps(self.to_json_dict(), indent=1))
 
     def write_csv(self, path: str | Path, rate_hz: float = 1000.0) -> None:
+        check_csv_args(path, rate_hz, self.motion_time_s)
         t = np.union1d(np.arange(0.0, self.motion_time_s, 1.0 / rate_hz), [self.motion_time_s])
         q, qd, qdd = self.sample(t)
         n = self.n_dof
@@ -203,6 +208,21 @@ class Plan:
         rows = np.column_stack([t, q, qd, qdd])
         lines = [header] + [",".join(f"{v:.10g}" for v in r) for r in rows]
         write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+# A CSV row per sample: more than this many rows is a budget question, not a trajectory file (10^7 rows of
+# a 7-joint arm's 22 columns are ~2 GB of text)
+CSV_MAX_ROWS = 10 ** 7
+
+
+def check_csv_args(path: Any, rate_hz: Any, motion_time_s: float) -> None:
+    """write_csv's arguments (every plan kind's): a path, and a finite positive rate whose rows stay
+    under CSV_MAX_ROWS."""
+    path_arg(path, "write_csv: path", "CSV file")
+    number(rate_hz, "write_csv: rate_hz", positive=True, fix="samples per second [Hz], e.g. 1000")
+    if rate_hz * motion_time_s > CSV_MAX_ROWS:
+        raise QmtInputError(f"write_csv: rate_hz {rate_hz:g} gives {rate_hz * motion_time_s:.3g} rows over "
+                            f"{motion_time_s:g} s, over {CSV_MAX_ROWS:.0e}; lower the rate (1000 Hz is the default)")
 
 
 def make_plan(scenario: Scenario, method: str, trajectory: JointTrajectory, *, genes: dict | None = None,

@@ -49,6 +49,7 @@ from types import SimpleNamespace
 import numpy as np
 from pydrake.math import RollPitchYaw
 
+from qmt_drake.budgets import SPATIAL_MAX_GRIP_COUNT, check_spatial_sizes
 from qmt_drake.config import fields as F
 from qmt_drake.config.resolve import SCENARIO_DIR, SPATIAL, resolve_scenario
 from qmt_drake.errors import QmtInputError
@@ -154,15 +155,13 @@ def _arm(raw: dict, where: str, base: Path):
                                 "give hand_frame, the link the hand is fixed to")
         hand = F.string(raw, "hand_frame", where, default=hand)
     else:
-        urdf = (base / F.string(raw, "urdf", where)).resolve()
-        if not urdf.is_file():
-            raise QmtInputError(f"{where}.urdf: {urdf} does not exist")
+        urdf = F.xml_file((base / F.string(raw, "urdf", where)).resolve(), "robot", f"{where}.urdf", "URDF")
         hand, lock = F.string(raw, "hand_frame", where), ()
     lock = _lock_joints(raw.get("lock_joints", lock), f"{where}.lock_joints")
     if "lock" in raw:
         F.string(raw, "lock", where, choices=("off_chain",))
         lock = off_chain_locks(urdf, hand, lock, source=str(urdf))
-    face = F.vector(raw, "face_axis", where, length=3) if "face_axis" in raw else np.array([0.0, 0.0, 1.0])
+    face = F.direction(raw, "face_axis", where) if "face_axis" in raw else np.array([0.0, 0.0, 1.0])
     return urdf, hand, lock, face
 
 
@@ -213,10 +212,12 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
         cup = _tray_cup(hd, w)
     elif kind == "suction":
         F.check_keys(hd, {"kind", "cup_radius_m", "vacuum_force_N", "friction", "rim_points", "pyramid_edges"}, w)
+        rim, edges = (F.integer(hd, k, w, minimum=3, maximum=SPATIAL_MAX_GRIP_COUNT, default=d)
+                      for k, d in (("rim_points", 8), ("pyramid_edges", 4)))
+        check_spatial_sizes(w, rim_points=rim, pyramid_edges=edges)
         grip = GripModel(F.num(hd, "cup_radius_m", w, positive=True), F.num(hd, "vacuum_force_N", w, positive=True),
                          F.num(hd, "friction", w, positive=True), face_normal=face_axis,
-                         rim_points=F.integer(hd, "rim_points", w, minimum=3, default=8),
-                         pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, default=4))
+                         rim_points=rim, pyramid_edges=edges)
     else:
         F.check_keys(hd, {"kind", "moment_limit_Nm"}, w)
         moment_limit = F.num(hd, "moment_limit_Nm", w, positive=True)
@@ -226,10 +227,11 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     tk = F.mapping(raw, "task", where)
     F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points",
                       "free_spin_about_normal"}, w)
-    seed = F.vector(tk, "seed_rad", w, length=n, what="one joint angle per joint")
+    seed = F.radians(tk, "seed_rad", w, length=n, what="one joint angle per joint")
     poses = tk.get("poses_m")
     if not isinstance(poses, list) or len(poses) < 2:
         raise QmtInputError(f"{w}.poses_m must be a list of >= 2 positions [x, y, z] (m)")
+    check_spatial_sizes(w, task_poses=len(poses))
     P = np.array([F.vector({"p": p}, "p", f"{w}.poses_m[{k}]", length=3) for k, p in enumerate(poses)])
     pose_rotations = _pose_rotations(tk, len(P), w)
     pose_normals = (_pose_normals(tk, len(P), w) if pose_rotations is None
@@ -244,6 +246,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     lim = F.mapping(raw, "limits", where)
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
     rate = F.num(lim, "check_rate_hz", f"{where}: limits", positive=True)
+    check_spatial_sizes(where, transfer_points=n_tr, check_rate_hz=rate)
 
     ik = SpatialIK(plant, H, face_axis=face_axis, name=str(raw.get("name", path.stem)))
     chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())
@@ -253,7 +256,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     if cup is not None:
         _check_cup_rests(TrayContactTerm(cup, plant.gravity_field().gravity_vector(), face_axis=face_axis), chain,
                          q_path, f"{where}: task")
-    return SpatialScenario(name=str(raw.get("name", path.stem)), path=path, urdf=Path(urdf), hand_frame=hand,
+    sc = SpatialScenario(name=str(raw.get("name", path.stem)), path=path, urdf=Path(urdf), hand_frame=hand,
                            lock_joints=lock, joint_names=list(names), plant=plant, ik=ik, chain=chain, body=body,
                            grip=grip, velocity_limit_rad_s=vals["velocity_limit_rad_s"],
                            acceleration_limit_rad_s2=vals["acceleration_limit_rad_s2"],
@@ -263,6 +266,9 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
                            motor=motor, pose_normals=pose_normals, path_normals=normals,
                            pose_rotations=pose_rotations, path_rotations=rotations)
+    if cup is None:
+        _check_holds_at_rest(sc, f"{where}: payload")
+    return sc
 
 
 def _urdf_limit_defaults(vals: dict, urdf, names) -> dict:
@@ -280,7 +286,7 @@ def _payload(raw: dict, where: str) -> CarriedBody:
     pay = F.mapping(raw, "payload", where)
     F.check_keys(pay, {"mass_kg", "com_m", "inertia_kgm2"}, w)
     return CarriedBody(F.num(pay, "mass_kg", w, positive=True), F.vector(pay, "com_m", w, length=3),
-                       np.diag(F.vector(pay, "inertia_kgm2", w, positive=True, length=3)))
+                       np.diag(F.principal_inertia(pay, "inertia_kgm2", w)))
 
 
 def _no_payload(raw: dict, where: str, body: CarriedBody) -> CarriedBody:
@@ -298,6 +304,20 @@ def _check_cup_rests(term: TrayContactTerm, chain: SpatialChain, q_path: np.ndar
         raise QmtInputError(f"{w}: the cup cannot stand still on the tray at path point {k} (its "
                             f"{TrayContactTerm.column_names[j]} ratio at rest is {r[k, j]:.3g} > 1); point face_normal "
                             "up (e.g. [0, 0, 1]) or raise the friction")
+
+
+def _check_holds_at_rest(sc: SpatialScenario, w: str) -> None:
+    """Refuse a payload the suction cup or the magnet cannot hold even at rest on the path (mass_kg 1e9, a
+    centre of mass far out): the planners would only find no motion, without saying why. (Joint torques at
+    rest are named when TOPP-RA finds no motion: limits/at_rest.py.)"""
+    term = sc.hand_term()
+    zero = np.zeros_like(sc.q_path_rad)
+    r = term.columns(sc.chain.evaluate(sc.q_path_rad, zero, zero))
+    k, j = np.unravel_index(np.argmax(r), r.shape)
+    if r[k, j] > 1.0:
+        raise QmtInputError(f"{w}: the {sc.hand_kind} hand cannot hold the payload even at rest at path point {k} "
+                            f"(its {term.column_names[j]} ratio at rest is {r[k, j]:.3g} > 1); lower mass_kg or move "
+                            "com_m nearer the hand, or give a stronger hand")
 
 
 def _tray_cup(hd: dict, w: str) -> TrayCup:
@@ -319,7 +339,7 @@ def _tray_cup(hd: dict, w: str) -> TrayCup:
                             "smaller cup or a larger tray_size_m")
     return TrayCup(radius, height, F.num(c, "mass_kg", wc, positive=True), F.num(hd, "friction", w, positive=True),
                    com_height_m=com, margin=F.num(hd, "margin", w, positive=True, maximum=1.0, default=1.0),
-                   pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, default=8),
+                   pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, maximum=SPATIAL_MAX_GRIP_COUNT, default=8),
                    tray_size_m=tuple(float(x) for x in size))
 
 
@@ -344,7 +364,7 @@ def _pose_rotations(tk: dict, n_poses: int, w: str) -> np.ndarray | None:
     raw = tk["hand_rpy_rad"]
     if not isinstance(raw, list) or len(raw) != n_poses:
         raise QmtInputError(f"{w}.hand_rpy_rad must list one [roll, pitch, yaw] (rad) per task pose ({n_poses})")
-    rpy = [F.vector({"r": r}, "r", f"{w}.hand_rpy_rad[{k}]", length=3) for k, r in enumerate(raw)]
+    rpy = [F.radians({"r": r}, "r", f"{w}.hand_rpy_rad[{k}]", length=3) for k, r in enumerate(raw)]
     out = np.array([RollPitchYaw(r).ToRotationMatrix().matrix() for r in rpy])
     for k in range(n_poses - 1):
         if np.arccos(np.clip((np.trace(out[k].T @ out[k + 1]) - 1.0) / 2.0, -1.0, 1.0)) > np.pi - 1e-6:

@@ -4,21 +4,21 @@ each raises a one-line QmtInputError naming the flag and the fix, before any lon
 from __future__ import annotations
 
 import json
-import math
 import sys
 
+from qmt_drake.api_checks import number
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_one_stdout, check_output_path, write_text_atomic
 
 
 def check_int(value, flag: str, minimum: int, fix: str) -> None:
-    if value is not None and value < minimum:
-        raise QmtInputError(f"{flag} {value} must be >= {minimum}; {fix}")
+    if value is not None:  # one implementation with the API's checks (api_checks.number)
+        number(value, flag, minimum=minimum, fix=fix)
 
 
 def check_positive_finite(value, flag: str, fix: str) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise QmtInputError(f"{flag} {value} must be a finite positive number; {fix}")
+    if value is not None:
+        number(value, flag, positive=True, fix=fix)
 
 
 def check_outputs(args, *flags: str) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+from qmt_drake.api import check_plan_options
 from qmt_drake.apps import spatial_cli
 from qmt_drake.apps.arg_checks import (
     check_int,
@@ -16,7 +17,7 @@ from qmt_drake.apps.arg_checks import (
     parse_options,
     progress,
 )
-from qmt_drake.budgets import check_plan_budget
+from qmt_drake.budgets import check_plan_budget, check_replay_budget
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, plan_energy
 from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
@@ -101,6 +102,11 @@ def cmd_plan(args) -> int:
     sc = load_scenario(args.scenario)
     check_tray_method(sc, args.method)
     check_plan_budget(sc, args.method, args.generations, allow_large=args.allow_large)
+    if args.carried:  # the slowest replay the search may run (at the scenario's motion-time bound)
+        try:
+            check_replay_budget(sc, args.carried_max_scale, allow_large=args.allow_large)
+        except QmtInputError as exc:
+            raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g}: {exc}") from None
     if args.checkpoint is not None:
         if args.method != "ga":
             raise QmtInputError(f"--checkpoint is for --method ga, not {args.method}; drop it")
@@ -113,7 +119,9 @@ def cmd_plan(args) -> int:
             options["stall_generations"] = args.stall
         if args.checkpoint:
             options["checkpoint_path"] = args.checkpoint
-    options.update(parse_options(args.option))
+    given_options = parse_options(args.option)
+    check_plan_options(args.method, sc, given_options, where="--option", allow_large=args.allow_large)
+    options.update(given_options)
     try:
         plan = plan_with(args.method, sc, seed=args.seed,
                          progress=None if args.quiet else progress, **options)

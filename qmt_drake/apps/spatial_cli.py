@@ -23,6 +23,7 @@ import json
 import time
 from dataclasses import replace
 
+from qmt_drake.api_checks import option_value
 from qmt_drake.apps.arg_checks import (
     check_int,
     check_outputs,
@@ -32,7 +33,14 @@ from qmt_drake.apps.arg_checks import (
     parse_options,
     progress,
 )
-from qmt_drake.budgets import SPATIAL_REPLAY, announce, check_budget, replay_estimate, spatial_ga_estimate
+from qmt_drake.budgets import (
+    SPATIAL_REPLAY,
+    announce,
+    check_budget,
+    path_time_lower_bound_s,
+    replay_estimate,
+    spatial_ga_estimate,
+)
 from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import jerk_limited_plan, peak_jerk
@@ -111,6 +119,7 @@ def _planner_options(args, method: str) -> dict:
                                 f"{', '.join(sorted(allowed)) or 'no options'}")
         if not isinstance(v, (int, float)) or (isinstance(allowed[k], int) and not isinstance(v, int)):
             raise QmtInputError(f"--option {k}={v}: give a{'n integer' if isinstance(allowed[k], int) else ' number'}")
+        option_value(k, v, allowed[k], f"--option {k}")  # the API's ranges (api_checks.OPTION_RANGES)
     family = getattr(args, "family", None)
     if family is not None:
         if method not in FAMILY_METHODS:
@@ -150,6 +159,8 @@ def plan(args, energy_options) -> bool:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     opts = _planner_options(args, method)
     sc = load_spatial_scenario(args.scenario)
+    if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
+        _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
     p = _plan(args, sc, method, opts)
     if getattr(args, "jerk_limited", False):  # qmt_drake/jerk.py: slowed until its jerk is within the limits
         p = jerk_limited_plan(sc, p)
@@ -159,6 +170,7 @@ def plan(args, energy_options) -> bool:
     except QmtInputError:
         bound = None
     if args.carried:
+        _check_carried_budget(args, p.duration_s)
         search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress)
         p = carried_plan(sc, p, search)
     if args.json == "-":
@@ -170,6 +182,13 @@ def plan(args, energy_options) -> bool:
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
         print(summary_line(sc, p, bound))
     return p.recheck["max"] <= 1.0
+
+
+def _check_carried_budget(args, motion_time_s: float) -> None:
+    """The slowest replay the carried search may run (--carried-max-scale x the motion time), priced."""
+    est = replay_estimate(args.carried_max_scale, motion_time_s, cost=SPATIAL_REPLAY)
+    check_budget(replace(est, what=f"--carried-max-scale {args.carried_max_scale:g}: {est.what}"),
+                 allow_large=getattr(args, "allow_large", False))
 
 
 def summary_line(sc, p, bound) -> str:

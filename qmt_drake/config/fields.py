@@ -19,10 +19,19 @@ import yaml
 from qmt_drake.errors import QmtInputError
 
 MISSING = object()
+# An input YAML file (scenario, sweep spec, design task) is a few kB (the shipped ones are under 8 kB);
+# parsing is ~4 us a byte here (10,000 task poses, 380 kB: 1.6 s), so a larger file is refused unread.
+MAX_YAML_BYTES = 256 * 1024
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that refuses a duplicated key in any mapping."""
+class _UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # libyaml's parser when present: fast
+    """SafeLoader that refuses a duplicated key in any mapping, and any alias (`*name`): an alias can
+    expand a file of a few lines into billions of values (the "billion laughs"), and no input of this
+    project needs one."""
+
+    def construct_document(self, node):
+        _refuse_aliases(node)
+        return super().construct_document(node)
 
     def construct_mapping(self, node, deep=False):
         seen = set()
@@ -45,6 +54,21 @@ _UniqueKeyLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float", re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"), list("-+0123456789"))
 
 
+def _refuse_aliases(root) -> None:
+    """An alias makes the composed graph share a node: refuse the first node reached twice."""
+    seen, stack = set(), [root]
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:
+            raise QmtInputError(f"the value at line {node.start_mark.line + 1} is repeated by an alias: aliases are not "
+                                "read (they can expand a small file into a huge input); write the value out")
+        seen.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            stack.extend(x for pair in node.value for x in pair)
+        elif isinstance(node, yaml.SequenceNode):
+            stack.extend(node.value)
+
+
 def load_yaml_text(text: str, where: str) -> Any:
     """YAML text parsed with duplicated keys refused; one-line QmtInputError naming `where`."""
     try:
@@ -61,6 +85,13 @@ def read_yaml_mapping(path: str | Path, what: str = "file", example: str | Path 
     path = Path(path)
     if path.is_dir():
         raise QmtInputError(f"{path}: is a directory; give a {what} YAML file")
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise QmtInputError(f"{path}: cannot be read ({exc.strerror})") from None
+    if size > MAX_YAML_BYTES:
+        raise QmtInputError(f"{path}: {size / 1024:.0f} KiB is over the {MAX_YAML_BYTES // 1024} KiB of an input file "
+                            f"(a {what} is a few kB); split it or check that it is the right file")
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError:
@@ -196,3 +227,50 @@ def float_text_hint(v) -> str:
             return f"; YAML reads {x} as text: write it with a decimal point, e.g. {float(x):.1e}"
     return ""
 
+
+
+def direction(d: dict, key: str, where: str, *, what: str = "a direction [x, y, z]") -> np.ndarray:
+    """A unit vector from a nonzero list of 3 finite numbers (a zero vector has no direction)."""
+    v = vector(d, key, where, length=3, what=what)
+    n = float(np.linalg.norm(v))
+    if not n > 1e-9:
+        raise QmtInputError(f"{where}.{key} {v.tolist()} has no direction; give a nonzero vector, e.g. [0, 0, 1]")
+    return v / n
+
+
+def principal_inertia(d: dict, key: str, where: str) -> np.ndarray:
+    """Principal central moments of inertia [kg m^2] a rigid body can have: positive, and each at most the
+    sum of the other two (the triangle inequality, I_k = sum over the mass of the squared distances to
+    axis k, so I_1 + I_2 >= I_3)."""
+    v = vector(d, key, where, positive=True, length=3, what="principal moments [kg m^2]")
+    for k in range(3):
+        if v[k] > v[(k + 1) % 3] + v[(k + 2) % 3] * (1 + 1e-9):
+            raise QmtInputError(f"{where}.{key} {v.tolist()}: no rigid body has these principal moments (moment "
+                                f"{k + 1} exceeds the sum of the other two); check the values and their axes")
+    return v
+
+
+def radians(d: dict, key: str, where: str, *, length: int | None = None, what: str = "angles [rad]") -> np.ndarray:
+    """Angles [rad]; a value beyond 2 pi in magnitude is refused as probably degrees."""
+    v = vector(d, key, where, length=length, what=what)
+    if np.any(np.abs(v) > 2 * math.pi + 1e-9):
+        raise QmtInputError(f"{where}.{key} {v.tolist()}: angles beyond 2 pi look like degrees; give radians "
+                            f"(e.g. {np.radians(v).round(4).tolist()})")
+    return v
+
+
+def xml_file(path: Path, root: str, where: str, what: str) -> Path:
+    """An existing file whose text has the XML element `root` (a URDF has <robot>): a directory, a missing
+    file or another kind of file (HTML, binary) is refused naming it."""
+    if path.is_dir():
+        raise QmtInputError(f"{where}: {path} is a directory; give the {what} file in it")
+    if not path.is_file():
+        raise QmtInputError(f"{where}: {path} does not exist; give the path of a {what} file")
+    try:
+        with path.open("rb") as f:
+            head = f.read(1 << 16).decode("utf-8", errors="replace")
+    except OSError as exc:
+        raise QmtInputError(f"{where}: {path} cannot be read ({exc.strerror})") from None
+    if f"<{root}" not in head:
+        raise QmtInputError(f"{where}: {path} is not a {what} (no <{root}> element in it); give a {what} file")
+    return path

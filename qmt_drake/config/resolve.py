@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from qmt_drake.config.fields import load_yaml_text
+from qmt_drake.config.fields import read_yaml_mapping
 from qmt_drake.config.registry import ENERGY_TIME, TRANSFER
 from qmt_drake.errors import QmtInputError
 
@@ -42,7 +42,7 @@ def scenario_kind(path: str | Path) -> str:
     """A scenario file's top-level `kind` (none: 'transfer'); '' when the file cannot be read as a
     YAML mapping (the loader then says why in one line). Never raises: a probe."""
     try:
-        raw = load_yaml_text(Path(path).read_text(encoding="utf-8"), str(path))
+        raw = read_yaml_mapping(path)  # the loaders' reader: its size cap and alias refusal apply to the probe
     except (OSError, UnicodeDecodeError, ValueError, TypeError, QmtInputError):
         return ""
     return str(raw.get("kind", TRANSFER)) if isinstance(raw, dict) else ""

@@ -74,6 +74,7 @@ from qmt_drake.config.sections import (  # noqa: F401 (re-exported: the scenario
 )
 from qmt_drake.config.validate import (
     WORLD_KEYS,
+    check_scenario_kind,
     parse_actuator,
     parse_family,
     parse_ga,
@@ -117,6 +118,7 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     raw YAML mapping first (nested dicts merge key by key)."""
     path = resolve_scenario(name_or_path, TRANSFER)
     raw = read_scenario_yaml(path)
+    check_scenario_kind(raw, str(path))
     if overrides:
         raw = _merge(raw, overrides)
     return scenario_from_dict(raw, path)

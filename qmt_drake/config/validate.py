@@ -8,6 +8,7 @@ Numbers are checked as numbers (config/fields.py): a YAML `true` is not 1, a str
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import fields
 
@@ -50,11 +51,31 @@ from qmt_drake.config.sections import (
 from qmt_drake.errors import QmtInputError
 
 WORLD_KEYS = {"gravity_m_s2"}
+SERVO_PERIOD_RANGE_S = (1e-4, 0.1)  # a Dynamixel position loop's control period [s] (parse_dynamixel)
 
 _HAND_KEYS = {"kind", "coil", "slip_boundary_Nm", "coil_current_A", "effective_gap_m", "friction",
               "contact_radius_m", "n_contact_points", "sphere_radius_m", "point_stiffness_N_per_m",
               "hunt_crossley_dissipation_s_per_m"}
 _COIL_KEYS = {"name", "turns", "resistance_ohm", "core_diameter_m", "outer_diameter_m", "length_m"}
+
+
+SCENARIO_KINDS = ("transfer", "spatial_transfer", "energy_time")  # a file's top-level `kind` (none: transfer)
+SPATIAL_ONLY_KEYS = {"actuators"}  # a spatial file's section a transfer file never has (its is `actuator`)
+
+
+def check_scenario_kind(raw: dict, where: str) -> None:
+    """A misspelt top-level `kind`, or a spatial file without one, named as such (not as an unknown key
+    of the transfer scenario it was then read as)."""
+    kind = raw.get("kind", "transfer")
+    if kind not in SCENARIO_KINDS:
+        near = difflib.get_close_matches(str(kind), SCENARIO_KINDS, n=1)
+        raise QmtInputError(f"{where}: kind {_show(kind)} is not a scenario kind; "
+                            + (f"did you mean {near[0]!r}? " if near else "")
+                            + "use spatial_transfer or energy_time, or no kind for a transfer scenario")
+    spatial = sorted(SPATIAL_ONLY_KEYS & set(raw))
+    if "kind" not in raw and spatial:
+        raise QmtInputError(f"{where}: no top-level kind, but the spatial section {spatial[0]!r}: add "
+                            "'kind: spatial_transfer' (a transfer scenario has 'actuator')")
 
 
 def parse_payload(p: dict, where: str) -> Payload:
@@ -343,7 +364,14 @@ def parse_dynamixel(a: dict, limits: Limits, where: str) -> DynamixelServos:
         if len(v) != len(servos):
             raise QmtInputError(f"{where}.{k} has {len(v)} entries for {len(servos)} servos; give one per servo")
         gains[k] = tuple(float(x) for x in v)
-    period = _num(a, "control_period_s", where, positive=True, default=1e-3)
+    for k, servo in enumerate(servos):  # without P and I the position loop has nothing to close on
+        if gains["p"][k] == 0 and gains["i"][k] == 0:
+            raise QmtInputError(f"{where}: servo {k + 1} ({servo}) has p = i = 0: its position loop never pulls toward "
+                                "the goal; give p > 0 (the servo default is 800)")
+    # the firmware's loop runs at ~1 kHz; below 0.1 ms the replay's servo updates (and its memory) explode
+    # (1e-7 s: 3.7 GB), above 0.1 s the loop is too slow to follow any plan
+    period = _num(a, "control_period_s", where, minimum=SERVO_PERIOD_RANGE_S[0], maximum=SERVO_PERIOD_RANGE_S[1],
+                  default=1e-3)
     return DynamixelServos(servos=tuple(servos), control_period_s=period, reference=reference, **gains)
 
 

@@ -30,6 +30,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from qmt_drake.api_checks import path_arg
 from qmt_drake.energy.collocation import solve_collocation
 from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
 from qmt_drake.energy.experiments import Experiment, paper_initial_x
@@ -49,7 +50,7 @@ from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.steepest import restore_endpoint, steepest_descent
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, ratio_report
+from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, check_csv_args, ratio_report
 from qmt_drake.plan_files import register_plan_kind
 from qmt_drake.plan_identity import (
     IDENTITY_KEY,
@@ -119,9 +120,10 @@ class EnergyPlan(Plan):
                          IDENTITY_KEY: identity(energy_sections(self.scenario))})
 
     def write_json(self, path) -> None:
-        write_text_atomic(path, json.dumps(self.to_json_dict(), indent=1) + "\n")
+        write_text_atomic(path_arg(path, "write_json: path", "JSON file"), json.dumps(self.to_json_dict(), indent=1) + "\n")
 
     def write_csv(self, path, rate_hz: float = 1000.0) -> None:
+        check_csv_args(path, rate_hz, self.motion_time_s)
         write_energy_csv(path, self._problem(), self.x, rate_hz)
 
 

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from qmt_drake.api_checks import option_value
 from qmt_drake.config.scenario import GaSettings
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import write_text_atomic
@@ -149,10 +150,12 @@ def run_ga(problem, settings: GaSettings | None = None, *, seed: int = 0,
     is written atomically every `checkpoint_every` generations and on KeyboardInterrupt, and a
     later call with the same path, problem, settings and seed resumes from it."""
     s = settings or problem.scenario.ga
-    max_gen = int(max_generations if max_generations is not None else s.max_generations)
-    stall = int(stall_generations if stall_generations is not None else s.stall_generations)
-    if max_gen < 1:
-        raise QmtInputError(f"the GA needs at least one generation, got max_generations={max_gen}")
+    # typed before int(): a NaN, an inf or a string is one line, not a ValueError or an OverflowError
+    max_gen = option_value("max_generations", max_generations if max_generations is not None else s.max_generations,
+                           None, "the GA's max_generations")
+    stall = option_value("stall_generations", stall_generations if stall_generations is not None
+                         else s.stall_generations, None, "the GA's stall_generations")
+    option_value("checkpoint_every", checkpoint_every, 500, "the GA's checkpoint_every")
     if not (isinstance(seed, (int, np.integer)) and seed >= 0):
         raise QmtInputError(f"the GA seed must be a non-negative integer, got {seed!r}")
     ga = BinaryGa(problem, s)

@@ -41,9 +41,10 @@ import numpy as np
 from pydrake.math import BsplineBasis
 from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
 
+from qmt_drake.api_checks import path_arg
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, ratio_report
+from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, check_csv_args, ratio_report
 from qmt_drake.plan_files import plan_file_kind, read_plan_file, register_plan_kind
 from qmt_drake.plan_identity import (
     IDENTITY_KEY,
@@ -123,9 +124,10 @@ class SpatialPlan(Plan):
         return jsonable(plan_file_dict(self.scenario, self))
 
     def write_json(self, path) -> None:
-        write_spatial_plan(self.scenario, self, path)
+        write_spatial_plan(self.scenario, self, path_arg(path, "write_json: path", "JSON file"))
 
     def write_csv(self, path, rate_hz: float = 1000.0) -> None:
+        check_csv_args(path, rate_hz, self.motion_time_s)
         write_spatial_csv(self, path, rate_hz)
 
 
