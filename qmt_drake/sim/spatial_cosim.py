@@ -56,6 +56,7 @@ from qmt_drake.sim.spatial_actuation import (
     spatial_drive,
     tracking_report,
 )
+from qmt_drake.sim.spatial_contact_hand import CONTACT_SETTLE_S, simulate_contact_hand
 from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
@@ -111,6 +112,9 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
         grip = cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                            rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
+    if sc.hand_physics == "contact":  # the part held by contact and a pull, not a weld (sim/spatial_contact_hand)
+        return simulate_contact_hand(sc, traj, drive, _reference(_Delayed(traj, CONTACT_SETTLE_S)), _add_ideal_controller,
+                                     grip=grip, record_path=record_path)
     term = sc.hand_term(grip)
     builder = DiagramBuilder()
     plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
