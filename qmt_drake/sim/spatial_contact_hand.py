@@ -28,9 +28,10 @@ holds the part but contact and a pull, so a loss is simulated, not declared:
 Monitoring after the run from logged signals (VectorLogSink, no Python system in the loop): the part's
 joint state every step. Lost ("detached", qmt_drake/outcome.py) at the first step the gap exceeds
 LOST_GAP_M or the slide LOST_SLIDE_M; slipped when held but the final slide exceeds SLIP_TOLERANCE_M.
-Diagnostic: the hand's limit ratio (the weld's threshold, the planners' constraint) of the hand motion
-this run actually made (logged arm state and acceleration through sc.chain), its largest value and the
-first time it passed 1: where the threshold would have declared a loss.
+Diagnostics (`_diagnostics`): the hand's limit ratio (the weld's threshold, the planners' constraint) of
+the hand motion this run actually made while the part was held (logged arm state and acceleration
+through sc.chain), its largest value and the first time it passed 1: where the threshold would have
+declared a loss; for the magnet also the rigid-body hold condition of its contact ring and pull.
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, Ma
 
 from qmt_drake.catalog import THESIS_COILS
 from qmt_drake.limits.contact_wrench import face_basis
+from qmt_drake.limits.suction import SuctionTerm, cached_grip
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M, hold_lever_m
@@ -181,13 +183,15 @@ def classify_contact_run(t, q_part, lost_gap_m: float = LOST_GAP_M, lost_slide_m
 
 def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=None, record_path=None,
                           rim_stiffness_N_per_m: float = RIM_STIFFNESS_N_PER_M,
-                          rim_dissipation_s_per_m: float = RIM_DISSIPATION_S_PER_M, time_step_s: float = 1e-3) -> dict:
+                          rim_dissipation_s_per_m: float = RIM_DISSIPATION_S_PER_M, coil_current_A: float | None = None,
+                          time_step_s: float = 1e-3) -> dict:
     """Run `traj` with the part held by contact physics (module docstring). Called by
     spatial_cosim.simulate_spatial for `hand.physics: contact`: drive (None: ideal) and add_controller
     as its own, reference its `_reference(_Delayed(traj, CONTACT_SETTLE_S))` (pp, acc, t_end, q_goal),
     grip the suction cup's GripModel (the co-simulation's finer rim: its rim_points, radius, friction,
-    pull). Result keys as simulate_spatial's, plus the contact's gap, slide and tilt and the threshold
-    diagnostic."""
+    pull). rim_*: the suction rim's total stiffness [N/m] and Hunt-Crossley dissipation [s/m];
+    coil_current_A: the magnet's current instead of the calibrated one. Result keys as simulate_spatial's,
+    plus the pull at the seat, the contact's gap, slide and tilt and the threshold diagnostic."""
     if sc.hand_kind not in ("magnet", "suction"):
         raise ValueError(f"contact hand: hand kind {sc.hand_kind!r} is neither magnet nor suction")
     builder = DiagramBuilder()
@@ -218,7 +222,7 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
     if rec is not None:
         rec.connect(builder, plant, geometry_connected=True)
     allow_contact(plant, scene_graph, H.body(), part)
-    pull = _add_pull(builder, plant, joint, sc, spec, grip)
+    pull = _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A)
     pp, acc, t_end, q_goal = reference
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
@@ -245,22 +249,23 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
     err = float(np.abs(q_goal - plant.GetPositions(pctx, arm)).max())
     slipped = lost is None and bool(slide[-1] > SLIP_TOLERANCE_M)
     outcome = transfer_outcome(lost, slipped, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
-    threshold = _threshold_diagnostic(sc, grip, logs["arm_state"].FindLog(ctx), arm_acc_log.FindLog(ctx))
+    threshold = _diagnostics(sc, grip, spec, pull, logs["arm_state"].FindLog(ctx), arm_acc_log.FindLog(ctx), lost_at)
     return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at, "hand_physics": "contact",
             "final_goal_error_rad": err, "duration_s": traj.duration_s, "pull_N": pull,
             "max_gap_while_held_m": float(gap[held].max(initial=0.0)),
             "max_slide_while_held_m": float(slide[held].max(initial=0.0)),
             "max_tilt_while_held_rad": float(tilt[held].max(initial=0.0)), "final_slide_m": float(slide[-1]),
+            "final_gap_m": float(gap[-1]), "max_slide_m": float(slide[moving].max(initial=0.0)),
             **threshold, "actuator": "ideal" if drive is None else "dc_motor",
             **tracking_report(logs, ctx, traj.duration_s + CONTACT_SETTLE_S, sc, drive)}
 
 
-def _add_pull(builder, plant, joint, sc, spec, grip) -> float:
+def _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A) -> float:
     """Wire the magnet's or the vacuum's pull into the plant's applied generalized force; its value at
     the seat [N]."""
     if spec is not None:
         params = MagnetParams(THESIS_COILS[MAGNET_COIL], MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m)
-        current = magnet_current_A(sc, spec, params)
+        current = magnet_current_A(sc, spec, params) if coil_current_A is None else float(coil_current_A)
         magnet = builder.AddNamedSystem("magnet", electromagnet_force(params, plant, joint,
                                                                       host_has_continuous_state=True))
         coil = builder.AddNamedSystem("coil_current", ConstantVectorSource([current]))
@@ -279,15 +284,28 @@ def _add_pull(builder, plant, joint, sc, spec, grip) -> float:
     return float(grip.pull_force_N)
 
 
-def _threshold_diagnostic(sc, grip, arm_log, acc_log) -> dict:
-    """The weld's threshold on this run's hand motion: the hand term's ratio (the planners' limit, the
-    co-simulation's finer grip for a cup) of a part moving with the hand, from the logged arm state and
-    acceleration; its largest value during the plan and the first plan time it passed 1."""
+def _over(name: str, ratio, t) -> dict:
+    over = np.flatnonzero(ratio > 1.0)
+    return {f"{name}_max_ratio": float(np.max(ratio, initial=0.0)),
+            f"{name}_first_above_1_s": float(t[over[0]]) if len(over) else None}
+
+
+def _diagnostics(sc, grip, spec, pull_N: float, arm_log, acc_log, lost_at_s) -> dict:
+    """The weld's threshold on this run's hand motion while the part was held (from the plan's start to
+    the loss): the hand term's ratio (the planners' limit; the co-simulation's finer grip for a cup) of a
+    part moving rigidly with the hand, from the logged arm state and acceleration through sc.chain; its
+    largest value and the first time it passed 1. For the magnet also `ring_grip`: the suction cup's
+    contact-stability set (limits/suction.GripModel) of the magnet's own contact ring (its points, radius
+    and friction, a pyramid of 8 edges) with the pull at the seat: the rigid-body hold condition of the
+    contact model, normal force included, which the face-plane moment limit leaves out."""
     t = arm_log.sample_times() - CONTACT_SETTLE_S
     n = sc.n_dof
     x, a = arm_log.data(), acc_log.data()
-    k = t >= 0.0
-    ratio = np.max(sc.hand_term(grip).columns(sc.chain.evaluate(x[:n, k].T, x[n:, k].T, a[:, k].T)), axis=1)
-    over = np.flatnonzero(ratio > 1.0)
-    return {"threshold_max_ratio": float(ratio.max(initial=0.0)),
-            "threshold_first_above_1_s": float(t[k][over[0]]) if len(over) else None}
+    k = (t >= 0.0) & (t < (np.inf if lost_at_s is None else lost_at_s))
+    state = sc.chain.evaluate(x[:n, k].T, x[n:, k].T, a[:, k].T)
+    out = _over("threshold", np.max(sc.hand_term(grip).columns(state), axis=1), t[k])
+    if spec is not None:
+        ring = cached_grip(spec.contact_radius_m, pull_N, spec.friction, face_normal=sc.face_axis,
+                           rim_points=spec.n_contact_points, pyramid_edges=8)
+        out.update(_over("ring_grip", SuctionTerm(ring, sc.body, sc.gravity_m_s2).columns(state)[:, 0], t[k]))
+    return out

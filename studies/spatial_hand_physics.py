@@ -1,0 +1,104 @@
+"""Weld threshold vs contact physics on the spatial hands: where they disagree and why (issue 29, item 1).
+
+    cd <checkout> && PYTHONPATH=. .venv/bin/python -m studies.spatial_hand_physics [--out out]
+        [--scenario ur5-magnet-part ur5-suction-bins] [--scales 1.0 1.05 1.1 1.2 1.36]
+
+For each scenario: TOPP-RA's plan (planners/spatial_methods, the bound) and its time-scaled versions
+(duration x scale, planners/spatial_trajectory.TimeScaled), each co-simulated (ideal actuators) with
+- weld: `hand.physics: weld` (the default; the part welded, detached the first step its required wrench
+  leaves the hand's limit, sim/spatial_hold.py);
+- contact: `hand.physics: contact` (sim/spatial_contact_hand.py: the part a free body held by point
+  contacts and the magnet's or the vacuum's pull; lost when it leaves the face by 5 mm or slides 10 mm);
+- for the suction cup also contact with a 10x stiffer rim (1e6 N/m): the compliance's share.
+Per run: the outcome and the time lost; for contact the largest tilt / slide / gap while held and the
+weld's threshold on the same run's hand motion (its largest ratio and the first time it passed 1).
+Prints a Markdown table and writes OUT/spatial_hand_physics.json and .md atomically (qmt_drake/outputs.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+
+from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
+from qmt_drake.planners.spatial_methods import PLANNERS
+from qmt_drake.planners.spatial_trajectory import TimeScaled
+from qmt_drake.sim.spatial_contact_hand import RIM_STIFFNESS_N_PER_M
+from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.spatial_task import load_spatial_scenario
+
+SCALES = (1.0, 1.05, 1.1, 1.2, 1.36)
+SCENARIOS = ("ur5-magnet-part", "ur5-suction-bins")
+STIFF_RIM_N_PER_M = 10.0 * RIM_STIFFNESS_N_PER_M
+
+
+def variants(sc) -> dict:
+    """name -> (scenario, simulate_spatial's contact overrides)."""
+    out = {"weld": (dataclasses.replace(sc, hand_physics="weld"), None),
+           "contact": (dataclasses.replace(sc, hand_physics="contact"), None)}
+    if sc.hand_kind == "suction":
+        out["contact_stiff_rim"] = (out["contact"][0], {"rim_stiffness_N_per_m": STIFF_RIM_N_PER_M})
+    return out
+
+
+def run(scenario: str, scales) -> dict:
+    sc = load_spatial_scenario(scenario)
+    plan = PLANNERS["toppra"](sc)
+    rows = []
+    for k in scales:
+        traj = TimeScaled(plan.trajectory, k)
+        row = {"scale": k, "duration_s": traj.duration_s}
+        for name, (s, opts) in variants(sc).items():
+            t0 = time.perf_counter()
+            r = simulate_spatial(s, traj, contact=opts)
+            r["wall_s"] = time.perf_counter() - t0
+            row[name] = r
+        rows.append(row)
+    return {"scenario": sc.name, "hand_kind": sc.hand_kind, "bound_s": plan.raw_duration_s, "rows": rows}
+
+
+def _verdict(r: dict) -> str:
+    return r["outcome"] + (f" {r['lost_at_s']:.3f} s" if r.get("lost_at_s") is not None else "")
+
+
+def markdown(results: list) -> str:
+    lines = []
+    for res in results:
+        names = [n for n in ("weld", "contact", "contact_stiff_rim") if n in res["rows"][0]]
+        lines += [f"{res['scenario']} ({res['hand_kind']}): TOPP-RA bound {res['bound_s']:.4f} s, ideal actuators", "",
+                  "| scale | time s | " + " | ".join(names) + " | contact: max tilt mrad / slide mm / gap mm while held "
+                  "| threshold on the contact run: max ratio, first > 1 at s |",
+                  "|---|---|" + "---|" * len(names) + "---|---|"]
+        for row in res["rows"]:
+            c = row["contact"]
+            first = c["threshold_first_above_1_s"]
+            lines.append(f"| {row['scale']:g} | {row['duration_s']:.4f} | " + " | ".join(_verdict(row[n]) for n in names)
+                         + f" | {1e3 * c['max_tilt_while_held_rad']:.1f} / {1e3 * c['max_slide_while_held_m']:.2f} / "
+                         f"{1e3 * c['max_gap_while_held_m']:.3f} | {c['threshold_max_ratio']:.3f}, "
+                         f"{'-' if first is None else f'{first:.3f}'} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="out")
+    ap.add_argument("--scenario", nargs="+", default=list(SCENARIOS))
+    ap.add_argument("--scales", nargs="+", type=float, default=list(SCALES))
+    args = ap.parse_args(argv)
+    check_output_dir(args.out, "--out")
+    results = [run(s, args.scales) for s in args.scenario]
+    text = markdown(results)
+    print(text)
+    out = Path(args.out)
+    write_text_atomic(out / "spatial_hand_physics.json", json.dumps(jsonable(results), indent=1))
+    write_text_atomic(out / "spatial_hand_physics.md", text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
