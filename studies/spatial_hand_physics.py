@@ -10,7 +10,8 @@ For each scenario: TOPP-RA's plan (planners/spatial_methods, the bound) and its 
 - contact: `hand.physics: contact` (sim/spatial_contact_hand.py: the part a free body held by point
   contacts and the magnet's or the vacuum's pull; lost when it leaves the face by 5 mm or slides 10 mm);
 - for the suction cup also contact with a 10x stiffer rim (1e6 N/m): the compliance's share.
-Per run: the outcome and the time lost; for contact the largest tilt / slide / gap while held and the
+Per run: the outcome and the time lost; the plan's own largest hand-term ratio (the part rigid on the
+hand, moving as planned), the weld run's (its welded part's simulated motion, up to the loss); for contact the largest tilt / slide / gap while held and the
 weld's threshold on the same run's hand motion (its largest ratio and the first time it passed 1).
 Prints a Markdown table and writes OUT/spatial_hand_physics.json and .md atomically (qmt_drake/outputs.py).
 """
@@ -24,11 +25,14 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
+from qmt_drake.limits.suction import cached_grip
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_methods import PLANNERS
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_contact_hand import RIM_STIFFNESS_N_PER_M
-from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.sim.spatial_cosim import FINE_GRIP, simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 
 SCALES = (1.0, 1.05, 1.1, 1.2, 1.36)
@@ -45,13 +49,23 @@ def variants(sc) -> dict:
     return out
 
 
+def planned_max_ratio(sc, traj) -> float:
+    """The hand term's largest ratio of the plan itself at 1 kHz (the part rigid on the hand moving exactly as
+    planned; a cup on the weld check's finer grip, simulate_spatial's default)."""
+    grip = None if sc.grip is None else cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction,
+                                                    face_normal=sc.grip.basis[2], rim_points=FINE_GRIP[0],
+                                                    pyramid_edges=FINE_GRIP[1])
+    q, qd, qdd = traj.sample(np.arange(0.0, traj.duration_s, 1e-3))
+    return float(sc.hand_term(grip).columns(sc.chain.evaluate(q, qd, qdd)).max())
+
+
 def run(scenario: str, scales) -> dict:
     sc = load_spatial_scenario(scenario)
     plan = PLANNERS["toppra"](sc)
     rows = []
     for k in scales:
         traj = TimeScaled(plan.trajectory, k)
-        row = {"scale": k, "duration_s": traj.duration_s}
+        row = {"scale": k, "duration_s": traj.duration_s, "planned_max_ratio": planned_max_ratio(sc, traj)}
         for name, (s, opts) in variants(sc).items():
             t0 = time.perf_counter()
             r = simulate_spatial(s, traj, contact=opts)
@@ -65,21 +79,31 @@ def _verdict(r: dict) -> str:
     return r["outcome"] + (f" {r['lost_at_s']:.3f} s" if r.get("lost_at_s") is not None else "")
 
 
+def _ratio(r: dict, name: str) -> str:
+    first = r.get(f"{name}_first_above_1_s")
+    return f"{r[f'{name}_max_ratio']:.3f}, {'-' if first is None else f'{first:.3f}'}"
+
+
 def markdown(results: list) -> str:
     lines = []
     for res in results:
         names = [n for n in ("weld", "contact", "contact_stiff_rim") if n in res["rows"][0]]
+        contacts = [n for n in names if n != "weld"]
+        ring = res["hand_kind"] == "magnet"
         lines += [f"{res['scenario']} ({res['hand_kind']}): TOPP-RA bound {res['bound_s']:.4f} s, ideal actuators", "",
-                  "| scale | time s | " + " | ".join(names) + " | contact: max tilt mrad / slide mm / gap mm while held "
-                  "| threshold on the contact run: max ratio, first > 1 at s |",
-                  "|---|---|" + "---|" * len(names) + "---|---|"]
+                  "| scale | time s | " + " | ".join(names) + " | plan: max ratio | weld: max ratio | "
+                  + " | ".join(f"{n}: max tilt mrad / slide mm / gap mm held" for n in contacts)
+                  + " | contact's hand motion: threshold max, first > 1 s |"
+                  + (" contact's hand motion: ring grip max, first > 1 s |" if ring else ""),
+                  "|---|---|" + "---|" * (2 * len(names) + 2 + ring)]
         for row in res["rows"]:
             c = row["contact"]
-            first = c["threshold_first_above_1_s"]
+            held = [f"{1e3 * row[n]['max_tilt_while_held_rad']:.1f} / {1e3 * row[n]['max_slide_while_held_m']:.2f} / "
+                    f"{1e3 * row[n]['max_gap_while_held_m']:.3f}" for n in contacts]
             lines.append(f"| {row['scale']:g} | {row['duration_s']:.4f} | " + " | ".join(_verdict(row[n]) for n in names)
-                         + f" | {1e3 * c['max_tilt_while_held_rad']:.1f} / {1e3 * c['max_slide_while_held_m']:.2f} / "
-                         f"{1e3 * c['max_gap_while_held_m']:.3f} | {c['threshold_max_ratio']:.3f}, "
-                         f"{'-' if first is None else f'{first:.3f}'} |")
+                         + f" | {row['planned_max_ratio']:.3f} | {row['weld']['max_grip_ratio_while_held']:.3f} | "
+                         + " | ".join(held)
+                         + f" | {_ratio(c, 'threshold')} |" + (f" {_ratio(c, 'ring_grip')} |" if ring else ""))
         lines.append("")
     return "\n".join(lines)
 

@@ -82,6 +82,8 @@ def test_magnet_pull_is_the_calibrated_force_and_holds_only_above_weight(magnet)
     held = simulate_spatial(magnet, Motion(magnet.q_path_rad[0], 0.2))
     assert held["pull_N"] == pytest.approx(pull, rel=1e-3)
     assert held["outcome"] == "carried" and abs(held["final_gap_m"]) < 1e-6 and held["max_slide_m"] < 1e-6
+    motors = simulate_spatial(magnet, Motion(magnet.q_path_rad[0], 0.2), actuator="dc_motor")  # no continuous state
+    assert motors["outcome"] == "carried" and motors["pull_N"] == held["pull_N"]
     params = MagnetParams(THESIS_COILS[MAGNET_COIL], MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m)
     weak = simulate_spatial(magnet, Motion(magnet.q_path_rad[0], 0.2),
                             contact={"coil_current_A": params.current_for_force_A(0.9 * w)})

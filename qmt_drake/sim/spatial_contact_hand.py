@@ -222,7 +222,8 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
     if rec is not None:
         rec.connect(builder, plant, geometry_connected=True)
     allow_contact(plant, scene_graph, H.body(), part)
-    pull = _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A)
+    # the ideal actuator's controller integrates its error (continuous state); the dc_motor drive has none
+    pull = _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A, continuous=drive is None)
     pp, acc, t_end, q_goal = reference
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
@@ -260,20 +261,20 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
             **tracking_report(logs, ctx, traj.duration_s + CONTACT_SETTLE_S, sc, drive)}
 
 
-def _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A) -> float:
+def _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A, continuous: bool) -> float:
     """Wire the magnet's or the vacuum's pull into the plant's applied generalized force; its value at
     the seat [N]."""
     if spec is not None:
         params = MagnetParams(THESIS_COILS[MAGNET_COIL], MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m)
         current = magnet_current_A(sc, spec, params) if coil_current_A is None else float(coil_current_A)
         magnet = builder.AddNamedSystem("magnet", electromagnet_force(params, plant, joint,
-                                                                      host_has_continuous_state=True))
+                                                                      host_has_continuous_state=continuous))
         coil = builder.AddNamedSystem("coil_current", ConstantVectorSource([current]))
         builder.Connect(plant.get_state_output_port(), magnet.GetInputPort("plant_state"))
         builder.Connect(coil.get_output_port(), magnet.GetInputPort("coil_current"))
         builder.Connect(magnet.GetOutputPort("generalized_force"), plant.get_applied_generalized_force_input_port())
         return params.force_N(current)
-    pick, law, to_joint = seal_law(plant, joint, grip.pull_force_N, host_has_continuous_state=True)
+    pick, law, to_joint = seal_law(plant, joint, grip.pull_force_N, host_has_continuous_state=continuous)
     sel = builder.AddNamedSystem("part_translation", MatrixGain(pick))
     law = builder.AddNamedSystem("vacuum", law)
     out = builder.AddNamedSystem("vacuum_on_joint", MatrixGain(to_joint))
