@@ -191,7 +191,8 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
     grip the suction cup's GripModel (the co-simulation's finer rim: its rim_points, radius, friction,
     pull). rim_*: the suction rim's total stiffness [N/m] and Hunt-Crossley dissipation [s/m];
     coil_current_A: the magnet's current instead of the calibrated one. Result keys as simulate_spatial's,
-    plus the pull at the seat, the contact's gap, slide and tilt and the threshold diagnostic."""
+    plus the pull at the seat, the contact's gap, slide and tilt and the threshold diagnostic
+    (max_grip_ratio_while_held: the threshold's largest ratio on this run's hand motion while held)."""
     if sc.hand_kind not in ("magnet", "suction"):
         raise ValueError(f"contact hand: hand kind {sc.hand_kind!r} is neither magnet nor suction")
     builder = DiagramBuilder()
@@ -255,8 +256,10 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
             "final_goal_error_rad": err, "duration_s": traj.duration_s, "pull_N": pull,
             "max_gap_while_held_m": float(gap[held].max(initial=0.0)),
             "max_slide_while_held_m": float(slide[held].max(initial=0.0)),
-            "max_tilt_while_held_rad": float(tilt[held].max(initial=0.0)), "final_slide_m": float(slide[-1]),
+            "max_tilt_while_held_rad": float(tilt[held].max(initial=0.0)), "final_slide_on_face_m": float(slide[-1]),
             "final_gap_m": float(gap[-1]), "max_slide_m": float(slide[moving].max(initial=0.0)),
+            "part_distance_from_cup_at_end_m": float(np.linalg.norm(log.data()[4:7, -1])),
+            "max_grip_ratio_while_held": threshold["threshold_max_ratio"],  # the weld's key: its threshold, held
             **threshold, "actuator": "ideal" if drive is None else "dc_motor",
             **tracking_report(logs, ctx, traj.duration_s + CONTACT_SETTLE_S, sc, drive)}
 
