@@ -21,7 +21,10 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   in the hand axes).
 - hand: kind suction: cup_radius_m, vacuum_force_N, friction, rim_points, pyramid_edges; or kind
   magnet: moment_limit_Nm (the thesis's payload-moment limit, in 3-D the face-plane moment of the
-  part's contact wrench, gravity included: limits/contact_wrench.MagnetMomentTerm); or kind tray:
+  part's contact wrench, gravity included: limits/contact_wrench.MagnetMomentTerm); `physics` (suction,
+  magnet): how the co-simulation holds the part, weld (default: welded, detached the first step its
+  wrench leaves the limit) or contact (a free body held by contact and the pull,
+  sim/spatial_contact_hand.py, docs/spatial_hands.md); or kind tray:
   friction, cup {radius_m, height_m, mass_kg, com_height_m (default height / 2)}, margin (0, 1],
   pyramid_edges, tray_size_m: an unfixed cup standing on a tray in the face plane
   (limits/tray_contact.py; no payload section: the cup is the carried body; the tray is massless).
@@ -65,6 +68,7 @@ from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 
 SPATIAL_KIND = SPATIAL
 RECHECK_FACTOR = 10
+HAND_PHYSICS = ("weld", "contact")  # hand.physics: how the co-simulation holds a suction or magnet part
 OPTIONAL_ACTUATOR_KEYS = ("velocity_limit_rad_s", "torque_limit_Nm", "gear_ratio", "rotor_inertia_kgm2")
 TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits"}
 
@@ -95,6 +99,7 @@ class SpatialScenario:
     path_pose_index: np.ndarray  # index of each task pose in path_points_m
     check_rate_hz: float
     hand_kind: str = "suction"
+    hand_physics: str = "weld"  # hand.physics: weld (threshold on a welded part) or contact (sim/spatial_contact_hand)
     moment_limit_Nm: float | None = None  # magnet hand
     face_axis: np.ndarray | None = None
     cup: TrayCup | None = None  # tray hand: the unfixed cup standing on the tray
@@ -211,7 +216,8 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     if kind == "tray":
         cup = _tray_cup(hd, w)
     elif kind == "suction":
-        F.check_keys(hd, {"kind", "cup_radius_m", "vacuum_force_N", "friction", "rim_points", "pyramid_edges"}, w)
+        F.check_keys(hd, {"kind", "cup_radius_m", "vacuum_force_N", "friction", "rim_points", "pyramid_edges",
+                          "physics"}, w)
         rim, edges = (F.integer(hd, k, w, minimum=3, maximum=SPATIAL_MAX_GRIP_COUNT, default=d)
                       for k, d in (("rim_points", 8), ("pyramid_edges", 4)))
         check_spatial_sizes(w, rim_points=rim, pyramid_edges=edges)
@@ -219,8 +225,9 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                          F.num(hd, "friction", w, positive=True), face_normal=face_axis,
                          rim_points=rim, pyramid_edges=edges)
     else:
-        F.check_keys(hd, {"kind", "moment_limit_Nm"}, w)
+        F.check_keys(hd, {"kind", "moment_limit_Nm", "physics"}, w)
         moment_limit = F.num(hd, "moment_limit_Nm", w, positive=True)
+    physics = F.string(hd, "physics", w, choices=HAND_PHYSICS, default="weld")
     body = _payload(raw, where) if cup is None else _no_payload(raw, where, cup.body(face_axis))
 
     w = f"{where}: task"
@@ -263,7 +270,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            jerk_limit_rad_s3=vals["jerk_limit_rad_s3"], torque_limit_Nm=vals["torque_limit_Nm"],
                            drive=drive, face_normal=normals[0], poses_m=P, q_poses_rad=q_path[idx],
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
-                           hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
+                           hand_kind=kind, hand_physics=physics, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
                            motor=motor, pose_normals=pose_normals, path_normals=normals,
                            pose_rotations=pose_rotations, path_rotations=rotations)
     if cup is None:

@@ -56,6 +56,7 @@ from qmt_drake.sim.spatial_actuation import (
     spatial_drive,
     tracking_report,
 )
+from qmt_drake.sim.spatial_contact_hand import CONTACT_SETTLE_S, simulate_contact_hand
 from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
@@ -99,18 +100,22 @@ def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
 
 
 def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
-                     feedforward: str = "full", record_path=None) -> dict:
+                     feedforward: str = "full", record_path=None, contact: dict | None = None) -> dict:
     """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
     tracking error. grip: the suction hand's stability set in the co-simulation (default: the scenario's
     cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
     'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
-    none / back-emf / full). record_path: also write a Meshcat recording there (sim/spatial_recording)."""
+    none / back-emf / full). record_path: also write a Meshcat recording there (sim/spatial_recording).
+    contact: with hand.physics contact, keyword overrides of spatial_contact_hand.simulate_contact_hand."""
     drive = spatial_drive(sc, traj.sample([0.0])[0][0], actuator, feedforward)
     if sc.hand_kind == "tray":
         return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path)
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
         grip = cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                            rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
+    if sc.hand_physics == "contact":  # the part held by contact and a pull, not a weld (sim/spatial_contact_hand)
+        return simulate_contact_hand(sc, traj, drive, _reference(_Delayed(traj, CONTACT_SETTLE_S)), _add_ideal_controller,
+                                     grip=grip, record_path=record_path, **(contact or {}))
     term = sc.hand_term(grip)
     builder = DiagramBuilder()
     plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
