@@ -53,7 +53,7 @@ def test_unreachable_pose_refused_naming_it(sc, tmp_path):
 
 
 @pytest.mark.parametrize("edit, message", [
-    (lambda r: r.update(kind="transfer"), "kind must be 'spatial_transfer'"),
+    (lambda r: r.update(kind="transfer"), "is a transfer scenario: plan it with"),
     (lambda r: r["arm"].update(package="example-robot-data/ur7"), "give example-robot-data/<arm>"),
     (lambda r: r["actuators"].update(gear_ratio=[101.0] * 5), "gear_ratio has 5 entries; give 6"),
     (lambda r: r["hand"].update(kind="gripper"), "hand.kind 'gripper' is not one of suction, magnet"),

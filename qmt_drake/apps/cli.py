@@ -163,7 +163,7 @@ COMMANDS: dict[str, Command] = {
                       add_parser="qmt_drake.design.cli:add_parser"),
     "retime": Command("fastest timing of your own joint path (CSV or a ROS 2 JointTrajectory)",
                       add_parser="qmt_drake.apps.retime_command:add_parser"),
-    "export": Command("a plan as a controller's stream (ROS 2 JointTrajectory or CSV), re-checked as interpolated",
+    "export": Command("write a plan as a controller's stream (ROS 2 or CSV) and re-check it",
                       add_parser="qmt_drake.apps.export_command:add_parser"),
     "reproduce": Command("the main job (make run): every seed, the benchmark and out/report.html",
                          reproduce_arguments, "qmt_drake.apps.commands:cmd_reproduce"),
