@@ -32,6 +32,8 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   the geometric path between poses 1 and K-2, on the straight line between them, the orientation
   interpolated along it by slerp).
 - limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
+- world (optional): obstacles, a list of boxes, cylinders, meshes and bins welded to the world
+  (model/obstacles.py; the re-check's clearance, limits/clearance.py; docs/obstacles.md).
 
 Every task pose is solved by SpatialIK on the seed's branch and checked by Drake's forward kinematics
 to 1e-6 m / 1e-6 rad; an unreachable pose is refused naming it.
@@ -53,6 +55,7 @@ from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
+from qmt_drake.model.obstacles import parse_obstacles
 from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.spatial_ik import SpatialIK, slerp_rotations, slerp_unit
 from qmt_drake.model.urdf_check import drive_parameters, load_arm_plant, off_chain_locks, urdf_joint_limits
@@ -62,7 +65,7 @@ from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 SPATIAL_KIND = SPATIAL
 RECHECK_FACTOR = 10
 OPTIONAL_ACTUATOR_KEYS = ("velocity_limit_rad_s", "torque_limit_Nm", "gear_ratio", "rotor_inertia_kgm2")
-TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits"}
+TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits", "world"}
 
 
 @dataclass
@@ -99,6 +102,7 @@ class SpatialScenario:
     path_normals: np.ndarray | None = None  # (P, 3) the face normal at each path point
     pose_rotations: np.ndarray | None = None  # (K, 3, 3) R_WH at each task pose (task.hand_rpy_rad); None: normals
     path_rotations: np.ndarray | None = None  # (P, 3, 3)
+    obstacles: tuple = ()  # world.obstacles (model/obstacles.Obstacle), welded to the world
 
     @property
     def n_dof(self) -> int:
@@ -181,6 +185,9 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     F.check_keys(raw, TOP_KEYS, where)
     if raw.get("kind") != SPATIAL_KIND:
         raise QmtInputError(f"{where}: kind must be '{SPATIAL_KIND}' for a spatial scenario, got {raw.get('kind')!r}")
+    world = F.mapping(raw, "world", where, default={})
+    F.check_keys(world, {"obstacles"}, f"{where}: world")
+    obstacles = parse_obstacles(world.get("obstacles"), f"{where}: world.obstacles", path.parent)
     urdf, hand, lock, face_axis = _arm(F.mapping(raw, "arm", where), f"{where}: arm", path.parent)
 
     w = f"{where}: actuators"
@@ -253,7 +260,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
                            hand_kind=kind, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
                            motor=motor, pose_normals=pose_normals, path_normals=normals,
-                           pose_rotations=pose_rotations, path_rotations=rotations)
+                           pose_rotations=pose_rotations, path_rotations=rotations, obstacles=obstacles)
 
 
 def _urdf_limit_defaults(vals: dict, urdf, names) -> dict:

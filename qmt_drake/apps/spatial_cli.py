@@ -169,7 +169,7 @@ def plan(args, energy_options) -> bool:
         p.write_csv(args.trajectory_csv)
     if args.json != "-":
         print(summary_line(sc, p, bound))
-    return p.recheck["max"] <= 1.0
+    return p.recheck["max"] <= 1.0 and p.feasible  # feasible: also clear of the obstacles (limits/clearance.py)
 
 
 def summary_line(sc, p, bound) -> str:
@@ -181,6 +181,10 @@ def summary_line(sc, p, bound) -> str:
     line += f", peak jerk {pj['peak_jerk_ratio']:.3g} x the limit at {sc.recheck_rate_hz:g} Hz"
     if p.info.get("jerk_limited"):
         line += f" (jerk-limited: {p.info['jerk_time_scale']:.4f} x slower than {p.info['duration_before_jerk_limit_s']:.4f} s)"
+    if p.clearance:
+        c = p.clearance
+        line += (f", clearance {c['clearance_m']:+.4f} m ({' vs '.join(c['clearance_pair'] or ['none near'])} at "
+                 f"{c['clearance_time_s']:.4f} s{'; COLLIDES' if c['clearance_m'] < 0 else ''})")
     s = p.info.get("carried_search")
     if s:
         lost = f", lost at x{s['lost_below']:.4f}" if s["lost_below"] else ", as planned"
