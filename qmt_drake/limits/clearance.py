@@ -14,8 +14,9 @@ obstacle pairs.
 `clearance(sc, traj, rate_hz)` samples a plan at rate_hz (the re-check rate), then refines around the
 REFINE_MINIMA smallest local minima of the sampled distance (REFINE_PASSES passes of REFINE_POINTS
 points between the neighbouring samples), and returns the smallest signed distance (m; < 0: the two
-shapes overlap by that depth), the pair and the time. `clearance_of_states(sc, t, q)` does the same
-on given joint states without refinement (the co-simulation's logged motion).
+shapes overlap by that depth), the pair and the time. `clearance_of_states(sc, t, q, every=k)` does the
+same on given joint states (the co-simulation's logged motion, sim/spatial_cosim.py): every k-th state,
+then every state within k of the local minima less than REFINE_BAND_M above the smallest.
 
 The carried part's shape (`carried_shapes`): a suction or magnet hand's part is the solid box with the
 payload's principal moments (a^2 = 6 (I_yy + I_zz - I_xx) / m, ...) centred at its centre of mass, in the
@@ -52,6 +53,7 @@ REFINE_MINIMA = 3
 REFINE_PASSES = 2
 REFINE_POINTS = 21
 MIN_PART_SIDE_M = 1e-3
+REFINE_BAND_M = 0.02  # logged states: a minimum this close to the smallest is looked at state by state
 _MODELS: dict = {}
 
 
@@ -184,13 +186,35 @@ def _result(d: float, a: str, b: str, t: float, n: int) -> dict:
             "clearance_samples": int(n)}
 
 
-def clearance_of_states(sc, t_s, q_rad) -> dict:
-    """Smallest clearance over given states (t (S,), q (S, n)): clearance_m, clearance_pair
-    [arm/part geometry, obstacle geometry], clearance_time_s, clearance_samples."""
+def clearance_of_states(sc, t_s, q_rad, every: int = 1) -> dict:
+    """Smallest clearance over given states (t (S,), q (S, n)), looked at every `every`-th state and then
+    state by state near the smallest (module docstring): clearance_m, clearance_pair [arm/part geometry,
+    obstacle geometry], clearance_time_s, clearance_samples."""
     cm = collision_model(sc)
-    d = [cm.distance(qk) for qk in np.asarray(q_rad, float)]
-    k = int(np.argmin([x[0] for x in d]))
-    return _result(*d[k], float(np.asarray(t_s)[k]), len(d))
+    t, q = np.asarray(t_s, float), np.asarray(q_rad, float)
+    done = {}
+    coarse = np.r_[np.arange(0, len(t), max(int(every), 1)), len(t) - 1]
+    for k in coarse:
+        done[int(k)] = cm.distance(q[k])
+    d = np.array([done[int(k)][0] for k in coarse])
+    near = (np.r_[True, d[1:] <= d[:-1]]) & (np.r_[d[:-1] <= d[1:], True]) & (d <= d.min() + REFINE_BAND_M)
+    for k in coarse[near]:
+        for j in range(max(k - every, 0), min(k + every, len(t) - 1) + 1):
+            if j not in done:
+                done[j] = cm.distance(q[j])
+    hits = [j for j in done if done[j][0] < 0.0]
+    first = None
+    if hits:  # the first touch, to the state: every state back to the coarse sample before the first hit
+        j0 = min(hits)
+        for j in range(max(j0 - every, 0), j0):
+            if j not in done:
+                done[j] = cm.distance(q[j])
+        first = min(j for j in done if done[j][0] < 0.0)
+    k = min(done, key=lambda j: done[j][0])
+    out = _result(*done[k], float(t[k]), len(done))
+    out["first_contact"] = None if first is None else {"time_s": float(t[first]), "pair": list(done[first][1:]),
+                                                       "depth_m": float(-done[first][0])}
+    return out
 
 
 def clearance(sc, traj, rate_hz: float) -> dict:
