@@ -12,6 +12,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import CollisionModel, carried_shapes, clearance, clearance_of_states
 from qmt_drake.model.obstacles import Obstacle, parse_obstacles, read_mesh_points
 from qmt_drake.outcome import OUTCOMES, with_collision
+from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
 from qmt_drake.sim.spatial_cosim import simulate_spatial
@@ -19,6 +20,7 @@ from qmt_drake.spatial_task import load_spatial_scenario
 from tests.spatial_fixtures import edited_copy, load_or_skip
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "models" / "scenarios"
+DEEP_TOTES = Path(__file__).resolve().parents[1] / "docs" / "examples" / "ur5-deep-totes.yaml"
 
 # one revolute joint about world z; link "arm" carries a sphere of radius 0.05 m at x = 0.5 m
 ONE_LINK_URDF = """<robot name="one">
@@ -121,6 +123,12 @@ def ur5():
     return load_or_skip(str(SCENARIOS / "ur5-suction-bins.yaml"))
 
 
+@pytest.fixture(scope="module")
+def deep():
+    """The same task with totes 4 cm deeper than the lift clears (docs/examples/ur5-deep-totes.yaml)."""
+    return load_or_skip(str(DEEP_TOTES))
+
+
 def _through(sc, points, duration_s):
     """A C2 spline through the scenario's path points `points` (indices), at rest at both ends."""
     q = sc.q_path_rad[points]
@@ -129,14 +137,20 @@ def _through(sc, points, duration_s):
     return PolyTrajectory(pp)
 
 
-def test_the_shipped_straight_carry_collides_with_the_totes(ur5):
-    """The UR5 carry at the lift height (path points 1..7) crosses a wall of each tote: the clearance is
-    negative, the plan infeasible with the pair named; the pick pose clears the tote's floor by the closed
-    form (the part's box, side^2 = 6 / m (I_xx + I_yy - I_zz), hangs below the cup)."""
-    plan = make_spatial_plan(ur5, "straight", _through(ur5, list(range(1, 8)), 1.5), [0.0, 1.5],
-                             planning_s=0.0, raw_duration_s=1.5, hold_scale=1.0, info={})
+def test_toppra_clears_the_shipped_totes_and_collides_with_deeper_ones(ur5, deep):
+    """Today's TOPP-RA plan (the planners do not see obstacles: the same plan in both cells) carries the part
+    at the lift height, its bottom 1.25 cm above the shipped totes' walls (clearance positive, at most that;
+    the plan feasible) and 2.75 cm below the deeper totes' (negative, the plan infeasible with the pair
+    named); the pick pose clears the tote's floor by the closed form (the part's box, side^2 = 6 / m
+    (I_xx + I_yy - I_zz), hangs below the cup)."""
+    ok = plan_toppra_spatial(ur5, n_grid=400)
+    plan = make_spatial_plan(deep, "toppra", ok.trajectory, ok.pose_times_s, planning_s=0.0,
+                             raw_duration_s=ok.raw_duration_s, hold_scale=ok.hold_scale, info={})
+    assert ok.check.feasible and plan.check.feasible  # only the clearance differs
+    assert 0.0 < ok.clearance["clearance_m"] <= 0.0125 + 1e-6 and ok.feasible
     c = plan.clearance
-    assert c["clearance_m"] < -0.02 and not plan.feasible and plan.summary()["feasible"] is False
+    assert plan.check.feasible and c["clearance_m"] < -0.02 and not plan.feasible
+    assert plan.summary()["feasible"] is False
     assert c["clearance_pair"][0] == "carried/part" and c["clearance_pair"][1].startswith("obstacle/bin_")
     side_z = np.sqrt(6 / 2.0 * (0.006 + 0.006 - 0.004))
     part_bottom = ur5.poses_m[0, 2] - 0.08 - side_z / 2
@@ -152,10 +166,10 @@ def test_a_lift_that_clears_is_reported_positive(ur5):
     assert 0.0 < c["clearance_m"] < 0.0101 and c["clearance_samples"] > 2000
 
 
-def test_cosim_reports_collided_with_the_first_touch(ur5):
+def test_cosim_reports_collided_with_the_first_touch(deep):
     """Driven from above tote A straight into its far wall (path points 1 -> 3, the part's bottom 2.7 cm
     below the walls' tops), slowly enough for the cup: the co-simulation ends `collided`."""
-    r = simulate_spatial(ur5, _through(ur5, [1, 3], 1.2))
+    r = simulate_spatial(deep, _through(deep, [1, 3], 1.2))
     assert r["outcome"] == "collided" and "collided" in OUTCOMES and not r["held"]
     assert r["collision_pair"] == ["carried/part", "obstacle/bin_a/wall_y+"]
     assert 0.0 < r["collided_at_s"] < 1.2 and r["clearance_m"] < -0.02

@@ -224,7 +224,7 @@ def clearance(sc, traj, rate_hz: float) -> dict:
     t = sample_times(traj.duration_s, rate_hz)
     q = traj.sample(t)[0]
     d = np.array([cm.distance(qk)[0] for qk in q])
-    n = len(t)
+    n, count = len(t), len(t)
     inner = (np.r_[True, d[1:] <= d[:-1]]) & (np.r_[d[:-1] <= d[1:], True])  # local minima of the samples
     best = (np.inf, "", "", 0.0)
     for k in np.flatnonzero(inner)[np.argsort(d[inner])][:REFINE_MINIMA]:
@@ -232,10 +232,10 @@ def clearance(sc, traj, rate_hz: float) -> dict:
         for _ in range(REFINE_PASSES):
             tt = np.linspace(lo, hi, REFINE_POINTS)
             res = [cm.distance(qk) for qk in traj.sample(tt)[0]]
-            n += len(tt)
+            count += len(tt)
             j = int(np.argmin([r[0] for r in res]))
             if res[j][0] < best[0]:
                 best = (*res[j], float(tt[j]))
             step = tt[1] - tt[0]
             lo, hi = max(tt[j] - step, t[0]), min(tt[j] + step, t[-1])
-    return _result(best[0], best[1], best[2], best[3], n)
+    return _result(best[0], best[1], best[2], best[3], count)
