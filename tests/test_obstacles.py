@@ -9,7 +9,13 @@ import pytest
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits.clearance import CollisionModel, carried_shapes, clearance, clearance_of_states
+from qmt_drake.limits.clearance import (
+    HORIZON_M,
+    CollisionModel,
+    carried_shapes,
+    clearance,
+    clearance_of_states,
+)
 from qmt_drake.model.obstacles import Obstacle, parse_obstacles, read_mesh_points
 from qmt_drake.outcome import OUTCOMES, with_collision
 from qmt_drake.planners.spatial_methods import plan_toppra_spatial
@@ -92,23 +98,23 @@ def test_bin_is_five_boxes_and_mesh_points(tmp_path):
 def test_clearance_against_closed_forms(tmp_path):
     """The sphere (radius 0.05 at x = 0.5 on the link) and the carried cube (side 0.1 at x = 1) against a
     box whose face is at a known distance; the link turned by q about z moves both on circles."""
-    wall = Obstacle("wall", "box", (0.0, 0.95, 0.0), size_m=(4.0, 1.0, 1.0))  # faces at y = 0.45 and 1.45
+    wall = Obstacle("wall", "box", (0.0, 0.85, 0.0), size_m=(4.0, 1.0, 1.0))  # faces at y = 0.35 and 1.35
     sc = one_link(tmp_path, [wall])
     cm = CollisionModel(sc)
-    d, a, b = cm.distance([0.0])  # sphere centre at y = 0 and the cube's face at y = 0.05: 0.45 - 0.05
-    assert d == pytest.approx(0.40, abs=1e-9) and b == "obstacle/wall"
-    q = 0.3  # the cube's centre at (cos q, sin q): its nearest corner is what reaches the wall first
+    d, a, b = cm.distance([0.0])  # sphere centre at y = 0 and the cube's face at y = 0.05: beyond HORIZON_M
+    assert (d, a, b) == (HORIZON_M, "", "")
+    q = 0.25  # the cube's centre at (cos q, sin q): its nearest corner is what reaches the wall first
     c = np.array([np.cos(q), np.sin(q)])
     corners = c + 0.05 * np.array([[np.cos(q) * sx - np.sin(q) * sy, np.sin(q) * sx + np.cos(q) * sy]
                                    for sx in (-1, 1) for sy in (-1, 1)])
     sphere = 0.5 * np.sin(q) + 0.05
-    assert cm.distance([q])[0] == pytest.approx(min(0.45 - corners[:, 1].max(), 0.45 - sphere), abs=1e-6)
-    q = 0.5  # the cube's centre at y = 0.479: it overlaps the wall; depth = its top corner's y - 0.45
+    assert cm.distance([q])[0] == pytest.approx(min(0.35 - corners[:, 1].max(), 0.35 - sphere), abs=1e-6)
+    q = 0.4  # the cube's centre at y = 0.389: it overlaps the wall; depth = its top corner's y - 0.35
     top = np.sin(q) + 0.05 * (np.sin(q) + np.cos(q))
     d, a, _ = cm.distance([q])
-    assert a == "carried/part" and d == pytest.approx(0.45 - top, abs=1e-6) and d < 0
+    assert a == "carried/part" and d == pytest.approx(0.35 - top, abs=1e-6) and d < 0
     assert CollisionModel(one_link(tmp_path, [Obstacle("far", "box", (0.0, 5.0, 0.0), size_m=(1.0, 1.0, 1.0))])) \
-        .distance([0.0]) == (0.5, "", "")  # nothing within HORIZON_M: reported as HORIZON_M, no pair
+        .distance([0.0]) == (HORIZON_M, "", "")  # nothing within HORIZON_M: reported as HORIZON_M, no pair
 
 
 def test_carried_part_is_the_box_of_its_inertia():

@@ -183,7 +183,8 @@ def summary_line(sc, p, bound) -> str:
         line += f" (jerk-limited: {p.info['jerk_time_scale']:.4f} x slower than {p.info['duration_before_jerk_limit_s']:.4f} s)"
     if p.clearance:
         c = p.clearance
-        line += (f", clearance {c['clearance_m']:+.4f} m ({' vs '.join(c['clearance_pair'] or ['none near'])} at "
+        line += (f", clearance >= {c['clearance_m']:.4f} m (no obstacle nearer)" if c["clearance_pair"] is None else
+                 f", clearance {c['clearance_m']:+.4f} m ({' vs '.join(c['clearance_pair'])} at "
                  f"{c['clearance_time_s']:.4f} s{'; COLLIDES' if c['clearance_m'] < 0 else ''})")
     s = p.info.get("carried_search")
     if s:

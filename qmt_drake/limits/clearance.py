@@ -48,7 +48,7 @@ from qmt_drake.model.obstacles import proximity, read_mesh_points, register_obst
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.planners.spatial_trajectory import sample_times
 
-HORIZON_M = 0.5  # pairs farther apart are not computed (a clearance above it is reported as HORIZON_M)
+HORIZON_M = 0.1  # pairs farther apart are not computed: a clearance above it is reported as HORIZON_M, no pair
 REFINE_MINIMA = 3
 REFINE_PASSES = 2
 REFINE_POINTS = 21

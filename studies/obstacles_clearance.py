@@ -1,0 +1,163 @@
+"""Obstacles and clearance: every spatial method's plan in its cell, and the fastest carried time with the
+obstacles against without (docs/obstacles.md).
+
+    cd <checkout> && PYTHONPATH=. .venv/bin/python -m studies.obstacles_clearance [--out out]
+        [--ga-generations 30] [--no-cosim]
+
+Cells: ur5-suction-bins (its shipped totes), the same task in docs/examples/ur5-deep-totes.yaml (totes 4 cm
+deeper than the task's lift clears) and panda-tray-cup (its table). The planners do not see obstacles, so
+each task is planned once (TOPP-RA, Ruckig, the via-cubic family optimum, the GA, trajopt:
+planners/spatial_methods) and every plan is re-checked in each cell (planners/spatial_plan_io.make_spatial_plan:
+the limits at the re-check rate and the clearance, limits/clearance.py: Drake's signed distance of the arm's
+URDF collision shapes and the carried part against the obstacles, independent of the planner).
+
+A detour where the task's path collides (the deep totes): the lifted task poses (1 and K-2) raised by the
+smallest whole centimetre dz >= the TOPP-RA plan's penetration depth + DETOUR_MARGIN_M for which its plan
+clears by DETOUR_MARGIN_M (IK solves the raised poses: the scenario loader), then timed by TOPP-RA, the family
+optimum and the GA under the same limits, each re-checked in the cell.
+
+Side by side per cell: the fastest plan within every limit without the obstacles (every plan) and with them
+(clearance >= 0 as well, detour plans included); unless --no-cosim, that plan is co-simulated in the cell
+(sim/spatial_cosim: carried / collided / ...). Prints the tables and writes OUT/obstacles/clearance.json
+atomically (qmt_drake/outputs.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
+from qmt_drake.planners.spatial_methods import PLANNERS, plan_ga_spatial
+from qmt_drake.planners.spatial_plan_io import make_spatial_plan
+from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.spatial_task import load_spatial_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+DEEP_TOTES = ROOT / "docs" / "examples" / "ur5-deep-totes.yaml"
+TASKS = {"ur5-suction-bins": ("ur5-suction-bins", DEEP_TOTES), "panda-tray-cup": ("panda-tray-cup",)}
+CELL_NAMES = {str(DEEP_TOTES): "ur5-deep-totes"}
+DETOUR_METHODS = ("toppra", "family_optimum", "ga")
+DETOUR_MARGIN_M = 0.005
+DETOUR_STEPS = 5
+
+
+def _plans(sc, methods, ga_generations: int) -> dict:
+    out = {}
+    for m in methods:
+        t0 = time.perf_counter()
+        out[m] = plan_ga_spatial(sc, generations=ga_generations) if m == "ga" else PLANNERS[m](sc)
+        print(f"  {sc.name} {m}: {out[m].duration_s:.4f} s ({time.perf_counter() - t0:.1f} s)", flush=True)
+    return out
+
+
+def _in_cell(cell, plan):
+    """The plan re-checked in `cell` (its limits and its clearance from the cell's obstacles)."""
+    return make_spatial_plan(cell, plan.method, plan.trajectory, plan.pose_times_s, planning_s=plan.planning_s,
+                             raw_duration_s=plan.raw_duration_s, hold_scale=plan.hold_scale, info={})
+
+
+def _row(cell_name: str, p, note: str = "") -> dict:
+    c = p.clearance
+    return {"cell": cell_name, "method": p.method + note, "motion_time_s": p.duration_s,
+            "recheck_max_ratio": p.recheck["max"], "within_limits": bool(p.check.feasible),
+            "clearance_m": c.get("clearance_m"), "clearance_pair": c.get("clearance_pair"),
+            "clearance_time_s": c.get("clearance_time_s"), "feasible": bool(p.feasible)}
+
+
+def _raised(path: Path, dz: float, tmp: Path) -> Path:
+    """A copy of the scenario file with its lifted task poses (1 and K-2) raised by dz (m)."""
+    raw = yaml.safe_load(path.read_text())
+    poses = raw["task"]["poses_m"]
+    for k in (1, len(poses) - 2):
+        poses[k][2] = round(poses[k][2] + dz, 6)
+    out = tmp / f"{path.stem}-lift{dz:+.2f}.yaml"
+    out.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return out
+
+
+def detour(path: Path, depth_m: float, ga_generations: int, tmp: Path) -> tuple[float, dict]:
+    """(dz, plans) of the smallest raised lift whose TOPP-RA plan clears the cell by DETOUR_MARGIN_M."""
+    dz = max(0.01, float(int((depth_m + DETOUR_MARGIN_M) * 100 + 0.999)) / 100)
+    for _ in range(DETOUR_STEPS):
+        sc = load_spatial_scenario(_raised(path, dz, tmp))
+        first = _plans(sc, ("toppra",), ga_generations)
+        if first["toppra"].clearance["clearance_m"] >= DETOUR_MARGIN_M:
+            return dz, {**first, **_plans(sc, DETOUR_METHODS[1:], ga_generations)}
+        dz = round(dz + 0.01, 2)
+    raise RuntimeError(f"no lift up to {dz:.2f} m clears {path.name}")
+
+
+def _fastest(pairs: list, key: str):
+    """(row, plan) of the shortest plan whose row says `key`, or (None, None)."""
+    ok = [rp for rp in pairs if rp[0][key]]
+    return min(ok, key=lambda rp: rp[0]["motion_time_s"]) if ok else (None, None)
+
+
+def run(ga_generations: int, cosim: bool) -> dict:
+    rows, side = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for task, cells in TASKS.items():
+            base = load_spatial_scenario(task)
+            plans = _plans(base, PLANNERS, ga_generations)
+            for cell_ref in cells:
+                cell = base if cell_ref == task else load_spatial_scenario(cell_ref)
+                name = CELL_NAMES.get(str(cell_ref), str(cell_ref))
+                pairs = [(_row(name, q), q) for q in (p if cell is base else _in_cell(cell, p) for p in plans.values())]
+                without = _fastest(pairs, "within_limits")[0]
+                if min(r["clearance_m"] for r, _ in pairs) < 0:
+                    toppra = pairs[0][1]  # PLANNERS lists TOPP-RA first
+                    dz, extra = detour(Path(cell_ref), -toppra.clearance["clearance_m"], ga_generations, Path(tmp))
+                    pairs += [(_row(name, p, f" (lift +{dz:.2f} m)"), p) for p in extra.values()]
+                rows += [r for r, _ in pairs]
+                best, p = _fastest(pairs, "feasible")
+                entry = {"cell": name, "without_obstacles": without, "with_obstacles": best}
+                if cosim and best is not None:
+                    r = simulate_spatial(cell, p.trajectory)
+                    entry["cosim"] = {k: r.get(k) for k in ("outcome", "collided_at_s", "collision_pair", "clearance_m",
+                                                             "max_grip_ratio_while_held", "final_goal_error_rad")}
+                side.append(entry)
+    return {"ga_generations": ga_generations, "rows": rows, "side_by_side": side}
+
+
+def tables(res: dict) -> str:
+    out = ["| cell | method | T (s) | re-check max ratio | smallest clearance (m) | pair | at (s) | feasible |",
+           "|---|---|---|---|---|---|---|---|"]
+    for r in res["rows"]:
+        pair = " vs ".join(r["clearance_pair"] or ["-"])
+        out.append(f"| {r['cell']} | {r['method']} | {r['motion_time_s']:.4f} | {r['recheck_max_ratio']:.4f} | "
+                   f"{r['clearance_m']:+.4f} | {pair} | {r['clearance_time_s']:.3f} | {'yes' if r['feasible'] else 'NO'} |")
+    out += ["", "| cell | fastest without obstacles | fastest with obstacles (clear) | co-simulation |", "|---|---|---|---|"]
+    for s in res["side_by_side"]:
+        w, b = s["without_obstacles"], s["with_obstacles"]
+        c = s.get("cosim")
+        cs = "-" if c is None else c["outcome"] + (f" at {c['collided_at_s']:.3f} s" if c.get("collided_at_s") else "")
+        out.append(f"| {s['cell']} | {w['method']} {w['motion_time_s']:.4f} s | "
+                   f"{(b['method'] + ' ' + format(b['motion_time_s'], '.4f') + ' s') if b else 'none'} | {cs} |")
+    return "\n".join(out)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="out")
+    ap.add_argument("--ga-generations", type=int, default=30)
+    ap.add_argument("--no-cosim", action="store_true")
+    a = ap.parse_args(argv)
+    check_output_dir(a.out, "--out")
+    res = run(a.ga_generations, not a.no_cosim)
+    text = tables(res)
+    print(text)
+    out = Path(a.out) / "obstacles"
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "clearance.json", json.dumps(jsonable(res), indent=1))
+    write_text_atomic(out / "clearance.md", text + "\n")
+    print(f"wrote {out / 'clearance.json'} and .md")
+
+
+if __name__ == "__main__":
+    main()
