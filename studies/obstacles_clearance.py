@@ -14,7 +14,9 @@ URDF collision shapes and the carried part against the obstacles, independent of
 A detour where the task's path collides (the deep totes): the lifted task poses (1 and K-2) raised by the
 smallest whole centimetre dz >= the TOPP-RA plan's penetration depth + DETOUR_MARGIN_M for which its plan
 clears by DETOUR_MARGIN_M (IK solves the raised poses: the scenario loader), then timed by TOPP-RA, the family
-optimum and the GA under the same limits, each re-checked in the cell.
+optimum and the GA under the same limits, each re-checked in the cell. --kto also retimes (qmt_drake/retime.py,
+TOPP-RA) the path of Drake's KinematicTrajectoryOptimization with MinimumDistanceLowerBoundConstraint
+(`kto_path`), re-checked the same way.
 
 Side by side per cell: the fastest plan within every limit without the obstacles (every plan) and with them
 (clearance >= 0 as well, detour plans included), and, unless --no-cosim, the fastest CARRIED time of each:
@@ -33,12 +35,22 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import yaml
+from pydrake.multibody.inverse_kinematics import (
+    AngleBetweenVectorsConstraint,
+    MinimumDistanceLowerBoundConstraint,
+)
+from pydrake.planning import KinematicTrajectoryOptimization
+from pydrake.solvers import Solve
+from pydrake.trajectories import BsplineTrajectory
 
+from qmt_drake.limits.clearance import collision_model
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_carried import carried_search
 from qmt_drake.planners.spatial_methods import PLANNERS, plan_ga_spatial
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
+from qmt_drake.retime import retime_path
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 
@@ -49,6 +61,10 @@ CELL_NAMES = {str(DEEP_TOTES): "ur5-deep-totes"}
 DETOUR_METHODS = ("toppra", "family_optimum", "ga")
 DETOUR_MARGIN_M = 0.005
 DETOUR_STEPS = 5
+# the optimizer's clearance bound at its samples (below the 1 cm the part starts and ends above the tote's floor;
+# a larger bound inside the path stalled SNOPT at its iteration limit); the plan is re-checked independently
+KTO_BOUND_M = 0.009
+KTO_CONTROL_POINTS, KTO_SAMPLES, KTO_TILT_RAD, KTO_WAYPOINTS = 12, 60, 0.02, 40
 CARRIED_K_MAX = 1.5
 CARRIED_ITERATIONS = 6
 
@@ -99,6 +115,42 @@ def detour(path: Path, depth_m: float, ga_generations: int, tmp: Path) -> tuple[
     raise RuntimeError(f"no lift up to {dz:.2f} m clears {path.name}")
 
 
+def kto_path(cell, guess_q: np.ndarray) -> np.ndarray:
+    """(KTO_WAYPOINTS, n) joint waypoints of a collision-free path from the first to the last task pose:
+    Drake's KinematicTrajectoryOptimization (a B-spline of KTO_CONTROL_POINTS, duration cost, the joint range
+    and speed limits, at rest at both ends; a path-length cost stalls SNOPT, info 41) with
+    MinimumDistanceLowerBoundConstraint
+    (KTO_BOUND_M, on the clearance model's plant: arm and part against the obstacles only) and the face
+    normal within KTO_TILT_RAD of the task's at KTO_SAMPLES path parameters; started from guess_q (the
+    raised-lift path). Its timing is retime's (TOPP-RA, the GA), its clearance the re-check's."""
+    cm, n = collision_model(cell), cell.n_dof
+    plant, ctx = cm.plant, cm.plant_context
+    to = KinematicTrajectoryOptimization(n, KTO_CONTROL_POINTS, 4)
+    to.AddDurationCost(1.0)
+    to.AddPositionBounds(plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits())
+    to.AddVelocityBounds(-cell.velocity_limit_rad_s, cell.velocity_limit_rad_s)
+    to.AddDurationConstraint(0.1, 20.0)
+    for sk, qk in ((0.0, cell.q_poses_rad[0]), (1.0, cell.q_poses_rad[-1])):
+        to.AddPathPositionConstraint(qk, qk, sk)
+        to.AddPathVelocityConstraint(np.zeros(n), np.zeros(n), sk)
+    hand = plant.GetFrameByName(cell.hand_frame)
+    clear = MinimumDistanceLowerBoundConstraint(plant, KTO_BOUND_M, ctx)
+    for sk in np.linspace(0.0, 1.0, KTO_SAMPLES):
+        to.AddPathPositionConstraint(clear, sk)
+        to.AddPathPositionConstraint(AngleBetweenVectorsConstraint(plant, plant.world_frame(), cell.face_normal, hand,
+                                                                   cell.face_axis, 0.0, KTO_TILT_RAD, ctx), sk)
+    d = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(guess_q, axis=0), axis=1))]
+    u = np.linspace(0.0, d[-1], KTO_CONTROL_POINTS)
+    ctrl = [np.array([np.interp(x, d, guess_q[:, j]) for j in range(n)]).reshape(n, 1) for x in u]
+    to.SetInitialGuess(BsplineTrajectory(to.basis(), ctrl))
+    res = Solve(to.get_mutable_prog())
+    if not res.is_success():
+        raise RuntimeError(f"KinematicTrajectoryOptimization found no clear path ({res.get_solution_result()}, "
+                           f"{res.get_solver_id().name()} info {getattr(res.get_solver_details(), 'info', None)})")
+    bs = to.ReconstructTrajectory(res)
+    return np.array([bs.value(t).ravel() for t in np.linspace(bs.start_time(), bs.end_time(), KTO_WAYPOINTS)])
+
+
 def _fastest(pairs: list, key: str):
     """(row, plan) of the shortest plan whose row says `key`, or (None, None)."""
     ok = [rp for rp in pairs if rp[0][key]]
@@ -126,7 +178,7 @@ def fastest_carried(cell, pairs: list, key: str) -> dict | None:
     return best
 
 
-def run(ga_generations: int, cosim: bool) -> dict:
+def run(ga_generations: int, cosim: bool, kto: bool = False) -> dict:
     rows, side = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for task, cells in TASKS.items():
@@ -141,6 +193,11 @@ def run(ga_generations: int, cosim: bool) -> dict:
                     toppra = pairs[0][1]  # PLANNERS lists TOPP-RA first
                     dz, extra = detour(Path(cell_ref), -toppra.clearance["clearance_m"], ga_generations, Path(tmp))
                     pairs += [(_row(name, p, f" (lift +{dz:.2f} m)"), p) for p in extra.values()]
+                    if kto:
+                        raised = load_spatial_scenario(_raised(Path(cell_ref), dz, Path(tmp)))
+                        p = retime_path(cell, kto_path(cell, raised.q_path_rad), "toppra")
+                        print(f"  {name} TOPP-RA on the KTO path: {p.duration_s:.4f} s", flush=True)
+                        pairs.append((_row(name, p, " (KTO path)"), p))
                 rows += [r for r, _ in pairs]
                 entry = {"cell": name, "without_obstacles": without, "with_obstacles": _fastest(pairs, "feasible")[0]}
                 if cosim:
@@ -180,9 +237,10 @@ def main(argv=None) -> None:
     ap.add_argument("--out", default="out")
     ap.add_argument("--ga-generations", type=int, default=30)
     ap.add_argument("--no-cosim", action="store_true")
+    ap.add_argument("--kto", action="store_true", help="also retime a KinematicTrajectoryOptimization path (kto_path)")
     a = ap.parse_args(argv)
     check_output_dir(a.out, "--out")
-    res = run(a.ga_generations, not a.no_cosim)
+    res = run(a.ga_generations, not a.no_cosim, a.kto)
     text = tables(res)
     print(text)
     out = Path(a.out) / "obstacles"

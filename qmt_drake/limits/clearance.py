@@ -149,6 +149,7 @@ class CollisionModel:
         self.names.update({i: f"obstacle/{ob.name}" for i, ob in zip(obs, sc.obstacles)})
         plant.Finalize()
         builder.Connect(plant.get_geometry_pose_output_port(), sg.get_source_pose_port(plant.get_source_id()))
+        builder.Connect(sg.get_query_output_port(), plant.get_geometry_query_input_port())  # Drake's collision constraints
         self.diagram = builder.Build()
         self.context = self.diagram.CreateDefaultContext()
         self.plant, self.scene_graph, self.model = plant, sg, model
