@@ -22,6 +22,7 @@ from typing import Any
 
 from qmt_drake.config.registry import ACTUATORS, actuator_entry
 from qmt_drake.config.validate import parse_dc_motor_gear, parse_dynamixel, parse_ideal_torque
+from qmt_drake.errors import QmtInputError
 from qmt_drake.sim.magnet_actuation import DC_MOTOR_ACTUATION, IDEAL_TORQUE_ACTUATION, MagnetActuation
 
 
@@ -47,6 +48,10 @@ class ActuatorPlugin:
 
 
 def register_actuator(plugin: ActuatorPlugin, *, replace: bool = False) -> None:
+    """Register an actuator kind (an ActuatorPlugin); an existing kind only with replace=True. One line else."""
+    if not isinstance(plugin, ActuatorPlugin):
+        raise QmtInputError(f"register_actuator needs an ActuatorPlugin, got {type(plugin).__name__}; build one "
+                            "with qmt_drake.actuators.ActuatorPlugin(kind=..., parse=...)")
     ACTUATORS.register(plugin, replace=replace)
 
 

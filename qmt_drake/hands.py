@@ -33,6 +33,7 @@ from qmt_drake.config.scenario import (
     tray_moment_limit,
 )
 from qmt_drake.config.validate import parse_magnet_hand, parse_tray_hand
+from qmt_drake.errors import QmtInputError
 from qmt_drake.limits import PayloadMomentTerm
 from qmt_drake.outcome import verdict_line
 from qmt_drake.plan import Motion, Plan
@@ -113,6 +114,10 @@ class HandPlugin:
 
 
 def register_hand(plugin: HandPlugin, *, replace: bool = False) -> None:
+    """Register a hand kind (a HandPlugin); an existing kind only with replace=True. One line else."""
+    if not isinstance(plugin, HandPlugin):
+        raise QmtInputError(f"register_hand needs a HandPlugin, got {type(plugin).__name__}; build one with "
+                            "qmt_drake.hands.HandPlugin(kind=..., parse=..., ...)")
     HANDS.register(plugin, replace=replace)
 
 

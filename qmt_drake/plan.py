@@ -37,6 +37,7 @@ from qmt_drake.config.scenario import Scenario
 from qmt_drake.families import make_family
 from qmt_drake.limits import LimitReport
 from qmt_drake.outputs import jsonable, write_text_atomic
+from qmt_drake.plan_identity import IDENTITY_KEY, identity, transfer_sections
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
@@ -148,6 +149,7 @@ class Plan:
         d = self.summary()
         d["scenario_path"] = str(self.scenario.source_path)
         d["scenario_fingerprint"] = self.scenario.fingerprint()
+        d[IDENTITY_KEY] = identity(transfer_sections(self.scenario))  # plan_files.load_plan compares it
         d["task_points_m"] = np.asarray(self.scenario.task.points_m, float).tolist()
         d["n_dof"] = int(self.n_dof)
         d["extra"] = jsonable(self.extra)

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from qmt_drake.config.registry import check_registration
 from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import (
@@ -31,6 +32,7 @@ from qmt_drake.plan import (
     family_plan,
     make_plan,
 )
+from qmt_drake.plan_identity import check_identity, transfer_sections
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.trajectory import SampledTrajectory
 
@@ -76,7 +78,12 @@ class PlanKind:
 PLAN_KINDS: dict[str, PlanKind] = {}
 
 
-def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader) -> None:
+def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader, *, replace: bool = False) -> None:
+    """A scenario kind's plan-file loader; a kind registers once (replace=True to swap it)."""
+    check_registration("plan kind", kind, kind in PLAN_KINDS, replace)
+    if not isinstance(scenario_type, type) or not callable(load):
+        raise QmtInputError(f"plan kind {kind!r}: give the scenario's class and a loader load(path, mapping, "
+                            "scenario) -> Plan")
     PLAN_KINDS[kind] = PlanKind(scenario_type, load)
 
 
@@ -157,6 +164,9 @@ def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
     if plan.n_dof != scenario.arm.n_dof:
         raise QmtInputError(f"plan file {path} has {plan.n_dof} joints but scenario "
                             f"{scenario.name}'s arm has {scenario.arm.n_dof}")
+    # After the checks that name one misfit (joints, task points, genes, start and goal): any other
+    # difference of content (limits, payload, hand, ...) refuses it too, whatever the names say.
+    check_identity(d, path, transfer_sections(scenario), scenario.name)
     for k in ("planner_wall_s", "evaluations", "generations"):
         v = d.get(k, getattr(plan, k))
         setattr(plan, k, v if isinstance(v, (int, float)) and not isinstance(v, bool) else getattr(plan, k))

@@ -24,6 +24,8 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import CoulombFriction
 
+from qmt_drake.outputs import write_text_atomic
+
 # The arms span about 0.3 m: look at the work area from the front and above, close enough to see
 # the payload (Meshcat's default camera sits metres away).
 CAMERA_IN_WORLD_M = np.array([0.0, -0.42, 0.38])
@@ -94,9 +96,5 @@ def save_recording(visualizer, meshcat: Meshcat, path) -> Path:
     """Stop, publish the animation and write meshcat.StaticHtml() to path; returns the path."""
     visualizer.StopRecording()
     visualizer.PublishRecording()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(meshcat.StaticHtml())
-    tmp.replace(path)  # atomic: never half a file
-    return path
+    write_text_atomic(path, meshcat.StaticHtml())  # atomic, unpredictable temporary; '-' is stdout
+    return Path(path)

@@ -90,3 +90,13 @@ def refine_grid(coarse: SampleGrid, flagged: np.ndarray) -> SampleGrid:
 def peak_per_candidate(values: np.ndarray, grid: SampleGrid) -> np.ndarray:
     """Maximum of `values` (S,) or (S, m) over each candidate's samples -> (K,) or (K, m)."""
     return np.maximum.reduceat(values, grid.start, axis=0)
+
+
+def uniform_grid(t_s: np.ndarray) -> SampleGrid:
+    """One candidate, one piece: the given rising sample times (s) as a SampleGrid (for
+    limits/refine.py on a trajectory sampled at plain times, e.g. the spatial re-check)."""
+    t = np.asarray(t_s, float)
+    S = t.size
+    T = float(t[-1]) if S else 0.0
+    return SampleGrid(np.zeros(S, int), t, np.full(S, 0.5 * T), np.zeros(1, int), 1, np.zeros(S), np.full(S, T),
+                      np.full(S, S), np.arange(S), 1)

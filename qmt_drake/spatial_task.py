@@ -30,7 +30,10 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   per pose: e.g. a part picked from a tilted bin), hand_rpy_rad (a full rotation per pose: roll,
   pitch, yaw of the hand frame in the world, Drake's RollPitchYaw); transfer_points (inner points of
   the geometric path between poses 1 and K-2, on the straight line between them, the orientation
-  interpolated along it by slerp).
+  interpolated along it by slerp); free_spin_about_normal (default false; true lets the hand spin
+  freely about its face normal at every pose: a suction cup or a magnet does not care, and a 5-joint
+  arm can then reach a face-down pose its hand_rpy_rad would over-constrain; with face_normal(s) the
+  spin is always free).
 - limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
 - world (optional): obstacles, a list of boxes, cylinders, meshes and bins welded to the world
   (model/obstacles.py; the re-check's clearance, limits/clearance.py; docs/obstacles.md).
@@ -228,7 +231,8 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     w = f"{where}: task"
     tk = F.mapping(raw, "task", where)
-    F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points"}, w)
+    F.check_keys(tk, {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points",
+                      "free_spin_about_normal"}, w)
     seed = F.vector(tk, "seed_rad", w, length=n, what="one joint angle per joint")
     poses = tk.get("poses_m")
     if not isinstance(poses, list) or len(poses) < 2:
@@ -237,6 +241,11 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     pose_rotations = _pose_rotations(tk, len(P), w)
     pose_normals = (_pose_normals(tk, len(P), w) if pose_rotations is None
                     else np.einsum("kij,j->ki", pose_rotations, face_axis))
+    if F.boolean(tk, "free_spin_about_normal", w, default=False):
+        pose_rotations = None  # only the face normal of each hand_rpy_rad is kept
+    elif "hand_rpy_rad" not in tk and "free_spin_about_normal" in tk:
+        raise QmtInputError(f"{w}.free_spin_about_normal: false needs hand_rpy_rad (a face normal leaves the "
+                            "spin free); give hand_rpy_rad to fix the spin, or drop the key")
     _refuse_repeated_poses(P, pose_normals, pose_rotations, w)
     n_tr = F.integer(tk, "transfer_points", w, minimum=0, default=0)
     lim = F.mapping(raw, "limits", where)

@@ -39,7 +39,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.errors import QmtInputError  # noqa: E402
-from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic  # noqa: E402
+from qmt_drake.outputs import atomic_output, check_output_dir, jsonable, write_text_atomic  # noqa: E402
 from qmt_drake.planners import plan_with  # noqa: E402
 from qmt_drake.sweep.robust import plan_fastest_carried  # noqa: E402
 from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
@@ -142,10 +142,9 @@ def figure(rows: list[dict], path: Path) -> None:
     axes[0].legend(fontsize=7)
     fig.suptitle("CRANE-X7 tray: fastest carried TOPP-RA transfer through the Dynamixel servos", fontsize=10)
     fig.tight_layout()
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=120)
+    with atomic_output(path, suffix=".tmp.png") as tmp:  # unpredictable temporary name
+        fig.savefig(path if tmp is None else tmp, dpi=120)
     plt.close(fig)
-    tmp.replace(path)
 
 
 def main(argv=None) -> int:

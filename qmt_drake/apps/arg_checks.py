@@ -8,7 +8,7 @@ import math
 import sys
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.outputs import check_output_path, write_text_atomic
+from qmt_drake.outputs import check_one_stdout, check_output_path, write_text_atomic
 
 
 def check_int(value, flag: str, minimum: int, fix: str) -> None:
@@ -22,8 +22,10 @@ def check_positive_finite(value, flag: str, fix: str) -> None:
 
 
 def check_outputs(args, *flags: str) -> None:
-    for flag in flags:
-        check_output_path(getattr(args, flag.lstrip("-").replace("-", "_"), None), flag)
+    paths = {flag: getattr(args, flag.lstrip("-").replace("-", "_"), None) for flag in flags}
+    check_one_stdout(paths)
+    for flag, path in paths.items():
+        check_output_path(path, flag)
 
 
 def given(args, names) -> list[str]:

@@ -23,7 +23,7 @@ from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
 from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
-from qmt_drake.outputs import check_output_dir, check_output_path
+from qmt_drake.outputs import check_output_dir, check_output_path, is_stdout
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
 from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success, success_spec
@@ -149,7 +149,7 @@ def cmd_plan(args) -> int:
         emit_json(plan.to_json_dict(), "-")
     if args.trajectory_csv:
         plan.write_csv(args.trajectory_csv)
-    if args.json != "-":
+    if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
         print(f"{sc.name} {args.method}: T0 = {plan.motion_time_s:.4f} s, {hand_plugin(sc).plan_ratios_text(plan)}, "
               f"{'feasible' if plan.feasible else 'INFEASIBLE (least-violating plan)'}, "
               f"{plan.planner_wall_s:.2f} s")

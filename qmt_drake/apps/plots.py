@@ -16,17 +16,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from qmt_drake.outputs import atomic_output  # noqa: E402
+
 STYLES = ["-", "--", ":", "-."]
 
 
 def _save(fig, path: Path) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=110)
+    with atomic_output(path, suffix=".tmp.png") as tmp:  # unpredictable temporary name
+        fig.savefig(path if tmp is None else tmp, dpi=110)  # None: a device node, written through
     plt.close(fig)
-    tmp.replace(path)
     return path
 
 

@@ -37,7 +37,7 @@ from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import jerk_limited_plan, peak_jerk
 from qmt_drake.outcome import verdict_line
-from qmt_drake.outputs import jsonable
+from qmt_drake.outputs import is_stdout, jsonable
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_families import FAMILIES
 from qmt_drake.planners.spatial_methods import ALIASES, FAMILY_METHODS, METHODS, PLANNERS, plan_toppra_spatial
@@ -167,7 +167,7 @@ def plan(args, energy_options) -> bool:
         p.write_json(args.json)
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
-    if args.json != "-":
+    if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
         print(summary_line(sc, p, bound))
     return p.recheck["max"] <= 1.0 and p.feasible  # feasible: also clear of the obstacles (limits/clearance.py)
 

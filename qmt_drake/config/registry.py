@@ -10,11 +10,37 @@ is refused in one line that lists the registered ones.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
 from qmt_drake.errors import QmtInputError
+
+
+def check_registration(what: str, name: Any, registered: bool, replace: Any) -> None:
+    """Every register_* call: `name` a non-empty string, not yet registered unless replace=True
+    (a plug-in never silently replaces a built-in). One-line QmtInputError naming the name and the fix."""
+    if not isinstance(replace, bool):
+        raise QmtInputError(f"{what} {name!r}: replace must be True or False, got {replace!r}")
+    if not isinstance(name, str) or not name.strip():
+        raise QmtInputError(f"{what}: the name must be a non-empty string, got {name!r}")
+    if registered and not replace:
+        raise QmtInputError(f"{what} {name!r} is already registered; pass replace=True to replace it, or "
+                            "register under another name")
+
+
+def check_callable_fields(what: str, entry: Any) -> None:
+    """At registration, not at first use: each field of a dataclass plug-in annotated Callable holds a
+    callable (None only where the annotation allows None). One-line QmtInputError naming the field."""
+    if not dataclasses.is_dataclass(entry) or isinstance(entry, type):
+        return
+    for f in dataclasses.fields(entry):
+        ann = str(f.type)  # annotations are strings here (from __future__ import annotations)
+        value = getattr(entry, f.name)
+        if "Callable" in ann and not callable(value) and not (value is None and "None" in ann):
+            raise QmtInputError(f"{what}: {f.name} must be a callable, got {type(value).__name__} {value!r:.60}; "
+                                f"see {type(entry).__name__}'s docstring")
 
 
 class Registry:
@@ -25,12 +51,17 @@ class Registry:
         self._entries: dict[str, Any] = {}
 
     def register(self, entry: Any, *, replace: bool = False) -> Any:
-        """Register `entry` under entry.kind; a kind registers once (replace=True to swap it)."""
-        kind = entry.kind
-        if not isinstance(kind, str) or not kind:
-            raise ValueError(f"a {self.section} plug-in needs a non-empty string kind, got {kind!r}")
-        if kind in self._entries and not replace:
-            raise ValueError(f"{self.section}.kind {kind!r} is already registered")
+        """Register `entry` under entry.kind; a kind registers once (replace=True to swap it). Its
+        callable fields and its scenario_kind are checked now (one-line QmtInputError), not at first use."""
+        kind = getattr(entry, "kind", None)
+        what = f"{self.section}.kind"
+        if not isinstance(kind, str) or not kind.strip():
+            raise QmtInputError(f"a {self.section} plug-in needs a non-empty string `kind`, got {kind!r}")
+        check_registration(what, kind, kind in self._entries, replace)
+        check_callable_fields(f"{what} {kind!r}", entry)
+        sk = getattr(entry, "scenario_kind", TRANSFER)
+        if not isinstance(sk, str) or not sk:
+            raise QmtInputError(f"{what} {kind!r}: scenario_kind {sk!r} must name a scenario kind, e.g. {TRANSFER!r}")
         self._entries[kind] = entry
         return entry
 

@@ -26,7 +26,7 @@ from qmt_drake.energy.energy_plan import plan_energy_time
 from qmt_drake.energy.execute import execute, execute_plan, plot_execution
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
-from qmt_drake.outputs import check_output_path, jsonable, write_text_atomic
+from qmt_drake.outputs import check_one_stdout, check_output_path, is_stdout, jsonable, write_text_atomic
 from qmt_drake.plan_files import load_plan
 
 ENERGY_ONLY_OPTIONS = ("c1", "c2", "m", "divisions", "coords", "pattern", "max_iter", "execute", "recording")
@@ -63,15 +63,19 @@ def _stderr(line: str) -> None:
 
 def plan_energy(args) -> int:
     """`qmt-drake plan ENERGY_SCENARIO ...` (module docstring)."""
-    for flag in ("--json", "--execute", "--recording", "--trajectory-csv"):  # probed before any work
-        check_output_path(getattr(args, flag[2:].replace("-", "_")), flag)
+    outputs = {flag: getattr(args, flag[2:].replace("-", "_")) for flag in ("--json", "--execute", "--recording",
+                                                                            "--trajectory-csv")}
+    check_one_stdout(outputs)
+    for flag, path in outputs.items():  # probed before any work
+        check_output_path(path, flag)
+    talk = not (is_stdout(args.json) or is_stdout(args.trajectory_csv))  # else stdout is the JSON or the CSV
     E = get_experiment(args.scenario)
     check_energy_budget(args.m if args.m is not None else E.m, args.divisions if args.divisions is not None
                         else E.divisions, allow_large=args.allow_large)
     pattern = _pattern(args.pattern)  # checked before any solve, as plan_energy_time checks the rest
 
     def line(rec: dict) -> None:
-        if args.json != "-":  # stdout is the JSON then
+        if talk:
             print(f"{rec['start']:>8s} -> {rec['end']}  z={rec['z']:.2f}  T={rec['T_s']:.4f} s  "
                   f"{'ok' if rec['success'] else 'NOT CONVERGED'}")
 
@@ -85,7 +89,8 @@ def plan_energy(args) -> int:
         ex = execute(plan.problem.family, plan.x, recording_path=args.recording)
         plot_execution(ex, args.execute, f"{E.name} {plan.end} z={plan.cost_z:.0f}")
         result["execution"] = jsonable(ex.summary())
-        print(f"executed {plan.end}: max tracking error {ex.max_tracking_error_rad:.2e} rad")
+        if talk:
+            print(f"executed {plan.end}: max tracking error {ex.max_tracking_error_rad:.2e} rad")
     if args.json:
         text = json.dumps(result, indent=1)
         if args.json == "-":

@@ -51,6 +51,14 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, ratio_report
 from qmt_drake.plan_files import register_plan_kind
+from qmt_drake.plan_identity import (
+    IDENTITY_KEY,
+    check_identity,
+    differ_note,
+    differing_sections,
+    energy_sections,
+    identity,
+)
 
 METHODS = ("snopt", "ipopt", "steepest", "collocation")
 END_TOL_M = 1e-6  # the plan's end tip on the experiment's X(T) [m]
@@ -107,7 +115,8 @@ class EnergyPlan(Plan):
         src = self.scenario.source_path
         return jsonable({**self.summary(), "scenario_path": None if src is None else str(src), "n_dof": self.n_dof,
                          "extra": self.extra, "trajectory": {"kind": "fourier_velocity", "theta0_rad": P.theta0,
-                                                             "m": P.m, "x": self.x}})
+                                                             "m": P.m, "x": self.x},
+                         IDENTITY_KEY: identity(energy_sections(self.scenario))})
 
     def write_json(self, path) -> None:
         write_text_atomic(path, json.dumps(self.to_json_dict(), indent=1) + "\n")
@@ -221,9 +230,11 @@ def _load(path: Path, d: dict, E: Experiment | None) -> EnergyPlan:
         same_start = theta0.shape == P0.theta0.shape and np.allclose(theta0, P0.theta0, atol=1e-9, rtol=0)
     except (KeyError, TypeError, ValueError):
         raise QmtInputError(f"plan file {path}: its trajectory has no start posture theta0_rad; {again}") from None
-    if d.get("scenario") != E.name or not same_start:
-        why = "" if d.get("scenario") != E.name else " (other start posture)"
+    differ = differing_sections(d, energy_sections(E))  # content decides, whatever the names say
+    if (differ != [] and d.get("scenario") != E.name) or not same_start:
+        why = differ_note(differ) if d.get("scenario") != E.name else " (other start posture)"
         raise QmtInputError(f"plan file {path} was made for {d.get('scenario')!r}, not {E.name!r}{why}; {again}")
+    check_identity(d, path, energy_sections(E), E.name)  # the same name, other content
     try:
         x = np.asarray(traj["x"], float)
         m = traj["m"]

@@ -13,8 +13,9 @@ calls per grid point (`batched=False`, kept to measure the difference: studies/c
 
 "Feasible" holds between the samples too: `limit_report` refines every sampled local maximum that
 comes near its column's peak or near the limit by a batched golden-section search on the
-trajectory itself (within the sample's piece, between its neighbours), so the reported peak is
-the trajectory's local maximum, not the largest sample. `tests/test_planners_recheck.py` samples
+trajectory itself (within the sample's piece, between its neighbours; limits/refine.py, the one
+implementation the spatial re-check uses too), so the reported peak is the trajectory's local
+maximum, not the largest sample. `tests/test_planners_recheck.py` samples
 every planner's output 10x finer and finds no ratio above the refined peak.
 """
 
@@ -27,19 +28,12 @@ from scipy.linalg import block_diag
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.base import RowOptions
+from qmt_drake.limits.refine import REFINE_MAX_PER_COLUMN as REFINE_MAX_PER_COLUMN  # re-exported (tests)
+from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, refine_local_maxima
 from qmt_drake.limits.toppra_form import rows_constraint
 from qmt_drake.sampling import piecewise_grid
 
 JOINT_EXCESS_TOL_RAD = 1e-12
-REFINE_RELATIVE_MARGIN = 0.02  # refine local maxima within 2% of their column's sampled peak ...
-REFINE_NEAR_LIMIT = 0.98  # ... or above 98% of the limit (ratio columns) / within 0.02 rad (excess)
-GOLDEN_ITERATIONS = 60  # bracket of one sample step shrinks by 0.618^60 ~ 3e-13
-# A long plateau (the tray's slide ratio over a constant-acceleration phase) makes every sample a
-# "local maximum" within the margin (rounding bumps): thousands, each refined for 60 iterations.
-# Only the highest sampled ones per column are refined; between samples a maximum can gain only
-# O(step^2 f''), so a sample far down the list cannot overtake them. The report says how many
-# were refined and how many were skipped.
-REFINE_MAX_PER_COLUMN = 64
 
 
 class LimitSet:
@@ -123,60 +117,10 @@ class LimitSet:
         return self._make_report(rate_hz, float(trajectory.duration_s), peak, t_peak, valid, refined_count)
 
     def _refine(self, trajectory, grid, cols, peak, t_peak):
-        """Golden-section maximisation of each column between the neighbours of its sampled local
-        maxima that matter (see module docstring); returns the refined peaks and their times."""
-        S = cols.shape[0]
-        same_prev = np.zeros(S, bool)
-        same_prev[1:] = grid.piece_a_s[1:] == grid.piece_a_s[:-1]
-        same_next = np.zeros(S, bool)
-        same_next[:-1] = same_prev[1:]
-        prev = np.where(same_prev, np.arange(S) - 1, np.arange(S))
-        nxt = np.where(same_next, np.arange(S) + 1, np.arange(S))
-        is_max = (cols >= cols[prev]) & (cols >= cols[nxt])
+        """The sampled local maxima that matter refined on the trajectory (limits/refine.py)."""
         near_limit = np.where(self.ratio_mask, REFINE_NEAR_LIMIT, -0.02)
-        span = np.abs(peak) * REFINE_RELATIVE_MARGIN
-        wanted = is_max & ((cols >= peak - span) | (cols >= near_limit))
-        k, c = np.nonzero(wanted)
-        if k.size == 0:
-            return peak, t_peak, 0
-        counts = np.bincount(c, minlength=cols.shape[1])
-        if counts.max() > REFINE_MAX_PER_COLUMN:
-            order = np.lexsort((-cols[k, c], c))  # by column, highest sample first
-            k, c = k[order], c[order]
-            rank = np.arange(k.size) - np.searchsorted(c, c)  # position within its column
-            keep = rank < REFINE_MAX_PER_COLUMN
-            k, c = k[keep], c[keep]
-        a, b = grid.t_s[prev[k]], grid.t_s[nxt[k]]
-        tp = grid.t_piece_s[k]
-        inv_phi = (np.sqrt(5.0) - 1.0) / 2.0
-
-        def f(t):
-            qq, qqd, qqdd = trajectory.evaluate(t, tp)
-            return self.columns(qq, qqd, qqdd)[np.arange(t.size), c]
-
-        x1, x2 = b - inv_phi * (b - a), a + inv_phi * (b - a)
-        f1, f2 = f(x1), f(x2)
-        for _ in range(GOLDEN_ITERATIONS):
-            left = f1 >= f2  # the maximum lies in [a, x2]
-            b = np.where(left, x2, b)
-            a = np.where(left, a, x1)
-            x2n = np.where(left, x1, a + inv_phi * (b - a))
-            x1n = np.where(left, b - inv_phi * (b - a), x2)
-            f2n, f1n = np.where(left, f1, np.nan), np.where(left, np.nan, f2)
-            fresh = np.where(left, x1n, x2n)
-            fv = f(fresh)
-            f1 = np.where(left, fv, f1n)
-            f2 = np.where(left, f2n, fv)
-            x1, x2 = x1n, x2n
-        t_best = np.where(f1 >= f2, x1, x2)
-        v_best = np.maximum(f1, f2)
-        peak, t_peak = peak.copy(), t_peak.copy()
-        for col in np.unique(c):
-            m = c == col
-            j = np.argmax(v_best[m])
-            if v_best[m][j] > peak[col]:
-                peak[col], t_peak[col] = v_best[m][j], t_best[m][j]
-        return peak, t_peak, int(k.size)
+        return refine_local_maxima(lambda t, tp: self.columns(*trajectory.evaluate(t, tp)), grid, cols, peak, t_peak,
+                                   near_limit)
 
     def _make_report(self, rate_hz, T, peak, t_peak, valid, refined_count) -> LimitReport:
         moment = self.term("payload_moment")

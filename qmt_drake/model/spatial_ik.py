@@ -5,12 +5,20 @@ frame's `face_axis` must point along, default its z axis) or a full rotation R_W
 solved by Drake's `InverseKinematics` (SNOPT or IPOPT, joint limits imposed) from a seed, with a
 quadratic cost on the distance to the seed so the solver stays on the seed's branch (elbow up or
 down, wrist flip; for a redundant arm, the nearest posture); a path is solved point by point, each
-seeded from the previous solution. The solution is then polished by Gauss-Newton steps on the
-SpatialChain Jacobian (the solver stops at its feasibility tolerance, about 1e-6) and checked by
-Drake's forward kinematics (`Frame.CalcPoseInWorld`): position within 1e-6 m and orientation (normal
-or rotation) within 1e-6 rad, joint limits held. A target that fails is refused with one line naming
-it (QmtInputError). `max_joint_step_rad` on a path refuses a jump between neighbouring points
-(a branch change) instead of returning a discontinuous joint path.
+seeded from the previous solution. The solution is then polished on the SpatialChain Jacobian (the
+solver stops at its feasibility tolerance, about 1e-6): a Gauss-Newton step where it lowers the pose
+error, else Levenberg-Marquardt (damped least-squares) steps with the damping raised until one does;
+every step is projected onto the joint limits and a step that makes the pose worse is never taken, so
+the polish never leaves the limits and never returns a pose worse than the solver's (near a singular
+orientation, e.g. a 5-joint arm's roll axis along its pan axis with the cup facing down, plain
+Gauss-Newton steps through the tiny singular values diverged to a joint at -194 rad). The result is
+checked by Drake's forward kinematics (`Frame.CalcPoseInWorld`): position within 1e-6 m and
+orientation (normal or rotation) within 1e-6 rad, joint limits held. A target that fails is refused
+with one line naming it, the residual and the reason (too few joints for the constraint, a joint at
+its limit, a singular orientation, or out of reach) (QmtInputError). A face normal leaves the spin
+about it free (what a suction cup or a magnet needs); a rotation fixes it. `max_joint_step_rad` on a
+path refuses a jump between neighbouring points (a branch change) instead of returning a
+discontinuous joint path.
 """
 
 from __future__ import annotations
@@ -26,6 +34,10 @@ from qmt_drake.model.spatial_chain import SpatialChain
 
 POSITION_TOL_M = 1e-6
 ANGLE_TOL_RAD = 1e-6
+LM_DAMPING0 = 1e-9  # first damping (m^2 / rad^2 scale of J J^T) after a rejected Gauss-Newton step
+LM_DAMPING_MAX = 1e3  # beyond this the step is ~ J^T e / lambda, too small to matter: stop
+LM_MAX_REJECTED = 40
+SINGULAR_REL = 1e-6  # a singular value below this x the largest: the constraint's Jacobian loses rank
 
 
 class SpatialIK:
@@ -65,18 +77,45 @@ class SpatialIK:
         p = np.asarray(position_m, float).reshape(3)
         n_t, R_t = _target_orientation(normal, rotation, what)
         seed = np.asarray(seed, float).reshape(self.chain.n_dof)
-        q = self._drake_ik(p, n_t, R_t, seed)
-        q = self._polish(q, p, n_t, R_t)
+        q_solver = self._drake_ik(p, n_t, R_t, seed)
+        q = self._polish(q_solver, p, n_t, R_t)
         ep, ea = self.errors(q, p, n_t, R_t)
-        inside = np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9)
-        if ep > POSITION_TOL_M or ea > ANGLE_TOL_RAD or not inside:
-            orient = ("" if n_t is None and R_t is None else
-                      f" with normal {np.round(n_t, 4).tolist()}" if n_t is not None else " with the given rotation")
-            raise QmtInputError(f"{what} at {np.round(p, 4).tolist()} m{orient} is out of reach of {self.name} "
-                                f"(best found misses by {ep:.3g} m, {ea:.3g} rad"
-                                f"{'' if inside else ', outside the joint limits'}); move the point or "
-                                "change its orientation")
+        if ep > POSITION_TOL_M or ea > ANGLE_TOL_RAD or not self._inside(q):
+            self._refuse(q, p, n_t, R_t, what)
         return q
+
+    def _inside(self, q) -> bool:
+        return bool(np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9))
+
+    def _refuse(self, q, p, n_t, R_t, what: str) -> None:
+        """One line: the target, the residual of the best pose found and why it is not reached."""
+        ep, ea = self.errors(q, p, n_t, R_t)
+        orient = ("" if n_t is None and R_t is None else
+                  f" with normal {np.round(n_t, 4).tolist()}" if n_t is not None else " with the given rotation")
+        need = 6 if R_t is not None else 5 if n_t is not None else 3
+        n = self.chain.n_dof
+        names = self.chain.joint_names
+        at_limit = [names[j] for j in range(n) if q[j] <= self.lower[j] + 1e-7 or q[j] >= self.upper[j] - 1e-7]
+        rows, _ = self._linearised(q, p, n_t, R_t)
+        sv = np.linalg.svd(rows, compute_uv=False)
+        rank = int(np.sum(sv > SINGULAR_REL * sv[0])) if sv.size and sv[0] > 0 else 0
+        if n < need:
+            reason = (f"too few joints: {n} joints for a {need}-DOF target"
+                      + ("; let the spin about the face normal free (task.free_spin_about_normal: true)"
+                         if R_t is not None else ""))
+        elif not self._inside(q):
+            reason = "the best pose found is outside the joint limits"
+        elif at_limit:
+            reason = (f"outside the joint limits: the best pose has {', '.join(at_limit)} at its limit (from this "
+                      "seed the target needs it beyond; another seed_rad may reach it)")
+        elif rank < min(need, n):
+            reason = (f"singular orientation: the constraint's Jacobian has rank {rank} < {min(need, n)} there "
+                      "(e.g. the roll axis along the pan axis)")
+        else:
+            reason = "out of reach"
+        raise QmtInputError(f"{what} at {np.round(p, 4).tolist()} m{orient} is not reached by {self.name}: "
+                            f"residual {ep:.3g} m, {ea:.3g} rad; {reason}; move the point or change its "
+                            "orientation")
 
     def solve_path(self, positions_m, *, normals=None, rotations=None, seed, max_joint_step_rad=None,
                    what: str = "path point") -> np.ndarray:
@@ -110,8 +149,7 @@ class SpatialIK:
             n_k, R_k = (None, rotations[k]) if rotations is not None else (normals[k], None)
             q = self._polish(prev, P[k], n_k, R_k, iterations=20)
             ep, ea = self.errors(q, P[k], n_k, R_k)
-            inside = np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9)
-            if ep > POSITION_TOL_M or ea > ANGLE_TOL_RAD or not inside:
+            if ep > POSITION_TOL_M or ea > ANGLE_TOL_RAD or not self._inside(q):
                 q = self.solve(P[k], normal=n_k, rotation=R_k, seed=prev, what=f"{what} {k}")
             out[k] = prev = q
         return out
@@ -130,28 +168,49 @@ class SpatialIK:
         result = Solve(prog)
         return result.GetSolution(ik.q())
 
+    def _linearised(self, q, p, n_t, R_t):
+        """(rows, err): the pose error's Jacobian rows and the error (rotation vector rad; position m)."""
+        pos, R = self.chain.hand_pose(q[None])
+        pos, R = pos[0], R[0]
+        J = self.chain.spatial_jacobian(q[None])[0]
+        e_p = p - pos
+        if R_t is not None:
+            aa = RotationMatrix(R_t @ R.T).ToAngleAxis()
+            return J, np.concatenate([aa.axis() * aa.angle(), e_p])
+        if n_t is not None:
+            n = R @ self.face_axis
+            e_w = np.cross(n, n_t)  # small rotation taking n to n_t
+            P = np.eye(3) - np.outer(n, n)  # spin about n does not move the normal
+            return np.vstack([P @ J[:3], J[3:]]), np.concatenate([P @ e_w, e_p])
+        return J[3:], e_p
+
     def _polish(self, q, p, n_t, R_t, iterations: int = 8):
-        """Gauss-Newton on the hand pose error (minimum-norm steps, so a redundant arm moves least)."""
-        q = np.array(q, float)
-        for _ in range(iterations):
-            pos, R = self.chain.hand_pose(q[None])
-            pos, R = pos[0], R[0]
-            J = self.chain.spatial_jacobian(q[None])[0]
-            e_p = p - pos
-            if R_t is not None:
-                aa = RotationMatrix(R_t @ R.T).ToAngleAxis()
-                e_w = aa.axis() * aa.angle()
-                rows, err = J, np.concatenate([e_w, e_p])
-            elif n_t is not None:
-                n = R @ self.face_axis
-                e_w = np.cross(n, n_t)  # small rotation taking n to n_t
-                P = np.eye(3) - np.outer(n, n)  # spin about n does not move the normal
-                rows, err = np.vstack([P @ J[:3], J[3:]]), np.concatenate([P @ e_w, e_p])
-            else:
-                rows, err = J[3:], e_p
+        """Pose-error polish inside the joint limits (module docstring): a Gauss-Newton step (minimum
+        norm, so a redundant arm moves least) when it lowers |err|, else damped least-squares steps
+        J^T (J J^T + lambda I)^-1 err with lambda raised tenfold until one does; each candidate is
+        projected onto the limits; a step that does not lower |err| is never taken."""
+        q = np.clip(np.array(q, float), self.lower, self.upper)
+        rows, err = self._linearised(q, p, n_t, R_t)
+        cost = float(err @ err)
+        lam, rejected, taken = 0.0, 0, 0
+        while taken < iterations and rejected < LM_MAX_REJECTED:
             if np.abs(err).max() < 1e-13:
                 break
-            q = q + np.linalg.lstsq(rows, err, rcond=1e-10)[0]
+            if lam == 0.0:
+                step = np.linalg.lstsq(rows, err, rcond=1e-10)[0]
+            else:
+                step = rows.T @ np.linalg.solve(rows @ rows.T + lam * np.eye(len(err)), err)
+            q_new = np.clip(q + step, self.lower, self.upper)
+            rows_new, err_new = self._linearised(q_new, p, n_t, R_t)
+            cost_new = float(err_new @ err_new)
+            if np.isfinite(cost_new) and cost_new < cost:
+                q, rows, err, cost, taken = q_new, rows_new, err_new, cost_new, taken + 1
+                lam = 0.0 if lam <= LM_DAMPING0 else lam / 10.0
+            else:
+                rejected += 1
+                lam = LM_DAMPING0 if lam == 0.0 else lam * 10.0
+                if lam > LM_DAMPING_MAX:
+                    break
         return q
 
 

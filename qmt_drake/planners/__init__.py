@@ -9,9 +9,11 @@ name, so the CLI, the studies and the benchmark call them all the same way.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from typing import Any
 
+from qmt_drake.config.registry import check_registration
 from qmt_drake.config.scenario import Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan, family_plan
@@ -60,9 +62,27 @@ def _options_only(planner: Callable[..., Plan]) -> Callable[..., Plan]:
 PLANNERS: dict[str, Callable[..., Plan]] = {}
 
 
-def register_planner(name: str, planner: Callable[..., Plan]) -> None:
-    """planner(scenario, *, seed, progress, **options) -> Plan."""
+def register_planner(name: str, planner: Callable[..., Plan], *, replace: bool = False) -> None:
+    """planner(scenario, *, seed, progress, **options) -> Plan. A name registers once: an existing
+    one (a built-in too) only with replace=True; the planner's signature is checked now, not at its
+    first plan. One-line QmtInputError else."""
+    check_registration("planner", name, name in PLANNERS, replace)
+    if not callable(planner):
+        raise QmtInputError(f"planner {name!r}: {type(planner).__name__} is not callable; give a function "
+                            "planner(scenario, *, seed, progress, **options) -> Plan")
+    try:
+        inspect.signature(planner).bind(object(), seed=0, progress=None)
+    except TypeError as exc:
+        raise QmtInputError(f"planner {name!r} cannot be called as planner(scenario, *, seed, progress, **options) "
+                            f"({exc}); add those parameters") from None
+    except ValueError:  # no signature to read (a builtin): called as it is
+        pass
     PLANNERS[name] = planner
+
+
+def unregister_planner(name: str) -> None:
+    """Remove a planner registered with register_planner (no error if absent)."""
+    PLANNERS.pop(name, None)
 
 
 for _name, _planner in (("ga", _ga), ("optimum", _optimum), ("thesis", _thesis),
@@ -78,5 +98,5 @@ def plan_with(method: str, scenario: Scenario, *, seed: int = 0, progress: Progr
     a callable taking one line; options: the planner's own keywords (its docstring lists them; an
     unknown one raises TypeError, which the CLI turns into one line). Units: SI (s, rad)."""
     if method not in PLANNERS:
-        raise QmtInputError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")
+        raise QmtInputError(f"unknown method '{method}'; use one of {', '.join(PLANNERS)}")
     return PLANNERS[method](scenario, seed=seed, progress=progress, **options)

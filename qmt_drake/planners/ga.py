@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -35,6 +34,7 @@ import numpy as np
 
 from qmt_drake.config.scenario import GaSettings
 from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import write_text_atomic
 
 
 @dataclass
@@ -301,10 +301,7 @@ def _save_checkpoint(path: Path, run_id, pop, gen, rng, history, cache, best_key
                  cache=[[k.hex(), f, c, v] for k, (f, c, v) in cache.items()],
                  best_key=None if best_key is None else best_key.hex(),
                  best_cost=best_cost if np.isfinite(best_cost) else None, best_gen=best_gen, wall_s=wall_s)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(state, allow_nan=True))
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(state, allow_nan=True))
 
 
 def _load_checkpoint(path: Path, run_id: str) -> dict:

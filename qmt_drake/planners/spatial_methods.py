@@ -42,6 +42,7 @@ from pydrake.solvers import SnoptSolver, Solve, SolverOptions
 from pydrake.trajectories import BsplineTrajectory
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.model.spatial_ik import slerp_unit
 from qmt_drake.planners.spatial_families import spatial_family, via_cubic
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan
@@ -84,7 +85,7 @@ def plan_toppra_spatial(sc, *, n_grid: int = 1000, family: str = "via_cubic") ->
     t0 = time.perf_counter()
     fam = spatial_family(sc, family)
     if family == "via_cubic":
-        pp = joint_path(sc.q_path_rad)
+        pp = joint_path(sc.q_path_rad, *joint_range_by_name(sc.plant, sc.joint_names))  # kept inside the ranges
         traj, solve_s = _toppra(sc, pp, n_grid)
         s_poses = np.asarray(pp.get_segment_times())[sc.path_pose_index]
         return finish_plan(sc, "toppra", traj, traj.time_at(s_poses), t0,

@@ -22,8 +22,8 @@ what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KI
 Floats are written by repr (exact), so the rebuilt trajectory is the planned one to rounding;
 `write_spatial_plan` proves it on every write (rebuilt vs planned at 1 kHz, REBUILD_TOL) and never
 writes a file that does not reproduce its plan. `load_spatial_plan` refuses, in one line, a planar
-plan file, a plan of another scenario (its name: ur5-magnet-part has ur5-suction-bins's poses but
-another hand; joint count or names; task poses; or a start/end that Drake's forward kinematics puts
+plan file, a plan of another scenario (its content: plan_identity.py, whatever the names say; a file
+written before that record, by its name: ur5-magnet-part has ur5-suction-bins's poses but another hand; joint count or names; task poses; or a start/end that Drake's forward kinematics puts
 more than POSE_TOL away from the first/last task pose) and a file whose
 rebuilt trajectory disagrees with its own samples; it re-checks the limits and the task poses
 itself (nothing the file claims is trusted).
@@ -46,6 +46,14 @@ from qmt_drake.limits.clearance import clearance
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, ratio_report
 from qmt_drake.plan_files import plan_file_kind, read_plan_file, register_plan_kind
+from qmt_drake.plan_identity import (
+    IDENTITY_KEY,
+    check_identity,
+    differ_note,
+    differing_sections,
+    identity,
+    spatial_sections,
+)
 from qmt_drake.planners.spatial_families import SegmentTrajectory
 from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_trajectory import (
@@ -56,6 +64,7 @@ from qmt_drake.planners.spatial_trajectory import (
     ToppraTrajectory,
     check,
     pose_errors,
+    ratios_of,
     scale_to_hold,
 )
 from qmt_drake.spatial_task import SpatialScenario, load_spatial_scenario
@@ -133,8 +142,8 @@ def make_spatial_plan(sc, method: str, traj, pose_times_s, *, planning_s: float,
     """A SpatialPlan of `traj` on sc, re-checked at sc's re-check rate and its task poses measured by
     Drake FK at pose_times_s (nothing the planner says is taken on trust)."""
     times = np.asarray(pose_times_s, float)
-    rc = check(sc, traj, sc.recheck_rate_hz)
-    ratios = {k: v for k, v in rc.items() if k not in ("max", "n_samples")}
+    rc = check(sc, traj, sc.recheck_rate_hz, refine=True)
+    ratios = ratios_of(rc)
     seg = info.get("segment_times_s")
     genes = info.get("genes") or (None if seg is None else {f"T{i + 1}": v for i, v in enumerate(seg)})
     return SpatialPlan(scenario=sc, method=method, trajectory=traj,
@@ -151,7 +160,7 @@ def finish_plan(sc, method: str, traj, pose_times, t0: float, info: dict) -> Spa
     """The planner's trajectory held at the re-check rate (spatial_trajectory.scale_to_hold) as a
     SpatialPlan; t0 the planner's start (time.perf_counter) for its planning time."""
     raw = traj.duration_s
-    held, k = scale_to_hold(sc, traj, sc.recheck_rate_hz)
+    held, k = scale_to_hold(sc, traj, sc.recheck_rate_hz, refine=True)
     planning_s = time.perf_counter() - t0
     return make_spatial_plan(sc, method, held, np.asarray(pose_times, float) * k, planning_s=planning_s,
                              raw_duration_s=raw, hold_scale=k, info=info)
@@ -261,7 +270,7 @@ def plan_file_dict(sc, plan: SpatialPlan) -> dict:
             "scenario_path": str(sc.path), "n_dof": sc.n_dof, "joint_names": list(sc.joint_names),
             "poses_m": sc.poses_m, "face_normal": sc.face_normal, "pose_normals": sc.pose_normals,
             "pose_rotations": sc.pose_rotations,
-            "info": plan.info, "rebuild": spec}
+            "info": plan.info, "rebuild": spec, IDENTITY_KEY: identity(spatial_sections(sc))}
 
 
 def write_spatial_plan(sc, plan: SpatialPlan, path) -> None:
@@ -284,8 +293,11 @@ def _check_fits(d: dict, path, sc) -> None:
         raise QmtInputError(f"plan file {path} is {a_kind(plan_file_kind(d))} plan (scenario {d.get('scenario')}); spatial scenario "
                             f"{sc.name} needs a plan written by `qmt-drake plan {sc.name} --json PATH`")
     again = f"plan again with `qmt-drake plan {sc.name} --json PATH`"
-    if d.get("scenario") != sc.name:  # same geometry may carry another part or hand (ur5-magnet-part)
-        raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')}, not {sc.name}; {again}")
+    differ = differing_sections(d, spatial_sections(sc))  # content decides, whatever the names say
+    if differ != [] and d.get("scenario") != sc.name:  # other content, or no record: by its name
+        raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')}, not {sc.name}"
+                            f"{differ_note(differ)}; {again}")
+    check_identity(d, path, spatial_sections(sc), sc.name)  # the same name, other content
     if d.get("n_dof") != sc.n_dof or d.get("joint_names") != list(sc.joint_names):
         raise QmtInputError(f"plan file {path} is for joints {d.get('joint_names')} (scenario {d.get('scenario')}) "
                             f"but scenario {sc.name} has {list(sc.joint_names)}; {again}")

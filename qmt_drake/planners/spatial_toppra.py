@@ -25,20 +25,35 @@ from pydrake.trajectories import PiecewisePolynomial
 from scipy.linalg import block_diag
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
 from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.toppra_form import rows_constraints
 from qmt_drake.planners.toppra_passes import seidel_parameterization
 
+RANGE_SAMPLES_PER_SEGMENT = 64  # where the C2 cubic is looked at for leaving a joint's range
 
-def joint_path(q_waypoints) -> PiecewisePolynomial:
-    """q(s) through (K, n) waypoints; s = cumulative Euclidean joint-space chord length (rad)."""
+
+def joint_path(q_waypoints, lower_rad=None, upper_rad=None) -> PiecewisePolynomial:
+    """q(s) through (K, n) waypoints; s = cumulative Euclidean joint-space chord length (rad).
+
+    With the joint ranges (lower_rad, upper_rad (n,)), a C2 cubic that overshoots a range between
+    waypoints (seen on RANGE_SAMPLES_PER_SEGMENT points a segment) is replaced by Drake's
+    shape-preserving (Fritsch-Carlson) C1 cubic through the same waypoints, which never leaves the
+    interval of its neighbouring waypoints, hence the range; the plan's re-check confirms it."""
     Q = np.asarray(q_waypoints, float)
     step = np.linalg.norm(np.diff(Q, axis=0), axis=1)
     if np.any(step <= 0):
         raise QmtInputError("joint path: two neighbouring waypoints are equal; drop one")
     s = np.r_[0.0, np.cumsum(step)]
     zero = np.zeros(Q.shape[1])
-    return PiecewisePolynomial.CubicWithContinuousSecondDerivatives(s, Q.T, zero, zero)
+    pp = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(s, Q.T, zero, zero)
+    if lower_rad is None or upper_rad is None:
+        return pp
+    u = np.linspace(0.0, 1.0, RANGE_SAMPLES_PER_SEGMENT)
+    dense = pp.vector_values((s[:-1, None] + u[None, :] * np.diff(s)[:, None]).ravel()).T
+    if np.all(dense >= np.asarray(lower_rad)) and np.all(dense <= np.asarray(upper_rad)):
+        return pp
+    return PiecewisePolynomial.CubicShapePreserving(s, Q.T, zero_end_point_derivatives=True)
 
 
 class DrakePath:
@@ -140,10 +155,34 @@ def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_gr
     sdd, sd = seidel_parameterization(cons, path, grid)
     planning_s = time.perf_counter() - t0
     if sd is None or not np.all(np.isfinite(sd)):
-        raise QmtInputError("TOPP-RA found no parameterisation of the path under the limits (the path starts or "
-                            "passes where the limits cannot hold even at rest); relax a limit or change the path")
+        raise QmtInputError(_no_parameterisation(pp, chain, terms, grid))
     return {"duration_s": _duration(grid, sd), "planning_s": planning_s, "grid": grid, "sd": sd,
             "sdd": np.asarray(sdd, float), "n_grid": n_grid}
+
+
+def _no_parameterisation(pp, chain, terms, grid) -> str:
+    """The one-line refusal of an impossible path, naming the limit with the largest ratio at rest
+    along it (limits/at_rest.py), the path point and the hand's position there."""
+    Q = DrakePath(pp)(grid, 0)
+    zero = np.zeros_like(Q)
+    state = chain.evaluate(Q, zero, zero)
+    if terms:
+        cols = np.concatenate([t.columns(state) for t in terms], axis=1)
+        labels = [c for t in terms for c in t.column_names]
+        lim = np.concatenate([np.asarray(getattr(t, "joint_limit_Nm", np.full(len(t.column_names), np.nan)), float)
+                              for t in terms])
+        w = worst_at_rest(cols, labels, limits_Nm=lim)
+        k = w["sample"]
+        where = (f"path point s = {grid[k]:.4g} rad ({100 * (grid[k] - grid[0]) / (grid[-1] - grid[0]):.0f} % along, "
+                 f"hand at {np.round(state['position_m'][k], 4).tolist()} m)")
+        clause = describe_at_rest(w, where)
+        if w["ratio"] > 1.0:
+            return (f"TOPP-RA found no parameterisation of the path: {clause}; no timing can hold it there (gravity "
+                    "alone breaks it); relax that limit or move the path")
+        return (f"TOPP-RA found no parameterisation of the path, although every limit holds at rest along it "
+                f"(the largest: {clause}); try more grid points or a smoother path")
+    return ("TOPP-RA found no parameterisation of the path under the joint speed and acceleration limits; "
+            "try more grid points or a smoother path")
 
 
 def plan_drake_toppra(pp, plant, *, velocity_limit, acceleration_limit, torque_limit=None,
@@ -162,9 +201,31 @@ def plan_drake_toppra(pp, plant, *, velocity_limit, acceleration_limit, torque_l
     s_traj = solver.SolvePathParameterization()
     planning_s = time.perf_counter() - t0
     if s_traj is None:
-        raise QmtInputError("Drake's Toppra found no parameterisation of the path; relax a limit")
+        raise QmtInputError("Drake's Toppra found no parameterisation of the path"
+                            + _drake_at_rest(pp, plant, grid, torque_limit) + "; relax a limit")
     return {"duration_s": float(s_traj.end_time() - s_traj.start_time()), "planning_s": planning_s,
             "n_grid": n_grid, "s_of_t": s_traj}
+
+
+def _drake_at_rest(pp, plant, grid, torque_limit) -> str:
+    """': <joint torque> needs r of its limit at rest (...)' by Drake's gravity forces along the path
+    (plant positions = the path's rows), or '' without torque limits."""
+    if torque_limit is None:
+        return ""
+    ctx = plant.CreateDefaultContext()
+    tau = []
+    for q in pp.vector_values(grid).T:
+        plant.SetPositions(ctx, q)
+        tau.append(plant.CalcGravityGeneralizedForces(ctx))  # the torque holding q still is its negative
+    tl = np.asarray(torque_limit, float)
+    labels = [f"joint_torque[{j}]" for j in range(tl.size)]
+    for idx in plant.GetJointIndices():
+        j = plant.get_joint(idx)
+        if j.num_velocities() == 1 and j.velocity_start() < tl.size:
+            labels[j.velocity_start()] = f"joint_torque[{j.name()}]"
+    w = worst_at_rest(np.abs(np.array(tau)) / tl, labels, limits_Nm=tl)
+    k = w["sample"]
+    return ": " + describe_at_rest(w, f"path point s = {grid[k]:.4g} rad")
 
 
 def recheck(plan: dict, pp, chain, terms, *, refine: int = 10) -> dict:

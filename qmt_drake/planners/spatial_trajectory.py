@@ -8,7 +8,10 @@ one k times slower: q(t / k), qd / k, qdd / k^2 (positions, hence every task pos
 
 `check(sc, traj, rate_hz)` samples at rate_hz (and both ends) and returns the largest ratio of every
 limit: joint speed, joint acceleration, joint torque (through the scenario's SpatialChain: gravity,
-the carried part, reflected rotor inertia), suction grip (limits/suction.py); 1 = on the limit.
+the carried part, reflected rotor inertia), the hand's term (limits/suction.py, ...), the joint range;
+1 = on the limit; with refine=True (the re-check of every plan) the local maxima between the samples
+refined as the planar re-check does (limits/spatial_columns.py, limits/refine.py), and the binding
+column named.
 `scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
 smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
 check holds. `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
@@ -20,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.spatial_columns import TIMED_GROUPS_EXCLUDE, SpatialColumns, binding, peaks
 from qmt_drake.planners.spatial_toppra import DrakePath
 
 
@@ -126,39 +130,78 @@ def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:
     return np.linspace(0.0, duration_s, n + 1)
 
 
-def check(sc, traj, rate_hz: float, terms=None) -> dict:
-    """Largest ratio of every limit over the samples (module docstring); 'max' the largest of all."""
+NOT_RATIOS = ("max", "max_timed", "n_samples", "binding", "binding_time_s", "refined_local_maxima")
+
+
+def ratios_of(result: dict) -> dict:
+    """The ratio entries of a `check` result (limit name -> peak / limit)."""
+    return {k: v for k, v in result.items() if k not in NOT_RATIOS}
+
+
+def check(sc, traj, rate_hz: float, terms=None, *, refine: bool = False) -> dict:
+    """Largest ratio of every limit over the samples (module docstring; limits/spatial_columns.py:
+    joint speed, acceleration, the terms, the joint range), with `refine` the local maxima between
+    the samples refined (limits/refine.py, as the planar re-check); 'max' the largest of all,
+    'max_timed' the largest of those a time scaling changes (all but the joint range), 'binding' the
+    largest column ('motor_torque[shoulder_lift_joint]', 'suction', 'joint_range[elbow_joint]', ...)
+    and 'binding_time_s' its time."""
     t = sample_times(traj.duration_s, rate_hz)
-    q, qd, qdd = traj.sample(t)
-    state = sc.chain.evaluate(q, qd, qdd)
-    out = {"joint_speed": float(np.max(np.abs(qd) / sc.velocity_limit_rad_s)),
-           "joint_acceleration": float(np.max(np.abs(qdd) / sc.acceleration_limit_rad_s2))}
-    for term in (terms if terms is not None else sc.terms()):
-        out[term.name] = float(np.max(term.columns(state)))
+    cols = SpatialColumns(sc, terms)
+    peak, t_peak, refined = peaks(cols, traj, t, refine)
+    out = {name: float(peak[cols.slices[name]].max()) for name, _ in cols.groups}
+    timed = [v for k, v in out.items() if k not in TIMED_GROUPS_EXCLUDE]
+    b = binding(cols, peak, t_peak)
     out["max"] = max(out.values())
+    out["max_timed"] = max(timed)
     out["n_samples"] = int(len(t))
+    out["binding"], out["binding_time_s"] = b["column"], b["time_s"]
+    out["refined_local_maxima"] = int(refined)
     return out
 
 
-def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: float = 1e-4):
+def _held(sc, traj, k, rate_hz, refine):
+    return check(sc, traj if k == 1.0 else TimeScaled(traj, k), rate_hz, refine=refine)["max_timed"] <= 1.0
+
+
+def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: float = 1e-4, refine: bool = False):
     """(trajectory, k): traj itself (k = 1) if its check holds, else TimeScaled(traj, k) with the
-    smallest k (to 1e-4 relative) whose check holds."""
-    if check(sc, traj, rate_hz)["max"] <= 1.0:
-        return traj, 1.0
-    if check(sc, TimeScaled(traj, k_max), rate_hz)["max"] > 1.0:
-        worst = {k: v for k, v in check(sc, TimeScaled(traj, k_max), rate_hz).items() if k not in ("max", "n_samples")}
-        name = max(worst, key=worst.get)
-        raise QmtInputError(f"the trajectory breaks its {name} limit (ratio {worst[name]:.3g}) even {k_max:g} times "
-                            "slower, where speed no longer matters (e.g. gravity on a tilted hand); relax that limit "
-                            "or keep the hand closer to the task's orientation")
-    lo, hi = 1.0, k_max
-    while hi / lo - 1.0 > rel_tol:
-        mid = 0.5 * (lo + hi)
-        if check(sc, TimeScaled(traj, mid), rate_hz)["max"] <= 1.0:
-            hi = mid
-        else:
-            lo = mid
-    return TimeScaled(traj, hi), hi
+    smallest k (to 1e-4 relative) whose check holds. Only the limits a time scaling changes decide
+    (a joint outside its range stays outside; the re-check reports it). With `refine` the k found on
+    the samples is then checked with the local maxima refined between them and, where a maximum
+    between samples still breaks a limit, raised until the refined check holds too (the k of a plan
+    that holds between its samples is the sampled one, unchanged)."""
+    k = 1.0
+    if not _held(sc, traj, 1.0, rate_hz, False):
+        if not _held(sc, traj, k_max, rate_hz, False):
+            worst = ratios_of(check(sc, TimeScaled(traj, k_max), rate_hz))
+            worst.pop(TIMED_GROUPS_EXCLUDE[0], None)
+            name = max(worst, key=worst.get)
+            raise QmtInputError(f"the trajectory breaks its {name} limit (ratio {worst[name]:.3g}) even {k_max:g} times "
+                                "slower, where speed no longer matters (e.g. gravity on a tilted hand); relax that limit "
+                                "or keep the hand closer to the task's orientation")
+        lo, hi = 1.0, k_max
+        while hi / lo - 1.0 > rel_tol:
+            mid = 0.5 * (lo + hi)
+            if _held(sc, traj, mid, rate_hz, False):
+                hi = mid
+            else:
+                lo = mid
+        k = hi
+    if refine and not _held(sc, traj, k, rate_hz, True):
+        lo, hi = k, min(k * (1.0 + 16.0 * rel_tol), k_max)
+        while not _held(sc, traj, hi, rate_hz, True):
+            if hi >= k_max:
+                raise QmtInputError(f"the trajectory breaks a limit between its samples even {k_max:g} times slower; "
+                                    "relax that limit")
+            lo, hi = hi, min(hi * 1.1, k_max)
+        while hi / lo - 1.0 > rel_tol:
+            mid = 0.5 * (lo + hi)
+            if _held(sc, traj, mid, rate_hz, True):
+                hi = mid
+            else:
+                lo = mid
+        k = hi
+    return (traj, 1.0) if k == 1.0 else (TimeScaled(traj, k), k)
 
 
 def pose_errors(sc, traj, times_s) -> np.ndarray:

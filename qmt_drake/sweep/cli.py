@@ -31,6 +31,7 @@ from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir, check_output_path, write_text_atomic
 from qmt_drake.sweep.budget import estimate_sweep
+from qmt_drake.sweep.cluster import DEFAULT_DASHBOARD_ADDRESS, check_dashboard_address
 from qmt_drake.sweep.runner import check_scheduler_address, format_table, run_sweep
 from qmt_drake.sweep.spec import load_spec
 
@@ -49,6 +50,8 @@ def add_parser(subparsers):
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="a running Dask scheduler (default: a LocalCluster on this machine)")
     s.add_argument("--out", default="out", help="output folder (default: out); results in OUT/<name>/")
+    s.add_argument("--dashboard", metavar="HOST:PORT", default=DEFAULT_DASHBOARD_ADDRESS,
+                   help="the LocalCluster's Dask dashboard (default 127.0.0.1:0: this machine only, a free port)")
     s.add_argument("--workers", type=int, default=None,
                    help="LocalCluster worker processes, one thread each (default: one per core)")
     s.add_argument("--allowed-failures", type=int, default=3,
@@ -71,6 +74,7 @@ def cmd_sweep(args) -> int:
                             f"{args.allowed_failures}")
     if args.scheduler is not None:
         check_scheduler_address(args.scheduler)
+    check_dashboard_address(args.dashboard)
     if not str(args.out).strip():
         raise QmtInputError("--out: empty path; give a folder")
     spec = load_spec(args.spec)
@@ -82,7 +86,7 @@ def cmd_sweep(args) -> int:
     announce(est)
     out = run_sweep(spec, args.out, scheduler=args.scheduler, workers=args.workers,
                     allowed_failures=args.allowed_failures, progress=not args.quiet,
-                    figures=not args.no_figures)
+                    figures=not args.no_figures, dashboard_address=args.dashboard)
     print(format_table(out["rows"], list(spec.grid)))
     rate = f", {out['cases_per_min']:.1f} cases/min" if out["cases_per_min"] else ""
     print(f"{out['cases']} cases: {out['from_store']} from the store, {out['computed']} computed, "

@@ -15,6 +15,19 @@ from qmt_drake.errors import QmtInputError
 
 DEFAULT_ALLOWED_FAILURES = 3  # Dask's own default, stated so a LocalCluster sweep does not depend on it
 CONNECT_TIMEOUT_S = 3.0  # an unroutable --scheduler is refused after this
+# The LocalCluster's dashboard: this machine only, a free port (Dask's default ':8787' listens on every
+# interface); another address only when the user asks (`qmt-drake sweep --dashboard HOST:PORT`).
+DEFAULT_DASHBOARD_ADDRESS = "127.0.0.1:0"
+LOCAL_HOST = "127.0.0.1"  # the LocalCluster's scheduler and workers
+
+
+def check_dashboard_address(address: str) -> str:
+    """HOST:PORT for the LocalCluster's dashboard (PORT 0: a free one); anything else: QmtInputError."""
+    host, sep, port = str(address).strip().rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) < 65536:
+        raise QmtInputError(f"--dashboard '{address}' is not HOST:PORT (e.g. 127.0.0.1:8787; port 0 picks a "
+                            "free one; 0.0.0.0:PORT opens it to the network)")
+    return f"{host}:{int(port)}"
 
 
 def check_scheduler_address(address: str) -> str:
@@ -85,9 +98,13 @@ def _dask_identity(addr: str, timeout_s: float) -> str | None:
 
 @contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None, *,
-                allowed_failures: int = DEFAULT_ALLOWED_FAILURES, connect_timeout_s: float = CONNECT_TIMEOUT_S):
+                allowed_failures: int = DEFAULT_ALLOWED_FAILURES, connect_timeout_s: float = CONNECT_TIMEOUT_S,
+                dashboard_address: str = DEFAULT_DASHBOARD_ADDRESS):
     """A distributed.Client on a new LocalCluster (`workers` single-threaded processes, default one
-    per core) or on the scheduler at `scheduler`; closed (and the local cluster shut down) on exit."""
+    per core; scheduler and workers on 127.0.0.1, the dashboard at `dashboard_address`, by default
+    127.0.0.1 and a free port) or on the scheduler at `scheduler`; closed (and the local cluster shut
+    down) on exit."""
+    dashboard_address = check_dashboard_address(dashboard_address)
     # lazy: Dask (~0.4 s) only when a sweep runs
     import dask
     from distributed import Client, LocalCluster
@@ -118,8 +135,8 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *,
         # compete with the other workers for the cores.
         for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
             os.environ.setdefault(var, "1")
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=logging.CRITICAL)
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host=LOCAL_HOST,
+                               dashboard_address=dashboard_address, silence_logs=logging.CRITICAL)
         client = Client(cluster, set_as_default=False)
         try:
             yield client

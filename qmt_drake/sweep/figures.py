@@ -3,11 +3,12 @@ parameter against the largest slip of every case (carried green, lost red, the 1
 
 from __future__ import annotations
 
-import os
 import textwrap
 from pathlib import Path
 
 import numpy as np
+
+from qmt_drake.outputs import atomic_output
 
 HELD_SLIP_LIMIT_M = 1e-3  # sim.HELD_SLIP_LIMIT_M (not imported: figures need no Drake)
 
@@ -69,8 +70,6 @@ def write_figures(spec, root: Path, results: list[dict], rows: list[dict]) -> di
 
 def _save(fig, path: Path) -> str:
     """savefig to a temporary name, then rename (atomic, like write_text_atomic)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    with atomic_output(path, suffix=".tmp.png") as tmp:  # unpredictable temporary name
+        fig.savefig(path if tmp is None else tmp, dpi=110)  # None: a device node, written through
     return str(path)

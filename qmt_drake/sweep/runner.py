@@ -38,6 +38,8 @@ from qmt_drake.sweep.cases import build_cases, make_plan_doc, run_case
 from qmt_drake.sweep.cluster import (
     CONNECT_TIMEOUT_S,
     DEFAULT_ALLOWED_FAILURES,
+    DEFAULT_DASHBOARD_ADDRESS,
+    check_dashboard_address,
     check_scheduler_address,
     dask_client,
     probe_scheduler,
@@ -92,17 +94,20 @@ class Progress:
 def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", *, scheduler: str | None = None,
               workers: int | None = None, allowed_failures: int = DEFAULT_ALLOWED_FAILURES,
               case_fn=run_case, plan_fn=make_plan_doc, progress: bool = True, figures: bool = True,
-              connect_timeout_s: float = CONNECT_TIMEOUT_S, client=None) -> dict:
+              connect_timeout_s: float = CONNECT_TIMEOUT_S, client=None,
+              dashboard_address: str = DEFAULT_DASHBOARD_ADDRESS) -> dict:
     """Run every case of `spec` not yet in <out_dir>/<spec.name>/ and summarise all of them.
 
     case_fn(case, plan_doc) -> dict and plan_fn(plan_ref) -> dict run in the workers (tests inject
-    cheap ones); `client` reuses an open distributed.Client (scheduler/workers are then ignored).
+    cheap ones); `client` reuses an open distributed.Client (scheduler/workers are then ignored);
+    dashboard_address: the LocalCluster's dashboard (default 127.0.0.1, a free port).
     Returns a dict: counts (cases, from_store, computed, failed), failures, wall times, cases per
     minute of the case phase, the summary rows and the paths written."""
     if not isinstance(spec, SweepSpec):
         spec = load_spec(spec)
     if scheduler:
         check_scheduler_address(scheduler)
+    check_dashboard_address(dashboard_address)
     if workers is not None and int(workers) < 1:
         raise QmtInputError(f"--workers must be >= 1, got {workers}")
     store = SweepStore(Path(out_dir) / spec.name)
@@ -130,7 +135,7 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
         needed = {c.plan_key for c in pending}
         with (_reuse(client) if client is not None else
               dask_client(scheduler, workers, allowed_failures=allowed_failures,
-                          connect_timeout_s=connect_timeout_s)) as cl:
+                          connect_timeout_s=connect_timeout_s, dashboard_address=dashboard_address)) as cl:
             workers_used = len(cl.scheduler_info().get("workers", {}))
             docs = _plan_phase(cl, store, {k: plan_refs[k] for k in needed}, plan_fn, failures)
             prog.show(force=True)

@@ -28,6 +28,7 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
 from qmt_drake.tray.conditions import (
     contact_wrench,
@@ -152,6 +153,10 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
             "friction": bottle.friction, "com_height_m": bottle.com_height_m}
     if traj is None:
         info["feasible"] = False
+        rest = np.zeros_like(theta)  # name the limit with the largest ratio at rest on the line
+        w = worst_at_rest(ls.columns(theta, rest, rest), ls.column_names, ls.ratio_mask)
+        info["infeasible"] = "toppra found no parameterization: " + describe_at_rest(
+            w, f"waypoint {w['sample']} of {len(theta) - 1}")
         return None, info
     T = float(traj.duration)
     t = np.arange(0.0, T + 0.5 * stream_period_s, stream_period_s)

@@ -52,6 +52,7 @@ from pydrake.multibody.optimization import Toppra
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
 from qmt_drake.plan import Plan
 from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan, no_path_plan
 from qmt_drake.planners.baselines.paths import (
@@ -141,6 +142,23 @@ def _segments_into(extra: dict, scenario, path: str, reference_plan):
     return segs
 
 
+def _at_rest_clause(scenario, segment, grid_points: int) -> str:
+    """The limit with the largest ratio at rest along the segment (limits/at_rest.py): it names the
+    culprit when gravity alone breaks a limit somewhere on the path."""
+    ls = scenario.limit_set
+    s = np.linspace(0.0, segment.length, int(grid_points))
+    q = segment.derivatives(s)[0]
+    zero = np.zeros_like(q)
+    motor = ls.term("motor_torque")
+    lim = np.full(ls.n_columns, np.nan)
+    if motor is not None:
+        lim[ls.slices["motor_torque"]] = motor.joint_limit_Nm
+    w = worst_at_rest(ls.columns(q, zero, zero), ls.column_names, ls.ratio_mask, lim)
+    k = w["sample"]
+    clause = describe_at_rest(w, f"path point s = {s[k]:.4g} ({100 * k / max(len(s) - 1, 1):.0f} % along)")
+    return clause + ("; no timing holds it there" if w["ratio"] > 1.0 else "; every limit holds at rest on the path")
+
+
 def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_points: int = 200,
                 reference_plan: Plan | None = None, *, parametrizer: str = "ParametrizeConstAccel",
                 measure_polygon_cost: bool = True, slow_to_limits: bool = True,
@@ -182,7 +200,8 @@ def plan_toppra(scenario, path: str = "family", polygon_sides: int = 32, grid_po
         solve_wall += wall
         codes.append(code)
         if traj is None:
-            return infeasible_plan(scenario, method, f"toppra found no parameterization ({code})",
+            return infeasible_plan(scenario, method, f"toppra found no parameterization ({code}): "
+                                   + _at_rest_clause(scenario, seg, grid_points),
                                    planner_wall_s=time.perf_counter() - t_start, extra=extra)
         parts.append(traj)
         if measure_polygon_cost:
@@ -250,7 +269,8 @@ def plan_toppra_drake(scenario, path: str = "family", grid_points: int = 200,
         s_of_t = top.SolvePathParameterization()
         solve_wall += time.perf_counter() - t0
         if s_of_t is None:
-            return infeasible_plan(scenario, method, "Drake Toppra found no parameterization",
+            return infeasible_plan(scenario, method, "Drake Toppra found no parameterization: "
+                                   + _at_rest_clause(scenario, seg, grid_points),
                                    planner_wall_s=time.perf_counter() - t_start, extra=extra)
         parts.append(_drake_timed(pp, s_of_t))
     extra["toppra_solve_wall_s"] = solve_wall
