@@ -38,6 +38,8 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   arm can then reach a face-down pose its hand_rpy_rad would over-constrain; with face_normal(s) the
   spin is always free).
 - limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
+- world (optional): obstacles, a list of boxes, cylinders, meshes and bins welded to the world
+  (model/obstacles.py; the re-check's clearance, limits/clearance.py; docs/obstacles.md).
 
 Every task pose is solved by SpatialIK on the seed's branch and checked by Drake's forward kinematics
 to 1e-6 m / 1e-6 rad; an unreachable pose is refused naming it.
@@ -60,6 +62,7 @@ from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
+from qmt_drake.model.obstacles import parse_obstacles
 from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.spatial_ik import SpatialIK, slerp_rotations, slerp_unit
 from qmt_drake.model.urdf_check import drive_parameters, load_arm_plant, off_chain_locks, urdf_joint_limits
@@ -70,7 +73,7 @@ SPATIAL_KIND = SPATIAL
 RECHECK_FACTOR = 10
 HAND_PHYSICS = ("weld", "contact")  # hand.physics: how the co-simulation holds a suction or magnet part
 OPTIONAL_ACTUATOR_KEYS = ("velocity_limit_rad_s", "torque_limit_Nm", "gear_ratio", "rotor_inertia_kgm2")
-TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits"}
+TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits", "world"}
 
 
 @dataclass
@@ -108,6 +111,7 @@ class SpatialScenario:
     path_normals: np.ndarray | None = None  # (P, 3) the face normal at each path point
     pose_rotations: np.ndarray | None = None  # (K, 3, 3) R_WH at each task pose (task.hand_rpy_rad); None: normals
     path_rotations: np.ndarray | None = None  # (P, 3, 3)
+    obstacles: tuple = ()  # world.obstacles (model/obstacles.Obstacle), welded to the world
 
     @property
     def n_dof(self) -> int:
@@ -188,6 +192,9 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     F.check_keys(raw, TOP_KEYS, where)
     if raw.get("kind") != SPATIAL_KIND:
         raise QmtInputError(f"{where}: kind must be '{SPATIAL_KIND}' for a spatial scenario, got {raw.get('kind')!r}")
+    world = F.mapping(raw, "world", where, default={})
+    F.check_keys(world, {"obstacles"}, f"{where}: world")
+    obstacles = parse_obstacles(world.get("obstacles"), f"{where}: world.obstacles", path.parent)
     urdf, hand, lock, face_axis = _arm(F.mapping(raw, "arm", where), f"{where}: arm", path.parent)
 
     w = f"{where}: actuators"
@@ -272,7 +279,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
                            hand_kind=kind, hand_physics=physics, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
                            motor=motor, pose_normals=pose_normals, path_normals=normals,
-                           pose_rotations=pose_rotations, path_rotations=rotations)
+                           pose_rotations=pose_rotations, path_rotations=rotations, obstacles=obstacles)
     if cup is None:
         _check_holds_at_rest(sc, f"{where}: payload")
     return sc

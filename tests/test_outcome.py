@@ -24,6 +24,6 @@ def test_each_outcome(lost, slipped, err, tol, want):
 def test_only_carried_reads_as_carried():
     for o in OUTCOMES:
         line = verdict_line(o, 1.5)
-        assert ("LOST" in line or "UNFINISHED" in line) == (o != "carried")
+        assert ("LOST" in line or "UNFINISHED" in line or "COLLIDED" in line) == (o != "carried")
     with pytest.raises(ValueError):
         transfer_outcome("carried", False, 0.0, 1e-3)

@@ -181,7 +181,7 @@ def plan(args, energy_options) -> bool:
         p.write_csv(args.trajectory_csv)
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
         print(summary_line(sc, p, bound))
-    return p.recheck["max"] <= 1.0
+    return p.recheck["max"] <= 1.0 and p.feasible  # feasible: also clear of the obstacles (limits/clearance.py)
 
 
 def _check_carried_budget(args, motion_time_s: float) -> None:
@@ -200,6 +200,11 @@ def summary_line(sc, p, bound) -> str:
     line += f", peak jerk {pj['peak_jerk_ratio']:.3g} x the limit at {sc.recheck_rate_hz:g} Hz"
     if p.info.get("jerk_limited"):
         line += f" (jerk-limited: {p.info['jerk_time_scale']:.4f} x slower than {p.info['duration_before_jerk_limit_s']:.4f} s)"
+    if p.clearance:
+        c = p.clearance
+        line += (f", clearance >= {c['clearance_m']:.4f} m (no obstacle nearer)" if c["clearance_pair"] is None else
+                 f", clearance {c['clearance_m']:+.4f} m ({' vs '.join(c['clearance_pair'])} at "
+                 f"{c['clearance_time_s']:.4f} s{'; COLLIDES' if c['clearance_m'] < 0 else ''})")
     s = p.info.get("carried_search")
     if s:
         lost = f", lost at x{s['lost_below']:.4f}" if s["lost_below"] else ", as planned"
@@ -236,7 +241,7 @@ def simulate(args, energy_options=()) -> int:
     emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
                         **r, "wall_s": wall}), args.json)
     if args.json != "-":
-        print(f"{sc.name} {p.method} x{args.time_scale:g}: {verdict_line(r['outcome'], r['lost_at_s'])}, "
+        print(f"{sc.name} {p.method} x{args.time_scale:g}: {verdict_line(r['outcome'], r.get('collided_at_s') or r['lost_at_s'])}, "
               f"T = {r['duration_s']:.4f} s, largest hand ratio while held {r['max_grip_ratio_while_held']:.4f}, "
               f"goal error {r['final_goal_error_rad']:.1e} rad, {_where_the_part_ended(r)}, "
               f"real-time factor {(r['duration_s'] + TAIL_S) / wall:.2f}"

@@ -43,6 +43,7 @@ from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
 
 from qmt_drake.api_checks import path_arg
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.clearance import clearance
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, check_csv_args, ratio_report
 from qmt_drake.plan_files import plan_file_kind, read_plan_file, register_plan_kind
@@ -79,18 +80,25 @@ class SpatialPlan(Plan):
     already scaled to hold; `check` the re-check at the re-check rate (10x the check rate) as a
     LimitReport of ratios (plan.ratio_report), `recheck` the same as a dict ('max' the largest);
     pose_times_s when the hand is at each task pose, pose_error (K, 2) their Drake-FK errors (m, rad),
-    raw_duration_s before scale_to_hold, hold_scale its k (1: none needed); `info` (= extra) the planner's facts."""
+    raw_duration_s before scale_to_hold, hold_scale its k (1: none needed); `info` (= extra) the planner's facts;
+    `clearance` (a scenario with obstacles) the smallest signed distance of the arm and part from them along the
+    plan (limits/clearance.py; < 0: a collision, and the plan is not feasible), {} without obstacles."""
 
     pose_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     raw_duration_s: float = 0.0
     hold_scale: float = 1.0
     recheck: dict = field(default_factory=dict)
     pose_error: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    clearance: dict = field(default_factory=dict)
     scenario_kind: ClassVar[str] = SPATIAL_PLAN_KIND
 
     @property
     def duration_s(self) -> float:
         return float(self.trajectory.duration_s)
+
+    @property
+    def feasible(self) -> bool:
+        return self.check.feasible and self.clearance.get("clearance_m", 0.0) >= 0.0
 
     @property
     def planning_s(self) -> float:
@@ -111,13 +119,13 @@ class SpatialPlan(Plan):
     def summary(self) -> dict:
         c = self.check
         return {"scenario": self.scenario.name, "scenario_kind": self.scenario_kind, "method": self.method,
-                "feasible": c.feasible, "motion_time_s": self.duration_s, "peak_ratios": dict(c.peak_ratios),
+                "feasible": self.feasible, "motion_time_s": self.duration_s, "peak_ratios": dict(c.peak_ratios),
                 "check_rate_hz": c.rate_hz, "planner_wall_s": self.planner_wall_s, "n_dof": self.n_dof,
                 "duration_s": self.duration_s, "planning_s": self.planning_s,
                 "raw_duration_s": self.raw_duration_s, "hold_scale": self.hold_scale,
                 "recheck_max_ratio": self.recheck["max"], "recheck": self.recheck,
                 "max_pose_position_error_m": float(self.pose_error[:, 0].max()),
-                "max_pose_angle_error_rad": float(self.pose_error[:, 1].max()), **self.info}
+                "max_pose_angle_error_rad": float(self.pose_error[:, 1].max()), **self.clearance, **self.info}
 
     def to_json_dict(self) -> dict:
         """The plan file's mapping (module docstring), JSON-ready."""
@@ -146,7 +154,8 @@ def make_spatial_plan(sc, method: str, traj, pose_times_s, *, planning_s: float,
                        planner_wall_s=float(planning_s), evaluations=int(info.get("evaluations", 0)),
                        generations=int(info.get("generations", 0)), extra=dict(info), pose_times_s=times,
                        raw_duration_s=float(raw_duration_s), hold_scale=float(hold_scale), recheck=rc,
-                       pose_error=pose_errors(sc, traj, times))
+                       pose_error=pose_errors(sc, traj, times),
+                       clearance=clearance(sc, traj, sc.recheck_rate_hz) if sc.obstacles else {})
 
 
 def finish_plan(sc, method: str, traj, pose_times, t0: float, info: dict) -> SpatialPlan:

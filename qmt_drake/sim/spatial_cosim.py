@@ -44,12 +44,13 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.limits.clearance import clearance_of_states
 from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.suction import GripModel, cached_grip
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.urdf_check import load_arm_plant
-from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome, with_collision
 from qmt_drake.sim.spatial_actuation import (
     SpatialMotorDrive,
     add_tracking_logs,
@@ -71,6 +72,24 @@ TIME_STEP_S = 1e-3
 KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
 TAIL_S = 0.5
 FINE_GRIP = (24, 8)
+COLLISION_CHECK_EVERY = 5  # logged 1 ms states: every 5th, then state by state near the minima (limits/clearance.py)
+
+
+def collision_check(sc, logs, root_context, outcome: str, lost_at_s, settle_s: float = 0.0) -> tuple[str, dict]:
+    """After the run (no system in the loop): the clearance of the logged arm and its carried part from the
+    scenario's obstacles until the part was lost; (outcome, facts) with outcome 'collided' when it went
+    below 0 first (outcome.with_collision; collided_at_s and collision_pair: the first touch). The obstacles
+    push nothing in the simulated dynamics: the first touch ends the transfer. No obstacles: (outcome, {})."""
+    if not sc.obstacles:
+        return outcome, {}
+    log = logs["arm_state"].FindLog(root_context)
+    t = log.sample_times() - settle_s
+    keep = (t >= 0.0) & (t <= (np.inf if lost_at_s is None else lost_at_s))
+    c = clearance_of_states(sc, t[keep], log.data()[:sc.n_dof, keep].T, every=COLLISION_CHECK_EVERY)
+    first = c.pop("first_contact")
+    at = None if first is None else first["time_s"]
+    return with_collision(outcome, at, lost_at_s), {**c, "collided_at_s": at,
+                                                    "collision_pair": None if first is None else first["pair"]}
 
 
 def _reference(traj):
@@ -168,11 +187,12 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     lost = "detached" if detached else None
     err = float(np.abs(q_goal - q_end).max())
     outcome = transfer_outcome(lost, False, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+    outcome, hit = collision_check(sc, logs, ctx, outcome, lost_at_s if lost else None)
     gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation() - H.CalcPoseInWorld(pctx).translation()))
     return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at_s,
             "max_grip_ratio_while_held": largest, "final_goal_error_rad": err, "duration_s": traj.duration_s,
             "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
-            **tracking_report(logs, ctx, traj.duration_s, sc, drive)}
+            **tracking_report(logs, ctx, traj.duration_s, sc, drive), **hit}
 
 
 # --- tray hand: the cup a free body in friction contact with a tray box welded to the hand ---------
@@ -293,6 +313,7 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
     lost, lost_at, slipped = classify_tray_run(t[seated] - SETTLE_S, slide, tilt, spec, sc.cup.tray_size_m)
     err = float(np.abs(q_goal - plant.GetPositions(pctx, arm)).max())
     outcome = transfer_outcome(lost, slipped and lost is None, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+    outcome, hit = collision_check(sc, tracking, ctx, outcome, lost_at, settle_s=SETTLE_S)
     # the tray term's ratio of the cup's contact wrench from the first update at SETTLE_S, up to and
     # including its first value above 1
     t_up, r = log.ratios(ctx, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S)
@@ -304,4 +325,4 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
             "final_goal_error_rad": err, "duration_s": traj.duration_s,
             "max_slide_m": float(np.max(np.hypot(*slide))), "final_slide_m": float(np.hypot(*slide[:, -1])),
             "max_tilt_rad": float(np.max(tilt)), "actuator": "ideal" if drive is None else "dc_motor",
-            **tracking_report(tracking, ctx, t_end, sc, drive)}
+            **tracking_report(tracking, ctx, t_end, sc, drive), **hit}

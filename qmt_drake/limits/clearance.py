@@ -1,0 +1,242 @@
+"""Clearance of a spatial arm and its carried part from the scenario's obstacles, by Drake's signed
+distance, independently of any planner.
+
+`CollisionModel(sc)` builds, once per scenario (cached), a MultibodyPlant of the arm (load_arm_plant)
+registered with a SceneGraph: the arm's links carry the URDF's own <collision> shapes (boxes,
+cylinders, spheres, meshes as their convex hulls: Drake's signed distance works on convex shapes; .stl
+meshes, which Drake does not load, through their vertices, model/obstacles.read_mesh_points), the hand
+carries the part (`carried_shapes`), and the world carries `sc.obstacles`. The arm's own pairs (self
+and adjacent links) and the obstacles' pairs are filtered out, and so is every link welded to the world
+(the base does not move: Drake filters it against the world's geometry), so
+QueryObject.ComputeSignedDistancePairwiseClosestPoints returns exactly the moving-arm/part-against-
+obstacle pairs.
+
+`clearance(sc, traj, rate_hz)` samples a plan at rate_hz (the re-check rate), then refines around the
+REFINE_MINIMA smallest local minima of the sampled distance (REFINE_PASSES passes of REFINE_POINTS
+points between the neighbouring samples), and returns the smallest signed distance (m; < 0: the two
+shapes overlap by that depth), the pair and the time. `clearance_of_states(sc, t, q, every=k)` does the
+same on given joint states (the co-simulation's logged motion, sim/spatial_cosim.py): every k-th state,
+then every state within k of the local minima less than REFINE_BAND_M above the smallest.
+
+The carried part's shape (`carried_shapes`): a suction or magnet hand's part is the solid box with the
+payload's principal moments (a^2 = 6 (I_yy + I_zz - I_xx) / m, ...) centred at its centre of mass, in the
+hand's axes; a tray hand's tray is its box (tray_size_m, upper face through the hand frame's origin) and
+the cup a cylinder standing on the tray's centre.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import (
+    Box,
+    CollisionFilterDeclaration,
+    Convex,
+    Cylinder,
+    GeometrySet,
+    SceneGraph,
+    Sphere,
+)
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.systems.framework import DiagramBuilder
+
+from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.contact_wrench import face_basis
+from qmt_drake.model.obstacles import proximity, read_mesh_points, register_obstacles
+from qmt_drake.model.urdf_check import load_arm_plant
+from qmt_drake.planners.spatial_trajectory import sample_times
+
+HORIZON_M = 0.1  # pairs farther apart are not computed: a clearance above it is reported as HORIZON_M, no pair
+REFINE_MINIMA = 3
+REFINE_PASSES = 2
+REFINE_POINTS = 21
+MIN_PART_SIDE_M = 1e-3
+REFINE_BAND_M = 0.02  # logged states: a minimum this close to the smallest is looked at state by state
+_MODELS: dict = {}
+
+
+def carried_shapes(sc) -> list[tuple[str, object, RigidTransform]]:
+    """[(name, Shape, X_HG)] of what the hand carries (module docstring), in the hand frame H."""
+    if sc.hand_kind == "tray":
+        cup = sc.cup
+        R = RotationMatrix(face_basis(sc.face_axis).T)  # the tray frame's z is the face axis (sim/spatial_cosim)
+        a, b, c = cup.tray_size_m
+        return [("tray", Box(a, b, c), RigidTransform(R, R @ np.array([0.0, 0.0, -c / 2]))),
+                ("cup", Cylinder(cup.radius_m, cup.height_m),
+                 RigidTransform(R, R @ np.array([0.0, 0.0, cup.height_m / 2])))]
+    b = sc.body
+    m, Ixx, Iyy, Izz = b.mass_kg, *np.diag(np.asarray(b.inertia_kgm2, float))
+    sq = 6.0 / m * np.array([Iyy + Izz - Ixx, Ixx + Izz - Iyy, Ixx + Iyy - Izz])
+    side = np.sqrt(np.maximum(sq, MIN_PART_SIDE_M ** 2))
+    return [("part", Box(*side), RigidTransform(np.asarray(b.com_m, float)))]
+
+
+def _mesh_path(uri: str, urdf: Path, where: str) -> Path:
+    """A URDF mesh filename: package://<pkg>/<rest> (a folder <pkg> above the URDF holding <rest>),
+    file://<abs path>, or a path relative to the URDF."""
+    if uri.startswith("package://"):
+        pkg, _, rest = uri[len("package://"):].partition("/")
+        for d in urdf.parents:
+            for cand in (d / rest if d.name == pkg else None, d / pkg / rest):
+                if cand is not None and cand.is_file():
+                    return cand
+        raise QmtInputError(f"{where}: mesh {uri} not found in a folder {pkg!r} above {urdf}; install the package "
+                            "or give the mesh's path")
+    path = Path(uri[len("file://"):]) if uri.startswith("file://") else urdf.parent / uri
+    if not path.is_file():
+        raise QmtInputError(f"{where}: mesh {uri} not found at {path}")
+    return path
+
+
+def urdf_collision_shapes(urdf: Path) -> list[tuple[str, str, object, RigidTransform]]:
+    """[(link, name, Shape, X_LG)] of the URDF's <collision> elements (meshes as convex hulls)."""
+    urdf = Path(urdf)
+    out = []
+    for link in ET.parse(urdf).getroot().findall("link"):
+        for k, col in enumerate(link.findall("collision")):
+            where = f"{urdf.name}: link {link.get('name')!r} collision {k}"
+            o = col.find("origin")
+            xyz = [float(v) for v in (o.get("xyz", "0 0 0") if o is not None else "0 0 0").split()]
+            rpy = [float(v) for v in (o.get("rpy", "0 0 0") if o is not None else "0 0 0").split()]
+            g = col.find("geometry")
+            el = g[0] if g is not None and len(g) else None
+            if el is None:
+                continue
+            if el.tag == "box":
+                shape = Box(*[float(v) for v in el.get("size").split()])
+            elif el.tag == "cylinder":
+                shape = Cylinder(float(el.get("radius")), float(el.get("length")))
+            elif el.tag == "sphere":
+                shape = Sphere(float(el.get("radius")))
+            elif el.tag == "mesh":
+                scale = np.array([float(v) for v in el.get("scale", "1 1 1").split()]) * np.ones(3)
+                pts = read_mesh_points(_mesh_path(el.get("filename"), urdf, where), where) * scale
+                shape = Convex(pts.T, f"{link.get('name')}_{k}")
+            else:
+                raise QmtInputError(f"{where}: collision shape <{el.tag}> is not read here; use box, cylinder, "
+                                    "sphere or mesh")
+            out.append((link.get("name"), f"{link.get('name')}/collision_{k}", shape,
+                        RigidTransform(RollPitchYaw(rpy), xyz)))
+    return out
+
+
+class CollisionModel:
+    """The arm, its carried part and the obstacles in one SceneGraph (module docstring)."""
+
+    def __init__(self, sc) -> None:
+        builder = DiagramBuilder()
+        plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints,
+                                     effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
+                                     finalize=False)
+        builder.AddSystem(plant)
+        sg = builder.AddSystem(SceneGraph())
+        plant.RegisterAsSourceForSceneGraph(sg)
+        model = H.model_instance()
+        self.names = {}
+        robot = []
+        for link, name, shape, X in urdf_collision_shapes(sc.urdf):
+            if plant.HasBodyNamed(link, model):
+                body = plant.GetBodyByName(link, model)
+                robot.append(plant.RegisterCollisionGeometry(body, X, shape, name, proximity()))
+                self.names[robot[-1]] = name
+        X_BH = H.GetFixedPoseInBodyFrame()
+        for name, shape, X_HG in carried_shapes(sc):
+            robot.append(plant.RegisterCollisionGeometry(H.body(), X_BH @ X_HG, shape, f"carried/{name}", proximity()))
+            self.names[robot[-1]] = f"carried/{name}"
+        obs = register_obstacles(plant, sc.obstacles, illustration=False)
+        self.names.update({i: f"obstacle/{ob.name}" for i, ob in zip(obs, sc.obstacles)})
+        plant.Finalize()
+        builder.Connect(plant.get_geometry_pose_output_port(), sg.get_source_pose_port(plant.get_source_id()))
+        builder.Connect(sg.get_query_output_port(), plant.get_geometry_query_input_port())  # Drake's collision constraints
+        self.diagram = builder.Build()
+        self.context = self.diagram.CreateDefaultContext()
+        self.plant, self.scene_graph, self.model = plant, sg, model
+        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        self.sg_context = sg.GetMyMutableContextFromRoot(self.context)
+        decl = CollisionFilterDeclaration().ExcludeWithin(GeometrySet(robot))
+        if obs:
+            decl = decl.ExcludeWithin(GeometrySet(obs))
+        sg.collision_filter_manager(self.sg_context).Apply(decl)
+        self.n_robot_geometries, self.n_obstacles = len(robot), len(obs)
+
+    def distance(self, q) -> tuple[float, str, str]:
+        """(smallest signed distance m, arm/part geometry, obstacle geometry) at joint positions q
+        (HORIZON_M and empty names when no pair is closer than that)."""
+        self.plant.SetPositions(self.plant_context, self.model, np.asarray(q, float))
+        qo = self.scene_graph.get_query_output_port().Eval(self.sg_context)
+        best = (HORIZON_M, "", "")
+        for p in qo.ComputeSignedDistancePairwiseClosestPoints(HORIZON_M):
+            if p.distance < best[0]:
+                a, b = self.names[p.id_A], self.names[p.id_B]
+                best = (float(p.distance), *((b, a) if a.startswith("obstacle/") else (a, b)))
+        return best
+
+
+def collision_model(sc) -> CollisionModel:
+    """The scenario's CollisionModel, built once per scenario object."""
+    key = id(sc)
+    if key not in _MODELS or _MODELS[key][0] is not sc:
+        _MODELS[key] = (sc, CollisionModel(sc))
+    return _MODELS[key][1]
+
+
+def _result(d: float, a: str, b: str, t: float, n: int) -> dict:
+    return {"clearance_m": float(d), "clearance_pair": [a, b] if a else None, "clearance_time_s": float(t),
+            "clearance_samples": int(n)}
+
+
+def clearance_of_states(sc, t_s, q_rad, every: int = 1) -> dict:
+    """Smallest clearance over given states (t (S,), q (S, n)), looked at every `every`-th state and then
+    state by state near the smallest (module docstring): clearance_m, clearance_pair [arm/part geometry,
+    obstacle geometry], clearance_time_s, clearance_samples."""
+    cm = collision_model(sc)
+    t, q = np.asarray(t_s, float), np.asarray(q_rad, float)
+    done = {}
+    coarse = np.r_[np.arange(0, len(t), max(int(every), 1)), len(t) - 1]
+    for k in coarse:
+        done[int(k)] = cm.distance(q[k])
+    d = np.array([done[int(k)][0] for k in coarse])
+    near = (np.r_[True, d[1:] <= d[:-1]]) & (np.r_[d[:-1] <= d[1:], True]) & (d <= d.min() + REFINE_BAND_M)
+    for k in coarse[near]:
+        for j in range(max(k - every, 0), min(k + every, len(t) - 1) + 1):
+            if j not in done:
+                done[j] = cm.distance(q[j])
+    hits = [j for j in done if done[j][0] < 0.0]
+    first = None
+    if hits:  # the first touch, to the state: every state back to the coarse sample before the first hit
+        j0 = min(hits)
+        for j in range(max(j0 - every, 0), j0):
+            if j not in done:
+                done[j] = cm.distance(q[j])
+        first = min(j for j in done if done[j][0] < 0.0)
+    k = min(done, key=lambda j: done[j][0])
+    out = _result(*done[k], float(t[k]), len(done))
+    out["first_contact"] = None if first is None else {"time_s": float(t[first]), "pair": list(done[first][1:]),
+                                                       "depth_m": float(-done[first][0])}
+    return out
+
+
+def clearance(sc, traj, rate_hz: float) -> dict:
+    """Smallest clearance along traj sampled at rate_hz and refined near the smallest local minima
+    (module docstring); the keys of clearance_of_states."""
+    cm = collision_model(sc)
+    t = sample_times(traj.duration_s, rate_hz)
+    q = traj.sample(t)[0]
+    d = np.array([cm.distance(qk)[0] for qk in q])
+    n, count = len(t), len(t)
+    inner = (np.r_[True, d[1:] <= d[:-1]]) & (np.r_[d[:-1] <= d[1:], True])  # local minima of the samples
+    best = (np.inf, "", "", 0.0)
+    for k in np.flatnonzero(inner)[np.argsort(d[inner])][:REFINE_MINIMA]:
+        lo, hi = t[max(k - 1, 0)], t[min(k + 1, n - 1)]
+        for _ in range(REFINE_PASSES):
+            tt = np.linspace(lo, hi, REFINE_POINTS)
+            res = [cm.distance(qk) for qk in traj.sample(tt)[0]]
+            count += len(tt)
+            j = int(np.argmin([r[0] for r in res]))
+            if res[j][0] < best[0]:
+                best = (*res[j], float(tt[j]))
+            step = tt[1] - tt[0]
+            lo, hi = max(tt[j] - step, t[0]), min(tt[j] + step, t[-1])
+    return _result(best[0], best[1], best[2], best[3], count)
