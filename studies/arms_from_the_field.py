@@ -8,7 +8,9 @@ The arms (FIELD_ARMS): SO-101 (5 joints, its <transmission>s listed wrist first)
 (6 joints; transmissions out of chain order, a differential wrist Drake skips, and one for a joint the
 file does not have), Centauro's arm (6 joints on a wheeled-legged base, 32 joints locked), Baxter's
 right arm (7 joints), PR2's right arm (7 joints on a mobile base, the torso lift locked at 0.15 m,
-transmissions out of order with a differential wrist). The URDF's own speed and effort limits; the
+transmissions out of order with a differential wrist), TIAGo's arm (7 joints on a mobile base, the
+torso at 0.25 m, transmissions out of order with a differential wrist; first used by this issue's
+tests/test_urdf_setup.py). The URDF's own speed and effort limits; the
 acceleration, jerk, gear and motor data are chosen here (below).
 
 Per plan: the duration, the planner's re-check (10x the check rate, its binding column), the task
@@ -68,7 +70,13 @@ FIELD_ARMS = {
     "pr2": ({"package": "example-robot-data/pr2", "hand_frame": "r_gripper_tool_frame", "face_axis": [1.0, 0.0, 0.0],
              "lock_joints": {"torso_lift_joint": 0.15}, "lock": "off_chain"},
             [-1.22, 0.01, -2.55, -1.36, -0.72, -0.4, 0.46], DOWN,
-            "7 joints on a mobile base; transmissions out of order, a differential wrist"),
+            "7 joints on a mobile base; transmissions out of order, a differential wrist; effort 30 N m "
+            "(the real arm has a spring counterbalance the URDF does not model)"),
+    "tiago": ({"package": "example-robot-data/tiago", "hand_frame": "arm_tool_link",
+               "lock_joints": {"torso_lift_joint": 0.25}, "lock": "off_chain"},
+              [1.2, -0.2, -1.5, 1.8, 1.2, 1.0, 0.0], None,
+              "7 joints on a mobile base; transmissions out of order, a differential wrist (first used in "
+              "this issue's tests/test_urdf_setup.py)"),
 }
 GEAR, ROTOR_KGM2, SUPPLY_V = 100.0, 1e-5, 48.0
 METHODS = (("toppra", plan_toppra_spatial, {}), ("ruckig", plan_ruckig_spatial, {}),
@@ -177,7 +185,7 @@ class PinocchioCheck:
 
     def ratios(self, q, qd, qdd) -> dict:
         """({limit: its largest ratio over the samples (1 = on the limit)}, {limit: the column, e.g.
-        'joint_acceleration[shoulder_lift]'})."""
+        'joint_acceleration[shoulder_lift]'}, {limit: the index of the sample where it peaks})."""
         sc = self.sc
         st = self.state(q, qd, qdd)
         mid, half = 0.5 * (self.lo + self.up), 0.5 * (self.up - self.lo)
@@ -189,17 +197,20 @@ class PinocchioCheck:
             out[term.name], labels[term.name] = term.columns(st), list(term.column_names)
         peak = {k: float(np.max(v)) for k, v in out.items()}
         where = {k: labels[k][int(np.argmax(np.max(v, axis=0)))] for k, v in out.items()}
-        return peak, where
+        when = {k: int(np.argmax(np.max(v, axis=1))) for k, v in out.items()}
+        return peak, where, when
 
 
 def independent_check(sc, traj, rate_hz: float | None = None, checker: PinocchioCheck | None = None) -> dict:
     """The plan's limit ratios by PinocchioCheck at rate_hz (default 10x the re-check rate) over the
-    whole trajectory; 'max' the largest, 'binding' its limit, 'rate_hz', 'n_samples'."""
+    whole trajectory; 'max' the largest, 'binding' its column and 'binding_time_s' when, 'rate_hz',
+    'n_samples'."""
     rate = rate_hz or INDEPENDENT_FACTOR * sc.recheck_rate_hz
     t = sample_times(traj.duration_s, rate)
-    r, where = (checker or PinocchioCheck(sc)).ratios(*traj.sample(t))
+    r, where, when = (checker or PinocchioCheck(sc)).ratios(*traj.sample(t))
     top = max(r, key=r.get)
-    return {**r, "max": r[top], "binding": where[top], "rate_hz": rate, "n_samples": int(len(t))}
+    return {**r, "max": r[top], "binding": where[top], "binding_time_s": float(t[when[top]]), "rate_hz": rate,
+            "n_samples": int(len(t))}
 
 
 def run_arm(name: str, tmp_path: Path, *, methods=METHODS, dc: bool = True, log=print) -> list[dict]:
