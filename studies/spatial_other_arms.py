@@ -34,9 +34,8 @@ SEEDS = {"ur3": [-0.6, -1.3, 1.6, -1.9, -1.57, 0.0], "ur10": [-0.6, -1.3, 1.6, -
 
 
 def arm_scenario(name: str, tmp_path: Path) -> Path:
-    """A suction pick-and-place scenario file for arm `name`: poses around the hand's position at the
-    seed (pick, lift by 15 % of its reach, carry sideways by 25 %, lower), the hand's own face normal
-    there, the URDF's speed and effort limits."""
+    """A suction pick-and-place scenario file for arm `name` (SEEDS) around its posture at the seed
+    (task_around)."""
     if name == "arm6":
         path, hand, lock = ARM6, "hand", ()
         arm = {"urdf": str(ARM6), "hand_frame": "hand"}
@@ -44,22 +43,35 @@ def arm_scenario(name: str, tmp_path: Path) -> Path:
         path, hand, lock = example_robot_urdf(name)  # QmtInputError without example-robot-data
         arm = {"package": f"example-robot-data/{name}"}
     plant, H, names = load_arm_plant(path, hand, lock_joints=lock)
-    n, seed = len(names), np.array(SEEDS[name])
+    n = len(names)
+    actuators = {"velocity_limit_rad_s": plant.GetVelocityUpperLimits().tolist(),
+                 "acceleration_limit_rad_s2": [10.0] * n, "jerk_limit_rad_s3": [200.0] * n,
+                 "torque_limit_Nm": plant.GetEffortUpperLimits().tolist(), "gear_ratio": [100.0] * n,
+                 "rotor_inertia_kgm2": [1e-5] * n}
+    return task_around(name, plant, H, arm, actuators, SEEDS[name], tmp_path)
+
+
+def task_around(name: str, plant, H, arm: dict, actuators: dict, seed, tmp_path: Path, *,
+                face_normal=None) -> Path:
+    """The scenario file `name`.yaml in tmp_path: poses around the hand's position at the seed (pick,
+    lift by 15 % of its distance from the world origin, carry sideways by 25 %, lower), the face
+    normal `face_normal` (world) or the hand's own there (the arm's face_axis, default z, in world),
+    the `arm` and `actuators` sections as given, a 0.3 kg part 3 cm out along the face axis on a 40 N
+    suction cup."""
+    seed = np.asarray(seed, float)
+    axis = np.asarray(arm.get("face_axis", (0.0, 0.0, 1.0)), float)
     ctx = plant.CreateDefaultContext()
     plant.SetPositions(ctx, seed)
     X = H.CalcPoseInWorld(ctx)
-    p, normal = X.translation(), X.rotation().matrix()[:, 2]
+    p = X.translation()
+    normal = X.rotation().matrix() @ axis if face_normal is None else np.asarray(face_normal, float)
     reach = float(np.linalg.norm(p))
     side = np.cross([0.0, 0.0, 1.0], p)
     side = 0.25 * reach * side / np.linalg.norm(side)
     lift = np.array([0.0, 0.0, 0.15 * reach])
     poses = [p, p + lift, p + lift + side, p + side]
-    raw = {"kind": "spatial_transfer", "name": f"{name}-suction", "arm": arm,
-           "actuators": {"velocity_limit_rad_s": plant.GetVelocityUpperLimits().tolist(),
-                         "acceleration_limit_rad_s2": [10.0] * n, "jerk_limit_rad_s3": [200.0] * n,
-                         "torque_limit_Nm": plant.GetEffortUpperLimits().tolist(), "gear_ratio": [100.0] * n,
-                         "rotor_inertia_kgm2": [1e-5] * n},
-           "payload": {"mass_kg": 0.3, "com_m": [0.0, 0.0, 0.03], "inertia_kgm2": [2e-4, 2e-4, 1e-4]},
+    raw = {"kind": "spatial_transfer", "name": f"{name}-suction", "arm": arm, "actuators": actuators,
+           "payload": {"mass_kg": 0.3, "com_m": (0.03 * axis).tolist(), "inertia_kgm2": [2e-4, 2e-4, 1e-4]},
            "hand": {"kind": "suction", "cup_radius_m": 0.015, "vacuum_force_N": 40.0, "friction": 0.5},
            "task": {"seed_rad": seed.tolist(), "face_normal": normal.tolist(),
                     "poses_m": [x.tolist() for x in poses], "transfer_points": 3},

@@ -90,7 +90,11 @@ def _strip_and_lock(root: ET.Element, lock_joints, source: str) -> None:
         if j.get("name") in lock:
             _fix_joint_at(j, lock[j.get("name")], source)
     for tr in root.findall("transmission"):
-        if any(j.get("name") in lock for j in tr.findall("joint")):
+        missing = [j.get("name") for j in tr.findall("joint") if j.get("name") not in names]
+        if missing:  # Drake refuses the whole file for it (Pinocchio loads it); planning reads no transmission
+            warnings.warn(f"{source}: transmission {tr.get('name')!r} names joints {missing} that the URDF does "
+                          "not have (ignored)", stacklevel=3)
+        if missing or any(j.get("name") in lock for j in tr.findall("joint")):
             root.remove(tr)
 
 
