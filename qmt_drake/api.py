@@ -34,6 +34,7 @@ from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import build_diagram as _build_diagram
 from qmt_drake.hands import run_simulate
+from qmt_drake.margin_runs import with_margin
 from qmt_drake.plan import KIND_WORDS, Plan, a_kind
 from qmt_drake.plan_files import load_plan, scenario_kind_of
 from qmt_drake.planners import plan_with as _plan_with
@@ -121,7 +122,7 @@ def _check_plan_kind(scenario: AnyScenario, plan: Plan) -> None:
 
 
 def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
-             feedforward: str = "none", record_path: str | Path | None = None) -> dict:
+             feedforward: str = "none", record_path: str | Path | None = None, margin: bool = False) -> dict:
     """Execute `plan` in the Drake co-simulation of `scenario` (magnet hand: DC motors with gears,
     PID, the magnet and the part in friction contact; tray: the Dynamixel servos and the bottle
     standing free; spatial arms: Drake's inverse-dynamics controller on ideal joint torques, the part
@@ -132,13 +133,20 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     "max_tracking_error_rad", "final_error_rad"). time_scale: replay the plan time_scale times slower
     (< 1 faster); time_step_s: the plant step [s] (default: the scenario's stable default);
     feedforward: "none", "back-emf" or "full" (DC motors); record_path: write a Meshcat HTML replay
-    there. A plan made for another scenario, an unstable step or a bad option raises QmtInputError
+    there. Every result holds "margin": the verdict's deciding quantity against its threshold
+    (qmt_drake/margin.py); margin=True also searches the time scale at which the verdict flips (to
+    0.5 %, at most 12 more runs) and runs the plan at half the plant step ("flip", "half_step";
+    not for energy-time plans). A plan made for another scenario, an unstable step or a bad option raises QmtInputError
     (one line) before anything runs; the spatial and energy-time runs take time_scale (spatial) and
     record_path only."""
     _check_plan_kind(scenario, plan)
+    if not isinstance(margin, bool):
+        raise QmtInputError(f"margin {margin!r} must be True or False")
     if isinstance(scenario, Scenario):
-        return run_simulate(scenario, plan, time_scale=time_scale, record_path=record_path,
-                            time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward)
+        return with_margin(scenario, plan, run_simulate(scenario, plan, time_scale=time_scale, record_path=record_path,
+                                                        time_step_s=time_step_s, implicit_loop_damping=None,
+                                                        feedforward=feedforward),
+                           expensive=margin, time_scale=time_scale, time_step_s=time_step_s, feedforward=feedforward)
     for name, given in (("time_step_s", time_step_s is not None), ("feedforward", feedforward != "none"),
                         ("time_scale", isinstance(plan, EnergyPlan) and time_scale != 1.0)):
         if given:
@@ -148,8 +156,9 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
         if not (time_scale > 0 and time_scale < float("inf")):
             raise QmtInputError(f"time_scale {time_scale!r} must be a finite positive number (1: as planned)")
         traj = plan.trajectory if time_scale == 1.0 else TimeScaled(plan.trajectory, time_scale)
-        return simulate_spatial(scenario, traj, record_path=record_path)
-    return execute_plan(plan, record_path=record_path)
+        return with_margin(scenario, plan, simulate_spatial(scenario, traj, record_path=record_path), expensive=margin,
+                           time_scale=time_scale)
+    return with_margin(scenario, plan, execute_plan(plan, record_path=record_path), expensive=margin)
 
 
 def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
