@@ -17,6 +17,10 @@ When a cell's verdict differs from the chosen plan's, the fastest time scale car
 searched (geometric bisection in [chosen, s_max] to TOL, each try run at the cells that were lost,
 then the answer checked at all twelve): how far the verdict moves.
 
+Each chosen plan's verdict margin at the defaults (api.simulate(..., margin=True): the deciding quantity
+against its threshold, the time scale at which the verdict flips, to 0.5 %, and the verdict at half the
+step) goes to the row's 'margin'.
+
 Prints the table and writes OUT/verdict_margins/verdict_margins.json and .md atomically; a rerun reuses
 the plans' rows already in the JSON (delete it to recompute).
 """
@@ -30,7 +34,7 @@ import sys
 import time
 from pathlib import Path
 
-from qmt_drake.api import load_scenario, plan_with
+from qmt_drake.api import load_scenario, plan_with, simulate
 from qmt_drake.margin_runs import spatial_margin, spatial_plant_settings
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_carried import carried_search
@@ -138,21 +142,41 @@ def study(case: str) -> dict:
     if not row["same_verdict"]:
         s_max = TRAY_S_MAX if case == "tray" else 2.5
         row["carried_at_every_cell"] = carried_everywhere(run, s, cells, min(s_max, s * 1.2))
+    row["margin"] = with_flip(sc, plan, s)
     row["wall_s"] = time.perf_counter() - t0
     return row
 
 
+def with_flip(sc, plan, s: float) -> dict:
+    """The chosen plan's margin at the co-simulation's defaults (module docstring)."""
+    r = simulate(sc, plan, time_scale=s, margin=True)
+    m = r["margin"]
+    f, h = m["flip"], m["half_step"]
+    log(f"  margin at x{s:.5f}: {m['quantity']} {m['value']:.4g} ({m['ratio']:.4f}); flips at x"
+        f"{f['flip_time_scale'] if f['flip_time_scale'] is None else round(f['flip_time_scale'], 5)}; "
+        f"half step: {h['outcome_at_half_step']}")
+    return m
+
+
 def markdown(res: dict) -> str:
+    flips: list[str] = []
     lines = ["| plan | time scale | step | " + " | ".join(APPROXIMATIONS) + " |",
              "|---|---|---|" + "---|" * len(APPROXIMATIONS)]
 
     def fmt(c):
         if c["held"] is None:
-            return "n/a (no constraints)"
+            return "n/a (TAMSI: no weld constraint)"
         v = f"{c['value'] * 1e3:.3f} mm" if c["quantity"] in ("max_slip_m", "final_slide_m") else f"{c['value']:.4g}"
         return f"{c['outcome']}, {c['quantity']} {v} ({c['ratio']:.3f})"
 
     for row in res.values():
+        f = row.get("margin", {}).get("flip") or {}
+        if f.get("flip_time_scale"):
+            flips.append(f"- {row['scenario']} {row['method']} at x{row['chosen_time_scale']:.5f}: deciding "
+                         f"{row['margin']['quantity']} {row['margin']['ratio']:.4f} of its threshold; the verdict flips "
+                         f"at x{f['flip_time_scale']:.5f} ({f['relative_to_run']:+.2%}; carried at x{f['carried_at']:.5f}, "
+                         f"lost at x{f['lost_at']:.5f}, {f['runs']} runs); at half the step "
+                         f"{row['margin']['half_step']['outcome_at_half_step']}")
         for key, s, cells in [("chosen", row["chosen_time_scale"], row["cells"])] + (
                 [("all", row["carried_at_every_cell"]["time_scale"], row["carried_at_every_cell"]["cells"])]
                 if row.get("carried_at_every_cell", {}).get("cells") else []):
@@ -161,7 +185,7 @@ def markdown(res: dict) -> str:
                 cs = [cells[f"{h * 1e3:g} ms {a}"] for a in APPROXIMATIONS]
                 lines.append(f"| {label} | x{s:.4f} ({row['planned_s'] * s:.4f} s) | {h * 1e3:g} ms | "
                              + " | ".join(fmt(c) for c in cs) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + [""] + flips) + "\n"
 
 
 def main(argv=None) -> int:
@@ -175,10 +199,15 @@ def main(argv=None) -> int:
     path = d / "verdict_margins.json"
     res = json.loads(path.read_text()) if path.exists() else {}
     for case in a.only or list(CASES):
-        if case in res:
+        if case in res and "margin" not in res[case]:  # a row of a run before the margin: add it
+            name, method, opts = CASES[case]
+            sc = load_scenario(name)
+            res[case]["margin"] = with_flip(sc, plan_with(method, sc, **opts), res[case]["chosen_time_scale"])
+        elif case in res:
             log(f"{case}: reused from {path}")
             continue
-        res[case] = study(case)
+        else:
+            res[case] = study(case)
         write_text_atomic(path, json.dumps(jsonable(res), indent=1))
     md = markdown(res)
     write_text_atomic(d / "verdict_margins.md", md)

@@ -161,7 +161,8 @@ def _half_step(search: dict) -> dict:
     if conv is None:
         return {"verdict_at_half_step": None, "slip_at_half_step": None, "flips_at_half_step": None}
     r = conv["chosen_at_check_step"]
-    return {"verdict_at_half_step": r["outcome"], "slip_at_half_step": r["max_slip_m"],
+    return {"verdict_at_half_step": r.get("outcome", "carried" if r["held"] else "lost"),
+            "slip_at_half_step": r.get("max_slip_m"),
             "flips_at_half_step": not r["held"], "half_step_s": conv["check_step_s"]}
 
 
