@@ -160,14 +160,16 @@ def with_flip(sc, plan, s: float) -> dict:
 
 def markdown(res: dict) -> str:
     flips: list[str] = []
-    lines = ["| plan | time scale | step | " + " | ".join(APPROXIMATIONS) + " |",
+    lines = ["Cells: outcome, then the deciding quantity (slip against 1 mm, or the hand's ratio against 1).", "",
+             "| plan | time scale | step | " + " | ".join(APPROXIMATIONS) + " |",
              "|---|---|---|" + "---|" * len(APPROXIMATIONS)]
 
     def fmt(c):
         if c["held"] is None:
             return "n/a (TAMSI: no weld constraint)"
-        v = f"{c['value'] * 1e3:.3f} mm" if c["quantity"] in ("max_slip_m", "final_slide_m") else f"{c['value']:.4g}"
-        return f"{c['outcome']}, {c['quantity']} {v} ({c['ratio']:.3f})"
+        if c["quantity"] in ("max_slip_m", "final_slide_m"):
+            return f"{c['outcome']}, slip {c['value'] * 1e3:.3f} mm"
+        return f"{c['outcome']}, {c['quantity']} {c['value']:.5f}"
 
     for row in res.values():
         f = row.get("margin", {}).get("flip") or {}
