@@ -8,7 +8,13 @@ from qmt_drake.apps.benchmark import _half_step
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.margin import criterion, flip_time_scale, half_step_verdict, verdict_margin
-from qmt_drake.margin_runs import search_half_step, spatial_margin, spatial_plant_settings, transfer_run
+from qmt_drake.margin_runs import (
+    search_half_step,
+    spatial_margin,
+    spatial_plant_settings,
+    transfer_run,
+    with_margin,
+)
 from qmt_drake.sim.reference import GenesPlan
 from qmt_drake.sim.runner import run_transfer_simulate, simulate_transfer
 from qmt_drake.sim.spatial_cosim import simulate_spatial
@@ -102,3 +108,12 @@ def test_margin_inputs_are_refused_in_one_line():
             pass
     m = verdict_margin("carried", [criterion("x", np.nan, 1.0, "slipped")])  # not measured: never deciding
     assert m["ratio"] is None and m["criteria"][0]["ratio"] is None
+
+
+def test_energy_time_margin_is_its_final_error_and_says_why_there_is_no_flip():
+    class EnergyLike:  # with_margin reads only the plan's kind
+        scenario_kind = "energy_time"
+
+    r = with_margin(None, EnergyLike(), {"reached_goal": True, "final_error_rad": 2e-4}, expensive=True)
+    assert r["margin"]["quantity"] == "final_error_rad" and r["margin"]["ratio"] == pytest.approx(0.2)
+    assert r["margin"]["flip"].startswith("not available")
