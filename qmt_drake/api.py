@@ -45,6 +45,7 @@ from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import build_diagram as _build_diagram
 from qmt_drake.hands import hand_plugin, run_simulate
+from qmt_drake.margin_runs import with_margin
 from qmt_drake.plan import KIND_WORDS, Plan, a_kind
 from qmt_drake.plan_files import load_plan as _load_plan
 from qmt_drake.plan_files import scenario_kind_of
@@ -239,7 +240,7 @@ def _check_run_args(scenario: AnyScenario, plan: Plan, time_scale: Any, time_ste
 @C.strict_call
 def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
              feedforward: str | None = None, actuator: str | None = None, record_path: str | Path | None = None,
-             allow_large: bool = False) -> dict:
+             allow_large: bool = False, margin: bool = False) -> dict:
     """Execute `plan` in the Drake co-simulation of `scenario` (magnet hand: DC motors with gears,
     PID, the magnet and the part in friction contact; tray: the Dynamixel servos and the bottle
     standing free; spatial arms: Drake's inverse-dynamics controller on ideal joint torques, the part
@@ -254,7 +255,10 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     actuators.motor constants); record_path: write a Meshcat HTML replay there. A plan made for
     another scenario, an unstable step, a bad option or a replay over the budget (budgets.py; unless
     allow_large=True) raises QmtInputError (one line) before anything runs; the spatial and
-    energy-time runs take time_scale (spatial) and record_path only."""
+    energy-time runs take time_scale (spatial) and record_path only. Every result holds "margin": the
+    verdict's deciding quantity against its threshold (qmt_drake/margin.py); margin=True also searches the
+    time scale at which the verdict flips (to 0.5 %, at most 12 more runs) and runs the plan at half the
+    plant step ("flip", "half_step"; not for energy-time plans)."""
     scenario = _scenario_arg(scenario, "simulate")
     for name, value in (("feedforward", feedforward), ("actuator", actuator)):
         if value is not None and not isinstance(value, str):
@@ -262,12 +266,16 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     if isinstance(scenario, SpatialScenario):  # the drive's refusals (no motor constants, ...) first
         check_drive(scenario, actuator or "ideal", feedforward or "full")
     _check_run_args(scenario, plan, time_scale, time_step_s, record_path, allow_large, "simulate")
+    if not isinstance(margin, bool):
+        raise QmtInputError(f"simulate: margin {show(margin)} must be True or False")
     if isinstance(scenario, Scenario):
         if actuator is not None:
             raise QmtInputError(f"simulate: actuator: the planar scenario {scenario.name} takes its actuator from its "
                                 "YAML actuator section; drop actuator")
-        return run_simulate(scenario, plan, time_scale=time_scale, record_path=record_path,
-                            time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward or "none")
+        result = run_simulate(scenario, plan, time_scale=time_scale, record_path=record_path,
+                              time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward or "none")
+        return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale, time_step_s=time_step_s,
+                           feedforward=feedforward or "none")
     spatial = isinstance(plan, SpatialPlan)
     for name, given in (("time_step_s", time_step_s is not None), ("feedforward", feedforward is not None and not spatial),
                         ("actuator", actuator is not None and not spatial),
@@ -278,8 +286,9 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     if spatial:
         actuator, feedforward = actuator or "ideal", feedforward or "full"
         traj = plan.trajectory if time_scale == 1.0 else TimeScaled(plan.trajectory, time_scale)
-        return simulate_spatial(scenario, traj, record_path=record_path, actuator=actuator, feedforward=feedforward)
-    return execute_plan(plan, record_path=record_path)
+        result = simulate_spatial(scenario, traj, record_path=record_path, actuator=actuator, feedforward=feedforward)
+        return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale)
+    return with_margin(scenario, plan, execute_plan(plan, record_path=record_path), expensive=margin)
 
 
 @C.strict_call

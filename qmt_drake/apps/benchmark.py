@@ -148,9 +148,22 @@ def fastest_carried(scenario, *, quick: bool = False, steps_s=CARRIED_STEPS_S, p
                 "search_variable": s["variable"], "search_chosen": s["chosen"],
                 "search_points": len(s["points"]), "step_converged": s.get("converged"),
                 "step_convergence": s.get("convergence"),
+                **_half_step(s),
                 "bang_bang_s": bound, "excess_over_bang_bang": (plan.motion_time_s / bound - 1.0) if bound else None,
                 "carried_wall_s": time.perf_counter() - t0})
     return plan, row
+
+
+def _half_step(search: dict) -> dict:
+    """The chosen plan's verdict at half the step it was chosen at: the converged search's own
+    re-run (plan_fastest_carried_converged's check step), no extra run; a flip is reported."""
+    conv = (search.get("convergence") or [None])[-1]
+    if conv is None:
+        return {"verdict_at_half_step": None, "slip_at_half_step": None, "flips_at_half_step": None}
+    r = conv["chosen_at_check_step"]
+    return {"verdict_at_half_step": r.get("outcome", "carried" if r["held"] else "lost"),
+            "slip_at_half_step": r.get("max_slip_m"),
+            "flips_at_half_step": not r["held"], "half_step_s": conv["check_step_s"]}
 
 
 def _chosen_points(search: dict) -> list[dict]:

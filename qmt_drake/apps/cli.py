@@ -113,6 +113,9 @@ def simulate_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--json", metavar="PATH|-")
     s.add_argument("--quiet", action="store_true")
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
+    s.add_argument("--margin", action="store_true",
+                   help="also find the time scale at which the verdict flips (to 0.5 %%, at most 12 more runs) "
+                        "and the verdict at half the plant step (qmt_drake/margin.py)")
 
 
 def bench_arguments(s: argparse.ArgumentParser) -> None:

@@ -27,6 +27,8 @@ from qmt_drake.energy.cli import simulate_energy
 from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin, run_simulate
+from qmt_drake.margin import margin_text
+from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_output_dir, check_output_path
 from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import plan_with
@@ -56,6 +58,9 @@ def cmd_simulate(args) -> int:
         if args.method not in (None, "snopt"):
             raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
                                 "energy-time: give --plan FILE or no --method (it plans with snopt)")
+        if args.margin:
+            raise QmtInputError("--margin: the energy-time execution takes no time scale or plant step to vary; "
+                                "drop --margin (its result states its final error against the tolerance)")
         return simulate_energy(args)
     if args.actuator is not None:
         raise QmtInputError(f"--actuator: for spatial scenarios; {args.scenario}'s actuator is its YAML actuator "
@@ -90,9 +95,13 @@ def cmd_simulate(args) -> int:
                          progress=None if args.quiet else progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s,
                           implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
+    if args.margin:
+        result = with_margin(sc, plan, result, expensive=True, time_scale=args.time_scale, time_step_s=time_step_s,
+                             feedforward=args.feedforward, progress=None if args.quiet else progress)
     emit_json(result, args.json)
     if args.json != "-":
         print(f"{sc.name} {plan.method} x{args.time_scale}: {hand.simulate_text(result)}")
+        print(margin_text(result["margin"]))
     return 0
 
 

@@ -24,6 +24,7 @@ from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
 from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
+from qmt_drake.margin_runs import search_half_step
 from qmt_drake.outputs import check_output_dir, check_output_path, is_stdout
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
@@ -141,6 +142,13 @@ def cmd_plan(args) -> int:
         search = plan.extra["carried_search"]
         lost = search.get("lost_below")
         search["margin"] = None if lost is None else search["chosen"] / lost - 1.0
+        # the chosen plan at the next step size: reported (a flip too), not re-chosen
+        search["half_step"] = search_half_step(sc, plan, feedforward=args.carried_feedforward)
+        if not args.quiet:
+            hs = search["half_step"]
+            progress(f"{sc.name} {args.method} x{search['chosen']:.4f} at half the step "
+                     f"({hs['half_step_s'] * 1e3:g} ms): {hs['verdict_at_half_step']}, slip "
+                     f"{hs['slip_at_half_step'] * 1e3:.3f} mm" + (" (the verdict FLIPS)" if hs["flips_at_half_step"] else ""))
     if args.success is not None:
         if not plan.feasible:
             raise QmtInputError(f"--success: the {args.method} plan breaks a limit on the re-check; nothing to "

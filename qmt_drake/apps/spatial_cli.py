@@ -44,6 +44,8 @@ from qmt_drake.budgets import (
 from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import jerk_limited_plan, peak_jerk
+from qmt_drake.margin import margin_text
+from qmt_drake.margin_runs import with_margin
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import is_stdout, jsonable
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
@@ -238,6 +240,9 @@ def simulate(args, energy_options=()) -> int:
     t0 = time.perf_counter()
     r = simulate_spatial(sc, traj, record_path=args.record, actuator=actuator, feedforward=feedforward)
     wall = time.perf_counter() - t0
+    r = with_margin(sc, p, r, expensive=bool(getattr(args, "margin", False)), time_scale=args.time_scale,
+                    spatial_kw={"actuator": actuator, "feedforward": feedforward},
+                    progress=None if args.quiet else progress)
     emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
                         **r, "wall_s": wall}), args.json)
     if args.json != "-":
@@ -246,6 +251,7 @@ def simulate(args, energy_options=()) -> int:
               f"goal error {r['final_goal_error_rad']:.1e} rad, {_where_the_part_ended(r)}, "
               f"real-time factor {(r['duration_s'] + TAIL_S) / wall:.2f}"
               + (f"; recording {args.record}" if args.record else ""))
+        print(margin_text(r["margin"]))
     return 0
 
 

@@ -14,18 +14,22 @@ from __future__ import annotations
 import time
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.margin_runs import spatial_half_step
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, make_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 
 
 def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int = 7, try_planned: bool = True,
-                   progress=None, actuator: str = "ideal") -> dict:
+                   progress=None, actuator: str = "ideal", half_step: bool = True) -> dict:
     """Bisection on the time scale k (module docstring). Returns {'chosen': smallest carried k found
     (None if not carried even at k_max), 'lost_below': the largest k tried that was lost (None if the
     plan is carried as planned), 'cosim': the chosen k's co-simulation result, 'points': every k tried
     with its outcome, 'k_max', 'iterations', 'wall_s'}. try_planned: co-simulate k = 1 first (the plan as planned).
-    actuator: the co-simulation's ('ideal' or 'dc_motor', sim/spatial_cosim.simulate_spatial)."""
+    actuator: the co-simulation's ('ideal' or 'dc_motor', sim/spatial_cosim.simulate_spatial).
+    half_step: co-simulate the chosen scale once more at half the plant step and report it as
+    'half_step' (margin_runs.spatial_half_step: verdict_at_half_step, slip_at_half_step,
+    flips_at_half_step); a flip is reported, the choice is not changed."""
     say = progress or (lambda _m: None)
     points, results, t0 = [], {}, time.perf_counter()
 
@@ -38,7 +42,13 @@ def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int
         return r["held"]
 
     def done(chosen, lost_below):
-        return {"chosen": chosen, "lost_below": lost_below, "cosim": results[chosen if chosen else lost_below],
+        check = None
+        if half_step and chosen is not None:
+            check = spatial_half_step(sc, TimeScaled(plan.trajectory, chosen) if chosen != 1.0 else plan.trajectory,
+                                      actuator=actuator)
+            say(f"{sc.name} {plan.method} x{chosen:.4f} at half the step ({check['half_step_s'] * 1e3:g} ms): "
+                f"{check['verdict_at_half_step']}" + (" (the verdict FLIPS)" if check["flips_at_half_step"] else ""))
+        return {"chosen": chosen, "half_step": check, "lost_below": lost_below, "cosim": results[chosen if chosen else lost_below],
                 "k_max": float(k_max), "iterations": int(iterations), "points": points, "actuator": actuator,
                 "wall_s": time.perf_counter() - t0}
 

@@ -12,6 +12,7 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.margin import criterion, verdict_margin
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.recording import make_headless_meshcat, save_recording, start_recording
 from qmt_drake.sim.actuation import (
@@ -23,7 +24,7 @@ from qmt_drake.sim.actuation import (
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.magnet_actuation import magnet_actuation_of
 from qmt_drake.sim.magnet_hand import magnet_hand_of
-from qmt_drake.systems.transfer_monitor import TransferMonitor, check_seated
+from qmt_drake.systems.transfer_monitor import DETACH_GAP_M, DETACH_SLIP_M, TransferMonitor, check_seated
 
 HELD_SLIP_LIMIT_M = 1e-3  # "held": never detached and slip below 1 mm
 
@@ -77,7 +78,18 @@ class TransferResult:
             "sim_time_s", "sim_wall_s", "real_time_factor", "explicit_step_known_unstable")}
         d["peak_motor_torque_Nm"] = [float(x) for x in self.peak_motor_torque_Nm]
         d["peak_motor_torque_planned_Nm"] = [float(x) for x in self.peak_motor_torque_planned_Nm]
-        return {k: (float(v) if isinstance(v, (np.floating,)) else v) for k, v in d.items()}
+        d = {k: (float(v) if isinstance(v, (np.floating,)) else v) for k, v in d.items()}
+        d["margin"] = self.margin()
+        return d
+
+    def margin(self) -> dict:
+        """The verdict's quantities against their thresholds (qmt_drake/margin.py): slip vs the held
+        limit, gap and slip vs the monitor's detach limits, the arm's final error vs the arrival tolerance."""
+        return verdict_margin(self.outcome, [
+            criterion("max_slip_m", self.max_slip_m, HELD_SLIP_LIMIT_M, "slipped"),
+            criterion("max_gap_m", self.max_gap_m, DETACH_GAP_M, "detached"),
+            criterion("max_slip_m", self.max_slip_m, DETACH_SLIP_M, "detached"),
+            criterion("final_goal_error_rad", self.final_goal_error_rad, self.arrival_tolerance_rad, "unfinished")])
 
 
 def planned_peak_moment_Nm(scenario, plan, time_scale: float = 1.0, rate_hz: float = 10000.0) -> float:

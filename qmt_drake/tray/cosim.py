@@ -38,6 +38,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.errors import QmtInputError
+from qmt_drake.margin import criterion, verdict_margin
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 from qmt_drake.systems.dc_motor import DcMotorWithGear, dc_motors_as_primitives
 from qmt_drake.systems.dynamixel_servo import (
@@ -109,7 +110,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
                        time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                        bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None,
                        motor=None, compiled_servo: bool = True, python_monitor: bool = False,
-                       step_log: bool = False) -> TrayDiagram:
+                       step_log: bool = False, contact_approximation: str = "lagged") -> TrayDiagram:
     """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps.
     motor: DcMotorParams of the three servos' motors (default motor_params(CRANE_X7_PLANAR_SERVOS),
     the lossless equivalent). compiled_servo: the servo law as Drake primitives (systems/servo_law.py,
@@ -121,13 +122,15 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     outputs as monitor_* (the same quantities from poses and contact results: a cross-check).
     step_log: also log the arm's state and the plant's generalized acceleration of the arm (its
     discrete step's (v_next - v) / h) at every plant step, as arm_state_step / arm_accel_step (the
-    executed motion that tray/executed.py evaluates the limits on)."""
+    executed motion that tray/executed.py evaluates the limits on). contact_approximation: the plant's
+    MultibodyPlantConfig.discrete_contact_approximation (tamsi, sap, similar, lagged; default lagged)."""
     if not time_step_s > 0 or not servo_period_s > 0:
         raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
     bottle = bottle or BottleSpec.pet_500ml()
     bottle.check_rests(float(np.sum(schedule.q_start)))  # the tray's tilt at the start (0 = level)
     builder = DiagramBuilder()
-    cfg = MultibodyPlantConfig(time_step=time_step_s, discrete_contact_approximation="lagged", contact_model="point",
+    cfg = MultibodyPlantConfig(time_step=time_step_s, discrete_contact_approximation=contact_approximation,
+                               contact_model="point",
                                use_sampled_output_ports=False)
     plant, scene_graph = AddMultibodyPlant(cfg, builder)
     arm = Parser(plant).AddModels(str(URDF_PATH))[0]
@@ -215,13 +218,17 @@ class TrayResult:
     phases: dict
     final_q_rad: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))  # arm joints at the end
     series: dict = field(default_factory=dict, repr=False)
+    # the thresholds of the lost outcomes, for the verdict's margin (qmt_drake/margin.py): the tilt at
+    # which it tips [rad], and the base's largest offset over the tray's half size, per axis (> 1: off)
+    tipping_angle_rad: float = math.nan
+    max_edge_ratio: float = math.nan
 
     def summary_dict(self) -> dict:
         d = {k: getattr(self, k) for k in ("label", "outcome", "lost_at_s", "max_slide_m", "slip_m", "creep_m",
                                            "slipped", "max_tilt_rad",
                                            "lifted_s", "min_normal_force_N", "sim_time_s", "sim_wall_s",
                                            "real_time_factor", "time_step_s", "servo_period_s", "friction",
-                                           "com_height_m", "phases")}
+                                           "com_height_m", "phases", "tipping_angle_rad", "max_edge_ratio")}
         d["max_tracking_error_rad"] = [float(x) for x in self.max_tracking_error_rad]
         return {k: (float(v) if isinstance(v, np.floating) else (bool(v) if isinstance(v, np.bool_) else v))
                 for k, v in d.items()}
@@ -333,16 +340,17 @@ def classify(series: dict, bottle: BottleSpec) -> tuple[str, float | None]:
 def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                   time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                   keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None,
-                  step_log: bool = False) -> TrayResult:
+                  step_log: bool = False, contact_approximation: str = "lagged") -> TrayResult:
     """Run the diagram over the schedule; with recording_path, write a Meshcat HTML replay there.
     step_log: the series also hold the arm's state and acceleration at every plant step
-    (build_tray_diagram)."""
+    (build_tray_diagram). contact_approximation: the plant's discrete contact approximation."""
     bottle = bottle or BottleSpec.pet_500ml()
     meshcat = None
     if recording_path is not None:
         meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
-                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor, step_log=step_log)
+                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor, step_log=step_log,
+                            contact_approximation=contact_approximation)
     sim = Simulator(td.diagram)
     set_initial_state(td, sim.get_mutable_context())
     sim.Initialize()
@@ -362,8 +370,20 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     q = series["arm_state"][:3]
     err = np.max(np.abs(series["goal"] - q), axis=1)
     slip, creep = split_slip_creep(series, lost_at)
+    edge = float(np.max(np.abs(series["slide"]).T / (np.array(TRAY_SIZE_M[:2]) / 2)))  # classify's slid_off rule
     return TrayResult(schedule.label, outcome, lost_at, float(np.max(slide_norm)), slip, creep,
                       bool(slip > SLIP_THRESHOLD_M), float(np.max(series["tilt"][0][after])),
                       float(np.sum(dt[fn <= LIFT_FORCE_N])), float(np.min(fn)), err, float(schedule.t_end_s), wall,
                       float(schedule.t_end_s / wall), time_step_s, servo_period_s, bottle.friction,
-                      bottle.com_height_m, dict(schedule.phases), q[:, -1].copy(), series if keep_series else {})
+                      bottle.com_height_m, dict(schedule.phases), q[:, -1].copy(), series if keep_series else {},
+                      tipping_angle_rad(bottle), edge)
+
+
+def tray_margin(summary: dict) -> dict:
+    """The CRANE-X7 tray run's margin (tray/execute.simulate_tray_plan's summary, tray/cosim's thresholds)."""
+    return verdict_margin(summary["outcome"], [
+        criterion("max_slip_m", summary.get("max_slip_m"), SLIP_THRESHOLD_M, "slipped"),
+        criterion("max_tilt_rad", summary.get("max_tilt_rad"), summary.get("tipping_angle_rad", math.nan), "tipped"),
+        criterion("max_edge_ratio", summary.get("max_edge_ratio"), 1.0, "slid_off"),
+        criterion("final_goal_error_rad", summary.get("final_goal_error_rad"), summary["arrival_tolerance_rad"],
+                  "unfinished")])

@@ -20,7 +20,7 @@ from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
 from qmt_drake.systems.servo_reference import shaped_goals
-from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, simulate_tray
+from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, simulate_tray, tray_margin
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
 SETTLE_S = 1.0
@@ -101,12 +101,14 @@ def delayed(schedule: GoalSchedule, delay_s: float) -> GoalSchedule:
 
 
 def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
-                       time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0) -> dict:
+                       time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
+                       contact_approximation: str = "lagged") -> dict:
     """The summary of `plan` executed on `scenario`'s CRANE-X7 (see the module docstring).
     physical: the scenario whose bottle (mass, centre of mass, friction) is simulated, when it
     differs from the one the servos' goals are shaped for (a sweep case's drawn bottle: the
     controller knows only the nominal one); None: `scenario` itself. servo_delay_s: the goal stream
-    arrives that late (`delayed`)."""
+    arrives that late (`delayed`). contact_approximation: the plant's discrete contact approximation
+    (tamsi, sap, similar, lagged: studies/verdict_margins.py)."""
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused by the library
     act = scenario.actuator
@@ -114,7 +116,8 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
                           shaped_for=scenario if act.reference == "shaped" else None)
     sched = delayed(sched, float(servo_delay_s))
     r = simulate_tray(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
-                      servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path)
+                      servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path,
+                      contact_approximation=contact_approximation)
     d = r.summary_dict()
     q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
     final_error = float(np.max(np.abs(q_goal - r.final_q_rad)))
@@ -126,6 +129,7 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
              per_joint_tracking_error_rad=[float(x) for x in r.max_tracking_error_rad],
              motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),
              method=plan.method, plan_feasible=bool(plan.feasible))
+    d["margin"] = tray_margin(d)
     return d
 
 
