@@ -59,6 +59,8 @@ def test_ur5_recording_has_its_dae_meshes_obstacles_and_camera(tmp_path):
     assert any(b"obstacle_visual/table" in c for c in cmds)
     assert any(b"set_target" in c for c in cmds) and any(b"/Cameras/default" in c for c in cmds)
     assert rec.note == "" and "qmt-note" not in html
+    corners = rec.obstacle_points_m  # the table's corners are framed too
+    assert corners.shape == (8, 3) and np.allclose(corners.min(axis=0), [0.35, -0.15, -0.11])
 
 
 def test_stl_meshes_drawn_as_obj_on_a_7dof_arm(tmp_path):

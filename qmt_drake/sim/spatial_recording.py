@@ -197,13 +197,20 @@ def add_part_box(plant, part_body, com_m, size_m: float) -> None:
                                  "part_visual", PART_RGBA)
 
 
-def add_obstacle_visuals(plant, obstacles) -> int:
+def add_obstacle_visuals(plant, obstacles) -> np.ndarray:
     """The scenario's obstacles (objects with name, pose() and shape(), model/obstacles.py) drawn on the
-    world body: illustration only, so they push nothing in the simulated dynamics."""
+    world body: illustration only, so they push nothing in the simulated dynamics. Returns points [m]
+    (k x 3) the camera keeps in view: a box's or cylinder's corners, another shape's origin."""
+    points = []
     for ob in obstacles:
-        plant.RegisterVisualGeometry(plant.world_body(), ob.pose(), ob.shape(), f"obstacle_visual/{ob.name}",
-                                     OBSTACLE_RGBA)
-    return len(obstacles)
+        X, shape = ob.pose(), ob.shape()
+        plant.RegisterVisualGeometry(plant.world_body(), X, shape, f"obstacle_visual/{ob.name}", OBSTACLE_RGBA)
+        half = (0.5 * np.array([shape.width(), shape.depth(), shape.height()]) if isinstance(shape, Box) else
+                np.array([shape.radius(), shape.radius(), 0.5 * shape.length()]) if isinstance(shape, Cylinder)
+                else np.zeros(3))
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+        points += [X.multiply(c) for c in corners]
+    return np.array(points).reshape(-1, 3)
 
 
 def moving_body_positions(plant, plant_context, arm_instance) -> np.ndarray:
@@ -239,12 +246,13 @@ def workspace_camera(points_m, *, margin_m: float = 0.15, elevation_deg: float =
     return centre + distance * direction, centre
 
 
-def frame_workspace(meshcat, plant, plant_context, arm_instance, task_points_m=()) -> tuple:
-    """Camera on the arm's workspace: the base, the moving links at the start pose and the task points
-    (the hand's path) [m] all in view (workspace_camera); returns (camera, target)."""
+def frame_workspace(meshcat, plant, plant_context, arm_instance, task_points_m=(), also_m=()) -> tuple:
+    """Camera on the arm's workspace: the base, the moving links at the start pose, the task points
+    (the hand's path) and also_m (e.g. the obstacles' corners) [m] all in view (workspace_camera);
+    returns (camera, target)."""
     P = moving_body_positions(plant, plant_context, arm_instance)
-    tasks = np.asarray(task_points_m, float).reshape(-1, 3)
-    camera, target = workspace_camera(np.vstack([P, tasks]) if len(P) else np.vstack([np.zeros(3), tasks]))
+    extra = [np.asarray(x, float).reshape(-1, 3) for x in (task_points_m, also_m)]
+    camera, target = workspace_camera(np.vstack([P if len(P) else np.zeros((1, 3)), *extra]))
     meshcat.SetCameraPose(camera, target)
     return camera, target
 
@@ -258,6 +266,7 @@ class SpatialRecording:
     visualizer: object = None
     note: str = ""
     fallback_links: dict = field(default_factory=dict)
+    obstacle_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     @classmethod
     def add(cls, builder, plant, arm_instance, scene_graph=None, *, urdf=None, obstacles=()) -> SpatialRecording:
@@ -281,9 +290,10 @@ class SpatialRecording:
                 0.025 * _chain_reach_m(plant, arm_instance)
             note = "" if not stick else ("Drawn as sticks (their URDF visuals cannot be shown): "
                                          + "; ".join(f"{k}: {v}" for k, v in sorted(stick.items())) + ".")
-        add_obstacle_visuals(plant, obstacles)
+        corners = add_obstacle_visuals(plant, obstacles)
         add_floor(plant, arm_instance, below_base_m=_chain_reach_m(plant, arm_instance))
-        return cls(scene_graph, make_headless_meshcat(), arm_instance, r, note=note, fallback_links=dropped)
+        return cls(scene_graph, make_headless_meshcat(), arm_instance, r, note=note, fallback_links=dropped,
+                   obstacle_points_m=corners)
 
     @classmethod
     def for_scenario(cls, builder, plant, arm_instance, sc, scene_graph=None) -> SpatialRecording:
@@ -300,9 +310,9 @@ class SpatialRecording:
         self.visualizer = add_meshcat_visualizer(builder, self.scene_graph, self.meshcat)
 
     def start(self, plant, plant_context, task_points_m=None) -> None:
-        """Frame the camera on the workspace (frame_workspace) and record."""
+        """Frame the camera on the workspace and the obstacles (frame_workspace) and record."""
         frame_workspace(self.meshcat, plant, plant_context, self.arm_instance,
-                        () if task_points_m is None else task_points_m)
+                        () if task_points_m is None else task_points_m, self.obstacle_points_m)
         start_recording(self.visualizer)
 
     def save(self, path) -> Path:
