@@ -109,3 +109,12 @@ def test_workspace_camera_sees_every_point():
         assert np.degrees(np.arccos(np.dot(v, axis) / np.linalg.norm(v))) < 37.5
     assert cam[2] > P[:, 2].max()  # from above
     assert min(np.linalg.norm(cam - p) for p in P) > 0.5  # not inside the robot
+
+
+def test_urdf_without_visuals_is_drawn_as_sticks_and_says_so(tmp_path):
+    urdf, hand, lock = example_robot_urdf("ur5")
+    own = tmp_path / "bare.urdf"
+    own.write_text(re.sub(r"<visual>.*?</visual>", "", urdf.read_text(), flags=re.S))
+    rec, html = _record(tmp_path, own, hand, lock)
+    assert "drawn as a stick figure: its URDF has no visual Meshcat can draw" in html
+    assert any(b"stick_elbow_joint" in c for c in _commands(html))

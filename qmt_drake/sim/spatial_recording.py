@@ -128,7 +128,10 @@ def urdf_visuals(urdf) -> tuple[list, dict]:
     text, dropped = _visual_only_urdf(Path(urdf))
     builder = DiagramBuilder()
     scratch, sg = AddMultibodyPlantSceneGraph(builder, 0.0)
-    Parser(scratch).AddModelsFromString(text, "urdf")
+    try:
+        Parser(scratch).AddModelsFromString(text, "urdf")
+    except RuntimeError as exc:  # the recording is a view: draw sticks and say why rather than stop the run
+        return [], {"(all links)": "Drake's parser refused the URDF's visuals: " + str(exc).strip().splitlines()[0]}
     inspector = sg.model_inspector()
     out, objs = [], {}
     for g in inspector.GetAllGeometryIds(Role.kIllustration):
@@ -282,8 +285,9 @@ class SpatialRecording:
         names = {plant.get_body(b).name() for b in plant.GetBodyIndices(arm_instance)}
         if urdf is None or n == 0:
             r = add_stick_figure(plant, arm_instance)
-            note = "The arm is drawn as a stick figure: " + ("no URDF was given" if urdf is None
-                                                             else "its URDF has no visual Meshcat can draw") + "."
+            why = "no URDF was given" if urdf is None else "its URDF has no visual Meshcat can draw" + (
+                "" if not dropped else " (" + "; ".join(f"{k}: {v}" for k, v in sorted(dropped.items())) + ")")
+            note = f"The arm is drawn as a stick figure: {why}."
         else:
             stick = {k: v for k, v in dropped.items() if k in names}
             r = add_stick_figure(plant, arm_instance, bodies=set(stick)) if stick else \
