@@ -45,9 +45,9 @@ from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 
 try:  # the cell's clearance (world.obstacles, limits/clearance.py) where this checkout has it
-    from qmt_drake.limits.clearance import collision_model
+    from qmt_drake.limits.clearance import HORIZON_M, collision_model
 except ImportError:
-    collision_model = None
+    HORIZON_M, collision_model = None, None
 
 FAST_SCALE = 0.67
 FAMILY_ROWS = ("line_cubic_velocity", "trapezoid_ptp")
@@ -104,8 +104,8 @@ def run(scenario: str, ga_generations: int, actuator: str = "ideal") -> dict:
         model = collision_model(sc)
         clear = lambda q: model.distance(q)[0]  # noqa: E731 (smallest signed distance, m)
     for m, p in plans.items():  # the figures' series (apps/spatial_figures.py), at the re-check rate
-        rows[m]["series"] = plan_series(sc, p.trajectory, sc.recheck_rate_hz, clear)
-    rows["toppra_x0.67"]["series"] = plan_series(sc, fast, sc.recheck_rate_hz, clear)
+        rows[m]["series"] = plan_series(sc, p.trajectory, sc.recheck_rate_hz, clear, HORIZON_M)
+    rows["toppra_x0.67"]["series"] = plan_series(sc, fast, sc.recheck_rate_hz, clear, HORIZON_M)
     carried = [r for r in rows.values() if r["cosim"]["held"] and r["recheck_max_ratio"] <= 1.0]
     fastest = min(carried, key=lambda r: r["duration_s"])["method"] if carried else None
     return {"sc": sc, "plans": plans, "errors": errors, "scenario": sc.name, "actuator": actuator,

@@ -21,7 +21,8 @@ def _row(m, T, held=True, recheck=0.99, clearance=False):
     s = {"t_s": t.tolist(), "hand_ratio": (0.9 * np.sin(np.pi * t / T) ** 2).tolist(),
          "timed_t_s": t.tolist(), "max_timed_ratio": np.full(50, recheck).tolist()}
     if clearance:
-        s |= {"clearance_t_s": t.tolist(), "clearance_m": (0.05 - 0.04 * np.sin(np.pi * t / T)).tolist()}
+        s |= {"clearance_t_s": t.tolist(), "clearance_m": np.minimum(0.1, 0.12 - 0.11 * np.sin(np.pi * t / T)).tolist(),
+              "clearance_horizon_m": 0.1}
     return {"method": m, "duration_s": T, "ratio_to_bound": T / 1.0, "recheck_max_ratio": recheck,
             "cosim": {"outcome": "carried" if held else "detached", "held": held}, "series": s}
 

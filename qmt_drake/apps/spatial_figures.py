@@ -42,9 +42,10 @@ def thin_max(t_s, values, max_points: int = MAX_POINTS):
     return t_s[k], values[k]
 
 
-def plan_series(sc, traj, rate_hz: float, clearance_fn=None) -> dict:
+def plan_series(sc, traj, rate_hz: float, clearance_fn=None, horizon_m: float | None = None) -> dict:
     """{'t_s', 'hand_ratio', 'max_timed_ratio'} (and 'clearance_t_s', 'clearance_m' with clearance_fn(q)
-    -> signed distance m) of traj sampled at rate_hz, each thinned to MAX_POINTS (module docstring)."""
+    -> signed distance m, whose distance query sees no farther than horizon_m) of traj sampled at
+    rate_hz, each thinned to MAX_POINTS (module docstring)."""
     t = sample_times(traj.duration_s, rate_hz)
     cols = SpatialColumns(sc)
     q, qd, qdd = traj.sample(t)
@@ -59,6 +60,7 @@ def plan_series(sc, traj, rate_hz: float, clearance_fn=None) -> dict:
         k = np.unique(np.linspace(0, t.size - 1, min(t.size, MAX_POINTS)).round().astype(int))
         out["clearance_t_s"] = t[k].tolist()
         out["clearance_m"] = [float(clearance_fn(q[i])) for i in k]
+        out["clearance_horizon_m"] = horizon_m
     return out
 
 
@@ -129,6 +131,9 @@ def write_spatial_figures(res: dict, folder) -> list[Path]:
             s = rows[m]["series"]
             ax.plot(s["clearance_t_s"], 1e3 * np.asarray(s["clearance_m"]), label=m, lw=1.4)
         ax.axhline(0.0, color="k", lw=1, ls=":", label="contact")
+        horizon = rows[cl[0]]["series"].get("clearance_horizon_m")
+        if horizon:  # the distance query's reach: a flat top there means 'at least this far'
+            ax.axhline(1e3 * horizon, color="0.5", lw=1, ls="--", label=f"query horizon ({1e3 * horizon:g} mm: at least)")
         ax.set_xlabel("time [s]")
         ax.set_ylabel("clearance of arm and part [mm]")
         ax.set_title(f"{name}: smallest distance to the obstacles along each plan (Drake signed distance)")
