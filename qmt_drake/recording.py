@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+from html import escape
 from pathlib import Path
 
 import numpy as np
@@ -92,9 +93,16 @@ def start_recording(visualizer) -> None:
     visualizer.StartRecording(set_transforms_while_recording=False)
 
 
-def save_recording(visualizer, meshcat: Meshcat, path) -> Path:
-    """Stop, publish the animation and write meshcat.StaticHtml() to path; returns the path."""
+def save_recording(visualizer, meshcat: Meshcat, path, note: str = "") -> Path:
+    """Stop, publish the animation and write meshcat.StaticHtml() to path; returns the path. A note
+    (plain text, e.g. which links are drawn as sticks) is shown in a small box at the page's top left."""
     visualizer.StopRecording()
     visualizer.PublishRecording()
-    write_text_atomic(path, meshcat.StaticHtml())  # atomic, unpredictable temporary; '-' is stdout
+    html = meshcat.StaticHtml()
+    if note:
+        box = ('<div id="qmt-note" style="position:absolute;top:8px;left:8px;max-width:45%;z-index:10;'
+               'font:13px sans-serif;background:rgba(255,255,255,0.85);padding:4px 8px">'
+               f"{escape(note)}</div>")
+        html = html.replace("<body>", "<body>" + box, 1)
+    write_text_atomic(path, html)  # atomic, unpredictable temporary; '-' is stdout
     return Path(path)

@@ -16,7 +16,9 @@ scale 0.67): the part should be lost. When the TOPP-RA plan itself is not carrie
 leaves no margin for tracking error), a row `toppra_carried` gives the smallest slow-down that the
 co-simulation carries (bisection over the time scale). A method that refuses the task is a row with
 its one-line reason. Prints a Markdown table and writes OUT/spatial/<scenario>.json
-and .md atomically, and each plan as OUT/spatial/<scenario>-<method>-plan.json (planners/spatial_plan_io:
+and .md atomically (the JSON with each plan's hand ratio and largest ratio over time, thinned to 500
+points, and the clearance with obstacles), the figures OUT/spatial/<scenario>-{hand_ratio,times,clearance}.png
+(apps/spatial_figures.py), and each plan as OUT/spatial/<scenario>-<method>-plan.json (planners/spatial_plan_io:
 1 kHz samples and the exact trajectory; `qmt-drake simulate <scenario> --plan FILE` replays it).
 --actuator dc_motor co-simulates through DC motors with gears (sim/spatial_actuation.py, full feedforward;
 the scenario's actuators.motor) instead of ideal torque actuators, and writes <scenario>-dc_motor.{json,md}.
@@ -31,6 +33,7 @@ import time
 from functools import partial
 from pathlib import Path
 
+from qmt_drake.apps.spatial_figures import plan_series, write_spatial_figures
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
@@ -40,6 +43,11 @@ from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_actuation import ACTUATORS, motor_params_for_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
+
+try:  # the cell's clearance (world.obstacles, limits/clearance.py) where this checkout has it
+    from qmt_drake.limits.clearance import HORIZON_M, collision_model
+except ImportError:
+    HORIZON_M, collision_model = None, None
 
 FAST_SCALE = 0.67
 FAMILY_ROWS = ("line_cubic_velocity", "trapezoid_ptp")
@@ -91,6 +99,13 @@ def run(scenario: str, ga_generations: int, actuator: str = "ideal") -> dict:
                             "cosim": simulate(sc, fast)}
     if not rows["toppra"]["cosim"]["held"]:
         rows["toppra_carried"] = carried_row(sc, plans["toppra"], bound, actuator)
+    clear = None
+    if collision_model is not None and getattr(sc, "obstacles", None):
+        model = collision_model(sc)
+        clear = lambda q: model.distance(q)[0]  # noqa: E731 (smallest signed distance, m)
+    for m, p in plans.items():  # the figures' series (apps/spatial_figures.py), at the re-check rate
+        rows[m]["series"] = plan_series(sc, p.trajectory, sc.recheck_rate_hz, clear, HORIZON_M)
+    rows["toppra_x0.67"]["series"] = plan_series(sc, fast, sc.recheck_rate_hz, clear, HORIZON_M)
     carried = [r for r in rows.values() if r["cosim"]["held"] and r["recheck_max_ratio"] <= 1.0]
     fastest = min(carried, key=lambda r: r["duration_s"])["method"] if carried else None
     return {"sc": sc, "plans": plans, "errors": errors, "scenario": sc.name, "actuator": actuator,
@@ -161,6 +176,9 @@ def main(argv=None) -> int:
         write_text_atomic(out / f"{stem}.md", md)
         for m, p in plans.items():
             write_spatial_plan(sc, p, out / f"{res['scenario']}-{m}-plan.json")
+        if a.actuator == "ideal":  # the figures of the ideal-actuator run (the report shows them)
+            for f in write_spatial_figures(jsonable(res), out):
+                print(f"figure {f}")
     return 0
 
 

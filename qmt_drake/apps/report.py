@@ -77,8 +77,13 @@ SECTIONS: list[Section] = [
     Section("Spatial arms: a UR5 with a suction cup between two bins and with the thesis's magnet, a Panda with "
             "a cup on a tray", ".venv/bin/python -m studies.spatial_benchmark --out out (and studies.spatial_ga_seeds, "
             "studies.bench_spatial: the planning-speed tables)", "spatial",
-            seed="Not in the seeds: issue 19's arms from the field (Pham & Pham's suction-cup transfer).",
-            tables=("*.md",), figures=(), recordings=(),
+            seed="Not in the seeds: two industrial arms from the `example-robot-data` package's URDFs, a "
+                 "Universal Robots UR5 (6 revolute joints, about 0.85 m reach) moving a box with a suction cup "
+                 "(the suction-cup transfer of Pham & Pham) and with the thesis's magnet, and a Franka Emika Panda "
+                 "(7 joints) carrying an unfixed cup on a tray. Figures per scenario: the hand's limit ratio over "
+                 "time per method (1 = the part is about to go), the methods' motion times against the TOPP-RA "
+                 "bound coloured by the co-simulation's outcome, and with obstacles the clearance along each path.",
+            tables=("*.md",), figures=("*.png",), recordings=(),
             raw=("ur5-suction-bins.json", "ur5-magnet-part.json", "panda-tray-cup.json")),
     Section("Success probability under uncertainty (Dask sweeps)",
             ".venv/bin/python -m studies.success_probability --cases 50 --robust thesis-ch4", "",

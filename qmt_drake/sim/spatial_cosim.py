@@ -151,7 +151,7 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
         drive.prepare_plant(plant, H.model_instance(), sc)
     rec = None
     if record_path is not None:
-        rec = SpatialRecording.add(builder, plant, H.model_instance())
+        rec = SpatialRecording.for_scenario(builder, plant, H.model_instance(), sc)
         size = 4.0 * rec.link_radius_m
         add_part_box(plant, part, b.com_m, size)
         # only the part and the floor collide: a detached part lands instead of falling for ever
@@ -282,7 +282,8 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
     tray, cup, spec = _add_tray_and_cup(plant, scene_graph, H, sc)
     if drive is not None:
         drive.prepare_plant(plant, H.model_instance(), sc)
-    rec = None if record_path is None else SpatialRecording.add(builder, plant, H.model_instance(), scene_graph)
+    rec = None if record_path is None else SpatialRecording.for_scenario(builder, plant, H.model_instance(), sc,
+                                                                              scene_graph)
     plant.Finalize()
     builder.Connect(plant.get_geometry_pose_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
     builder.Connect(scene_graph.get_query_output_port(), plant.get_geometry_query_input_port())
