@@ -35,6 +35,7 @@ from pathlib import Path
 
 from qmt_drake.apps.spatial_figures import plan_series, write_spatial_figures
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.clearance import HORIZON_M, collision_model
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_methods import FAMILY_METHODS, PLANNERS, plan_ga_spatial
@@ -43,11 +44,6 @@ from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_actuation import ACTUATORS, motor_params_for_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
-
-try:  # the cell's clearance (world.obstacles, limits/clearance.py) where this checkout has it
-    from qmt_drake.limits.clearance import HORIZON_M, collision_model
-except ImportError:
-    HORIZON_M, collision_model = None, None
 
 FAST_SCALE = 0.67
 FAMILY_ROWS = ("line_cubic_velocity", "trapezoid_ptp")
