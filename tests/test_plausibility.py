@@ -107,8 +107,15 @@ def test_plausible_neighbours_still_load(tmp_path):
 
 def test_yaml_aliases_and_oversized_files_are_refused_unread(tmp_path):
     p = tmp_path / "alias.yaml"
-    p.write_text("a: &x [1, 2]\nb: *x\n")
-    with pytest.raises(QmtInputError, match="alias"):
+    p.write_text("a: &x [1, 2]\nb: *x\n")  # an alias is read as written out (yaml.safe_dump writes them)
+    assert F.read_yaml_mapping(p) == {"a": [1, 2], "b": [1, 2]}
+    lines = ["l0: &l0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"] + [
+        f"l{k}: &l{k} [{', '.join([f'*l{k - 1}'] * 10)}]" for k in range(1, 9)]  # 10**9 values written out
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(QmtInputError, match="expands through aliases to over 1,000,000 values"):
+        F.read_yaml_mapping(p)
+    p.write_text("a: &x [1, *x]\n")
+    with pytest.raises(QmtInputError, match="alias to itself"):
         F.read_yaml_mapping(p)
     big = tmp_path / "big.yaml"
     big.write_text("a: [" + ", ".join(["1.0"] * 60000) + "]\n")

@@ -22,15 +22,17 @@ MISSING = object()
 # An input YAML file (scenario, sweep spec, design task) is a few kB (the shipped ones are under 8 kB);
 # parsing is ~4 us a byte here (10,000 task poses, 380 kB: 1.6 s), so a larger file is refused unread.
 MAX_YAML_BYTES = 256 * 1024
+# Values of an input written out (aliases expanded): the shipped files hold a few thousand.
+MAX_YAML_VALUES = 1_000_000
 
 
 class _UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # libyaml's parser when present: fast
-    """SafeLoader that refuses a duplicated key in any mapping, and any alias (`*name`): an alias can
-    expand a file of a few lines into billions of values (the "billion laughs"), and no input of this
-    project needs one."""
+    """SafeLoader that refuses a duplicated key in any mapping, and an alias bomb: aliases (`*name`) are
+    read, but a file whose values, written out, pass MAX_YAML_VALUES (the "billion laughs": a few lines
+    that expand into billions of values) or that refers to itself is refused."""
 
     def construct_document(self, node):
-        _refuse_aliases(node)
+        _refuse_alias_bombs(node)
         return super().construct_document(node)
 
     def construct_mapping(self, node, deep=False):
@@ -54,19 +56,32 @@ _UniqueKeyLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float", re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"), list("-+0123456789"))
 
 
-def _refuse_aliases(root) -> None:
-    """An alias makes the composed graph share a node: refuse the first node reached twice."""
-    seen, stack = set(), [root]
+def _refuse_alias_bombs(root) -> None:
+    """Aliases are read (yaml.safe_dump writes them for a repeated list), but the values they stand for
+    are counted as if written out: a file whose expansion passes MAX_YAML_VALUES (the "billion laughs")
+    or an alias to its own enclosing value (a cycle) is refused in one line."""
+    size: dict[int, int] = {}
+    stack, open_ = [(root, False)], set()
     while stack:
-        node = stack.pop()
-        if id(node) in seen:
-            raise QmtInputError(f"the value at line {node.start_mark.line + 1} is repeated by an alias: aliases are not "
-                                "read (they can expand a small file into a huge input); write the value out")
-        seen.add(id(node))
-        if isinstance(node, yaml.MappingNode):
-            stack.extend(x for pair in node.value for x in pair)
-        elif isinstance(node, yaml.SequenceNode):
-            stack.extend(node.value)
+        node, children_done = stack.pop()
+        key = id(node)
+        kids = ([x for pair in node.value for x in pair] if isinstance(node, yaml.MappingNode)
+                else list(node.value) if isinstance(node, yaml.SequenceNode) else [])
+        if children_done:
+            open_.discard(key)
+            size[key] = 1 + sum(size[id(k)] for k in kids)
+            if size[key] > MAX_YAML_VALUES:
+                raise QmtInputError(f"the value at line {node.start_mark.line + 1} expands through aliases to over "
+                                    f"{MAX_YAML_VALUES:,} values; write the values out or check the file")
+            continue
+        if key in size:
+            continue
+        if key in open_:
+            raise QmtInputError(f"the value at line {node.start_mark.line + 1} contains an alias to itself; "
+                                "write the values out")
+        open_.add(key)
+        stack.append((node, True))
+        stack.extend((k, False) for k in kids if id(k) not in size)
 
 
 def load_yaml_text(text: str, where: str) -> Any:
@@ -77,6 +92,8 @@ def load_yaml_text(text: str, where: str) -> Any:
         raise QmtInputError(f"{where}: {exc}") from None
     except yaml.YAMLError as exc:
         raise QmtInputError(f"{where}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    except RecursionError:
+        raise QmtInputError(f"{where}: nested too deeply to read; an input file is a few levels deep") from None
 
 
 def read_yaml_mapping(path: str | Path, what: str = "file", example: str | Path | None = None) -> dict:

@@ -46,6 +46,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.model.obstacles import proximity, read_mesh_points, register_obstacles
 from qmt_drake.model.urdf_check import load_arm_plant
+from qmt_drake.model.urdf_package import mesh_file
 from qmt_drake.planners.spatial_trajectory import sample_times
 
 HORIZON_M = 0.1  # pairs farther apart are not computed: a clearance above it is reported as HORIZON_M, no pair
@@ -74,19 +75,11 @@ def carried_shapes(sc) -> list[tuple[str, object, RigidTransform]]:
 
 
 def _mesh_path(uri: str, urdf: Path, where: str) -> Path:
-    """A URDF mesh filename: package://<pkg>/<rest> (a folder <pkg> above the URDF holding <rest>),
-    file://<abs path>, or a path relative to the URDF."""
-    if uri.startswith("package://"):
-        pkg, _, rest = uri[len("package://"):].partition("/")
-        for d in urdf.parents:
-            for cand in (d / rest if d.name == pkg else None, d / pkg / rest):
-                if cand is not None and cand.is_file():
-                    return cand
-        raise QmtInputError(f"{where}: mesh {uri} not found in a folder {pkg!r} above {urdf}; install the package "
-                            "or give the mesh's path")
-    path = Path(uri[len("file://"):]) if uri.startswith("file://") else urdf.parent / uri
-    if not path.is_file():
-        raise QmtInputError(f"{where}: mesh {uri} not found at {path}")
+    """A URDF mesh filename as a file (model/urdf_package.mesh_file); one line if it cannot be found."""
+    path = mesh_file(uri, urdf)
+    if path is None:
+        raise QmtInputError(f"{where}: mesh {uri} not found above {urdf} nor in an installed package; install the "
+                            "package or give the mesh's path")
     return path
 
 

@@ -11,6 +11,7 @@ files), refusing in one line, with the package's URDFs and `urdf:` for a file of
 
 from __future__ import annotations
 
+import functools
 import importlib.metadata
 from pathlib import Path
 
@@ -74,3 +75,40 @@ def package_urdf(ref: str, where: str = "arm.package") -> tuple[Path, str | None
     arms = f"{dist}/<arm> with <arm> one of {sorted(EXAMPLE_ARMS)}, or " if dist == "example-robot-data" else ""
     raise QmtInputError(f"{where} {ref!r} {what}; give {arms}{dist}/<file> with <file> one of {shown or 'none'} "
                         "(or its path in the package), or urdf: <path> for a URDF file of your own")
+
+
+@functools.lru_cache(maxsize=32)  # a distribution's file list is read once
+def installed_package_dirs(name: str) -> tuple[Path, ...]:
+    """The folders named `name` inside the installed Python distribution of that name (example-robot-data
+    installs its robots under share/example-robot-data/); [] when it is not installed."""
+    try:
+        files = importlib.metadata.files(name) or []
+    except importlib.metadata.PackageNotFoundError:
+        return ()
+    found: list[Path] = []
+    for f in files:
+        parts = Path(str(f)).parts
+        if name in parts[:-1]:
+            d = Path(f.locate()).resolve().parents[len(parts) - 2 - parts.index(name)]
+            if d not in found:
+                found.append(d)
+    return tuple(found)
+
+
+def mesh_file(uri: str, urdf: Path) -> Path | None:
+    """A URDF mesh filename as an existing file, or None: package://NAME/rest is looked up in the folders
+    above the URDF (a folder NAME there, or one holding NAME), then in the installed distribution NAME
+    (a URDF copied out of example-robot-data still finds its meshes); file:// and relative names
+    against the URDF's folder. The one resolver of the collision (limits/clearance.py) and visual
+    (sim/spatial_recording.py) meshes."""
+    urdf = Path(urdf)
+    if uri.startswith("package://"):
+        name, _, rest = uri[len("package://"):].partition("/")
+        for d in [urdf.parent, *urdf.parent.parents, *installed_package_dirs(name)]:
+            for root in (d, d / name):
+                if root.name == name and (root / rest).is_file():
+                    return root / rest
+        return None
+    p = Path(uri.removeprefix("file://"))
+    p = p if p.is_absolute() else urdf.parent / p
+    return p if p.is_file() else None

@@ -44,6 +44,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
+from qmt_drake.model.urdf_package import mesh_file
 from qmt_drake.recording import (
     add_floor,
     add_meshcat_visualizer,
@@ -76,21 +77,6 @@ def stl_as_obj(path: Path) -> str:
             + "".join(f"f {a} {b} {c}\n" for a, b, c in faces))
 
 
-def _resolve(filename: str, base: Path) -> Path | None:
-    """A URDF mesh filename as a file: package://NAME/rest looked up in the directories above the URDF
-    (a directory NAME there, or one holding NAME), relative names against the URDF's directory."""
-    if filename.startswith("package://"):
-        name, _, rest = filename[len("package://"):].partition("/")
-        for d in [base, *base.parents]:
-            for root in (d, d / name):
-                if root.name == name and (root / rest).is_file():
-                    return root / rest
-        return None
-    p = Path(filename.removeprefix("file://"))
-    p = p if p.is_absolute() else base / p
-    return p if p.is_file() else None
-
-
 def _visual_only_urdf(urdf: Path) -> tuple[str, dict]:
     """The URDF's text with only its links, joints and visuals (mesh paths absolute, .stl and missing or
     undrawable meshes taken out), and {link: reason} for every visual taken out."""
@@ -107,7 +93,7 @@ def _visual_only_urdf(urdf: Path) -> tuple[str, dict]:
             mesh = vis.find("geometry/mesh")
             if mesh is None:
                 continue
-            path = _resolve(mesh.get("filename", ""), urdf.parent)
+            path = mesh_file(mesh.get("filename", ""), urdf)
             ext = path.suffix.lower() if path else ""
             if path is None or ext not in MESHCAT_MESHES + (".stl",):
                 dropped[link.get("name")] = f"{Path(mesh.get('filename', '')).name} " + \
