@@ -12,8 +12,10 @@ from qmt_drake.apps.cli import main
 from qmt_drake.config.resolve import SCENARIO_DIR
 from qmt_drake.errors import QmtInputError
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.sweep.cases import build_cases
 from qmt_drake.sweep.robust import success_spec
-from qmt_drake.sweep.spatial_cases import perturbed_scenario
+from qmt_drake.sweep.spatial_cases import build_spatial_cases, perturbed_scenario
+from qmt_drake.sweep.spec import load_spec
 
 
 def _copy(tmp_path, name: str, uncertainty) -> str:
@@ -112,6 +114,11 @@ def test_success_on_a_spatial_scenario_end_to_end(tmp_path, capsys):
     assert s["search"]["found"] and s["search"]["time_scale"] == 1.0 and doc["info"]["time_scale"] == 1.0
     assert [t["time_scale"] for t in s["tries"]] == [1.0, 1.05]
     assert re.search(r"P\(carried\) 1/1 on fresh cases, 95 % Wilson lower bound 0\.2\d+", capsys.readouterr().out)
+    # simulate replays the nominal cell only: the planned magnet, on which TOPP-RA's plan lets go at once
+    sim = tmp_path / "sim.json"
+    assert main(["simulate", path, "--plan", str(out), "--json", str(sim), "--quiet"]) == 0
+    r = json.loads(sim.read_text())
+    assert r["outcome"] == "detached" and r["lost_at_s"] < 0.1 and r["time_scale"] == 1.0
     # the store resumes: the same search again computes nothing new
     cases = sorted((tmp_path / "store").rglob("cases/*.json"))
     assert len(cases) == 3
@@ -119,3 +126,22 @@ def test_success_on_a_spatial_scenario_end_to_end(tmp_path, capsys):
                  "--success-max-scale", "1.05", "--success-out", str(tmp_path / "store"), "--json", str(out),
                  "--quiet"]) == 0
     assert sorted((tmp_path / "store").rglob("cases/*.json")) == cases
+
+
+def test_sweep_specs_check_the_parameter_against_the_kind():
+    magnet = {"name": "m", "scenario": "ur5-magnet-part", "plans": [{"method": "toppra"}],
+              "parameters": {"friction": [0.3]}}
+    with pytest.raises(QmtInputError, match="spatial magnet hand's co-simulation does not vary it"):
+        build_spatial_cases(load_spec(magnet))
+    planar = {"name": "p", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
+              "parameters": {"vacuum_force_scale": [0.9]}}
+    with pytest.raises(QmtInputError, match="for spatial scenarios"):
+        build_cases(load_spec(planar))
+    # the drawn timing multiplies the searched time scale, on planar and spatial cases alike
+    planar["parameters"] = {"time_scale": 1.1, "time_scale_jitter": [0.99, 1.01]}
+    cases, _ = build_cases(load_spec(planar))
+    assert [c.sim["time_scale"] for c in cases] == pytest.approx([1.089, 1.111])
+    magnet["parameters"] = {"time_scale": 1.1, "time_scale_jitter": [0.99, 1.01], "gear_efficiency": 0.95}
+    cases, _ = build_spatial_cases(load_spec(magnet))
+    assert [c.sim["time_scale"] for c in cases] == pytest.approx([1.089, 1.111])
+    assert cases[0].sim["actuator"] == "dc_motor" and cases[0].motor_scales == {"gear_efficiency": 0.95}
