@@ -82,7 +82,7 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
         ok = (k / n if n else 0.0) >= target if criterion == "estimate" else lo >= target
         point = dict(time_scale=float(s), n=n, carried=k, p=k / n if n else float("nan"), ci_low=lo,
                      ci_high=hi, meets_target=bool(ok), failed_cases=out["failed"],
-                     motion_time_s=out["rows"][0]["motion_time_s"] if out["rows"] else None)
+                     motion_time_s=_motion_time(out, s))
         history.append(point)
         say(f"robust {spec.name}: s = {s:.5f}: {k}/{n} carried, p = {point['p']:.3f} "
             f"[{lo:.3f}, {hi:.3f}] -> {'meets' if ok else 'misses'} {target}")
@@ -109,6 +109,14 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
                 time_scale=best["time_scale"], motion_time_s=best["motion_time_s"], p=best["p"],
                 ci_low=best["ci_low"], ci_high=best["ci_high"], n=best["n"],
                 history=sorted(history, key=lambda h: h["time_scale"]), wall_s=time.perf_counter() - t0)
+
+
+def _motion_time(out: dict, s: float):
+    """The sweep's common motion time [s], or (cases with a drawn time_scale_jitter differ) the plan's
+    motion time x s."""
+    row = out["rows"][0] if out["rows"] else {}
+    t = (out["results"] or [{}])[0].get("plan_motion_time_s")
+    return row.get("motion_time_s") if row.get("motion_time_s") is not None or t is None else float(t) * s
 
 
 def time_scaled_plan(plan, time_scale: float, method: str, extra: dict | None = None):
