@@ -1,5 +1,9 @@
 """What our co-simulation costs over the least any Drake diagram of the same physics can cost,
-and what a sweep gains from a second worker (issue 13 item 5).
+and what a sweep gains from a second worker (issue 13 item 5; the spatial part: issue 27 "Cost").
+
+0. The spatial co-simulation (sim/spatial_cosim.simulate_spatial of each --spatial scenario's TOPP-RA
+   plan, ideal actuators) against its floor of Drake primitives: studies/bench_spatial_floor.py,
+   `--spatial-repeats` alternating repeats (0: skip).
 
 1. Cost ratio, in one process and one run: the chapter-4 thesis move (1.716 s + 0.2 s lead +
    0.5 s settle) through
@@ -32,8 +36,10 @@ and what a sweep gains from a second worker (issue 13 item 5).
    planning excluded). Target: 2 workers / 1 worker >= 1.8 on this 2-core machine, which is
    shared: os.getloadavg() before each run is recorded.
 
-Writes OUT/bench_cosim_floor.json atomically. Run:
-  .venv/bin/python -m studies.bench_cosim_floor [--repeats 10] [--sweep-cases 120]
+Writes OUT/bench_cosim_floor.json atomically (OUT ending in .json: that file). Run:
+  .venv/bin/python -m studies.bench_cosim_floor [--repeats 10] [--sweep-cases 120] [--spatial-repeats 5]
+The study imports qmt_drake from sys.path, so the same study measures another checkout's package:
+  cd DIR_WITH_ONLY_A_studies_LINK && PYTHONPATH=/other/checkout python -m studies.bench_cosim_floor ...
 """
 
 from __future__ import annotations
@@ -55,9 +61,13 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
 from qmt_drake.outputs import jsonable, write_text_atomic  # noqa: E402
+from studies.bench_spatial_floor import print_rows, spatial_cost  # noqa: E402
+
+# the magnet's TOPP-RA plan detaches at 0.014 s (a free part is cheaper than the floor's weld): x1.3633,
+# the slow-down that carries it (docs/spatial.md), is the like-for-like row
+SPATIAL_SCENARIOS = ("ur5-suction-bins", "ur5-magnet-part@1.3633", "ur5-magnet-part", "panda-tray-cup")
 
 THESIS_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 Table 4.3 (the scenario's reported genes)
 
@@ -307,18 +317,33 @@ def main(argv=None) -> int:
                     help="0: skip the throughput part. A case takes ~0.15 s: with fewer than ~100 the ratio "
                          "measures the sweep's start and tail more than its throughput")
     ap.add_argument("--time-step-ms", type=float, default=2.0)
-    ap.add_argument("--out", default=str(ROOT / "out"))
+    ap.add_argument("--spatial-repeats", type=int, default=5, help="0: skip the spatial part")
+    ap.add_argument("--spatial", nargs="+", default=list(SPATIAL_SCENARIOS), metavar="SCENARIO[@K]",
+                    help="spatial scenarios (TOPP-RA plan; @K: time-scaled by K)")
+    ap.add_argument("--out", default=str(ROOT / "out"), help="a folder, or a file name ending in .json")
     a = ap.parse_args(argv)
+    import qmt_drake
     from qmt_drake.errors import QmtInputError
     from qmt_drake.outputs import check_output_dir
+    out_file = Path(a.out) if a.out.endswith(".json") else Path(a.out) / "bench_cosim_floor.json"
     try:  # before any simulation: a folder that cannot be written stops here, in one line
-        check_output_dir(a.out, "--out")
+        check_output_dir(str(out_file.parent), "--out")
     except QmtInputError as exc:
         print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     data = dict(machine=platform.platform(), cpus=os.cpu_count(), python=platform.python_version(),
                 when=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), loadavg_start=os.getloadavg(),
+                qmt_drake=str(Path(qmt_drake.__file__).parent.parent),
                 note="shared machine: wall times vary run to run; medians of alternating runs")
+    print(f"qmt_drake from {data['qmt_drake']}", flush=True)
+    if a.spatial_repeats > 0:
+        data["spatial"] = sp = spatial_cost(a.spatial, a.spatial_repeats)
+        print_rows(sp)
+        write_text_atomic(out_file, json.dumps(jsonable(data), indent=1))
+    if a.repeats <= 0:
+        write_text_atomic(out_file, json.dumps(jsonable(data), indent=1))
+        print(f"wrote {out_file}")
+        return 0
     data["cost"] = c = cost_ratio(a.repeats, a.time_step_ms * 1e-3)
     print(f"cost: ours {c['ours_us_per_step_median']:.0f} us/step, floor {c['floor_us_per_step_median']:.0f} us/step, "
           f"ratio {c['ratio_wall_median']:.2f} (wall, median), {c['ratio_cpu_median']:.2f} (CPU); target <= 1.3; "
@@ -329,13 +354,12 @@ def main(argv=None) -> int:
           f"(vs the per-step monitor: max rel. diff {c['logs_summary_vs_per_step_monitor_max_rel_diff']:.1e}); "
           f"ours held {c['ours_held']}, floor part offset {c['floor_final_offset_m'] * 1e3:.3f} mm; "
           f"load {c['loadavg_before'][0]:.2f} -> {c['loadavg_after'][0]:.2f}", flush=True)
-    out = Path(a.out)
-    write_text_atomic(out / "bench_cosim_floor.json", json.dumps(jsonable(data), indent=1))
+    write_text_atomic(out_file, json.dumps(jsonable(data), indent=1))
     if a.sweep_cases > 0:
         data["throughput"] = t = throughput(a.sweep_cases)
         print(f"throughput speed-up 2/1 workers: {t['speedup_2_over_1']:.2f} (target >= 1.8)", flush=True)
-    write_text_atomic(out / "bench_cosim_floor.json", json.dumps(jsonable(data), indent=1))
-    print(f"wrote {out / 'bench_cosim_floor.json'}")
+    write_text_atomic(out_file, json.dumps(jsonable(data), indent=1))
+    print(f"wrote {out_file}")
     return 0
 
 

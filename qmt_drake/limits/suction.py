@@ -25,6 +25,8 @@ carried body (limits/contact_wrench.py) in H's axes; for TOPP-RA toppra_w = w an
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy.spatial import ConvexHull
 
@@ -78,6 +80,21 @@ class GripModel:
     def holds(self, wrench_H) -> np.ndarray:
         """(S,) ratio max_k F_k w / g_k of wrenches [n; f] at C's origin in H's axes (<= 1: held)."""
         return np.max(np.atleast_2d(wrench_H) @ (self.F / self.g[:, None]).T, axis=1)
+
+
+@lru_cache(maxsize=64)
+def _cached_grip(radius_m, pull_force_N, friction, face_normal, rim_points, pyramid_edges, pyramid_angle_rad):
+    return GripModel(radius_m, pull_force_N, friction, face_normal=face_normal, rim_points=rim_points,
+                     pyramid_edges=pyramid_edges, pyramid_angle_rad=pyramid_angle_rad)
+
+
+def cached_grip(radius_m: float, pull_force_N: float, friction: float, *, face_normal=(0.0, 0.0, 1.0),
+                rim_points: int = 8, pyramid_edges: int = 4, pyramid_angle_rad: float = 0.0) -> GripModel:
+    """GripModel(...) built once per distinct set of arguments (its hull takes about 0.1-1 s at 24x8): the
+    shared instance must not be modified."""
+    return _cached_grip(float(radius_m), float(pull_force_N), float(friction),
+                        tuple(float(v) for v in np.asarray(face_normal, float).reshape(3)), int(rim_points),
+                        int(pyramid_edges), float(pyramid_angle_rad))
 
 
 class SuctionTerm(LimitTerm):

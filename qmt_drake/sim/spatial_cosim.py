@@ -5,13 +5,14 @@ arm with the part welded to the hand) tracking the plan sampled at 1 kHz.
 
 Suction model: a weld that breaks. The part is a free body welded to the hand frame H (the cup's
 centre) by a SAP weld constraint (Drake's discrete solver, implicit, hence stable at 1 ms for a light
-wrist). Every 1 ms step HoldMonitor computes the wrench the cup applies to the part (Newton-Euler
-on the part's own motion) and checks it against the cup's contact-stability set
+wrist). Every 1 ms step's state is logged in C++ and the wrench the cup applies to the part (Newton-Euler
+on the part's own motion) is checked after each 250 ms chunk (sim/spatial_hold.py) against the cup's contact-stability set
 (limits/suction.GripModel with the finer FINE_GRIP rim and pyramid of the re-check: the round cup's
 rim and friction cone approximated more closely than by the planners' inscribed 8x4 polyhedron), or
 for a magnet hand against the thesis's moment limit (MagnetMomentTerm, the same as the planners'). The
-first step with a ratio above 1 latches `detached`: the simulation stops there, the weld constraint
-is switched off, and the part falls freely for the rest of the run. A slip along the face without
+first step with a ratio above 1 is `detached`: the run goes back to the chunk's start, the weld holds
+until that step, then the weld constraint is switched off and the part falls freely for the rest of
+the run (the states of a per-step monitor's run, tests/test_cosim_floor.py). A slip along the face without
 detaching is not modelled (the weld does not slide), so the outcomes are carried / detached /
 unfinished (sim/outcome.transfer_outcome, arrival tolerance ARRIVAL_TOLERANCE_DC_MOTOR_RAD at the end
 of a TAIL_S hold at the goal). actuator="dc_motor" drives the arm through DC motors with gears and a PD
@@ -22,8 +23,9 @@ the face axis) with the seed-002 tray's collision box (systems/tray_object.add_t
 a free body on a 6-DOF joint from it (add_bottle: a ring of 16 point contacts at the cup's radius,
 Coulomb friction mu, Hunt-Crossley dissipation; the solid cylinder's inertia of the planners), point
 contact in the discrete SAP solver at 1 ms; the arm holds the start for SETTLE_S while the contact
-takes up the cup's weight, then plays the plan. TrayBottleMonitor logs the cup's slide and tilt on
-the tray: slid_off / tipped / slipped (final slide > SLIP_TOLERANCE_M) / unfinished / carried.
+takes up the cup's weight, then plays the plan. sim/spatial_hold.TrayLog logs the plant's state every
+step in C++; after the run the cup's slide and tilt on the tray (its joint coordinates) give
+slid_off / tipped / slipped (final slide > SLIP_TOLERANCE_M) / unfinished / carried.
 Example-robot-data's Panda declares no actuators: the tray co-simulation adds one per chain joint.
 """
 
@@ -38,12 +40,12 @@ from pydrake.multibody.plant import ContactModel, CoulombFriction, DiscreteConta
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
-from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
-from pydrake.systems.primitives import LogVectorOutput, Saturation, TrajectorySource
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.limits.contact_wrench import face_basis
-from qmt_drake.limits.suction import GripModel
+from qmt_drake.limits.suction import GripModel, cached_grip
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.urdf_check import load_arm_plant
@@ -54,11 +56,11 @@ from qmt_drake.sim.spatial_actuation import (
     spatial_drive,
     tracking_report,
 )
+from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import (
     BottleSpec,
-    TrayBottleMonitor,
     add_bottle,
     add_tray_contact,
     seated_pose_on_tray,
@@ -68,43 +70,6 @@ TIME_STEP_S = 1e-3
 KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
 TAIL_S = 0.5
 FINE_GRIP = (24, 8)
-
-
-class HoldMonitor(LeafSystem):
-    """The hand's ratio of the part's contact wrench every step; latches `detached` when it exceeds 1.
-
-    `term` is the hand's limit term (SuctionTerm with the finer grip, or MagnetMomentTerm): its
-    columns take the part's own pose, twist and spatial acceleration from the plant, from which
-    limits/contact_wrench.contact_wrench gives the wrench the hand applies at the face centre (P's
-    origin) by Newton-Euler: while the weld holds, the only other force on the part is gravity."""
-
-    def __init__(self, plant, part_body, term) -> None:
-        super().__init__()
-        self.part, self.term = part_body, term
-        self.poses = self.DeclareAbstractInputPort("poses", plant.get_body_poses_output_port().Allocate())
-        self.vels = self.DeclareAbstractInputPort("velocities",
-                                                  plant.get_body_spatial_velocities_output_port().Allocate())
-        self.accs = self.DeclareAbstractInputPort("accelerations",
-                                                  plant.get_body_spatial_accelerations_output_port().Allocate())
-        self.DeclareDiscreteState(3)  # detached flag, time of detachment, largest ratio while held
-        self.DeclarePeriodicDiscreteUpdateEvent(TIME_STEP_S, 0.0, self._update)
-
-    def ratio(self, context) -> float:
-        i = int(self.part.index())
-        X, V, A = self.poses.Eval(context)[i], self.vels.Eval(context)[i], self.accs.Eval(context)[i]
-        state = {"rotation": X.rotation().matrix()[None], "angular_velocity_rad_s": V.rotational()[None],
-                 "angular_acceleration_rad_s2": A.rotational()[None],
-                 "linear_acceleration_m_s2": A.translational()[None]}
-        return float(np.max(self.term.columns(state)))
-
-    def _update(self, context, discrete_state):
-        x = context.get_discrete_state_vector().CopyToVector()
-        if x[0] < 0.5:
-            r = self.ratio(context)
-            x[2] = max(x[2], r)
-            if r > 1.0:
-                x[0], x[1] = 1.0, context.get_time()
-        discrete_state.get_mutable_vector().SetFromVector(x)
 
 
 def _reference(traj):
@@ -148,9 +113,9 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
         drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward)
     if sc.hand_kind == "tray":
         return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path, controller_sc=ctrl)
-    if sc.hand_kind == "suction" and grip is None:
-        grip = GripModel(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
-                         rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
+    if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
+        grip = cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
+                           rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
     term = sc.hand_term(grip)
     builder = DiagramBuilder()
     plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
@@ -177,46 +142,35 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     if rec is not None:
         rec.connect(builder, plant)
     arm = H.model_instance()
-    mon = builder.AddSystem(HoldMonitor(plant, part, term))
     pp, acc, t_end, q_goal = _reference(traj)
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
     motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
         drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
     logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
-    builder.Connect(plant.get_body_poses_output_port(), mon.poses)
-    builder.Connect(plant.get_body_spatial_velocities_output_port(), mon.vels)
-    builder.Connect(plant.get_body_spatial_accelerations_output_port(), mon.accs)
+    hold = HoldLog(builder, plant, part, term, TIME_STEP_S)
     diagram = builder.Build()
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()
     pctx = plant.GetMyMutableContextFromRoot(ctx)
-    mctx = mon.GetMyContextFromRoot(ctx)
     plant.SetPositions(pctx, arm, traj.sample([0.0])[0][0])
     plant.SetFreeBodyPose(pctx, part, H.CalcPoseInWorld(pctx))
-
-    def stop_when_detached(root_context):
-        detached = mctx.get_discrete_state_vector()[0] > 0.5
-        return EventStatus.ReachedTermination(mon, "detached") if detached else EventStatus.DidNothing()
-
-    sim.set_monitor(stop_when_detached)
     if rec is not None:
         rec.start(plant, pctx, sc.path_points_m)
-    sim.AdvanceTo(t_end)
-    x = mctx.get_discrete_state_vector().CopyToVector()
-    if x[0] > 0.5:  # the cup let go: the part flies free for the rest of the run
-        sim.clear_monitor()
-        plant.SetConstraintActiveStatus(pctx, weld_id, False)
-        sim.AdvanceTo(t_end)
+
+    def release(root_context):  # the cup lets go: the part flies free for the rest of the run
+        plant.SetConstraintActiveStatus(plant.GetMyMutableContextFromRoot(root_context), weld_id, False)
+
+    detached, lost_at_s, largest = run_until_detached(sim, diagram, hold, t_end, release)
     if rec is not None:
         rec.save(record_path)
     q_end = plant.GetPositions(pctx, arm)
-    lost = "detached" if x[0] > 0.5 else None
+    lost = "detached" if detached else None
     err = float(np.abs(q_goal - q_end).max())
     outcome = transfer_outcome(lost, False, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
     gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation() - H.CalcPoseInWorld(pctx).translation()))
-    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": float(x[1]) if lost else None,
-            "max_grip_ratio_while_held": float(x[2]), "final_goal_error_rad": err, "duration_s": traj.duration_s,
+    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at_s,
+            "max_grip_ratio_while_held": largest, "final_goal_error_rad": err, "duration_s": traj.duration_s,
             "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
             **tracking_report(logs, ctx, traj.duration_s, sc, drive)}
 
@@ -260,18 +214,6 @@ class _Delayed:
         q, qd, qdd = self.inner.sample(np.maximum(t, 0.0))
         qd[t < 0], qdd[t < 0] = 0.0, 0.0
         return q, qd, qdd
-
-
-class _SeatedHoldMonitor(HoldMonitor):
-    """HoldMonitor that starts at start_s (the cup's contact takes up its weight before)."""
-
-    def __init__(self, plant, part_body, term, start_s: float) -> None:
-        super().__init__(plant, part_body, term)
-        self.start_s = start_s
-
-    def _update(self, context, discrete_state):
-        if context.get_time() >= self.start_s:
-            super()._update(context, discrete_state)
 
 
 def _add_tray_and_cup(plant, scene_graph, H, sc):
@@ -331,20 +273,13 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
         rec.connect(builder, plant, geometry_connected=True)
     allow_contact(plant, scene_graph, tray, cup)
     arm = H.model_instance()
-    mon = builder.AddSystem(TrayBottleMonitor(plant, tray, cup, seated_pose_on_tray()))
-    hold = builder.AddSystem(_SeatedHoldMonitor(plant, cup, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S))
     pp, acc, t_end, q_goal = _reference(_Delayed(traj, SETTLE_S))
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
     motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
         drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
     tracking = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
-    builder.Connect(plant.get_body_poses_output_port(), mon.GetInputPort("body_poses"))
-    builder.Connect(plant.get_contact_results_output_port(), mon.GetInputPort("contact_results"))
-    builder.Connect(plant.get_body_poses_output_port(), hold.poses)
-    builder.Connect(plant.get_body_spatial_velocities_output_port(), hold.vels)
-    builder.Connect(plant.get_body_spatial_accelerations_output_port(), hold.accs)
-    logs = {k: LogVectorOutput(mon.GetOutputPort(k), builder, TRAY_LOG_PERIOD_S) for k in ("slide", "tilt")}
+    log = TrayLog(builder, plant, cup, TRAY_LOG_PERIOD_S)
     diagram = builder.Build()
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()
@@ -355,17 +290,20 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
     sim.AdvanceTo(t_end)
     if rec is not None:
         rec.save(record_path)
-    log = {k: lg.FindLog(ctx) for k, lg in logs.items()}
-    t = log["slide"].sample_times()
+    t, slide, tilt = log.slide_tilt(ctx)
     seated = t >= SETTLE_S
-    slide, tilt = log["slide"].data()[:, seated], log["tilt"].data()[0, seated]
+    slide, tilt = slide[:, seated] - seated_pose_on_tray().translation()[:2, None], tilt[seated]
     lost, lost_at, slipped = classify_tray_run(t[seated] - SETTLE_S, slide, tilt, spec, sc.cup.tray_size_m)
     err = float(np.abs(q_goal - plant.GetPositions(pctx, arm)).max())
     outcome = transfer_outcome(lost, slipped and lost is None, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
-    x = hold.GetMyContextFromRoot(ctx).get_discrete_state_vector().CopyToVector()
+    # the tray term's ratio of the cup's contact wrench from the first update at SETTLE_S, up to and
+    # including its first value above 1
+    t_up, r = log.ratios(ctx, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S)
+    over = np.flatnonzero(r > 1.0)
+    largest = float(np.max(r[:over[0] + 1] if len(over) else r, initial=0.0))
     return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at,
-            "max_grip_ratio_while_held": float(x[2]),
-            "contact_ratio_first_above_1_s": float(x[1]) - SETTLE_S if x[0] > 0.5 else None,
+            "max_grip_ratio_while_held": largest,
+            "contact_ratio_first_above_1_s": float(t_up[over[0]]) - SETTLE_S if len(over) else None,
             "final_goal_error_rad": err, "duration_s": traj.duration_s,
             "max_slide_m": float(np.max(np.hypot(*slide))), "final_slide_m": float(np.hypot(*slide[:, -1])),
             "max_tilt_rad": float(np.max(tilt)), "actuator": "ideal" if drive is None else "dc_motor",
