@@ -246,7 +246,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     lim = F.mapping(raw, "limits", where)
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
     rate = F.num(lim, "check_rate_hz", f"{where}: limits", positive=True)
-    uncertainty = check_spatial_uncertainty(raw.get("uncertainty"), kind, motor is not None, f"{where}: uncertainty")
+    uncertainty = check_spatial_uncertainty(raw.get("uncertainty"), kind, f"{where}: uncertainty")
 
     ik = SpatialIK(plant, H, face_axis=face_axis, name=str(raw.get("name", path.stem)))
     chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())

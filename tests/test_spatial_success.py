@@ -51,6 +51,16 @@ def test_bad_uncertainty_entries_are_refused_in_one_line(tmp_path, bad, says):
     assert says in str(e.value) and "\n" not in str(e.value) and "uncertainty" in str(e.value)
 
 
+def test_motor_parameters_need_the_motors_when_used(tmp_path):
+    raw = yaml.safe_load((SCENARIO_DIR / "ur5-magnet-part.yaml").read_text())
+    raw["actuators"].pop("motor")
+    path = tmp_path / "no-motor.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    sc = load_spatial_scenario(str(path))  # loads (a copy without its motors)
+    with pytest.raises(QmtInputError, match="has no actuators.motor"):
+        success_spec(sc)
+
+
 def test_a_scenario_without_the_section_is_refused_by_success(tmp_path):
     sc = load_spatial_scenario(_copy(tmp_path, "ur5-magnet-part", None))
     with pytest.raises(QmtInputError, match="no uncertainty section"):

@@ -226,10 +226,11 @@ def validate_uncertainty(u: dict, where: str) -> None:
 register_validator("uncertainty", validate_uncertainty)
 
 
-def check_spatial_uncertainty(u, hand_kind: str, has_motor: bool, where: str) -> dict:
+def check_spatial_uncertainty(u, hand_kind: str, where: str) -> dict:
     """A spatial scenario's `uncertainty` section (the planar one's shape, validate_uncertainty's
-    checks), each parameter one its hand's co-simulation varies (SPATIAL_HAND_PARAMETERS), a motor
-    parameter only with actuators.motor; {} when absent. One-line QmtInputError otherwise."""
+    checks), each parameter one its hand's co-simulation varies (SPATIAL_HAND_PARAMETERS); {} when absent.
+    One-line QmtInputError otherwise. A motor parameter needs actuators.motor: checked when the section is
+    used (sweep/spatial_cases.check_spatial_spec), so a copy of a file without its motors still loads."""
     if u is None:
         return {}
     if not isinstance(u, dict) or not isinstance(u.get("parameters"), dict) or not u["parameters"]:
@@ -241,8 +242,5 @@ def check_spatial_uncertainty(u, hand_kind: str, has_motor: bool, where: str) ->
         if pname in PARAMETERS and pname not in allowed:
             raise QmtInputError(f"{where}.parameters.{pname}: the spatial {hand_kind} hand's co-simulation does "
                                 f"not vary it; vary {', '.join(allowed)}")
-        if pname in MOTOR_PARAMETERS and not has_motor:
-            raise QmtInputError(f"{where}.parameters.{pname}: a motor constant; the scenario has no "
-                                "actuators.motor (add it, the dc_motor drive, or drop the parameter)")
     validate_uncertainty(u, where)
     return dict(u)
