@@ -68,12 +68,14 @@ from qmt_drake.model.spatial_ik import SpatialIK, slerp_rotations, slerp_unit
 from qmt_drake.model.urdf_check import drive_parameters, load_arm_plant, off_chain_locks, urdf_joint_limits
 from qmt_drake.model.urdf_package import EXAMPLE_ARMS, package_urdf
 from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
+from qmt_drake.sweep.parameters import check_spatial_uncertainty
 
 SPATIAL_KIND = SPATIAL
 RECHECK_FACTOR = 10
 HAND_PHYSICS = ("weld", "contact")  # hand.physics: how the co-simulation holds a suction or magnet part
 OPTIONAL_ACTUATOR_KEYS = ("velocity_limit_rad_s", "torque_limit_Nm", "gear_ratio", "rotor_inertia_kgm2")
-TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits", "world"}
+TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits", "world",
+            "uncertainty"}
 
 
 @dataclass
@@ -112,6 +114,7 @@ class SpatialScenario:
     pose_rotations: np.ndarray | None = None  # (K, 3, 3) R_WH at each task pose (task.hand_rpy_rad); None: normals
     path_rotations: np.ndarray | None = None  # (P, 3, 3)
     obstacles: tuple = ()  # world.obstacles (model/obstacles.Obstacle), welded to the world
+    uncertainty: dict | None = None  # `uncertainty` (sweep/parameters.check_spatial_uncertainty); {}: none
 
     @property
     def n_dof(self) -> int:
@@ -261,6 +264,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
     rate = F.num(lim, "check_rate_hz", f"{where}: limits", positive=True)
     check_spatial_sizes(where, transfer_points=n_tr, check_rate_hz=rate)
+    uncertainty = check_spatial_uncertainty(raw.get("uncertainty"), kind, f"{where}: uncertainty")
 
     ik = SpatialIK(plant, H, face_axis=face_axis, name=str(raw.get("name", path.stem)))
     chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())
@@ -279,7 +283,8 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
                            path_points_m=pts, q_path_rad=q_path, path_pose_index=idx, check_rate_hz=rate,
                            hand_kind=kind, hand_physics=physics, moment_limit_Nm=moment_limit, face_axis=face_axis, cup=cup,
                            motor=motor, pose_normals=pose_normals, path_normals=normals,
-                           pose_rotations=pose_rotations, path_rotations=rotations, obstacles=obstacles)
+                           pose_rotations=pose_rotations, path_rotations=rotations, obstacles=obstacles,
+                           uncertainty=uncertainty)
     if cup is None:
         _check_holds_at_rest(sc, f"{where}: payload")
     return sc

@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import inspect
 import json
+import tempfile
 import time
 from dataclasses import replace
+from pathlib import Path
 
 from qmt_drake.api_checks import option_value
 from qmt_drake.apps.arg_checks import (
@@ -47,7 +49,7 @@ from qmt_drake.jerk import jerk_limited_plan, peak_jerk
 from qmt_drake.margin import margin_text
 from qmt_drake.margin_runs import with_margin
 from qmt_drake.outcome import verdict_line
-from qmt_drake.outputs import is_stdout, jsonable
+from qmt_drake.outputs import check_output_dir, is_stdout, jsonable
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_families import FAMILIES
 from qmt_drake.planners.spatial_methods import ALIASES, FAMILY_METHODS, METHODS, PLANNERS, plan_toppra_spatial
@@ -56,15 +58,15 @@ from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import TAIL_S, simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
+from qmt_drake.sweep.robust import plan_for_success, success_spec
 
 SPATIAL_METHODS = METHODS
 SPATIAL_FAMILIES = FAMILIES
 GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
 # plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
-PLAN_REFUSED = (("checkpoint", None), ("success", None), ("carried_feedforward", "full"))
+PLAN_REFUSED = (("checkpoint", None), ("carried_feedforward", "full"))
 SIMULATE_REFUSED = (("time_step_ms", None), ("explicit", False))
-NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "success": "spatial scenarios have no "
-                   "uncertainty section to sweep", "carried_feedforward": "the spatial co-simulation's controller "
+NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "carried_feedforward": "the spatial co-simulation's controller "
                    "is Drake's inverse dynamics (feedforward always on)",
                    "time_step_ms": "the spatial co-simulation steps at 1 ms", "explicit": "the spatial "
                    "co-simulation steps its motor loop's damping implicitly"}
@@ -163,6 +165,7 @@ def plan(args, energy_options) -> bool:
     sc = load_spatial_scenario(args.scenario)
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
+    _check_success(args, sc)  # the uncertainty section, before any planning
     p = _plan(args, sc, method, opts)
     if getattr(args, "jerk_limited", False):  # qmt_drake/jerk.py: slowed until its jerk is within the limits
         p = jerk_limited_plan(sc, p)
@@ -175,6 +178,8 @@ def plan(args, energy_options) -> bool:
         _check_carried_budget(args, p.duration_s)
         search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress)
         p = carried_plan(sc, p, search)
+    if getattr(args, "success", None) is not None:
+        p = _slow_for_success(args, sc, p)
     if args.json == "-":
         print(json.dumps(p.to_json_dict()))
     elif args.json:
@@ -191,6 +196,36 @@ def _check_carried_budget(args, motion_time_s: float) -> None:
     est = replay_estimate(args.carried_max_scale, motion_time_s, cost=SPATIAL_REPLAY)
     check_budget(replace(est, what=f"--carried-max-scale {args.carried_max_scale:g}: {est.what}"),
                  allow_large=getattr(args, "allow_large", False))
+
+
+def _check_success(args, sc) -> None:
+    """--success P (sweep/robust.plan_for_success on the scenario's uncertainty section): its flags and
+    the section, checked in one line before planning."""
+    if getattr(args, "success", None) is None:
+        return
+    if not 0 < args.success < 1:
+        raise QmtInputError(f"--success {args.success:g} must be a probability in (0, 1), e.g. 0.9")
+    if args.carried:
+        raise QmtInputError("--carried and --success both choose the time scale; give one of them")
+    check_int(args.success_check_cases, "--success-check-cases", 1, "e.g. 200")
+    check_positive_finite(args.success_max_scale, "--success-max-scale", "e.g. 2")
+    check_output_dir(args.success_out, "--success-out")
+    success_spec(sc)
+
+
+def _slow_for_success(args, sc, p):
+    """The plan slowed to the fastest time scale whose P(carried) under the scenario's uncertainty has
+    its 95 % Wilson lower bound >= --success (the plan and the controller from the nominal model, the
+    plant drawn; resumable under --success-out), checked on fresh cases."""
+    if p.recheck["max"] > 1.0:
+        raise QmtInputError(f"--success: the {p.method} plan breaks a limit on the re-check; nothing to time-scale")
+    with tempfile.TemporaryDirectory() as d:
+        base = Path(d) / "base_plan.json"
+        p.write_json(base)
+        p, _ = plan_for_success(p, base, args.success_out, target=args.success, scenario=sc,
+                                check_cases=args.success_check_cases, s_max=args.success_max_scale,
+                                progress=None if args.quiet else progress)
+    return p
 
 
 def summary_line(sc, p, bound) -> str:
@@ -211,6 +246,10 @@ def summary_line(sc, p, bound) -> str:
     if s:
         lost = f", lost at x{s['lost_below']:.4f}" if s["lost_below"] else ", as planned"
         line += f"; carried in the co-simulation at x{s['chosen']:.4f}{lost}"
+    ok = (p.info.get("success") or {}).get("fresh_check")
+    if ok:
+        line += (f"; P(carried) {ok['carried']}/{ok['cases']} on fresh cases, 95 % Wilson lower bound "
+                 f"{ok['ci_low']:.3f} at x{p.info['time_scale']:.4f}")
     return line
 
 

@@ -111,6 +111,7 @@ class SpatialMotorDrive:
     loop_damping_Nms: np.ndarray  # joint-side D of PD + motors, stepped implicitly by the plant
     feedforward: str
     id_plant: object  # continuous arm + welded part + N^2 J_r: the feedforward's inverse dynamics
+    plant_params: DcMotorParams | None = None  # the simulated motors when they differ from the law's model (params)
 
     @classmethod
     def for_scenario(cls, sc, q_start_rad, feedforward: str = "full") -> SpatialMotorDrive:
@@ -143,7 +144,8 @@ class SpatialMotorDrive:
         pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
                                  motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),
                                  torque_feedforward=opts.get("inverse_dynamics_feedforward", False))
-        compiled = motor_actuation_law(pid, mp, self.loop_damping_Nms)  # None with an integral term
+        pm = mp if self.plant_params is None else self.plant_params  # the motors simulated (a sweep draws them)
+        compiled = motor_actuation_law(pid, pm, self.loop_damping_Nms)  # None with an integral term
         # a PD law is one compiled system with the motors; a PID runs as the Python controller (its integral
         # is a discrete state with anti-windup) driving the motors as Drake primitives
         law = builder.AddNamedSystem("motor_actuation" if compiled is not None else "controller", compiled or pid)
@@ -159,12 +161,12 @@ class SpatialMotorDrive:
             builder.Connect(inv.get_output_port_generalized_force(), law.GetInputPort("feedforward_torque"))
         if compiled is not None:
             return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),
-                                           self.loop_damping_Nms, time_step_s, mp)
-        motors = builder.AddNamedSystem("motors", dc_motors_as_primitives(mp))
+                                           self.loop_damping_Nms, time_step_s, pm)
+        motors = builder.AddNamedSystem("motors", dc_motors_as_primitives(pm))
         builder.Connect(law.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
         builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
         return add_implicit_damping_actuation(builder, plant, arm_instance, motors, split.get_output_port(1),
-                                              self.loop_damping_Nms, time_step_s, mp)
+                                              self.loop_damping_Nms, time_step_s, pm)
 
 
 def check_drive(sc, actuator: str, feedforward: str) -> None:

@@ -119,16 +119,21 @@ def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
 
 
 def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
-                     feedforward: str = "full", record_path=None, contact: dict | None = None) -> dict:
+                     feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
+                     drive: SpatialMotorDrive | None = None) -> dict:
     """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
     tracking error. grip: the suction hand's stability set in the co-simulation (default: the scenario's
     cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
     'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
     none / back-emf / full). record_path: also write a Meshcat recording there (sim/spatial_recording).
-    contact: with hand.physics contact, keyword overrides of spatial_contact_hand.simulate_contact_hand."""
-    drive = spatial_drive(sc, traj.sample([0.0])[0][0], actuator, feedforward)
+    contact: with hand.physics contact, keyword overrides of spatial_contact_hand.simulate_contact_hand.
+    controller_sc: the model the controller and its feedforward are built from (default sc; a sweep case
+    simulates a drawn sc under the nominal controller); drive: a prepared dc_motor drive instead."""
+    ctrl = sc if controller_sc is None else controller_sc
+    if drive is None:
+        drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward)
     if sc.hand_kind == "tray":
-        return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path)
+        return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path, controller_sc=ctrl)
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
         grip = cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                            rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
@@ -164,7 +169,7 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     pp, acc, t_end, q_goal = _reference(traj)
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = _add_ideal_controller(builder, plant, arm, sc, src, src_a) if drive is None else \
+    motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
         drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
     logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     hold = HoldLog(builder, plant, part, term, TIME_STEP_S)
@@ -265,13 +270,16 @@ def classify_tray_run(t, slide, tilt, spec: CupSpec, tray_size_m) -> tuple[str |
     return None, None, bool(np.hypot(*slide[:, -1]) > SLIP_TOLERANCE_M)
 
 
-def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, record_path=None) -> dict:
+def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, record_path=None,
+                       controller_sc=None) -> dict:
     """simulate_spatial for a tray hand: the cup is a free body standing on the tray box under Coulomb
     friction (point contact, discrete SAP at 1 ms), nothing holds it; after SETTLE_S at the start the
     plan is played. Outcome (qmt_drake/outcome.py): slid_off / tipped / slipped / unfinished / carried.
     max_grip_ratio_while_held: the largest TrayContactTerm ratio of the cup's own contact wrench
     (Newton-Euler on its simulated motion, gravity the only other force) until it first exceeds 1.
-    drive: the DC motors (spatial_drive) instead of the ideal inverse-dynamics controller."""
+    drive: the DC motors (spatial_drive) instead of the ideal inverse-dynamics controller; controller_sc:
+    the ideal controller's model (default sc)."""
+    ctrl = sc if controller_sc is None else controller_sc
     builder = DiagramBuilder()
     plant, H, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
                                      effort_limit_Nm=sc.torque_limit_Nm,
@@ -294,7 +302,7 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
     pp, acc, t_end, q_goal = _reference(_Delayed(traj, SETTLE_S))
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = _add_ideal_controller(builder, plant, arm, sc, src, src_a) if drive is None else \
+    motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
         drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
     tracking = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     log = TrayLog(builder, plant, cup, TRAY_LOG_PERIOD_S)

@@ -7,11 +7,22 @@ draw; the plans run first (a GA plan costs its population x generations evaluati
 
 from __future__ import annotations
 
-from qmt_drake.budgets import Estimate, ga_estimate, motion_time_bound_s, replay_estimate, sweep_estimate
+import json
+from pathlib import Path
+
+from qmt_drake.budgets import (
+    SPATIAL_REPLAY,
+    Estimate,
+    ga_estimate,
+    motion_time_bound_s,
+    replay_estimate,
+    sweep_estimate,
+)
 from qmt_drake.config.registry import hand_entry
 from qmt_drake.sweep.spec import SweepSpec
 
 NORMAL_REACH_STD = 6.0  # a normal draw is bounded by mean + 6 std for the estimate
+SPATIAL_MOTION_GUESS_S = 5.0  # a spatial plan to be planned (the shipped TOPP-RA plans: 1.6-3.3 s)
 
 
 def _extreme(spec: SweepSpec, name: str, largest: bool):
@@ -52,3 +63,15 @@ def estimate_sweep(spec: SweepSpec, scenario, workers: int) -> Estimate:
             plans = g if plans is None else Estimate(max(plans.bytes, g.bytes), plans.seconds + g.seconds,
                                                      plans.what, plans.fix)
     return sweep_estimate(spec.n_cases, per_case, workers=workers, plans=plans)
+
+
+def estimate_spatial_sweep(spec: SweepSpec, workers: int) -> Estimate:
+    """estimate_sweep for a spatial scenario: each case one spatial co-simulation (budgets.SPATIAL_REPLAY)
+    of the longest plan file's duration (SPATIAL_MOTION_GUESS_S for a plan still to be planned),
+    stretched by the largest time scale and jitter the spec can draw."""
+    T = SPATIAL_MOTION_GUESS_S
+    files = [p["file"] for p in spec.plans if "file" in p]
+    if files and len(files) == len(spec.plans):
+        T = max(float(json.loads(Path(f).read_text()).get("duration_s", SPATIAL_MOTION_GUESS_S)) for f in files)
+    ts = (_extreme(spec, "time_scale", True) or 1.0) * (_extreme(spec, "time_scale_jitter", True) or 1.0)
+    return sweep_estimate(spec.n_cases, replay_estimate(ts, T, cost=SPATIAL_REPLAY), workers=workers)

@@ -125,7 +125,13 @@ def check_hand_can_vary(spec: SweepSpec, base) -> None:
     model (e.g. a coil current for a tray), or sets a DC-motor simulator option for it."""
     plugin = hand_plugin(base)
     kind = plugin.kind
+    if "actuator" in spec.sim:
+        raise QmtInputError(f"sweep sim.actuator: for spatial scenarios; scenario {base.name}'s actuator is its "
+                            "YAML actuator section")
     for name in (*spec.fixed, *spec.grid, *spec.distributions):
+        if "planar" not in PARAMETERS[name].kinds:
+            raise QmtInputError(f"sweep parameter '{name}': for spatial scenarios; the {kind} hand's co-simulation "
+                                f"of scenario {base.name} does not vary it")
         if name in plugin.case_refused:
             raise QmtInputError(f"sweep parameter '{name}': the {kind} hand's co-simulation does not vary it "
                                 f"(scenario {base.name})")
@@ -174,6 +180,8 @@ def _make_case(spec, base, pdef, values, index, sample):
                 seed = int(v)
             else:
                 options[p.field.split(".", 1)[1]] = float(v)
+    if "time_scale_jitter" in sim:  # the executed timing: a further stretch of the replay
+        sim["time_scale"] = sim["time_scale"] * sim.pop("time_scale_jitter")
     # Control gains act in the co-simulation only; every other override changes the plan.
     plan_overrides = {k: v for k, v in overrides.items() if k != "control"}
     if "file" in pdef:

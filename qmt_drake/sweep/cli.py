@@ -27,10 +27,11 @@ import sys
 from pathlib import Path
 
 from qmt_drake.budgets import announce, check_budget
+from qmt_drake.config.resolve import SPATIAL, kind_of
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir, check_output_path, write_text_atomic
-from qmt_drake.sweep.budget import estimate_sweep
+from qmt_drake.sweep.budget import estimate_spatial_sweep, estimate_sweep
 from qmt_drake.sweep.cluster import DEFAULT_DASHBOARD_ADDRESS, check_dashboard_address
 from qmt_drake.sweep.runner import check_scheduler_address, format_table, run_sweep
 from qmt_drake.sweep.spec import load_spec
@@ -78,9 +79,12 @@ def cmd_sweep(args) -> int:
     if not str(args.out).strip():
         raise QmtInputError("--out: empty path; give a folder")
     spec = load_spec(args.spec)
-    sc = load_scenario(spec.scenario)
     workers = args.workers or os.cpu_count() or 1
-    est = check_budget(estimate_sweep(spec, sc, workers), allow_large=args.allow_large)
+    if kind_of(spec.scenario) == SPATIAL:  # checked in full when its cases are built (sweep/spatial_cases.py)
+        est = estimate_spatial_sweep(spec, workers)
+    else:
+        est = estimate_sweep(spec, load_scenario(spec.scenario), workers)
+    est = check_budget(est, allow_large=args.allow_large)
     check_output_dir(Path(args.out) / spec.name, "--out")
     check_output_path(args.json, "--json")
     announce(est)

@@ -46,14 +46,17 @@ class Parameter:
     inclusive: bool = False
     upper: float = math.inf
     integer: bool = False
+    kinds: tuple = ("planar",)  # the scenario kinds whose cases vary it: planar, spatial
 
+
+BOTH, SPATIAL = ("planar", "spatial"), ("spatial",)
 
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
-    Parameter("friction", "payload", "friction", False, "-", "Coulomb friction, part on face"),
-    Parameter("mass_kg", "payload", "mass_kg", False, "kg", "simulated part mass"),
-    Parameter("mass_scale", "payload", "mass_kg", True, "-", "simulated part mass / nominal"),
-    Parameter("com_offset_m", "payload", "com_offset_m", False, "m", "simulated r_G"),
-    Parameter("com_offset_scale", "payload", "com_offset_m", True, "-", "simulated r_G / nominal"),
+    Parameter("friction", "payload", "friction", False, "-", "Coulomb friction, part on face", kinds=BOTH),
+    Parameter("mass_kg", "payload", "mass_kg", False, "kg", "simulated part mass", kinds=BOTH),
+    Parameter("mass_scale", "payload", "mass_kg", True, "-", "simulated part mass / nominal", kinds=BOTH),
+    Parameter("com_offset_m", "payload", "com_offset_m", False, "m", "simulated r_G", kinds=BOTH),
+    Parameter("com_offset_scale", "payload", "com_offset_m", True, "-", "simulated r_G / nominal", kinds=BOTH),
     Parameter("contact_stiffness_N_per_m", "payload", "point_stiffness_N_per_m", False, "N/m",
               "contact point stiffness"),
     Parameter("coil_current_A", "magnet", "coil_current_A", False, "A", "coil current",
@@ -63,9 +66,9 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("magnet_gap_m", "magnet", "effective_gap_m", False, "m",
               "equivalent magnet gap g0 (coil current stays as set)"),
     Parameter("motor_torque_constant_scale", "motor", "torque_constant_Nm_per_A", True, "-",
-              "motor torque (= back-EMF) constant / catalogue"),
+              "motor torque (= back-EMF) constant / catalogue", kinds=BOTH),
     Parameter("motor_resistance_scale", "motor", "resistance_ohm", True, "-",
-              "armature resistance / catalogue"),
+              "armature resistance / catalogue", kinds=BOTH),
     Parameter("kp_scale", "scenario", "control.kp", True, "-", "proportional gains / scenario's",
               inclusive=True),
     Parameter("kd_scale", "scenario", "control.kd", True, "-", "derivative gains / scenario's",
@@ -73,7 +76,7 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("moment_limit_Nm", "scenario", "limits.moment_limit_Nm", False, "N*m",
               "planning moment limit (replans)"),
     Parameter("time_scale", "sim", "time_scale", False, "-",
-              "replay time stretch (<1 faster; moment ~ 1/s^2)"),
+              "replay time stretch (<1 faster; moment ~ 1/s^2)", kinds=BOTH),
     Parameter("time_step_s", "sim", "time_step_s", False, "s", "plant step", upper=MAX_TIME_STEP_S),
     Parameter("servo_delay_s", "sim", "servo_delay_s", False, "s",
               "latency of the goal stream to the servos (tray hand)", inclusive=True, upper=0.1),
@@ -81,7 +84,31 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               integer=True),
     Parameter("jerk_limit_m_s3", "plan", "options.jerk_limit", False, "m/s^3",
               "Ruckig tip jerk limit (replans)"),
+    # executed timing: the plan replayed time_scale x time_scale_jitter slower (a drive that runs the
+    # trajectory at another speed than planned); not searched, drawn
+    Parameter("time_scale_jitter", "sim", "time_scale_jitter", False, "-",
+              "executed time scale / the planned one", kinds=BOTH),
+    # spatial hands (sweep/spatial_cases.perturbed_scenario applies them)
+    Parameter("vacuum_force_scale", "hand", "pull_force_N", True, "-", "suction cup's vacuum pull / nominal",
+              kinds=SPATIAL),
+    Parameter("magnet_pull_scale", "hand", "moment_limit_Nm", True, "-",
+              "magnet's pull / nominal (its face-plane moment limit scales with it)", kinds=SPATIAL),
+    Parameter("com_lateral_m", "payload", "com_lateral_m", False, "m",
+              "part's centre of mass off the face normal (hand frame, first face-plane axis)",
+              lower=-math.inf, kinds=SPATIAL),
+    Parameter("gear_efficiency", "motor", "gear_efficiency", False, "-", "every joint's gear efficiency",
+              upper=1.0, kinds=SPATIAL),
 )}
+
+# What each spatial hand's co-simulation varies (sweep/spatial_cases.perturbed_scenario); the motor
+# parameters also need actuators.motor (the dc_motor drive).
+MOTOR_PARAMETERS = ("motor_torque_constant_scale", "motor_resistance_scale", "gear_efficiency")
+_COMMON = ("mass_kg", "mass_scale", "com_offset_m", "com_offset_scale", "time_scale_jitter") + MOTOR_PARAMETERS
+SPATIAL_HAND_PARAMETERS = {
+    "suction": _COMMON + ("friction", "vacuum_force_scale", "com_lateral_m"),
+    "magnet": _COMMON + ("magnet_pull_scale", "com_lateral_m"),  # the spatial magnet has no friction model
+    "tray": _COMMON + ("friction",),  # the cup stands on its axis (no lateral centre of mass)
+}
 
 DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
                  "truncnormal": ("mean", "std", "low", "high")}
@@ -197,3 +224,23 @@ def validate_uncertainty(u: dict, where: str) -> None:
 
 
 register_validator("uncertainty", validate_uncertainty)
+
+
+def check_spatial_uncertainty(u, hand_kind: str, where: str) -> dict:
+    """A spatial scenario's `uncertainty` section (the planar one's shape, validate_uncertainty's
+    checks), each parameter one its hand's co-simulation varies (SPATIAL_HAND_PARAMETERS); {} when absent.
+    One-line QmtInputError otherwise. A motor parameter needs actuators.motor: checked when the section is
+    used (sweep/spatial_cases.check_spatial_spec), so a copy of a file without its motors still loads."""
+    if u is None:
+        return {}
+    if not isinstance(u, dict) or not isinstance(u.get("parameters"), dict) or not u["parameters"]:
+        raise QmtInputError(f"{where} must be a mapping {{parameters: {{mass_scale: {{dist: normal, mean: 1, "
+                            f"std: 0.05}}}}, monte_carlo: {{cases: 40, seed: 1}}}}, got {show(u)}")
+    check_keys(u, {"parameters", "monte_carlo"}, where)
+    allowed = SPATIAL_HAND_PARAMETERS[hand_kind]
+    for pname in u["parameters"]:
+        if pname in PARAMETERS and pname not in allowed:
+            raise QmtInputError(f"{where}.parameters.{pname}: the spatial {hand_kind} hand's co-simulation does "
+                                f"not vary it; vary {', '.join(allowed)}")
+    validate_uncertainty(u, where)
+    return dict(u)

@@ -32,8 +32,10 @@ from qmt_drake.hands import hand_plugin
 from qmt_drake.plan import make_plan
 from qmt_drake.planners import plan_with
 from qmt_drake.sim import FEEDFORWARD_OPTIONS
+from qmt_drake.spatial_task import SpatialScenario
 from qmt_drake.sweep.cases import check_hand_can_vary
 from qmt_drake.sweep.runner import dask_client, run_sweep
+from qmt_drake.sweep.spatial_cases import check_spatial_spec, spatial_time_scaled_plan
 from qmt_drake.sweep.spec import SweepSpec, load_spec
 from qmt_drake.sweep.stats import wilson_interval
 from qmt_drake.trajectory import TimeScaledTrajectory
@@ -80,7 +82,7 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
         ok = (k / n if n else 0.0) >= target if criterion == "estimate" else lo >= target
         point = dict(time_scale=float(s), n=n, carried=k, p=k / n if n else float("nan"), ci_low=lo,
                      ci_high=hi, meets_target=bool(ok), failed_cases=out["failed"],
-                     motion_time_s=out["rows"][0]["motion_time_s"] if out["rows"] else None)
+                     motion_time_s=_motion_time(out, s))
         history.append(point)
         say(f"robust {spec.name}: s = {s:.5f}: {k}/{n} carried, p = {point['p']:.3f} "
             f"[{lo:.3f}, {hi:.3f}] -> {'meets' if ok else 'misses'} {target}")
@@ -107,6 +109,14 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
                 time_scale=best["time_scale"], motion_time_s=best["motion_time_s"], p=best["p"],
                 ci_low=best["ci_low"], ci_high=best["ci_high"], n=best["n"],
                 history=sorted(history, key=lambda h: h["time_scale"]), wall_s=time.perf_counter() - t0)
+
+
+def _motion_time(out: dict, s: float):
+    """The sweep's common motion time [s], or (cases with a drawn time_scale_jitter differ) the plan's
+    motion time x s."""
+    row = out["rows"][0] if out["rows"] else {}
+    t = (out["results"] or [{}])[0].get("plan_motion_time_s")
+    return row.get("motion_time_s") if row.get("motion_time_s") is not None or t is None else float(t) * s
 
 
 def time_scaled_plan(plan, time_scale: float, method: str, extra: dict | None = None):
@@ -325,23 +335,30 @@ def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: in
         mc["seed"] = int(seed)
     mc.setdefault("cases", 100)
     mc.setdefault("seed", 1)
-    plan_ref = {"method": "optimum"} if plan_file is None else {"file": str(plan_file)}
-    spec = load_spec({"name": name, "scenario": str(scenario.source_path), "plans": [plan_ref],
+    spatial = isinstance(scenario, SpatialScenario)
+    plan_ref = ({"method": "toppra" if spatial else "optimum"} if plan_file is None else {"file": str(plan_file)})
+    path = scenario.path if spatial else scenario.source_path
+    spec = load_spec({"name": name, "scenario": str(path), "plans": [plan_ref],
                       "monte_carlo": mc, "parameters": dict(u["parameters"])}, name=name)
-    check_hand_can_vary(spec, scenario)
+    if spatial:  # its real drive (sweep/spatial_cases.default_actuator)
+        check_spatial_spec(spec, scenario)
+    else:
+        check_hand_can_vary(spec, scenario)
     return spec
 
 
 def plan_for_success(plan, plan_file, out_dir, *, target: float, check_cases: int = 200, s_max: float = 2.0,
-                     progress=None, **run_kw):
+                     progress=None, scenario=None, rel_tol: float = 0.005, **run_kw):
     """The fastest time scale of `plan` whose success probability under its scenario's uncertainty has
     its lower 95 % Wilson bound >= target (robust_time_scale on the sweep store under out_dir, so a
     rerun resumes), then a FRESH sweep of check_cases cases with another seed at that time scale,
-    which the search did not see. Returns (the time-scaled Plan, {search, fresh_check})."""
-    sc = plan.scenario
+    which the search did not see. Returns (the time-scaled Plan, {search, fresh_check}). scenario: the
+    plan's scenario (default plan.scenario; a SpatialPlan's is given: a SpatialScenario), rel_tol: the
+    search's final bracket (relative)."""
+    sc = plan.scenario if scenario is None else scenario
     spec = success_spec(sc, plan_file)
     found = robust_time_scale(spec, out_dir, target=target, criterion="lower_bound", s_max=s_max,
-                              progress=progress, **run_kw)
+                              rel_tol=rel_tol, progress=progress, **run_kw)
     if not found["found"]:
         raise QmtInputError(f"--success {target}: not reached even {s_max:g}x slower ({found['history'][-1]['carried']}"
                             f"/{found['history'][-1]['n']} carried there); raise --success-max-scale or lower the target")
@@ -360,4 +377,6 @@ def plan_for_success(plan, plan_file, out_dir, *, target: float, check_cases: in
         progress(f"fresh check at x{s:.4f}: {k}/{n} carried, 95 % interval [{lo:.3f}, {hi:.3f}]")
     summary = {"search": {k2: v for k2, v in found.items() if k2 != "history"}, "fresh_check": check,
                "tries": found["history"]}
+    if isinstance(sc, SpatialScenario):
+        return spatial_time_scaled_plan(sc, plan, s, f"{plan.method}-success", {"success": summary}), summary
     return time_scaled_plan(plan, s, f"{plan.method}-success", {"success": summary}), summary

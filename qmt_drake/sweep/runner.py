@@ -32,6 +32,7 @@ import uuid
 from contextlib import contextmanager
 from pathlib import Path
 
+from qmt_drake.config.resolve import SPATIAL, kind_of
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable
 from qmt_drake.sweep.cases import build_cases, make_plan_doc, run_case
@@ -45,6 +46,7 @@ from qmt_drake.sweep.cluster import (
     probe_scheduler,
 )
 from qmt_drake.sweep.figures import write_figures
+from qmt_drake.sweep.spatial_cases import build_spatial_cases, make_spatial_plan_doc, run_spatial_case
 from qmt_drake.sweep.spec import SweepSpec, describe_uncertainty, load_spec
 from qmt_drake.sweep.stats import success_rows
 from qmt_drake.sweep.store import SweepStore
@@ -93,13 +95,13 @@ class Progress:
 # ----------------------------------------------------------------------------------------- run
 def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", *, scheduler: str | None = None,
               workers: int | None = None, allowed_failures: int = DEFAULT_ALLOWED_FAILURES,
-              case_fn=run_case, plan_fn=make_plan_doc, progress: bool = True, figures: bool = True,
+              case_fn=None, plan_fn=None, progress: bool = True, figures: bool = True,
               connect_timeout_s: float = CONNECT_TIMEOUT_S, client=None,
               dashboard_address: str = DEFAULT_DASHBOARD_ADDRESS) -> dict:
     """Run every case of `spec` not yet in <out_dir>/<spec.name>/ and summarise all of them.
 
     case_fn(case, plan_doc) -> dict and plan_fn(plan_ref) -> dict run in the workers (tests inject
-    cheap ones); `client` reuses an open distributed.Client (scheduler/workers are then ignored);
+    cheap ones; default: the planar ones of cases.py, or spatial_cases.py's for a spatial scenario); `client` reuses an open distributed.Client (scheduler/workers are then ignored);
     dashboard_address: the LocalCluster's dashboard (default 127.0.0.1, a free port).
     Returns a dict: counts (cases, from_store, computed, failed), failures, wall times, cases per
     minute of the case phase, the summary rows and the paths written."""
@@ -112,7 +114,10 @@ def run_sweep(spec: SweepSpec | str | Path | dict, out_dir: str | Path = "out", 
         raise QmtInputError(f"--workers must be >= 1, got {workers}")
     store = SweepStore(Path(out_dir) / spec.name)
     t_start = time.perf_counter()
-    cases, plan_refs = build_cases(spec)
+    spatial = kind_of(spec.scenario) == SPATIAL  # the same store and runner, the spatial co-simulation
+    cases, plan_refs = (build_spatial_cases if spatial else build_cases)(spec)
+    case_fn = case_fn or (run_spatial_case if spatial else run_case)
+    plan_fn = plan_fn or (make_spatial_plan_doc if spatial else make_plan_doc)
     keys = [c.key for c in cases]
     if len(set(keys)) != len(keys):
         # Two cases with equal inputs (e.g. a spread of 0 drawn twice) are one simulation.

@@ -50,7 +50,8 @@ EXPLICIT_MAX_TIME_STEP_S = 1e-3  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a tes
 SPEC_KEYS = {"name", "description", "uncertainty", "scenario", "plan", "plans", "sim",
              "monte_carlo", "parameters"}
 PLAN_KEYS = {"method", "seed", "options", "file", "label"}
-SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping"}
+SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping", "actuator"}
+ACTUATORS = ("ideal", "dc_motor")  # sim.actuator, spatial scenarios (sim/spatial_actuation.ACTUATORS)
 FEEDFORWARD = ("none", "back-emf", "full")  # sim.FEEDFORWARD_OPTIONS keys
 MAX_CASES = 1_000_000  # beyond any budget (budgets.py): refused before the grid is built
 
@@ -147,6 +148,8 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
     if sim.setdefault("feedforward", "none") not in FEEDFORWARD:
         raise QmtInputError(f"{where}: sim.feedforward must be one of {', '.join(FEEDFORWARD)}, "
                             f"got {sim['feedforward']!r}")
+    if sim.get("actuator", "ideal") not in ACTUATORS:
+        raise QmtInputError(f"{where}: sim.actuator must be one of {', '.join(ACTUATORS)}, got {show(sim['actuator'])}")
     if "time_step_s" in sim:
         sim["time_step_s"] = number(sim["time_step_s"], f"{where}: sim.time_step_s", positive=True)
         check_range(sim["time_step_s"], PARAMETERS["time_step_s"], f"{where}: sim.time_step_s")
