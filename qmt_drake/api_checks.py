@@ -21,12 +21,14 @@ import math
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from qmt_drake.config.fields import is_number, show
 from qmt_drake.errors import QmtInputError
+
+F = TypeVar("F", bound=Callable[..., Any])  # strict_call keeps the decorated function's type
 
 # Ranges of the planners' size options: (minimum, maximum, what the option is / the fix). A maximum is
 # where a run stops being a plan and becomes a budget question (budgets.py prices the GA's population
@@ -73,7 +75,7 @@ def _closest(name: str, known) -> str:
     return f"did you mean {near[0]!r}? " if near else ""
 
 
-def strict_call(func: Callable) -> Callable:
+def strict_call(func: F) -> F:
     """A public function whose binding errors (unknown, missing or surplus arguments) raise one
     QmtInputError line naming the argument, the closest known keyword and the call's keywords."""
     sig = inspect.signature(func)
@@ -93,7 +95,7 @@ def strict_call(func: Callable) -> Callable:
             raise QmtInputError(f"{func.__name__}: {text}; it takes ({', '.join(names)})") from None
         return func(*args, **kwargs)
 
-    return wrapper
+    return wrapper  # type: ignore[return-value]  # functools.wraps keeps the signature
 
 
 def number(value: Any, name: str, *, minimum: float | None = None, maximum: float | None = None,
