@@ -25,10 +25,10 @@ from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
 from qmt_drake.margin_runs import search_half_step
-from qmt_drake.outputs import check_output_dir, check_output_path, is_stdout
+from qmt_drake.outputs import check_output_path, is_stdout
 from qmt_drake.planners import METHODS, plan_with
 from qmt_drake.planners.ga import check_checkpoint
-from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success, success_spec
+from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success
 
 EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130
 
@@ -87,15 +87,8 @@ def cmd_plan(args) -> int:
     check_outputs(args, "--json", "--trajectory-csv")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
-    if args.success is not None:
-        if not 0 < args.success < 1:
-            raise QmtInputError(f"--success {args.success:g} must be a probability in (0, 1), e.g. 0.9")
-        if args.carried:
-            raise QmtInputError("--carried and --success both choose the time scale; give one of them")
-        check_int(args.success_check_cases, "--success-check-cases", 1, "e.g. 200")
-        check_positive_finite(args.success_max_scale, "--success-max-scale", "e.g. 2")
-        check_output_dir(args.success_out, "--success-out")
-        success_spec(load_scenario(args.scenario))  # the uncertainty section, checked before any planning
+    if args.success is not None:  # the options and the uncertainty section, checked before any planning
+        spatial_cli.check_success_options(args, load_scenario(args.scenario))
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     check_int(args.generations, "--generations", 1, "run at least one generation")

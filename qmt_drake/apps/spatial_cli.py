@@ -165,7 +165,7 @@ def plan(args, energy_options) -> bool:
     sc = load_spatial_scenario(args.scenario)
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
-    _check_success(args, sc)  # the uncertainty section, before any planning
+    check_success_options(args, sc)  # the uncertainty section, before any planning
     p = _plan(args, sc, method, opts)
     if getattr(args, "jerk_limited", False):  # qmt_drake/jerk.py: slowed until its jerk is within the limits
         p = jerk_limited_plan(sc, p)
@@ -198,7 +198,7 @@ def _check_carried_budget(args, motion_time_s: float) -> None:
                  allow_large=getattr(args, "allow_large", False))
 
 
-def _check_success(args, sc) -> None:
+def check_success_options(args, sc) -> None:
     """--success P (sweep/robust.plan_for_success on the scenario's uncertainty section): its flags and
     the section, checked in one line before planning."""
     if getattr(args, "success", None) is None:
