@@ -98,7 +98,15 @@ def write_spatial_figures(res: dict, folder) -> list[Path]:
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"hand ratio ({res['hand_kind']}) [-]")
         ax.set_title(f"{name}: the hand's limit ratio over each plan (1 = the part is about to go)")
-        ax.set_ylim(bottom=0.0)
+        # A plan far over the limit (x0.67 on the tray: lift-off, ratio in the hundreds) would flatten the
+        # others to a line at the bottom: the axis stops at 2 and the clipped peaks are named.
+        peaks = {m: float(np.nanmax(np.array(rows[m]["series"]["hand_ratio"], dtype=float))) for m in shown}
+        top = max(1.1, min(2.0, max(peaks.values()) * 1.05))
+        ax.set_ylim(0.0, top)
+        clipped = [f"{m} peaks at {v:.3g}" for m, v in peaks.items() if v > top]
+        if clipped:
+            ax.text(0.01, 0.98, "axis clipped at " + f"{top:g}: " + "; ".join(clipped), transform=ax.transAxes,
+                    va="top", fontsize=8, bbox={"facecolor": "white", "alpha": 0.8, "lw": 0})
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the curves, not on them
         ax.grid(alpha=0.3)
         fig.tight_layout()
