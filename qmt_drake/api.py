@@ -46,6 +46,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import build_diagram as _build_diagram
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.margin_runs import with_margin
+from qmt_drake.outputs import check_output_path
 from qmt_drake.plan import KIND_WORDS, Plan, a_kind
 from qmt_drake.plan_files import load_plan as _load_plan
 from qmt_drake.plan_files import scenario_kind_of
@@ -228,6 +229,7 @@ def _check_run_args(scenario: AnyScenario, plan: Plan, time_scale: Any, time_ste
                  fix="the plant step [s], e.g. 0.002 (None: the scenario's stable default)")
     if record_path is not None:
         C.path_arg(record_path, f"{where}: record_path", "HTML recording")
+        check_output_path(record_path, f"{where}: record_path")  # a folder, an unwritable place: before the run
     if not isinstance(allow_large, bool):
         raise QmtInputError(f"{where}: allow_large {show(allow_large)} must be True or False")
     if isinstance(scenario, Scenario):
