@@ -50,8 +50,8 @@ def canonical(x: Any) -> Any:
         return canonical(x.tolist())
     if isinstance(x, np.generic):
         return canonical(x.item())
-    if isinstance(x, Path):
-        return str(x)  # a path that matters by content is replaced by file_sha256 before this
+    if isinstance(x, Path):  # a file counts by its bytes, never by where the checkout lies
+        return {"file_sha256": file_sha256(x)} if x.is_file() else x.name
     if isinstance(x, bool) or x is None or isinstance(x, str):
         return x
     if isinstance(x, numbers.Integral):
