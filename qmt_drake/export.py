@@ -38,6 +38,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import peak_jerk
 from qmt_drake.outputs import write_text_atomic
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory, TimeScaled, check
+from qmt_drake.timescale import smallest_holding_scale
 
 FORMATS = ("ros2", "csv")
 INTERPOLATIONS = ("linear", "cubic")
@@ -166,11 +167,8 @@ def hold_scale(sc, traj, rate_hz: float, interp: str, *, k_max: float = HOLD_MAX
     if _stream_of(sc, TimeScaled(traj, k_max), rate_hz, interp)[2]["max"] > 1.0:
         raise QmtInputError(f"--hold: the stream at {rate_hz:g} Hz breaks a limit even {k_max:g} times slower; "
                             "raise the rate or use the other --interp")
-    lo, hi = 1.0, k_max
-    while hi / lo - 1.0 > rel_tol:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if _stream_of(sc, TimeScaled(traj, mid), rate_hz, interp)[2]["max"] <= 1.0 else (mid, hi)
-    return hi
+    return smallest_holding_scale(
+        1.0, k_max, lambda k: _stream_of(sc, TimeScaled(traj, k), rate_hz, interp)[2]["max"] <= 1.0, rel_tol)
 
 
 def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", *, hold: bool = False,

@@ -24,6 +24,7 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
+from qmt_drake.timescale import smallest_holding_scale
 
 JERK_REL_TOL = 1e-4
 JERK_K_MAX = 1e4
@@ -56,9 +57,7 @@ def jerk_limited_plan(sc, plan):
             if hi > JERK_K_MAX:
                 raise QmtInputError(f"{sc.name}: the {plan.method} plan's jerk stays over the limit even "
                                     f"{JERK_K_MAX:g} times slower; raise actuators.jerk_limit_rad_s3")
-        while hi / lo - 1.0 > JERK_REL_TOL:
-            mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if ratio(mid) <= 1.0 else (mid, hi)
+        hi = smallest_holding_scale(lo, hi, lambda k: ratio(k) <= 1.0, JERK_REL_TOL)
     traj = plan.trajectory if hi == 1.0 else TimeScaled(plan.trajectory, hi)
     after = peak_jerk(sc, traj, rate)
     info = {**plan.info, "jerk_limited": True, "jerk_time_scale": hi, "duration_before_jerk_limit_s": plan.duration_s,

@@ -52,8 +52,8 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-from pydrake.math import RollPitchYaw
 
+from qmt_drake import spatial_poses
 from qmt_drake.budgets import SPATIAL_MAX_GRIP_COUNT, check_spatial_sizes
 from qmt_drake.config import fields as F
 from qmt_drake.config.resolve import SCENARIO_DIR, SPATIAL, resolve_scenario
@@ -64,7 +64,7 @@ from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.obstacles import parse_obstacles
 from qmt_drake.model.spatial_chain import SpatialChain
-from qmt_drake.model.spatial_ik import SpatialIK, slerp_rotations, slerp_unit
+from qmt_drake.model.spatial_ik import SpatialIK
 from qmt_drake.model.urdf_check import drive_parameters, load_arm_plant, off_chain_locks, urdf_joint_limits
 from qmt_drake.model.urdf_package import EXAMPLE_ARMS, package_urdf
 from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
@@ -250,15 +250,15 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
         raise QmtInputError(f"{w}.poses_m must be a list of >= 2 positions [x, y, z] (m)")
     check_spatial_sizes(w, task_poses=len(poses))
     P = np.array([F.vector({"p": p}, "p", f"{w}.poses_m[{k}]", length=3) for k, p in enumerate(poses)])
-    pose_rotations = _pose_rotations(tk, len(P), w)
-    pose_normals = (_pose_normals(tk, len(P), w) if pose_rotations is None
+    pose_rotations = spatial_poses.pose_rotations(tk, len(P), w)
+    pose_normals = (spatial_poses.pose_normals(tk, len(P), w) if pose_rotations is None
                     else np.einsum("kij,j->ki", pose_rotations, face_axis))
     if F.boolean(tk, "free_spin_about_normal", w, default=False):
         pose_rotations = None  # only the face normal of each hand_rpy_rad is kept
     elif "hand_rpy_rad" not in tk and "free_spin_about_normal" in tk:
         raise QmtInputError(f"{w}.free_spin_about_normal: false needs hand_rpy_rad (a face normal leaves the "
                             "spin free); give hand_rpy_rad to fix the spin, or drop the key")
-    _refuse_repeated_poses(P, pose_normals, pose_rotations, w)
+    spatial_poses.refuse_repeated_poses(P, pose_normals, pose_rotations, w)
     n_tr = F.integer(tk, "transfer_points", w, minimum=0, default=0)
     lim = F.mapping(raw, "limits", where)
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
@@ -268,7 +268,7 @@ def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
 
     ik = SpatialIK(plant, H, face_axis=face_axis, name=str(raw.get("name", path.stem)))
     chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())
-    pts, idx, normals, rotations = _path_points(P, n_tr, pose_normals, pose_rotations, face_axis)
+    pts, idx, normals, rotations = spatial_poses.path_points(P, n_tr, pose_normals, pose_rotations, face_axis)
     q_path = ik.solve_path(pts, normals=None if rotations is not None else normals, rotations=rotations, seed=seed,
                            max_joint_step_rad=1.0, what=f"{where}: task path point")
     if cup is not None:
@@ -360,72 +360,3 @@ def _tray_cup(hd: dict, w: str) -> TrayCup:
                    com_height_m=com, margin=F.num(hd, "margin", w, positive=True, maximum=1.0, default=1.0),
                    pyramid_edges=F.integer(hd, "pyramid_edges", w, minimum=3, maximum=SPATIAL_MAX_GRIP_COUNT, default=8),
                    tray_size_m=tuple(float(x) for x in size))
-
-
-def _refuse_repeated_poses(P, normals, rotations, w: str) -> None:
-    """One line when a task pose repeats the one before (position and orientation): the hand would not move."""
-    for k in range(1, len(P)):
-        same_turn = (np.allclose(normals[k], normals[k - 1], rtol=0.0, atol=1e-12) if rotations is None
-                     else np.allclose(rotations[k], rotations[k - 1], rtol=0.0, atol=1e-12))
-        if np.linalg.norm(P[k] - P[k - 1]) < 1e-9 and same_turn:
-            raise QmtInputError(f"{w}.poses_m[{k}] repeats pose {k - 1} (same position and orientation), so the hand "
-                                "would not move between them; drop one")
-
-
-def _pose_rotations(tk: dict, n_poses: int, w: str) -> np.ndarray | None:
-    """(K, 3, 3) R_WH from task.hand_rpy_rad (one [roll, pitch, yaw] per pose), None when not given."""
-    given = [k for k in ("face_normal", "face_normals", "hand_rpy_rad") if k in tk]
-    if len(given) != 1:
-        raise QmtInputError(f"{w}: give exactly one of face_normal (one normal for every pose), face_normals "
-                            f"(one per pose) or hand_rpy_rad (a rotation per pose){'; got ' + ', '.join(given) if given else ''}")
-    if "hand_rpy_rad" not in tk:
-        return None
-    raw = tk["hand_rpy_rad"]
-    if not isinstance(raw, list) or len(raw) != n_poses:
-        raise QmtInputError(f"{w}.hand_rpy_rad must list one [roll, pitch, yaw] (rad) per task pose ({n_poses})")
-    rpy = [F.radians({"r": r}, "r", f"{w}.hand_rpy_rad[{k}]", length=3) for k, r in enumerate(raw)]
-    out = np.array([RollPitchYaw(r).ToRotationMatrix().matrix() for r in rpy])
-    for k in range(n_poses - 1):
-        if np.arccos(np.clip((np.trace(out[k].T @ out[k + 1]) - 1.0) / 2.0, -1.0, 1.0)) > np.pi - 1e-6:
-            raise QmtInputError(f"{w}.hand_rpy_rad[{k + 1}] turns the hand by 180 degrees from the pose before, so "
-                                "the turn has no unique axis; add a pose in between")
-    return out
-
-
-def _pose_normals(tk: dict, n_poses: int, w: str) -> np.ndarray:
-    """(K, 3) unit face normals: task.face_normal for every pose, or task.face_normals one per pose."""
-    if "face_normal" in tk:
-        raw = [tk["face_normal"]] * n_poses
-        names = ["face_normal"] * n_poses
-    else:
-        raw = tk["face_normals"]
-        if not isinstance(raw, list) or len(raw) != n_poses:
-            raise QmtInputError(f"{w}.face_normals must list one normal [x, y, z] per task pose ({n_poses})")
-        names = [f"face_normals[{k}]" for k in range(n_poses)]
-    out = np.array([F.vector({"n": r}, "n", f"{w}.{name}", length=3) for r, name in zip(raw, names)])
-    norm = np.linalg.norm(out, axis=1)
-    if np.any(norm < 1e-9):
-        raise QmtInputError(f"{w}.{names[int(np.argmin(norm))]} has no direction; give a nonzero vector")
-    out /= norm[:, None]
-    for k in range(n_poses - 1):
-        if out[k] @ out[k + 1] < -1.0 + 1e-6:
-            raise QmtInputError(f"{w}.{names[k + 1]} is opposite to the normal before it, so the turn between "
-                                "them has no unique axis; add a pose in between")
-    return out
-
-
-def _path_points(P: np.ndarray, n_transfer: int, normals: np.ndarray, rotations, face_axis):
-    """The geometric path: the task poses with n_transfer straight-line points between poses 1 and K-2
-    (the carry between the two lifts), the face normal (or the rotation) slerped along; (points, index
-    of each pose, normals, rotations or None)."""
-    if len(P) < 4 or n_transfer == 0:
-        return P.copy(), np.arange(len(P)), normals.copy(), None if rotations is None else rotations.copy()
-    a, b = P[1], P[-2]
-    u = np.linspace(0, 1, n_transfer + 2)[1:-1]
-    inner = (1 - u)[:, None] * a + u[:, None] * b
-    pts = np.vstack([P[:2], inner, P[2:]])
-    idx = np.r_[0, 1, np.arange(2, len(P)) + n_transfer]
-    if rotations is None:
-        return pts, idx, np.vstack([normals[:2], slerp_unit(normals[1], normals[-2], u), normals[2:]]), None
-    R = np.concatenate([rotations[:2], slerp_rotations(rotations[1], rotations[-2], u), rotations[2:]])
-    return pts, idx, np.einsum("kij,j->ki", R, face_axis), R

@@ -27,6 +27,7 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.spatial_columns import TIMED_GROUPS_EXCLUDE, SpatialColumns, binding, peaks
 from qmt_drake.planners.spatial_toppra import DrakePath
+from qmt_drake.timescale import smallest_holding_scale
 from qmt_drake.trajectory import ConcatenatedTrajectory, TimeScaledTrajectory
 
 SequenceTrajectory = ConcatenatedTrajectory  # `t_start`: ConcatenatedTrajectory.offsets
@@ -149,14 +150,7 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
             raise QmtInputError(f"the trajectory breaks its {name} limit (ratio {worst[name]:.3g}) even {k_max:g} times "
                                 "slower, where speed no longer matters (e.g. gravity on a tilted hand); relax that limit "
                                 "or keep the hand closer to the task's orientation")
-        lo, hi = 1.0, k_max
-        while hi / lo - 1.0 > rel_tol:
-            mid = 0.5 * (lo + hi)
-            if _held(sc, traj, mid, rate_hz, False):
-                hi = mid
-            else:
-                lo = mid
-        k = hi
+        k = smallest_holding_scale(1.0, k_max, lambda m: _held(sc, traj, m, rate_hz, False), rel_tol)
     if refine and not _held(sc, traj, k, rate_hz, True):
         lo, hi = k, min(k * (1.0 + 16.0 * rel_tol), k_max)
         while not _held(sc, traj, hi, rate_hz, True):
@@ -164,13 +158,7 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
                 raise QmtInputError(f"the trajectory breaks a limit between its samples even {k_max:g} times slower; "
                                     "relax that limit")
             lo, hi = hi, min(hi * 1.1, k_max)
-        while hi / lo - 1.0 > rel_tol:
-            mid = 0.5 * (lo + hi)
-            if _held(sc, traj, mid, rate_hz, True):
-                hi = mid
-            else:
-                lo = mid
-        k = hi
+        k = smallest_holding_scale(lo, hi, lambda m: _held(sc, traj, m, rate_hz, True), rel_tol)
     return (traj, 1.0) if k == 1.0 else (TimeScaled(traj, k), k)
 
 

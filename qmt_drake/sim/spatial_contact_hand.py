@@ -55,7 +55,6 @@ from pydrake.multibody.tree import (
     RotationalInertia,
     SpatialInertia,
 )
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, MatrixGain, TrajectorySource
 
@@ -66,6 +65,7 @@ from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M, hold_lever_m
 from qmt_drake.sim.spatial_actuation import add_tracking_logs, tracking_report
+from qmt_drake.sim.spatial_hold import start_run
 from qmt_drake.sim.spatial_recording import SpatialRecording
 from qmt_drake.systems.electromagnet import MagnetParams, electromagnet_force
 from qmt_drake.systems.payload import PayloadSpec, allow_contact
@@ -233,13 +233,7 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
     logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), time_step_s, motors)
     part_log = LogVectorOutput(plant.get_state_output_port(part.model_instance()), builder, time_step_s)
     arm_acc_log = LogVectorOutput(plant.get_generalized_acceleration_output_port(arm), builder, time_step_s)
-    diagram = builder.Build()
-    sim = Simulator(diagram)
-    ctx = sim.get_mutable_context()
-    pctx = plant.GetMyMutableContextFromRoot(ctx)
-    plant.SetPositions(pctx, arm, traj.sample([0.0])[0][0])
-    if rec is not None:
-        rec.start(plant, pctx, sc.path_points_m)
+    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0], rec, sc.path_points_m)
     sim.AdvanceTo(t_end)
     if rec is not None:
         rec.save(record_path)

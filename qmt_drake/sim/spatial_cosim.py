@@ -38,7 +38,6 @@ from pydrake.geometry import SceneGraph, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import ContactModel, CoulombFriction, DiscreteContactApproximation
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Saturation, TrajectorySource
@@ -58,7 +57,7 @@ from qmt_drake.sim.spatial_actuation import (
     tracking_report,
 )
 from qmt_drake.sim.spatial_contact_hand import CONTACT_SETTLE_S, simulate_contact_hand
-from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached
+from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached, start_run
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import (
@@ -173,11 +172,7 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
         drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
     logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     hold = HoldLog(builder, plant, part, term, TIME_STEP_S)
-    diagram = builder.Build()
-    sim = Simulator(diagram)
-    ctx = sim.get_mutable_context()
-    pctx = plant.GetMyMutableContextFromRoot(ctx)
-    plant.SetPositions(pctx, arm, traj.sample([0.0])[0][0])
+    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0])
     plant.SetFreeBodyPose(pctx, part, H.CalcPoseInWorld(pctx))
     if rec is not None:
         rec.start(plant, pctx, sc.path_points_m)
@@ -306,13 +301,7 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
         drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
     tracking = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
     log = TrayLog(builder, plant, cup, TRAY_LOG_PERIOD_S)
-    diagram = builder.Build()
-    sim = Simulator(diagram)
-    ctx = sim.get_mutable_context()
-    pctx = plant.GetMyMutableContextFromRoot(ctx)
-    plant.SetPositions(pctx, arm, traj.sample([0.0])[0][0])
-    if rec is not None:
-        rec.start(plant, pctx, sc.path_points_m)
+    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0], rec, sc.path_points_m)
     sim.AdvanceTo(t_end)
     if rec is not None:
         rec.save(record_path)
