@@ -249,7 +249,8 @@ class PlanKind:
 # yet is imported by that module's name the first time it is asked for (as config/registry does): a
 # plan unpickled in a sweep's worker, or made by a planner alone, finds its kind whatever was imported.
 PLAN_KINDS: dict[str, PlanKind] = {}
-KIND_MODULES = {TRANSFER_PLAN_KIND: "qmt_drake.plan_files", SPATIAL_PLAN_KIND: "qmt_drake.planners.spatial_plan_io",
+KIND_MODULES = {TRANSFER_PLAN_KIND: "qmt_drake.plan_files",
+                SPATIAL_PLAN_KIND: "qmt_drake.planners.spatial_plan_io",
                 ENERGY_PLAN_KIND: "qmt_drake.energy.energy_plan"}
 
 
@@ -277,7 +278,7 @@ def plan_kind(kind: str) -> PlanKind:
         return PLAN_KINDS[kind]
     except KeyError:
         raise QmtInputError(f"scenario_kind {kind!r} has no registered plan kind; known: "
-                            f"{', '.join(KIND_MODULES)}") from None
+                            f"{', '.join({**KIND_MODULES, **PLAN_KINDS})}") from None
 
 
 # A CSV row per sample: more than this many rows is a budget question, not a trajectory file (10^7 rows of

@@ -97,12 +97,14 @@ def load_plan(path: str | Path, scenario: Any = None) -> Plan:
     """Read a plan file of any scenario kind (written by `Plan.write_json` or `qmt-drake plan --json`);
     the scenario is reloaded from the file unless one is given. The plan must fit the scenario: a
     file of another scenario kind, or of another scenario of the same kind, is refused with one
-    line naming the file (QmtInputError). Returns the kind's Plan, re-checked on the scenario."""
+    line naming the file (QmtInputError). Returns the one Plan type (of the file's kind), re-checked on
+    the scenario."""
     path = Path(path)
     d = read_plan_file(path)
     kind = plan_file_kind(d)
     if kind not in PLAN_KINDS and kind not in KIND_MODULES:
-        raise QmtInputError(f"plan file {path} has scenario_kind {kind!r}; known: {', '.join(KIND_MODULES)}")
+        raise QmtInputError(f"plan file {path} has scenario_kind {kind!r}; known: "
+                            f"{', '.join({**KIND_MODULES, **PLAN_KINDS})}")
     if scenario is not None:
         mine = scenario_kind_of(scenario)
         if mine != kind:

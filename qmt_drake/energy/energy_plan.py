@@ -61,8 +61,8 @@ METHODS = ("snopt", "ipopt", "steepest", "collocation")
 END_TOL_M = 1e-6  # the plan's end tip on the experiment's X(T) [m]
 
 
-def EnergyPlan(*, scenario: Experiment, method: str, trajectory: FourierTrajectory, check, problem: EnergyProblem,  # noqa: N802
-               optima=(), cost_z: float, cost_z_fine: float, energy_integral_N2m2s: float, end: str,
+def EnergyPlan(*, scenario: Experiment, method: str, trajectory: FourierTrajectory, check,  # noqa: N802
+               problem: EnergyProblem, optima=(), cost_z: float, cost_z_fine: float, energy_integral_N2m2s: float, end: str,
                **plan_fields) -> Plan:
     """The one Plan of an energy-time scenario (the name stays for callers; no subclass): `scenario` the
     Experiment, `trajectory` the optimum's FourierTrajectory. Its facts: `problem` the EnergyProblem it
