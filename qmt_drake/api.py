@@ -38,7 +38,7 @@ from qmt_drake.config.fields import show
 from qmt_drake.config.resolve import kind_of
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
-from qmt_drake.energy.energy_plan import EnergyPlan, plan_energy_time
+from qmt_drake.energy.energy_plan import plan_energy_time
 from qmt_drake.energy.execute import execute_plan
 from qmt_drake.energy.experiments import Experiment
 from qmt_drake.energy.scenario import get_experiment
@@ -47,7 +47,7 @@ from qmt_drake.hands import build_diagram as _build_diagram
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_output_path
-from qmt_drake.plan import KIND_WORDS, Plan, a_kind
+from qmt_drake.plan import ENERGY_PLAN_KIND, KIND_WORDS, SPATIAL_PLAN_KIND, Plan, a_kind
 from qmt_drake.plan_files import load_plan as _load_plan
 from qmt_drake.plan_files import scenario_kind_of
 from qmt_drake.planners import PLANNERS as TRANSFER_PLANNERS
@@ -60,7 +60,6 @@ from qmt_drake.planners.optimum import plan_family_optimum
 from qmt_drake.planners.spatial_methods import ALIASES as SPATIAL_ALIASES
 from qmt_drake.planners.spatial_methods import METHODS as SPATIAL_METHODS
 from qmt_drake.planners.spatial_methods import PLANNERS as SPATIAL_PLANNERS
-from qmt_drake.planners.spatial_plan_io import SpatialPlan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.diagram import TransferDiagram
 from qmt_drake.sim.spatial_actuation import check_drive
@@ -278,10 +277,10 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
                               time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward or "none")
         return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale, time_step_s=time_step_s,
                            feedforward=feedforward or "none")
-    spatial = isinstance(plan, SpatialPlan)
+    spatial = plan.scenario_kind == SPATIAL_PLAN_KIND
     for name, given in (("time_step_s", time_step_s is not None), ("feedforward", feedforward is not None and not spatial),
                         ("actuator", actuator is not None and not spatial),
-                        ("time_scale", isinstance(plan, EnergyPlan) and time_scale != 1.0)):
+                        ("time_scale", plan.scenario_kind == ENERGY_PLAN_KIND and time_scale != 1.0)):
         if given:
             raise QmtInputError(f"{name}: the {KIND_WORDS[plan.scenario_kind]} co-simulation of {scenario.name} "
                                 f"does not take it; drop {name}")

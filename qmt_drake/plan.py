@@ -1,45 +1,52 @@
 """Plan: what every planner returns, re-checked independently, saved and loaded again.
 
+ONE Plan type for every scenario kind (transfer, spatial_transfer, energy_time): scenario identity
+(`scenario`, `scenario_kind`), method, trajectory, the limit report (`check`), the planner's
+bookkeeping (genes, planner_wall_s, evaluations, generations, extra) and the kind's own facts as
+DATA (`facts`: a spatial plan's pose times, hold scale and re-check; an energy-time plan's problem,
+cost and optima; none for a transfer plan), readable as attributes (`plan.hold_scale`). What differs
+by kind is a `PlanKind` (below): small functions registered by kind, not subclasses: how the kind
+reports its summary, writes its file and CSV, judges `feasible` and rebuilds a file
+(plan_files.load_plan dispatches on the file's `scenario_kind`).
+
 `make_plan` never trusts the planner's own claim: it samples the trajectory at the scenario's
 check rate (10 kHz; both one-sided values at every phase boundary) with the same limit code for
 every method, and `feasible`, the peaks and the ratios come from that re-check.
 
-Files: `write_json` (atomic) holds the keys of the CLI contract plus what `load_plan` (plan_files.py) needs to
-rebuild the trajectory: the genes for a family plan, 1 kHz samples (t, q, qd) for any other, and
-what it needs to recognise its scenario: the task points, the joint count and the scenario's
-fingerprint. A plan loads back with the same re-check (tests/test_plan_io.py), and only against a
-scenario it fits (`load_plan`: same joint count and task points, family genes within the family's
-bounds, a sampled plan that starts and ends on the task's start and goal; one-line QmtInputError).
+The plan file (`write_json`, atomic), one schema for every kind: the common keys `scenario`,
+`scenario_kind`, `method`, `feasible`, `motion_time_s`, `scenario_path`, `scenario_identity`
+(plan_identity.py), `n_dof` and `trajectory` (samples to plot, or what rebuilds it), then the kind's
+facts block, written flat beside them so that every file written so far reads back unchanged: a
+transfer plan's limit peaks, genes, task points and fingerprint (1 kHz samples or the family's genes
+rebuild it); a spatial plan's (planners/spatial_plan_io.py); an energy-time plan's
+(energy/energy_plan.py). A plan loads back with the same re-check (tests/test_plan_io.py), and only
+against a scenario it fits (plan_files.load_plan; one-line QmtInputError).
 
-`write_csv` writes t, q1..qn, qd1..qdn, qdd1..qddn at 1 kHz or finer.
-
-One Plan type for every scenario kind: a transfer plan is a `Plan`; a spatial (3-D) plan
-(planners/spatial_plan_io.SpatialPlan) and an energy-time plan (energy/energy_plan.EnergyPlan) are
-subclasses with the same surface (motion_time_s, sample, feasible, check, summary, to_json_dict,
-write_json, write_csv), each file carrying its `scenario_kind`. `load_plan(path)` reads any of
-them: it dispatches on that field to the loader the kind registered (`register_plan_kind`), and a
-file given with a scenario of another kind is refused in one line.
+`write_csv` writes t, q1..qn, qd1..qdn, qdd1..qddn at 1 kHz or finer (the kind's columns and units).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import importlib
 import json
 import pickle
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.api_checks import number, path_arg, times
+from qmt_drake.config.registry import check_registration
 from qmt_drake.config.scenario import Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
 from qmt_drake.limits import LimitReport
-from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan_identity import IDENTITY_KEY, identity, transfer_sections
+from qmt_drake.outputs import write_text_atomic
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
@@ -78,15 +85,16 @@ def a_kind(kind: str) -> str:
     return ("an " if word[:1] in "aeiou" else "a ") + word
 
 
-@dataclass
+@dataclass(eq=False)
 class Plan:
-    """A planned motion of one scenario, re-checked by sampling: `motion_time_s` [s], `sample(t)` ->
-    (q [rad], qd [rad/s], qdd [rad/s^2]), `feasible` and `check` (the re-check's LimitReport, its
-    peak_ratios: every limit's peak / limit), `summary()` (the CLI's JSON keys), `write_json` /
-    `write_csv`, and `load_plan` to read a file back. Transfer scenarios give a Plan; spatial and
-    energy-time scenarios give its subclasses (module docstring), whose `scenario` is their kind's."""
+    """A planned motion of one scenario, of any kind, re-checked by sampling: `motion_time_s` [s],
+    `sample(t)` -> (q [rad], qd [rad/s], qdd [rad/s^2]), `feasible` and `check` (the re-check's
+    LimitReport, its peak_ratios: every limit's peak / limit), `summary()` (the CLI's JSON keys),
+    `write_json` / `write_csv`, and plan_files.load_plan to read a file back. `scenario` is the kind's
+    scenario (config Scenario, SpatialScenario, Experiment); `facts` the kind's own data (module
+    docstring), each also an attribute (plan.facts["hold_scale"] is plan.hold_scale)."""
 
-    scenario: Scenario
+    scenario: Any
     method: str
     trajectory: JointTrajectory
     check: LimitReport
@@ -95,19 +103,43 @@ class Plan:
     evaluations: int = 0
     generations: int = 0
     extra: dict = field(default_factory=dict)  # planner-specific facts (history, notes, ...)
-    scenario_kind: ClassVar[str] = TRANSFER_PLAN_KIND
+    scenario_kind: str = TRANSFER_PLAN_KIND
+    facts: dict = field(default_factory=dict)  # the kind's facts (module docstring)
+
+    def __getattr__(self, name: str) -> Any:
+        # only for names that are not fields or properties: the kind's facts
+        facts = self.__dict__.get("facts")
+        if facts is not None and not name.startswith("__") and name in facts:
+            return facts[name]
+        raise AttributeError(f"{a_kind(self.__dict__.get('scenario_kind', '?'))} plan has no attribute {name!r}")
+
+    @property
+    def kind(self) -> PlanKind:
+        return plan_kind(self.scenario_kind)
 
     @property
     def feasible(self) -> bool:
-        return self.check.feasible
+        return self.kind.feasible(self)
 
     @property
     def motion_time_s(self) -> float:
-        return self.trajectory.duration_s
+        return float(self.trajectory.duration_s)
+
+    @property
+    def duration_s(self) -> float:
+        return self.motion_time_s
+
+    @property
+    def planning_s(self) -> float:
+        return self.planner_wall_s
+
+    @property
+    def info(self) -> dict:
+        return self.extra
 
     @property
     def n_dof(self) -> int:
-        return self.trajectory.n_dof
+        return self.kind.n_dof(self)
 
     @property
     def peak_moment_ratio(self) -> float:
@@ -119,54 +151,26 @@ class Plan:
         return self.trajectory.sample(times(t_s, "Plan.sample: t_s"))
 
     def to_piecewise_polynomial(self, rate_hz: float = 1000.0) -> PiecewisePolynomial:
-        return self.trajectory.to_piecewise_polynomial(rate_hz)
+        return self.kind.to_piecewise_polynomial(self, rate_hz)
 
     def summary(self) -> dict:
-        """The JSON keys of the CLI contract."""
-        sc, c = self.scenario, self.check
-        return {
-            "scenario": sc.name,
-            "scenario_kind": self.scenario_kind,
-            "method": self.method,
-            "feasible": c.feasible,
-            "motion_time_s": self.motion_time_s,
-            "genes": self.genes,
-            "peak_moment_Nm": c.peak_moment_Nm,
-            "moment_limit_Nm": c.moment_limit_Nm,
-            "peak_moment_ratio": c.peak_moment_ratio,
-            "peak_moment_time_s": c.peak_moment_time_s,
-            "peak_motor_torque_Nm": c.peak_motor_torque_Nm,
-            "motor_torque_limit_Nm": c.motor_torque_limit_Nm,
-            "peak_motor_torque_ratio": c.peak_motor_torque_ratio,
-            "joint_range_ok": c.joint_range_ok,
-            "peak_ratios": dict(c.peak_ratios),  # every ratio limit term's peak / limit, by name
-            "check_rate_hz": c.rate_hz,
-            "payload_mass_kg": sc.payload.mass_kg,
-            "payload_com_offset_m": sc.payload.com_offset_m,
-            "link_lengths_m": sc.arm.link_lengths_m.tolist(),
-            "planner_wall_s": self.planner_wall_s,
-            "evaluations": self.evaluations,
-            "generations": self.generations,
-        }
+        """The JSON keys of the CLI contract: the common ones and the kind's (no other kind's)."""
+        return self.kind.summary(self)
 
     def to_json_dict(self) -> dict:
-        d = self.summary()
-        d["scenario_path"] = str(self.scenario.source_path)
-        d["scenario_fingerprint"] = self.scenario.fingerprint()
-        d[IDENTITY_KEY] = identity(transfer_sections(self.scenario))  # plan_files.load_plan compares it
-        d["task_points_m"] = np.asarray(self.scenario.task.points_m, float).tolist()
-        d["n_dof"] = int(self.n_dof)
-        d["extra"] = jsonable(self.extra)
-        if isinstance(self.trajectory, FamilyTrajectory):
-            d["trajectory"] = {"kind": "family", "family": self.scenario.family.kind}
-        else:
-            # 1 kHz samples per piece, each phase boundary twice (left and right values).
-            grid = piecewise_grid(self.trajectory.breakpoints_s[None, :], 1000.0)
-            q, qd, qdd = self.trajectory.evaluate(grid.t_s, grid.t_piece_s)
-            d["trajectory"] = {"kind": "samples", "t_s": grid.t_s.tolist(), "q_rad": q.tolist(),
-                               "qd_rad_s": qd.tolist(), "qdd_rad_s2": qdd.tolist(),
-                               "breakpoints_s": self.trajectory.breakpoints_s.tolist()}
-        return d
+        """The plan file's mapping (module docstring)."""
+        return self.kind.file_dict(self)
+
+    def replace(self, **changes: Any) -> Plan:
+        """A copy with fields and facts changed (dataclasses.replace for the one Plan: a name that is
+        not a field must be one of the kind's facts)."""
+        names = {f.name for f in dataclasses.fields(self)}
+        facts = {k: v for k, v in changes.items() if k not in names}
+        unknown = sorted(set(facts) - set(self.facts))
+        if unknown:
+            raise TypeError(f"{a_kind(self.scenario_kind)} plan has no field or fact {unknown[0]!r}")
+        fields_ = {k: v for k, v in changes.items() if k in names}
+        return dataclasses.replace(self, **fields_, facts={**fields_.get("facts", self.facts), **facts})
 
     # Pickling (sweeps ship plans to worker processes): the trajectory may hold Drake objects
     # (a family's arm, a planner's closures). A family plan travels as its genes and is rebuilt
@@ -196,18 +200,85 @@ class Plan:
         self.__dict__.update(state)
 
     def write_json(self, path: str | Path) -> None:
-        write_text_atomic(path_arg(path, "write_json: path", "JSON file"), json.dumps(self.to_json_dict(), indent=1))
+        """The plan file (module docstring), atomically; a kind may prove its rebuild first (spatial)."""
+        path = path_arg(path, "write_json: path", "JSON file")
+        write_text_atomic(path, json.dumps(self.to_json_dict(), indent=self.kind.json_indent) + "\n")
 
     def write_csv(self, path: str | Path, rate_hz: float = 1000.0) -> None:
         check_csv_args(path, rate_hz, self.motion_time_s)
-        t = np.union1d(np.arange(0.0, self.motion_time_s, 1.0 / rate_hz), [self.motion_time_s])
-        q, qd, qdd = self.sample(t)
-        n = self.n_dof
-        header = ",".join(["t"] + [f"q{i+1}" for i in range(n)] + [f"qd{i+1}" for i in range(n)]
-                          + [f"qdd{i+1}" for i in range(n)])
-        rows = np.column_stack([t, q, qd, qdd])
-        lines = [header] + [",".join(f"{v:.10g}" for v in r) for r in rows]
-        write_text_atomic(path, "\n".join(lines) + "\n")
+        self.kind.write_csv(self, path, rate_hz)
+
+
+# A kind's plan-file loader: (path, the file's mapping, the scenario or None) -> Plan of that kind.
+PlanLoader = Callable[[Path, dict, Any], Plan]
+
+
+def _check_feasible(plan: Plan) -> bool:
+    return bool(plan.check.feasible)
+
+
+def _trajectory_n_dof(plan: Plan) -> int:
+    return int(plan.trajectory.n_dof)
+
+
+def _trajectory_pp(plan: Plan, rate_hz: float) -> PiecewisePolynomial:
+    return plan.trajectory.to_piecewise_polynomial(rate_hz)
+
+
+@dataclass(frozen=True)
+class PlanKind:
+    """What one scenario kind adds to the one Plan, as functions of the plan (no subclass):
+    scenario_type (what load_scenario returns for the kind), summary (the CLI's keys), file_dict (the
+    plan file's mapping), write_csv(plan, path, rate_hz), feasible, n_dof, to_piecewise_polynomial,
+    json_indent (None: compact, for files of many samples) and load (plan_files.load_plan's rebuild
+    of a file: (path, mapping, scenario or None) -> Plan)."""
+
+    scenario_type: type
+    load: PlanLoader
+    summary: Callable[[Plan], dict]
+    file_dict: Callable[[Plan], dict]
+    write_csv: Callable[[Plan, Any, float], None]
+    feasible: Callable[[Plan], bool] = _check_feasible
+    n_dof: Callable[[Plan], int] = _trajectory_n_dof
+    to_piecewise_polynomial: Callable[[Plan, float], PiecewisePolynomial] = _trajectory_pp
+    json_indent: int | None = 1
+
+
+# Each scenario kind registers once, in the module that knows its files: transfer in plan_files.py,
+# spatial in planners/spatial_plan_io.py, energy-time in energy/energy_plan.py. A kind not registered
+# yet is imported by that module's name the first time it is asked for (as config/registry does): a
+# plan unpickled in a sweep's worker, or made by a planner alone, finds its kind whatever was imported.
+PLAN_KINDS: dict[str, PlanKind] = {}
+KIND_MODULES = {TRANSFER_PLAN_KIND: "qmt_drake.plan_files",
+                SPATIAL_PLAN_KIND: "qmt_drake.planners.spatial_plan_io",
+                ENERGY_PLAN_KIND: "qmt_drake.energy.energy_plan"}
+
+
+def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader, *, replace: bool = False,
+                       **behaviour: Any) -> None:
+    """A scenario kind's plans: its scenario class, its plan-file loader and its PlanKind functions
+    (keyword arguments: summary, file_dict and write_csv required, the others optional). A kind
+    registers once (replace=True to swap it)."""
+    check_registration("plan kind", kind, kind in PLAN_KINDS, replace)
+    if not isinstance(scenario_type, type) or not callable(load):
+        raise QmtInputError(f"plan kind {kind!r}: give the scenario's class and a loader load(path, mapping, "
+                            "scenario) -> Plan")
+    try:
+        PLAN_KINDS[kind] = PlanKind(scenario_type=scenario_type, load=load, **behaviour)
+    except TypeError as exc:
+        raise QmtInputError(f"plan kind {kind!r}: {exc}; give summary, file_dict and write_csv") from None
+
+
+def plan_kind(kind: str) -> PlanKind:
+    """The registered PlanKind of `kind` (its module imported by name on first use); one line naming
+    the known kinds otherwise."""
+    if kind not in PLAN_KINDS and kind in KIND_MODULES:
+        importlib.import_module(KIND_MODULES[kind])
+    try:
+        return PLAN_KINDS[kind]
+    except KeyError:
+        raise QmtInputError(f"scenario_kind {kind!r} has no registered plan kind; known: "
+                            f"{', '.join({**KIND_MODULES, **PLAN_KINDS})}") from None
 
 
 # A CSV row per sample: more than this many rows is a budget question, not a trajectory file (10^7 rows of
@@ -228,11 +299,12 @@ def check_csv_args(path: Any, rate_hz: Any, motion_time_s: float) -> None:
 def make_plan(scenario: Scenario, method: str, trajectory: JointTrajectory, *, genes: dict | None = None,
               planner_wall_s: float = 0.0, evaluations: int = 0, generations: int = 0, valid: bool = True,
               extra: dict | None = None) -> Plan:
-    """Wrap a planner's trajectory into a Plan, re-checking it at the scenario's check rate."""
+    """Wrap a planner's trajectory into a transfer scenario's Plan, re-checking it at the scenario's
+    check rate."""
     return Plan(scenario=scenario, method=method, trajectory=trajectory,
                 check=recheck(scenario, trajectory, valid=valid), genes=genes,
                 planner_wall_s=float(planner_wall_s), evaluations=int(evaluations),
-                generations=int(generations), extra=dict(extra or {}))
+                generations=int(generations), extra=dict(extra or {}), scenario_kind=TRANSFER_PLAN_KIND)
 
 
 def family_plan(problem: PlanningProblem, genes: npt.ArrayLike, method: str, **kw: Any) -> Plan:
@@ -242,7 +314,6 @@ def family_plan(problem: PlanningProblem, genes: npt.ArrayLike, method: str, **k
                      genes=problem.genes_dict(g), valid=valid, **kw)
 
 
-# A sampled plan must start and end on the task's first and last points to this tolerance [m].
 def ratio_report(rate_hz: float, motion_time_s: float, peak_ratios: dict[str, float],
                  feasible: bool | None = None) -> LimitReport:
     """The LimitReport of a plan whose limits are ratio terms only (a spatial arm's joint speed,

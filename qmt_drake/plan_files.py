@@ -1,40 +1,55 @@
-"""Plan files read back: `load_plan(path[, scenario])` for every scenario kind, and the library's guard
-against running a plan made for another scenario (`check_plan_fits`).
+"""Plan files read back: `load_plan(path[, scenario])` for every scenario kind, the library's guard
+against running a plan made for another scenario (`check_plan_fits`), and the transfer kind of the
+one Plan (plan.PlanKind: its summary, file and CSV, registered here with its loader).
 
-Each scenario kind registers its files' loader once (`register_plan_kind`): transfer plans here,
-spatial plans in planners/spatial_plan_io.py, energy-time plans in energy/energy_plan.py (qmt_drake.api
-imports them all). `load_plan` reads the file's `scenario_kind` and hands it to that loader; a file given
-with a scenario of another kind, or of another scenario of the same kind, is refused in one line. A
-transfer plan must fit its scenario: the same joint count and task points, family genes within the
-family's bounds, a sampled plan that starts and ends on the task's start and goal.
+Each scenario kind registers its PlanKind once (plan.register_plan_kind): transfer here, spatial in
+planners/spatial_plan_io.py, energy-time in energy/energy_plan.py. `load_plan` reads the file's
+`scenario_kind` and hands it to that kind's loader; a file given with a scenario of another kind, or
+of another scenario of the same kind, is refused in one line. A transfer plan must fit its scenario:
+the same joint count and task points, family genes within the family's bounds, a sampled plan that
+starts and ends on the task's start and goal.
+
+A transfer plan's facts block (flat beside the common keys, plan.py's docstring): genes, the magnet's
+limit peaks (moment, motor torque, joint range), payload, link lengths, planner bookkeeping, the
+scenario's fingerprint, task points, `extra`, and `trajectory`: {kind: family, family} (the genes
+rebuild it) or {kind: samples, t_s, q_rad, qd_rad_s, qdd_rad_s2, breakpoints_s} (1 kHz per piece, both
+values at each phase boundary).
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from qmt_drake.config.registry import check_registration
 from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.errors import QmtInputError
+from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import (
     ENERGY_PLAN_KIND,
+    KIND_MODULES,
     KIND_WORDS,
+    PLAN_KINDS,
     TRANSFER_PLAN_KIND,
     Motion,
     Plan,
+    PlanKind,
+    PlanLoader,
     a_kind,
     family_plan,
     make_plan,
+    plan_kind,
+    register_plan_kind,
 )
-from qmt_drake.plan_identity import check_identity, transfer_sections
+from qmt_drake.plan_identity import IDENTITY_KEY, check_identity, identity, transfer_sections
 from qmt_drake.problem import PlanningProblem
-from qmt_drake.trajectory import SampledTrajectory
+from qmt_drake.sampling import piecewise_grid
+from qmt_drake.trajectory import FamilyTrajectory, SampledTrajectory
+
+__all__ = ["PLAN_KINDS", "Motion", "PlanKind", "PlanLoader", "check_plan_fits", "load_plan", "plan_file_kind",
+           "read_plan_file", "register_plan_kind", "scenario_kind_of"]
 
 PLAN_ENDPOINT_TOL_M = 1e-6
 
@@ -63,30 +78,6 @@ def read_plan_file(path: str | Path) -> dict:
     return d
 
 
-# A kind's plan-file loader: (path, the file's mapping, the scenario or None) -> Plan of that kind.
-PlanLoader = Callable[[Path, dict, Any], Plan]
-
-
-@dataclass(frozen=True)
-class PlanKind:
-    scenario_type: type  # what load_scenario returns for this kind
-    load: PlanLoader
-
-
-# Each scenario kind registers its plan files' loader once (register_plan_kind): transfer here,
-# spatial in planners/spatial_plan_io.py, energy-time in energy/energy_plan.py (qmt_drake.api imports them).
-PLAN_KINDS: dict[str, PlanKind] = {}
-
-
-def register_plan_kind(kind: str, scenario_type: type, load: PlanLoader, *, replace: bool = False) -> None:
-    """A scenario kind's plan-file loader; a kind registers once (replace=True to swap it)."""
-    check_registration("plan kind", kind, kind in PLAN_KINDS, replace)
-    if not isinstance(scenario_type, type) or not callable(load):
-        raise QmtInputError(f"plan kind {kind!r}: give the scenario's class and a loader load(path, mapping, "
-                            "scenario) -> Plan")
-    PLAN_KINDS[kind] = PlanKind(scenario_type, load)
-
-
 def plan_file_kind(d: dict) -> str:
     """The scenario kind of a plan file's mapping (files older than `scenario_kind` included)."""
     kind = d.get("scenario_kind") or (ENERGY_PLAN_KIND if d.get("kind") == ENERGY_PLAN_KIND else TRANSFER_PLAN_KIND)
@@ -96,8 +87,8 @@ def plan_file_kind(d: dict) -> str:
 def scenario_kind_of(scenario: Any) -> str:
     """The kind of a scenario object (transfer, spatial_transfer, energy_time); QmtInputError if it is
     none that load_scenario returns."""
-    for kind, k in PLAN_KINDS.items():
-        if isinstance(scenario, k.scenario_type):
+    for kind in dict.fromkeys([*PLAN_KINDS, *KIND_MODULES]):  # registered first: no import for those
+        if isinstance(scenario, plan_kind(kind).scenario_type):
             return kind
     raise QmtInputError(f"{type(scenario).__name__} is not a scenario; load one with qmt_drake.load_scenario")
 
@@ -106,12 +97,14 @@ def load_plan(path: str | Path, scenario: Any = None) -> Plan:
     """Read a plan file of any scenario kind (written by `Plan.write_json` or `qmt-drake plan --json`);
     the scenario is reloaded from the file unless one is given. The plan must fit the scenario: a
     file of another scenario kind, or of another scenario of the same kind, is refused with one
-    line naming the file (QmtInputError). Returns the kind's Plan, re-checked on the scenario."""
+    line naming the file (QmtInputError). Returns the one Plan type (of the file's kind), re-checked on
+    the scenario."""
     path = Path(path)
     d = read_plan_file(path)
     kind = plan_file_kind(d)
-    if kind not in PLAN_KINDS:
-        raise QmtInputError(f"plan file {path} has scenario_kind {kind!r}; known: {', '.join(PLAN_KINDS)}")
+    if kind not in PLAN_KINDS and kind not in KIND_MODULES:
+        raise QmtInputError(f"plan file {path} has scenario_kind {kind!r}; known: "
+                            f"{', '.join({**KIND_MODULES, **PLAN_KINDS})}")
     if scenario is not None:
         mine = scenario_kind_of(scenario)
         if mine != kind:
@@ -119,7 +112,7 @@ def load_plan(path: str | Path, scenario: Any = None) -> Plan:
             raise QmtInputError(f"plan file {path} is {a_kind(kind)} plan for scenario "
                                 f"{d['scenario']}, not one for the {KIND_WORDS.get(mine, mine)} scenario {name}; "
                                 f"plan it with `qmt-drake plan {name} --json PATH`")
-    return PLAN_KINDS[kind].load(path, d, scenario)
+    return plan_kind(kind).load(path, d, scenario)
 
 
 def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
@@ -174,8 +167,6 @@ def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
     return plan
 
 
-register_plan_kind(TRANSFER_PLAN_KIND, Scenario, _load_transfer_plan)
-
 
 def _check_plan_fits(d: dict, path: Path, scenario: Scenario) -> None:
     """What the file says about its scenario against the one it is run with (files written
@@ -225,3 +216,71 @@ def check_plan_fits(plan: Motion, scenario: Scenario) -> None:
                             f"{scenario.arm.n_dof}; plan again for this scenario")
     q = plan.sample(np.array([0.0, float(plan.motion_time_s)]))[0]
     _check_endpoints(q[0], q[-1], scenario, f"the {getattr(plan, 'method', '')} plan".replace("the  ", "the "))
+
+
+# --- the transfer kind of the one Plan ----------------------------------------------------------------
+
+def transfer_summary(plan: Plan) -> dict:
+    """A transfer plan's CLI keys: the common ones and the magnet's limit peaks."""
+    sc, c = plan.scenario, plan.check
+    return {
+        "scenario": sc.name,
+        "scenario_kind": plan.scenario_kind,
+        "method": plan.method,
+        "feasible": c.feasible,
+        "motion_time_s": plan.motion_time_s,
+        "genes": plan.genes,
+        "peak_moment_Nm": c.peak_moment_Nm,
+        "moment_limit_Nm": c.moment_limit_Nm,
+        "peak_moment_ratio": c.peak_moment_ratio,
+        "peak_moment_time_s": c.peak_moment_time_s,
+        "peak_motor_torque_Nm": c.peak_motor_torque_Nm,
+        "motor_torque_limit_Nm": c.motor_torque_limit_Nm,
+        "peak_motor_torque_ratio": c.peak_motor_torque_ratio,
+        "joint_range_ok": c.joint_range_ok,
+        "peak_ratios": dict(c.peak_ratios),  # every ratio limit term's peak / limit, by name
+        "check_rate_hz": c.rate_hz,
+        "payload_mass_kg": sc.payload.mass_kg,
+        "payload_com_offset_m": sc.payload.com_offset_m,
+        "link_lengths_m": sc.arm.link_lengths_m.tolist(),
+        "planner_wall_s": plan.planner_wall_s,
+        "evaluations": plan.evaluations,
+        "generations": plan.generations,
+    }
+
+
+def transfer_file_dict(plan: Plan) -> dict:
+    """A transfer plan file's mapping (module docstring)."""
+    d = transfer_summary(plan)
+    d["scenario_path"] = str(plan.scenario.source_path)
+    d["scenario_fingerprint"] = plan.scenario.fingerprint()
+    d[IDENTITY_KEY] = identity(transfer_sections(plan.scenario))  # load_plan compares it
+    d["task_points_m"] = np.asarray(plan.scenario.task.points_m, float).tolist()
+    d["n_dof"] = int(plan.n_dof)
+    d["extra"] = jsonable(plan.extra)
+    if isinstance(plan.trajectory, FamilyTrajectory):
+        d["trajectory"] = {"kind": "family", "family": plan.scenario.family.kind}
+    else:
+        # 1 kHz samples per piece, each phase boundary twice (left and right values).
+        grid = piecewise_grid(plan.trajectory.breakpoints_s[None, :], 1000.0)
+        q, qd, qdd = plan.trajectory.evaluate(grid.t_s, grid.t_piece_s)
+        d["trajectory"] = {"kind": "samples", "t_s": grid.t_s.tolist(), "q_rad": q.tolist(),
+                           "qd_rad_s": qd.tolist(), "qdd_rad_s2": qdd.tolist(),
+                           "breakpoints_s": plan.trajectory.breakpoints_s.tolist()}
+    return d
+
+
+def transfer_csv(plan: Plan, path: Any, rate_hz: float) -> None:
+    """t, q1..qn, qd1..qdn, qdd1..qddn at rate_hz and the end time (rad, rad/s, rad/s^2)."""
+    t = np.union1d(np.arange(0.0, plan.motion_time_s, 1.0 / rate_hz), [plan.motion_time_s])
+    q, qd, qdd = plan.sample(t)
+    n = plan.n_dof
+    header = ",".join(["t"] + [f"q{i+1}" for i in range(n)] + [f"qd{i+1}" for i in range(n)]
+                      + [f"qdd{i+1}" for i in range(n)])
+    rows = np.column_stack([t, q, qd, qdd])
+    lines = [header] + [",".join(f"{v:.10g}" for v in r) for r in rows]
+    write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+register_plan_kind(TRANSFER_PLAN_KIND, Scenario, _load_transfer_plan, summary=transfer_summary,
+                   file_dict=transfer_file_dict, write_csv=transfer_csv)

@@ -214,8 +214,8 @@ def _retime_ga(sc, Q, info: dict, **ga_options) -> SpatialPlan:
                             "(one gene per interval): use --method toppra, or thin the path")
     # the via-cubic family through the path's waypoints instead of the task poses' IK
     p = plan_ga_spatial(replace(sc, q_poses_rad=Q), family="via_cubic", **ga_options)
-    return replace(p, scenario=sc, method="retime_ga", extra={**info, **p.extra},
-                   pose_times_s=np.array([0.0, p.duration_s]))
+    return p.replace(scenario=sc, method="retime_ga", extra={**info, **p.extra},
+                     pose_times_s=np.array([0.0, p.duration_s]))
 
 
 def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid: int = 1000,
@@ -239,7 +239,7 @@ def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid:
             "path_q_rad": Q, "path_length_rad": float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))}
     plan = _retime_toppra(scenario, Q, n_grid, info) if method == "toppra" else _retime_ga(scenario, Q, info, **ga_options)
     ends = end_pose_errors(scenario, plan.trajectory)
-    plan = replace(plan, pose_error=ends, extra={**plan.extra, "end_pose_error": ends})
+    plan = plan.replace(pose_error=ends, extra={**plan.extra, "end_pose_error": ends})
     return plan
 
 
@@ -268,4 +268,4 @@ def load_plan_file(path, sc) -> SpatialPlan:
     plan = make_spatial_plan(sc, method, traj, [0.0, traj.duration_s], planning_s=nums["planning_s"],
                              raw_duration_s=nums["raw_duration_s"], hold_scale=nums["hold_scale"], info=info)
     ends = end_pose_errors(sc, traj)
-    return replace(plan, pose_error=ends, extra={**info, "end_pose_error": ends})
+    return plan.replace(pose_error=ends, extra={**info, "end_pose_error": ends})

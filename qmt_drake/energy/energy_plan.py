@@ -1,6 +1,7 @@
-"""Seed 001's result as a Plan: the best local optimum's Fourier trajectory (fourier.py) wrapped in
-`EnergyPlan`, a plan.Plan of the energy-time kind (motion_time_s, sample, feasible, summary,
-to_json_dict, write_json, write_csv, and plan.load_plan reading its file back).
+"""Seed 001's result as a Plan: the best local optimum's Fourier trajectory (fourier.py) in the one
+plan.Plan, of the energy-time kind (`EnergyPlan` builds it; its facts: problem, x, costs, optima,
+end), and the energy-time plan.PlanKind registered here: its summary, file and CSV, and
+plan_files.load_plan reading its file back.
 
 `plan_energy_time(E, method)` runs the multi-start of `qmt-drake plan ohsaka-fig3 --method M`: one
 solve per rotation-direction start (8, or the given pattern; Fig. 2: the paper's one start) with
@@ -21,16 +22,12 @@ forward kinematics); z and the energy are recomputed, not read. The CSV: t [s], 
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar
 
 import numpy as np
 
-from qmt_drake.api_checks import path_arg
 from qmt_drake.energy.collocation import solve_collocation
 from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
 from qmt_drake.energy.experiments import Experiment, paper_initial_x
@@ -50,8 +47,7 @@ from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.energy.steepest import restore_endpoint, steepest_descent
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, check_csv_args, ratio_report
-from qmt_drake.plan_files import register_plan_kind
+from qmt_drake.plan import ENERGY_PLAN_KIND, Plan, ratio_report, register_plan_kind
 from qmt_drake.plan_identity import (
     IDENTITY_KEY,
     check_identity,
@@ -65,70 +61,60 @@ METHODS = ("snopt", "ipopt", "steepest", "collocation")
 END_TOL_M = 1e-6  # the plan's end tip on the experiment's X(T) [m]
 
 
-@dataclass(eq=False)
-class EnergyPlan(Plan):
-    """An energy-time scenario's Plan: `scenario` the Experiment, `problem` the EnergyProblem it was
-    planned on (weights c1, c2, Fourier terms m, divisions), `trajectory` the optimum's
-    FourierTrajectory; cost_z = integral (c1 tau'tau + c2) dt on the problem's grid, cost_z_fine on
-    FINE_DIVISIONS, energy_integral_N2m2s = integral tau'tau dt [N^2 m^2 s]; `feasible`: the solver
-    converged (the paper states no limit); optima: every start's record; end: the travel pattern."""
+def EnergyPlan(*, scenario: Experiment, method: str, trajectory: FourierTrajectory, check,  # noqa: N802
+               problem: EnergyProblem, optima=(), cost_z: float, cost_z_fine: float, energy_integral_N2m2s: float, end: str,
+               **plan_fields) -> Plan:
+    """The one Plan of an energy-time scenario (the name stays for callers; no subclass): `scenario` the
+    Experiment, `trajectory` the optimum's FourierTrajectory. Its facts: `problem` the EnergyProblem it
+    was planned on (weights c1, c2, Fourier terms m, divisions), `x` the paper's trajectory vector
+    (a_ij, b_ij, T), cost_z = integral (c1 tau'tau + c2) dt on the problem's grid, cost_z_fine on
+    FINE_DIVISIONS, energy_integral_N2m2s = integral tau'tau dt [N^2 m^2 s], optima every start's
+    record, end the travel pattern. `feasible`: the solver converged (the paper states no limit)."""
+    facts = {"problem": problem, "x": np.asarray(trajectory.x, float), "optima": list(optima),
+             "cost_z": float(cost_z), "cost_z_fine": float(cost_z_fine),
+             "energy_integral_N2m2s": float(energy_integral_N2m2s), "end": str(end)}
+    return Plan(scenario=scenario, method=method, trajectory=trajectory, check=check,
+                scenario_kind=ENERGY_PLAN_KIND, facts=facts, **plan_fields)
 
-    problem: EnergyProblem | None = None
-    optima: list = field(default_factory=list)
-    cost_z: float = float("nan")
-    cost_z_fine: float = float("nan")
-    energy_integral_N2m2s: float = float("nan")
-    end: str = ""
-    scenario_kind: ClassVar[str] = ENERGY_PLAN_KIND
 
-    @property
-    def x(self) -> np.ndarray:
-        """The paper's trajectory vector (a_ij, b_ij, T) of the optimum."""
-        return np.asarray(self.trajectory.x, float)
+def plan_block(plan: Plan) -> dict:
+    """The `plan` block `simulate --plan` has always read (theta0_rad, m, x, ...)."""
+    P = plan.problem
+    return {"family": "fourier_velocity", "theta0_rad": P.theta0, "m": P.m, "x": plan.x,
+            "motion_time_s": plan.motion_time_s, "z": plan.cost_z, "z_fine": plan.cost_z_fine,
+            "fine_divisions": FINE_DIVISIONS, "end": plan.end}
 
-    def plan_block(self) -> dict:
-        """The `plan` block `simulate --plan` has always read (theta0_rad, m, x, ...)."""
-        P = self._problem()
-        return {"family": "fourier_velocity", "theta0_rad": P.theta0, "m": P.m, "x": self.x,
-                "motion_time_s": self.motion_time_s, "z": self.cost_z, "z_fine": self.cost_z_fine,
-                "fine_divisions": FINE_DIVISIONS, "end": self.end}
 
-    def _problem(self) -> EnergyProblem:
-        if self.problem is None:
-            raise ValueError("an EnergyPlan needs its EnergyProblem")
-        return self.problem
+def energy_summary(plan: Plan) -> dict:
+    """An energy-time plan's CLI keys: the common ones, its costs, weights and every start's optimum."""
+    P = plan.problem
+    d = {"kind": ENERGY_PLAN_KIND, "scenario": plan.scenario.name, "scenario_kind": plan.scenario_kind,
+         "method": plan.method, "feasible": plan.feasible, "motion_time_s": plan.motion_time_s,
+         "cost_z": plan.cost_z, "cost_z_fine": plan.cost_z_fine,
+         "energy_integral_N2m2s": plan.energy_integral_N2m2s, "end": plan.end,
+         "planner_wall_s": plan.planner_wall_s, "c1": P.c1, "c2": P.c2, "m": P.m,
+         "divisions": P.divisions, "theta0_deg": np.degrees(P.theta0), "X0": P.X0, "XT": P.XT,
+         "optima": plan.optima}
+    if plan.feasible:
+        d["plan"] = plan_block(plan)
+    return d
 
-    def summary(self) -> dict:
-        P = self._problem()
-        d = {"kind": ENERGY_PLAN_KIND, "scenario": self.scenario.name, "scenario_kind": self.scenario_kind,
-             "method": self.method, "feasible": self.feasible, "motion_time_s": self.motion_time_s,
-             "cost_z": self.cost_z, "cost_z_fine": self.cost_z_fine,
-             "energy_integral_N2m2s": self.energy_integral_N2m2s, "end": self.end,
-             "planner_wall_s": self.planner_wall_s, "c1": P.c1, "c2": P.c2, "m": P.m,
-             "divisions": P.divisions, "theta0_deg": np.degrees(P.theta0), "X0": P.X0, "XT": P.XT,
-             "optima": self.optima}
-        if self.feasible:
-            d["plan"] = self.plan_block()
-        return d
 
-    def to_json_dict(self) -> dict:
-        P = self._problem()
-        src = self.scenario.source_path
-        return jsonable({**self.summary(), "scenario_path": None if src is None else str(src), "n_dof": self.n_dof,
-                         "extra": self.extra, "trajectory": {"kind": "fourier_velocity", "theta0_rad": P.theta0,
-                                                             "m": P.m, "x": self.x},
-                         IDENTITY_KEY: identity(energy_sections(self.scenario))})
+def _energy_file_dict(plan: Plan) -> dict:
+    P = plan.problem
+    src = plan.scenario.source_path
+    return jsonable({**energy_summary(plan), "scenario_path": None if src is None else str(src), "n_dof": plan.n_dof,
+                     "extra": plan.extra, "trajectory": {"kind": "fourier_velocity", "theta0_rad": P.theta0,
+                                                         "m": P.m, "x": plan.x},
+                     IDENTITY_KEY: identity(energy_sections(plan.scenario))})
 
-    def write_json(self, path) -> None:
-        write_text_atomic(path_arg(path, "write_json: path", "JSON file"), json.dumps(self.to_json_dict(), indent=1) + "\n")
 
-    def write_csv(self, path, rate_hz: float = 1000.0) -> None:
-        check_csv_args(path, rate_hz, self.motion_time_s)
-        write_energy_csv(path, self._problem(), self.x, rate_hz)
+def _energy_csv(plan: Plan, path, rate_hz: float) -> None:
+    write_energy_csv(path, plan.problem, plan.x, rate_hz)
 
 
 def make_energy_plan(E: Experiment, P: EnergyProblem, method: str, x, converged: bool, *, optima=(),
-                     planner_wall_s: float = 0.0, extra: dict | None = None) -> EnergyPlan:
+                     planner_wall_s: float = 0.0, extra: dict | None = None) -> Plan:
     """The EnergyPlan of trajectory vector x on P: z, its fine-grid value and the energy computed here."""
     x = np.asarray(x, float)
     T = float(x[-1])
@@ -145,7 +131,7 @@ def make_energy_plan(E: Experiment, P: EnergyProblem, method: str, x, converged:
 def plan_energy_time(E: Experiment, method: str = "snopt", *, c1: float | None = None, c2: float | None = None,
                      m: int | None = None, divisions: int | None = None, coords=None, pattern=None,
                      max_iter: int | None = None, progress: Callable[[str], None] | None = None,
-                     on_optimum: Callable[[dict], None] | None = None) -> EnergyPlan:
+                     on_optimum: Callable[[dict], None] | None = None) -> Plan:
     """Seed 001's multi-start on experiment E (module docstring). c1, c2, m, divisions: override the
     experiment's weights, Fourier terms and time divisions; coords: X1(0) X2(0) X1(T) X2(T) [m];
     pattern: one start as signs, e.g. (-1, 1, -1) (default all 8); max_iter: steepest's cap (20000);
@@ -217,7 +203,7 @@ def write_energy_csv(path, problem: EnergyProblem, x, rate_hz: float = 1000.0) -
     write_text_atomic(path, ",".join(head) + "\n" + "\n".join(",".join(f"{v:.17g}" for v in r) for r in rows) + "\n")
 
 
-def _load(path: Path, d: dict, E: Experiment | None) -> EnergyPlan:
+def _load(path: Path, d: dict, E: Experiment | None) -> Plan:
     """plan.load_plan's loader of energy-time files (module docstring); E None: the file's experiment."""
     if E is None:
         src = d.get("scenario_path")
@@ -258,4 +244,5 @@ def _load(path: Path, d: dict, E: Experiment | None) -> EnergyPlan:
                             planner_wall_s=wall if isinstance(wall, (int, float)) else 0.0, extra=extra)
 
 
-register_plan_kind(ENERGY_PLAN_KIND, Experiment, _load)
+register_plan_kind(ENERGY_PLAN_KIND, Experiment, _load, summary=energy_summary, file_dict=_energy_file_dict,
+                   write_csv=_energy_csv)

@@ -33,9 +33,9 @@ from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
-from qmt_drake.energy.energy_plan import EnergyPlan
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.plan import ENERGY_PLAN_KIND
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 
 
@@ -135,11 +135,11 @@ def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: floa
 
 
 def execute_plan(plan, record_path: str | Path | None = None) -> dict:
-    """`plan` (an EnergyPlan) executed by `execute`: its summary with the scenario, the method, the
+    """`plan` (an energy-time Plan) executed by `execute`: its summary with the scenario, the method, the
     motion time [s], whether the arm reached the goal (outcome.py's arrival tolerance [rad]) and the
     outcome word: seed 001 carries nothing that can be lost, so it is carried (goal reached) or
     unfinished. Another kind's plan: QmtInputError."""
-    if not isinstance(plan, EnergyPlan) or plan.problem is None:
+    if getattr(plan, "scenario_kind", None) != ENERGY_PLAN_KIND or plan.problem is None:
         raise QmtInputError(f"a {getattr(plan, 'scenario_kind', type(plan).__name__)} plan cannot run in the "
                             "energy-time execution; plan this energy-time scenario first")
     summary = execute(plan.problem.family, plan.x, recording_path=record_path).summary()

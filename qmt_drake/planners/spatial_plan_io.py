@@ -1,8 +1,8 @@
-"""The spatial Plan and its files: `SpatialPlan`, the plan.Plan of a spatial scenario (same surface:
-motion_time_s, sample, feasible, check, summary, to_json_dict, write_json, write_csv), written
-atomically with what rebuilds the trajectory exactly, loaded back only against the scenario it was
-made for (also through plan.load_plan, registered here for `scenario_kind: spatial_transfer`); the
-trajectory as CSV.
+"""The spatial kind of the one plan.Plan and its files: `SpatialPlan` builds the Plan of a spatial
+scenario (its facts: pose times, hold scale, re-check, pose errors, clearance), and the spatial
+plan.PlanKind registered here (`scenario_kind: spatial_transfer`) gives its summary, its file, written
+atomically with what rebuilds the trajectory exactly and loaded back (plan_files.load_plan) only
+against the scenario it was made for, and the trajectory as CSV.
 
 A file is the plan's summary, the task-pose times and 1 kHz samples to plot, plus
 what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KIND, `n_dof`,
@@ -33,20 +33,17 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar
 
 import numpy as np
 from pydrake.math import BsplineBasis
 from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
 
-from qmt_drake.api_checks import path_arg
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import clearance
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, check_csv_args, ratio_report
-from qmt_drake.plan_files import plan_file_kind, read_plan_file, register_plan_kind
+from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, ratio_report, register_plan_kind
+from qmt_drake.plan_files import plan_file_kind, read_plan_file
 from qmt_drake.plan_identity import (
     IDENTITY_KEY,
     check_identity,
@@ -74,73 +71,63 @@ REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: rebuilt vs planned (only rounding may
 POSE_TOL = 1e-6  # m and rad: the plan's first/last sample on the scenario's first/last task pose (Drake FK)
 
 
-@dataclass(eq=False)
-class SpatialPlan(Plan):
-    """A spatial scenario's Plan: `scenario` a SpatialScenario, `trajectory` a spatial_trajectory kind
-    already scaled to hold; `check` the re-check at the re-check rate (10x the check rate) as a
-    LimitReport of ratios (plan.ratio_report), `recheck` the same as a dict ('max' the largest);
-    pose_times_s when the hand is at each task pose, pose_error (K, 2) their Drake-FK errors (m, rad),
-    raw_duration_s before scale_to_hold, hold_scale its k (1: none needed); `info` (= extra) the planner's facts;
-    `clearance` (a scenario with obstacles) the smallest signed distance of the arm and part from them along the
-    plan (limits/clearance.py; < 0: a collision, and the plan is not feasible), {} without obstacles."""
+SPATIAL_FACTS = ("pose_times_s", "raw_duration_s", "hold_scale", "recheck", "pose_error", "clearance")
 
-    pose_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    raw_duration_s: float = 0.0
-    hold_scale: float = 1.0
-    recheck: dict = field(default_factory=dict)
-    pose_error: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
-    clearance: dict = field(default_factory=dict)
-    scenario_kind: ClassVar[str] = SPATIAL_PLAN_KIND
 
-    @property
-    def duration_s(self) -> float:
-        return float(self.trajectory.duration_s)
+def SpatialPlan(*, scenario, method: str, trajectory, check, pose_times_s, raw_duration_s: float,  # noqa: N802
+                hold_scale: float, recheck: dict, pose_error, clearance: dict, **plan_fields) -> Plan:
+    """The one Plan of a spatial scenario (the name stays for callers; no subclass): `scenario` a
+    SpatialScenario, `trajectory` a spatial_trajectory kind already scaled to hold; `check` the re-check
+    at the re-check rate (10x the check rate) as a LimitReport of ratios (plan.ratio_report). Its facts:
+    `recheck` the same as a dict ('max' the largest); pose_times_s when the hand is at each task pose,
+    pose_error (K, 2) their Drake-FK errors (m, rad), raw_duration_s before scale_to_hold, hold_scale its
+    k (1: none needed); `clearance` (a scenario with obstacles) the smallest signed distance of the arm
+    and part from them along the plan (limits/clearance.py; < 0: a collision, and the plan is not
+    feasible), {} without obstacles. `info` (= extra) holds the planner's facts."""
+    facts = {"pose_times_s": np.asarray(pose_times_s, float), "raw_duration_s": float(raw_duration_s),
+             "hold_scale": float(hold_scale), "recheck": recheck, "pose_error": np.asarray(pose_error, float),
+             "clearance": dict(clearance)}
+    return Plan(scenario=scenario, method=method, trajectory=trajectory, check=check,
+                scenario_kind=SPATIAL_PLAN_KIND, facts=facts, **plan_fields)
 
-    @property
-    def feasible(self) -> bool:
-        return self.check.feasible and self.clearance.get("clearance_m", 0.0) >= 0.0
 
-    @property
-    def planning_s(self) -> float:
-        return self.planner_wall_s
+def spatial_summary(plan: Plan) -> dict:
+    """A spatial plan's CLI keys: the common ones, its re-check, task-pose errors, clearance and info."""
+    c = plan.check
+    return {"scenario": plan.scenario.name, "scenario_kind": plan.scenario_kind, "method": plan.method,
+            "feasible": plan.feasible, "motion_time_s": plan.duration_s, "peak_ratios": dict(c.peak_ratios),
+            "check_rate_hz": c.rate_hz, "planner_wall_s": plan.planner_wall_s, "n_dof": plan.n_dof,
+            "duration_s": plan.duration_s, "planning_s": plan.planning_s,
+            "raw_duration_s": plan.raw_duration_s, "hold_scale": plan.hold_scale,
+            "recheck_max_ratio": plan.recheck["max"], "recheck": plan.recheck,
+            "max_pose_position_error_m": float(plan.pose_error[:, 0].max()),
+            "max_pose_angle_error_rad": float(plan.pose_error[:, 1].max()), **plan.clearance, **plan.info}
 
-    @property
-    def info(self) -> dict:
-        return self.extra
 
-    @property
-    def n_dof(self) -> int:
-        return int(self.scenario.n_dof)
+def _spatial_feasible(plan: Plan) -> bool:
+    return bool(plan.check.feasible and plan.clearance.get("clearance_m", 0.0) >= 0.0)
 
-    def to_piecewise_polynomial(self, rate_hz: float = 1000.0) -> PiecewisePolynomial:
-        t, q, qd, _ = _samples(self.trajectory, rate_hz)
-        return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
 
-    def summary(self) -> dict:
-        c = self.check
-        return {"scenario": self.scenario.name, "scenario_kind": self.scenario_kind, "method": self.method,
-                "feasible": self.feasible, "motion_time_s": self.duration_s, "peak_ratios": dict(c.peak_ratios),
-                "check_rate_hz": c.rate_hz, "planner_wall_s": self.planner_wall_s, "n_dof": self.n_dof,
-                "duration_s": self.duration_s, "planning_s": self.planning_s,
-                "raw_duration_s": self.raw_duration_s, "hold_scale": self.hold_scale,
-                "recheck_max_ratio": self.recheck["max"], "recheck": self.recheck,
-                "max_pose_position_error_m": float(self.pose_error[:, 0].max()),
-                "max_pose_angle_error_rad": float(self.pose_error[:, 1].max()), **self.clearance, **self.info}
+def _spatial_n_dof(plan: Plan) -> int:
+    return int(plan.scenario.n_dof)
 
-    def to_json_dict(self) -> dict:
-        """The plan file's mapping (module docstring), JSON-ready."""
-        return jsonable(plan_file_dict(self.scenario, self))
 
-    def write_json(self, path) -> None:
-        write_spatial_plan(self.scenario, self, path_arg(path, "write_json: path", "JSON file"))
+def _spatial_pp(plan: Plan, rate_hz: float = 1000.0) -> PiecewisePolynomial:
+    t, q, qd, _ = _samples(plan.trajectory, rate_hz)
+    return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
 
-    def write_csv(self, path, rate_hz: float = 1000.0) -> None:
-        check_csv_args(path, rate_hz, self.motion_time_s)
-        write_spatial_csv(self, path, rate_hz)
+
+def _spatial_file_dict(plan: Plan) -> dict:
+    """The plan file's mapping (module docstring), JSON-ready, its rebuild proven (plan_file_dict)."""
+    return jsonable(plan_file_dict(plan.scenario, plan))
+
+
+def _spatial_csv(plan: Plan, path, rate_hz: float) -> None:
+    write_spatial_csv(plan, path, rate_hz)
 
 
 def make_spatial_plan(sc, method: str, traj, pose_times_s, *, planning_s: float, raw_duration_s: float,
-                      hold_scale: float, info: dict) -> SpatialPlan:
+                      hold_scale: float, info: dict) -> Plan:
     """A SpatialPlan of `traj` on sc, re-checked at sc's re-check rate and its task poses measured by
     Drake FK at pose_times_s (nothing the planner says is taken on trust)."""
     times = np.asarray(pose_times_s, float)
@@ -158,7 +145,7 @@ def make_spatial_plan(sc, method: str, traj, pose_times_s, *, planning_s: float,
                        clearance=clearance(sc, traj, sc.recheck_rate_hz) if sc.obstacles else {})
 
 
-def finish_plan(sc, method: str, traj, pose_times, t0: float, info: dict) -> SpatialPlan:
+def finish_plan(sc, method: str, traj, pose_times, t0: float, info: dict) -> Plan:
     """The planner's trajectory held at the re-check rate (spatial_trajectory.scale_to_hold) as a
     SpatialPlan; t0 the planner's start (time.perf_counter) for its planning time."""
     raw = traj.duration_s
@@ -236,7 +223,7 @@ def trajectory_from_spec(spec: dict):
     raise ValueError(f"unknown trajectory kind {kind!r}")
 
 
-def _ruckig_inputs(sc, plan: SpatialPlan):
+def _ruckig_inputs(sc, plan: Plan):
     factors = plan.info.get("acceleration_jerk_factors")
     if factors is None:
         return None
@@ -257,7 +244,7 @@ def _max_difference(a, b) -> float:
     return max(float(np.max(np.abs(x - y))) for x, y in zip(a, b))
 
 
-def plan_file_dict(sc, plan: SpatialPlan) -> dict:
+def plan_file_dict(sc, plan: Plan) -> dict:
     """What write_spatial_plan writes, after proving that `rebuild` reproduces the plan (REBUILD_TOL)."""
     spec = jsonable(trajectory_spec(plan.trajectory, _ruckig_inputs(sc, plan)))
     rebuilt = trajectory_from_spec(json.loads(json.dumps(spec)))
@@ -275,11 +262,11 @@ def plan_file_dict(sc, plan: SpatialPlan) -> dict:
             "info": plan.info, "rebuild": spec, IDENTITY_KEY: identity(spatial_sections(sc))}
 
 
-def write_spatial_plan(sc, plan: SpatialPlan, path) -> None:
-    write_text_atomic(path, json.dumps(jsonable(plan_file_dict(sc, plan))) + "\n")
+def write_spatial_plan(sc, plan: Plan, path) -> None:
+    write_text_atomic(path, json.dumps(jsonable(plan_file_dict(sc, plan))) + "\n")  # = plan.write_json(path)
 
 
-def write_spatial_csv(plan: SpatialPlan, path, rate_hz: float = 1000.0) -> None:
+def write_spatial_csv(plan: Plan, path, rate_hz: float = 1000.0) -> None:
     """t, q_i, qd_i, qdd_i at rate_hz and the end time, units in the header."""
     t, q, qd, qdd = _samples(plan.trajectory, rate_hz)
     n = q.shape[1]
@@ -329,13 +316,13 @@ def _check_fits(d: dict, path, sc) -> None:
                             f"{sc.name}'s (task.hand_rpy_rad); {again}")
 
 
-def load_spatial_plan(path, sc) -> SpatialPlan:
+def load_spatial_plan(path, sc) -> Plan:
     """The plan of a file written by write_spatial_plan, rebuilt exactly and re-checked on sc
     (module docstring); one-line QmtInputError naming the file for any misfit."""
     return _load(Path(path), read_plan_file(path), sc)
 
 
-def _load(path: Path, d: dict, sc) -> SpatialPlan:
+def _load(path: Path, d: dict, sc) -> Plan:
     """plan.load_plan's loader of spatial files: sc None reloads the file's own scenario."""
     if sc is None:
         src = d.get("scenario_path")
@@ -367,4 +354,6 @@ def _load(path: Path, d: dict, sc) -> SpatialPlan:
                              raw_duration_s=nums["raw_duration_s"], hold_scale=nums["hold_scale"], info=info)
 
 
-register_plan_kind(SPATIAL_PLAN_KIND, SpatialScenario, _load)
+register_plan_kind(SPATIAL_PLAN_KIND, SpatialScenario, _load, summary=spatial_summary, file_dict=_spatial_file_dict,
+                   write_csv=_spatial_csv, feasible=_spatial_feasible, n_dof=_spatial_n_dof,
+                   to_piecewise_polynomial=_spatial_pp, json_indent=None)
