@@ -54,6 +54,9 @@ from qmt_drake.systems.dc_motor import DcMotorParams, dc_motors_as_primitives
 from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
 
 ACTUATORS = ("ideal", "dc_motor")
+# the spatial drives' feedforward words: the planar ones, and `shaped` = `full` on the closed-loop-aware reference
+# (sim/spatial_reference.closed_loop_reference: the plan slowed where the motors cannot follow it, box-shaped)
+SPATIAL_FEEDFORWARD = {**FEEDFORWARD_OPTIONS, "shaped": FEEDFORWARD_OPTIONS["full"]}
 CLOSED_LOOP_RAD_S = 30.0  # = sqrt(KP_1_S2) of sim/spatial_cosim's inverse-dynamics controller
 DAMPING_RATIO = 1.0  # = KD_1_S / (2 sqrt(KP_1_S2)) there
 
@@ -115,8 +118,8 @@ class SpatialMotorDrive:
 
     @classmethod
     def for_scenario(cls, sc, q_start_rad, feedforward: str = "full") -> SpatialMotorDrive:
-        if feedforward not in FEEDFORWARD_OPTIONS:
-            raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(FEEDFORWARD_OPTIONS)}")
+        if feedforward not in SPATIAL_FEEDFORWARD:
+            raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(SPATIAL_FEEDFORWARD)}")
         mp = motor_params_for_spatial(sc)
         plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
                                      effort_limit_Nm=sc.torque_limit_Nm,
@@ -140,7 +143,7 @@ class SpatialMotorDrive:
         motor signals system (joint_torque, voltage, current, motor_torque, electrical_power)."""
         mp, n = self.params, self.params.n
         require_joint_order(plant, arm_instance, mp.names)  # the motors' torques go to the actuators in this order
-        opts = FEEDFORWARD_OPTIONS[self.feedforward]
+        opts = SPATIAL_FEEDFORWARD[self.feedforward]
         pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
                                  motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),
                                  torque_feedforward=opts.get("inverse_dynamics_feedforward", False))
@@ -170,14 +173,17 @@ class SpatialMotorDrive:
 
 
 def check_drive(sc, actuator: str, feedforward: str) -> None:
-    """One-line QmtInputError for an unknown actuator, a feedforward other than 'full' on
-    the ideal actuator (its inverse-dynamics controller has it built in), or dc_motor without the
-    scenario's motor constants; builds nothing (the CLI asks before planning)."""
+    """One-line QmtInputError for an unknown actuator or feedforward, a feedforward other than 'full' or
+    'shaped' (the shaped reference) on the ideal actuator (its inverse-dynamics controller has the full one
+    built in), or dc_motor without the scenario's motor constants; builds nothing (the CLI asks before planning)."""
     if actuator not in ACTUATORS:
         raise QmtInputError(f"actuator {actuator!r}: choose one of {', '.join(ACTUATORS)}")
-    if actuator == "ideal" and feedforward != "full":
+    if feedforward not in SPATIAL_FEEDFORWARD:
+        raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(SPATIAL_FEEDFORWARD)}")
+    if actuator == "ideal" and feedforward not in ("full", "shaped"):
         raise QmtInputError(f"feedforward {feedforward!r} applies to actuator dc_motor; the ideal actuator's "
-                            "inverse-dynamics controller always has the full feedforward")
+                            "inverse-dynamics controller always has the full feedforward (or 'shaped': on the "
+                            "shaped reference)")
     if actuator == "dc_motor":
         motor_params_for_spatial(sc)  # (the feedforward's own choices: SpatialMotorDrive.for_scenario)
 
