@@ -13,6 +13,7 @@ from qmt_drake.sim.spatial_actuation import SpatialMotorDrive, check_drive
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.sim.spatial_reference import (
     BoxShapedReference,
+    SampledDataReference,
     closed_loop_reference,
     drive_fit_scale,
     drive_load_ratio,
@@ -137,3 +138,16 @@ def test_shaped_reference_carries_a_bang_bang_move_the_plain_one_loses():
     assert shaped["outcome"] == "carried" and shaped["max_grip_ratio_while_held"] <= planned
     assert shaped["max_tracking_error_rad"] < 0.5 * plain["max_tracking_error_rad"]
     assert shaped["final_goal_error_rad"] < 1e-6
+
+
+def test_sampled_data_reference_is_what_the_discrete_plant_integrates(move):
+    """Semi-implicit Euler at h (v+ = v + h a, q+ = q + h v+, as the discrete plant steps) from the reference's
+    samples reproduces its next samples: velocity exactly, position to the trapezoid rule's h^3/12 max|jerk|
+    (the box of 20 ms turns the move's acceleration jump of 2a into a jerk of at most 2a / 20 ms)."""
+    h = 1e-3
+    ref = SampledDataReference(BoxShapedReference(move, 0.02), h)
+    t = np.arange(0.0, ref.duration_s - h, h)
+    q, qd, qdd = ref.sample(t)
+    np.testing.assert_allclose(qd[:-1] + h * qdd[:-1], qd[1:], rtol=0, atol=1e-12)
+    jerk = 2.0 * np.abs(move.a).max() / 0.02
+    np.testing.assert_allclose(q[:-1] + h * qd[1:], q[1:], rtol=0, atol=h**3 / 12 * jerk * 1.001)

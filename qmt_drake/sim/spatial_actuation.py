@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.multibody.tree import JointActuatorIndex
 from pydrake.systems.controllers import InverseDynamics
-from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
+from pydrake.systems.primitives import Adder, Demultiplexer, LogVectorOutput, MatrixGain
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import actuator_joint_names
@@ -161,7 +161,11 @@ class SpatialMotorDrive:
             inv = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(self.id_plant))
             builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
             builder.Connect(desired_acceleration_port, inv.get_input_port_desired_acceleration())
-            builder.Connect(inv.get_output_port_generalized_force(), law.GetInputPort("feedforward_torque"))
+            ff = inv.get_output_port_generalized_force()
+            if self.feedforward == "shaped":  # + D h qdd_des: what the implicit loop damping takes over a step
+                ff = add_stepping_feedforward(builder, ff, desired_acceleration_port, self.loop_damping_Nms,
+                                              time_step_s)
+            builder.Connect(ff, law.GetInputPort("feedforward_torque"))
         if compiled is not None:
             return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),
                                            self.loop_damping_Nms, time_step_s, pm)
@@ -170,6 +174,19 @@ class SpatialMotorDrive:
         builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
         return add_implicit_damping_actuation(builder, plant, arm_instance, motors, split.get_output_port(1),
                                               self.loop_damping_Nms, time_step_s, pm)
+
+
+def add_stepping_feedforward(builder, torque_port, desired_acceleration_port, loop_damping_Nms, time_step_s):
+    """torque + D h qdd_des [N*m]: with the loop damping D stepped implicitly the arm receives
+    tau_motor(x_n) - D (qd_{n+1} - qd_n) over a step (sim/actuation.add_implicit_damping_actuation), i.e. D h qdd
+    less than the feedforward asked for; this gives it back on the reference. Returns the sum's port."""
+    n = len(loop_damping_Nms)
+    gain = builder.AddNamedSystem("stepping_feedforward", MatrixGain(np.diag(np.asarray(loop_damping_Nms) * time_step_s)))
+    total = builder.AddNamedSystem("feedforward_sum", Adder(2, n))
+    builder.Connect(desired_acceleration_port, gain.get_input_port())
+    builder.Connect(torque_port, total.get_input_port(0))
+    builder.Connect(gain.get_output_port(), total.get_input_port(1))
+    return total.get_output_port()
 
 
 def check_drive(sc, actuator: str, feedforward: str) -> None:

@@ -132,7 +132,7 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     ctrl = sc if controller_sc is None else controller_sc
     if drive is None:
         drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward)
-    traj = closed_loop_reference(traj, feedforward, drive)  # feedforward 'shaped': sim/spatial_reference
+    traj = closed_loop_reference(traj, feedforward, drive, TIME_STEP_S)  # feedforward 'shaped': sim/spatial_reference
     if sc.hand_kind == "tray":
         return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path, controller_sc=ctrl)
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)

@@ -7,19 +7,21 @@ reference after it and the loop's correction adds 3-9 % to the hand's wrench for
 jump rings the carried part on its weld (about 70 Hz): the ratio that was 0.97 in the plan reaches 1.86.
 A plan on its limit is then carried only when played about 1.36x slower, whatever the drive.
 
-`shaped` sends the loop the plan seen through a moving average of width w (a box FIR, the simplest
-input shaper):
+`shaped` sends the loop the plan seen through two moving averages of width w/2 each (two box FIRs in
+series, a triangular kernel of total width w). One box of width b (BoxShapedReference):
 
-    q_s(t)   = (1/w) * integral_{t-w}^{t} q(tau) dtau      (q held at rest before 0 and after T)
-    qd_s(t)  = (q(t) - q(t-w)) / w
-    qdd_s(t) = (qd(t) - qd(t-w)) / w
+    q_s(t)   = (1/b) * integral_{t-b}^{t} q(tau) dtau      (q held at rest before 0 and after T)
+    qd_s(t)  = (q(t) - q(t-b)) / b
+    qdd_s(t) = (qd(t) - qd(t-b)) / b
 
 exact derivatives of one another, so the feedforward (the inverse dynamics through the motor's inverse,
-sim/spatial_actuation) is evaluated on a consistent motion. Its acceleration is continuous: the jerk is at
-most the largest acceleration jump over w, and the start is jerk-limited (qdd_s ramps from 0 over w).
+sim/spatial_actuation) is evaluated on a consistent motion. After one box the acceleration is continuous
+(the jerk at most the largest acceleration jump over w/2; the start is jerk-limited), after the second the
+jerk is continuous too: on the UR5 magnet plan one 42 ms box leaves a 9 % overshoot of the hand ratio where
+the jerk jumps, two 21 ms boxes 4 % (docs/spatial_drives.md).
 The hand's acceleration is (to first order in w times the joint speed) the moving average of the plan's,
 so a wrench inside the hand's convex limit set stays inside: the shaped motion keeps the plan's limits
-and ends w later (STUDY: the re-check of the shaped motion is in studies/spatial_drive_tracking.py).
+and ends w later.
 
 Where the motors cannot follow (`drive_fit_scale`): the feedforward's current and voltage (dc_motor
 .motor_signals_from_joint_torque of the drive's inverse dynamics) are checked along the plan; a plan that
@@ -36,11 +38,26 @@ from qmt_drake.systems.dc_motor import motor_signals_from_joint_torque
 from qmt_drake.timescale import smallest_holding_scale
 from qmt_drake.trajectory import TimeScaledTrajectory
 
-SHAPING_WINDOW_S = 0.042  # w: three periods of the part's ringing on its weld (about 14 ms), zeros of the box there
+SHAPING_WINDOW_S = 0.042  # w: two boxes of 21 ms (1.5 periods of the part's ringing on its weld, about 14 ms)
 QUADRATURE_STEP_S = 2.5e-4  # the running integral of q: Hermite-corrected trapezoid (exact for cubics)
 FIT_SAMPLE_S = 1e-3  # the feedforward's current / voltage check along the plan
 FIT_MAX_SCALE = 4.0
 FIT_REL_TOL = 1e-3
+
+
+class SampledDataReference:
+    """`traj` as the loop's sampled-data plant integrates it (module docstring): at t, q(t) + h/2 qd(t), qd(t)
+    and the step's mean acceleration (qd(t + h) - qd(t)) / h, h = time_step_s [s]."""
+
+    def __init__(self, traj, time_step_s: float) -> None:
+        self.inner, self.h = traj, float(time_step_s)
+        self.duration_s = traj.duration_s
+
+    def sample(self, t_s):
+        t = np.atleast_1d(np.asarray(t_s, float))
+        q, qd, _ = self.inner.sample(t)
+        _, qd_next, _ = self.inner.sample(np.minimum(t + self.h, self.duration_s))
+        return q + 0.5 * self.h * qd, qd, (qd_next - qd) / self.h
 
 
 class BoxShapedReference:
@@ -135,10 +152,15 @@ def drive_fit_scale(drive, traj) -> float:
                                   lambda k: drive_load_ratio(drive, TimeScaledTrajectory(traj, k)) <= 1.0, FIT_REL_TOL)
 
 
-def closed_loop_reference(traj, feedforward: str, drive=None, window_s: float = SHAPING_WINDOW_S):
+def closed_loop_reference(traj, feedforward: str, drive=None, time_step_s: float | None = None,
+                          window_s: float = SHAPING_WINDOW_S):
     """The reference the loop is sent: traj itself unless feedforward is 'shaped'; then traj slowed until
-    the drive's motors can follow it (drive_fit_scale; dc_motor only) and box-shaped over window_s."""
+    the drive's motors can follow it (drive_fit_scale; dc_motor only), shaped by two boxes of window_s / 2
+    (it ends window_s later) and, given the plant's step time_step_s [s], as the sampled-data plant
+    integrates it (SampledDataReference)."""
     if feedforward != "shaped":
         return traj
     k = drive_fit_scale(drive, traj)
-    return BoxShapedReference(traj if k == 1.0 else TimeScaledTrajectory(traj, k), window_s)
+    slowed = traj if k == 1.0 else TimeScaledTrajectory(traj, k)
+    shaped = BoxShapedReference(BoxShapedReference(slowed, window_s / 2), window_s / 2)
+    return shaped if time_step_s is None else SampledDataReference(shaped, time_step_s)
