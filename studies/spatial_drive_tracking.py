@@ -97,10 +97,10 @@ def figure_png(rows: list[dict]) -> bytes:
     labels = [f"{a}\n{'shaped' if f == 'shaped' else 'plain'} ref." for a, f in VARIANTS]
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
     width = 0.8 / len(VARIANTS)
-    panels = (("max_tracking_error_rad_at_1x", 1e3, "max tracking error at 1x [mrad]"),
-              ("max_hand_ratio_while_held_at_1x", 1.0, "largest hand ratio while held at 1x [-]"),
-              ("fastest_carried_time_over_plan", 1.0, "fastest carried time / TOPP-RA plan time [-]"))
-    for ax, (key, unit, title) in zip(axes, panels):
+    panels = (("max_tracking_error_rad_at_1x", 1e3, "max tracking error at 1x [mrad] (log)", None),
+              ("max_hand_ratio_while_held_at_1x", 1.0, "largest hand ratio while held at 1x [-]", (0.9, 1.08)),
+              ("fastest_carried_time_over_plan", 1.0, "fastest carried time / TOPP-RA plan time [-]", (0.9, 1.45)))
+    for ax, (key, unit, title, ylim) in zip(axes, panels):
         for j, (a, f) in enumerate(VARIANTS):
             vals = []
             for n in names:
@@ -110,14 +110,18 @@ def figure_png(rows: list[dict]) -> bytes:
             ax.bar(np.arange(len(names)) + (j - (len(VARIANTS) - 1) / 2) * width, vals, width, label=labels[j])
         ax.set_xticks(np.arange(len(names)), names, fontsize=8)
         ax.set_ylabel(title)
+        if ylim is None:
+            ax.set_yscale("log")
+        else:
+            ax.set_ylim(*ylim)
         ax.set_xlabel("scenario (TOPP-RA plan)")
         if key != "max_tracking_error_rad_at_1x":
             ax.axhline(1.0, color="k", lw=0.8, ls="--")
         ax.grid(axis="y", alpha=0.3)
     axes[2].axhline(1.03, color="r", lw=0.8, ls=":", label="goal 1.03")
-    axes[2].legend(fontsize=7, loc="upper right")
+    fig.legend(*axes[2].get_legend_handles_labels(), loc="lower center", ncol=5, fontsize=8)
     fig.suptitle("Spatial drives: plain plan vs closed-loop-aware (shaped) reference, DC motors and ideal actuators")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
@@ -129,15 +133,21 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="out")
     ap.add_argument("--only", choices=SCENARIOS, action="append")
     ap.add_argument("--window", type=float, default=spatial_reference.SHAPING_WINDOW_S,
-                    help="the shaped reference's box width [s]")
+                    help="the shaped reference's kernel width [s] (two boxes of half of it)")
+    ap.add_argument("--replot", action="store_true", help="redraw the PNG from the JSON already in OUT, run nothing")
     args = ap.parse_args(argv)
     check_output_dir(args.out, "--out")
+    folder = Path(args.out) / "spatial_drive_tracking"
+    if args.replot:
+        write_bytes_atomic(folder / "spatial_drive_tracking.png", figure_png(
+            json.loads((folder / "spatial_drive_tracking.json").read_text())["rows"]))
+        print(f"wrote {folder}/spatial_drive_tracking.png")
+        return 0
     if not args.window > 0:
         print(f"--window {args.window}: give a positive width in seconds, e.g. 0.042", file=sys.stderr)
         return 2
     # the study's window for every shaped run (closed_loop_reference's default argument)
-    spatial_reference.closed_loop_reference.__defaults__ = (None, args.window)
-    folder = Path(args.out) / "spatial_drive_tracking"
+    spatial_reference.closed_loop_reference.__defaults__ = (None, None, args.window)
     folder.mkdir(parents=True, exist_ok=True)
     rows = []
     for name in args.only or SCENARIOS:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pydrake.systems.controllers import InverseDynamics
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.spatial_trajectory import TimeScaled
@@ -74,10 +75,16 @@ def test_feedforward_is_the_inverse_dynamics_through_the_motors(sc, move):
     tau, i, v = feedforward_signals(drive, move, t)
     mp = drive.params
     np.testing.assert_allclose(mp.gear_ratio * mp.efficiency * mp.torque_constant_Nm_per_A * i, tau, rtol=0, atol=1e-12)
+    inv = InverseDynamics(drive.id_plant)  # the system the co-simulation wires: the same torque
+    ctx = inv.CreateDefaultContext()
+    q, qd, qdd = move.sample(t)
+    for k in range(len(t)):
+        inv.get_input_port_estimated_state().FixValue(ctx, np.concatenate([q[k], qd[k]]))
+        inv.get_input_port_desired_acceleration().FixValue(ctx, qdd[k])
+        np.testing.assert_allclose(inv.get_output_port_generalized_force().Eval(ctx), tau[k], rtol=0, atol=1e-9)
     model = pinocchio_model(sc)
     data = model.createData()
     rotors = np.asarray(sc.drive["gear_ratio"], float) ** 2 * np.asarray(sc.drive["rotor_inertia_kgm2"], float)
-    q, qd, qdd = move.sample(t)
     for k in range(len(t)):
         ref = pin.rnea(model, data, q[k], qd[k], qdd[k]) + rotors * qdd[k]
         np.testing.assert_allclose(tau[k], ref, rtol=0, atol=1e-9)

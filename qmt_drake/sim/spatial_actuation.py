@@ -6,6 +6,9 @@ joint torques, built in sim/spatial_cosim.py) or `dc_motor`, the planar thesis a
          [+ K_e N qd_des]                      back-EMF feedforward      (feedforward "back-emf", "full")
          [+ tau_ff R / (N eta k_t)]            inverse-dynamics feedforward ("full"): Drake InverseDynamics of
                                                the arm with the part welded and N^2 J_r, on the plan
+         [+ D h qdd_des R / (N eta k_t)]       ("shaped" only: what the implicit loop damping takes over a step,
+                                               add_stepping_feedforward; the reference is then the plan shaped
+                                               and sampled as the plant integrates it, sim/spatial_reference)
          --voltage--> DC motor + gear per joint (dc_motor.motor_forward: voltage and current limits)
          --joint torque (+ D qd, implicit loop damping)--> MultibodyPlant
 

@@ -23,6 +23,13 @@ The hand's acceleration is (to first order in w times the joint speed) the movin
 so a wrench inside the hand's convex limit set stays inside: the shaped motion keeps the plan's limits
 and ends w later.
 
+As the sampled-data plant integrates it (`SampledDataReference`, h the plant's step): the discrete plant
+steps v+ = v + h a, q+ = q + h v+, so played against the continuous reference it runs h qd / 2 ahead and
+the PD brakes it (3-9 % of the hand's wrench after a jump). The loop is sent q(t) + h/2 qd(t), qd(t) and
+the step's mean acceleration (qd(t+h) - qd(t)) / h: stepped with the feedforward's acceleration the plant
+reproduces the velocity exactly and the position to h^3/12 times the jerk. (The DC motors' implicit loop
+damping takes D h qdd more over a step: spatial_actuation.add_stepping_feedforward gives it back.)
+
 Where the motors cannot follow (`drive_fit_scale`): the feedforward's current and voltage (dc_motor
 .motor_signals_from_joint_torque of the drive's inverse dynamics) are checked along the plan; a plan that
 needs more than the motors' limits is slowed (timescale.smallest_holding_scale) until it fits, before
