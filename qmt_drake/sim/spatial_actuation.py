@@ -6,6 +6,9 @@ joint torques, built in sim/spatial_cosim.py) or `dc_motor`, the planar thesis a
          [+ K_e N qd_des]                      back-EMF feedforward      (feedforward "back-emf", "full")
          [+ tau_ff R / (N eta k_t)]            inverse-dynamics feedforward ("full"): Drake InverseDynamics of
                                                the arm with the part welded and N^2 J_r, on the plan
+         [+ D h qdd_des R / (N eta k_t)]       ("shaped" only: what the implicit loop damping takes over a step,
+                                               add_stepping_feedforward; the reference is then the plan shaped
+                                               and sampled as the plant integrates it, sim/spatial_reference)
          --voltage--> DC motor + gear per joint (dc_motor.motor_forward: voltage and current limits)
          --joint torque (+ D qd, implicit loop damping)--> MultibodyPlant
 
@@ -37,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.multibody.tree import JointActuatorIndex
 from pydrake.systems.controllers import InverseDynamics
-from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
+from pydrake.systems.primitives import Adder, Demultiplexer, LogVectorOutput, MatrixGain
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import actuator_joint_names
@@ -54,6 +57,9 @@ from qmt_drake.systems.dc_motor import DcMotorParams, dc_motors_as_primitives
 from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
 
 ACTUATORS = ("ideal", "dc_motor")
+# the spatial drives' feedforward words: the planar ones, and `shaped` = `full` on the closed-loop-aware reference
+# (sim/spatial_reference.closed_loop_reference: the plan slowed where the motors cannot follow it, box-shaped)
+SPATIAL_FEEDFORWARD = {**FEEDFORWARD_OPTIONS, "shaped": FEEDFORWARD_OPTIONS["full"]}
 CLOSED_LOOP_RAD_S = 30.0  # = sqrt(KP_1_S2) of sim/spatial_cosim's inverse-dynamics controller
 DAMPING_RATIO = 1.0  # = KD_1_S / (2 sqrt(KP_1_S2)) there
 
@@ -115,8 +121,8 @@ class SpatialMotorDrive:
 
     @classmethod
     def for_scenario(cls, sc, q_start_rad, feedforward: str = "full") -> SpatialMotorDrive:
-        if feedforward not in FEEDFORWARD_OPTIONS:
-            raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(FEEDFORWARD_OPTIONS)}")
+        if feedforward not in SPATIAL_FEEDFORWARD:
+            raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(SPATIAL_FEEDFORWARD)}")
         mp = motor_params_for_spatial(sc)
         plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
                                      effort_limit_Nm=sc.torque_limit_Nm,
@@ -140,7 +146,7 @@ class SpatialMotorDrive:
         motor signals system (joint_torque, voltage, current, motor_torque, electrical_power)."""
         mp, n = self.params, self.params.n
         require_joint_order(plant, arm_instance, mp.names)  # the motors' torques go to the actuators in this order
-        opts = FEEDFORWARD_OPTIONS[self.feedforward]
+        opts = SPATIAL_FEEDFORWARD[self.feedforward]
         pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
                                  motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),
                                  torque_feedforward=opts.get("inverse_dynamics_feedforward", False))
@@ -158,7 +164,11 @@ class SpatialMotorDrive:
             inv = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(self.id_plant))
             builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
             builder.Connect(desired_acceleration_port, inv.get_input_port_desired_acceleration())
-            builder.Connect(inv.get_output_port_generalized_force(), law.GetInputPort("feedforward_torque"))
+            ff = inv.get_output_port_generalized_force()
+            if self.feedforward == "shaped":  # + D h qdd_des: what the implicit loop damping takes over a step
+                ff = add_stepping_feedforward(builder, ff, desired_acceleration_port, self.loop_damping_Nms,
+                                              time_step_s)
+            builder.Connect(ff, law.GetInputPort("feedforward_torque"))
         if compiled is not None:
             return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),
                                            self.loop_damping_Nms, time_step_s, pm)
@@ -169,15 +179,31 @@ class SpatialMotorDrive:
                                               self.loop_damping_Nms, time_step_s, pm)
 
 
+def add_stepping_feedforward(builder, torque_port, desired_acceleration_port, loop_damping_Nms, time_step_s):
+    """torque + D h qdd_des [N*m]: with the loop damping D stepped implicitly the arm receives
+    tau_motor(x_n) - D (qd_{n+1} - qd_n) over a step (sim/actuation.add_implicit_damping_actuation), i.e. D h qdd
+    less than the feedforward asked for; this gives it back on the reference. Returns the sum's port."""
+    n = len(loop_damping_Nms)
+    gain = builder.AddNamedSystem("stepping_feedforward", MatrixGain(np.diag(np.asarray(loop_damping_Nms) * time_step_s)))
+    total = builder.AddNamedSystem("feedforward_sum", Adder(2, n))
+    builder.Connect(desired_acceleration_port, gain.get_input_port())
+    builder.Connect(torque_port, total.get_input_port(0))
+    builder.Connect(gain.get_output_port(), total.get_input_port(1))
+    return total.get_output_port()
+
+
 def check_drive(sc, actuator: str, feedforward: str) -> None:
-    """One-line QmtInputError for an unknown actuator, a feedforward other than 'full' on
-    the ideal actuator (its inverse-dynamics controller has it built in), or dc_motor without the
-    scenario's motor constants; builds nothing (the CLI asks before planning)."""
+    """One-line QmtInputError for an unknown actuator or feedforward, a feedforward other than 'full' or
+    'shaped' (the shaped reference) on the ideal actuator (its inverse-dynamics controller has the full one
+    built in), or dc_motor without the scenario's motor constants; builds nothing (the CLI asks before planning)."""
     if actuator not in ACTUATORS:
         raise QmtInputError(f"actuator {actuator!r}: choose one of {', '.join(ACTUATORS)}")
-    if actuator == "ideal" and feedforward != "full":
+    if feedforward not in SPATIAL_FEEDFORWARD:
+        raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(SPATIAL_FEEDFORWARD)}")
+    if actuator == "ideal" and feedforward not in ("full", "shaped"):
         raise QmtInputError(f"feedforward {feedforward!r} applies to actuator dc_motor; the ideal actuator's "
-                            "inverse-dynamics controller always has the full feedforward")
+                            "inverse-dynamics controller always has the full feedforward (or 'shaped': on the "
+                            "shaped reference)")
     if actuator == "dc_motor":
         motor_params_for_spatial(sc)  # (the feedforward's own choices: SpatialMotorDrive.for_scenario)
 

@@ -59,6 +59,7 @@ from qmt_drake.sim.spatial_actuation import (
 from qmt_drake.sim.spatial_contact_hand import CONTACT_SETTLE_S, simulate_contact_hand
 from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached, start_run
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
+from qmt_drake.sim.spatial_reference import closed_loop_reference
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import (
     BottleSpec,
@@ -131,6 +132,7 @@ def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str =
     ctrl = sc if controller_sc is None else controller_sc
     if drive is None:
         drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward)
+    traj = closed_loop_reference(traj, feedforward, drive, TIME_STEP_S)  # feedforward 'shaped': sim/spatial_reference
     if sc.hand_kind == "tray":
         return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path, controller_sc=ctrl)
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
