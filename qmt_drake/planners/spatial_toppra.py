@@ -25,7 +25,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from scipy.linalg import block_diag
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
+from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest, worst_terms_at_rest
 from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.toppra_form import rows_constraints
 from qmt_drake.planners.toppra_core import parameterise, toppra_path
@@ -153,15 +153,8 @@ def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_gr
 def _no_parameterisation(pp, chain, terms, grid) -> str:
     """The one-line refusal of an impossible path, naming the limit with the largest ratio at rest
     along it (limits/at_rest.py), the path point and the hand's position there."""
-    Q = DrakePath(pp)(grid, 0)
-    zero = np.zeros_like(Q)
-    state = chain.evaluate(Q, zero, zero)
     if terms:
-        cols = np.concatenate([t.columns(state) for t in terms], axis=1)
-        labels = [c for t in terms for c in t.column_names]
-        lim = np.concatenate([np.asarray(getattr(t, "joint_limit_Nm", np.full(len(t.column_names), np.nan)), float)
-                              for t in terms])
-        w = worst_at_rest(cols, labels, limits_Nm=lim)
+        w, state = worst_terms_at_rest(chain, terms, DrakePath(pp)(grid, 0))
         k = w["sample"]
         where = (f"path point s = {grid[k]:.4g} rad ({100 * (grid[k] - grid[0]) / (grid[-1] - grid[0]):.0f} % along, "
                  f"hand at {np.round(state['position_m'][k], 4).tolist()} m)")
