@@ -83,6 +83,10 @@ def summary_line(sc, p, sim) -> str:
             f"{p.recheck['max']:.5f} ({binding(p.recheck)}) at {sc.recheck_rate_hz:g} Hz; hand at the path's "
             f"start/end {e[0, 0] * 1e3:.3g}/{e[1, 0] * 1e3:.3g} mm and {e[0, 1]:.2g}/{e[1, 1]:.2g} rad from the "
             f"first/last task pose (information); {p.planning_s:.2f} s")
+    c = p.info.get("path_clearance")
+    if c:  # the scenario has obstacles: the path's smallest clearance (a colliding path is refused before)
+        line += (f"; clearance >= {c['clearance_m']:.4f} m (no obstacle nearer)" if c["clearance_pair"] is None else
+                 f"; clearance {c['clearance_m']:.4f} m ({' vs '.join(c['clearance_pair'])} at {c['at']})")
     if sim is not None:
         line += f"; co-simulation: {verdict_line(sim['outcome'], sim['lost_at_s'])}"
     return line
