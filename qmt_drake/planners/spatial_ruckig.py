@@ -6,28 +6,20 @@ one line when no reduction of a segment's limits makes it hold: the limit that b
 from __future__ import annotations
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.at_rest import describe_at_rest, worst_terms_at_rest
+from qmt_drake.planners.ruckig_core import rest_to_rest
 
 REFUSAL_SAMPLES = 201  # positions along a refused segment where its limits are looked at at rest
 
 
 def ruckig_rest_to_rest(qa, qb, max_velocity, max_acceleration, max_jerk):
     """Ruckig's time-optimal rest-to-rest motion qa -> qb (rad) under these joint limits (rad/s,
-    rad/s^2, rad/s^3); deterministic, so a plan file rebuilds a segment from these five inputs."""
-    n = len(qa)
-    inp = InputParameter(n)
-    inp.current_position, inp.target_position = np.asarray(qa, float).tolist(), np.asarray(qb, float).tolist()
-    inp.current_velocity = inp.current_acceleration = [0.0] * n
-    inp.target_velocity = inp.target_acceleration = [0.0] * n
-    inp.max_velocity = np.asarray(max_velocity, float).tolist()
-    inp.max_acceleration = np.asarray(max_acceleration, float).tolist()
-    inp.max_jerk = np.asarray(max_jerk, float).tolist()
-    traj = Trajectory(n)
-    res = Ruckig(n).calculate(inp, traj)
-    if res not in (Result.Working, Result.Finished):
+    rad/s^2, rad/s^3; planners/ruckig_core.rest_to_rest, time synchronisation); deterministic, so a plan
+    file rebuilds a segment from these five inputs."""
+    traj, res = rest_to_rest(qa, qb, max_velocity, max_acceleration, max_jerk)
+    if traj is None:
         raise QmtInputError(f"Ruckig found no trajectory between task poses ({res}); check the limits")
     return traj
 

@@ -39,7 +39,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
@@ -50,6 +49,7 @@ from qmt_drake.planners.baselines.finish import (
     slowest_allowed_motion_s,
 )
 from qmt_drake.planners.baselines.paths import CartesianLinePath, task_joint_points
+from qmt_drake.planners.ruckig_core import rest_to_rest
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
 
@@ -95,19 +95,10 @@ class RuckigProfile:
 
 
 def ruckig_profile(start, goal, v_max, a_max, j_max, phase: bool = True) -> RuckigProfile:
-    """Rest-to-rest time-optimal profile (raises RuntimeError if ruckig fails)."""
-    n = len(start)
-    inp = InputParameter(n)
-    inp.current_position = list(map(float, start))
-    inp.target_position = list(map(float, goal))
-    inp.max_velocity = list(map(float, v_max))
-    inp.max_acceleration = list(map(float, a_max))
-    inp.max_jerk = list(map(float, j_max))
-    if phase:
-        inp.synchronization = Synchronization.Phase
-    traj = Trajectory(n)
-    res = Ruckig(n).calculate(inp, traj)
-    if res not in (Result.Working, Result.Finished):
+    """Rest-to-rest time-optimal profile (planners/ruckig_core.rest_to_rest; phase synchronisation by
+    default); raises RuntimeError if ruckig fails."""
+    traj, res = rest_to_rest(start, goal, v_max, a_max, j_max, phase_synchronization=phase)
+    if traj is None:
         raise RuntimeError(f"ruckig failed: {res}")
     return RuckigProfile(traj)
 
