@@ -14,9 +14,12 @@ the carried part, reflected rotor inertia), the hand's term (limits/suction.py, 
 1 = on the limit; with refine=True (the re-check of every plan) the local maxima between the samples
 refined as the planar re-check does (limits/spatial_columns.py, limits/refine.py), and the binding
 column named.
+`between_pieces(sc, traj, rate_hz)` re-checks a TOPP-RA trajectory on its own pieces: TOPP-RA holds its
+rows at its grid points only, s-ddot jumps there and a column kinks where the path's third derivative
+jumps (its knots), so each piece is sampled with both ends (one-sided) and refined inside.
 `scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
 smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
-check holds. `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
+check holds (with refine=True: the refined check, then, for a TOPP-RA trajectory, `between_pieces`). `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
 hand is from each task pose (position, and face normal or rotation) at the given times (m, rad).
 """
 

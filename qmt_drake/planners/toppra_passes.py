@@ -8,8 +8,9 @@ LPs of its Cython seidelWrapper; the rest is Python around each call (fresh arra
 logging guards), and the TOPPRA constructor asks which solver packages are importable (2 ms).
 `seidel_parameterization` makes the same LP calls with the same arguments in the same order and the
 same safeguards (toppra's constants TINY, SMALL, MAX_TRIES; its retry that lowers x_i when a forward
-LP is marginally infeasible), so its (sdd, sd) equal toppra's bit for bit
-(tests/test_spatial_toppra.py compares them).
+LP is marginally infeasible), so its (sdd, sd) and return code equal toppra's bit for bit
+(tests/test_spatial_toppra.py, and tests/test_one_toppra.py on every caller's problem). Called only by the
+one TOPP-RA, planners/toppra_core.parameterise.
 """
 
 from __future__ import annotations
