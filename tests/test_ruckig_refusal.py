@@ -52,3 +52,23 @@ def test_ruckig_names_the_joint_gravity_overloads(tmp_path):
     k = int(re.search(r"segment (\d+) \(task pose", msg).group(1))
     assert ratio >= max(need[k - 1], need[k]) / limit * (1 - 1e-3)
     assert value == pytest.approx(ratio * limit, rel=1e-3)
+
+
+@pytest.mark.parametrize("weak_joint", [0, 1])
+def test_planar_ruckig_names_the_weak_joint(weak_joint):
+    """The thesis's ch.3 arm with one motor's torque limit made a billion times smaller: no acceleration scale
+    holds it within the time budget, and the refusal names that motor's column (not the other's)."""
+    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
+
+    base = load_scenario("thesis-ch3")
+    lim = [float(x) for x in base.limits.motor_torque_limit_Nm]
+    lim[weak_joint] *= 1e-9
+    weak = load_scenario("thesis-ch3", overrides={"limits": {"motor_torque_limit_Nm": lim}})
+    names = [c for c in weak.limit_set.column_names if c.startswith("motor_torque[")]
+    for mode in ("cartesian_line", "joint"):
+        p = plan_ruckig(weak, jerk_limit=10.0, mode=mode)
+        msg = p.extra["infeasible"]
+        assert not p.feasible and "too tight" in msg and "\n" not in msg
+        ratio = float(re.search(rf"{re.escape(names[weak_joint])} is still at ([\d.e+]+) of its limit", msg).group(1))
+        assert ratio > 1.0

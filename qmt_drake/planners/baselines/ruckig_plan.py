@@ -148,7 +148,7 @@ def _worst(scenario, traj: JointTrajectory, rate_hz: float) -> float:
 def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration_s: float,
                    max_steps: int = 80):
     """Largest lam (<= lam_max if given) with worst(make(lam)) <= 1; (lam, traj, steps) or
-    (None, None, steps) if none before the motion gets longer than max_duration_s."""
+    (None, the slowest trajectory tried, steps) if none before the motion gets longer than max_duration_s."""
     steps = 0
     lam = 1.0 if lam_max is None else lam_max
     traj = make(lam)
@@ -182,9 +182,9 @@ def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration
                 lo, lo_traj = lam, t
                 break
             if t.duration_s > max_duration_s:  # slower still would only be longer
-                return None, None, steps
+                return None, t, steps
         if lo is None:
-            return None, None, steps
+            return None, t, steps
     while hi / lo - 1 > rtol and steps < max_steps:
         mid = np.sqrt(lo * hi)
         t = make(mid)
@@ -194,6 +194,20 @@ def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration
         else:
             hi = mid
     return lo, lo_traj, steps
+
+
+def _binding_clause(scenario, slowest, rate_hz: float) -> str:
+    """'; <limit column> is still at r of its limit at t on the slowest motion tried': the limit that binds,
+    the joint or hand row named (the scenario's LimitSet columns sampled at rate_hz)."""
+    if slowest is None:
+        return ""
+    ls = scenario.limit_set
+    grid = piecewise_grid(slowest.breakpoints_s[None, :], rate_hz)
+    cols = np.where(np.asarray(ls.ratio_mask)[None, :], ls.columns(*slowest.evaluate(grid.t_s, grid.t_piece_s)),
+                    -np.inf)
+    k, j = np.unravel_index(int(np.argmax(cols)), cols.shape)
+    return (f"; {ls.column_names[j]} is still at {cols[k, j]:.4g} of its limit at t = {grid.t_s[k]:.4g} s of the "
+            f"slowest motion tried ({slowest.duration_s:.4g} s)")
 
 
 def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line", *,
@@ -266,7 +280,7 @@ def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line"
             return infeasible_plan(scenario, method, f"segment {i + 1}: no acceleration scale "
                                    "keeps the limits before the motion gets longer than the "
                                    f"slowest allowed motion {T_max:.4f} s: the limits are too "
-                                   "tight",
+                                   "tight" + _binding_clause(scenario, traj, rate),
                                    planner_wall_s=time.perf_counter() - t_start, extra=extra)
         parts.append(traj)
         scales.append(lam)
