@@ -221,10 +221,10 @@ def _where_on_path(s: float, s_waypoints: np.ndarray) -> str:
     return f"between waypoints {k} and {k + 1} ({100 * frac:.0f} % of the way)"
 
 
-def path_clearance(sc, Q: np.ndarray, where: str = "joint path") -> dict:
+def path_clearance(sc, Q: np.ndarray, where: str = "joint path", *, refuse: bool = True) -> dict:
     """{} without obstacles; else the smallest clearance (m) of the arm and its part from the obstacles along
     the spline through the (K, n) waypoints and where it is (module docstring); a path that collides is
-    refused in one line."""
+    refused in one line (refuse=False: reported, 'refusal' the line)."""
     if not sc.obstacles:
         return {}
     pp = joint_path(Q)
@@ -243,8 +243,11 @@ def path_clearance(sc, Q: np.ndarray, where: str = "joint path") -> dict:
         own = (f"; waypoint{'s' if len(bad) > 1 else ''} {', '.join(bad)} collide{'' if len(bad) > 1 else 's'} "
                "itself" if bad else "; every waypoint itself clears")
         a, b = c["clearance_pair"]
-        raise QmtInputError(f"{where} collides {spot}: {a} overlaps {b} by {-c['clearance_m'] * 1e3:.1f} mm{own}; "
-                            "retime keeps your path's geometry: move the path clear of the obstacle")
+        line = (f"{where} collides {spot}: {a} overlaps {b} by {-c['clearance_m'] * 1e3:.1f} mm{own}; "
+                "retime keeps your path's geometry: move the path clear of the obstacle")
+        if refuse:
+            raise QmtInputError(line)
+        out["refusal"] = line
     return out
 
 
@@ -277,14 +280,17 @@ def _retime_ga(sc, Q, info: dict, **ga_options) -> SpatialPlan:
 
 
 def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid: int = 1000,
-                **ga_options) -> SpatialPlan:
+                collisions: str = "refuse", **ga_options) -> SpatialPlan:
     """The fastest timing of a given joint path on a spatial scenario (module docstring): a SpatialPlan
     re-checked at the scenario's re-check rate. joint_path_or_file: a .csv / .yaml / .json file, a
     JointTrajectory mapping, or a (K, n) array in scenario.joint_names order (rad). method: "toppra"
     (n_grid grid points) or "ga" (ga_options: plan_ga_spatial's seed, generations, population, stall,
-    progress)."""
+    progress). collisions: "refuse" a path that collides with the scenario's obstacles (one line, before
+    any timing), or "report" it (timed anyway: info 'path_clearance' negative, the plan infeasible)."""
     if method not in METHODS:
         raise QmtInputError(f"method {method!r}: retime takes {'|'.join(METHODS)}")
+    if collisions not in ("refuse", "report"):
+        raise QmtInputError(f"collisions {collisions!r}: give 'refuse' or 'report'")
     if not (isinstance(n_grid, int) and n_grid >= 10):
         raise QmtInputError(f"n_grid {n_grid!r} must be an integer >= 10 (TOPP-RA's grid points; 1000 by default)")
     if method == "toppra" and ga_options:
@@ -293,7 +299,7 @@ def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid:
     where = _where(src)
     Q = read_joint_path(joint_path_or_file, scenario.joint_names)
     check_waypoints(scenario, Q, where)
-    cleared = path_clearance(scenario, Q, where)
+    cleared = path_clearance(scenario, Q, where, refuse=collisions == "refuse")
     info = {"path_source": None if src is None else str(src), "path_waypoints": len(Q),
             "path_q_rad": Q, "path_length_rad": float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))}
     if cleared:

@@ -1,8 +1,8 @@
 """`retime` with obstacles (issue 28): the user's path is checked for clearance before any timing. A hand-written
 UR5 path clears the shipped totes (its smallest clearance reported, equal to the timed plan's and to a dense
 independent sampling); in the cell with 4 cm deeper totes (docs/examples/ur5-deep-totes.yaml) the same path is
-refused in one line saying where it collides, the two shapes and the depth; a waypoint pushed into the tote's
-floor is named as colliding itself."""
+refused in one line saying where it collides, the two shapes and the depth (or, asked to report, timed with the
+plan infeasible); a waypoint pushed into the tote's floor is named as colliding itself."""
 
 import re
 
@@ -37,8 +37,13 @@ def _dense_min(sc, Q, s_from, s_to, n=1500):
     return min(cm.distance(q)[0] for q in pp.vector_values(np.linspace(s_from, s_to, n)).T)
 
 
-def test_a_path_that_clears_reports_its_clearance(ur5, tmp_path):
-    plan = retime_path(ur5, write_csv(tmp_path / "p.csv", NAMES, HAND_PATH))
+def test_a_path_that_clears_reports_its_clearance(ur5, tmp_path, capsys):
+    path = write_csv(tmp_path / "p.csv", NAMES, HAND_PATH)
+    assert main(["retime", str(SCENARIOS / "ur5-suction-bins.yaml"), "--path", path]) == 0  # one line, no traceback
+    line = capsys.readouterr().out.strip()
+    assert "\n" not in line and "re-check max ratio" in line and "(suction)" in line
+    plan = retime_path(ur5, path)
+    assert f"; clearance {plan.info['path_clearance']['clearance_m']:.4f} m (carried/part vs obstacle/" in line
     c = plan.info["path_clearance"]
     assert 0.0 < c["clearance_m"] < 0.1 and c["clearance_pair"][1].startswith("obstacle/")
     assert plan.clearance["clearance_m"] == pytest.approx(c["clearance_m"], abs=2e-4)  # the timed plan's own
@@ -57,6 +62,13 @@ def test_a_path_through_the_deeper_totes_is_refused_with_where_and_how_deep(deep
     s = np.asarray(joint_path(HAND_PATH).get_segment_times())
     k = int(k)
     assert -_dense_min(deep, HAND_PATH, s[k], s[k + 1]) * 1e3 == pytest.approx(float(depth_mm), abs=0.2)
+    # reported instead of refused (the API's collisions="report"): timed anyway, the plan infeasible
+    rep = retime_path(deep, HAND_PATH, collisions="report")
+    c = rep.info["path_clearance"]
+    assert c["refusal"] == msg and c["clearance_m"] == pytest.approx(-float(depth_mm) / 1e3, abs=1e-4)
+    assert rep.clearance["clearance_m"] == pytest.approx(c["clearance_m"], abs=2e-4) and not rep.feasible
+    with pytest.raises(QmtInputError, match="collisions 'ignore'"):
+        retime_path(deep, HAND_PATH, collisions="ignore")
     # the CLI: exit 2, the same one line
     path = write_csv(tmp_path / "p.csv", NAMES, HAND_PATH)
     assert main(["retime", str(DEEP_TOTES), "--path", path]) == 2

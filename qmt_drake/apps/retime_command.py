@@ -71,8 +71,12 @@ def cmd_retime(args) -> int:
 
 
 def binding(recheck: dict) -> str:
-    """The name of the largest ratio of a re-check dict."""
-    ratios = {k: v for k, v in recheck.items() if k not in ("max", "n_samples", "check_rate_hz")}
+    """The binding column a re-check dict names, else the name of its largest ratio (the spatial re-check's
+    dict also holds strings and counts: only numbers below ratio names compete)."""
+    if isinstance(recheck.get("binding"), str):
+        return recheck["binding"]
+    skip = ("max", "max_timed", "n_samples", "check_rate_hz", "binding_time_s", "refined_local_maxima")
+    ratios = {k: v for k, v in recheck.items() if k not in skip and isinstance(v, (int, float))}
     return max(ratios, key=ratios.get)
 
 
