@@ -19,8 +19,9 @@ rows at its grid points only, s-ddot jumps there and a column kinks where the pa
 jumps (its knots), so each piece is sampled with both ends (one-sided) and refined inside.
 `scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
 smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
-check holds (with refine=True: the refined check, then, for a TOPP-RA trajectory, `between_pieces`). `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
-hand is from each task pose (position, and face normal or rotation) at the given times (m, rad).
+check holds (with refine=True: the refined check, then, for a TOPP-RA trajectory, `between_pieces`).
+`pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the hand is from each
+task pose (position, and face normal or rotation) at the given times (m, rad).
 """
 
 from __future__ import annotations
