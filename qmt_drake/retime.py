@@ -16,7 +16,14 @@ arm starts and stops at rest). Inputs:
 
 Refused in one line, before any planning: an unknown or missing joint name, a row of another length,
 a non-finite value, fewer than 2 waypoints, two neighbouring waypoints closer than SAME_RAD, a
-waypoint or the spline between waypoints outside the URDF's joint range, falling time_from_start.
+waypoint or the spline between waypoints outside the URDF's joint range, falling time_from_start,
+and, when the scenario has obstacles (`world.obstacles`), a path whose arm or carried part collides
+with one (`path_clearance`: Drake's signed distance along the spline through the waypoints,
+limits/clearance.py, at PATH_CLEARANCE_PER_RAD samples per radian of joint-space length, refined near
+its minima, and at every waypoint exactly). The path is the user's and retime keeps its geometry, so
+the refusal says where it collides (at waypoint k, or between waypoints k and k+1 and how far along),
+the two shapes and the depth, and which waypoints themselves collide. A path that clears reports its
+smallest clearance (info 'path_clearance').
 
 Methods: `toppra` (the fastest timing of that very path: planners/spatial_toppra.plan_toppra with the
 scenario's joint speed and acceleration limits, joint torques and the hand's contact rows, the same
@@ -44,6 +51,7 @@ import numpy as np
 import yaml
 
 from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.clearance import clearance, collision_model
 from qmt_drake.plan_files import read_plan_file
 from qmt_drake.planners.spatial_plan_io import (
     REBUILD_TOL,
@@ -62,6 +70,7 @@ SAME_RAD = 1e-9  # neighbouring waypoints closer than this (joint-space norm) ar
 RANGE_SAMPLES = 20  # spline points per waypoint interval checked against the joint range
 GA_MAX_WAYPOINTS = 16  # the GA's genes are the segment times: one per interval
 TIME_KEYS = ("time_s", "t_s", "time", "time_from_start")
+PATH_CLEARANCE_PER_RAD = 200  # clearance samples of the path per radian of joint-space length (then refined)
 
 
 def _where(source) -> str:
@@ -190,6 +199,58 @@ def check_waypoints(sc, Q: np.ndarray, where: str = "joint path") -> None:
                             f"range [{lo[j]:.4f}, {hi[j]:.4f}] rad; move the path inside the range")
 
 
+class _PathByLength:
+    """The spline q(s) with the interface limits/clearance.clearance samples (s, the joint-space length in rad,
+    in place of time)."""
+
+    def __init__(self, pp) -> None:
+        self.pp = pp
+        self.duration_s = float(pp.end_time())
+
+    def sample(self, s):
+        q = self.pp.vector_values(np.clip(np.atleast_1d(np.asarray(s, float)), 0.0, self.duration_s)).T
+        return q, None, None
+
+
+def _where_on_path(s: float, s_waypoints: np.ndarray) -> str:
+    """'waypoint k' or 'between waypoints k and k+1 (x % of the way)' for a path position s (rad)."""
+    k = int(np.clip(np.searchsorted(s_waypoints, s, side="right") - 1, 0, len(s_waypoints) - 2))
+    frac = (s - s_waypoints[k]) / (s_waypoints[k + 1] - s_waypoints[k])
+    if frac <= 1e-6 or frac >= 1.0 - 1e-6:
+        return f"waypoint {k if frac <= 1e-6 else k + 1}"
+    return f"between waypoints {k} and {k + 1} ({100 * frac:.0f} % of the way)"
+
+
+def path_clearance(sc, Q: np.ndarray, where: str = "joint path", *, refuse: bool = True) -> dict:
+    """{} without obstacles; else the smallest clearance (m) of the arm and its part from the obstacles along
+    the spline through the (K, n) waypoints and where it is (module docstring); a path that collides is
+    refused in one line (refuse=False: reported, 'refusal' the line)."""
+    if not sc.obstacles:
+        return {}
+    pp = joint_path(Q)
+    s_w = np.asarray(pp.get_segment_times(), float)
+    c = clearance(sc, _PathByLength(pp), PATH_CLEARANCE_PER_RAD)
+    at_waypoints = [collision_model(sc).distance(q) for q in Q]
+    k = int(np.argmin([d[0] for d in at_waypoints]))
+    if at_waypoints[k][0] < c["clearance_m"]:  # a waypoint itself is the deepest point
+        c = {**c, "clearance_m": at_waypoints[k][0], "clearance_pair": list(at_waypoints[k][1:]),
+             "clearance_time_s": float(s_w[k])}
+    spot = _where_on_path(c["clearance_time_s"], s_w)
+    out = {"clearance_m": float(c["clearance_m"]), "clearance_pair": c["clearance_pair"], "at": spot,
+           "path_position_rad": float(c["clearance_time_s"])}
+    if c["clearance_m"] < 0.0:
+        bad = [f"{j} ({-d[0] * 1e3:.1f} mm)" for j, d in enumerate(at_waypoints) if d[0] < 0.0]
+        own = (f"; waypoint{'s' if len(bad) > 1 else ''} {', '.join(bad)} collide{'' if len(bad) > 1 else 's'} "
+               "itself" if bad else "; every waypoint itself clears")
+        a, b = c["clearance_pair"]
+        line = (f"{where} collides {spot}: {a} overlaps {b} by {-c['clearance_m'] * 1e3:.1f} mm{own}; "
+                "retime keeps your path's geometry: move the path clear of the obstacle")
+        if refuse:
+            raise QmtInputError(line)
+        out["refusal"] = line
+    return out
+
+
 def end_pose_errors(sc, traj) -> np.ndarray:
     """(2, 2) Drake-FK (m, rad) errors of the hand at the trajectory's start/end to the first/last task pose."""
     q = traj.sample([0.0, traj.duration_s])[0]
@@ -219,14 +280,17 @@ def _retime_ga(sc, Q, info: dict, **ga_options) -> SpatialPlan:
 
 
 def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid: int = 1000,
-                **ga_options) -> SpatialPlan:
+                collisions: str = "refuse", **ga_options) -> SpatialPlan:
     """The fastest timing of a given joint path on a spatial scenario (module docstring): a SpatialPlan
     re-checked at the scenario's re-check rate. joint_path_or_file: a .csv / .yaml / .json file, a
     JointTrajectory mapping, or a (K, n) array in scenario.joint_names order (rad). method: "toppra"
     (n_grid grid points) or "ga" (ga_options: plan_ga_spatial's seed, generations, population, stall,
-    progress)."""
+    progress). collisions: "refuse" a path that collides with the scenario's obstacles (one line, before
+    any timing), or "report" it (timed anyway: info 'path_clearance' negative, the plan infeasible)."""
     if method not in METHODS:
         raise QmtInputError(f"method {method!r}: retime takes {'|'.join(METHODS)}")
+    if collisions not in ("refuse", "report"):
+        raise QmtInputError(f"collisions {collisions!r}: give 'refuse' or 'report'")
     if not (isinstance(n_grid, int) and n_grid >= 10):
         raise QmtInputError(f"n_grid {n_grid!r} must be an integer >= 10 (TOPP-RA's grid points; 1000 by default)")
     if method == "toppra" and ga_options:
@@ -235,8 +299,11 @@ def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid:
     where = _where(src)
     Q = read_joint_path(joint_path_or_file, scenario.joint_names)
     check_waypoints(scenario, Q, where)
+    cleared = path_clearance(scenario, Q, where, refuse=collisions == "refuse")
     info = {"path_source": None if src is None else str(src), "path_waypoints": len(Q),
             "path_q_rad": Q, "path_length_rad": float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))}
+    if cleared:
+        info["path_clearance"] = cleared
     plan = _retime_toppra(scenario, Q, n_grid, info) if method == "toppra" else _retime_ga(scenario, Q, info, **ga_options)
     ends = end_pose_errors(scenario, plan.trajectory)
     plan = plan.replace(pose_error=ends, extra={**plan.extra, "end_pose_error": ends})

@@ -195,7 +195,7 @@ def run(ga_generations: int, cosim: bool, kto: bool = False) -> dict:
                     pairs += [(_row(name, p, f" (lift +{dz:.2f} m)"), p) for p in extra.values()]
                     if kto:
                         raised = load_spatial_scenario(_raised(Path(cell_ref), dz, Path(tmp)))
-                        p = retime_path(cell, kto_path(cell, raised.q_path_rad), "toppra")
+                        p = retime_path(cell, kto_path(cell, raised.q_path_rad), "toppra", collisions="report")
                         print(f"  {name} TOPP-RA on the KTO path: {p.duration_s:.4f} s", flush=True)
                         pairs.append((_row(name, p, " (KTO path)"), p))
                 rows += [r for r, _ in pairs]

@@ -71,8 +71,12 @@ def cmd_retime(args) -> int:
 
 
 def binding(recheck: dict) -> str:
-    """The name of the largest ratio of a re-check dict."""
-    ratios = {k: v for k, v in recheck.items() if k not in ("max", "n_samples", "check_rate_hz")}
+    """The binding column a re-check dict names, else the name of its largest ratio (the spatial re-check's
+    dict also holds strings and counts: only numbers below ratio names compete)."""
+    if isinstance(recheck.get("binding"), str):
+        return recheck["binding"]
+    skip = ("max", "max_timed", "n_samples", "check_rate_hz", "binding_time_s", "refined_local_maxima")
+    ratios = {k: v for k, v in recheck.items() if k not in skip and isinstance(v, (int, float))}
     return max(ratios, key=ratios.get)
 
 
@@ -83,6 +87,10 @@ def summary_line(sc, p, sim) -> str:
             f"{p.recheck['max']:.5f} ({binding(p.recheck)}) at {sc.recheck_rate_hz:g} Hz; hand at the path's "
             f"start/end {e[0, 0] * 1e3:.3g}/{e[1, 0] * 1e3:.3g} mm and {e[0, 1]:.2g}/{e[1, 1]:.2g} rad from the "
             f"first/last task pose (information); {p.planning_s:.2f} s")
+    c = p.info.get("path_clearance")
+    if c:  # the scenario has obstacles: the path's smallest clearance (a colliding path is refused before)
+        line += (f"; clearance >= {c['clearance_m']:.4f} m (no obstacle nearer)" if c["clearance_pair"] is None else
+                 f"; clearance {c['clearance_m']:.4f} m ({' vs '.join(c['clearance_pair'])} at {c['at']})")
     if sim is not None:
         line += f"; co-simulation: {verdict_line(sim['outcome'], sim['lost_at_s'])}"
     return line

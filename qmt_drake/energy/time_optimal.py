@@ -8,7 +8,8 @@ tau(q, qd, qdd) / tau_max in [-1, 1], tau by `inverse_dynamics_with_gravity` (th
 PlanarChain), through the project's toppra constraint builder (`limits.toppra_form.rows_constraint`,
 unit-norm rows: the fix for toppra's Seidel LP with gravity).
 
-The result is checked by sampling (default 20001 points, also between toppra's gridpoints): its
+Solved by the one TOPP-RA (planners/toppra_core.parameterise) with toppra's constant-acceleration
+output. The result is checked by sampling (default 20001 points, also between toppra's gridpoints): its
 peak |tau_i| / tau_max,i is reported as it is; when it is above 1 (toppra enforces the limits at
 its gridpoints only), the motion is played slower by the smallest factor that brings it to <= 1
 (bisection: with gravity the ratio is not a pure lam^-2 law) and both are reported.
@@ -26,6 +27,7 @@ import numpy as np
 from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.toppra_form import rows_constraint
+from qmt_drake.planners.toppra_core import parameterise, toppra_path
 
 
 @dataclass
@@ -45,29 +47,16 @@ class TimeOptimalResult:
 
 
 def _fourier_path(family, x):
-    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
-    from toppra.interpolator import AbstractGeometricPath
+    """q(s) = the Fourier trajectory at t = s T, s in [0, 1], as toppra's geometric path (toppra_core)."""
     T = float(family.unpack(x)[2])
 
-    class _P(AbstractGeometricPath):
-        def derivatives(self, s):
-            q, qd, qdd = family.evaluate_s(x, np.clip(np.atleast_1d(np.asarray(s, float)), 0.0, 1.0))
-            return q, T * qd, T * T * qdd
+    def evaluate(s, order=0):
+        scalar = np.ndim(s) == 0
+        q, qd, qdd = family.evaluate_s(x, np.clip(np.atleast_1d(np.asarray(s, float)), 0.0, 1.0))
+        out = (q, T * qd, T * T * qdd)[order]
+        return out[0] if scalar else out
 
-        def __call__(self, s, order=0):
-            scalar = np.ndim(s) == 0
-            out = self.derivatives(s)[order]
-            return out[0] if scalar else out
-
-        @property
-        def dof(self):
-            return family.n
-
-        @property
-        def path_interval(self):
-            return np.array([0.0, 1.0])
-
-    return _P()
+    return toppra_path(evaluate, family.n, (0.0, 1.0))
 
 
 def _torques(arm, traj, t, lam: float = 1.0):
@@ -80,9 +69,6 @@ def _torques(arm, traj, t, lam: float = 1.0):
 def time_optimal_on_path(problem, x, torque_limit_Nm, grid_points: int = 400,
                          check_samples: int = 20001) -> TimeOptimalResult:
     """TOPP-RA on the path of the Fourier trajectory x of `problem` (module docstring)."""
-    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
-    from toppra.algorithm import TOPPRA
-
     lim = np.asarray(torque_limit_Nm, dtype=float)
     n = problem.family.n
     if lim.shape != (n,) or not np.all(np.isfinite(lim)) or np.any(lim <= 0):
@@ -98,10 +84,9 @@ def time_optimal_on_path(problem, x, torque_limit_Nm, grid_points: int = 400,
     constraint = rows_constraint(
         lambda q, qd, qdd: inverse_dynamics_with_gravity(q, qd, qdd, arm, derivatives=False) / lim,
         Fm, np.ones(2 * n), n)
-    algo = TOPPRA([constraint], _fourier_path(problem.family, x), gridpoints=np.linspace(0, 1, grid_points),
-                  parametrizer="ParametrizeConstAccel")
-    traj = algo.compute_trajectory(0.0, 0.0)
-    code = str(algo.problem_data.return_code)
+    sol = parameterise(_fourier_path(problem.family, x), [constraint], np.linspace(0, 1, grid_points))
+    traj = sol.toppra_trajectory("ParametrizeConstAccel")
+    code = sol.return_code
     wall = time.perf_counter() - t0
     if traj is None:
         return TimeOptimalResult(np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, code, wall, np.full(n, np.nan))

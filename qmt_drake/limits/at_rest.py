@@ -30,3 +30,18 @@ def describe_at_rest(worst: dict, where: str) -> str:
     torque = "" if not np.isfinite(worst["limit_Nm"]) else f" ({worst['value_Nm']:.3g} N m of {worst['limit_Nm']:.3g} N m)"
     verdict = "needs" if worst["ratio"] > 1.0 else "is at"
     return f"{worst['column']} {verdict} {worst['ratio']:.4g} of its limit at rest{torque} at {where}"
+
+
+def worst_terms_at_rest(chain, terms, q) -> tuple[dict, dict]:
+    """(worst_at_rest of the limit terms' columns, the chain's state) at joint positions q (S, n) held
+    still: `chain.evaluate` (gravity and the carried part) fed to every term (the motor torque, the
+    hand's grip), a joint torque column with its limit in N m. Used by the spatial TOPP-RA's and
+    Ruckig's refusals."""
+    q = np.atleast_2d(np.asarray(q, float))
+    zero = np.zeros_like(q)
+    state = chain.evaluate(q, zero, zero)
+    cols = np.concatenate([t.columns(state) for t in terms], axis=1)
+    labels = [c for t in terms for c in t.column_names]
+    lim = np.concatenate([np.asarray(getattr(t, "joint_limit_Nm", np.full(len(t.column_names), np.nan)), float)
+                          for t in terms])
+    return worst_at_rest(cols, labels, limits_Nm=lim), state

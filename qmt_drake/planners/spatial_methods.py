@@ -46,7 +46,7 @@ from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.model.spatial_ik import slerp_unit
 from qmt_drake.planners.spatial_families import spatial_family, via_cubic
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan
-from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
+from qmt_drake.planners.spatial_ruckig import ruckig_refusal, ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_search import (
     SpatialTightViaProblem,
     SpatialViaProblem,
@@ -108,7 +108,7 @@ def ruckig_segments(sc, *, rate_hz: float | None = None, iterations: int = 14):
     factor c in (0, 1] (bisection, `iterations` halvings) whose check holds; (trajectory, factors)."""
     rate = rate_hz or sc.recheck_rate_hz
     segs, factors = [], []
-    for qa, qb in zip(sc.q_poses_rad[:-1], sc.q_poses_rad[1:]):
+    for i, (qa, qb) in enumerate(zip(sc.q_poses_rad[:-1], sc.q_poses_rad[1:])):
         seg, c = _ruckig(sc, qa, qb, 1.0), 1.0
         if check(sc, RuckigTrajectory([seg]), rate)["max"] > 1.0:
             lo, hi = 0.0, 1.0
@@ -116,9 +116,9 @@ def ruckig_segments(sc, *, rate_hz: float | None = None, iterations: int = 14):
                 mid = 0.5 * (lo + hi)
                 ok = check(sc, RuckigTrajectory([_ruckig(sc, qa, qb, mid)]), rate)["max"] <= 1.0
                 lo, hi = (mid, hi) if ok else (lo, mid)
-            if lo == 0.0:
-                raise QmtInputError("Ruckig: no reduction of the acceleration and jerk limits makes a segment hold "
-                                    "its torque and suction limits; relax a limit")
+            if lo == 0.0:  # name the limit that binds at the slowest factor tried (hi)
+                r = check(sc, RuckigTrajectory([slowest := _ruckig(sc, qa, qb, hi)]), rate)
+                raise QmtInputError(ruckig_refusal(sc, i, slowest, hi, r["binding"], r["max"]))
             seg, c = _ruckig(sc, qa, qb, lo), lo
         segs.append(seg)
         factors.append(c)

@@ -5,8 +5,8 @@ continuous second derivatives and zero end slopes, s the cumulative joint-space 
 `plan_toppra` hands the same object to the `toppra` package (wrapped as its geometric path) with
 joint velocity limits, and the joint accelerations and every LimitTerm whose `toppra_w` / `toppra_rows`
 exist as rows precomputed for all grid points (w of all terms by SpatialChain in three batched calls,
-limits/toppra_form.py), solved by TOPP-RA's two passes over toppra's Seidel LP
-(planners/toppra_passes.py: the same LPs as toppra's TOPPRA, bit for bit, 1000 grid points with
+limits/toppra_form.py), solved by the one TOPP-RA (planners/toppra_core.py: two passes over toppra's
+Seidel LP, the same LPs as toppra's TOPPRA, bit for bit, 1000 grid points with
 the UR5's suction rows in about 30 ms instead of 78 ms: studies/bench_spatial.py).
 `plan_drake_toppra` runs pydrake's Toppra on the same path and grid with the limits it has (joint
 velocity, acceleration and torque). Both return the duration of their parameterisation (constant s-ddot
@@ -25,10 +25,10 @@ from pydrake.trajectories import PiecewisePolynomial
 from scipy.linalg import block_diag
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
+from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest, worst_terms_at_rest
 from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.toppra_form import rows_constraints
-from qmt_drake.planners.toppra_passes import seidel_parameterization
+from qmt_drake.planners.toppra_core import parameterise, toppra_path
 
 RANGE_SAMPLES_PER_SEGMENT = 64  # where the C2 cubic is looked at for leaving a joint's range
 
@@ -58,7 +58,7 @@ def joint_path(q_waypoints, lower_rad=None, upper_rad=None) -> PiecewisePolynomi
 
 class DrakePath:
     """A Drake trajectory q(s) with toppra's geometric-path interface (so both solvers see the same
-    path); `_toppra_path` makes it one of toppra's classes for its solver. The last array of path
+    path); `_toppra_path` makes it one of toppra's geometric paths for its solver. The last array of path
     positions and its values are kept per derivative order: toppra's constraints ask for the same
     grid several times."""
 
@@ -88,14 +88,9 @@ class DrakePath:
 
 
 def _toppra_path(pp: PiecewisePolynomial):
-    """DrakePath as toppra's AbstractGeometricPath. toppra is imported here, as in limits/toppra_form.py:
-    it loads matplotlib.pyplot (about 1 s), which `qmt-drake` must not pay at every start."""
-    from toppra.interpolator import AbstractGeometricPath
-
-    class _Path(DrakePath, AbstractGeometricPath):
-        pass
-
-    return _Path(pp)
+    """DrakePath as toppra's AbstractGeometricPath (toppra_core.toppra_path)."""
+    path = DrakePath(pp)
+    return toppra_path(path, path.dof, path.path_interval)
 
 
 def pick_and_place_waypoints(ik, pick_m, place_m, *, lift_m: float, seed, normal=(0.0, 0.0, -1.0),
@@ -111,19 +106,14 @@ def pick_and_place_waypoints(ik, pick_m, place_m, *, lift_m: float, seed, normal
     return ik.solve_path(np.array(pts), normals=normals, seed=seed, max_joint_step_rad=1.0, what="pick-and-place point")
 
 
-def _duration(grid, sd) -> float:
-    """Time of the constant-s-ddot parameterisation through (grid, sd)."""
-    ds = np.diff(grid)
-    return float(np.sum(2.0 * ds / (sd[:-1] + sd[1:])))
-
-
 def toppra_problem(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000,
                    **row_options):
     """(path, constraints, grid) of `plan_toppra` for toppra: joint speed limits as toppra's
     JointVelocityConstraint (bounds on sdot^2); the joint accelerations qdd = q' sddot + q'' sdot^2 and
     the terms' rows F w <= g as precomputed rows (limits/toppra_form.py), the acceleration rows first,
     then every term's rows stacked, w of all terms from one batched SpatialChain evaluation."""
-    import toppra  # see _toppra_path
+    # lazy: toppra loads matplotlib.pyplot (about 1 s), which `qmt-drake` must not pay at every start
+    import toppra
 
     path = _toppra_path(pp)
     n = chain.n_dof
@@ -147,31 +137,24 @@ def toppra_problem(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n
 
 def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000, **row_options):
     """dict(duration_s, planning_s, grid, sd, sdd) or QmtInputError when no parameterisation exists:
-    `toppra_problem` solved by TOPP-RA's passes over toppra's Seidel LP (planners/toppra_passes.py,
-    equal to toppra's TOPPRA with solver_wrapper="seidel")."""
+    `toppra_problem` solved by the one TOPP-RA (planners/toppra_core.parameterise: TOPP-RA's passes over
+    toppra's Seidel LP, equal to toppra's TOPPRA with solver_wrapper="seidel")."""
     t0 = time.perf_counter()
     path, cons, grid = toppra_problem(pp, chain, velocity_limit=velocity_limit, acceleration_limit=acceleration_limit,
                                       terms=terms, n_grid=n_grid, **row_options)
-    sdd, sd = seidel_parameterization(cons, path, grid)
+    sol = parameterise(path, cons, grid)
     planning_s = time.perf_counter() - t0
-    if sd is None or not np.all(np.isfinite(sd)):
+    if not sol.ok:
         raise QmtInputError(_no_parameterisation(pp, chain, terms, grid))
-    return {"duration_s": _duration(grid, sd), "planning_s": planning_s, "grid": grid, "sd": sd,
-            "sdd": np.asarray(sdd, float), "n_grid": n_grid}
+    return {"duration_s": sol.duration_s, "planning_s": planning_s, "grid": sol.grid, "sd": sol.sd,
+            "sdd": np.asarray(sol.sdd, float), "n_grid": n_grid}
 
 
 def _no_parameterisation(pp, chain, terms, grid) -> str:
     """The one-line refusal of an impossible path, naming the limit with the largest ratio at rest
     along it (limits/at_rest.py), the path point and the hand's position there."""
-    Q = DrakePath(pp)(grid, 0)
-    zero = np.zeros_like(Q)
-    state = chain.evaluate(Q, zero, zero)
     if terms:
-        cols = np.concatenate([t.columns(state) for t in terms], axis=1)
-        labels = [c for t in terms for c in t.column_names]
-        lim = np.concatenate([np.asarray(getattr(t, "joint_limit_Nm", np.full(len(t.column_names), np.nan)), float)
-                              for t in terms])
-        w = worst_at_rest(cols, labels, limits_Nm=lim)
+        w, state = worst_terms_at_rest(chain, terms, DrakePath(pp)(grid, 0))
         k = w["sample"]
         where = (f"path point s = {grid[k]:.4g} rad ({100 * (grid[k] - grid[0]) / (grid[-1] - grid[0]):.0f} % along, "
                  f"hand at {np.round(state['position_m'][k], 4).tolist()} m)")

@@ -14,10 +14,14 @@ the carried part, reflected rotor inertia), the hand's term (limits/suction.py, 
 1 = on the limit; with refine=True (the re-check of every plan) the local maxima between the samples
 refined as the planar re-check does (limits/spatial_columns.py, limits/refine.py), and the binding
 column named.
+`between_pieces(sc, traj, rate_hz)` re-checks a TOPP-RA trajectory on its own pieces: TOPP-RA holds its
+rows at its grid points only, s-ddot jumps there and a column kinks where the path's third derivative
+jumps (its knots), so each piece is sampled with both ends (one-sided) and refined inside.
 `scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
 smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
-check holds. `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the
-hand is from each task pose (position, and face normal or rotation) at the given times (m, rad).
+check holds (with refine=True: the refined check, then, for a TOPP-RA trajectory, `between_pieces`).
+`pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the hand is from each
+task pose (position, and face normal or rotation) at the given times (m, rad).
 """
 
 from __future__ import annotations
@@ -25,10 +29,18 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits.spatial_columns import TIMED_GROUPS_EXCLUDE, SpatialColumns, binding, peaks
+from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, refine_local_maxima
+from qmt_drake.limits.spatial_columns import (
+    SPATIAL_RELATIVE_MARGIN,
+    TIMED_GROUPS_EXCLUDE,
+    SpatialColumns,
+    binding,
+    peaks,
+)
 from qmt_drake.planners.spatial_toppra import DrakePath
+from qmt_drake.sampling import piecewise_grid
 from qmt_drake.timescale import smallest_holding_scale
-from qmt_drake.trajectory import ConcatenatedTrajectory, TimeScaledTrajectory
+from qmt_drake.trajectory import ConcatenatedTrajectory, TimeScaledTrajectory, _slowed
 
 SequenceTrajectory = ConcatenatedTrajectory  # `t_start`: ConcatenatedTrajectory.offsets
 TimeScaled = TimeScaledTrajectory  # `k`: TimeScaledTrajectory.factor
@@ -42,6 +54,7 @@ class ToppraTrajectory:
         self.u = (self.sd[1:] ** 2 - self.sd[:-1] ** 2) / (2.0 * ds)
         self.t_grid = np.r_[0.0, np.cumsum(2.0 * ds / (self.sd[:-1] + self.sd[1:]))]
         self.duration_s = float(self.t_grid[-1])
+        self._pieces = None
 
     def sample(self, t):
         t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
@@ -59,6 +72,33 @@ class ToppraTrajectory:
         d = s - self.grid[i]
         v = np.sqrt(np.maximum(self.sd[i] ** 2 + 2.0 * self.u[i] * d, 0.0))
         return self.t_grid[i] + 2.0 * d / np.maximum(self.sd[i] + v, 1e-300)
+
+    def pieces(self):
+        """(times (P,), path positions (P,)) of the pieces on which every limit column is smooth: the grid
+        points (s-ddot jumps there) and the path's knots (its third derivative jumps there, so a column
+        kinks; a C1 path's second derivative jumps). TOPP-RA holds its rows at the grid points only."""
+        if self._pieces is None:
+            knots = np.asarray(self.path.pp.get_segment_times(), float)
+            inner = knots[(knots > self.grid[0]) & (knots < self.grid[-1]) & ~np.isin(knots, self.grid)]
+            s = np.concatenate([self.grid, inner])
+            t = np.concatenate([self.t_grid, self.time_at(inner)])
+            order = np.argsort(s, kind="stable")
+            self._pieces = (np.maximum.accumulate(t[order]), s[order])
+        return self._pieces
+
+    def evaluate(self, t, t_piece):
+        """q, qd, qdd at times t (s) with the formulas of the piece holding t_piece (one-sided at a grid
+        point or knot: the path is evaluated inside the piece's [s_a, s_b))."""
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        tp = np.clip(np.broadcast_to(np.asarray(t_piece, float), t.shape), 0.0, self.duration_s)
+        bt, bs = self.pieces()
+        j = np.clip(np.searchsorted(bt, tp, side="right") - 1, 0, len(bt) - 2)
+        i = np.clip(np.searchsorted(self.t_grid, tp, side="right") - 1, 0, len(self.u) - 1)
+        tau = t - self.t_grid[i]
+        s = np.clip(self.grid[i] + self.sd[i] * tau + 0.5 * self.u[i] * tau ** 2, bs[j], np.nextafter(bs[j + 1], -np.inf))
+        sd = np.maximum(self.sd[i] + self.u[i] * tau, 0.0)
+        q, qs, qss = self.path(s, 0), self.path(s, 1), self.path(s, 2)
+        return q, qs * sd[:, None], qs * self.u[i][:, None] + qss * (sd ** 2)[:, None]
 
 
 class PolyTrajectory:
@@ -130,6 +170,65 @@ def check(sc, traj, rate_hz: float, terms=None, *, refine: bool = False) -> dict
     return out
 
 
+def _smooth_pieces(traj):
+    """(breakpoints (P,) s, evaluate(t, t_piece)) of a trajectory made of TOPP-RA profiles (ToppraTrajectory,
+    played slower or one after another), between whose breakpoints every limit column is smooth; None for
+    any other (its re-check's refinement between samples is all there is)."""
+    if isinstance(traj, ToppraTrajectory):
+        return traj.pieces()[0], traj.evaluate
+    if isinstance(traj, TimeScaled):
+        inner = _smooth_pieces(traj.inner)
+        if inner is None:
+            return None
+        k, f = traj.k, inner[1]
+        return inner[0] * k, lambda t, tp: _slowed(*f(np.asarray(t) / k, np.asarray(tp) / k), k)
+    if isinstance(traj, SequenceTrajectory):
+        parts = [_smooth_pieces(p) for p in traj.parts]
+        if any(p is None for p in parts):
+            return None
+        offsets = traj.offsets
+
+        def evaluate(t, tp):
+            t = np.atleast_1d(np.asarray(t, float))
+            tp = np.broadcast_to(np.asarray(tp, float), t.shape)
+            m = np.clip(np.searchsorted(offsets, tp, side="right") - 1, 0, len(parts) - 1)
+            out = None
+            for i, (_, f) in enumerate(parts):
+                sel = m == i
+                if sel.any():
+                    vals = f(t[sel] - offsets[i], tp[sel] - offsets[i])
+                    out = out or [np.empty((t.size, v.shape[1])) for v in vals]
+                    for o, v in zip(out, vals):
+                        o[sel] = v
+            return tuple(out)
+
+        return np.unique(np.concatenate([b + o for (b, _), o in zip(parts, offsets[:-1])])), evaluate
+    return None
+
+
+def between_pieces(sc, traj, rate_hz: float) -> dict | None:
+    """The re-check of a TOPP-RA trajectory on its own pieces (`_smooth_pieces`: the grid points and the path's
+    knots, where a column jumps or kinks): every piece sampled at rate_hz and at both its ends (one-sided), the
+    local maxima refined inside each piece (limits/refine.py); {'max_timed', 'binding', 'binding_time_s',
+    'n_samples'}, or None for a trajectory without such pieces. Sampling across a kink, the re-check's
+    refinement brackets a maximum that is not smooth there and can miss it (TALOS's arm: 1.0008 of an
+    acceleration limit between samples of a plan re-checked at 0.9999)."""
+    found = _smooth_pieces(traj)
+    if found is None:
+        return None
+    bp, evaluate = found
+    grid = piecewise_grid(bp[None, :], rate_hz)
+    cols = SpatialColumns(sc)
+    values = cols.columns(*evaluate(grid.t_s, grid.t_piece_s))
+    peak, t_peak = values.max(axis=0), grid.t_s[values.argmax(axis=0)]
+    near = np.full(values.shape[1], REFINE_NEAR_LIMIT)
+    peak, t_peak, _ = refine_local_maxima(lambda t, tp: cols.columns(*evaluate(t, tp)), grid, values, peak, t_peak,
+                                          near, relative_margin=SPATIAL_RELATIVE_MARGIN, skip_flat=True)
+    timed = np.array([g not in TIMED_GROUPS_EXCLUDE for g, _ in cols.column_labels])
+    b = binding(cols, np.where(timed, peak, -np.inf), t_peak)
+    return {"max_timed": b["ratio"], "binding": b["column"], "binding_time_s": b["time_s"], "n_samples": int(grid.t_s.size)}
+
+
 def _held(sc, traj, k, rate_hz, refine):
     return check(sc, traj if k == 1.0 else TimeScaled(traj, k), rate_hz, refine=refine)["max_timed"] <= 1.0
 
@@ -140,7 +239,9 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
     (a joint outside its range stays outside; the re-check reports it). With `refine` the k found on
     the samples is then checked with the local maxima refined between them and, where a maximum
     between samples still breaks a limit, raised until the refined check holds too (the k of a plan
-    that holds between its samples is the sampled one, unchanged)."""
+    that holds between its samples is the sampled one, unchanged); then, for a TOPP-RA trajectory, raised the same
+    way until it also holds on its own pieces (`between_pieces`: TOPP-RA holds its rows at its grid points only,
+    and a column kinks at the path's knots, where the refinement between samples can miss a maximum)."""
     k = 1.0
     if not _held(sc, traj, 1.0, rate_hz, False):
         if not _held(sc, traj, k_max, rate_hz, False):
@@ -151,15 +252,30 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
                                 "slower, where speed no longer matters (e.g. gravity on a tilted hand); relax that limit "
                                 "or keep the hand closer to the task's orientation")
         k = smallest_holding_scale(1.0, k_max, lambda m: _held(sc, traj, m, rate_hz, False), rel_tol)
-    if refine and not _held(sc, traj, k, rate_hz, True):
-        lo, hi = k, min(k * (1.0 + 16.0 * rel_tol), k_max)
-        while not _held(sc, traj, hi, rate_hz, True):
-            if hi >= k_max:
-                raise QmtInputError(f"the trajectory breaks a limit between its samples even {k_max:g} times slower; "
-                                    "relax that limit")
-            lo, hi = hi, min(hi * 1.1, k_max)
-        k = smallest_holding_scale(lo, hi, lambda m: _held(sc, traj, m, rate_hz, True), rel_tol)
+    if refine:
+        k = _raised_until(k, lambda m: _held(sc, traj, m, rate_hz, True), k_max, rel_tol)
+        k = _raised_until(k, lambda m: _held_on_pieces(sc, traj, m, rate_hz), k_max, rel_tol)
     return (traj, 1.0) if k == 1.0 else (TimeScaled(traj, k), k)
+
+
+def _held_on_pieces(sc, traj, k, rate_hz) -> bool:
+    """True if a TOPP-RA trajectory k times slower holds on its own pieces (`between_pieces`); True for others."""
+    r = between_pieces(sc, traj if k == 1.0 else TimeScaled(traj, k), rate_hz)
+    return r is None or r["max_timed"] <= 1.0
+
+
+def _raised_until(k: float, holds, k_max: float, rel_tol: float) -> float:
+    """k itself if holds(k), else the smallest scale above k (to rel_tol) that holds: bracketed upwards from
+    k by 16 rel_tol, then 10 % steps, then bisected (timescale.smallest_holding_scale)."""
+    if holds(k):
+        return k
+    lo, hi = k, min(k * (1.0 + 16.0 * rel_tol), k_max)
+    while not holds(hi):
+        if hi >= k_max:
+            raise QmtInputError(f"the trajectory breaks a limit between its samples even {k_max:g} times slower; "
+                                "relax that limit")
+        lo, hi = hi, min(hi * 1.1, k_max)
+    return smallest_holding_scale(lo, hi, holds, rel_tol)
 
 
 def pose_errors(sc, traj, times_s) -> np.ndarray:

@@ -8,8 +8,9 @@ LPs of its Cython seidelWrapper; the rest is Python around each call (fresh arra
 logging guards), and the TOPPRA constructor asks which solver packages are importable (2 ms).
 `seidel_parameterization` makes the same LP calls with the same arguments in the same order and the
 same safeguards (toppra's constants TINY, SMALL, MAX_TRIES; its retry that lowers x_i when a forward
-LP is marginally infeasible), so its (sdd, sd) equal toppra's bit for bit
-(tests/test_spatial_toppra.py compares them).
+LP is marginally infeasible), so its (sdd, sd) and return code equal toppra's bit for bit
+(tests/test_spatial_toppra.py, and tests/test_one_toppra.py on every caller's problem). Called only by the
+one TOPP-RA, planners/toppra_core.parameterise.
 """
 
 from __future__ import annotations
@@ -20,10 +21,12 @@ import numpy as np
 
 
 def seidel_parameterization(constraints, path, gridpoints, sd_start: float = 0.0, sd_end: float = 0.0):
-    """(sdd (N,), sd (N+1,)) of the time-optimal parameterisation of `path` on `gridpoints` under
-    toppra `constraints` (canonical linear only), or (None, None) when the path is not controllable
-    or the start velocity sd_start is outside the controllable set (toppra's return codes)."""
+    """(sdd (N,), sd (N+1,), code) of the time-optimal parameterisation of `path` on `gridpoints` under
+    toppra `constraints` (canonical linear only), or (None, None, code) when the path is not controllable,
+    the start velocity sd_start is outside the controllable set or the forward pass fails; code is
+    str() of toppra's ParameterizationReturnCode, as TOPPRA sets it. Called by planners/toppra_core.py."""
     # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
+    from toppra.algorithm.algorithm import ParameterizationReturnCode as Code
     from toppra.constants import MAX_TRIES, SMALL, TINY
     from toppra.solverwrapper.cy_seidel_solverwrapper import seidelWrapper
 
@@ -44,12 +47,12 @@ def seidel_parameterization(constraints, path, gridpoints, sd_start: float = 0.0
         hi_i = solve(i, None, g_up, nan, nan, lo, hi)[1]
         lo_i = solve(i, None, g_down, nan, nan, lo, hi)[1]
         if math.isnan(lo_i) or math.isnan(hi_i):
-            return None, None
+            return None, None, str(Code.FailUncontrollable)
         lo, hi = max(lo_i, 0.0), hi_i
         K[i] = lo, hi
     x = sd_start ** 2
     if x + SMALL < K[0, 0] or K[0, 1] + SMALL < x:
-        return None, None
+        return None, None, str(Code.FailUncontrollable)
     # forward: the largest sddot at each stage that keeps sdot^2 controllable
     xs = np.empty(N + 1)
     us = np.empty(N)
@@ -63,7 +66,7 @@ def seidel_parameterization(constraints, path, gridpoints, sd_start: float = 0.0
         u = solve(i, None, g, x, x, lo, hi)[0]
         if math.isnan(u):  # marginally infeasible: lower x_i a little and try again (as toppra)
             if tries >= MAX_TRIES:
-                return None, None
+                return None, None, str(Code.ErrUnknown)
             x = max(x - TINY, 0.999 * x)
             xs[i] = x
             tries += 1
@@ -75,4 +78,7 @@ def seidel_parameterization(constraints, path, gridpoints, sd_start: float = 0.0
         x = min(hi, max(lo, x_next))
         xs[i + 1] = x
         i += 1
-    return us, np.sqrt(xs)
+    sd = np.sqrt(xs)
+    if np.isnan(sd).any():  # as toppra: a NaN speed is an unknown error
+        return None, None, str(Code.ErrUnknown)
+    return us, sd, str(Code.Ok)

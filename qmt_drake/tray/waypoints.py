@@ -25,10 +25,11 @@ import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
+from qmt_drake.planners.ruckig_core import rest_to_rest
+from qmt_drake.planners.toppra_core import parameterise
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
 from qmt_drake.tray.conditions import (
     contact_wrench,
@@ -131,10 +132,10 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     is that sampling (ZOH). time_scale > 1 streams the same plan slowed down (q(t / time_scale)).
     Returns (GoalSchedule, info dict) or (None, info) when TOPP-RA finds no parametrisation;
     info["solve_s"] / ["solve_cpu_s"] are the TOPP-RA wall / process CPU time (constraint
-    parameters + solve + parametrisation; CPU time is less disturbed by other loads)."""
+    parameters + solve + parametrisation; CPU time is less disturbed by other loads). Solved by the one
+    TOPP-RA (planners/toppra_core.parameterise) with toppra's constant-acceleration output."""
     # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
     import toppra as ta
-    import toppra.algorithm as algo
 
     if not 0 < margin <= 1:
         raise QmtInputError(f"planning margin {margin} must be in (0, 1]")
@@ -146,8 +147,7 @@ def toppra_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, n: 
     ls = tray_scenario(bottle, margin, speed_fraction).limit_set
     t0, c0 = _time.perf_counter(), _time.process_time()
     constraint = ls.toppra_constraint(batched=batched, tray_polygon_sides=polygon_sides)
-    instance = algo.TOPPRA([constraint], path, gridpoints=ss, parametrizer="ParametrizeConstAccel")
-    traj = instance.compute_trajectory(0.0, 0.0)
+    traj = parameterise(path, [constraint], ss).toppra_trajectory("ParametrizeConstAccel")
     solve_s, solve_cpu_s = _time.perf_counter() - t0, _time.process_time() - c0
     info = {"solve_s": solve_s, "solve_cpu_s": solve_cpu_s, "batched": batched, "margin": margin, "gridpoints": n + 1,
             "friction": bottle.friction, "com_height_m": bottle.com_height_m}
@@ -209,12 +209,8 @@ def ruckig_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, mar
     vmax_joint = np.array([s.no_load_speed_rpm * RPM * speed_fraction for s in CRANE_X7_PLANAR_SERVOS])
     v_max = float(np.min(vmax_joint / np.maximum(dtheta_dx, 1e-9)))
     a_max = level_tray_acceleration_cap_m_s2(bottle, margin)
-    otg = Ruckig(1)
-    inp = InputParameter(1)
-    inp.current_position, inp.target_position = [0.0], [L]
-    inp.max_velocity, inp.max_acceleration, inp.max_jerk = [v_max], [a_max], [jerk_m_s3]
-    traj = Trajectory(1)
-    if otg.calculate(inp, traj) not in (Result.Working, Result.Finished):
+    traj, _ = rest_to_rest([0.0], [L], [v_max], [a_max], [jerk_m_s3])  # planners/ruckig_core
+    if traj is None:
         raise QmtInputError("Ruckig found no trajectory for the tray line; check the limits")
     if not time_scale >= 1.0:
         raise QmtInputError(f"time scale {time_scale} must be >= 1 (1 = the Ruckig timing)")

@@ -39,7 +39,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
@@ -50,6 +49,7 @@ from qmt_drake.planners.baselines.finish import (
     slowest_allowed_motion_s,
 )
 from qmt_drake.planners.baselines.paths import CartesianLinePath, task_joint_points
+from qmt_drake.planners.ruckig_core import rest_to_rest
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
 
@@ -95,19 +95,10 @@ class RuckigProfile:
 
 
 def ruckig_profile(start, goal, v_max, a_max, j_max, phase: bool = True) -> RuckigProfile:
-    """Rest-to-rest time-optimal profile (raises RuntimeError if ruckig fails)."""
-    n = len(start)
-    inp = InputParameter(n)
-    inp.current_position = list(map(float, start))
-    inp.target_position = list(map(float, goal))
-    inp.max_velocity = list(map(float, v_max))
-    inp.max_acceleration = list(map(float, a_max))
-    inp.max_jerk = list(map(float, j_max))
-    if phase:
-        inp.synchronization = Synchronization.Phase
-    traj = Trajectory(n)
-    res = Ruckig(n).calculate(inp, traj)
-    if res not in (Result.Working, Result.Finished):
+    """Rest-to-rest time-optimal profile (planners/ruckig_core.rest_to_rest; phase synchronisation by
+    default); raises RuntimeError if ruckig fails."""
+    traj, res = rest_to_rest(start, goal, v_max, a_max, j_max, phase_synchronization=phase)
+    if traj is None:
         raise RuntimeError(f"ruckig failed: {res}")
     return RuckigProfile(traj)
 
@@ -157,7 +148,7 @@ def _worst(scenario, traj: JointTrajectory, rate_hz: float) -> float:
 def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration_s: float,
                    max_steps: int = 80):
     """Largest lam (<= lam_max if given) with worst(make(lam)) <= 1; (lam, traj, steps) or
-    (None, None, steps) if none before the motion gets longer than max_duration_s."""
+    (None, the slowest trajectory tried, steps) if none before the motion gets longer than max_duration_s."""
     steps = 0
     lam = 1.0 if lam_max is None else lam_max
     traj = make(lam)
@@ -191,9 +182,9 @@ def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration
                 lo, lo_traj = lam, t
                 break
             if t.duration_s > max_duration_s:  # slower still would only be longer
-                return None, None, steps
+                return None, t, steps
         if lo is None:
-            return None, None, steps
+            return None, t, steps
     while hi / lo - 1 > rtol and steps < max_steps:
         mid = np.sqrt(lo * hi)
         t = make(mid)
@@ -203,6 +194,20 @@ def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration
         else:
             hi = mid
     return lo, lo_traj, steps
+
+
+def _binding_clause(scenario, slowest, rate_hz: float) -> str:
+    """'; <limit column> is still at r of its limit at t on the slowest motion tried': the limit that binds,
+    the joint or hand row named (the scenario's LimitSet columns sampled at rate_hz)."""
+    if slowest is None:
+        return ""
+    ls = scenario.limit_set
+    grid = piecewise_grid(slowest.breakpoints_s[None, :], rate_hz)
+    cols = np.where(np.asarray(ls.ratio_mask)[None, :], ls.columns(*slowest.evaluate(grid.t_s, grid.t_piece_s)),
+                    -np.inf)
+    k, j = np.unravel_index(int(np.argmax(cols)), cols.shape)
+    return (f"; {ls.column_names[j]} is still at {cols[k, j]:.4g} of its limit at t = {grid.t_s[k]:.4g} s of the "
+            f"slowest motion tried ({slowest.duration_s:.4g} s)")
 
 
 def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line", *,
@@ -275,7 +280,7 @@ def plan_ruckig(scenario, jerk_limit: float = 10.0, mode: str = "cartesian_line"
             return infeasible_plan(scenario, method, f"segment {i + 1}: no acceleration scale "
                                    "keeps the limits before the motion gets longer than the "
                                    f"slowest allowed motion {T_max:.4f} s: the limits are too "
-                                   "tight",
+                                   "tight" + _binding_clause(scenario, traj, rate),
                                    planner_wall_s=time.perf_counter() - t_start, extra=extra)
         parts.append(traj)
         scales.append(lam)

@@ -62,6 +62,7 @@ from qmt_drake.planners.baselines.paths import (
     chord_angle_rad,
     path_segments,
 )
+from qmt_drake.planners.toppra_core import parameterise, toppra_path
 from qmt_drake.trajectory import CallableTrajectory, ConcatenatedTrajectory, JointTrajectory
 
 
@@ -75,58 +76,35 @@ def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
                                                 inscribed=inscribed, vertex_on_chord=vertex_on_chord)
 
 
-class _ToppraPath:
-    """Adapter: a GeometricPath as toppra's AbstractGeometricPath."""
-
-    def __new__(cls, path: GeometricPath):
-        # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
-        from toppra.interpolator import AbstractGeometricPath
-
-        class _P(AbstractGeometricPath):
-            def __call__(self, s, order=0):
-                return path(s, order)
-
-            def derivatives(self, s):
-                return path.derivatives(s)
-
-            @property
-            def dof(self):
-                return path.n_dof
-
-            @property
-            def path_interval(self):
-                return np.array([0.0, path.length])
-
-        return _P()
+def _toppra_path(path: GeometricPath):
+    """A GeometricPath q(s) as toppra's geometric path (toppra_core.toppra_path)."""
+    return toppra_path(path, path.n_dof, (0.0, path.length))
 
 
 def toppra_segment(scenario, segment: GeometricPath, *, polygon_sides: int = 32,
                    grid_points: int = 200, inscribed: bool = True,
                    parametrizer: str = "ParametrizeConstAccel", vertex_on_chord: bool = True):
-    """Time one rest-to-rest segment; (trajectory or None, return code, solve wall s)."""
-    # lazy: toppra loads matplotlib.pyplot, too slow for every CLI start
-    from toppra.algorithm import TOPPRA
+    """Time one rest-to-rest segment; (trajectory or None, return code, solve wall s). The one TOPP-RA
+    (planners/toppra_core.parameterise); `parametrizer` names the output: the exact constant-s-ddot
+    profile (PathTimingTrajectory) or toppra's spline (ParametrizeSpline, for demonstration)."""
     t0 = time.perf_counter()
     c = _constraint(scenario, chord_angle_rad(scenario, segment), polygon_sides, inscribed,
                     vertex_on_chord)
     grid = np.linspace(0.0, segment.length, int(grid_points))
-    tp = _ToppraPath(segment)
-    algo = TOPPRA([c], tp, gridpoints=grid, parametrizer=parametrizer)
-    traj_out = algo.compute_trajectory(0.0, 0.0)
+    sol = parameterise(_toppra_path(segment), [c], grid)
     wall = time.perf_counter() - t0
-    code = str(algo.problem_data.return_code)
-    if traj_out is None:
-        return None, code, wall
-    sd = algo.problem_data.sd_vec
+    if not sol.ok:
+        return None, sol.return_code, wall
     if parametrizer == "ParametrizeConstAccel":
-        traj = PathTimingTrajectory(segment, grid, sd)
+        traj = PathTimingTrajectory(segment, grid, sol.sd)
         # Same formulas as toppra's ParametrizeConstAccel: the durations must agree.
-        assert abs(traj.duration_s - traj_out.duration) <= 1e-9 * max(1.0, traj.duration_s)
+        assert abs(traj.duration_s - sol.duration_s) <= 1e-9 * max(1.0, traj.duration_s)
     else:
+        traj_out = sol.toppra_trajectory(parametrizer)
         ts = traj_out.waypoints[0] if traj_out.waypoints is not None else []
         traj = CallableTrajectory(lambda t, k: np.atleast_2d(traj_out(t, k)), traj_out.duration,
                                   ts, segment.n_dof)
-    return traj, code, wall
+    return traj, sol.return_code, wall
 
 
 def _segments_into(extra: dict, scenario, path: str, reference_plan):

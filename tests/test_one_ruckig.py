@@ -1,0 +1,52 @@
+"""One Ruckig call (planners/ruckig_core.rest_to_rest): every Ruckig plan goes through it (the planar
+baseline, the spatial arms, seed 002's tray line), and it gives what each caller's own Ruckig set-up gave
+before (written out here with ruckig's API): the same duration and states bit for bit."""
+
+import numpy as np
+from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
+
+from qmt_drake.planners.ruckig_core import rest_to_rest
+from tests.test_one_toppra import _calls
+
+CALLERS = {"planners/baselines/ruckig_plan.py", "planners/spatial_ruckig.py", "tray/waypoints.py"}
+
+
+def test_every_ruckig_call_goes_through_the_one_core():
+    for name in ("Ruckig", "InputParameter", "Trajectory"):
+        assert set(_calls(name)) == {"planners/ruckig_core.py"}, (name, _calls(name))
+    assert set(_calls("rest_to_rest")) == CALLERS
+
+
+def _direct(start, goal, v, a, j, phase):
+    """Ruckig set up as the callers did before the core."""
+    n = len(start)
+    inp = InputParameter(n)
+    inp.current_position, inp.target_position = list(map(float, start)), list(map(float, goal))
+    inp.max_velocity, inp.max_acceleration, inp.max_jerk = list(map(float, v)), list(map(float, a)), list(map(float, j))
+    if phase:
+        inp.synchronization = Synchronization.Phase
+    traj = Trajectory(n)
+    assert Ruckig(n).calculate(inp, traj) in (Result.Working, Result.Finished)
+    return traj
+
+
+def _same(a, b):
+    assert a.duration == b.duration
+    for t in np.linspace(0.0, a.duration, 37):
+        for x, y in zip(a.at_time(float(t)), b.at_time(float(t))):
+            assert np.array_equal(x, y)
+
+
+def test_the_core_is_each_callers_former_ruckig_call():
+    rng = np.random.default_rng(3)
+    for n, phase in ((1, False), (2, True), (6, False), (6, True)):
+        start, goal = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
+        v, a, j = rng.uniform(0.5, 2, n), rng.uniform(1, 5, n), rng.uniform(10, 50, n)
+        traj, res = rest_to_rest(start, goal, v, a, j, phase_synchronization=phase)
+        assert res in (Result.Working, Result.Finished)
+        _same(traj, _direct(start, goal, v, a, j, phase))
+
+
+def test_refused_input_is_none_with_ruckigs_reason():
+    traj, res = rest_to_rest([0.0], [1.0], [1.0], [-1.0], [1.0])  # a negative acceleration limit
+    assert traj is None and "maximum acceleration limit" in res
