@@ -232,6 +232,30 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     return a
 
 
+def integers(d: dict, key: str, where: str, *, minimum: int, length: int | None = None, distinct: bool = False,
+             what: str = "integers") -> list[int]:
+    """A non-empty list of integers (not bools, not 2.0), each >= minimum; `length` entries; `distinct`."""
+    v = need(d, key, where)
+    if not isinstance(v, list) or not v or not all(isinstance(x, numbers.Integral) and not isinstance(x, bool)
+                                                   for x in v):
+        raise QmtInputError(f"{where}.{key} must be a list of integers ({what}), got {show(v)}")
+    if length is not None and len(v) != length:
+        raise QmtInputError(f"{where}.{key} has {len(v)} entries; give {length} ({what})")
+    if min(v) < minimum or (distinct and len(set(v)) != len(v)):
+        raise QmtInputError(f"{where}.{key} {v} must be {'distinct ' if distinct else ''}integers >= {minimum} ({what})")
+    return [int(x) for x in v]
+
+
+def sequence(d: dict, key: str, where: str, *, default=MISSING) -> list:
+    """d[key] as a list (None/missing -> `default` if given)."""
+    if default is not MISSING and d.get(key) is None:
+        return default
+    v = need(d, key, where)
+    if not isinstance(v, list):
+        raise QmtInputError(f"{where}.{key} must be a list, got {show(v)}")
+    return v
+
+
 def float_text_hint(v) -> str:
     """The fix when YAML 1.1 read a number as text (PyYAML takes 1e-5 without a dot for a string)."""
     items = v if isinstance(v, list) else [v]
