@@ -210,9 +210,7 @@ def _payload(raw: dict, where: str) -> CarriedBody:
 def _task(tk: dict, w: str, face_axis: np.ndarray) -> SpatialTaskData:
     F.check_keys(tk, TASK_KEYS, w)
     seed = F.radians(tk, "seed_rad", w, what="one joint angle per joint")  # its length: the builder (joints)
-    poses = tk.get("poses_m")
-    if not isinstance(poses, list) or len(poses) < 2:
-        raise QmtInputError(f"{w}.poses_m must be a list of >= 2 positions [x, y, z] (m)")
+    poses = F.sequence(tk, "poses_m", w, min_length=2, what="positions [x, y, z] (m)")
     check_spatial_sizes(w, task_poses=len(poses))
     P = np.array([F.vector({"p": p}, "p", f"{w}.poses_m[{k}]", length=3) for k, p in enumerate(poses)])
     rotations = spatial_poses.pose_rotations(tk, len(P), w)
