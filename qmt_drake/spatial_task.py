@@ -61,9 +61,10 @@ from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
 from qmt_drake.limits.suction import GripModel, SuctionTerm
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
+from qmt_drake.model.arm_model import ArmData, build_arm_model
 from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.model.spatial_ik import SpatialIK
-from qmt_drake.model.urdf_check import drive_parameters, load_arm_plant, urdf_joint_limits
+from qmt_drake.model.urdf_check import urdf_joint_limits
 from qmt_drake.spatial_data import SpatialScenarioData, parse_spatial_data
 from qmt_drake.spatial_motor import SpatialMotors, parse_motor_section
 
@@ -162,17 +163,17 @@ def build_spatial_scenario(data: SpatialScenarioData) -> SpatialScenario:
     urdf, hand, lock, face_axis = arm.urdf, arm.hand_frame, arm.lock_joints, arm.face_axis
     w = f"{where}: actuators"
     vals = dict(data.actuators.given)
-    plant, H, names = load_arm_plant(urdf, hand, lock_joints=lock, effort_limit_Nm=vals.get("torque_limit_Nm"),
-                                     velocity_limit_rad_s=vals.get("velocity_limit_rad_s"))
+    motor_raw = data.actuators.motor
+    built = build_arm_model(ArmData(urdf, hand, lock, vals.get("torque_limit_Nm"), vals.get("velocity_limit_rad_s")),
+                            data.payload, gear_ratio=vals.get("gear_ratio"),
+                            rotor_inertia_kgm2=vals.get("rotor_inertia_kgm2"), drive_required=motor_raw is not None,
+                            where=w)
+    plant, H, names, drive, chain = built.plant, built.hand, built.joint_names, built.drive, built.chain
     n = len(names)
     for k, v in vals.items():
         if v.shape != (n,):
             raise QmtInputError(f"{w}.{k} has {v.size} entries; give {n}, one per joint {names}")
     vals = _urdf_limit_defaults(vals, urdf, names)
-    motor_raw = data.actuators.motor
-    drive = drive_parameters(urdf, names, gear_ratio=vals.get("gear_ratio"),
-                             rotor_inertia_kgm2=vals.get("rotor_inertia_kgm2"), source=str(urdf),
-                             required=motor_raw is not None)
     motor = parse_motor_section(motor_raw, names, vals["torque_limit_Nm"], drive["gear_ratio"], f"{w}.motor")
     grip = None
     if hd.kind == "suction":
@@ -183,7 +184,6 @@ def build_spatial_scenario(data: SpatialScenarioData) -> SpatialScenario:
     w = f"{where}: task"
     seed = F.radians({"seed_rad": list(tk.seed_rad)}, "seed_rad", w, length=n, what="one joint angle per joint")
     ik = SpatialIK(plant, H, face_axis=face_axis, name=data.name)
-    chain = SpatialChain(plant, H, reflected_inertia_kgm2=drive["reflected_inertia_kgm2"], carried=body.as_dict())
     pts, idx, normals, rotations = spatial_poses.path_points(tk.poses_m, tk.transfer_points, tk.pose_normals,
                                                              tk.pose_rotations, face_axis)
     q_path = ik.solve_path(pts, normals=None if rotations is not None else normals, rotations=rotations, seed=seed,

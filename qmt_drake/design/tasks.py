@@ -110,7 +110,7 @@ def _axes_mask(u: dict, key: str, what: str) -> np.ndarray:
 
 def _boxes(d: dict, key: str, top: str):
     """(((center (3,), size (3,)), ...), names) of the list d[key] (missing or null: none)."""
-    items = sequence(d, key, top, default=None)
+    items = sequence(d, key, top, default=None, what="boxes {name, center_m: [x, y, z], size_m: [sx, sy, sz]} (or [] for none)")
     if items is None:
         return (), []
     out, names = [], []
