@@ -21,12 +21,15 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # for type checkers and readers; at run time __getattr__ loads them on first use
     from qmt_drake.api import Plan, Scenario, build_diagram, load_plan, load_scenario, plan_with, simulate
+    from qmt_drake.scenario_data import build_scenario, load_scenario_data
 
 __version__ = "0.1.0"
-__all__ = ["Plan", "Scenario", "__version__", "build_diagram", "load_plan", "load_scenario", "plan_with", "simulate"]
+__all__ = ["Plan", "Scenario", "__version__", "build_diagram", "build_scenario", "load_plan", "load_scenario",
+           "load_scenario_data", "plan_with", "simulate"]
 
 # public name -> the module that defines it (imported on first use)
 _PUBLIC = {name: "qmt_drake.api" for name in __all__ if name != "__version__"}
+_PUBLIC.update(load_scenario_data="qmt_drake.scenario_data", build_scenario="qmt_drake.scenario_data")
 
 
 def __getattr__(name: str) -> Any:

@@ -30,9 +30,7 @@ def pose_rotations(tk: dict, n_poses: int, w: str) -> np.ndarray | None:
                             f"(one per pose) or hand_rpy_rad (a rotation per pose){'; got ' + ', '.join(given) if given else ''}")
     if "hand_rpy_rad" not in tk:
         return None
-    raw = tk["hand_rpy_rad"]
-    if not isinstance(raw, list) or len(raw) != n_poses:
-        raise QmtInputError(f"{w}.hand_rpy_rad must list one [roll, pitch, yaw] (rad) per task pose ({n_poses})")
+    raw = F.sequence(tk, "hand_rpy_rad", w, length=n_poses, what="[roll, pitch, yaw] (rad), one per task pose")
     rpy = [F.radians({"r": r}, "r", f"{w}.hand_rpy_rad[{k}]", length=3) for k, r in enumerate(raw)]
     out = np.array([RollPitchYaw(r).ToRotationMatrix().matrix() for r in rpy])
     for k in range(n_poses - 1):
@@ -48,9 +46,7 @@ def pose_normals(tk: dict, n_poses: int, w: str) -> np.ndarray:
         raw = [tk["face_normal"]] * n_poses
         names = ["face_normal"] * n_poses
     else:
-        raw = tk["face_normals"]
-        if not isinstance(raw, list) or len(raw) != n_poses:
-            raise QmtInputError(f"{w}.face_normals must list one normal [x, y, z] per task pose ({n_poses})")
+        raw = F.sequence(tk, "face_normals", w, length=n_poses, what="normals [x, y, z], one per task pose")
         names = [f"face_normals[{k}]" for k in range(n_poses)]
     out = np.array([F.vector({"n": r}, "n", f"{w}.{name}", length=3) for r, name in zip(raw, names)])
     norm = np.linalg.norm(out, axis=1)

@@ -70,21 +70,21 @@ def test_user_file_plans_through_qmt_drake_plan(tmp_path, capsys):
 
 @pytest.mark.parametrize("change,msg", [
     ({"task__coordinate_vector_m": [0.7, 0.0, 0.0, 0.9]}, "out of reach"),
-    ({"task__coordinate_vector_m": [0.7, 0.0, 0.0]}, "list of 4 numbers"),
-    ({"family__m": 0}, "family.m = 0 must be >= 1"),
+    ({"task__coordinate_vector_m": [0.7, 0.0, 0.0]}, "task.coordinate_vector_m has 3 entries; give 4"),
+    ({"family__m": 0}, "family.m must be >= 1, got 0"),
     ({"family__m": 2.5}, "must be an integer"),
     ({"objective__c1": -1.0}, "c1 = -1"),
     ({"objective__c2": 0.0}, "no stable solution"),
-    ({"objective__c2": "lots"}, "objective.c2 = 'lots' must be a finite number"),
-    ({"objective__divisions": 1}, "divisions = 1 must be >= 2"),
-    ({"limits": {"joint_torque_Nm": [200, -1, 200]}}, "joint_torque_Nm[1] = -1 must be > 0"),
-    ({"limits": {"joint_torque_Nm": [200, 200]}}, "list of 3 numbers"),
+    ({"objective__c2": "lots"}, "objective.c2 must be a number, got 'lots'"),
+    ({"objective__divisions": 1}, "objective.divisions must be >= 2, got 1"),
+    ({"limits": {"joint_torque_Nm": [200, -1, 200]}}, "limits.joint_torque_Nm must be a list of positive numbers"),
+    ({"limits": {"joint_torque_Nm": [200, 200]}}, "limits.joint_torque_Nm has 2 entries; give 3"),
     ({"family__moving_joints": [4]}, "moving_joints"),
     ({"family__kind": "via_cubic"}, "family.kind 'via_cubic' is not one of fourier_velocity"),
-    ({"payload": {"mass_kg": 1}}, "unknown key(s) ['payload']"),
+    ({"payload": {"mass_kg": 1}}, "unknown key 'payload'"),
     ({"task__start_posture": "highest"}, "only lowest_cog"),
     ({"arm__urdf": "/nonexistent.urdf"}, "does not exist"),
-    ({"objective__c1": None}, "'objective' needs ['c1']"),
+    ({"objective__c1": None}, "objective: missing key 'c1'"),
 ])
 def test_bad_values_one_line_exit_2(tmp_path, capsys, change, msg):
     p = _user_file(tmp_path, **change)

@@ -124,6 +124,12 @@ def read_yaml_mapping(path: str | Path, what: str = "file", example: str | Path 
     return raw
 
 
+def key_path(where: str, key) -> str:
+    """Where a key sits, for a message: `file.yaml: key` at a file's top level, `where.key` inside a section
+    (`file.yaml: hand.cup` + radius_m -> `file.yaml: hand.cup.radius_m`)."""
+    return f"{where}: {key}" if str(where).endswith((".yaml", ".yml")) else f"{where}.{key}"
+
+
 def show(v) -> str:
     """repr of a user value, cut to 60 characters for a one-line message."""
     s = repr(v)
@@ -149,7 +155,7 @@ def mapping(d: dict, key: str, where: str, *, default=MISSING) -> dict:
         return default
     v = need(d, key, where)
     if not isinstance(v, dict):
-        raise QmtInputError(f"{where}.{key} must be a mapping, got {show(v)}")
+        raise QmtInputError(f"{key_path(where, key)} must be a mapping, got {show(v)}")
     return v
 
 
@@ -168,13 +174,13 @@ def num(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: b
         return default
     v = need(d, key, where)
     if not is_number(v):
-        raise QmtInputError(f"{where}.{key} must be a number, got {show(v)}{float_text_hint(v)}")
+        raise QmtInputError(f"{key_path(where, key)} must be a number, got {show(v)}{float_text_hint(v)}")
     v = float(v)
     if not math.isfinite(v) or (positive and v <= 0) or (nonnegative and v < 0):
         want = "positive" if positive else "non-negative" if nonnegative else "finite"
-        raise QmtInputError(f"{where}.{key} must be {want}, got {v}")
+        raise QmtInputError(f"{key_path(where, key)} must be {want}, got {v}")
     if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
-        raise QmtInputError(f"{where}.{key} must lie in [{minimum if minimum is not None else '-inf'}, "
+        raise QmtInputError(f"{key_path(where, key)} must lie in [{minimum if minimum is not None else '-inf'}, "
                             f"{maximum if maximum is not None else 'inf'}], got {v}")
     return v
 
@@ -186,23 +192,24 @@ def integer(d: dict, key: str, where: str, *, minimum: int, maximum: int | None 
         return default
     v = need(d, key, where)
     if not (isinstance(v, numbers.Integral) and not isinstance(v, bool)):
-        raise QmtInputError(f"{where}.{key} must be an integer, got {show(v)}")
+        raise QmtInputError(f"{key_path(where, key)} must be an integer, got {show(v)}")
     if v < minimum:
-        raise QmtInputError(f"{where}.{key} must be >= {minimum}, got {v}")
+        raise QmtInputError(f"{key_path(where, key)} must be >= {minimum}, got {v}")
     if maximum is not None and v > maximum:
-        raise QmtInputError(f"{where}.{key} must be <= {maximum}, got {v}")
+        raise QmtInputError(f"{key_path(where, key)} must be <= {maximum}, got {v}")
     return int(v)
 
 
-def string(d: dict, key: str, where: str, *, choices=None, default=MISSING) -> str:
-    """A non-empty string (one of `choices` if given)."""
+def string(d: dict, key: str, where: str, *, choices=None, default=MISSING, what: str = "a non-empty string",
+           allow_empty: bool = False) -> str:
+    """A string, non-empty unless allow_empty (one of `choices` if given); `what` says what it names."""
     if default is not MISSING and d.get(key) is None:
         return default
     v = need(d, key, where)
-    if not isinstance(v, str) or not v:
-        raise QmtInputError(f"{where}.{key} must be a non-empty string, got {show(v)}")
+    if not isinstance(v, str) or not (v or allow_empty):
+        raise QmtInputError(f"{key_path(where, key)} must be {what}, got {show(v)}")
     if choices is not None and v not in choices:
-        raise QmtInputError(f"{where}.{key} {v!r} is not one of {', '.join(map(str, choices))}")
+        raise QmtInputError(f"{key_path(where, key)} {v!r} is not one of {', '.join(map(str, choices))}")
     return v
 
 
@@ -212,7 +219,7 @@ def boolean(d: dict, key: str, where: str, *, default=MISSING) -> bool:
         return default
     v = need(d, key, where)
     if not isinstance(v, bool):
-        raise QmtInputError(f"{where}.{key} must be true or false, got {show(v)}")
+        raise QmtInputError(f"{key_path(where, key)} must be true or false, got {show(v)}")
     return v
 
 
@@ -221,15 +228,43 @@ def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative
     """A non-empty list of finite numbers (positive / non-negative if asked; `length` entries)."""
     v = need(d, key, where)
     if not isinstance(v, list) or not v or not all(is_number(x) for x in v):
-        raise QmtInputError(f"{where}.{key} must be a list of numbers ({what}), got {show(v)}{float_text_hint(v)}")
+        raise QmtInputError(f"{key_path(where, key)} must be a list of numbers ({what}), got {show(v)}{float_text_hint(v)}")
     a = np.asarray(v, dtype=float)
     bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
     if np.any(bad):
         sign = "positive " if positive else "non-negative " if nonnegative else "finite "
-        raise QmtInputError(f"{where}.{key} must be a list of {sign}numbers ({what}), got {a.tolist()}")
+        raise QmtInputError(f"{key_path(where, key)} must be a list of {sign}numbers ({what}), got {a.tolist()}")
     if length is not None and len(a) != length:
-        raise QmtInputError(f"{where}.{key} has {len(a)} entries; give {length} ({what})")
+        raise QmtInputError(f"{key_path(where, key)} has {len(a)} entries; give {length} ({what})")
     return a
+
+
+def integers(d: dict, key: str, where: str, *, minimum: int, length: int | None = None, distinct: bool = False,
+             what: str = "integers") -> list[int]:
+    """A non-empty list of integers (not bools, not 2.0), each >= minimum; `length` entries; `distinct`."""
+    v = need(d, key, where)
+    if not isinstance(v, list) or not v or not all(isinstance(x, numbers.Integral) and not isinstance(x, bool)
+                                                   for x in v):
+        raise QmtInputError(f"{key_path(where, key)} must be a list of integers ({what}), got {show(v)}")
+    if length is not None and len(v) != length:
+        raise QmtInputError(f"{key_path(where, key)} has {len(v)} entries; give {length} ({what})")
+    if min(v) < minimum or (distinct and len(set(v)) != len(v)):
+        raise QmtInputError(f"{key_path(where, key)} {v} must be {'distinct ' if distinct else ''}integers >= {minimum} ({what})")
+    return [int(x) for x in v]
+
+
+def sequence(d: dict, key: str, where: str, *, default=MISSING, min_length: int = 0, length: int | None = None,
+             item: type | None = None, what: str = "values") -> list:
+    """d[key] as a list (None/missing -> `default` if given) of at least min_length (exactly `length`)
+    entries, each an `item` if given; `what` names the entries in the message."""
+    if default is not MISSING and d.get(key) is None:
+        return default
+    v = need(d, key, where)
+    ok = isinstance(v, list) and len(v) >= min_length and (length is None or len(v) == length)
+    if not ok or (item is not None and not all(isinstance(x, item) for x in v)):
+        count = f"{length} " if length is not None else f">= {min_length} " if min_length else ""
+        raise QmtInputError(f"{key_path(where, key)} must be a list of {count}{what}, got {show(v)}")
+    return v
 
 
 def float_text_hint(v) -> str:
@@ -251,7 +286,7 @@ def direction(d: dict, key: str, where: str, *, what: str = "a direction [x, y, 
     v = vector(d, key, where, length=3, what=what)
     n = float(np.linalg.norm(v))
     if not n > 1e-9:
-        raise QmtInputError(f"{where}.{key} {v.tolist()} has no direction; give a nonzero vector, e.g. [0, 0, 1]")
+        raise QmtInputError(f"{key_path(where, key)} {v.tolist()} has no direction; give a nonzero vector, e.g. [0, 0, 1]")
     return v / n
 
 
@@ -262,7 +297,7 @@ def principal_inertia(d: dict, key: str, where: str) -> np.ndarray:
     v = vector(d, key, where, positive=True, length=3, what="principal moments [kg m^2]")
     for k in range(3):
         if v[k] > v[(k + 1) % 3] + v[(k + 2) % 3] * (1 + 1e-9):
-            raise QmtInputError(f"{where}.{key} {v.tolist()}: no rigid body has these principal moments (moment "
+            raise QmtInputError(f"{key_path(where, key)} {v.tolist()}: no rigid body has these principal moments (moment "
                                 f"{k + 1} exceeds the sum of the other two); check the values and their axes")
     return v
 
@@ -271,7 +306,7 @@ def radians(d: dict, key: str, where: str, *, length: int | None = None, what: s
     """Angles [rad]; a value beyond 2 pi in magnitude is refused as probably degrees."""
     v = vector(d, key, where, length=length, what=what)
     if np.any(np.abs(v) > 2 * math.pi + 1e-9):
-        raise QmtInputError(f"{where}.{key} {v.tolist()}: angles beyond 2 pi look like degrees; give radians "
+        raise QmtInputError(f"{key_path(where, key)} {v.tolist()}: angles beyond 2 pi look like degrees; give radians "
                             f"(e.g. {np.radians(v).round(4).tolist()})")
     return v
 

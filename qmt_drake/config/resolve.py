@@ -16,6 +16,8 @@ from qmt_drake.errors import QmtInputError
 
 MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
 SCENARIO_DIR = MODELS_DIR / "scenarios"
+TASK_DIR = MODELS_DIR / "tasks"  # seed 003's design tasks (design/tasks.py): no `kind`, a list of `units`
+DESIGN_TASK = "design_task"  # what load_scenario_data calls a design task file
 SPATIAL = "spatial_transfer"  # spatial_task.SPATIAL_KIND (config imports nothing above it)
 # planners/spatial_methods.METHODS (named here for the same reason; a test checks they agree)
 SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
@@ -84,6 +86,37 @@ def resolve_scenario(name_or_path, kind: str | None = None) -> Path:
         what, route = _KIND_ROUTES[found]
         raise QmtInputError(f"scenario '{name_or_path}' is {what}: plan it with {route.format(name=name_or_path)}")
     return path
+
+
+def builtin_tasks() -> list[str]:
+    """Names of the built-in design tasks (models/tasks/NAME.yaml)."""
+    return sorted(p.stem for p in TASK_DIR.glob("*.yaml"))
+
+
+def resolve_task(name_or_path) -> Path:
+    """The YAML file of a built-in design task's name (models/tasks/) or of a path; one line if neither."""
+    if isinstance(name_or_path, (str, Path)) and str(name_or_path) != "":
+        path = Path(name_or_path)
+        if path.exists():
+            return path
+        named = TASK_DIR / f"{name_or_path}.yaml"
+        if "/" not in str(name_or_path) and named.is_file():
+            return named
+    raise QmtInputError(f"task file {str(name_or_path)!r} not found; give a path or one of {', '.join(builtin_tasks())}")
+
+
+def is_design_task(name_or_path) -> bool:
+    """A built-in design task's name, or a YAML file without `kind` whose top level lists `units` (a design
+    task: design/tasks.py); never raises."""
+    if isinstance(name_or_path, str) and "/" not in name_or_path and (TASK_DIR / f"{name_or_path}.yaml").is_file():
+        return True
+    if not isinstance(name_or_path, (str, Path)) or builtin_path(name_or_path) is not None:
+        return False
+    try:
+        raw = read_yaml_mapping(name_or_path) if Path(name_or_path).is_file() else None
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, QmtInputError):
+        return False
+    return isinstance(raw, dict) and "kind" not in raw and "units" in raw
 
 
 def _all_builtins() -> list[str]:

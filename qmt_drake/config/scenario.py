@@ -193,15 +193,9 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
     for k in ("motion_time_s", "settled_after_generations"):
         if reported.get(k) is not None:
             _num(reported, k, f"{where}: reported", positive=True)
-    notes = raw.get("notes") or []
-    if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
-        raise QmtInputError(f"{where}: notes must be a list of strings")
-    name = raw.get("name", path.stem)
-    if not isinstance(name, str) or not name:
-        raise QmtInputError(f"{where}: name must be a non-empty string, got {_show(name)}")
-    description = raw.get("description", "")
-    if not isinstance(description, str):
-        raise QmtInputError(f"{where}: description must be a string, got {_show(description)}")
+    notes = fields_mod.sequence(raw, "notes", where, default=[], item=str, what="strings") if raw.get("notes") else []
+    name = fields_mod.string(raw, "name", where, default=path.stem)
+    description = fields_mod.string(raw, "description", where, default="", allow_empty=True, what="a string")
 
     sc = Scenario(
         name=name, description=description, source_path=path, urdf_path=arm_spec.urdf_path,
@@ -222,10 +216,7 @@ def _arm(a: dict, path: Path, where: str) -> UrdfArm:
     if kind != "urdf":
         raise QmtInputError(f"{where}: arm.kind {_show(kind)} is not available; use 'urdf' "
                             "(generated arms are not implemented yet)")
-    urdf_raw = _need(a, "urdf", f"{where}: arm")
-    if not isinstance(urdf_raw, str) or not urdf_raw:
-        raise QmtInputError(f"{where}: arm.urdf must be a file path, got {_show(urdf_raw)}")
-    urdf = Path(urdf_raw)
+    urdf = Path(fields_mod.string(a, "urdf", f"{where}: arm", what="a file path"))
     if not urdf.is_absolute():
         beside = (path.parent / urdf).resolve()
         # A built-in scenario copied elsewhere still finds the packaged model by its file name.
@@ -236,9 +227,7 @@ def _arm(a: dict, path: Path, where: str) -> UrdfArm:
     if not urdf.is_file():
         raise QmtInputError(f"{where}: arm.urdf {urdf} does not exist; give a path relative to "
                             "the scenario file or an absolute one")
-    frame = a.get("hand_frame", "hand")
-    if not isinstance(frame, str) or not frame:
-        raise QmtInputError(f"{where}: arm.hand_frame must be a frame name, got {_show(frame)}")
+    frame = fields_mod.string(a, "hand_frame", f"{where}: arm", default="hand", what="a frame name")
     return UrdfArm(urdf_path=urdf, hand_frame=frame)
 
 

@@ -30,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.config.fields import check_keys, num, read_yaml_mapping, show, string, vector
+from qmt_drake.config.fields import check_keys, num, read_yaml_mapping, sequence, show, string, vector
+from qmt_drake.config.resolve import resolve_task
 from qmt_drake.design.arm_types import LEVEL_STEP_M, N_LEVELS
 from qmt_drake.design.operability import AXES
 from qmt_drake.errors import QmtInputError
@@ -107,17 +108,14 @@ def _axes_mask(u: dict, key: str, what: str) -> np.ndarray:
     return m
 
 
-def _boxes(d: dict, key: str):
+def _boxes(d: dict, key: str, top: str):
     """(((center (3,), size (3,)), ...), names) of the list d[key] (missing or null: none)."""
-    items = d.get(key)
+    items = sequence(d, key, top, default=None, what="boxes {name, center_m: [x, y, z], size_m: [sx, sy, sz]} (or [] for none)")
     if items is None:
         return (), []
-    if not isinstance(items, list):
-        raise QmtInputError(f"task.{key} must be a list of boxes {{name, center_m: [x, y, z], "
-                            f"size_m: [sx, sy, sz]}} (or [] for none), got {show(items)}")
     out, names = [], []
     for i, b in enumerate(items):
-        at = f"{key}[{i}]"
+        at = f"{top}: {key}[{i}]"
         if not isinstance(b, dict):
             raise QmtInputError(f"{at} must be a mapping {{name, center_m: [x, y, z], size_m: [sx, sy, sz]}}, "
                                 f"got {show(b)}")
@@ -131,34 +129,36 @@ def _boxes(d: dict, key: str):
 
 def task_from_dict(d: dict, source: str = "") -> Task:
     """A validated Task from the mapping of a task file: unknown keys, wrong types and out-of-range
-    numbers are refused with one line naming the key (a misspelt `obstacles` is never dropped)."""
+    numbers are refused with one line naming the file and the key path (`file: units[2].position_m`;
+    a misspelt `obstacles` is never dropped)."""
+    top = source or "task"
     if not isinstance(d, dict):
-        raise QmtInputError(f"task file {source}: top level must be a mapping with 'units'")
-    check_keys(d, TASK_KEYS, "task")
+        raise QmtInputError(f"{top}: the top level must be a mapping with 'units'")
+    check_keys(d, TASK_KEYS, top)
     units_in = d.get("units")
     if not isinstance(units_in, list) or not units_in:
-        raise QmtInputError("task.units must be a non-empty list of unit tasks {name, position_m, "
+        raise QmtInputError(f"{top}: units must be a non-empty list of unit tasks {{name, position_m, "
                             f"rpy_deg, work, constrained, free, a}}, got {show(units_in)}")
-    a_default = num(d, "a", "task", minimum=0.0, maximum=1.0, default=0.5)
-    link_r = num(d, "link_radius_m", "task", minimum=0.0, maximum=MAX_RADIUS_M, default=0.04)
-    tool_r = num(d, "tool_radius_m", "task", minimum=0.0, maximum=MAX_RADIUS_M, default=0.01)
-    name = string(d, "name", "task", default=Path(source).stem if source else "task")
+    a_default = num(d, "a", top, minimum=0.0, maximum=1.0, default=0.5)
+    link_r = num(d, "link_radius_m", top, minimum=0.0, maximum=MAX_RADIUS_M, default=0.04)
+    tool_r = num(d, "tool_radius_m", top, minimum=0.0, maximum=MAX_RADIUS_M, default=0.01)
+    name = string(d, "name", top, default=Path(source).stem if source else "task")
     if not name.replace("-", "").replace("_", "").replace(".", "").isalnum() or name.startswith("."):
-        raise QmtInputError(f"task.name {name!r} must be letters, digits, '-', '_' or '.' (it names the "
+        raise QmtInputError(f"{top}: name {name!r} must be letters, digits, '-', '_' or '.' (it names the "
                             "output folder)")
     description = d.get("description") if d.get("description") is not None else ""
     if not isinstance(description, str):
-        raise QmtInputError(f"task.description must be a string, got {show(description)}")
-    work, wn = _boxes(d, "work_boxes")
-    obst, on = _boxes(d, "obstacles")
+        raise QmtInputError(f"{top}: description must be a string, got {show(description)}")
+    work, wn = _boxes(d, "work_boxes", top)
+    obst, on = _boxes(d, "obstacles", top)
     units = []
     for i, u in enumerate(units_in):
+        what = f"{top}: units[{i}]"
         if not isinstance(u, dict):
-            raise QmtInputError(f"task.units[{i}] must be a mapping {{name, position_m, rpy_deg, work, "
+            raise QmtInputError(f"{what} must be a mapping {{name, position_m, rpy_deg, work, "
                                 f"constrained, free, a}}, got {show(u)}")
-        check_keys(u, UNIT_KEYS, f"task.units[{i}]")
-        nm = string(u, "name", f"task.units[{i}]", default=f"unit{i}")
-        what = f"unit {nm}"
+        check_keys(u, UNIT_KEYS, what)
+        nm = string(u, "name", what, default=f"unit{i}")
         p = vector(u, "position_m", what, length=3, what="tool point x, y, z in m")
         rpy = vector(u, "rpy_deg", what, length=3, what="roll, pitch, yaw in degrees") \
             if u.get("rpy_deg") is not None else np.zeros(3)
@@ -167,38 +167,22 @@ def task_from_dict(d: dict, source: str = "") -> Task:
         cm = _axes_mask(u, "constrained", what)
         fm = _axes_mask(u, "free", what)
         if np.any(wm & cm) or np.any(wm & fm) or np.any(cm & fm):
-            raise QmtInputError(f"{what}: a direction is listed in more than one of work, constrained, "
+            raise QmtInputError(f"{what} ({nm}): a direction is listed in more than one of work, constrained, "
                                 f"free; list each axis once")
         a = num(u, "a", what, minimum=0.0, maximum=1.0, default=a_default)
         if np.linalg.norm(p) > MAX_REACH_M:
-            raise QmtInputError(f"{what}.position_m = {p.tolist()} is {np.linalg.norm(p):.2f} m from the "
+            raise QmtInputError(f"{what}.position_m = {p.tolist()} ({nm}) is {np.linalg.norm(p):.2f} m from the "
                                 f"base: no design reaches beyond {MAX_REACH_M:.2f} m; move it closer")
         for (c, s), bn in zip(work + obst, wn + on):
             if np.all(np.abs(p - c) <= s / 2):
-                raise QmtInputError(f"{what}.position_m = {p.tolist()} is inside box {bn!r}: no design "
+                raise QmtInputError(f"{what}.position_m = {p.tolist()} ({nm}) is inside box {bn!r}: no design "
                                     f"can reach it; move the point or the box")
         units.append(UnitTask(nm, p, R, wm, cm, a))
     return Task(name, description, tuple(units), work, obst, tuple(wn + on), link_r, tool_r, source)
 
 
 def load_task(path: str | Path) -> Task:
-    """Load and validate a task YAML file (duplicated keys refused); a bare name looks in
-    models/tasks/."""
-    p = Path(path)
-    if not p.exists():
-        cand = Path(__file__).resolve().parents[2] / "models" / "tasks" / f"{path}.yaml"
-        if "/" not in str(path) and cand.exists():
-            p = cand
-        else:
-            raise QmtInputError(f"task file {str(path)!r} not found; give a path or one of "
-                                f"{', '.join(builtin_tasks())}")
-    d = read_yaml_mapping(p, "design task")
-    try:
-        return task_from_dict(d, str(p))
-    except QmtInputError as exc:
-        raise QmtInputError(f"{p}: {exc}") from None
-
-
-def builtin_tasks() -> list[str]:
-    folder = Path(__file__).resolve().parents[2] / "models" / "tasks"
-    return sorted(x.stem for x in folder.glob("*.yaml"))
+    """Load and validate a task YAML file (duplicated keys refused); a bare name looks in models/tasks/
+    (config/resolve.resolve_task)."""
+    p = resolve_task(path)
+    return task_from_dict(read_yaml_mapping(p, "design task"), str(p))

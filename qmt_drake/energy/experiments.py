@@ -1,6 +1,7 @@
 """Seed 001's numerical experiments (section 3): the Experiment record that energy/scenario.py loads
 from models/scenarios/ohsaka-fig{2,3,4}.yaml (the one source of truth; `get_experiment` and
-`EXPERIMENTS` live there), and the paper's initial trajectory.
+`EXPERIMENTS` live there), and the paper's initial trajectory. EnergyScenarioData is the file's plain
+data (the arm as its URDF path); an Experiment is that data with the arm read (energy/scenario.build_experiment).
 
 Coordinate vector (X(0)', X(T)')' in metres, X2 up. c1, c2 as printed. m = 5, 40 divisions.
 """
@@ -13,6 +14,27 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.energy.problem import EnergyProblem
+
+
+@dataclass(frozen=True)
+class EnergyScenarioData:
+    """An energy-time scenario file (`kind: energy_time`) validated, as plain data: no arm read yet."""
+
+    name: str
+    description: str
+    coordinate_vector_m: tuple[float, float, float, float]
+    c1: float
+    c2: float
+    m: int
+    divisions: int
+    T_init_s: float
+    fixed_T_s: float | None
+    moving_joints: tuple[int, ...] | None  # 1-based, as in the file
+    paper_initial_a: dict  # {(i, j): value}, 1-based as printed
+    reported: dict
+    torque_limit_Nm: tuple[float, ...] | None
+    urdf: Path  # arm.urdf (absolute); its tip link 'tip'
+    source_path: Path
 
 
 @dataclass(frozen=True)

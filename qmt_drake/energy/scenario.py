@@ -24,7 +24,6 @@ any computation.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
@@ -34,7 +33,7 @@ from qmt_drake.config.registry import FAMILIES, OBJECTIVES, for_scenario_kind
 from qmt_drake.config.resolve import kind_of, resolve_scenario
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, builtin_scenarios, read_scenario_yaml
 from qmt_drake.energy.dynamics import OHSAKA_URDF, VerticalArm, ohsaka_arm
-from qmt_drake.energy.experiments import Experiment
+from qmt_drake.energy.experiments import EnergyScenarioData, Experiment
 from qmt_drake.energy.kinematics import check_reachable
 from qmt_drake.energy.objective import check_weights
 from qmt_drake.errors import QmtInputError
@@ -75,89 +74,90 @@ def read_raw(name_or_path) -> tuple[dict, Path]:
     return read_scenario_yaml(path, example="ohsaka-fig3"), path
 
 
-def _number(path, key, v, *, lo=None, lo_open=False, integer=False):
-    """The number rule of every loader (config/fields.is_number): a finite number, not a bool, not text."""
-    if not F.is_number(v) or not math.isfinite(v):
-        raise QmtInputError(f"{path}: {key} = {v!r} must be a finite number{F.float_text_hint(v)}")
-    if integer:
-        if float(v) != int(v):
-            raise QmtInputError(f"{path}: {key} = {v!r} must be an integer")
-        v = int(v)
-    if lo is not None and (v <= lo if lo_open else v < lo):
-        raise QmtInputError(f"{path}: {key} = {v!r} must be {'>' if lo_open else '>='} {lo}")
-    return v
-
-
-def _numbers(path, key, v, n=None, **kw):
-    if not isinstance(v, (list, tuple)) or (n is not None and len(v) != n):
-        raise QmtInputError(f"{path}: {key} must be a list of {n or 'some'} numbers, got {v!r}")
-    return [_number(path, f"{key}[{k}]", x, **kw) for k, x in enumerate(v)]
-
-
-def load_energy_scenario(name_or_path):
-    """The Experiment (experiments.py) of a built-in name or a YAML path, every value checked."""
+def load_energy_data(name_or_path) -> EnergyScenarioData:
+    """The plain data (energy/experiments.EnergyScenarioData) of a built-in name or a YAML path: every value
+    the file alone shows checked through config/fields.py (one line naming `file: section.key`)."""
     raw, path = read_raw(name_or_path)
+    where = str(path)
     if raw.get("kind") != KIND:
         raise QmtInputError(f"{path}: kind = {raw.get('kind')!r}; an energy scenario needs kind: {KIND} "
                             "(other scenarios go to `qmt-drake plan` without it)")
-    bad = set(raw) - _KEYS
-    if bad:
-        raise QmtInputError(f"{path}: unknown key(s) {sorted(bad)}; allowed: {sorted(_KEYS)}")
+    F.check_keys(raw, _KEYS, where)
     sec = {}
     for s, allowed in _SECTIONS.items():
-        v = raw.get(s, {}) if s not in _REQUIRED else raw.get(s)
-        if not isinstance(v, dict):
-            raise QmtInputError(f"{path}: section '{s}' must be a mapping with keys {sorted(allowed)}")
-        if set(v) - allowed:
-            raise QmtInputError(f"{path}: unknown key(s) {sorted(set(v) - allowed)} in '{s}'; allowed: "
-                                f"{sorted(allowed)}")
-        missing = _REQUIRED.get(s, set()) - set(v)
-        if missing:
-            raise QmtInputError(f"{path}: '{s}' needs {sorted(missing)}")
-        sec[s] = v
+        sec[s] = F.mapping(raw, s, where) if s in _REQUIRED else F.mapping(raw, s, where, default={})
+        F.check_keys(sec[s], allowed, f"{where}: {s}")
+        for key in sorted(_REQUIRED.get(s, ())):
+            F.need(sec[s], key, f"{where}: {s}")
     # the kinds registered for energy-time scenarios (fourier.py, objective.py); one line listing them otherwise
-    FAMILIES.get(sec["family"]["kind"], f"{path}: family", accept=for_scenario_kind(KIND))
-    OBJECTIVES.get(sec["objective"]["kind"], f"{path}: objective", accept=for_scenario_kind(KIND))
-    if sec["task"].get("start_posture", "lowest_cog") != "lowest_cog":
-        raise QmtInputError(f"{path}: task.start_posture = {sec['task']['start_posture']!r}; only "
+    FAMILIES.get(F.string(sec["family"], "kind", f"{where}: family"), f"{path}: family", accept=for_scenario_kind(KIND))
+    OBJECTIVES.get(F.string(sec["objective"], "kind", f"{where}: objective"), f"{path}: objective",
+                   accept=for_scenario_kind(KIND))
+    task, fam, ob, w = sec["task"], sec["family"], sec["objective"], f"{where}: task"
+    if F.string(task, "start_posture", w, default="lowest_cog") != "lowest_cog":
+        raise QmtInputError(f"{path}: task.start_posture = {task['start_posture']!r}; only "
                             "lowest_cog (seed 001 step I) is implemented")
-    arm = _arm(path, sec["arm"])
-    n = arm.n_dof
-    X = _numbers(path, "task.coordinate_vector_m", sec["task"]["coordinate_vector_m"], 4)
-    fam = sec["family"]
-    m = _number(path, "family.m", fam["m"], lo=1, integer=True)
-    T_init = _number(path, "family.T_init_s", fam.get("T_init_s", 1.0), lo=0.0, lo_open=True)
-    fixed_T = fam.get("fixed_T_s")
-    fixed_T = None if fixed_T is None else _number(path, "family.fixed_T_s", fixed_T, lo=0.0, lo_open=True)
+    urdf = _urdf(path, sec["arm"])
+    # numbers are kept as written (an int stays an int) where a plan's identity hashes them (plan_identity.py)
+    F.vector(task, "coordinate_vector_m", w, length=4, what="X1(0), X2(0), X1(T), X2(T) [m]")
+    X = tuple(task["coordinate_vector_m"])
+    w = f"{where}: family"
+    m = F.integer(fam, "m", w, minimum=1)
+    T_init = F.num(fam, "T_init_s", w, positive=True, default=1.0)
+    fixed_T = fam["fixed_T_s"] if F.num(fam, "fixed_T_s", w, positive=True, default=None) is not None else None
     mj = fam.get("moving_joints")
     if mj is not None:
-        mj = _numbers(path, "family.moving_joints", mj, integer=True)
-        if not mj or any(not 1 <= j <= n for j in mj) or len(set(mj)) != len(mj):
-            raise QmtInputError(f"{path}: family.moving_joints = {mj} must be distinct joint numbers 1..{n}")
-        mj = tuple(j - 1 for j in mj)
-    ob = sec["objective"]
-    c1 = _number(path, "objective.c1", ob["c1"])
-    c2 = _number(path, "objective.c2", ob["c2"])
-    div = _number(path, "objective.divisions", ob.get("divisions", 40), lo=2, integer=True)
-    lim = sec["limits"].get("joint_torque_Nm")
-    if lim is not None:
-        lim = tuple(_numbers(path, "limits.joint_torque_Nm", lim, n, lo=0.0, lo_open=True))
-    paper = sec["paper"]
+        mj = tuple(F.integers(fam, "moving_joints", w, minimum=1, distinct=True, what="joint numbers from 1"))
+    w = f"{where}: objective"
+    c1, c2 = F.num(ob, "c1", w), F.num(ob, "c2", w)
+    div = F.integer(ob, "divisions", w, minimum=2, default=40)
+    lim = None
+    if sec["limits"].get("joint_torque_Nm") is not None:
+        F.vector(sec["limits"], "joint_torque_Nm", f"{where}: limits", positive=True, what="joint torque limits [N*m]")
+        lim = tuple(sec["limits"]["joint_torque_Nm"])
+    w = f"{where}: paper"
     init = {}
-    for k, row in enumerate(paper.get("initial_a") or []):
-        i, j, a = _numbers(path, f"paper.initial_a[{k}]", row, 3)
-        if float(i) != int(i) or float(j) != int(j) or not 1 <= i <= n or j < 1:
-            raise QmtInputError(f"{path}: paper.initial_a[{k}] = {row}: i must be 1..{n}, j >= 1")
+    for k, row in enumerate(F.sequence(sec["paper"], "initial_a", w, default=[])):
+        key = f"initial_a[{k}]"
+        i, j, a = F.vector({key: row}, key, w, length=3, what="i, j, a_ij (i, j from 1)")
+        if float(i) != int(i) or float(j) != int(j) or i < 1 or j < 1:
+            raise QmtInputError(f"{w}.{key} = {row}: i and j must be integers from 1")
         init[(int(i), int(j))] = float(a)
-    reported = paper.get("reported") or {}
-    if not isinstance(reported, dict):
-        raise QmtInputError(f"{path}: paper.reported must be a mapping")
-    name = raw.get("name", path.stem)
-    E = Experiment(str(name), str(raw.get("description", "")).strip(), tuple(X), c1=float(c1), c2=float(c2),
-                   m=m, divisions=div, T_init_s=float(T_init), fixed_T_s=fixed_T, moving_joints=mj,
-                   paper_initial_a=init, reported=reported, torque_limit_Nm=lim, arm=arm,
-                   source_path=path)
-    for what, fn in (("objective", lambda: check_weights(c1, c2)),
+    reported = F.mapping(sec["paper"], "reported", w, default={})
+    return EnergyScenarioData(str(raw.get("name", path.stem)), str(raw.get("description", "")).strip(), X,
+                              c1=c1, c2=c2, m=m, divisions=div, T_init_s=T_init, fixed_T_s=fixed_T, moving_joints=mj,
+                              paper_initial_a=init, reported=reported, torque_limit_Nm=lim, urdf=urdf,
+                              source_path=path)
+
+
+def load_energy_scenario(name_or_path) -> Experiment:
+    """The Experiment (experiments.py) of a built-in name or a YAML path, every value checked."""
+    return build_experiment(load_energy_data(name_or_path))
+
+
+def build_experiment(data: EnergyScenarioData) -> Experiment:
+    """The Experiment of the plain data: the arm read from its URDF and the checks that need it (one value
+    per joint, joint numbers within the arm, both task points within reach, the weights)."""
+    path = data.source_path
+    arm = _arm(path, data.urdf)
+    n = arm.n_dof
+    mj = data.moving_joints
+    if mj is not None:
+        if any(j > n for j in mj):
+            raise QmtInputError(f"{path}: family.moving_joints = {list(mj)} must be distinct joint numbers 1..{n}")
+        mj = tuple(j - 1 for j in mj)
+    if data.torque_limit_Nm is not None:
+        F.vector({"joint_torque_Nm": list(data.torque_limit_Nm)}, "joint_torque_Nm", f"{path}: limits", positive=True,
+                 length=n, what="joint torque limits [N*m], one per joint")
+    for i, _ in data.paper_initial_a:
+        if i > n:
+            raise QmtInputError(f"{path}: paper.initial_a: i = {i} must be 1..{n} (a joint of the arm)")
+    X = data.coordinate_vector_m
+    E = Experiment(data.name, data.description, X, c1=data.c1, c2=data.c2, m=data.m, divisions=data.divisions,
+                   T_init_s=data.T_init_s, fixed_T_s=data.fixed_T_s, moving_joints=mj,
+                   paper_initial_a=dict(data.paper_initial_a), reported=data.reported,
+                   torque_limit_Nm=data.torque_limit_Nm, arm=arm, source_path=path)
+    for what, fn in (("objective", lambda: check_weights(data.c1, data.c2)),
                      ("task.coordinate_vector_m", lambda: (check_reachable(arm, X[:2], "start point X(0)"),
                                                            check_reachable(arm, X[2:], "end point X(T)")))):
         try:
@@ -167,17 +167,23 @@ def load_energy_scenario(name_or_path):
     return E
 
 
-def _arm(path: Path, a: dict):
-    urdf = Path(str(a["urdf"]))
+def _urdf(path: Path, a: dict) -> Path:
+    """arm.urdf (relative to the file) that exists, with the tip link the planner reads."""
+    where = f"{path}: arm"
+    urdf = Path(F.string(a, "urdf", where))
     if not urdf.is_absolute():
         urdf = (path.parent / urdf).resolve()
     if not urdf.is_file():
-        raise QmtInputError(f"{path}: arm.urdf {urdf} does not exist")
+        raise QmtInputError(f"{where}.urdf {urdf} does not exist")
     tip = a.get("tip_frame", "tip")
     if tip != "tip":
-        raise QmtInputError(f"{path}: arm.tip_frame = {tip!r}; the energy planner reads a URDF whose "
+        raise QmtInputError(f"{where}.tip_frame = {tip!r}; the energy planner reads a URDF whose "
                             "tip point mass is the link 'tip' welded by joint 'tip_weld' "
                             "(as models/three_link_vertical_ohsaka.urdf)")
+    return urdf
+
+
+def _arm(path: Path, urdf: Path):
     if urdf == OHSAKA_URDF.resolve():
         return ohsaka_arm()
     try:
