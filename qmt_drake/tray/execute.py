@@ -18,9 +18,10 @@ from qmt_drake.config.scenario import World
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.plan_files import check_plan_fits
+from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
 from qmt_drake.systems.servo_reference import shaped_goals
-from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, simulate_tray, tray_margin
+from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, build_tray_cosim, tray_margin
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
 SETTLE_S = 1.0
@@ -100,10 +101,11 @@ def delayed(schedule: GoalSchedule, delay_s: float) -> GoalSchedule:
                         f"{schedule.label} delayed {delay_s * 1e3:g} ms")
 
 
-def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
-                       time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
-                       contact_approximation: str = "lagged") -> dict:
-    """The summary of `plan` executed on `scenario`'s CRANE-X7 (see the module docstring).
+def build_tray_plan_cosim(scenario, plan, *, time_scale: float = 1.0, record_path=None,
+                          time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
+                          contact_approximation: str = "lagged") -> CoSim:
+    """`plan` on `scenario`'s CRANE-X7 as a CoSim (the tray plug-in's build_cosim); its summary is
+    simulate_tray_plan's (see the module docstring).
     physical: the scenario whose bottle (mass, centre of mass, friction) is simulated, when it
     differs from the one the servos' goals are shaped for (a sweep case's drawn bottle: the
     controller knows only the nominal one); None: `scenario` itself. servo_delay_s: the goal stream
@@ -115,22 +117,34 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
     sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s,
                           shaped_for=scenario if act.reference == "shaped" else None)
     sched = delayed(sched, float(servo_delay_s))
-    r = simulate_tray(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
-                      servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path,
-                      contact_approximation=contact_approximation)
-    d = r.summary_dict()
-    q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
-    final_error = float(np.max(np.abs(q_goal - r.final_q_rad)))
-    outcome = transfer_outcome(None if r.outcome == "on_tray" else r.outcome, r.slipped, final_error,
-                               ARRIVAL_TOLERANCE_SERVO_RAD)
-    d.update(outcome=outcome, held=outcome == "carried", final_goal_error_rad=final_error,
-             arrival_tolerance_rad=ARRIVAL_TOLERANCE_SERVO_RAD, max_slip_m=float(r.slip_m),
-             max_tracking_error_rad=float(np.max(r.max_tracking_error_rad)),
-             per_joint_tracking_error_rad=[float(x) for x in r.max_tracking_error_rad],
-             motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),
-             method=plan.method, plan_feasible=bool(plan.feasible))
-    d["margin"] = tray_margin(d)
-    return d
+
+    def summarize(r) -> dict:
+        d = r.summary_dict()
+        q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
+        final_error = float(np.max(np.abs(q_goal - r.final_q_rad)))
+        outcome = transfer_outcome(None if r.outcome == "on_tray" else r.outcome, r.slipped, final_error,
+                                   ARRIVAL_TOLERANCE_SERVO_RAD)
+        d.update(outcome=outcome, held=outcome == "carried", final_goal_error_rad=final_error,
+                 arrival_tolerance_rad=ARRIVAL_TOLERANCE_SERVO_RAD, max_slip_m=float(r.slip_m),
+                 max_tracking_error_rad=float(np.max(r.max_tracking_error_rad)),
+                 per_joint_tracking_error_rad=[float(x) for x in r.max_tracking_error_rad],
+                 motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),
+                 method=plan.method, plan_feasible=bool(plan.feasible))
+        d["margin"] = tray_margin(d)
+        return d
+
+    return build_tray_cosim(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
+                            servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path,
+                            contact_approximation=contact_approximation, summarize=summarize)
+
+
+def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
+                       time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
+                       contact_approximation: str = "lagged") -> dict:
+    """The summary of `plan` executed on `scenario`'s CRANE-X7 (build_tray_plan_cosim, the one run)."""
+    return run(build_tray_plan_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
+                                     time_step_s=time_step_s, physical=physical, servo_delay_s=servo_delay_s,
+                                     contact_approximation=contact_approximation))
 
 
 def drawn_bottle_overrides(scenario, payload: dict) -> dict:
