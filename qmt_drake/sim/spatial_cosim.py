@@ -43,6 +43,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import clearance_of_states
 from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.suction import GripModel, cached_grip
@@ -50,14 +51,15 @@ from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome, with_collision
+from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.sim.spatial_actuation import (
     SpatialMotorDrive,
     add_tracking_logs,
     spatial_drive,
     tracking_report,
 )
-from qmt_drake.sim.spatial_contact_hand import CONTACT_SETTLE_S, simulate_contact_hand
-from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached, start_run
+from qmt_drake.sim.spatial_contact_hand import CONTACT_SETTLE_S, build_contact_cosim
+from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import (
@@ -67,7 +69,8 @@ from qmt_drake.systems.tray_object import (
     seated_pose_on_tray,
 )
 
-TIME_STEP_S = 1e-3
+TIME_STEP_S = 1e-3  # the plant step by default [s]
+MAX_TIME_STEP_S = 5e-3  # the largest plant step a user may choose [s]
 KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
 TAIL_S = 0.5
 FINE_GRIP = (24, 8)
@@ -91,8 +94,9 @@ def collision_check(sc, logs, root_context, outcome: str, lost_at_s, settle_s: f
                                                     "collision_pair": None if first is None else first["pair"]}
 
 
-def _reference(traj):
-    t = np.arange(0.0, traj.duration_s + TAIL_S + 1e-12, TIME_STEP_S)
+def _reference(traj, time_step_s: float = TIME_STEP_S):
+    """The plan sampled at the plant step and held TAIL_S at its end: (pp, acc, t_end, q_goal)."""
+    t = np.arange(0.0, traj.duration_s + TAIL_S + 1e-12, time_step_s)
     q, qd, qdd = traj.sample(np.minimum(t, traj.duration_s))
     after = t > traj.duration_s
     qd[after], qdd[after] = 0.0, 0.0
@@ -100,9 +104,19 @@ def _reference(traj):
             t[-1], q[-1])
 
 
-def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
-    """The ideal actuator: Drake's InverseDynamicsController (the carried body welded in its plant) with the
-    joint torques saturated at the scenario's limits. None: no motors to log."""
+def check_spatial_time_step(time_step_s) -> float:
+    """The spatial plant step [s]: None is TIME_STEP_S; one line unless 0 < step <= MAX_TIME_STEP_S."""
+    if time_step_s is None:
+        return TIME_STEP_S
+    if not (np.isfinite(time_step_s) and 0.0 < time_step_s <= MAX_TIME_STEP_S):
+        raise QmtInputError(f"time step {time_step_s * 1e3:g} ms: the spatial co-simulation takes a plant step in "
+                            f"(0, {MAX_TIME_STEP_S * 1e3:g}] ms (default {TIME_STEP_S * 1e3:g} ms)")
+    return float(time_step_s)
+
+
+def add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
+    """The ideal drive (a part): Drake's InverseDynamicsController (the carried body welded in its plant) with
+    the joint torques saturated at the scenario's limits. None: no motors to log."""
     n = sc.n_dof
     ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
                                       effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s)
@@ -117,82 +131,150 @@ def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
     return None
 
 
-def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
-                     feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
-                     drive: SpatialMotorDrive | None = None) -> dict:
-    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
-    tracking error. grip: the suction hand's stability set in the co-simulation (default: the scenario's
-    cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
-    'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
-    none / back-emf / full). record_path: also write a Meshcat recording there (sim/spatial_recording).
-    contact: with hand.physics contact, keyword overrides of spatial_contact_hand.simulate_contact_hand.
-    controller_sc: the model the controller and its feedforward are built from (default sc; a sweep case
-    simulates a drawn sc under the nominal controller); drive: a prepared dc_motor drive instead."""
+def add_drive(builder, plant, arm, ctrl_sc, drive, reference, time_step_s: float):
+    """The reference (TrajectorySources of the plan's state and acceleration) and the drive (a part: the
+    ideal controller, or the dc_motor drive) wired to the arm; (src, motors or None)."""
+    pp, acc = reference[:2]
+    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
+    src_a = builder.AddSystem(TrajectorySource(acc))
+    motors = add_ideal_controller(builder, plant, arm, ctrl_sc, src, src_a) if drive is None else \
+        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), time_step_s)
+    return src, motors
+
+
+def spatial_ports(plant, arm, src, extra=None) -> dict:
+    """The named ports of a spatial CoSim: desired_state, arm_state, body_poses (and the hand's extra)."""
+    return {"desired_state": src.get_output_port(), "arm_state": plant.get_state_output_port(arm),
+            "body_poses": plant.get_body_poses_output_port(), **(extra or {})}
+
+
+def finish_build(builder, plant, arm, q0, ports: dict, export: bool):
+    """Export the named ports (export: composed in user code, api.build_diagram), build, and make the
+    diagram's default context start at the plan's start (q0) at rest; the diagram."""
+    if export:
+        for name, port in ports.items():
+            builder.ExportOutput(port, name)
+    diagram = builder.Build()
+    plant.SetDefaultPositions(arm, np.asarray(q0, float))
+    return diagram
+
+
+def simulate_spatial(sc, traj, **options) -> dict:
+    """Run the plan `traj` (spatial_trajectory kind) on scenario sc (build_spatial_cosim, the one run);
+    dict with the outcome word and the tracking error."""
+    return run(build_spatial_cosim(sc, traj, **options))
+
+
+def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
+                        feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
+                        drive: SpatialMotorDrive | None = None, time_step_s: float | None = None,
+                        export: bool = False) -> CoSim:
+    """The co-simulation of `traj` on scenario sc as a CoSim, its parts chosen by the hand (the weld, the
+    contact hand, the tray) and the actuator. grip: the suction hand's stability set in the co-simulation
+    (default: the scenario's cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the
+    inverse-dynamics controller) or 'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears,
+    `feedforward` one of none / back-emf / full). record_path: also write a Meshcat recording there
+    (sim/spatial_recording). contact: with hand.physics contact, keyword overrides of
+    spatial_contact_hand.build_contact_cosim. controller_sc: the model the controller and its feedforward
+    are built from (default sc; a sweep case simulates a drawn sc under the nominal controller); drive: a
+    prepared dc_motor drive instead. time_step_s: the plant step [s] (default TIME_STEP_S; the plan is
+    sampled and the hold checked at it). export: export the named ports (user composition)."""
+    h = check_spatial_time_step(time_step_s)
     ctrl = sc if controller_sc is None else controller_sc
     if drive is None:
         drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward)
     if sc.hand_kind == "tray":
-        return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path, controller_sc=ctrl)
+        return build_tray_hand_cosim(sc, traj, drive=drive, record_path=record_path, controller_sc=ctrl,
+                                     time_step_s=h, export=export)
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
         grip = cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                            rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
     if sc.hand_physics == "contact":  # the part held by contact and a pull, not a weld (sim/spatial_contact_hand)
-        return simulate_contact_hand(sc, traj, drive, _reference(_Delayed(traj, CONTACT_SETTLE_S)), _add_ideal_controller,
-                                     grip=grip, record_path=record_path, **(contact or {}))
-    term = sc.hand_term(grip)
-    builder = DiagramBuilder()
-    plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
-                                 effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
-                                 finalize=False)
-    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)  # SAP: weld constraints
-    builder.AddSystem(plant)
+        kw = {"time_step_s": h, **(contact or {})}
+        return build_contact_cosim(sc, traj, drive, _reference(_Delayed(traj, CONTACT_SETTLE_S), kw["time_step_s"]),
+                                   add_drive, grip=grip, record_path=record_path, export=export, **kw)
+    return build_weld_cosim(sc, traj, drive, ctrl, sc.hand_term(grip), actuator, record_path, h, export)
+
+
+def add_weld_hand(plant, H, sc):
+    """The breakable weld (a part, before Finalize): the part a free body with the scenario's payload
+    inertia, welded to the hand frame H by a SAP weld constraint; (part body, weld constraint id)."""
     b = sc.body
     M = SpatialInertia.MakeFromCentralInertia(b.mass_kg, np.asarray(b.com_m, float),
                                               RotationalInertia(*np.diag(b.inertia_kgm2)))
     part = plant.AddRigidBody("part", plant.AddModelInstance("part"), M)
-    weld_id = plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
+    return part, plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
+
+
+def build_weld_cosim(sc, traj, drive, ctrl, term, actuator, record_path, h: float, export: bool) -> CoSim:
+    """The weld hand's co-simulation (module docstring): the hold checked on C++ logs (HoldLog) after each
+    chunk, the weld released at the first step the hand term's ratio passes 1 (run_until_detached)."""
+    builder = DiagramBuilder()
+    plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=h,
+                                 effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
+                                 finalize=False)
+    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)  # SAP: weld constraints
+    builder.AddSystem(plant)
+    part, weld_id = add_weld_hand(plant, H, sc)
     if drive is not None:
         drive.prepare_plant(plant, H.model_instance(), sc)
     rec = None
     if record_path is not None:
         rec = SpatialRecording.for_scenario(builder, plant, H.model_instance(), sc)
         size = 4.0 * rec.link_radius_m
-        add_part_box(plant, part, b.com_m, size)
+        add_part_box(plant, part, sc.body.com_m, size)
         # only the part and the floor collide: a detached part lands instead of falling for ever
-        plant.RegisterCollisionGeometry(part, RigidTransform(np.asarray(b.com_m, float)), Sphere(size / 2),
+        plant.RegisterCollisionGeometry(part, RigidTransform(np.asarray(sc.body.com_m, float)), Sphere(size / 2),
                                         "part_collision", CoulombFriction(0.5, 0.5))
     plant.Finalize()
     if rec is not None:
         rec.connect(builder, plant)
     arm = H.model_instance()
-    pp, acc, t_end, q_goal = _reference(traj)
-    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
-    src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
-        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
-    logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
-    hold = HoldLog(builder, plant, part, term, TIME_STEP_S)
-    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0])
-    plant.SetFreeBodyPose(pctx, part, H.CalcPoseInWorld(pctx))
-    if rec is not None:
-        rec.start(plant, pctx, sc.path_points_m)
+    reference = _reference(traj, h)
+    t_end, q_goal = reference[2:]
+    src, motors = add_drive(builder, plant, arm, ctrl, drive, reference, h)
+    logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), h, motors)
+    hold = HoldLog(builder, plant, part, term, h)
+    q0 = traj.sample([0.0])[0][0]
+    ports = spatial_ports(plant, arm, src, {"part_state": plant.get_state_output_port(part.model_instance())})
+    diagram = finish_build(builder, plant, arm, q0, ports, export)
+    ctx0 = plant.CreateDefaultContext()
+    X_WP0 = H.CalcPoseInWorld(ctx0)  # the part seated in the cup at the plan's start
+    plant.SetDefaultFloatingBaseBodyPose(part, X_WP0)
+    out = {}
+
+    def start(sim) -> None:
+        pctx = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
+        plant.SetPositions(pctx, arm, q0)
+        plant.SetFreeBodyPose(pctx, part, H.CalcPoseInWorld(pctx))
+        if rec is not None:
+            rec.start(plant, pctx, sc.path_points_m)
 
     def release(root_context):  # the cup lets go: the part flies free for the rest of the run
         plant.SetConstraintActiveStatus(plant.GetMyMutableContextFromRoot(root_context), weld_id, False)
 
-    detached, lost_at_s, largest = run_until_detached(sim, diagram, hold, t_end, release)
-    if rec is not None:
-        rec.save(record_path)
-    q_end = plant.GetPositions(pctx, arm)
-    lost = "detached" if detached else None
-    err = float(np.abs(q_goal - q_end).max())
-    outcome = transfer_outcome(lost, False, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
-    outcome, hit = collision_check(sc, logs, ctx, outcome, lost_at_s if lost else None)
-    gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation() - H.CalcPoseInWorld(pctx).translation()))
-    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at_s,
-            "max_grip_ratio_while_held": largest, "final_goal_error_rad": err, "duration_s": traj.duration_s,
-            "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
-            **tracking_report(logs, ctx, traj.duration_s, sc, drive), **hit}
+    def advance(sim) -> None:
+        out["detached"], out["lost_at_s"], out["largest"] = run_until_detached(sim, diagram, hold, t_end, release)
+
+    def finish(sim, wall) -> dict:
+        if rec is not None:
+            rec.save(record_path)
+        ctx = sim.get_context()
+        pctx = plant.GetMyContextFromRoot(ctx)
+        q_end = plant.GetPositions(pctx, arm)
+        detached, lost_at_s = out["detached"], out["lost_at_s"]
+        lost = "detached" if detached else None
+        err = float(np.abs(q_goal - q_end).max())
+        outcome = transfer_outcome(lost, False, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+        outcome, hit = collision_check(sc, logs, ctx, outcome, lost_at_s if lost else None)
+        gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation()
+                                   - H.CalcPoseInWorld(pctx).translation()))
+        return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at_s,
+                "max_grip_ratio_while_held": out["largest"], "final_goal_error_rad": err, "duration_s": traj.duration_s,
+                "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
+                **tracking_report(logs, ctx, traj.duration_s, sc, drive), **hit}
+
+    return CoSim("spatial_weld", diagram, plant, start, advance, finish, dict, ports=ports, loggers=logs, monitor=hold)
 
 
 # --- tray hand: the cup a free body in friction contact with a tray box welded to the hand ---------
@@ -265,24 +347,36 @@ def classify_tray_run(t, slide, tilt, spec: CupSpec, tray_size_m) -> tuple[str |
     return None, None, bool(np.hypot(*slide[:, -1]) > SLIP_TOLERANCE_M)
 
 
-def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, record_path=None,
-                       controller_sc=None) -> dict:
-    """simulate_spatial for a tray hand: the cup is a free body standing on the tray box under Coulomb
+def simulate_tray_hand(sc, traj, **options) -> dict:
+    """simulate_spatial for a tray hand (build_tray_hand_cosim, the one run)."""
+    return run(build_tray_hand_cosim(sc, traj, **options))
+
+
+def add_tray_hand(builder, plant, H, sc):
+    """The tray hand (a part, before Finalize): a SceneGraph, the tray welded to H and the cup standing on it
+    (_add_tray_and_cup); (scene_graph, tray, cup, spec)."""
+    scene_graph = builder.AddSystem(SceneGraph())
+    return (scene_graph, *_add_tray_and_cup(plant, scene_graph, H, sc))
+
+
+def build_tray_hand_cosim(sc, traj, *, drive: SpatialMotorDrive | None = None, record_path=None,
+                          controller_sc=None, time_step_s: float = TIME_STEP_S, export: bool = False) -> CoSim:
+    """The tray hand's co-simulation: the cup is a free body standing on the tray box under Coulomb
     friction (point contact, discrete SAP at 1 ms), nothing holds it; after SETTLE_S at the start the
     plan is played. Outcome (qmt_drake/outcome.py): slid_off / tipped / slipped / unfinished / carried.
     max_grip_ratio_while_held: the largest TrayContactTerm ratio of the cup's own contact wrench
     (Newton-Euler on its simulated motion, gravity the only other force) until it first exceeds 1.
     drive: the DC motors (spatial_drive) instead of the ideal inverse-dynamics controller; controller_sc:
-    the ideal controller's model (default sc)."""
+    the ideal controller's model (default sc); time_step_s: the plant step [s] (and the log period)."""
     ctrl = sc if controller_sc is None else controller_sc
+    h = time_step_s
     builder = DiagramBuilder()
-    plant, H, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
+    plant, H, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=h,
                                      effort_limit_Nm=sc.torque_limit_Nm,
                                      velocity_limit_rad_s=sc.velocity_limit_rad_s, finalize=False)
     plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
     builder.AddSystem(plant)
-    scene_graph = builder.AddSystem(SceneGraph())
-    tray, cup, spec = _add_tray_and_cup(plant, scene_graph, H, sc)
+    scene_graph, tray, cup, spec = add_tray_hand(builder, plant, H, sc)
     if drive is not None:
         drive.prepare_plant(plant, H.model_instance(), sc)
     rec = None if record_path is None else SpatialRecording.for_scenario(builder, plant, H.model_instance(), sc,
@@ -294,33 +388,44 @@ def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, reco
         rec.connect(builder, plant, geometry_connected=True)
     allow_contact(plant, scene_graph, tray, cup)
     arm = H.model_instance()
-    pp, acc, t_end, q_goal = _reference(_Delayed(traj, SETTLE_S))
-    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
-    src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
-        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
-    tracking = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
-    log = TrayLog(builder, plant, cup, TRAY_LOG_PERIOD_S)
-    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0], rec, sc.path_points_m)
-    sim.AdvanceTo(t_end)
-    if rec is not None:
-        rec.save(record_path)
-    t, slide, tilt = log.slide_tilt(ctx)
-    seated = t >= SETTLE_S
-    slide, tilt = slide[:, seated] - seated_pose_on_tray().translation()[:2, None], tilt[seated]
-    lost, lost_at, slipped = classify_tray_run(t[seated] - SETTLE_S, slide, tilt, spec, sc.cup.tray_size_m)
-    err = float(np.abs(q_goal - plant.GetPositions(pctx, arm)).max())
-    outcome = transfer_outcome(lost, slipped and lost is None, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
-    outcome, hit = collision_check(sc, tracking, ctx, outcome, lost_at, settle_s=SETTLE_S)
-    # the tray term's ratio of the cup's contact wrench from the first update at SETTLE_S, up to and
-    # including its first value above 1
-    t_up, r = log.ratios(ctx, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S)
-    over = np.flatnonzero(r > 1.0)
-    largest = float(np.max(r[:over[0] + 1] if len(over) else r, initial=0.0))
-    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at,
-            "max_grip_ratio_while_held": largest,
-            "contact_ratio_first_above_1_s": float(t_up[over[0]]) - SETTLE_S if len(over) else None,
-            "final_goal_error_rad": err, "duration_s": traj.duration_s,
-            "max_slide_m": float(np.max(np.hypot(*slide))), "final_slide_m": float(np.hypot(*slide[:, -1])),
-            "max_tilt_rad": float(np.max(tilt)), "actuator": "ideal" if drive is None else "dc_motor",
-            **tracking_report(tracking, ctx, t_end, sc, drive), **hit}
+    reference = _reference(_Delayed(traj, SETTLE_S), h)
+    t_end, q_goal = reference[2:]
+    src, motors = add_drive(builder, plant, arm, ctrl, drive, reference, h)
+    tracking = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), h, motors)
+    log = TrayLog(builder, plant, cup, TRAY_LOG_PERIOD_S if h == TIME_STEP_S else h)
+    q0 = traj.sample([0.0])[0][0]
+    ports = spatial_ports(plant, arm, src, {"cup_state": plant.get_state_output_port(cup.model_instance())})
+    diagram = finish_build(builder, plant, arm, q0, ports, export)
+
+    def start(sim) -> None:
+        pctx = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
+        plant.SetPositions(pctx, arm, q0)
+        if rec is not None:
+            rec.start(plant, pctx, sc.path_points_m)
+
+    def finish(sim, wall) -> dict:
+        if rec is not None:
+            rec.save(record_path)
+        ctx = sim.get_context()
+        t, slide, tilt = log.slide_tilt(ctx)
+        seated = t >= SETTLE_S
+        slide, tilt = slide[:, seated] - seated_pose_on_tray().translation()[:2, None], tilt[seated]
+        lost, lost_at, slipped = classify_tray_run(t[seated] - SETTLE_S, slide, tilt, spec, sc.cup.tray_size_m)
+        err = float(np.abs(q_goal - plant.GetPositions(plant.GetMyContextFromRoot(ctx), arm)).max())
+        outcome = transfer_outcome(lost, slipped and lost is None, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+        outcome, hit = collision_check(sc, tracking, ctx, outcome, lost_at, settle_s=SETTLE_S)
+        # the tray term's ratio of the cup's contact wrench from the first update at SETTLE_S, up to and
+        # including its first value above 1
+        t_up, r = log.ratios(ctx, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S)
+        over = np.flatnonzero(r > 1.0)
+        largest = float(np.max(r[:over[0] + 1] if len(over) else r, initial=0.0))
+        return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at,
+                "max_grip_ratio_while_held": largest,
+                "contact_ratio_first_above_1_s": float(t_up[over[0]]) - SETTLE_S if len(over) else None,
+                "final_goal_error_rad": err, "duration_s": traj.duration_s,
+                "max_slide_m": float(np.max(np.hypot(*slide))), "final_slide_m": float(np.hypot(*slide[:, -1])),
+                "max_tilt_rad": float(np.max(tilt)), "actuator": "ideal" if drive is None else "dc_motor",
+                **tracking_report(tracking, ctx, t_end, sc, drive), **hit}
+
+    return CoSim("spatial_tray", diagram, plant, start, lambda sim: sim.AdvanceTo(t_end), finish, dict,
+                 ports=ports, loggers=tracking, monitor=log)

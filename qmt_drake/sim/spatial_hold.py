@@ -33,7 +33,7 @@ state, is integrated in other pieces, and its gain is zero).
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.analysis import InitializeParams, Simulator
+from pydrake.systems.analysis import InitializeParams
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
 from qmt_drake.systems.payload import six_dof_joint_of
@@ -179,16 +179,3 @@ def run_until_detached(sim, diagram, hold: HoldLog, t_end_s: float, release) -> 
         sim.AdvanceTo(t_end_s)
         return True, t_lost, largest
     return False, None, largest
-
-
-def start_run(builder, plant, arm, q0_rad, rec=None, path_points_m=None):
-    """The spatial runs' one start (weld, tray and contact hands): build the diagram, make its Simulator,
-    put the arm at q0_rad and start the recording; (sim, diagram, root context, plant context)."""
-    diagram = builder.Build()
-    sim = Simulator(diagram)
-    ctx = sim.get_mutable_context()
-    pctx = plant.GetMyMutableContextFromRoot(ctx)
-    plant.SetPositions(pctx, arm, q0_rad)
-    if rec is not None:
-        rec.start(plant, pctx, path_points_m)
-    return sim, diagram, ctx, pctx
