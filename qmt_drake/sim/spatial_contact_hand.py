@@ -37,6 +37,7 @@ declared a loss; for the magnet also the rigid-body hold condition of its contac
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 from pydrake import symbolic
@@ -283,7 +284,8 @@ def build_contact_cosim(sc, traj, drive, reference, add_drive, *, grip=None, rec
                 **tracking_report(logs, ctx, traj.duration_s + CONTACT_SETTLE_S, sc, drive)}
 
     return CoSim("spatial_contact", diagram, plant, start, lambda sim: sim.AdvanceTo(t_end), finish, dict,
-                 ports=ports, loggers={**logs, "part_state": part_log, "arm_acceleration": arm_acc_log})
+                 ports=ports, loggers={**logs, "part_state": part_log, "arm_acceleration": arm_acc_log},
+                 handles=SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, part_body=part))
 
 
 def _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A, continuous: bool) -> float:

@@ -32,6 +32,7 @@ Example-robot-data's Panda declares no actuators: the tray co-simulation adds on
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 from pydrake.geometry import SceneGraph, Sphere
@@ -274,7 +275,8 @@ def build_weld_cosim(sc, traj, drive, ctrl, term, actuator, record_path, h: floa
                 "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
                 **tracking_report(logs, ctx, traj.duration_s, sc, drive), **hit}
 
-    return CoSim("spatial_weld", diagram, plant, start, advance, finish, dict, ports=ports, loggers=logs, monitor=hold)
+    return CoSim("spatial_weld", diagram, plant, start, advance, finish, dict, ports=ports, loggers=logs, monitor=hold,
+                 handles=SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, part_body=part))
 
 
 # --- tray hand: the cup a free body in friction contact with a tray box welded to the hand ---------
@@ -428,4 +430,5 @@ def build_tray_hand_cosim(sc, traj, *, drive: SpatialMotorDrive | None = None, r
                 **tracking_report(tracking, ctx, t_end, sc, drive), **hit}
 
     return CoSim("spatial_tray", diagram, plant, start, lambda sim: sim.AdvanceTo(t_end), finish, dict,
-                 ports=ports, loggers=tracking, monitor=log)
+                 ports=ports, loggers=tracking, monitor=log,
+                 handles=SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, part_body=cup))
