@@ -3,19 +3,20 @@
     cosim = build_cosim(scenario, plan, time_scale=1.0)   # the Drake Diagram and its handles
     summary = run(cosim)                                   # summary["outcome"], ... (qmt_drake/outcome.py)
 
-build_cosim composes the scenario's parts, each a function that adds itself to the DiagramBuilder:
+build_cosim composes the scenario's parts, each adding itself to the kind's DiagramBuilder:
 
-    hands   magnet contact (sim/magnet_hand.add_magnet_hand, planar; sim/spatial_contact_hand.add_contact_hand,
-            spatial), suction contact (add_contact_hand), breakable weld (spatial_cosim.add_weld_hand),
-            tray contact (spatial_cosim.add_tray_hand; the CRANE-X7's tray and bottle, tray/cosim)
-    drives  DC motor + gear + PID (sim/magnet_actuation, spatial_actuation.SpatialMotorDrive.add_to),
-            ideal inverse dynamics (spatial_cosim.add_ideal_controller, energy/execute), Dynamixel servos
+    hands   magnet contact (planar: sim/magnet_hand.add_magnet_hand; spatial: spatial_contact_hand.ContactHand),
+            suction contact (ContactHand), breakable weld (spatial_cosim.WeldHand), tray contact (spatial:
+            spatial_tray_hand.TrayCupHand; the CRANE-X7's tray and bottle: tray/cosim.build_tray_diagram)
+    drives  DC motor + gear + PID (planar: sim/magnet_actuation; spatial: SpatialMotorDrive.add_to), ideal
+            inverse dynamics (spatial_cosim.add_ideal_controller; energy/execute's), Dynamixel servos
             (tray/cosim.build_tray_diagram)
 
-per scenario kind: a planar transfer scenario through its hand plug-in's build_cosim (hands.py: the magnet
-hand's closed loop, the tray's servos and bottle), a spatial one through spatial_cosim.build_spatial_cosim
-(its hand physics and actuator), an energy-time one through energy/execute. `run` (sim/cosim_run.py) is the
-one place a Simulator is made; every kind's `simulate` goes through it.
+per scenario kind (four assemblies): a planar transfer scenario through its hand plug-in's build_cosim
+(hands.py: the magnet hand's closed loop, sim/diagram.build_transfer_diagram; the tray's servos and bottle,
+tray/cosim.build_tray_diagram), a spatial one through spatial_cosim.assemble (one assembly for its three
+hand parts and two drives), an energy-time one through energy/execute.build_execution_cosim. `run`
+(sim/cosim_run.py) is the one place a Simulator is made; every kind's `simulate` goes through it.
 
 Options: time_scale (replay time_scale times slower), record_path (a Meshcat HTML replay), time_step_s
 (the plant step [s]; None: the kind's default), feedforward and, for planar magnet arms,
