@@ -121,9 +121,25 @@ def test_the_spatial_time_step_is_an_option_and_refused_out_of_range():
         build_cosim(sc, _short_plan(sc), time_step_s=0.02)
 
 
-def test_a_spatial_diagram_composes_in_user_code_and_moves_the_arm_as_run_does():
+@pytest.fixture(scope="module")
+def suction():
     sc = load_or_skip("ur5-suction-bins")
-    plan = plan_with("toppra", sc)
+    return sc, plan_with("toppra", sc)
+
+
+def test_simulate_of_a_spatial_plan_takes_the_plant_step(suction):
+    sc, plan = suction
+    # (at time scale 1 this TOPP-RA plan is at the cup's limit, ratio 0.995 at 1 ms: a 2 ms step's coarser
+    # acceleration takes it over 1; 10 % slower, 0.912 at 1 ms, 0.941 at 2 ms, 0.908 at 0.5 ms)
+    at_1ms, at_2ms = (simulate(sc, plan, time_scale=1.1, time_step_s=h) for h in (None, 2e-3))
+    assert at_1ms["outcome"] == at_2ms["outcome"] == "carried" and at_2ms["final_goal_error_rad"] < 1e-3
+    assert 0.0 < abs(at_2ms["max_grip_ratio_while_held"] - at_1ms["max_grip_ratio_while_held"]) < 0.05
+    with pytest.raises(QmtInputError, match="plant step"):
+        simulate(sc, plan, time_step_s=0.02)
+
+
+def test_a_spatial_diagram_composes_in_user_code_and_moves_the_arm_as_run_does(suction):
+    sc, plan = suction
     ref = build_cosim(sc, plan)
     lib = run(ref)
     assert lib["outcome"] == "carried"
