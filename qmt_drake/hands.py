@@ -44,9 +44,9 @@ from qmt_drake.sim.cosim_run import CoSim
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.runner import (
     check_simulation_inputs,
+    plan_transfer_cosim,
     run_transfer_simulate,
     simulate_transfer,
-    transfer_cosim,
     transfer_simulate_cosim,
 )
 from qmt_drake.systems.payload import PayloadSpec
@@ -60,6 +60,7 @@ from qmt_drake.tray.execute import (
     drawn_bottle_overrides,
     plan_schedule,
     simulate_tray_plan,
+    tray_plan_summary,
 )
 from qmt_drake.tray.limit_terms import tray_terms
 
@@ -151,10 +152,11 @@ def build_diagram(scenario: Scenario, plan: Motion, **options: Any) -> CoSim:
     """The co-simulation Diagram through the hand's plug-in (api.build_diagram documents it), as a CoSim
     that sim/cosim_run.run runs (or user code composes: cosim.diagram)."""
     made = hand_plugin(scenario).build_diagram(scenario, plan, **options)
+    time_scale = float(options.get("time_scale", 1.0))
     if isinstance(made, TransferDiagram):
-        return transfer_cosim(made)
+        return plan_transfer_cosim(scenario, plan, made, time_scale)
     if isinstance(made, TrayDiagram):
-        return tray_cosim(made)
+        return tray_cosim(made, keep_series=False, summarize=lambda r: tray_plan_summary(plan, r, time_scale))
     return made
 
 

@@ -167,3 +167,14 @@ def test_build_diagram_of_a_spatial_scenario_refuses_what_it_cannot_take():
         api.build_diagram(sc, plan, coil_current_A=1.0)
     with pytest.raises(QmtInputError, match="feedforward"):
         api.build_diagram(sc, plan, feedforward="none")  # the ideal drive's controller always has it
+
+
+def test_build_diagram_then_run_gives_simulates_summary_on_a_planar_arm():
+    sc = load_scenario("thesis-ch4")
+    plan = plan_with("thesis", sc)
+    lib = simulate(sc, plan)
+    cosim = build_diagram(sc, plan, step_logs=True)  # the 5 ms loggers only observe
+    mine = run(cosim)
+    assert cosim.kind == "magnet" and mine["outcome"] == lib["outcome"] == "carried"
+    for key in ("max_slip_m", "max_tilt_rad", "final_goal_error_rad", "max_tracking_error_rad", "energy_J"):
+        assert mine[key] == lib[key], key

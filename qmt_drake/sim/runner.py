@@ -218,6 +218,14 @@ def build_transfer_cosim(scenario, plan, *, time_scale: float = 1.0, time_step_s
                           summarize=lambda res: {**res.summary_dict(), **(summary_extra or {})})
 
 
+def plan_transfer_cosim(scenario, plan, td: TransferDiagram, time_scale: float = 1.0) -> CoSim:
+    """A built transfer diagram of `plan` (build_transfer_diagram) as a CoSim whose run gives
+    TransferResult.summary_dict (the one outcome vocabulary); no series kept."""
+    return transfer_cosim(td, finish=lambda sim, wall: make_result(scenario, plan, td, td.run_summary, wall,
+                                                                   time_scale, {}),
+                          summarize=lambda res: res.summary_dict())
+
+
 def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
                       record_path=None, keep_series: bool = True, **build_kw) -> TransferResult:
     """Build, run and summarise one transfer (see TransferResult)."""

@@ -118,24 +118,28 @@ def build_tray_plan_cosim(scenario, plan, *, time_scale: float = 1.0, record_pat
                           shaped_for=scenario if act.reference == "shaped" else None)
     sched = delayed(sched, float(servo_delay_s))
 
-    def summarize(r) -> dict:
-        d = r.summary_dict()
-        q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
-        final_error = float(np.max(np.abs(q_goal - r.final_q_rad)))
-        outcome = transfer_outcome(None if r.outcome == "on_tray" else r.outcome, r.slipped, final_error,
-                                   ARRIVAL_TOLERANCE_SERVO_RAD)
-        d.update(outcome=outcome, held=outcome == "carried", final_goal_error_rad=final_error,
-                 arrival_tolerance_rad=ARRIVAL_TOLERANCE_SERVO_RAD, max_slip_m=float(r.slip_m),
-                 max_tracking_error_rad=float(np.max(r.max_tracking_error_rad)),
-                 per_joint_tracking_error_rad=[float(x) for x in r.max_tracking_error_rad],
-                 motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),
-                 method=plan.method, plan_feasible=bool(plan.feasible))
-        d["margin"] = tray_margin(d)
-        return d
-
     return build_tray_cosim(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
                             servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path,
-                            contact_approximation=contact_approximation, summarize=summarize)
+                            contact_approximation=contact_approximation,
+                            summarize=lambda r: tray_plan_summary(plan, r, time_scale))
+
+
+def tray_plan_summary(plan, r, time_scale: float = 1.0) -> dict:
+    """The TrayResult `r` of `plan` played time_scale times slower as the summary in the one outcome
+    vocabulary (qmt_drake/outcome.py): the arm's final error against the plan's goal, slip, tracking."""
+    d = r.summary_dict()
+    q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
+    final_error = float(np.max(np.abs(q_goal - r.final_q_rad)))
+    outcome = transfer_outcome(None if r.outcome == "on_tray" else r.outcome, r.slipped, final_error,
+                               ARRIVAL_TOLERANCE_SERVO_RAD)
+    d.update(outcome=outcome, held=outcome == "carried", final_goal_error_rad=final_error,
+             arrival_tolerance_rad=ARRIVAL_TOLERANCE_SERVO_RAD, max_slip_m=float(r.slip_m),
+             max_tracking_error_rad=float(np.max(r.max_tracking_error_rad)),
+             per_joint_tracking_error_rad=[float(x) for x in r.max_tracking_error_rad],
+             motion_time_s=float(plan.motion_time_s) * time_scale, time_scale=float(time_scale),
+             method=plan.method, plan_feasible=bool(plan.feasible))
+    d["margin"] = tray_margin(d)
+    return d
 
 
 def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
