@@ -233,7 +233,8 @@ def _check_run_args(scenario: AnyScenario, plan: Plan, time_scale: Any, time_ste
         _priced(check_replay_budget, scenario, time_scale, time_step_s, motion_time_s=plan.motion_time_s,
                 allow_large=allow_large)
     elif isinstance(scenario, SpatialScenario):
-        _priced(check_budget, replay_estimate(time_scale, plan.motion_time_s, cost=SPATIAL_REPLAY), allow_large=allow_large)
+        _priced(check_budget, replay_estimate(time_scale, plan.motion_time_s, time_step_s, cost=SPATIAL_REPLAY),
+                allow_large=allow_large)
 
 
 @C.strict_call

@@ -277,8 +277,8 @@ def simulate(args, energy_options=()) -> int:
         method = _method(args)
         opts = _planner_options(args, method)
         p = _plan(args, sc, method, opts)
-    est = replace(replay_estimate(args.time_scale, p.duration_s, cost=SPATIAL_REPLAY),  # its step is fixed
-                  fix="use a time scale near 1 (the shipped plans are carried at 1-1.5)")
+    est = replace(replay_estimate(args.time_scale, p.duration_s, h, cost=SPATIAL_REPLAY),  # at its plant step
+                  fix="use a time scale near 1 (the shipped plans are carried at 1-1.5) and the default 1 ms step")
     est = check_budget(est, allow_large=args.allow_large)
     if not args.quiet:
         announce(est)
