@@ -39,12 +39,11 @@ from qmt_drake.config.resolve import kind_of
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.energy.energy_plan import plan_energy_time
-from qmt_drake.energy.execute import execute_plan
 from qmt_drake.energy.experiments import Experiment
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import build_diagram as _build_diagram
-from qmt_drake.hands import hand_plugin, run_simulate
+from qmt_drake.hands import hand_plugin
 from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_output_path
 from qmt_drake.plan import ENERGY_PLAN_KIND, KIND_WORDS, SPATIAL_PLAN_KIND, Plan, a_kind
@@ -60,12 +59,10 @@ from qmt_drake.planners.optimum import plan_family_optimum
 from qmt_drake.planners.spatial_methods import ALIASES as SPATIAL_ALIASES
 from qmt_drake.planners.spatial_methods import METHODS as SPATIAL_METHODS
 from qmt_drake.planners.spatial_methods import PLANNERS as SPATIAL_PLANNERS
-from qmt_drake.planners.spatial_trajectory import TimeScaled
-from qmt_drake.sim.diagram import TransferDiagram
+from qmt_drake.sim.cosim import CoSim, build_cosim, run
 from qmt_drake.sim.spatial_actuation import check_drive
-from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.sim.spatial_cosim import check_spatial_time_step
 from qmt_drake.spatial_task import SPATIAL_KIND, SpatialScenario, load_spatial_scenario
-from qmt_drake.tray.cosim import TrayDiagram
 
 AnyScenario = Scenario | SpatialScenario | Experiment
 
@@ -235,7 +232,8 @@ def _check_run_args(scenario: AnyScenario, plan: Plan, time_scale: Any, time_ste
         _priced(check_replay_budget, scenario, time_scale, time_step_s, motion_time_s=plan.motion_time_s,
                 allow_large=allow_large)
     elif isinstance(scenario, SpatialScenario):
-        _priced(check_budget, replay_estimate(time_scale, plan.motion_time_s, cost=SPATIAL_REPLAY), allow_large=allow_large)
+        _priced(check_budget, replay_estimate(time_scale, plan.motion_time_s, time_step_s, cost=SPATIAL_REPLAY),
+                allow_large=allow_large)
 
 
 @C.strict_call
@@ -273,12 +271,14 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
         if actuator is not None:
             raise QmtInputError(f"simulate: actuator: the planar scenario {scenario.name} takes its actuator from its "
                                 "YAML actuator section; drop actuator")
-        result = run_simulate(scenario, plan, time_scale=time_scale, record_path=record_path,
-                              time_step_s=time_step_s, implicit_loop_damping=None, feedforward=feedforward or "none")
+        result = run(build_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
+                                 time_step_s=time_step_s, implicit_loop_damping=None,
+                                 feedforward=feedforward or "none"))
         return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale, time_step_s=time_step_s,
                            feedforward=feedforward or "none")
     spatial = plan.scenario_kind == SPATIAL_PLAN_KIND
-    for name, given in (("time_step_s", time_step_s is not None), ("feedforward", feedforward is not None and not spatial),
+    for name, given in (("time_step_s", time_step_s is not None and not spatial),
+                        ("feedforward", feedforward is not None and not spatial),
                         ("actuator", actuator is not None and not spatial),
                         ("time_scale", plan.scenario_kind == ENERGY_PLAN_KIND and time_scale != 1.0)):
         if given:
@@ -286,32 +286,49 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
                                 f"does not take it; drop {name}")
     if spatial:
         actuator, feedforward = actuator or "ideal", feedforward or "full"
-        traj = plan.trajectory if time_scale == 1.0 else TimeScaled(plan.trajectory, time_scale)
-        result = simulate_spatial(scenario, traj, record_path=record_path, actuator=actuator, feedforward=feedforward)
-        return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale)
-    return with_margin(scenario, plan, execute_plan(plan, record_path=record_path), expensive=margin)
+        check_spatial_time_step(time_step_s)
+        result = run(build_cosim(scenario, plan, time_scale=time_scale, record_path=record_path, actuator=actuator,
+                                 feedforward=feedforward, time_step_s=time_step_s))
+        return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale,
+                           spatial_kw={"actuator": actuator, "feedforward": feedforward, "time_step_s": time_step_s})
+    return with_margin(scenario, plan, run(build_cosim(scenario, plan, record_path=record_path)), expensive=margin)
 
 
 @C.strict_call
 def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
-                  meshcat: Meshcat | None = None, allow_large: bool = False,
-                  **options: Any) -> TransferDiagram | TrayDiagram:
-    """The co-simulation Diagram of `plan` on `scenario`, ready to run: td.diagram (a Drake Diagram
-    whose default context starts at the plan's start with the part seated), td.plant, and the
-    exported ports and loggers its docstring lists. Magnet scenarios: sim.build_transfer_diagram
-    (options: its keywords, e.g. inverse_dynamics_feedforward=True, coil_current_A); tray
-    scenarios: tray.cosim.build_tray_diagram with the plan streamed to the servos every servo
-    period. time_scale and time_step_s [s] as in `simulate` (checked the same way, the replay
-    priced); meshcat: a pydrake Meshcat to draw in.
-    Transfer scenarios only (spatial and energy-time ones run through `simulate`)."""
+                  meshcat: Meshcat | None = None, allow_large: bool = False, **options: Any) -> CoSim:
+    """The co-simulation of `plan` on `scenario`, built and not run: a CoSim (qmt_drake/sim/cosim.py) whose
+    .diagram is a Drake Diagram to compose in your own DiagramBuilder or run with your own Simulator,
+    .plant its MultibodyPlant, .ports and .loggers its named signals; `qmt_drake.sim.cosim.run(cosim)` runs
+    it as `simulate` does. Magnet scenarios: sim.build_transfer_diagram (options: its keywords, e.g.
+    inverse_dynamics_feedforward=True, coil_current_A; the CoSim answers the TransferDiagram's attributes,
+    cosim.t_final_s, cosim.summary(context)); tray scenarios: tray.cosim.build_tray_diagram with the plan
+    streamed to the servos every servo period; spatial scenarios (options: actuator, feedforward as in
+    `simulate`): the arm, its hand and drive with the ports desired_state, arm_state, body_poses and the
+    part's (part_state, or cup_state on a tray) exported, the default context at the plan's start with the
+    part seated (on your own Simulator the weld holds: its release at the first step past the hand's limit
+    is run's, from cosim.monitor's logs); energy-time scenarios: the vertical arm's diagram (no option).
+    time_scale and time_step_s [s] as in `simulate` (checked the same way, the replay priced); meshcat: a
+    pydrake Meshcat to draw in (planar scenarios)."""
     scenario = _scenario_arg(scenario, "build_diagram")
-    if not isinstance(scenario, Scenario):
-        kind = scenario_kind_of(scenario)
-        raise QmtInputError(f"build_diagram composes transfer scenarios; {scenario.name} is {a_kind(kind)} one: "
-                            "run it with simulate(scenario, plan)")
     _check_run_args(scenario, plan, time_scale, time_step_s, None, allow_large, "build_diagram")
     if meshcat is not None and not isinstance(meshcat, Meshcat):
         raise QmtInputError(f"build_diagram: meshcat {show(meshcat)} must be a pydrake Meshcat (or None)")
+    if not isinstance(scenario, Scenario):
+        if meshcat is not None:
+            raise QmtInputError(f"build_diagram: meshcat: the {KIND_WORDS[scenario_kind_of(scenario)]} co-simulation "
+                                "draws only into its own recording; record with simulate(..., record_path=PATH)")
+        if isinstance(scenario, SpatialScenario):
+            unknown = sorted(set(options) - {"actuator", "feedforward"})
+            if unknown:
+                raise QmtInputError(f"build_diagram option {unknown[0]}: the spatial co-simulation takes actuator "
+                                    "and feedforward")
+            check_drive(scenario, options.get("actuator") or "ideal", options.get("feedforward") or "full")
+            check_spatial_time_step(time_step_s)
+            return build_cosim(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, export=True, **options)
+        if options:
+            raise QmtInputError(f"build_diagram option {sorted(options)[0]}: the energy-time co-simulation takes none")
+        return build_cosim(scenario, plan, time_scale=time_scale, time_step_s=time_step_s)
     C.check_options(hand_plugin(scenario).build_diagram, options, "build_diagram option",
                     f"the {hand_plugin(scenario).kind} hand's diagram",
                     skip=("scenario", "plan", "time_scale", "time_step_s", "meshcat"))

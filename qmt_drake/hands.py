@@ -33,24 +33,34 @@ from qmt_drake.config.scenario import (
     tray_moment_limit,
 )
 from qmt_drake.config.validate import parse_magnet_hand, parse_tray_hand
+from qmt_drake.energy.execute import build_plan_execution_cosim
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits import PayloadMomentTerm
 from qmt_drake.outcome import verdict_line
 from qmt_drake.plan import Motion, Plan
 from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.sim.actuation import FEEDFORWARD_OPTIONS
+from qmt_drake.sim.cosim_run import CoSim
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
-from qmt_drake.sim.runner import check_simulation_inputs, run_transfer_simulate, simulate_transfer
+from qmt_drake.sim.runner import (
+    check_simulation_inputs,
+    plan_transfer_cosim,
+    run_transfer_simulate,
+    simulate_transfer,
+    transfer_simulate_cosim,
+)
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.conditions import level_tray_acceleration_cap_m_s2
-from qmt_drake.tray.cosim import TrayDiagram, build_tray_diagram
+from qmt_drake.tray.cosim import TrayDiagram, build_tray_diagram, tray_cosim
 from qmt_drake.tray.execute import (
     TRAY_CASE_PARAMETERS,
+    build_tray_plan_cosim,
     check_tray_simulation,
     drawn_bottle_overrides,
     plan_schedule,
     simulate_tray_plan,
+    tray_plan_summary,
 )
 from qmt_drake.tray.limit_terms import tray_terms
 
@@ -67,8 +77,9 @@ class HandPlugin:
     hand; bottle(scenario) -> the BottleSpec of a hand that carries one (None: no bottle).
 
     The co-simulation: simulate(scenario, plan, **options) -> the summary (the CLI's JSON), in which
-    lost_at_key names the time the payload was lost [s]; build_diagram(scenario, plan, **options) ->
-    the diagram; check_simulation(scenario, *, time_step_s, implicit_loop_damping, feedforward) refuses
+    lost_at_key names the time the payload was lost [s]; build_cosim(scenario, plan, **options) -> the
+    CoSim that simulate runs (sim/cosim_run.run; simulate's options); build_diagram(scenario, plan,
+    **options) -> the diagram; check_simulation(scenario, *, time_step_s, implicit_loop_damping, feedforward) refuses
     (one line) what it cannot simulate, before any planning; carried_check(scenario, plan, *,
     time_scale, feedforward, time_step_s) -> {held, outcome, max_slip_m, detached_at_s, max_tilt_rad,
     sim_wall_s} of one nominal run (the carried search); replay_cost: its budgets.ReplayCost.
@@ -111,6 +122,7 @@ class HandPlugin:
     case_parameters: frozenset | None = None
     case_overrides: Callable | None = None
     case_refused: frozenset = frozenset()
+    build_cosim: Callable[..., CoSim] | None = None
 
 
 def register_hand(plugin: HandPlugin, *, replace: bool = False) -> None:
@@ -136,9 +148,27 @@ def run_simulate(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, r
                                           feedforward=feedforward)
 
 
-def build_diagram(scenario: Scenario, plan: Motion, **options: Any) -> TransferDiagram | TrayDiagram:
-    """The co-simulation Diagram through the hand's plug-in (api.build_diagram documents it)."""
-    return hand_plugin(scenario).build_diagram(scenario, plan, **options)
+def build_diagram(scenario: Scenario, plan: Motion, **options: Any) -> CoSim:
+    """The co-simulation Diagram through the hand's plug-in (api.build_diagram documents it), as a CoSim
+    that sim/cosim_run.run runs (or user code composes: cosim.diagram)."""
+    made = hand_plugin(scenario).build_diagram(scenario, plan, **options)
+    time_scale = float(options.get("time_scale", 1.0))
+    if isinstance(made, TransferDiagram):
+        return plan_transfer_cosim(scenario, plan, made, time_scale)
+    if isinstance(made, TrayDiagram):
+        return tray_cosim(made, keep_series=False, summarize=lambda r: tray_plan_summary(plan, r, time_scale))
+    return made
+
+
+def energy_cosim(plan: Any, *, record_path: str | Path | None = None, time_scale: float = 1.0,
+                 time_step_s: float | None = None, feedforward: str | None = None) -> CoSim:
+    """The energy-time arm's co-simulation of `plan` (energy/execute.build_plan_execution_cosim): an
+    ideal inverse-dynamics drive on a continuous plant (no plant step), played as planned."""
+    for name, given in (("time_scale", time_scale != 1.0), ("time_step_s", time_step_s is not None),
+                        ("feedforward", feedforward not in (None, "full"))):
+        if given:  # its error-controlled integrator has no step; its controller's feedforward is always on
+            raise QmtInputError(f"{name}: the energy-time co-simulation does not take it; drop {name}")
+    return build_plan_execution_cosim(plan, record_path)
 
 
 # ------------------------------------------------------------------------------------- magnet
@@ -163,6 +193,7 @@ def _magnet_simulate_text(r: dict) -> str:
 
 register_hand(HandPlugin(
     kind="magnet",
+    build_cosim=transfer_simulate_cosim,
     parse=parse_magnet_hand,
     moment_limit=magnet_moment_limit,
     limit_terms=lambda sc, arm: [PayloadMomentTerm(arm, sc.moment_per_accel_kgm, sc.limits.moment_limit_Nm)],
@@ -189,6 +220,15 @@ def _simulate_tray(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0,
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
     return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path, time_step_s=time_step_s,
                               physical=physical, servo_delay_s=servo_delay_s)
+
+
+def _tray_cosim(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0,
+                record_path: str | Path | None = None, time_step_s: float | None = None,
+                implicit_loop_damping: bool | None = None, feedforward: str = "none",
+                physical: Scenario | None = None, servo_delay_s: float = 0.0) -> CoSim:
+    check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
+    return build_tray_plan_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
+                                 time_step_s=time_step_s, physical=physical, servo_delay_s=servo_delay_s)
 
 
 def _check_tray_simulation(scenario: Scenario, *, time_step_s: float | None = None,
@@ -238,6 +278,7 @@ def _tray_simulate_text(r: dict) -> str:
 
 register_hand(HandPlugin(
     kind="tray",
+    build_cosim=_tray_cosim,
     parse=parse_tray_hand,
     check_payload=check_tray_payload,
     moment_limit=tray_moment_limit,

@@ -70,8 +70,8 @@ def spatial_run(sc, trajectory, **simulate_kw):
     margin.expensive_margin (time_step_s None: the module's 1 ms)."""
     def run(time_scale: float, time_step_s: float | None) -> dict:
         traj = trajectory if time_scale == 1.0 else TimeScaled(trajectory, time_scale)
-        with spatial_plant_settings(time_step_s):
-            r = spatial_cosim.simulate_spatial(sc, traj, **simulate_kw)
+        kw = {**simulate_kw, "time_step_s": simulate_kw.get("time_step_s") if time_step_s is None else time_step_s}
+        r = spatial_cosim.simulate_spatial(sc, traj, **kw)
         r["margin"] = spatial_margin(sc, r)
         return r
     return run
@@ -105,7 +105,8 @@ def with_margin(scenario, plan, summary: dict, *, expensive: bool = False, time_
             "is what it optimises)")
         return summary
     if kind == SPATIAL_PLAN_KIND:
-        run, h = spatial_run(scenario, plan.trajectory, **(spatial_kw or {})), spatial_cosim.TIME_STEP_S
+        run = spatial_run(scenario, plan.trajectory, **(spatial_kw or {}))
+        h = (spatial_kw or {}).get("time_step_s") or spatial_cosim.TIME_STEP_S
     else:
         run, h = transfer_run(scenario, plan, time_step_s=time_step_s, feedforward=feedforward), summary["time_step_s"]
     summary["margin"].update(expensive_margin(run, summary, h, time_scale=time_scale, progress=progress))

@@ -65,7 +65,7 @@ def build_floor(sc, traj):
     b.AddSystem(plant)
     if tray:
         scene_graph = b.AddSystem(SceneGraph())
-        tray_body, cup, _ = S._add_tray_and_cup(plant, scene_graph, H, sc)
+        tray_body, cup, _ = S.add_tray_and_cup(plant, scene_graph, H, sc)
     else:
         m = sc.body
         M = SpatialInertia.MakeFromCentralInertia(m.mass_kg, np.asarray(m.com_m, float),

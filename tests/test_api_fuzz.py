@@ -217,7 +217,8 @@ def gen_simulate(rng, w):
 
 def gen_build_diagram(rng, w):
     out = _run_calls(rng, w, build_diagram, "build_diagram")
-    return out + [("type: build_diagram(spatial)", lambda: build_diagram(w["sp"], w["sp_plan"]))]
+    return out + [("keyword: build_diagram(spatial, coil_current_A)",  # a magnet-hand keyword on a spatial arm
+                   lambda: build_diagram(w["sp"], w["sp_plan"], coil_current_A=1.0))]
 
 
 def gen_load_plan(rng, w):

@@ -190,6 +190,7 @@ def planar_plan(tmp_path_factory):
     (["simulate", SC, "--plan", "{spatial}", "--actuator", "stepper"], "invalid choice: 'stepper'"),
     (["simulate", SC, "--plan", "{spatial}", "--feedforward", "none"], "applies to actuator dc_motor"),
     (["simulate", SC, "--plan", "{spatial}", "--explicit"], "--explicit: not for spatial scenario"),
+    (["simulate", SC, "--plan", "{spatial}", "--time-step-ms", "20"], "takes a plant step in (0, 5] ms"),
     (["simulate", "thesis-ch4", "--plan", "{planar}", "--actuator", "dc_motor"], "--actuator: for spatial scenarios"),
     (["simulate", "ohsaka-fig3", "--actuator", "ideal"], "--actuator is an option of the transfer co-simulation"),
 ])

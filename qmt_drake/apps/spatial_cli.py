@@ -56,7 +56,7 @@ from qmt_drake.planners.spatial_methods import ALIASES, FAMILY_METHODS, METHODS,
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_actuation import check_drive
-from qmt_drake.sim.spatial_cosim import TAIL_S, simulate_spatial
+from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
 from qmt_drake.sweep.robust import plan_for_success, success_spec
 
@@ -65,11 +65,16 @@ SPATIAL_FAMILIES = FAMILIES
 GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
 # plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
 PLAN_REFUSED = (("checkpoint", None), ("carried_feedforward", "full"))
-SIMULATE_REFUSED = (("time_step_ms", None), ("explicit", False))
+SIMULATE_REFUSED = (("explicit", False),)
 NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "carried_feedforward": "the spatial co-simulation's controller "
                    "is Drake's inverse dynamics (feedforward always on)",
-                   "time_step_ms": "the spatial co-simulation steps at 1 ms", "explicit": "the spatial "
-                   "co-simulation steps its motor loop's damping implicitly"}
+                   # physics: the ideal drive is torque sources under Drake's inverse-dynamics controller, with
+                   # no motor loop; the dc_motor drive's back-EMF and PD damping act on the joints as
+                   # physical damping, which the plant integrates with the joints' own (its loop has no
+                   # explicit electrical state to step on its own)
+                   "explicit": "the spatial drives have no separate motor loop to step explicitly: the ideal "
+                   "drive is torque sources, the dc_motor drive's back-EMF and PD damping are joint damping the "
+                   "plant integrates"}
 
 
 def is_spatial_scenario(name_or_path) -> bool:
@@ -262,6 +267,8 @@ def simulate(args, energy_options=()) -> int:
     actuator = args.actuator or "ideal"
     feedforward = args.feedforward or "full"
     check_drive(sc, actuator, feedforward)  # refusals (no motor constants, ...) before planning
+    check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
+    h = None if args.time_step_ms is None else check_spatial_time_step(args.time_step_ms * 1e-3)
     if args.plan:
         if args.seed != 0:
             raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")
@@ -270,17 +277,17 @@ def simulate(args, energy_options=()) -> int:
         method = _method(args)
         opts = _planner_options(args, method)
         p = _plan(args, sc, method, opts)
-    est = replace(replay_estimate(args.time_scale, p.duration_s, cost=SPATIAL_REPLAY),  # its step is fixed
-                  fix="use a time scale near 1 (the shipped plans are carried at 1-1.5)")
+    est = replace(replay_estimate(args.time_scale, p.duration_s, h, cost=SPATIAL_REPLAY),  # at its plant step
+                  fix="use a time scale near 1 (the shipped plans are carried at 1-1.5) and the default 1 ms step")
     est = check_budget(est, allow_large=args.allow_large)
     if not args.quiet:
         announce(est)
     traj = p.trajectory if args.time_scale == 1.0 else TimeScaled(p.trajectory, args.time_scale)
     t0 = time.perf_counter()
-    r = simulate_spatial(sc, traj, record_path=args.record, actuator=actuator, feedforward=feedforward)
+    r = simulate_spatial(sc, traj, record_path=args.record, actuator=actuator, feedforward=feedforward, time_step_s=h)
     wall = time.perf_counter() - t0
     r = with_margin(sc, p, r, expensive=bool(getattr(args, "margin", False)), time_scale=args.time_scale,
-                    spatial_kw={"actuator": actuator, "feedforward": feedforward},
+                    spatial_kw={"actuator": actuator, "feedforward": feedforward, "time_step_s": h},
                     progress=None if args.quiet else progress)
     emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
                         **r, "wall_s": wall}), args.json)

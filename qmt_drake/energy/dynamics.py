@@ -27,13 +27,12 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JointIndex, MultibodyForces, MultibodyForces_
 
 from qmt_drake.config.scenario import MODELS_DIR  # noqa: E402
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2  # the one value
-from qmt_drake.model.arm import ArmModel
+from qmt_drake.model.arm import ArmModel, add_urdf
 
 OHSAKA_URDF = MODELS_DIR / "three_link_vertical_ohsaka.urdf"
 # Drake's default gravity (UniformGravityFieldElement); the paper does not print its g.
@@ -102,7 +101,7 @@ class VerticalArm:
 def make_plant(urdf: str):
     """A finalized continuous MultibodyPlant of the URDF (gravity -z, Drake's default)."""
     plant = MultibodyPlant(0.0)
-    Parser(plant).AddModels(urdf)
+    add_urdf(plant, urdf)
     plant.Finalize()
     return plant
 

@@ -24,19 +24,20 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
+from pydrake.systems.primitives import LogVectorOutput, MatrixGain, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
 from qmt_drake.errors import QmtInputError
+from qmt_drake.model.actuator_order import joint_to_actuation_matrix
+from qmt_drake.model.arm import add_urdf
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.plan import ENERGY_PLAN_KIND
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
+from qmt_drake.sim.cosim_run import CoSim, run
 
 
 @dataclass
@@ -69,18 +70,19 @@ class Execution:
                 "recording": str(self.recording) if self.recording else None}
 
 
-def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: float = 1.0,
-            recording_path: str | Path | None = None, initial_error_rad=None,
-            urdf: str | Path = OHSAKA_URDF) -> Execution:
-
+def build_execution_cosim(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: float = 1.0,
+                          recording_path: str | Path | None = None, initial_error_rad=None,
+                          urdf: str | Path = OHSAKA_URDF, summarize=None) -> CoSim:
+    """The diagram of the module docstring as a CoSim (cosim_run.run); its result an Execution
+    (summarised by Execution.summary, or `summarize`)."""
     T = float(family.unpack(x)[2])
     n = family.n
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
-    Parser(plant).AddModels(str(urdf))
+    arm = add_urdf(plant, urdf)
     plant.Finalize()
     ctrl_plant = MultibodyPlant(0.0)
-    Parser(ctrl_plant).AddModels(str(urdf))
+    add_urdf(ctrl_plant, urdf)
     ctrl_plant.Finalize()
 
     t = np.linspace(0.0, T, int(np.ceil(T * 5000)) + 1)
@@ -100,7 +102,7 @@ def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: floa
     builder.Connect(plant.get_state_output_port(), ctl.get_input_port_estimated_state())
     builder.Connect(xs.get_output_port(), ctl.get_input_port_desired_state())
     builder.Connect(acc.get_output_port(), ctl.get_input_port_desired_acceleration())
-    builder.Connect(ctl.get_output_port_control(), plant.get_actuation_input_port())
+    _connect_by_name(builder, plant, arm, ctl.get_output_port_control())
     log_x = LogVectorOutput(plant.get_state_output_port(), builder, 5e-4)
     log_u = LogVectorOutput(ctl.get_output_port_control(), builder, 5e-4)
     log_d = LogVectorOutput(xs.get_output_port(), builder, 5e-4)
@@ -111,38 +113,57 @@ def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: floa
         meshcat.SetCameraPose(np.array([0.0, -2.2, 0.2]), np.array([0.0, 0.0, 0.0]))
         vis = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
-    sim = Simulator(diagram)
-    ctx = sim.get_mutable_context()
-    pctx = plant.GetMyMutableContextFromRoot(ctx)
-    q0 = q[0] + (0 if initial_error_rad is None else np.asarray(initial_error_rad))
-    plant.SetPositions(pctx, q0)
-    plant.SetVelocities(pctx, np.zeros(n))
-    sim.get_mutable_integrator().set_target_accuracy(1e-6)
-    sim.Initialize()
-    if vis is not None:
-        start_recording(vis)
-    sim.AdvanceTo(T + settle_s)
-    rec = None
-    if vis is not None:
-        rec = save_recording(vis, meshcat, recording_path)
-    X = log_x.FindLog(ctx).data().T
-    U = log_u.FindLog(ctx).data().T
-    Dd = log_d.FindLog(ctx).data().T
-    ts = log_x.FindLog(ctx).sample_times()
-    qp, qdp, qddp = family.sample(x, ts)
-    tau_plan = inverse_dynamics_with_gravity(qp, qdp, qddp, derivatives=False)
-    return Execution(ts, X[:, :n], Dd[:, :n], U, tau_plan, T, rec)
+
+    def start(sim) -> None:
+        pctx = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
+        plant.SetPositions(pctx, q[0] + (0 if initial_error_rad is None else np.asarray(initial_error_rad)))
+        plant.SetVelocities(pctx, np.zeros(n))
+        sim.get_mutable_integrator().set_target_accuracy(1e-6)
+        sim.Initialize()
+        if vis is not None:
+            start_recording(vis)
+
+    def finish(sim, wall) -> Execution:
+        ctx = sim.get_context()
+        rec = None if vis is None else save_recording(vis, meshcat, recording_path)
+        X = log_x.FindLog(ctx).data().T
+        U = log_u.FindLog(ctx).data().T
+        Dd = log_d.FindLog(ctx).data().T
+        ts = log_x.FindLog(ctx).sample_times()
+        qp, qdp, qddp = family.sample(x, ts)
+        tau_plan = inverse_dynamics_with_gravity(qp, qdp, qddp, derivatives=False)
+        return Execution(ts, X[:, :n], Dd[:, :n], U, tau_plan, T, rec)
+
+    return CoSim("energy_time", diagram, plant, start, lambda sim: sim.AdvanceTo(T + settle_s), finish,
+                 summarize or (lambda ex: ex.summary()), monitor=None,
+                 ports={"desired_state": xs.get_output_port(), "arm_state": plant.get_state_output_port(),
+                        "joint_torque": ctl.get_output_port_control()},
+                 loggers={"arm_state": log_x, "joint_torque": log_u, "desired_state": log_d})
 
 
-def execute_plan(plan, record_path: str | Path | None = None) -> dict:
-    """`plan` (an energy-time Plan) executed by `execute`: its summary with the scenario, the method, the
-    motion time [s], whether the arm reached the goal (outcome.py's arrival tolerance [rad]) and the
-    outcome word: seed 001 carries nothing that can be lost, so it is carried (goal reached) or
-    unfinished. Another kind's plan: QmtInputError."""
-    if getattr(plan, "scenario_kind", None) != ENERGY_PLAN_KIND or plan.problem is None:
-        raise QmtInputError(f"a {getattr(plan, 'scenario_kind', type(plan).__name__)} plan cannot run in the "
-                            "energy-time execution; plan this energy-time scenario first")
-    summary = execute(plan.problem.family, plan.x, recording_path=record_path).summary()
+def _connect_by_name(builder, plant, arm, torque_port) -> None:
+    """The controller's generalized forces (the plant's velocity order, one per joint) into the actuators
+    by their joints' names (model/actuator_order); the plant's own actuation port when the orders agree
+    (the arm is the plant's only actuated instance)."""
+    joints = [plant.get_joint(j).name() for j in plant.GetJointIndices(arm) if plant.get_joint(j).num_velocities()]
+    P = joint_to_actuation_matrix(plant, arm, joints)
+    if P.shape[0] != P.shape[1] or not np.array_equal(P, np.eye(len(joints))):
+        gain = builder.AddNamedSystem("joint_torque_to_actuators", MatrixGain(P))
+        builder.Connect(torque_port, gain.get_input_port())
+        torque_port = gain.get_output_port()
+    builder.Connect(torque_port, plant.get_actuation_input_port())
+
+
+def execute(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: float = 1.0,
+            recording_path: str | Path | None = None, initial_error_rad=None,
+            urdf: str | Path = OHSAKA_URDF) -> Execution:
+    """Run family(x) on the co-simulation (build_execution_cosim, the one run); its Execution."""
+    cosim = build_execution_cosim(family, x, settle_s, wn_rad_s, zeta, recording_path, initial_error_rad, urdf)
+    run(cosim)
+    return cosim.result
+
+
+def _plan_summary(plan, summary: dict) -> dict:
     # the one outcome vocabulary: nothing can be lost (the tip mass is welded), so carried = reached the goal
     outcome = transfer_outcome(None, False, summary["final_error_rad"], ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
     summary.update(scenario=plan.scenario.name, method=plan.method, motion_time_s=plan.motion_time_s,
@@ -150,6 +171,23 @@ def execute_plan(plan, record_path: str | Path | None = None) -> dict:
                    reached_goal=bool(summary["final_error_rad"] <= ARRIVAL_TOLERANCE_DC_MOTOR_RAD),
                    arrival_tolerance_rad=ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
     return summary
+
+
+def build_plan_execution_cosim(plan, record_path: str | Path | None = None) -> CoSim:
+    """`plan` (an energy-time Plan) as a CoSim: its summary is Execution.summary with the scenario, the method,
+    the motion time [s], whether the arm reached the goal (outcome.py's arrival tolerance [rad]) and the
+    outcome word: seed 001 carries nothing that can be lost, so it is carried (goal reached) or
+    unfinished. Another kind's plan: QmtInputError."""
+    if getattr(plan, "scenario_kind", None) != ENERGY_PLAN_KIND or plan.problem is None:
+        raise QmtInputError(f"a {getattr(plan, 'scenario_kind', type(plan).__name__)} plan cannot run in the "
+                            "energy-time execution; plan this energy-time scenario first")
+    return build_execution_cosim(plan.problem.family, plan.x, recording_path=record_path,
+                                 summarize=lambda ex: _plan_summary(plan, ex.summary()))
+
+
+def execute_plan(plan, record_path: str | Path | None = None) -> dict:
+    """`plan` executed by build_plan_execution_cosim and the one run: its summary dict."""
+    return run(build_plan_execution_cosim(plan, record_path))
 
 
 def plot_execution(ex: Execution, path, title: str = "") -> None:

@@ -226,17 +226,28 @@ class ArmModel:
         return p @ self.planar.plane_axes if self.planar is not None else p
 
 
-def add_arm(plant, urdf_path):
-    """Parse the arm's URDF into `plant` (the one plant builder: the planning plant here, the
-    co-simulation's discrete plant in sim/plant.py); returns its model instance. A file Drake
-    cannot parse is one QmtInputError line."""
-    path = Path(urdf_path)
-    if not path.is_file():
-        raise QmtInputError(f"URDF file not found: {path}; check arm.urdf in the scenario")
+def add_urdf(plant, urdf, *, source: str | None = None):
+    """Parse a URDF into `plant` (the one place the project parses a URDF into a plant: the planning,
+    co-simulation, controller, check and recording plants); returns its model instance. urdf: a file
+    path, or the URDF's text (a str starting with '<'); source: how an error names it (default the path,
+    or "URDF text"). A missing file or a file Drake cannot parse is one QmtInputError line."""
+    is_text = isinstance(urdf, str) and urdf.lstrip().startswith("<")
+    if not is_text and not Path(urdf).is_file():
+        raise QmtInputError(f"URDF file not found: {urdf}; check arm.urdf in the scenario")
+    name = source or ("URDF text" if is_text else str(urdf))
     try:
-        model = Parser(plant).AddModels(str(path))[0]
+        parser = Parser(plant)
+        models = parser.AddModelsFromString(urdf, "urdf") if is_text else parser.AddModels(str(urdf))
     except RuntimeError as exc:
-        raise QmtInputError(f"{path}: Drake cannot parse this URDF ({_first_line(exc)})") from None
+        raise QmtInputError(f"{name}: Drake cannot parse this URDF ({_first_line(exc)}); fix the URDF") from None
+    return models[0]
+
+
+def add_arm(plant, urdf_path):
+    """Parse the arm's URDF into `plant` (add_urdf: the planning plant here, the co-simulation's
+    discrete plant in sim/plant.py) and refuse actuators out of joint order; returns its model instance."""
+    path = Path(urdf_path)
+    model = add_urdf(plant, path)
     _refuse_actuators_out_of_joint_order(plant, model, path)
     return model
 

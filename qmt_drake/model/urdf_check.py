@@ -33,12 +33,12 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import actuator_joint_names, actuator_specs, add_actuators_in_order
+from qmt_drake.model.arm import add_urdf
 from qmt_drake.model.urdf_package import EXAMPLE_ARMS, example_robot_urdf  # noqa: F401 (re-exported)
 
 DRAKE_NS = "http://drake.mit.edu"
@@ -309,12 +309,7 @@ def load_arm_plant(urdf: str | Path, hand_frame: str, *, lock_joints=(), carried
 
 def _parse(root: ET.Element, time_step_s: float, source: str):
     plant = MultibodyPlant(time_step_s)
-    try:
-        model = Parser(plant).AddModelsFromString(ET.tostring(root, encoding="unicode"), "urdf")[0]
-    except RuntimeError as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise QmtInputError(f"{source}: Drake cannot parse it ({msg}); fix the URDF") from None
-    return plant, model
+    return plant, add_urdf(plant, ET.tostring(root, encoding="unicode"), source=source)
 
 
 def drive_parameters(urdf: str | Path, joint_names, *, gear_ratio=None, rotor_inertia_kgm2=None,

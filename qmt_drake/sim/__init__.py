@@ -10,6 +10,7 @@
     diagram.py      build_transfer_diagram -> TransferDiagram (default context ready to simulate)
     runner.py       run_diagram, simulate_transfer -> TransferResult, run_transfer_simulate (JSON summary)
     posthoc.py      the monitor's summary from per-step C++ logs after the run (step_logs=True)
+    cosim.py        build_cosim(scenario, plan) -> CoSim for every kind, and run (cosim_run.py: the one Simulator)
 
 The names below are re-exported so user code can `from qmt_drake.sim import ...`.
 """

@@ -5,11 +5,9 @@ from __future__ import annotations
 
 import gc
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.margin import criterion, verdict_margin
@@ -21,6 +19,7 @@ from qmt_drake.sim.actuation import (
     default_time_step_s,
     explicit_step_known_unstable,
 )
+from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
 from qmt_drake.sim.magnet_actuation import magnet_actuation_of
 from qmt_drake.sim.magnet_hand import magnet_hand_of
@@ -108,46 +107,58 @@ def planned_peak_motor_torque_Nm(scenario, plan, time_scale: float = 1.0, rate_h
     return np.max(np.abs(tau), axis=0)
 
 
+def transfer_cosim(td: TransferDiagram, *, chunk_s: float = 0.25, max_tracking_error_rad: float = 0.5,
+                   on_start=None, finish=None, summarize=None) -> CoSim:
+    """`td` as a CoSim for cosim_run.run: from the diagram's default context (the plan's start, payload
+    seated) to td.t_final_s. The run raises QmtSimulationError naming the failure time when the state
+    becomes non-finite, Drake's solver fails, or the arm leaves its reference by more than
+    max_tracking_error_rad (an unstable loop: the voltage limit keeps the state finite, so this is how
+    divergence shows). After it td.run_summary holds the monitor's summary and td.final_goal_error_rad
+    the arm's end against the goal. finish(sim, wall_s) / summarize(result): the caller's result
+    (default: (monitor summary, wall seconds), summarised as TransferMonitor.unpack's dict)."""
+    def start(sim) -> None:
+        ctx = sim.get_mutable_context()
+        if td.monitor is None:  # no Python monitor in the diagram to check the seated start at Initialize
+            check_seated(*(float(td.diagram.GetOutputPort(k).Eval(ctx)[0]) for k in ("slip", "tilt", "gap")),
+                         ctx.get_time())
+        sim.Initialize()
+        if on_start is not None:
+            on_start(sim)
+
+    def advance(sim) -> None:
+        ctx = sim.get_mutable_context()
+        plant_ctx = td.plant.GetMyContextFromRoot(ctx)
+        ref = td.diagram.GetOutputPort("desired_state")
+        n = len(td.q_start)
+        # The Python systems allocate small arrays every step; the cyclic collector would otherwise
+        # run thousands of times per simulated second for nothing (the arrays form no cycles).
+        gc_was_enabled = gc.isenabled()
+        gc.disable()
+        td.simulator = sim
+        try:
+            _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad)
+            td.run_summary = np.asarray(td.summary(ctx))  # with per-step logs: computed here, part of the run's cost
+            # Where the arm ended against the goal (the reference holds the plan's end state here).
+            td.final_goal_error_rad = float(np.max(np.abs(
+                ref.Eval(ctx)[:n] - td.plant.GetPositions(plant_ctx, td.arm_instance))))
+        finally:
+            if gc_was_enabled:
+                gc.enable()
+
+    exports = {td.diagram.get_output_port(i).get_name(): td.diagram.get_output_port(i)
+               for i in range(td.diagram.num_output_ports())}
+    return CoSim("magnet", td.diagram, td.plant, start, advance,
+                 finish or (lambda sim, wall: (td.run_summary, wall)),
+                 summarize or (lambda result: TransferMonitor.unpack(result[0])),
+                 ports=exports, loggers=td.loggers, monitor=td.monitor, handles=td)
+
+
 def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.25, max_tracking_error_rad: float = 0.5,
                 on_start=None) -> tuple[np.ndarray, float]:
-    """Simulate from the diagram's default context (the plan's start, payload seated) to
-    td.t_final_s; returns (monitor summary, wall seconds). Raises QmtSimulationError naming the
-    failure time when the state becomes non-finite, Drake's solver fails, or the arm leaves its
-    reference by more than max_tracking_error_rad (an unstable loop: the voltage limit keeps the
-    state finite, so this is how divergence shows)."""
-    # Free the reference cycles of earlier diagrams (pydrake's port <-> system cycles) before this
-    # run allocates: left to the automatic collector they piled up in a long-lived process and
-    # slowed every later run by up to 50% (studies/bench_cosim_floor.py). The young generations
-    # hold them; collecting those costs ~1.5 ms.
-    gc.collect(1)
-    sim = Simulator(td.diagram)
-    ctx = sim.get_mutable_context()
-    if td.monitor is None:  # no Python monitor in the diagram to check the seated start at Initialize
-        check_seated(*(float(td.diagram.GetOutputPort(k).Eval(ctx)[0]) for k in ("slip", "tilt", "gap")),
-                     ctx.get_time())
-    sim.Initialize()
-    if on_start is not None:
-        on_start(sim)
-    plant_ctx = td.plant.GetMyContextFromRoot(ctx)
-    ref = td.diagram.GetOutputPort("desired_state")
-    n = len(td.q_start)
-    t_wall = time.perf_counter()
-    # The Python systems allocate small arrays every step; the cyclic collector would otherwise
-    # run thousands of times per simulated second for nothing (the arrays form no cycles).
-    gc_was_enabled = gc.isenabled()
-    gc.disable()
-    td.simulator = sim
-    try:
-        _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad)
-        summary = td.summary(ctx)  # with per-step logs: computed here, part of the run's cost
-        # Where the arm ended against the goal (the reference holds the plan's end state here).
-        td.final_goal_error_rad = float(np.max(np.abs(
-            ref.Eval(ctx)[:n] - td.plant.GetPositions(plant_ctx, td.arm_instance))))
-    finally:
-        if gc_was_enabled:
-            gc.enable()
-    wall = time.perf_counter() - t_wall
-    return np.asarray(summary), wall
+    """Simulate `td` (transfer_cosim, through the one run); returns (monitor summary, wall seconds)."""
+    cosim = transfer_cosim(td, chunk_s=chunk_s, max_tracking_error_rad=max_tracking_error_rad, on_start=on_start)
+    run(cosim)
+    return cosim.result
 
 
 def _advance(sim, td, ctx, plant_ctx, ref, n, chunk_s, max_tracking_error_rad) -> None:
@@ -182,9 +193,11 @@ def logged_series(td: TransferDiagram) -> dict:
     return out
 
 
-def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
-                      record_path=None, keep_series: bool = True, **build_kw) -> TransferResult:
-    """Build, run and summarise one transfer (see TransferResult)."""
+def build_transfer_cosim(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
+                         record_path=None, keep_series: bool = True, summary_extra: dict | None = None,
+                         **build_kw) -> CoSim:
+    """The magnet hand's co-simulation as a CoSim: build_transfer_diagram's closed loop, its result a
+    TransferResult (summarised by its summary_dict, plus summary_extra)."""
     meshcat = None
     if record_path is not None:
         meshcat = make_headless_meshcat()
@@ -194,10 +207,32 @@ def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: f
     on_start = None
     if meshcat is not None:
         on_start = lambda sim: start_recording(td.visualizer)  # noqa: E731
-    summary, wall = run_diagram(td, on_start=on_start)
-    if meshcat is not None:
-        save_recording(td.visualizer, meshcat, record_path)
-    return make_result(scenario, plan, td, summary, wall, time_scale, logged_series(td) if keep_series else {})
+
+    def finish(sim, wall) -> TransferResult:
+        if meshcat is not None:
+            save_recording(td.visualizer, meshcat, record_path)
+        return make_result(scenario, plan, td, td.run_summary, wall, time_scale,
+                           logged_series(td) if keep_series else {})
+
+    return transfer_cosim(td, on_start=on_start, finish=finish,
+                          summarize=lambda res: {**res.summary_dict(), **(summary_extra or {})})
+
+
+def plan_transfer_cosim(scenario, plan, td: TransferDiagram, time_scale: float = 1.0) -> CoSim:
+    """A built transfer diagram of `plan` (build_transfer_diagram) as a CoSim whose run gives
+    TransferResult.summary_dict (the one outcome vocabulary); no series kept."""
+    return transfer_cosim(td, finish=lambda sim, wall: make_result(scenario, plan, td, td.run_summary, wall,
+                                                                   time_scale, {}),
+                          summarize=lambda res: res.summary_dict())
+
+
+def simulate_transfer(scenario, plan, *, time_scale: float = 1.0, time_step_s: float | None = None,
+                      record_path=None, keep_series: bool = True, **build_kw) -> TransferResult:
+    """Build, run and summarise one transfer (see TransferResult)."""
+    cosim = build_transfer_cosim(scenario, plan, time_scale=time_scale, time_step_s=time_step_s,
+                                 record_path=record_path, keep_series=keep_series, **build_kw)
+    run(cosim)
+    return cosim.result
 
 
 def make_result(scenario, plan, td, summary, wall, time_scale, series) -> TransferResult:
@@ -248,18 +283,24 @@ def check_simulation_inputs(scenario, *, time_step_s: float | None = None,
     return kw
 
 
+def transfer_simulate_cosim(scenario, plan, time_scale: float = 1.0, record_path=None,
+                            time_step_s: float | None = None, implicit_loop_damping: bool | None = None,
+                            feedforward: str = "none") -> CoSim:
+    """The magnet hand's co-simulation as the CLI runs it (the plug-in's build_cosim): its summary is
+    TransferResult.summary_dict with the feedforward choice (and the recording's path). feedforward: a
+    FEEDFORWARD_OPTIONS key (the controller's feedforward terms). Refuses (one line) bad options, and
+    steps the loop is known unstable at, before building anything (`check_simulation_inputs`)."""
+    kw = check_simulation_inputs(scenario, time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
+                                 feedforward=feedforward)
+    extra = {"feedforward": feedforward, **({} if record_path is None else {"record_path": str(record_path)})}
+    return build_transfer_cosim(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,
+                                time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
+                                summary_extra=extra, **kw)
+
+
 def run_transfer_simulate(scenario, plan, time_scale: float = 1.0, record_path=None, time_step_s: float | None = None,
                           implicit_loop_damping: bool | None = None, feedforward: str = "none") -> dict:
     """The magnet hand's co-simulation as a JSON-ready dict (see TransferResult.summary_dict);
-    hands.run_simulate dispatches here. feedforward: a FEEDFORWARD_OPTIONS key (the controller's
-    feedforward terms). Refuses (one line) bad options, and steps the loop is known unstable at,
-    before building anything (`check_simulation_inputs`)."""
-    kw = check_simulation_inputs(scenario, time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping,
-                                 feedforward=feedforward)
-    res = simulate_transfer(scenario, plan, time_scale=time_scale, record_path=record_path, keep_series=False,
-                            time_step_s=time_step_s, implicit_loop_damping=implicit_loop_damping, **kw)
-    d = res.summary_dict()
-    d["feedforward"] = feedforward
-    if record_path is not None:
-        d["record_path"] = str(record_path)
-    return d
+    hands.run_simulate dispatches here (transfer_simulate_cosim, run)."""
+    return run(transfer_simulate_cosim(scenario, plan, time_scale, record_path, time_step_s, implicit_loop_damping,
+                                       feedforward))

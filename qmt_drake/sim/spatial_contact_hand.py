@@ -55,17 +55,14 @@ from pydrake.multibody.tree import (
     RotationalInertia,
     SpatialInertia,
 )
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, MatrixGain, TrajectorySource
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, MatrixGain
 
 from qmt_drake.catalog import THESIS_COILS
 from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.suction import SuctionTerm, cached_grip
-from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M, hold_lever_m
-from qmt_drake.sim.spatial_actuation import add_tracking_logs, tracking_report
-from qmt_drake.sim.spatial_hold import start_run
+from qmt_drake.sim.spatial_actuation import tracking_report
 from qmt_drake.sim.spatial_recording import SpatialRecording
 from qmt_drake.systems.electromagnet import MagnetParams, electromagnet_force
 from qmt_drake.systems.payload import PayloadSpec, allow_contact
@@ -181,30 +178,12 @@ def classify_contact_run(t, q_part, lost_gap_m: float = LOST_GAP_M, lost_slide_m
     return None, None, gap, slide, tilt
 
 
-def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=None, record_path=None,
-                          rim_stiffness_N_per_m: float = RIM_STIFFNESS_N_PER_M,
-                          rim_dissipation_s_per_m: float = RIM_DISSIPATION_S_PER_M, coil_current_A: float | None = None,
-                          time_step_s: float = 1e-3) -> dict:
-    """Run `traj` with the part held by contact physics (module docstring). Called by
-    spatial_cosim.simulate_spatial for `hand.physics: contact`: drive (None: ideal) and add_controller
-    as its own, reference its `_reference(_Delayed(traj, CONTACT_SETTLE_S))` (pp, acc, t_end, q_goal),
-    grip the suction cup's GripModel (the co-simulation's finer rim: its rim_points, radius, friction,
-    pull). rim_*: the suction rim's total stiffness [N/m] and Hunt-Crossley dissipation [s/m];
-    coil_current_A: the magnet's current instead of the calibrated one. Result keys as simulate_spatial's,
-    plus the pull at the seat, the contact's gap, slide and tilt and the threshold diagnostic
-    (max_grip_ratio_while_held: the threshold's largest ratio on this run's hand motion while held)."""
-    if sc.hand_kind not in ("magnet", "suction"):
-        raise ValueError(f"contact hand: hand kind {sc.hand_kind!r} is neither magnet nor suction")
-    builder = DiagramBuilder()
-    plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=time_step_s,
-                                 effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
-                                 finalize=False)
-    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kLagged)
-    plant.set_contact_model(ContactModel.kPoint)
-    builder.AddSystem(plant)
+def add_contact_hand(builder, plant, H, sc, grip, rim_stiffness_N_per_m: float, rim_dissipation_s_per_m: float):
+    """The contact hand (a part, before Finalize): a SceneGraph, the face frame F on the hand, the part on
+    its 6-DOF joint from F and the magnet's or the suction rim's contact geometry; (scene_graph, part, joint,
+    magnet PayloadSpec or None)."""
     scene_graph = builder.AddSystem(SceneGraph())
     plant.RegisterAsSourceForSceneGraph(scene_graph)
-    arm = H.model_instance()
     R_HF = face_frame_rotation(sc.face_axis)
     X_BF = H.GetFixedPoseInBodyFrame() @ RigidTransform(RotationMatrix(R_HF), np.zeros(3))
     F_frame = plant.AddFrame(FixedOffsetFrame("hand_face", H.body().body_frame(), X_BF))
@@ -214,48 +193,87 @@ def simulate_contact_hand(sc, traj, drive, reference, add_controller, *, grip=No
         _add_magnet_geometry(plant, H.body(), X_BF, part, spec)
     else:
         _add_suction_geometry(plant, H.body(), X_BF, part, grip, rim_stiffness_N_per_m, rim_dissipation_s_per_m)
-    if drive is not None:
-        drive.prepare_plant(plant, arm, sc)
-    rec = None if record_path is None else SpatialRecording.add(builder, plant, arm, scene_graph)
-    plant.Finalize()
-    builder.Connect(plant.get_geometry_pose_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
-    builder.Connect(scene_graph.get_query_output_port(), plant.get_geometry_query_input_port())
-    if rec is not None:
-        rec.connect(builder, plant, geometry_connected=True)
-    allow_contact(plant, scene_graph, H.body(), part)
-    # the ideal actuator's controller integrates its error (continuous state); the dc_motor drive has none
-    pull = _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A, continuous=drive is None)
-    pp, acc, t_end, q_goal = reference
-    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
-    src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = add_controller(builder, plant, arm, sc, src, src_a) if drive is None else \
-        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), time_step_s)
-    logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), time_step_s, motors)
-    part_log = LogVectorOutput(plant.get_state_output_port(part.model_instance()), builder, time_step_s)
-    arm_acc_log = LogVectorOutput(plant.get_generalized_acceleration_output_port(arm), builder, time_step_s)
-    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0], rec, sc.path_points_m)
-    sim.AdvanceTo(t_end)
-    if rec is not None:
-        rec.save(record_path)
-    log = part_log.FindLog(ctx)
-    t = log.sample_times() - CONTACT_SETTLE_S
-    lost, lost_at, gap, slide, tilt = classify_contact_run(t, log.data()[:7])
-    moving = t >= 0.0
-    held = moving & (t < lost_at) if lost is not None else moving
-    err = float(np.abs(q_goal - plant.GetPositions(pctx, arm)).max())
-    slipped = lost is None and bool(slide[-1] > SLIP_TOLERANCE_M)
-    outcome = transfer_outcome(lost, slipped, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
-    threshold = _diagnostics(sc, grip, spec, pull, logs["arm_state"].FindLog(ctx), arm_acc_log.FindLog(ctx), lost_at)
-    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at, "hand_physics": "contact",
-            "final_goal_error_rad": err, "duration_s": traj.duration_s, "pull_N": pull,
-            "max_gap_while_held_m": float(gap[held].max(initial=0.0)),
-            "max_slide_while_held_m": float(slide[held].max(initial=0.0)),
-            "max_tilt_while_held_rad": float(tilt[held].max(initial=0.0)), "final_slide_on_face_m": float(slide[-1]),
-            "final_gap_m": float(gap[-1]), "max_slide_m": float(slide[moving].max(initial=0.0)),
-            "part_distance_from_cup_at_end_m": float(np.linalg.norm(log.data()[4:7, -1])),
-            "max_grip_ratio_while_held": threshold["threshold_max_ratio"],  # the weld's key: its threshold, held
-            **threshold, "actuator": "ideal" if drive is None else "dc_motor",
-            **tracking_report(logs, ctx, traj.duration_s + CONTACT_SETTLE_S, sc, drive)}
+    return scene_graph, part, joint, spec
+
+
+class ContactHand:
+    """The contact hand part (module docstring), for spatial_cosim.assemble: the part held by contact and a
+    pull, its loss simulated. grip: the suction cup's GripModel (the co-simulation's finer rim: its
+    rim_points, radius, friction, pull). rim_*: the suction rim's total stiffness [N/m] and Hunt-Crossley
+    dissipation [s/m]; coil_current_A: the magnet's current instead of the calibrated one. Result keys as
+    the weld's, plus the pull at the seat, the contact's gap, slide and tilt and the threshold diagnostic
+    (max_grip_ratio_while_held: the threshold's largest ratio on this run's hand motion while held)."""
+
+    kind, settle_s, monitor, approximation = "spatial_contact", CONTACT_SETTLE_S, None, DiscreteContactApproximation.kLagged
+
+    def __init__(self, sc, grip=None, *, rim_stiffness_N_per_m: float = RIM_STIFFNESS_N_PER_M,
+                 rim_dissipation_s_per_m: float = RIM_DISSIPATION_S_PER_M, coil_current_A: float | None = None) -> None:
+        if sc.hand_kind not in ("magnet", "suction"):
+            raise ValueError(f"contact hand: hand kind {sc.hand_kind!r} is neither magnet nor suction")
+        self.sc, self.grip, self.coil_current_A = sc, grip, coil_current_A
+        self.rim = (rim_stiffness_N_per_m, rim_dissipation_s_per_m)
+
+    def configure(self, plant) -> None:  # (after its approximation, kLagged: the planar hands')
+        plant.set_contact_model(ContactModel.kPoint)
+
+    def add(self, builder, plant, H) -> None:
+        self.scene_graph, self.part, self.joint, self.spec = add_contact_hand(builder, plant, H, self.sc, self.grip,
+                                                                              *self.rim)
+
+    def recording(self, builder, plant, arm):
+        return SpatialRecording.add(builder, plant, arm, self.scene_graph)
+
+    def connect(self, builder, plant, H, rec, continuous: bool) -> None:
+        sg = self.scene_graph
+        builder.Connect(plant.get_geometry_pose_output_port(), sg.get_source_pose_port(plant.get_source_id()))
+        builder.Connect(sg.get_query_output_port(), plant.get_geometry_query_input_port())
+        if rec is not None:
+            rec.connect(builder, plant, geometry_connected=True)
+        allow_contact(plant, sg, H.body(), self.part)
+        # the ideal actuator's controller integrates its error (continuous state); the dc_motor drive has none
+        self.pull = _add_pull(builder, plant, self.joint, self.sc, self.spec, self.grip, self.coil_current_A,
+                              continuous=continuous)
+
+    def add_monitor(self, builder, plant, arm, h: float) -> None:
+        self.loggers = {"part_state": LogVectorOutput(plant.get_state_output_port(self.part.model_instance()),
+                                                      builder, h),
+                        "arm_acceleration": LogVectorOutput(plant.get_generalized_acceleration_output_port(arm),
+                                                            builder, h)}
+
+    def ports(self, plant) -> dict:
+        return {"part_state": plant.get_state_output_port(self.part.model_instance())}
+
+    def set_default(self, plant, H) -> None:  # the part's seat on the face is its joint's default already
+        pass
+
+    def start(self, plant, pctx, H) -> None:
+        pass
+
+    def advance(self, sim, diagram, t_end: float) -> None:
+        sim.AdvanceTo(t_end)
+
+    def finish(self, ctx, plant, H, err, logs, drive, traj, t_end) -> dict:
+        sc = self.sc
+        log = self.loggers["part_state"].FindLog(ctx)
+        t = log.sample_times() - CONTACT_SETTLE_S
+        lost, lost_at, gap, slide, tilt = classify_contact_run(t, log.data()[:7])
+        moving = t >= 0.0
+        held = moving & (t < lost_at) if lost is not None else moving
+        slipped = lost is None and bool(slide[-1] > SLIP_TOLERANCE_M)
+        outcome = transfer_outcome(lost, slipped, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+        threshold = _diagnostics(sc, self.grip, self.spec, self.pull, logs["arm_state"].FindLog(ctx),
+                                 self.loggers["arm_acceleration"].FindLog(ctx), lost_at)
+        return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at, "hand_physics": "contact",
+                "final_goal_error_rad": err, "duration_s": traj.duration_s, "pull_N": self.pull,
+                "max_gap_while_held_m": float(gap[held].max(initial=0.0)),
+                "max_slide_while_held_m": float(slide[held].max(initial=0.0)),
+                "max_tilt_while_held_rad": float(tilt[held].max(initial=0.0)),
+                "final_slide_on_face_m": float(slide[-1]),
+                "final_gap_m": float(gap[-1]), "max_slide_m": float(slide[moving].max(initial=0.0)),
+                "part_distance_from_cup_at_end_m": float(np.linalg.norm(log.data()[4:7, -1])),
+                "max_grip_ratio_while_held": threshold["threshold_max_ratio"],  # the weld's key: its threshold, held
+                **threshold, "actuator": "ideal" if drive is None else "dc_motor",
+                **tracking_report(logs, ctx, traj.duration_s + CONTACT_SETTLE_S, sc, drive)}
 
 
 def _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A, continuous: bool) -> float:

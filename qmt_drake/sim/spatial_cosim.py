@@ -18,82 +18,70 @@ unfinished (sim/outcome.transfer_outcome, arrival tolerance ARRIVAL_TOLERANCE_DC
 of a TAIL_S hold at the goal). actuator="dc_motor" drives the arm through DC motors with gears and a PD
 voltage law with feedforward instead (sim/spatial_actuation.py); both report the tracking error.
 
-Tray hand (simulate_tray_hand): nothing holds the cup. A massless tray body is welded to H (its z
-the face axis) with the seed-002 tray's collision box (systems/tray_object.add_tray_contact), the cup
-a free body on a 6-DOF joint from it (add_bottle: a ring of 16 point contacts at the cup's radius,
-Coulomb friction mu, Hunt-Crossley dissipation; the solid cylinder's inertia of the planners), point
-contact in the discrete SAP solver at 1 ms; the arm holds the start for SETTLE_S while the contact
-takes up the cup's weight, then plays the plan. sim/spatial_hold.TrayLog logs the plant's state every
-step in C++; after the run the cup's slide and tilt on the tray (its joint coordinates) give
-slid_off / tipped / slipped (final slide > SLIP_TOLERANCE_M) / unfinished / carried.
+One assembly (`assemble`) for every spatial hand: the arm's plant, a hand part (WeldHand here, the tray's
+TrayCupHand in sim/spatial_tray_hand.py, the contact hand's ContactHand in sim/spatial_contact_hand.py:
+each adds its bodies, geometry and wiring to the builder and classifies the run from its logs) and a drive
+part (add_ideal_controller, or spatial_actuation.SpatialMotorDrive.add_to), composed by build_spatial_cosim
+into a CoSim that sim/cosim_run.run runs. time_step_s (default TIME_STEP_S, at most MAX_TIME_STEP_S) is the
+plant step, the reference's sampling and the hold check's.
 Example-robot-data's Panda declares no actuators: the tray co-simulation adds one per chain joint.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
-from pydrake.geometry import SceneGraph, Sphere
-from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.plant import ContactModel, CoulombFriction, DiscreteContactApproximation
+from pydrake.geometry import Sphere
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import CoulombFriction, DiscreteContactApproximation
 from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Saturation, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from qmt_drake.limits.clearance import clearance_of_states
-from qmt_drake.limits.contact_wrench import face_basis
+from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.suction import GripModel, cached_grip
-from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.urdf_check import load_arm_plant
-from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome, with_collision
+from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
+from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.sim.spatial_actuation import (
     SpatialMotorDrive,
     add_tracking_logs,
     spatial_drive,
     tracking_report,
 )
-from qmt_drake.sim.spatial_contact_hand import CONTACT_SETTLE_S, simulate_contact_hand
-from qmt_drake.sim.spatial_hold import HoldLog, TrayLog, run_until_detached, start_run
+from qmt_drake.sim.spatial_contact_hand import ContactHand
+from qmt_drake.sim.spatial_hold import (  # noqa: F401 (re-exported)
+    COLLISION_CHECK_EVERY,
+    HoldLog,
+    TrayLog,
+    collision_check,
+    run_until_detached,
+)
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.sim.spatial_reference import closed_loop_reference
-from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
-from qmt_drake.systems.tray_object import (
-    BottleSpec,
-    add_bottle,
-    add_tray_contact,
-    seated_pose_on_tray,
+from qmt_drake.sim.spatial_tray_hand import (  # noqa: F401 (re-exported)
+    SETTLE_S,
+    SLIP_TOLERANCE_M,
+    TRAY_LOG_PERIOD_S,
+    CupSpec,
+    TrayCupHand,
+    add_tray_and_cup,
+    add_tray_hand,
+    classify_tray_run,
 )
 
-TIME_STEP_S = 1e-3
+TIME_STEP_S = 1e-3  # the plant step by default [s]
+MAX_TIME_STEP_S = 5e-3  # the largest plant step a user may choose [s]
 KP_1_S2, KD_1_S, KI_1_S3 = 900.0, 60.0, 0.0  # acceleration-level PID of the inverse-dynamics controller
 TAIL_S = 0.5
 FINE_GRIP = (24, 8)
-COLLISION_CHECK_EVERY = 5  # logged 1 ms states: every 5th, then state by state near the minima (limits/clearance.py)
-
-
-def collision_check(sc, logs, root_context, outcome: str, lost_at_s, settle_s: float = 0.0) -> tuple[str, dict]:
-    """After the run (no system in the loop): the clearance of the logged arm and its carried part from the
-    scenario's obstacles until the part was lost; (outcome, facts) with outcome 'collided' when it went
-    below 0 first (outcome.with_collision; collided_at_s and collision_pair: the first touch). The obstacles
-    push nothing in the simulated dynamics: the first touch ends the transfer. No obstacles: (outcome, {})."""
-    if not sc.obstacles:
-        return outcome, {}
-    log = logs["arm_state"].FindLog(root_context)
-    t = log.sample_times() - settle_s
-    keep = (t >= 0.0) & (t <= (np.inf if lost_at_s is None else lost_at_s))
-    c = clearance_of_states(sc, t[keep], log.data()[:sc.n_dof, keep].T, every=COLLISION_CHECK_EVERY)
-    first = c.pop("first_contact")
-    at = None if first is None else first["time_s"]
-    return with_collision(outcome, at, lost_at_s), {**c, "collided_at_s": at,
-                                                    "collision_pair": None if first is None else first["pair"]}
-
-
-def _reference(traj):
-    t = np.arange(0.0, traj.duration_s + TAIL_S + 1e-12, TIME_STEP_S)
+def _reference(traj, time_step_s: float = TIME_STEP_S):
+    """The plan sampled at the plant step and held TAIL_S at its end: (pp, acc, t_end, q_goal)."""
+    t = np.arange(0.0, traj.duration_s + TAIL_S + 1e-12, time_step_s)
     q, qd, qdd = traj.sample(np.minimum(t, traj.duration_s))
     after = t > traj.duration_s
     qd[after], qdd[after] = 0.0, 0.0
@@ -101,9 +89,19 @@ def _reference(traj):
             t[-1], q[-1])
 
 
-def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
-    """The ideal actuator: Drake's InverseDynamicsController (the carried body welded in its plant) with the
-    joint torques saturated at the scenario's limits. None: no motors to log."""
+def check_spatial_time_step(time_step_s) -> float:
+    """The spatial plant step [s]: None is TIME_STEP_S; one line unless 0 < step <= MAX_TIME_STEP_S."""
+    if time_step_s is None:
+        return TIME_STEP_S
+    if not (np.isfinite(time_step_s) and 0.0 < time_step_s <= MAX_TIME_STEP_S):
+        raise QmtInputError(f"time step {time_step_s * 1e3:g} ms: the spatial co-simulation takes a plant step in "
+                            f"(0, {MAX_TIME_STEP_S * 1e3:g}] ms (default {TIME_STEP_S * 1e3:g} ms)")
+    return float(time_step_s)
+
+
+def add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
+    """The ideal drive (a part): Drake's InverseDynamicsController (the carried body welded in its plant) with
+    the joint torques saturated at the scenario's limits. None: no motors to log."""
     n = sc.n_dof
     ctrl_plant, _, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict(),
                                       effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s)
@@ -118,110 +116,194 @@ def _add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
     return None
 
 
-def simulate_spatial(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
-                     feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
-                     drive: SpatialMotorDrive | None = None) -> dict:
-    """Run the plan `traj` (spatial_trajectory kind) on scenario sc; dict with the outcome word and the
-    tracking error. grip: the suction hand's stability set in the co-simulation (default: the scenario's
-    cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the inverse-dynamics controller) or
-    'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears, `feedforward` one of
-    none / back-emf / full). record_path: also write a Meshcat recording there (sim/spatial_recording).
-    contact: with hand.physics contact, keyword overrides of spatial_contact_hand.simulate_contact_hand.
-    controller_sc: the model the controller and its feedforward are built from (default sc; a sweep case
-    simulates a drawn sc under the nominal controller); drive: a prepared dc_motor drive instead."""
+def add_drive(builder, plant, arm, ctrl_sc, drive, reference, time_step_s: float):
+    """The reference (TrajectorySources of the plan's state and acceleration) and the drive (a part: the
+    ideal controller, or the dc_motor drive) wired to the arm; (src, motors or None)."""
+    pp, acc = reference[:2]
+    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
+    src_a = builder.AddSystem(TrajectorySource(acc))
+    motors = add_ideal_controller(builder, plant, arm, ctrl_sc, src, src_a) if drive is None else \
+        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), time_step_s)
+    return src, motors
+
+
+def spatial_ports(plant, arm, src, extra=None) -> dict:
+    """The named ports of a spatial CoSim: desired_state, arm_state, body_poses (and the hand's extra)."""
+    return {"desired_state": src.get_output_port(), "arm_state": plant.get_state_output_port(arm),
+            "body_poses": plant.get_body_poses_output_port(), **(extra or {})}
+
+
+def finish_build(builder, plant, arm, q0, ports: dict, export: bool):
+    """Export the named ports (export: composed in user code, api.build_diagram), build, and make the
+    diagram's default context start at the plan's start (q0) at rest; the diagram."""
+    if export:
+        for name, port in ports.items():
+            builder.ExportOutput(port, name)
+    diagram = builder.Build()
+    plant.SetDefaultPositions(arm, np.asarray(q0, float))
+    return diagram
+
+
+def simulate_spatial(sc, traj, **options) -> dict:
+    """Run the plan `traj` (spatial_trajectory kind) on scenario sc (build_spatial_cosim, the one run);
+    dict with the outcome word and the tracking error."""
+    return run(build_spatial_cosim(sc, traj, **options))
+
+
+def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
+                        feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
+                        drive: SpatialMotorDrive | None = None, time_step_s: float | None = None,
+                        export: bool = False) -> CoSim:
+    """The co-simulation of `traj` on scenario sc as a CoSim, its parts chosen by the hand (the weld, the
+    contact hand, the tray) and the actuator. grip: the suction hand's stability set in the co-simulation
+    (default: the scenario's cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the
+    inverse-dynamics controller) or 'dc_motor' (sim/spatial_actuation: PD voltage law, DC motors with gears,
+    `feedforward` one of none / back-emf / full). record_path: also write a Meshcat recording there
+    (sim/spatial_recording). contact: with hand.physics contact, keyword overrides of
+    spatial_contact_hand.build_contact_cosim. controller_sc: the model the controller and its feedforward
+    are built from (default sc; a sweep case simulates a drawn sc under the nominal controller); drive: a
+    prepared dc_motor drive instead. time_step_s: the plant step [s] (default TIME_STEP_S; the plan is
+    sampled and the hold checked at it). export: export the named ports (user composition)."""
+    h = check_spatial_time_step(time_step_s)
     ctrl = sc if controller_sc is None else controller_sc
     if drive is None:
         drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward)
-    traj = closed_loop_reference(traj, feedforward, drive, TIME_STEP_S)  # feedforward 'shaped': sim/spatial_reference
-    if sc.hand_kind == "tray":
-        return simulate_tray_hand(sc, traj, drive=drive, record_path=record_path, controller_sc=ctrl)
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
         grip = cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                            rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])
-    if sc.hand_physics == "contact":  # the part held by contact and a pull, not a weld (sim/spatial_contact_hand)
-        return simulate_contact_hand(sc, traj, drive, _reference(_Delayed(traj, CONTACT_SETTLE_S)), _add_ideal_controller,
-                                     grip=grip, record_path=record_path, **(contact or {}))
-    term = sc.hand_term(grip)
+    if sc.hand_kind == "tray":
+        hand = TrayCupHand(sc, TrayLog, TIME_STEP_S)
+    elif sc.hand_physics == "contact":  # the part held by contact and a pull, not a weld (sim/spatial_contact_hand)
+        kw = {"time_step_s": h, **(contact or {})}
+        h = kw.pop("time_step_s")
+        hand, ctrl = ContactHand(sc, grip, **kw), sc  # (its ideal controller: the scenario's own model)
+    else:
+        hand = WeldHand(sc, sc.hand_term(grip), actuator)
+    traj = closed_loop_reference(traj, feedforward, drive, h)  # feedforward 'shaped': sim/spatial_reference
+    return assemble(sc, traj, hand, drive, ctrl, record_path, h, export)
+
+
+def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool) -> CoSim:
+    """The spatial co-simulation's one assembly: the arm's URDF plant (1 ms discrete by default), the hand
+    part (its plant settings, bodies and geometry before Finalize, its wiring after), the drive part and
+    the reference, the tracking logs and the hand's monitor; the run's start, advance and finish."""
     builder = DiagramBuilder()
-    plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
+    plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=h,
                                  effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
                                  finalize=False)
-    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)  # SAP: weld constraints
+    # SAP (weld constraints, the tray's contact) through this module's name: margin_runs may swap it
+    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap if hand.approximation == "sap"
+                                             else hand.approximation)
+    hand.configure(plant)
     builder.AddSystem(plant)
+    arm = H.model_instance()
+    hand.add(builder, plant, H)
+    if drive is not None:
+        drive.prepare_plant(plant, arm, sc)
+    rec = None if record_path is None else hand.recording(builder, plant, arm)
+    plant.Finalize()
+    hand.connect(builder, plant, H, rec, continuous=drive is None)
+    reference = _reference(_Delayed(traj, hand.settle_s) if hand.settle_s else traj, h)
+    t_end, q_goal = reference[2:]
+    src, motors = add_drive(builder, plant, arm, ctrl, drive, reference, h)
+    logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), h, motors)
+    hand.add_monitor(builder, plant, arm, h)
+    q0 = traj.sample([0.0])[0][0]
+    ports = spatial_ports(plant, arm, src, hand.ports(plant))
+    diagram = finish_build(builder, plant, arm, q0, ports, export)
+    hand.set_default(plant, H)
+
+    def start(sim) -> None:
+        pctx = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
+        plant.SetPositions(pctx, arm, q0)
+        hand.start(plant, pctx, H)
+        if rec is not None:
+            rec.start(plant, pctx, sc.path_points_m)
+
+    def finish(sim, wall) -> dict:
+        if rec is not None:
+            rec.save(record_path)
+        ctx = sim.get_context()
+        err = float(np.abs(q_goal - plant.GetPositions(plant.GetMyContextFromRoot(ctx), arm)).max())
+        return hand.finish(ctx, plant, H, err, logs, drive, traj, t_end)
+
+    return CoSim(hand.kind, diagram, plant, start, lambda sim: hand.advance(sim, diagram, t_end), finish, dict,
+                 ports=ports, loggers={**logs, **hand.loggers}, monitor=hand.monitor,
+                 handles=SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, hand=hand))
+
+
+def add_weld_hand(plant, H, sc):
+    """The breakable weld (a part, before Finalize): the part a free body with the scenario's payload
+    inertia, welded to the hand frame H by a SAP weld constraint; (part body, weld constraint id)."""
     b = sc.body
     M = SpatialInertia.MakeFromCentralInertia(b.mass_kg, np.asarray(b.com_m, float),
                                               RotationalInertia(*np.diag(b.inertia_kgm2)))
     part = plant.AddRigidBody("part", plant.AddModelInstance("part"), M)
-    weld_id = plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
-    if drive is not None:
-        drive.prepare_plant(plant, H.model_instance(), sc)
-    rec = None
-    if record_path is not None:
-        rec = SpatialRecording.for_scenario(builder, plant, H.model_instance(), sc)
-        size = 4.0 * rec.link_radius_m
-        add_part_box(plant, part, b.com_m, size)
+    return part, plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
+
+
+class WeldHand:
+    """The weld hand part (module docstring): the hold checked on C++ logs (HoldLog) after each chunk, the
+    weld released at the first step the hand term's ratio passes 1 (run_until_detached)."""
+
+    kind, settle_s, loggers, approximation = "spatial_weld", 0.0, {}, "sap"
+
+    def __init__(self, sc, term, actuator: str) -> None:
+        self.sc, self.term, self.actuator, self.out = sc, term, actuator, {}
+
+    def configure(self, plant) -> None:  # SAP (assemble): its weld constraints
+        pass
+
+    def add(self, builder, plant, H) -> None:
+        self.plant = plant
+        self.part, self.weld_id = add_weld_hand(plant, H, self.sc)
+
+    def recording(self, builder, plant, arm):
+        rec = SpatialRecording.for_scenario(builder, plant, arm, self.sc)
+        size, com = 4.0 * rec.link_radius_m, np.asarray(self.sc.body.com_m, float)
+        add_part_box(plant, self.part, com, size)
         # only the part and the floor collide: a detached part lands instead of falling for ever
-        plant.RegisterCollisionGeometry(part, RigidTransform(np.asarray(b.com_m, float)), Sphere(size / 2),
-                                        "part_collision", CoulombFriction(0.5, 0.5))
-    plant.Finalize()
-    if rec is not None:
-        rec.connect(builder, plant)
-    arm = H.model_instance()
-    pp, acc, t_end, q_goal = _reference(traj)
-    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
-    src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
-        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
-    logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
-    hold = HoldLog(builder, plant, part, term, TIME_STEP_S)
-    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0])
-    plant.SetFreeBodyPose(pctx, part, H.CalcPoseInWorld(pctx))
-    if rec is not None:
-        rec.start(plant, pctx, sc.path_points_m)
+        plant.RegisterCollisionGeometry(self.part, RigidTransform(com), Sphere(size / 2), "part_collision",
+                                        CoulombFriction(0.5, 0.5))
+        return rec
 
-    def release(root_context):  # the cup lets go: the part flies free for the rest of the run
-        plant.SetConstraintActiveStatus(plant.GetMyMutableContextFromRoot(root_context), weld_id, False)
+    def connect(self, builder, plant, H, rec, continuous: bool) -> None:
+        if rec is not None:
+            rec.connect(builder, plant)
 
-    detached, lost_at_s, largest = run_until_detached(sim, diagram, hold, t_end, release)
-    if rec is not None:
-        rec.save(record_path)
-    q_end = plant.GetPositions(pctx, arm)
-    lost = "detached" if detached else None
-    err = float(np.abs(q_goal - q_end).max())
-    outcome = transfer_outcome(lost, False, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
-    outcome, hit = collision_check(sc, logs, ctx, outcome, lost_at_s if lost else None)
-    gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, part).translation() - H.CalcPoseInWorld(pctx).translation()))
-    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at_s,
-            "max_grip_ratio_while_held": largest, "final_goal_error_rad": err, "duration_s": traj.duration_s,
-            "part_distance_from_cup_at_end_m": gap, "actuator": actuator,
-            **tracking_report(logs, ctx, traj.duration_s, sc, drive), **hit}
+    def add_monitor(self, builder, plant, arm, h: float) -> None:
+        self.monitor = HoldLog(builder, plant, self.part, self.term, h)
 
+    def ports(self, plant) -> dict:
+        return {"part_state": plant.get_state_output_port(self.part.model_instance())}
 
-# --- tray hand: the cup a free body in friction contact with a tray box welded to the hand ---------
+    def set_default(self, plant, H) -> None:  # the part seated in the cup at the plan's start
+        plant.SetDefaultFloatingBaseBodyPose(self.part, H.CalcPoseInWorld(plant.CreateDefaultContext()))
 
-SETTLE_S = 0.2  # the arm holds the start while the cup's contact takes up its weight (tray/cosim.SEATING_S)
-TRAY_LOG_PERIOD_S = 1e-3
-# carried: the cup ends on the tray with its base within this of its seat (chosen: a cup moved by 5 mm
-# on the tray is still where it was put; the shipped plans, carried, end within 8 um of the seat)
-SLIP_TOLERANCE_M = 5e-3
+    def start(self, plant, pctx, H) -> None:
+        plant.SetFreeBodyPose(pctx, self.part, H.CalcPoseInWorld(pctx))
 
+    def advance(self, sim, diagram, t_end: float) -> None:
+        plant = self.plant
 
-@dataclass(frozen=True)
-class CupSpec(BottleSpec):
-    """The scenario's cup as systems/tray_object's BottleSpec (its contact ring at the cup's radius,
-    point contact with the seed-002 tray's stiffness and dissipation), with the solid cylinder's
-    inertia of limits/tray_contact.TrayCup (the planners' body) instead of the bottle's shell."""
+        def release(root_context):  # the cup lets go: the part flies free for the rest of the run
+            plant.SetConstraintActiveStatus(plant.GetMyMutableContextFromRoot(root_context), self.weld_id, False)
 
-    inertia_T_kgm2: tuple = ()
+        self.out = dict(zip(("detached", "lost_at_s", "largest"),
+                            run_until_detached(sim, diagram, self.monitor, t_end, release)))
 
-    @classmethod
-    def from_cup(cls, cup: TrayCup) -> CupSpec:
-        return cls("cup", cup.mass_kg, cup.radius_m, cup.height_m, cup.h_G, cup.mass_kg, cup.radius_m,
-                   friction=cup.friction, inertia_T_kgm2=tuple(np.diag(cup.inertia_T())))
-
-    def spatial_inertia(self) -> SpatialInertia:
-        return SpatialInertia.MakeFromCentralInertia(self.mass_kg, np.array([0.0, 0.0, self.com_height_m]),
-                                                     RotationalInertia(*self.inertia_T_kgm2))
+    def finish(self, ctx, plant, H, err, logs, drive, traj, t_end) -> dict:
+        pctx = plant.GetMyContextFromRoot(ctx)
+        detached, lost_at_s = self.out["detached"], self.out["lost_at_s"]
+        lost = "detached" if detached else None
+        outcome = transfer_outcome(lost, False, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
+        outcome, hit = collision_check(self.sc, logs, ctx, outcome, lost_at_s if lost else None)
+        gap = float(np.linalg.norm(plant.GetFreeBodyPose(pctx, self.part).translation()
+                                   - H.CalcPoseInWorld(pctx).translation()))
+        return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at_s,
+                "max_grip_ratio_while_held": self.out["largest"], "final_goal_error_rad": err,
+                "duration_s": traj.duration_s, "part_distance_from_cup_at_end_m": gap, "actuator": self.actuator,
+                **tracking_report(logs, ctx, traj.duration_s, self.sc, drive), **hit}
 
 
 class _Delayed:
@@ -238,91 +320,6 @@ class _Delayed:
         return q, qd, qdd
 
 
-def _add_tray_and_cup(plant, scene_graph, H, sc):
-    """Register the plant with scene_graph; a massless tray body welded to H (its z the face axis,
-    surface at H's origin) with its box, and the cup on a 6-DOF joint from it; (tray, cup, spec)."""
-    plant.RegisterAsSourceForSceneGraph(scene_graph)
-    plant.set_contact_model(ContactModel.kPoint)
-    spec = CupSpec.from_cup(sc.cup)
-    tray = plant.AddRigidBody("tray", plant.AddModelInstance("tray"), SpatialInertia.Zero())
-    X_HT = RigidTransform(RotationMatrix(face_basis(sc.face_axis).T), np.zeros(3))
-    plant.WeldFrames(H, tray.body_frame(), X_HT)
-    add_tray_contact(plant, tray, spec, size_m=sc.cup.tray_size_m, visual=True)
-    cup = add_bottle(plant, spec, "cup", tray_body=tray)
-    six_dof_joint_of(plant, cup).SetDefaultPose(seated_pose_on_tray())
-    return tray, cup, spec
-
-
-def classify_tray_run(t, slide, tilt, spec: CupSpec, tray_size_m) -> tuple[str | None, float | None, bool]:
-    """(lost outcome or None, time lost, slipped) from the logged slide (2, S) [m] and tilt (S,) [rad]:
-    slid_off when the base centre leaves the tray surface, tipped when the tilt passes the angle at
-    which the centre of mass is over the base's edge, atan(r / h_G); slipped when the cup ends more
-    than SLIP_TOLERANCE_M from its seat (tray/cosim.classify's rules, for the cup)."""
-    off = np.any(np.abs(slide.T) > np.asarray(tray_size_m[:2]) / 2, axis=1)
-    tipped = tilt > np.arctan2(spec.contact_radius_m, spec.com_height_m)
-    lost = off | tipped
-    if lost.any():
-        k = int(np.argmax(lost))
-        return ("slid_off" if off[k] and not tipped[k] else "tipped"), float(t[k]), True
-    return None, None, bool(np.hypot(*slide[:, -1]) > SLIP_TOLERANCE_M)
-
-
-def simulate_tray_hand(sc, traj, *, drive: SpatialMotorDrive | None = None, record_path=None,
-                       controller_sc=None) -> dict:
-    """simulate_spatial for a tray hand: the cup is a free body standing on the tray box under Coulomb
-    friction (point contact, discrete SAP at 1 ms), nothing holds it; after SETTLE_S at the start the
-    plan is played. Outcome (qmt_drake/outcome.py): slid_off / tipped / slipped / unfinished / carried.
-    max_grip_ratio_while_held: the largest TrayContactTerm ratio of the cup's own contact wrench
-    (Newton-Euler on its simulated motion, gravity the only other force) until it first exceeds 1.
-    drive: the DC motors (spatial_drive) instead of the ideal inverse-dynamics controller; controller_sc:
-    the ideal controller's model (default sc)."""
-    ctrl = sc if controller_sc is None else controller_sc
-    builder = DiagramBuilder()
-    plant, H, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=TIME_STEP_S,
-                                     effort_limit_Nm=sc.torque_limit_Nm,
-                                     velocity_limit_rad_s=sc.velocity_limit_rad_s, finalize=False)
-    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
-    builder.AddSystem(plant)
-    scene_graph = builder.AddSystem(SceneGraph())
-    tray, cup, spec = _add_tray_and_cup(plant, scene_graph, H, sc)
-    if drive is not None:
-        drive.prepare_plant(plant, H.model_instance(), sc)
-    rec = None if record_path is None else SpatialRecording.for_scenario(builder, plant, H.model_instance(), sc,
-                                                                              scene_graph)
-    plant.Finalize()
-    builder.Connect(plant.get_geometry_pose_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
-    builder.Connect(scene_graph.get_query_output_port(), plant.get_geometry_query_input_port())
-    if rec is not None:
-        rec.connect(builder, plant, geometry_connected=True)
-    allow_contact(plant, scene_graph, tray, cup)
-    arm = H.model_instance()
-    pp, acc, t_end, q_goal = _reference(_Delayed(traj, SETTLE_S))
-    src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
-    src_a = builder.AddSystem(TrajectorySource(acc))
-    motors = _add_ideal_controller(builder, plant, arm, ctrl, src, src_a) if drive is None else \
-        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), TIME_STEP_S)
-    tracking = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), TIME_STEP_S, motors)
-    log = TrayLog(builder, plant, cup, TRAY_LOG_PERIOD_S)
-    sim, diagram, ctx, pctx = start_run(builder, plant, arm, traj.sample([0.0])[0][0], rec, sc.path_points_m)
-    sim.AdvanceTo(t_end)
-    if rec is not None:
-        rec.save(record_path)
-    t, slide, tilt = log.slide_tilt(ctx)
-    seated = t >= SETTLE_S
-    slide, tilt = slide[:, seated] - seated_pose_on_tray().translation()[:2, None], tilt[seated]
-    lost, lost_at, slipped = classify_tray_run(t[seated] - SETTLE_S, slide, tilt, spec, sc.cup.tray_size_m)
-    err = float(np.abs(q_goal - plant.GetPositions(pctx, arm)).max())
-    outcome = transfer_outcome(lost, slipped and lost is None, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
-    outcome, hit = collision_check(sc, tracking, ctx, outcome, lost_at, settle_s=SETTLE_S)
-    # the tray term's ratio of the cup's contact wrench from the first update at SETTLE_S, up to and
-    # including its first value above 1
-    t_up, r = log.ratios(ctx, TrayContactTerm(sc.cup, sc.gravity_m_s2), SETTLE_S)
-    over = np.flatnonzero(r > 1.0)
-    largest = float(np.max(r[:over[0] + 1] if len(over) else r, initial=0.0))
-    return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at,
-            "max_grip_ratio_while_held": largest,
-            "contact_ratio_first_above_1_s": float(t_up[over[0]]) - SETTLE_S if len(over) else None,
-            "final_goal_error_rad": err, "duration_s": traj.duration_s,
-            "max_slide_m": float(np.max(np.hypot(*slide))), "final_slide_m": float(np.hypot(*slide[:, -1])),
-            "max_tilt_rad": float(np.max(tilt)), "actuator": "ideal" if drive is None else "dc_motor",
-            **tracking_report(tracking, ctx, t_end, sc, drive), **hit}
+def simulate_tray_hand(sc, traj, **options) -> dict:
+    """simulate_spatial for a tray hand (build_spatial_cosim, the one run)."""
+    return run(build_spatial_cosim(sc, traj, **options))

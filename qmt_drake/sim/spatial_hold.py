@@ -33,9 +33,11 @@ state, is integrated in other pieces, and its gain is zero).
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.analysis import InitializeParams, Simulator
+from pydrake.systems.analysis import InitializeParams
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
+from qmt_drake.limits.clearance import clearance_of_states
+from qmt_drake.outcome import with_collision
 from qmt_drake.systems.payload import six_dof_joint_of
 from qmt_drake.systems.scalar_ops import NUMPY
 from qmt_drake.systems.transfer_monitor import motion_from_joint
@@ -181,14 +183,21 @@ def run_until_detached(sim, diagram, hold: HoldLog, t_end_s: float, release) -> 
     return False, None, largest
 
 
-def start_run(builder, plant, arm, q0_rad, rec=None, path_points_m=None):
-    """The spatial runs' one start (weld, tray and contact hands): build the diagram, make its Simulator,
-    put the arm at q0_rad and start the recording; (sim, diagram, root context, plant context)."""
-    diagram = builder.Build()
-    sim = Simulator(diagram)
-    ctx = sim.get_mutable_context()
-    pctx = plant.GetMyMutableContextFromRoot(ctx)
-    plant.SetPositions(pctx, arm, q0_rad)
-    if rec is not None:
-        rec.start(plant, pctx, path_points_m)
-    return sim, diagram, ctx, pctx
+COLLISION_CHECK_EVERY = 5  # logged 1 ms states: every 5th, then state by state near the minima (limits/clearance.py)
+
+
+def collision_check(sc, logs, root_context, outcome: str, lost_at_s, settle_s: float = 0.0) -> tuple[str, dict]:
+    """After the run (no system in the loop): the clearance of the logged arm and its carried part from the
+    scenario's obstacles until the part was lost; (outcome, facts) with outcome 'collided' when it went
+    below 0 first (outcome.with_collision; collided_at_s and collision_pair: the first touch). The obstacles
+    push nothing in the simulated dynamics: the first touch ends the transfer. No obstacles: (outcome, {})."""
+    if not sc.obstacles:
+        return outcome, {}
+    log = logs["arm_state"].FindLog(root_context)
+    t = log.sample_times() - settle_s
+    keep = (t >= 0.0) & (t <= (np.inf if lost_at_s is None else lost_at_s))
+    c = clearance_of_states(sc, t[keep], log.data()[:sc.n_dof, keep].T, every=COLLISION_CHECK_EVERY)
+    first = c.pop("first_contact")
+    at = None if first is None else first["time_s"]
+    return with_collision(outcome, at, lost_at_s), {**c, "collided_at_s": at,
+                                                    "collision_pair": None if first is None else first["pair"]}

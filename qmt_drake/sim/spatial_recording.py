@@ -40,10 +40,11 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
+from qmt_drake.errors import QmtInputError
+from qmt_drake.model.arm import add_urdf
 from qmt_drake.model.urdf_package import mesh_file
 from qmt_drake.recording import (
     add_floor,
@@ -115,9 +116,9 @@ def urdf_visuals(urdf) -> tuple[list, dict]:
     builder = DiagramBuilder()
     scratch, sg = AddMultibodyPlantSceneGraph(builder, 0.0)
     try:
-        Parser(scratch).AddModelsFromString(text, "urdf")
-    except RuntimeError as exc:  # the recording is a view: draw sticks and say why rather than stop the run
-        return [], {"(all links)": "Drake's parser refused the URDF's visuals: " + str(exc).strip().splitlines()[0]}
+        add_urdf(scratch, text, source="the URDF's visuals")
+    except QmtInputError as exc:  # the recording is a view: draw sticks and say why rather than stop the run
+        return [], {"(all links)": str(exc).strip().splitlines()[0]}
     inspector = sg.model_inspector()
     out, objs = [], {}
     for g in inspector.GetAllGeometryIds(Role.kIllustration):

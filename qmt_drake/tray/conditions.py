@@ -33,12 +33,12 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2
 from qmt_drake.limits.tray_contact import lift_ratio, slide_ratio, slide_rows, tip_ratio, tip_rows
+from qmt_drake.model.arm import add_urdf
 from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.tray.crane_ik import URDF_PATH
 
@@ -58,7 +58,7 @@ class TrayKinematics:
 @lru_cache(maxsize=2)
 def _arm_plant(urdf: str):
     plant = MultibodyPlant(0.0)
-    Parser(plant).AddModels(urdf)
+    add_urdf(plant, urdf)
     plant.Finalize()
     return plant, plant.CreateDefaultContext()
 

@@ -24,14 +24,11 @@ real slip vs the solver's creep; `slipped` = slip_m > SLIP_THRESHOLD_M.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
@@ -39,7 +36,10 @@ from pydrake.trajectories import PiecewisePolynomial
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 from qmt_drake.errors import QmtInputError
 from qmt_drake.margin import criterion, verdict_margin
+from qmt_drake.model.actuator_order import connect_joint_torques
+from qmt_drake.model.arm import add_urdf
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
+from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.systems.dc_motor import DcMotorWithGear, dc_motors_as_primitives
 from qmt_drake.systems.dynamixel_servo import (
     CONTROL_PERIOD_S,
@@ -98,6 +98,8 @@ class TrayDiagram:
     X_TB0: object
     visualizer: object = None
     motor: object = None
+    time_step_s: float = TIME_STEP_S
+    servo_period_s: float = CONTROL_PERIOD_S
 
 
 def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
@@ -133,7 +135,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
                                contact_model="point",
                                use_sampled_output_ports=False)
     plant, scene_graph = AddMultibodyPlant(cfg, builder)
-    arm = Parser(plant).AddModels(str(URDF_PATH))[0]
+    arm = add_urdf(plant, URDF_PATH)
     tray = plant.GetBodyByName("tray", arm)
     add_tray_contact(plant, tray, bottle)
     bottle_body = add_bottle(plant, bottle, tray_body=tray)
@@ -162,7 +164,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     builder.Connect(split.get_output_port(0), servo.GetInputPort("joint_position"))
     builder.Connect(servo.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
     builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
-    builder.Connect(motors.GetOutputPort("joint_torque"), plant.get_actuation_input_port(arm))
+    connect_joint_torques(builder, plant, arm, JOINTS, motors.GetOutputPort("joint_torque"))  # by name, not index
     if monitor is not None:
         builder.Connect(plant.get_body_poses_output_port(), monitor.GetInputPort("body_poses"))
         builder.Connect(plant.get_contact_results_output_port(), monitor.GetInputPort("contact_results"))
@@ -187,7 +189,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
     return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo_law, loggers, schedule, bottle, X_TB0,
-                       visualizer, motor)
+                       visualizer, motor, time_step_s, servo_period_s)
 
 
 @dataclass
@@ -337,31 +339,33 @@ def classify(series: dict, bottle: BottleSpec) -> tuple[str, float | None]:
     return ("slid_off" if off[k] and not tipped[k] else "tipped"), float(t[k])
 
 
-def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
-                  time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
-                  keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None,
-                  step_log: bool = False, contact_approximation: str = "lagged") -> TrayResult:
-    """Run the diagram over the schedule; with recording_path, write a Meshcat HTML replay there.
-    step_log: the series also hold the arm's state and acceleration at every plant step
-    (build_tray_diagram). contact_approximation: the plant's discrete contact approximation."""
-    bottle = bottle or BottleSpec.pet_500ml()
-    meshcat = None
-    if recording_path is not None:
-        meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
-    td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
-                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor, step_log=step_log,
-                            contact_approximation=contact_approximation)
-    sim = Simulator(td.diagram)
-    set_initial_state(td, sim.get_mutable_context())
-    sim.Initialize()
-    if td.visualizer is not None:
-        start_recording(td.visualizer)
-    wall0 = time.perf_counter()
-    sim.AdvanceTo(schedule.t_end_s)
-    wall = time.perf_counter() - wall0
-    if td.visualizer is not None:
-        save_recording(td.visualizer, meshcat, recording_path)
-    series = logged_series(td, sim.get_context())
+def tray_cosim(td: TrayDiagram, *, recording=None, keep_series: bool = True, summarize=None) -> CoSim:
+    """`td` as a CoSim for cosim_run.run: arm and servos in equilibrium at the first goal, the bottle
+    seated (set_initial_state), run over the schedule; its result a TrayResult (summarised by its
+    summary_dict, or `summarize`). recording: (meshcat, path) of a Meshcat HTML replay."""
+    schedule = td.schedule
+
+    def start(sim) -> None:
+        set_initial_state(td, sim.get_mutable_context())
+        sim.Initialize()
+        if td.visualizer is not None:
+            start_recording(td.visualizer)
+
+    def finish(sim, wall) -> TrayResult:
+        if td.visualizer is not None and recording is not None:
+            save_recording(td.visualizer, *recording)
+        return tray_result(td, sim.get_context(), wall, keep_series)
+
+    return CoSim("tray", td.diagram, td.plant, start, lambda sim: sim.AdvanceTo(schedule.t_end_s), finish,
+                 summarize or (lambda r: r.summary_dict()), loggers=td.loggers, handles=td,
+                 ports={"arm_state": td.plant.get_state_output_port(td.arm),
+                        "bottle_state": td.plant.get_state_output_port(td.bottle_body.model_instance())})
+
+
+def tray_result(td: TrayDiagram, root_context, wall: float, keep_series: bool) -> TrayResult:
+    """The TrayResult of the run simulated in root_context (classify, slip vs creep, tracking)."""
+    schedule, bottle = td.schedule, td.bottle
+    series = logged_series(td, root_context)
     outcome, lost_at = classify(series, bottle)
     after = series["t"] >= SEATING_S
     slide_norm = np.hypot(series["slide"][0], series["slide"][1])[after]
@@ -374,9 +378,41 @@ def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec 
     return TrayResult(schedule.label, outcome, lost_at, float(np.max(slide_norm)), slip, creep,
                       bool(slip > SLIP_THRESHOLD_M), float(np.max(series["tilt"][0][after])),
                       float(np.sum(dt[fn <= LIFT_FORCE_N])), float(np.min(fn)), err, float(schedule.t_end_s), wall,
-                      float(schedule.t_end_s / wall), time_step_s, servo_period_s, bottle.friction,
+                      float(schedule.t_end_s / wall), td.time_step_s, td.servo_period_s, bottle.friction,
                       bottle.com_height_m, dict(schedule.phases), q[:, -1].copy(), series if keep_series else {},
                       tipping_angle_rad(bottle), edge)
+
+
+def build_tray_cosim(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
+                     time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
+                     keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None,
+                     step_log: bool = False, contact_approximation: str = "lagged", summarize=None) -> CoSim:
+    """The tray co-simulation over the schedule as a CoSim (build_tray_diagram, tray_cosim); with
+    recording_path, a Meshcat HTML replay is written there."""
+    bottle = bottle or BottleSpec.pet_500ml()
+    meshcat = None
+    if recording_path is not None:
+        meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
+    td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
+                            meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor, step_log=step_log,
+                            contact_approximation=contact_approximation)
+    return tray_cosim(td, recording=None if meshcat is None else (meshcat, recording_path), keep_series=keep_series,
+                      summarize=summarize)
+
+
+def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
+                  time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
+                  keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None,
+                  step_log: bool = False, contact_approximation: str = "lagged") -> TrayResult:
+    """Run the diagram over the schedule (build_tray_cosim, the one run); with recording_path, write a
+    Meshcat HTML replay there. step_log: the series also hold the arm's state and acceleration at every
+    plant step (build_tray_diagram). contact_approximation: the plant's discrete contact approximation."""
+    cosim = build_tray_cosim(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
+                             keep_series=keep_series, recording_path=recording_path,
+                             bottle_offset_xy=bottle_offset_xy, motor=motor, step_log=step_log,
+                             contact_approximation=contact_approximation)
+    run(cosim)
+    return cosim.result
 
 
 def tray_margin(summary: dict) -> dict:

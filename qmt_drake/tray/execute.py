@@ -18,9 +18,10 @@ from qmt_drake.config.scenario import World
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.plan_files import check_plan_fits
+from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
 from qmt_drake.systems.servo_reference import shaped_goals
-from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, simulate_tray, tray_margin
+from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, build_tray_cosim, tray_margin
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
 SETTLE_S = 1.0
@@ -100,10 +101,11 @@ def delayed(schedule: GoalSchedule, delay_s: float) -> GoalSchedule:
                         f"{schedule.label} delayed {delay_s * 1e3:g} ms")
 
 
-def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
-                       time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
-                       contact_approximation: str = "lagged") -> dict:
-    """The summary of `plan` executed on `scenario`'s CRANE-X7 (see the module docstring).
+def build_tray_plan_cosim(scenario, plan, *, time_scale: float = 1.0, record_path=None,
+                          time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
+                          contact_approximation: str = "lagged") -> CoSim:
+    """`plan` on `scenario`'s CRANE-X7 as a CoSim (the tray plug-in's build_cosim); its summary is
+    simulate_tray_plan's (see the module docstring).
     physical: the scenario whose bottle (mass, centre of mass, friction) is simulated, when it
     differs from the one the servos' goals are shaped for (a sweep case's drawn bottle: the
     controller knows only the nominal one); None: `scenario` itself. servo_delay_s: the goal stream
@@ -115,9 +117,16 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
     sched = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s,
                           shaped_for=scenario if act.reference == "shaped" else None)
     sched = delayed(sched, float(servo_delay_s))
-    r = simulate_tray(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
-                      servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path,
-                      contact_approximation=contact_approximation)
+
+    return build_tray_cosim(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
+                            servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path,
+                            contact_approximation=contact_approximation,
+                            summarize=lambda r: tray_plan_summary(plan, r, time_scale))
+
+
+def tray_plan_summary(plan, r, time_scale: float = 1.0) -> dict:
+    """The TrayResult `r` of `plan` played time_scale times slower as the summary in the one outcome
+    vocabulary (qmt_drake/outcome.py): the arm's final error against the plan's goal, slip, tracking."""
     d = r.summary_dict()
     q_goal = plan.sample(np.array([float(plan.motion_time_s)]))[0][0]
     final_error = float(np.max(np.abs(q_goal - r.final_q_rad)))
@@ -131,6 +140,15 @@ def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=N
              method=plan.method, plan_feasible=bool(plan.feasible))
     d["margin"] = tray_margin(d)
     return d
+
+
+def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
+                       time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
+                       contact_approximation: str = "lagged") -> dict:
+    """The summary of `plan` executed on `scenario`'s CRANE-X7 (build_tray_plan_cosim, the one run)."""
+    return run(build_tray_plan_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
+                                     time_step_s=time_step_s, physical=physical, servo_delay_s=servo_delay_s,
+                                     contact_approximation=contact_approximation))
 
 
 def drawn_bottle_overrides(scenario, payload: dict) -> dict:
