@@ -11,7 +11,7 @@ scenario each) and each feature, the cheapest real command that exercises it run
     python -m studies.feature_matrix --only plan-ga --kinds ur5-suction-bins   # a few cells
 
 The JSON is rewritten (atomically) after every cell, and a rerun skips the cells already in it, so an
-interrupted run resumes. Commands are run as written in the table, with `qmt-drake` standing for
+interrupted run resumes (a cell whose command has changed since runs again). Commands are run as written in the table, with `qmt-drake` standing for
 `python -m qmt_drake.apps.cli` and `python` for this interpreter, in a temporary folder; a cell that
 needs a plan file (simulate, sweeps, retime, export, build_diagram) uses the kind's base plan, made once
 per run (BASE below). A refusal is judged against JUDGEMENTS (physics, or a missing feature, and why);
@@ -132,6 +132,8 @@ def _plan_words(name: str, fam: str, method: str, generations: int = 2) -> list:
         w += ENERGY_SMALL + (["--max-iter", "200"] if method == "steepest" else [])
     if method == "ga":
         w += ["--generations", str(generations), *GA_SMALL[fam]]
+    if method == "optimum" and fam == "transfer":  # 24 starts, 6 polished: over 4 min on the tray under load
+        w += ["--option", "starts=4", "--option", "polished=1"]
     return w
 
 
@@ -179,7 +181,7 @@ def cell(feature: str, kind: str) -> Cell:
                                      "--quiet", "--json", "sweep.json"]], expect=["sweep.json"], needs_base=True,
                     prep={spec: ("sweep", spec)})
     if feature == "build_diagram in user code":
-        body = ("# build_diagram(sc, plan) inside the user's DiagramBuilder, simulated 0.05 s\n"
+        body = (f"# build_diagram(load_scenario('{name}'), base plan) in the user's DiagramBuilder, run 0.05 s\n"
                 "from pydrake.systems.analysis import Simulator\n"
                 "from pydrake.systems.framework import DiagramBuilder\n"
                 "from qmt_drake.api import build_diagram, load_plan, load_scenario\n"
@@ -501,7 +503,27 @@ def run_cell(c: Cell, root: Path, bases: Bases, timeout: float) -> dict:
 # ----------------------------------------------------------------------------------- judging refusals
 # (feature regex, kind regex, message regex) -> (verdict, why). Verdicts: "physics" (the combination is
 # meaningless for this arm) or "missing feature" (it could exist; the code does not offer it).
-JUDGEMENTS: list = []
+MISSING, PHYSICS, NO_DATA = "missing feature", "physics", "no data"
+JUDGEMENTS: list = [
+    (r"--method (snopt|ipopt|steepest|collocation)", r"^(?!energy)", r"plans energy-time|does not plan spatial",
+     MISSING, "the energy-time cost (c1 tau'tau + c2) dt needs only joint torques, which every arm has; the solvers "
+     "are written for seed 001's Fourier problem only"),
+    (r"--method (ga|optimum|toppra|toppra-drake|ruckig|trajopt)$", "energy", r"plans transfer scenarios",
+     MISSING, "a minimum-time plan of the vertical arm under its joint-torque limits is meaningful; the transfer "
+     "planners take transfer scenarios only"),
+    (r"--method family_optimum", "planar|tray", r"plans spatial scenarios",
+     MISSING, "a name only: the transfer planners call the same thing `optimum` (the spatial ones take both)"),
+    (r"--method family_optimum", "energy", r"plans transfer scenarios",
+     MISSING, "as for the other minimum-time planners on the vertical arm"),
+    (r"--method toppra-drake", "UR5|Panda", r"does not plan spatial",
+     MISSING, "Drake's TOPP-RA on a spatial path is meaningful; only the planar variant is wired to it"),
+    (r"--method thesis", ".", r"plans transfer scenarios|does not plan spatial",
+     NO_DATA, "`thesis` replays a published plan's genes; this scenario has no published transfer plan (neither "
+     "physics nor a missing feature)"),
+    (r"--method trajopt", "tray", r"not available for the tray",
+     MISSING, "the tray's level and friction-cone terms are missing from the trajopt constraints (TOPP-RA, Ruckig "
+     "and the GA have them); a tray constraint set for trajopt is code, not physics"),
+]
 
 
 def judge(row: dict) -> tuple[str, str]:
@@ -596,7 +618,7 @@ def main(argv: list | None = None) -> int:
         root.mkdir(parents=True, exist_ok=True)
         bases = Bases(root, args.timeout)
         for k, c in enumerate(todo, 1):
-            if c.key in cells:
+            if c.key in cells and cells[c.key].get("command") == c.shown():  # a changed command runs again
                 print(f"[{k}/{n}] {c.kind:14s} {c.feature}: {cells[c.key]['status']} (in the JSON, skipped)",
                       file=sys.stderr, flush=True)
                 continue
