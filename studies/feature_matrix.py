@@ -7,7 +7,7 @@ scenario each) and each feature, the cheapest real command that exercises it run
     error    a traceback, a timeout, another exit code, or exit 0/3 without the expected output
 
     python -m studies.feature_matrix                 # out/feature_matrix.json + docs/features.md
-    python -m studies.feature_matrix --fresh         # forget the cells already in the JSON
+    python -m studies.feature_matrix --fresh         # run every cell again (with --only: those)
     python -m studies.feature_matrix --only plan-ga --kinds ur5-suction-bins   # a few cells
 
 The JSON is rewritten (atomically) after every cell, and a rerun skips the cells already in it, so an
@@ -89,6 +89,9 @@ class Cell:
     expect: list = field(default_factory=list)  # files an exit 0/3 must have written (relative to the cell dir)
     needs_base: bool = False
     prep: dict = field(default_factory=dict)  # file name -> ("yaml", changes) | ("csv", None)
+    # (file, key, subkey): a JSON output that must hold `key` (a mapping holding `subkey`) somewhere,
+    # else an exit 0 ignored the option (a silent wrong answer, an error)
+    evidence: tuple | None = None
 
     @property
     def key(self) -> str:
@@ -155,12 +158,13 @@ def cell(feature: str, kind: str) -> Cell:
                     expect=["p2.json"])
     if feature == "plan --carried":
         return Cell(feature, kind, [_plan_words(name, fam, base) + ["--carried", "--carried-max-scale", "1.5",
-                                                                     "--json", "plan.json"]], expect=["plan.json"])
+                                                                     "--json", "plan.json"]], expect=["plan.json"],
+                    evidence=("plan.json", "carried_search", None))
     if feature == "plan --success P":
         return Cell(feature, kind, [_plan_words("few.yaml", fam, base) + [
             "--success", "0.3", "--success-out", "succ", "--success-check-cases", str(FEW_CASES),
             "--success-max-scale", "1.5", "--json", "plan.json"]], expect=["plan.json"],
-            prep={"few.yaml": ("yaml", "few")})
+            prep={"few.yaml": ("yaml", "few")}, evidence=("plan.json", "success", "fresh_check"))
     if feature == "scenario YAML copy (CLI)":
         return Cell(feature, kind, [_plan_words("copy.yaml", fam, base) + ["--json", "plan.json"]],
                     expect=["plan.json"], prep={"copy.yaml": ("yaml", "override")})
@@ -202,7 +206,7 @@ def cell(feature: str, kind: str) -> Cell:
     if feature in extra:
         out = ["rec.html"] if feature.endswith("(HTML)") else []
         return Cell(feature, kind, [sim + extra[feature] + ["--json", "sim.json"]], expect=["sim.json", *out],
-                    needs_base=True)
+                    needs_base=True, evidence=("sim.json", "flip", None) if feature.endswith("--margin") else None)
     if feature == "retime":
         return Cell(feature, kind, [["qmt-drake", "retime", name, "--path", "path.csv", "--method", "toppra",
                                      "--quiet", "--json", "plan.json"]], expect=["plan.json"], needs_base=True,
@@ -437,6 +441,31 @@ def run_interrupted(argv: list, cwd: Path, timeout: float, pattern: str = r"gene
     return rc, out, "".join(lines), time.perf_counter() - t0, interrupted
 
 
+def _holds(x, key: str, subkey: str | None) -> bool:
+    """Some mapping inside `x` has `key` (whose value is a mapping holding `subkey`, when given)."""
+    if isinstance(x, dict):
+        if key in x and (subkey is None or (isinstance(x[key], dict) and subkey in x[key])):
+            return True
+        return any(_holds(v, key, subkey) for v in x.values())
+    if isinstance(x, list):
+        return any(_holds(v, key, subkey) for v in x)
+    return False
+
+
+def check_evidence(c: Cell, d: Path, res: Result) -> Result:
+    if c.evidence is None or res.status != "ok":
+        return res
+    fname, key, subkey = c.evidence
+    try:
+        found = _holds(json.loads((d / fname).read_text()), key, subkey)
+    except (OSError, ValueError):
+        found = False
+    if found:
+        return res
+    what = f"'{key}'" + (f" with '{subkey}'" if subkey else "")
+    return Result("error", res.rc, f"exit {res.rc} but {fname} holds no {what}: the option was ignored", res.seconds)
+
+
 def _checkpoint_generation(path: Path) -> int | None:
     try:
         return int(json.loads(path.read_text())["generation"])
@@ -470,6 +499,8 @@ def run_steps(c: Cell, d: Path, timeout: float) -> tuple[Result, list]:
             rc, out, err, dt = run_step(argv, d, timeout)
             missing = [f for f in c.expect if not (d / f).exists()] if last else []
             res = classify(rc, out, err, missing, dt, timeout)
+            if last:
+                res = check_evidence(c, d, res)
             if mode == "resume" and res.status == "ok" and not re.search(r"resum", err, re.I):
                 res = Result("error", rc, "finished but did not say it resumed from the checkpoint", dt)
         steps.append({"argv": argv, "rc": rc, "seconds": round(dt, 2), "stderr_tail": err.strip().splitlines()[-3:]})
@@ -598,7 +629,7 @@ def markdown(cells: dict, meta: dict) -> str:
 
 def main(argv: list | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--fresh", action="store_true", help="forget the cells already in the JSON")
+    ap.add_argument("--fresh", action="store_true", help="run the selected cells again even if in the JSON")
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds per step of a cell (default 300)")
     ap.add_argument("--only", nargs="*", help="features to run (substrings)")
     ap.add_argument("--kinds", nargs="*", help="kinds to run (column name or scenario)")
@@ -606,10 +637,12 @@ def main(argv: list | None = None) -> int:
     ap.add_argument("--md", type=Path, default=OUT_MD)
     ap.add_argument("--keep", type=Path, help="run in this folder (kept) instead of a temporary one")
     args = ap.parse_args(argv)
-    cells = {} if args.fresh else load_results(args.json)
+    cells = load_results(args.json)
     todo = [c for c in all_cells()
             if (not args.only or any(s in c.feature for s in args.only))
             and (not args.kinds or c.kind in args.kinds or KINDS[c.kind][0] in args.kinds)]
+    if args.fresh:
+        cells = {k: v for k, v in cells.items() if k not in {c.key for c in todo}}
     meta = {"commit": _commit(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
             "timeout_s": args.timeout}
     n = len(todo)

@@ -63,11 +63,10 @@ def test_exit_codes_and_outputs(tmp_path):
 def test_ctrl_c_at_the_first_progress_line(tmp_path):
     """run_interrupted sends SIGINT once the progress line is out; the fake GA writes its checkpoint then."""
     code = ("import sys, time\n"
-            "print('generation 1 of at most 9', file=sys.stderr, flush=True)\n"
-            "try:\n    time.sleep(30)\n"
+            "try:\n    print('generation 1 of at most 9', file=sys.stderr, flush=True)\n    time.sleep(30)\n"
             "except KeyboardInterrupt:\n    open('ga.ckpt', 'w').write('{\"generation\": 7}')\n    sys.exit(130)\n")
     rc, out, err, dt, hit = fm.run_interrupted(_py(code), tmp_path, timeout=20)
-    assert (rc, hit) == (130, True) and dt < 15
+    assert (rc, hit) == (130, True) and dt < 20
     assert fm._checkpoint_generation(tmp_path / "ga.ckpt") == 7
 
 
@@ -98,3 +97,14 @@ def test_a_real_refusal_is_one_line(tmp_path):
     assert row["status"] in ("ok", "refused"), row["message"]
     if row["status"] == "refused":
         assert row["one_line"] and row["message"] and row["rc"] == 2
+
+
+def test_an_ignored_option_is_an_error(tmp_path):
+    """Exit 0 without the feature's trace in its output (e.g. --success silently dropped) is a defect."""
+    c = fm.cell("plan --success P", "planar magnet")
+    ok = fm.Result("ok", 0, "", 1.0)
+    (tmp_path / "plan.json").write_text(json.dumps({"optima": [{"success": True}]}))
+    r = fm.check_evidence(c, tmp_path, ok)
+    assert r.status == "error" and "option was ignored" in r.message
+    (tmp_path / "plan.json").write_text(json.dumps({"extra": {"success": {"search": {}, "fresh_check": {}}}}))
+    assert fm.check_evidence(c, tmp_path, ok) is ok
