@@ -554,6 +554,17 @@ JUDGEMENTS: list = [
     (r"--method trajopt", "tray", r"not available for the tray",
      MISSING, "the tray's level and friction-cone terms are missing from the trajopt constraints (TOPP-RA, Ruckig "
      "and the GA have them); a tray constraint set for trajopt is code, not physics"),
+    (r"GA --checkpoint", "energy", r"plans transfer scenarios",
+     MISSING, "no GA plans the vertical arm (see plan --method ga); nothing to checkpoint"),
+    (r"GA --checkpoint", "UR5|Panda", r"keeps no checkpoint",
+     MISSING, "the spatial GA runs the same planners/ga.run_ga, which writes checkpoints; only the plumbing is missing"),
+    (r"--carried|--success|sweep|--margin", "energy", r"energy-time|no uncertainty|carried|payload",
+     PHYSICS, "seed 001's vertical arm carries no payload: there is nothing to hold, slip or lose, so 'carried' and "
+     "its probability have no meaning (the arm's own tracking could be swept: that would be a new verdict). Issue 27 "
+     "asks the refusal to say so; a message naming option families or kinds does not"),
+    (r"--success", ".", r"not reached even",
+     PHYSICS, "an answer, not a refusal of the feature: under the scenario's uncertainty the plan is not carried often "
+     "enough even this much slower (the cell's cheap bound, --success-max-scale 1.5 and 4 cases)"),
 ]
 
 
@@ -586,11 +597,19 @@ def save(path: Path, cells: dict, meta: dict) -> None:
     write_text_atomic(path, json.dumps({**meta, "cells": cells}, indent=1) + "\n")
 
 
+def short(command: str) -> str:
+    """The command without the words every cell shares (--quiet, the JSON output, the small energy-time
+    problem, the spatial GA's population): what the row's feature adds."""
+    for words in ("--quiet", " ".join(ENERGY_SMALL), "--option population=6"):
+        command = command.replace(" " + words, "")
+    return re.sub(r" --json \S+", "", command)
+
+
 def _cmd_cell(row: dict | None) -> str:
     if row is None:
         return "(not run)"
-    cmd = row["command"].replace("|", "\\|")
-    return f"**{row['status']}**<br>`{cmd}`"
+    cmd = short(row["command"]).replace("|", "\\|")
+    return f"**{row['status']}** `{cmd}`"
 
 
 def markdown(cells: dict, meta: dict) -> str:
@@ -613,10 +632,15 @@ def markdown(cells: dict, meta: dict) -> str:
         "| feature | " + " | ".join(kinds) + " |", "|---|" + "---|" * len(kinds)]
     for f in FEATURES:
         lines.append(f"| {f} | " + " | ".join(_cmd_cell(cells.get(f"{f}|{k}")) for k in kinds) + " |")
-    refused = [r for r in cells.values() if r["status"] == "refused"]
-    lines += ["", "## Refusals", "", "| feature | kind | message | verdict | why |", "|---|---|---|---|---|"]
-    for r in refused:
-        verdict, why = judge(r)
+    refused = [(r, *judge(r)) for r in cells.values() if r["status"] == "refused"]
+    verdicts = {v: sum(1 for _, w, _ in refused if w == v) for v in (PHYSICS, MISSING, NO_DATA, "not judged")}
+    lines += ["", "## Refusals", "",
+              f"{len(refused)} refusals: " + ", ".join(f"{n} {v}" for v, n in verdicts.items()) + ". Verdicts (judged "
+              "in studies/feature_matrix.py JUDGEMENTS, by the message): **physics**, the combination is meaningless "
+              "for this arm; **missing feature**, it would mean something and the code does not offer it; **no "
+              "data**, the scenario lacks what the feature replays. A refusal whose message changed is 'not judged'.",
+              "", "| feature | kind | message | verdict | why |", "|---|---|---|---|---|"]
+    for r, verdict, why in refused:
         msg = r["message"].replace("|", "\\|")
         lines.append(f"| {r['feature']} | {r['kind']} | {msg} | {verdict} | {why} |")
     errors = [r for r in cells.values() if r["status"] == "error"]
