@@ -199,7 +199,7 @@ def cell(feature: str, kind: str) -> Cell:
         return Cell(feature, kind, [_py(body)], needs_base=True)
     sim = ["qmt-drake", "simulate", name, "--plan", "base.json", "--quiet"]
     extra = {"simulate --plan": [], "simulate --time-step-ms": ["--time-step-ms", "1"],
-             "simulate --explicit": ["--explicit", "--time-step-ms", "1"],
+             "simulate --explicit": ["--explicit"],  # its step defaults to 1 ms (the CLI's help)
              "simulate --feedforward back-emf": ["--feedforward", "back-emf"],
              "simulate --actuator dc_motor": ["--actuator", "dc_motor"],
              "simulate --record (HTML)": ["--record", "rec.html"], "simulate --margin": ["--margin"]}
@@ -565,6 +565,30 @@ JUDGEMENTS: list = [
     (r"--success", ".", r"not reached even",
      PHYSICS, "an answer, not a refusal of the feature: under the scenario's uncertainty the plan is not carried often "
      "enough even this much slower (the cell's cheap bound, --success-max-scale 1.5 and 4 cases)"),
+    (r"overrides \(API\)", ".", r"overrides apply to transfer",
+     MISSING, "the same change in a copy of the YAML file is accepted (row 'scenario YAML copy'): only the dict form "
+     "of load_scenario is missing"),
+    (r"build_diagram", ".", r"composes transfer scenarios",
+     MISSING, "simulate builds a Drake diagram for this kind too; it is not handed to the user to compose"),
+    (r"--time-step-ms", "UR5|Panda", r"steps at 1 ms",
+     MISSING, "the plant step of a spatial co-simulation is a number like the planar one's; fixed at 1 ms by the code"),
+    (r"--time-step-ms|--explicit|--feedforward|--actuator", "energy", r"energy-time execution runs the plan",
+     MISSING, "the vertical arm is run under ideal inverse dynamics; a step, a motor drive and its feedforward are "
+     "meaningful for it, the code has none"),
+    (r"--explicit|--feedforward", "tray", r"servos' own firmware loop",
+     PHYSICS, "the Dynamixel servos close their position loop in firmware: there is no motor-voltage loop to step "
+     "explicitly and no voltage feedforward to add (the message says so)"),
+    (r"--explicit", "UR5|Panda", r"steps at 1 ms|implicitly",
+     MISSING, "the spatial dc_motor drive has a motor loop like the planar one's; an explicit step of it is not offered"),
+    (r"--feedforward back-emf", "UR5|Panda", r"applies to actuator dc_motor",
+     PHYSICS, "the default ideal actuator is a torque source: it has no back-EMF to feed forward (with --actuator "
+     "dc_motor the option applies; the message says so)"),
+    (r"--actuator dc_motor", "planar|tray", r"actuator is its YAML actuator section",
+     MISSING, "an interface gap, not physics: the planar arm's YAML actuator already is a DC motor with a gear (the "
+     "tray's, Dynamixel servos), and the flag cannot name it"),
+    (r"^(retime|export)$", "planar|tray|energy", r"takes a spatial scenario|spatial",
+     MISSING, "a planar joint path has a fastest timing and a controller stream as a spatial one does; the commands "
+     "take spatial scenarios only"),
 ]
 
 
