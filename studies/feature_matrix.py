@@ -558,7 +558,10 @@ JUDGEMENTS: list = [
      MISSING, "no GA plans the vertical arm (see plan --method ga); nothing to checkpoint"),
     (r"GA --checkpoint", "UR5|Panda", r"keeps no checkpoint",
      MISSING, "the spatial GA runs the same planners/ga.run_ga, which writes checkpoints; only the plumbing is missing"),
-    (r"--carried|--success|sweep|--margin", "energy", r"energy-time|no uncertainty|carried|payload",
+    (r"--margin", "energy", r"takes no time scale",
+     MISSING, "the execution's own verdict (goal reached within tolerance) could flip with a time scale or a plant "
+     "step as the carried verdict does; the energy-time execution takes neither"),
+    (r"--carried|--success|sweep", "energy", r"energy-time|no uncertainty|carried|payload",
      PHYSICS, "seed 001's vertical arm carries no payload: there is nothing to hold, slip or lose, so 'carried' and "
      "its probability have no meaning (the arm's own tracking could be swept: that would be a new verdict). Issue 27 "
      "asks the refusal to say so; a message naming option families or kinds does not"),
@@ -640,6 +643,8 @@ def markdown(cells: dict, meta: dict) -> str:
     kinds = list(KINDS)
     counts = {s: sum(1 for r in cells.values() if r["status"] == s) for s in ("ok", "refused", "error")}
     total_s = sum(r["seconds"] for r in cells.values())
+    commits = sorted({r.get("commit", meta.get("commit", "?")) for r in cells.values()})
+    timeouts = sorted({r.get("timeout_s", meta.get("timeout_s", "?")) for r in cells.values()}, key=str)
     lines = [
         "# Features x kinds", "",
         "Written by `python -m studies.feature_matrix` (issue 27 item 6) from out/feature_matrix.json; do not edit by "
@@ -649,10 +654,16 @@ def markdown(cells: dict, meta: dict) -> str:
                                                      "energy": "energy"}.items()) + ") and its status: "
         "**ok** (exit 0, or exit 3 with the plan written), **refused** (exit 2, one line), **error** (traceback, "
         "timeout, other exit).", "",
-        f"Commit {meta.get('commit', '?')}, {meta.get('date', '?')}: {len(cells)} cells, {counts['ok']} ok, "
-        f"{counts['refused']} refused, {counts['error']} error; {total_s / 60:.1f} min of wall time in the cells "
-        f"(per-cell timeout {meta.get('timeout_s', '?')} s).", "",
+        f"Commit{'s' if len(commits) > 1 else ''} {', '.join(commits)} (last run {meta.get('date', '?')}): "
+        f"{len(cells)} cells, {counts['ok']} ok, {counts['refused']} refused, {counts['error']} error; "
+        f"{total_s / 60:.1f} min of wall time in the cells, base plans not counted (per-step timeout "
+        f"{', '.join(f'{t:g}' if isinstance(t, float) else str(t) for t in timeouts)} s).", "",
         "Kinds: " + ", ".join(f"{k} = `{v[0]}`" for k, v in KINDS.items()) + ".", "",
+        "Run again: `python -m studies.feature_matrix --fresh` (every cell; the first full run took 47 min of wall "
+        "time, 15.5 min of CPU, on 2 cores shared with 7 other jobs); without --fresh a cell already in the JSON with "
+        "the same command is skipped; `--only TEXT --kinds NAME` selects cells. An exit 0 whose output lacks the "
+        "feature's trace (--carried: carried_search, --success: its fresh check, --margin: the flip, the GA resume: "
+        "'resuming' on stderr) counts as an error: the option was ignored.", "",
         "| feature | " + " | ".join(kinds) + " |", "|---|" + "---|" * len(kinds)]
     for f in FEATURES:
         lines.append(f"| {f} | " + " | ".join(_cmd_cell(cells.get(f"{f}|{k}")) for k in kinds) + " |")
@@ -704,7 +715,7 @@ def main(argv: list | None = None) -> int:
                       file=sys.stderr, flush=True)
                 continue
             row = run_cell(c, root, bases, args.timeout)
-            cells[c.key] = row
+            cells[c.key] = {**row, "commit": meta["commit"], "timeout_s": args.timeout}
             save(args.json, cells, meta)
             print(f"[{k}/{n}] {c.kind:14s} {c.feature}: {row['status']} {row['seconds']:.1f} s "
                   f"{row['message'][:100]}", file=sys.stderr, flush=True)
