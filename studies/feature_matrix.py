@@ -118,9 +118,10 @@ def run_cell(c: Cell, root: Path, bases: Bases, timeout: float) -> dict:
 
 
 def _commit() -> str:
+    """The last commit that changed qmt_drake/ (what the matrix measures; a study's own commits do not count)."""
     try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                              check=True).stdout.strip()
+        return subprocess.run(["git", "log", "-1", "--format=%h", "--", "qmt_drake"], cwd=ROOT, capture_output=True,
+                              text=True, check=True).stdout.strip() or "?"
     except (OSError, subprocess.CalledProcessError):
         return "?"
 

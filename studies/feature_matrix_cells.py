@@ -61,8 +61,8 @@ class Cell:
     expect: list = field(default_factory=list)  # files an exit 0/3 must have written (relative to the cell dir)
     needs_base: bool = False
     prep: dict = field(default_factory=dict)  # file name -> ("yaml", changes) | ("csv", None)
-    # (file, key, subkey): a JSON output that must hold `key` (a mapping holding `subkey`) somewhere,
-    # else an exit 0 ignored the option (a silent wrong answer, an error)
+    # (file, key, subkey[, value]): a JSON output that must hold `key` (a mapping holding `subkey`; equal
+    # to `value`) somewhere, else an exit 0 ignored the option (a silent wrong answer, an error)
     evidence: tuple | None = None
 
     @property
@@ -178,7 +178,7 @@ def cell(feature: str, kind: str) -> Cell:
     if feature in extra:
         out = ["rec.html"] if feature.endswith("(HTML)") else []
         return Cell(feature, kind, [sim + extra[feature] + ["--json", "sim.json"]], expect=["sim.json", *out],
-                    needs_base=True, evidence=("sim.json", "flip", None) if feature.endswith("--margin") else None)
+                    needs_base=True, evidence=SIM_EVIDENCE.get(feature))
     if feature == "retime":
         return Cell(feature, kind, [["qmt-drake", "retime", name, "--path", "path.csv", "--method", "toppra",
                                      "--quiet", "--json", "plan.json"]], expect=["plan.json"], needs_base=True,
@@ -188,6 +188,14 @@ def cell(feature: str, kind: str) -> Cell:
                                      "--rate", "500", "--out", "stream.csv", "--json", "export.json"]],
                     expect=["stream.csv"], needs_base=True)
     raise ValueError(f"no command for feature {feature!r}")
+
+
+# what a simulate row's JSON shows when its option was used (the planar co-simulation's keys)
+SIM_EVIDENCE = {"simulate --margin": ("sim.json", "flip", None),
+                "simulate --time-step-ms": ("sim.json", "time_step_s", None, 0.001),
+                "simulate --explicit": ("sim.json", "implicit_loop_damping", None, False),
+                "simulate --feedforward back-emf": ("sim.json", "feedforward", None, "back-emf"),
+                "simulate --actuator dc_motor": ("sim.json", "actuator", None, "dc_motor")}
 
 
 def all_cells() -> list[Cell]:

@@ -126,29 +126,35 @@ def run_interrupted(argv: list, cwd: Path, timeout: float, pattern: str = r"gene
     return rc, out, "".join(lines), time.perf_counter() - t0, interrupted
 
 
-def _holds(x, key: str, subkey: str | None) -> bool:
-    """Some mapping inside `x` has `key` (whose value is a mapping holding `subkey`, when given)."""
+_ANY = object()
+
+
+def _holds(x, key: str, subkey: str | None, value=_ANY) -> bool:
+    """Some mapping inside `x` has `key` (whose value is a mapping holding `subkey`, when given; equal to
+    `value`, when given)."""
     if isinstance(x, dict):
-        if key in x and (subkey is None or (isinstance(x[key], dict) and subkey in x[key])):
+        if key in x and (subkey is None or (isinstance(x[key], dict) and subkey in x[key])) and (
+                value is _ANY or x[key] == value):
             return True
-        return any(_holds(v, key, subkey) for v in x.values())
+        return any(_holds(v, key, subkey, value) for v in x.values())
     if isinstance(x, list):
-        return any(_holds(v, key, subkey) for v in x)
+        return any(_holds(v, key, subkey, value) for v in x)
     return False
 
 
 def check_evidence(c: Cell, d: Path, res: Result) -> Result:
     if c.evidence is None or res.status != "ok":
         return res
-    fname, key, subkey = c.evidence
+    fname, key, subkey, *value = c.evidence
     try:
-        found = _holds(json.loads((d / fname).read_text()), key, subkey)
+        found = _holds(json.loads((d / fname).read_text()), key, subkey, *value)
     except (OSError, ValueError):
         found = False
     if found:
         return res
-    what = f"'{key}'" + (f" with '{subkey}'" if subkey else "")
-    return Result("error", res.rc, f"exit {res.rc} but {fname} holds no {what}: the option was ignored", res.seconds)
+    what = f"'{key}'" + (f" with '{subkey}'" if subkey else "") + (f" = {value[0]!r}" if value else "")
+    return Result("error", res.rc, f"exit {res.rc} but {fname} holds no {what}: the option was ignored (or its "
+                  "use is not recorded)", res.seconds)
 
 
 def _checkpoint_generation(path: Path) -> int | None:

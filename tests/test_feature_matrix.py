@@ -108,3 +108,12 @@ def test_an_ignored_option_is_an_error(tmp_path):
     assert r.status == "error" and "option was ignored" in r.message
     (tmp_path / "plan.json").write_text(json.dumps({"extra": {"success": {"search": {}, "fresh_check": {}}}}))
     assert fm.check_evidence(c, tmp_path, ok) is ok
+
+
+def test_a_simulate_option_must_show_in_its_result(tmp_path):
+    c = fm.cell("simulate --time-step-ms", "planar magnet")
+    ok = fm.Result("ok", 0, "", 1.0)
+    (tmp_path / "sim.json").write_text(json.dumps({"time_step_s": 0.002}))
+    assert fm.check_evidence(c, tmp_path, ok).status == "error"
+    (tmp_path / "sim.json").write_text(json.dumps({"run": {"time_step_s": 0.001}}))
+    assert fm.check_evidence(c, tmp_path, ok) is ok
