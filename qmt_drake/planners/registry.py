@@ -160,8 +160,11 @@ def find(kind: str, method: Any, where: str = "method") -> Method:
     if mine:
         return mine[0]
     other = sorted({_WORDS[m.kind] for m in rows() if method == m.name or method in m.aliases})
-    what = f"plans {' and '.join(other)} scenarios, not {_WORDS[kind]} ones" if other else "is no planner"
-    raise QmtInputError(f"{where} {method} {what}; {_WORDS[kind]} scenarios take {'|'.join(names(kind))}")
+    if other:
+        raise QmtInputError(f"{where} {method} plans {' and '.join(other)} scenarios, not {_WORDS[kind]} ones; "
+                            f"{_WORDS[kind]} scenarios take {'|'.join(names(kind))}")
+    raise QmtInputError(f"{where} {method!r} is unknown (no planner of any kind has that name); {_WORDS[kind]} "
+                        f"scenarios take {'|'.join(names(kind))}")
 
 
 def _flag(where: str | dict, key: str) -> str:
