@@ -55,7 +55,9 @@ def checked_method(args, kind: str) -> tuple[registry.Method, dict]:
     """(the registry's row of --method on this kind, its options from the flags), checked in one line
     before any work: the method on the kind, each option's name, type and range, --seed only for a
     method that takes one. Sets args.method to the row's name (an alias resolved)."""
-    row, opts = registry.check(kind, args.method or DEFAULT_METHOD[kind], flag_options(args), FLAGS)
+    given = flag_options(args)
+    named = {k: f for k, f in FLAGS.items() if getattr(args, f[2:].replace("-", "_"), None) is not None}
+    row, opts = registry.check(kind, args.method or DEFAULT_METHOD[kind], given, named)  # others: --option KEY
     if getattr(args, "seed", 0) not in (0, None) and "seed" not in row.passes:
         raise QmtInputError(f"--seed: the {kind.replace('_', ' ')} {row.name} planner draws no random numbers; drop --seed")
     args.method = row.name

@@ -160,7 +160,8 @@ def plan(args, row, opts: dict) -> bool:
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
-        print(summary_line(sc, p, bound) + ("" if holds else "; INFEASIBLE (least-violating plan)"))
+        print(summary_line(sc, p, bound) + ("" if holds else f"; INFEASIBLE (least-violating plan; binding limit "
+                                                              f"{p.recheck['binding']} at {p.recheck['max']:.4g} of it)"))
     return holds
 
 

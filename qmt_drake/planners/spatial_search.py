@@ -233,7 +233,8 @@ def check_ga_checkpoint(sc, path, *, seed: int = 0, generations: int = 150, popu
 
 def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40, stall: int = 60,
                     tight_timing: bool = True, family: str = "via_cubic", progress=None,
-                    checkpoint_path: str | None = None, checkpoint_every: int = 500) -> SpatialPlan:
+                    checkpoint_path: str | None = None, checkpoint_every: int = 500,
+                    progress_every_s: float = 2.0) -> SpatialPlan:
     """The binary GA (planners/ga.run_ga) on the family's genes (module docstring). checkpoint_path:
     the run's state written there every `checkpoint_every` generations and on Ctrl-C, and resumed from
     by the same call (ga.run_ga: the same plan as an uninterrupted run). When no candidate held the
@@ -242,8 +243,8 @@ def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: in
     naming the binding limit."""
     t0 = time.perf_counter()
     problem, settings = _ga_run(sc, generations, population, stall, tight_timing, family)
-    res = run_ga(problem, settings, seed=seed, progress=progress, checkpoint_path=checkpoint_path,
-                 checkpoint_every=checkpoint_every)
+    res = run_ga(problem, settings, seed=seed, progress=progress, progress_every_s=progress_every_s,
+                 checkpoint_path=checkpoint_path, checkpoint_every=checkpoint_every)
     fam = problem.family
     if not res.feasible:  # the least-violating plan, as the planar GA's (plan.feasible False, exit 3)
         genes = np.asarray(res.genes, float)
