@@ -93,8 +93,9 @@ def test_api_refusals_are_one_line(scenarios, call, needle):
 
 @pytest.mark.parametrize("argv, needle", [
     (["plan", "thesis-ch4", "--option", "bogus=1"], "--option bogus: not an option of the planar ga planner"),
-    (["plan", "ohsaka-fig3", "--method", "toppra"], "--method toppra plans planar and spatial (3-D) scenarios, "
-                                                    "not energy-time ones; energy-time scenarios take snopt|"),
+    (["plan", "ohsaka-fig3", "--method", "toppra"], "--method toppra plans planar (kind: transfer) and spatial "
+                                                    "(3-D) (kind: spatial_transfer) scenarios, not energy-time ones; "
+                                                    "energy-time scenarios take snopt|"),
     (["plan", "ohsaka-fig3", "--generations", "3"], "--generations: not an option of the energy-time snopt planner"),
     (["plan", "thesis-ch4", "--c1", "2"], "--c1: not an option of the planar ga planner (the energy-time snopt"),
     (["plan", "ur5-magnet-part", "--method", "toppra", "--seed", "2"], "--seed: the spatial transfer toppra planner "

@@ -159,9 +159,10 @@ def find(kind: str, method: Any, where: str = "method") -> Method:
     mine = [m for m in rows(kind) if method == m.name or method in m.aliases]
     if mine:
         return mine[0]
-    other = sorted({_WORDS[m.kind] for m in rows() if method == m.name or method in m.aliases})
+    other = [k for k in KINDS if any(m.kind == k and (method == m.name or method in m.aliases) for m in rows())]
     if other:
-        raise QmtInputError(f"{where} {method} plans {' and '.join(other)} scenarios, not {_WORDS[kind]} ones; "
+        theirs = " and ".join(f"{_WORDS[k]} (kind: {k})" for k in other)
+        raise QmtInputError(f"{where} {method} plans {theirs} scenarios, not {_WORDS[kind]} ones; "
                             f"{_WORDS[kind]} scenarios take {'|'.join(names(kind))}")
     raise QmtInputError(f"{where} {method!r} is unknown (no planner of any kind has that name); {_WORDS[kind]} "
                         f"scenarios take {'|'.join(names(kind))}")
