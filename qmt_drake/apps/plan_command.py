@@ -55,8 +55,9 @@ def _refuse_for_kind(args, kind: str) -> None:
         raise QmtInputError(f"{'--carried' if args.carried else '--success'}: the energy-time arm (seed 001) carries no "
                             "payload it could lose, so there is nothing to slow down for; drop it")
     if getattr(args, "jerk_limited", False) and not (kind == registry.SPATIAL and args.method == "toppra"):
-        raise QmtInputError(f"--jerk-limited slows a spatial TOPP-RA plan to the jerk limits; --method {args.method} on "
-                            f"{args.scenario} does not take it (ruckig plans jerk-limited motions itself)")
+        raise QmtInputError(f"--jerk-limited slows a spatial TOPP-RA plan to the jerk limits: use --method toppra on a "
+                            f"spatial scenario ({args.method} on {args.scenario} does not take it; ruckig plans "
+                            "jerk-limited motions itself)")
 
 
 def cmd_plan(args) -> int:

@@ -28,7 +28,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from qmt_drake.api_checks import OPTION_RANGES, REAL_RANGES, number, option_value
+from qmt_drake.api_checks import OPTION_RANGES, REAL_RANGES, _closest, number, option_value
 from qmt_drake.config.fields import show
 from qmt_drake.config.registry import check_registration
 from qmt_drake.errors import QmtInputError
@@ -195,7 +195,7 @@ def check(kind: str, method: Any, options: dict, where: str | dict = "plan_with 
             given = next((k for k, v in row.renamed.items() if v == key), key)
             why = _takers(key)
             raise QmtInputError(f"{_flag(where, given)}: not an option of the {_WORDS[kind]} {row.name} planner{why}; "
-                                f"it takes {', '.join(sorted(params)) or 'no options'}")
+                                f"{_closest(given, params)}it takes {', '.join(sorted(params)) or 'no options'}")
     for key, value in out.items():  # types and ranges (api_checks.option_value), named as they were given
         if not callable(value):
             given = next((k for k, v in row.renamed.items() if v == key and k in options), key)
@@ -205,11 +205,17 @@ def check(kind: str, method: Any, options: dict, where: str | dict = "plan_with 
 
 def _takers(key: str) -> str:
     """' (the planar ga and spatial (3-D) ga planners take it)': the rows whose option `key` is."""
-    takers = [f"{_WORDS[m.kind]} {m.name}" for m in rows() if key in m.options()]
-    if not takers:
+    by_kind = {k: [m.name for m in rows(k) if key in m.options()] for k in KINDS}
+    groups = [f"{_WORDS[k]} {_and(ms)}" for k, ms in by_kind.items() if ms]
+    if not groups:
         return ""
-    return f" (the {', '.join(takers[:-1]) + ' and ' if len(takers) > 1 else ''}{takers[-1]} planner" \
-           f"{'s take' if len(takers) > 1 else ' takes'} it)"
+    many = len(groups) > 1 or any(len(ms) > 1 for ms in by_kind.values())
+    return f" (the {_and(groups)} planner{'s take' if many else ' takes'} it)"
+
+
+def _and(words: list[str]) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
 
 
 def plan(scenario: Any, method: str, *, seed: int = 0, progress: Progress = None, where: str | dict = "plan_with option",
