@@ -15,7 +15,6 @@ Units: SI throughout (m, s, rad, N m, kg); times in seconds, joint angles in rad
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -38,7 +37,6 @@ from qmt_drake.config.fields import show
 from qmt_drake.config.resolve import kind_of
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
-from qmt_drake.energy.energy_plan import plan_energy_time
 from qmt_drake.energy.experiments import Experiment
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
@@ -49,16 +47,7 @@ from qmt_drake.outputs import check_output_path
 from qmt_drake.plan import ENERGY_PLAN_KIND, KIND_WORDS, SPATIAL_PLAN_KIND, Plan, a_kind
 from qmt_drake.plan_files import load_plan as _load_plan
 from qmt_drake.plan_files import scenario_kind_of
-from qmt_drake.planners import PLANNERS as TRANSFER_PLANNERS
-from qmt_drake.planners import plan_with as _plan_with
-from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
-from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
-from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
-from qmt_drake.planners.ga import run_ga
-from qmt_drake.planners.optimum import plan_family_optimum
-from qmt_drake.planners.spatial_methods import ALIASES as SPATIAL_ALIASES
-from qmt_drake.planners.spatial_methods import METHODS as SPATIAL_METHODS
-from qmt_drake.planners.spatial_methods import PLANNERS as SPATIAL_PLANNERS
+from qmt_drake.planners import registry
 from qmt_drake.sim.cosim import CoSim, build_cosim, run
 from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import check_spatial_time_step
@@ -67,17 +56,6 @@ from qmt_drake.spatial_task import SPATIAL_KIND, SpatialScenario, load_spatial_s
 AnyScenario = Scenario | SpatialScenario | Experiment
 
 __all__ = ["Plan", "Scenario", "build_diagram", "load_plan", "load_scenario", "plan_with", "simulate"]
-
-
-# The transfer planners' own functions, for their keywords (plan_with's wrappers take **options); the
-# planner's positional inputs and plan_with's own keywords are not options.
-TRANSFER_OPTIONS: dict[str, tuple[Callable, tuple[str, ...]]] = {
-    "ga": (run_ga, ("problem", "settings", "seed", "progress")),
-    "optimum": (plan_family_optimum, ("problem", "seed", "progress")),
-    "thesis": (lambda: None, ()),
-    "toppra": (plan_toppra, ("scenario",)), "toppra-drake": (plan_toppra_drake, ("scenario",)),
-    "ruckig": (plan_ruckig, ("scenario",)), "trajopt": (plan_trajopt, ("scenario",)),
-}
 
 
 def _kind_of_file(name_or_path: str | Path) -> str:
@@ -126,34 +104,24 @@ def _priced(check: Callable, *args: Any, cli: bool = False, **kwargs: Any) -> No
 
 
 def check_plan_options(method: str, sc: AnyScenario, options: dict, *, allow_large: bool = False,
-                       where: str = "plan_with option") -> None:
-    """A planner's options by its keywords, types and ranges (api_checks), and the run's budget
-    (budgets.py) before any work; `where` names the options in the message (the CLI: "--option")."""
-    cli = where.startswith("--")
-    if isinstance(sc, SpatialScenario):
-        m = SPATIAL_ALIASES.get(method, method)
-        if m not in SPATIAL_PLANNERS:
-            raise QmtInputError(f"method {method!r} does not plan spatial scenarios; use {'|'.join(SPATIAL_METHODS)}")
-        C.check_options(SPATIAL_PLANNERS[m], options, where, f"the spatial {m} planner", skip=("sc", "seed", "progress"))
-        if "family" in options and options["family"] is not None and not isinstance(options["family"], str):
-            raise QmtInputError(f"{where} family {show(options['family'])} must be a family's name (a str)")
-        if m == "ga":
-            d = inspect.signature(SPATIAL_PLANNERS["ga"]).parameters
-            size = {k: options.get(k, d[k].default) for k in ("population", "generations")}
-            _priced(check_budget, spatial_ga_estimate(size["population"], size["generations"]), allow_large=allow_large, cli=cli)
-    elif isinstance(sc, Experiment):
-        C.check_options(plan_energy_time, options, where, "the energy-time planners", skip=("E", "method", "progress"))
-        _priced(check_energy_budget, options.get("m") or sc.m, options.get("divisions") or sc.divisions,
+                       where: str | dict = "plan_with option") -> dict:
+    """A planner's options against its row of the one registry (planners/registry.check: the method on
+    this kind, the options' names, types and ranges), and the run's budget (budgets.py), before any
+    work; `where` names the options in the message (the CLI: its {option: flag} map). Returns the
+    options under the planner's own keywords."""
+    cli = isinstance(where, dict)
+    kind = registry.kind_of_scenario(sc)
+    row, opts = registry.check(kind, method, options, where)
+    if kind == registry.SPATIAL and row.name == "ga":
+        d = row.options()
+        size = {k: opts.get(k, d[k]["default"]) for k in ("population", "generations")}
+        _priced(check_budget, spatial_ga_estimate(size["population"], size["generations"]), allow_large=allow_large, cli=cli)
+    elif kind == registry.ENERGY:
+        _priced(check_energy_budget, opts.get("m") or sc.m, opts.get("divisions") or sc.divisions,
                 allow_large=allow_large, cli=cli)
-    else:
-        if method == "ga" and "population" in options:
-            raise QmtInputError(f"{where} population: the transfer GA's population is the scenario's "
-                                "ga.population; set it there (the API: overrides={'ga': {'population': N}})")
-        if method in TRANSFER_OPTIONS:
-            func, skip = TRANSFER_OPTIONS[method]
-            C.check_options(func, options, where, f"the transfer {method} planner", skip=skip)
-        if method in TRANSFER_PLANNERS:
-            _priced(check_plan_budget, sc, method, options.get("max_generations"), allow_large=allow_large, cli=cli)
+    elif kind == registry.TRANSFER:  # the scenario's rates, and the GA's size
+        _priced(check_plan_budget, sc, row.name, opts.get("max_generations"), allow_large=allow_large, cli=cli)
+    return opts
 
 
 @C.strict_call
@@ -161,17 +129,21 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
               allow_large: bool = False, **options: Any) -> Plan:
     """Plan `scenario` with `method` and return a Plan whose `feasible`, peaks and ratios come from
     re-sampling the trajectory, not from the planner: plan.motion_time_s [s], plan.sample(t) ->
-    (q [rad], qd [rad/s], qdd [rad/s^2]), plan.summary(), plan.write_json(path).
+    (q [rad], qd [rad/s], qdd [rad/s^2]), plan.summary(), plan.write_json(path). Every method of every
+    kind is a row of the one registry (planners/registry.METHODS; registry.rows(kind) lists them with
+    their typed options, Method.options()).
     Transfer scenarios: "ga" (the binary GA over the scenario's trajectory family), "optimum" (the
     family's deterministic best), "thesis" (the reported genes), "toppra", "ruckig", "trajopt"
     (time-optimal baselines under the same limits), re-checked at the scenario's check rate (10 kHz).
-    Spatial scenarios (a SpatialPlan): "toppra", "ruckig", "family_optimum" (or "optimum"), "ga",
-    "trajopt", re-checked at 10x the check rate; toppra, family_optimum and ga take
-    family="via_cubic" | "line_cubic_velocity" | "trapezoid_ptp" (planners/spatial_families.py). Energy-time scenarios (an EnergyPlan, the lowest
-    cost of the multi-start): "snopt", "ipopt", "steepest", "collocation"; options c1, c2, m,
-    divisions, coords [m], pattern, max_iter. seed: the GA's generator (and the optimum's); progress:
-    a callable taking one line of text; options: the planner's keywords (e.g. max_generations for the
-    transfer GA, jerk_limit [m/s^3] for Ruckig, generations for the spatial GA). `scenario` may be a
+    Spatial scenarios: "toppra", "ruckig", "family_optimum" (or "optimum"), "ga", "trajopt",
+    re-checked at 10x the check rate; toppra, family_optimum and ga take family="via_cubic" |
+    "line_cubic_velocity" | "trapezoid_ptp" (planners/spatial_families.py); the GA takes
+    checkpoint_path (resumable, as the transfer GA's). Energy-time scenarios: "snopt", "ipopt",
+    "steepest", "collocation"; options c1, c2, m, divisions, coords [m], pattern, max_iter. Limits
+    that no plan meets: the least-violating plan (plan.feasible False) where one exists, else
+    QmtNoPlanError (errors.py) naming the binding limit. seed: the GA's generator (and the optimum's);
+    progress: a callable taking one line of text; options: the planner's keywords (e.g.
+    max_generations or generations for a GA, jerk_limit [m/s^3] for Ruckig). `scenario` may be a
     built-in name or a YAML path (loaded first). Every argument is checked first (types, ranges, the
     options' names) and the run priced as the CLI prices it (budgets.py): over the budget raises
     QmtInputError unless allow_large=True."""
@@ -184,15 +156,8 @@ def plan_with(method: str, scenario: AnyScenario, *, seed: int = 0, progress: Ca
     if not isinstance(allow_large, bool):
         raise QmtInputError(f"plan_with: allow_large {show(allow_large)} must be True or False")
     check_plan_options(method, scenario, options, allow_large=allow_large)
-    if isinstance(scenario, SpatialScenario):
-        m = SPATIAL_ALIASES.get(method, method)
-        if m == "ga":
-            options = {"seed": seed, "progress": progress, **options}
-        plan: Plan = SPATIAL_PLANNERS[m](scenario, **options)
-        return plan
-    if isinstance(scenario, Experiment):
-        return plan_energy_time(scenario, method, progress=progress, **options)
-    return _plan_with(method, scenario, seed=seed, progress=progress, **options)
+    plan: Plan = registry.plan(scenario, method, seed=seed, progress=progress, **options)
+    return plan
 
 
 @C.strict_call

@@ -9,3 +9,10 @@ class QmtInputError(ValueError):
 class QmtSimulationError(RuntimeError):
     """A simulation that failed (diverged, left the model's validity); the message names the
     time it failed at."""
+
+
+class QmtNoPlanError(QmtInputError):
+    """Limits that no plan of the method meets, and no least-violating plan to give (e.g. a path that
+    a limit breaks at rest, so no timing exists): the message names the binding limit. A QmtInputError
+    (the scenario's limits are the input to relax); the CLI exits with code 3, as for a
+    least-violating plan."""

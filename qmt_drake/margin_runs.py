@@ -125,13 +125,13 @@ def search_half_step(sc, plan, *, feedforward: str = "full", time_step_s: float 
             "slip_at_half_step": r["max_slip_m"], "flips_at_half_step": not r["held"]}
 
 
-def spatial_half_step(sc, trajectory, *, actuator: str = "ideal") -> dict:
+def spatial_half_step(sc, trajectory, *, actuator: str = "ideal", feedforward: str = "full") -> dict:
     """The spatial counterpart of `search_half_step` (planners/spatial_carried.carried_search): the
     trajectory at half the spatial co-simulation's step; 'slip_at_half_step' is the tray hand's final
     slide [m] (None for a cup or magnet, whose weld does not slide: 'deciding_at_half_step' then holds
     the hand ratio against 1)."""
     h = spatial_cosim.TIME_STEP_S
-    r = spatial_run(sc, trajectory, actuator=actuator)(1.0, 0.5 * h)
+    r = spatial_run(sc, trajectory, actuator=actuator, feedforward=feedforward)(1.0, 0.5 * h)
     m = r["margin"]
     return {"time_step_s": h, "half_step_s": 0.5 * h, "verdict_at_half_step": r["outcome"],
             "slip_at_half_step": r.get("final_slide_m"),

@@ -8,8 +8,8 @@ from qmt_drake.apps.cli import main
 
 
 @pytest.mark.parametrize("argv,msg", [
-    (["--c2", "0"], "no stable solution"), (["--c2", "-1"], "c2 = -1"), (["--c1", "-1"], "c1 = -1"),
-    (["--m", "0"], "m = 0"), (["--coords", "0.7", "0", "0", "0.9"], "out of reach"),
+    (["--c2", "0"], "no stable solution"), (["--c2", "-1"], "--c2 -1.0 must be >= 0"), (["--c1", "-1"], "--c1 -1.0 must be >= 0"),
+    (["--m", "0"], "--m 0 must be >= 1"), (["--coords", "0.7", "0", "0", "0.9"], "out of reach"),
     (["--pattern", "xyz"], "--pattern"), (["--divisions", "1"], "divisions"),
 ])
 def test_bad_input_exit_2_one_line(capsys, argv, msg):

@@ -31,7 +31,7 @@ def test_the_two_kinds_refuse_each_others_commands_in_one_line(capsys):
     assert len(err.splitlines()) == 1 and "energy-time" in err and "--plan" in err
     assert main(["plan", "thesis-ch4", "--method", "snopt"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "transfer scenario" in err
+    assert len(err.splitlines()) == 1 and "not planar ones; planar scenarios take ga|" in err
 
 
 def test_scenarios_lists_every_kind(capsys):

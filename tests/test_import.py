@@ -78,19 +78,16 @@ def test_cli_help_loads_no_drake(argv):
 
 def test_cli_choices_agree_with_the_registries():
     from qmt_drake.apps import plan_command, spatial_cli
-    from qmt_drake.energy.energy_plan import METHODS as ENERGY_METHODS
-    from qmt_drake.planners import METHODS
-    from qmt_drake.planners.spatial_methods import METHODS as SPATIAL_METHODS
+    from qmt_drake.planners import registry
     from qmt_drake.sim import EXPLICIT_MAX_TIME_STEP_S, FEEDFORWARD_OPTIONS
     from qmt_drake.sim.spatial_actuation import ACTUATORS
-    assert cli.METHODS == METHODS and cli.ENERGY_METHODS == ENERGY_METHODS
-    assert cli.SPATIAL_METHODS == SPATIAL_METHODS == spatial_cli.SPATIAL_METHODS
-    assert cli.SPATIAL_ONLY_METHODS == plan_command.SPATIAL_ONLY_METHODS
+    assert cli.METHODS == registry.names(registry.TRANSFER) and cli.ENERGY_METHODS == registry.names(registry.ENERGY)
+    assert cli.SPATIAL_METHODS == registry.names(registry.SPATIAL) == spatial_cli.SPATIAL_METHODS
     assert cli.SPATIAL_FAMILIES == spatial_cli.SPATIAL_FAMILIES and cli.SPATIAL_ACTUATORS == ACTUATORS
     assert set(cli.FEEDFORWARD_CHOICES) == set(FEEDFORWARD_OPTIONS)
     assert cli.EXPLICIT_MAX_TIME_STEP_MS * 1e-3 == EXPLICIT_MAX_TIME_STEP_S
-    assert (cli.EXIT_INPUT, cli.EXIT_SIMULATION, cli.EXIT_INTERRUPTED) == (
-        plan_command.EXIT_INPUT, plan_command.EXIT_SIMULATION, plan_command.EXIT_INTERRUPTED)
+    assert (cli.EXIT_INPUT, cli.EXIT_INFEASIBLE, cli.EXIT_SIMULATION, cli.EXIT_INTERRUPTED) == (
+        plan_command.EXIT_INPUT, plan_command.EXIT_INFEASIBLE, plan_command.EXIT_SIMULATION, plan_command.EXIT_INTERRUPTED)
 
 
 def test_every_command_resolves_and_says_what_its_module_says():

@@ -57,7 +57,7 @@ def a_file(tmp_path):
     (["bench", "--seeds", "0"], "--seeds 0 must be >= 1"),
     (["benchmark", "--ga-seeds", "-1"], "--ga-seeds -1 must be >= 0"),
     (["benchmark", "--jerk-limits", "0"], "--jerk-limits 0.0 must be a finite positive number"),
-    (["plan", "thesis-ch4", "--method", "thesis", "--checkpoint", "c.json"], "--checkpoint is for --method ga"),
+    (["plan", "thesis-ch4", "--method", "thesis", "--checkpoint", "c.json"], "--checkpoint: not an option of the planar thesis planner (the planar ga"),
     (["plan", "thesis-ch4", "--option", "novalue"], "--option 'novalue' must be KEY=VALUE"),
 ])
 def test_bad_argument_is_refused_before_any_work(tmp_path, a_file, capsys, argv, needle):
@@ -104,7 +104,7 @@ def test_ctrl_c_exits_130_with_one_line(monkeypatch, capsys):
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(plan_command, "plan_with", interrupted)  # the name cmd_plan calls
+    monkeypatch.setattr(plan_command.registry, "plan", interrupted)  # the call cmd_plan makes
     rc, _, err, _ = _run(capsys, "plan", "thesis-ch4", "--quiet")
     assert rc == cli.EXIT_INTERRUPTED == 130
     assert _one_line(err).startswith("qmt-drake: interrupted")

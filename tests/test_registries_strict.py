@@ -9,6 +9,7 @@ import pytest
 from qmt_drake.actuators import ActuatorPlugin, register_actuator
 from qmt_drake.config.hooks import register_builders, register_validator
 from qmt_drake.config.registry import ACTUATORS, FAMILIES, HANDS, OBJECTIVES, FamilyPlugin, ObjectivePlugin
+from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import register_hand
 from qmt_drake.plan_files import PLAN_KINDS, register_plan_kind
@@ -37,9 +38,10 @@ def test_replace_true_swaps_a_planner_and_a_new_name_registers():
     mine = lambda sc, *, seed=0, progress=None, **options: ("mine", seed, options)  # noqa: E731
     try:
         register_planner("thesis", mine, replace=True)
-        assert plan_with("thesis", object(), seed=3) == ("mine", 3, {})
+        sc = load_scenario("thesis-ch4")  # the registry dispatches on the scenario's kind
+        assert plan_with("thesis", sc, seed=3) == ("mine", 3, {})
         register_planner("mine", mine)
-        assert plan_with("mine", object(), k=1) == ("mine", 0, {"k": 1})
+        assert plan_with("mine", sc, k=1) == ("mine", 0, {"k": 1})
     finally:
         register_planner("thesis", thesis, replace=True)
         unregister_planner("mine")

@@ -28,7 +28,7 @@ def spec(**kw):
     (spec(parameters={"mass_kg": -0.01}), ["mass_kg", "out of range"]),
     (spec(parameters={"mass_kg": 0.03, "mass_scale": 1.0}), ["same quantity"]),
     (spec(parameters={"friction": "high"}), ["must be a number"]),
-    (spec(plans=[{"method": "bogus"}]), ["unknown method"]),
+    (spec(plans=[{"method": "bogus"}]), ["method 'bogus' is unknown"]),
     (spec(plans=[{"method": "ga"}, {"method": "ga"}]), ["share the label"]),
     (spec(sim={"feedforward": "lots"}), ["feedforward"]),
     (spec(bogus=1), ["unknown key 'bogus'"]),
@@ -157,9 +157,9 @@ def test_steps_and_types_refused(sim, params, words):
 
 
 def test_planner_options_are_the_planners_keywords():
-    with pytest.raises(QmtInputError, match="not an option of the ga planner"):
+    with pytest.raises(QmtInputError, match="not an option of the planar ga planner"):
         load_spec(spec(plans=[{"method": "ga", "options": {"max_generation": 5}}]))
-    with pytest.raises(QmtInputError, match="max_generations must be an integer >= 1"):
+    with pytest.raises(QmtInputError, match="max_generations 2.5 must be an integer"):
         load_spec(spec(plans=[{"method": "ga", "options": {"max_generations": 2.5}}]))
     s = load_spec(spec(plans=[{"method": "ga", "options": {"max_generations": 5, "stall_generations": 0}}]))
     assert s.plans[0]["options"] == {"max_generations": 5, "stall_generations": 0}

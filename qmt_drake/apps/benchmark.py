@@ -44,14 +44,9 @@ from qmt_drake.apps.benchmark_report import CARRIED_LABEL, benchmark_markdown, w
 from qmt_drake.config.scenario import load_scenario
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import Plan, family_plan
+from qmt_drake.plan import Plan
 from qmt_drake.plan_files import load_plan
-from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
-from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
-from qmt_drake.planners.baselines.trajopt_plan import plan_trajopt
-from qmt_drake.planners.ga import run_ga
-from qmt_drake.planners.optimum import plan_family_optimum
-from qmt_drake.problem import PlanningProblem
+from qmt_drake.planners import registry
 from qmt_drake.sweep.robust import plan_fastest_carried_converged
 
 DEFAULT_JERK_LIMITS = (1.0, 10.0, 100.0)  # m/s^3
@@ -90,6 +85,9 @@ def cosim_outcome(scenario, plan: Plan) -> dict:
             "cosim_sim_wall_s": r.get("sim_wall_s"), "cosim_note": None}
 
 
+ROW_EXTRA_LEFT_OUT = ("raw_check", "ga_settings")  # and the GA's per-generation history_*: not a row's
+
+
 def _row(scenario, label: str, plan: Plan, cosim: bool) -> dict:
     s = plan.summary()
     ex = plan.extra or {}
@@ -103,7 +101,7 @@ def _row(scenario, label: str, plan: Plan, cosim: bool) -> dict:
            "raw_motion_time_s": raw.get("motion_time_s"),
            "slowdown_factor": ex.get("slowdown_factor"), "genes": s["genes"],
            "infeasible": ex.get("infeasible"),
-           "extra": {k: v for k, v in ex.items() if k not in ("raw_check",)}}
+           "extra": {k: v for k, v in ex.items() if k not in ROW_EXTRA_LEFT_OUT and not k.startswith("history_")}}
     row.update(tip_jerk_peak(scenario, plan))
     row.update(cosim_outcome(scenario, plan) if cosim else
                {"held": None, "max_slip_m": None, "cosim_note": "co-simulation not run"})
@@ -214,7 +212,6 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
     carried_by_scenario = {}  # per plan: True/False from the co-simulation, None if not simulated
     for name in scenarios:
         sc = load_scenario(name)
-        P = PlanningProblem(sc)
         plans: list[tuple[str, Plan]] = []
 
         def add(label, fn):
@@ -231,34 +228,29 @@ def run_benchmark(scenarios=("thesis-ch2", "thesis-ch3", "thesis-ch4"), out_dir=
             plans.append((label, plan))
             return plan
 
-        add("thesis reported", lambda: family_plan(P, P.genes_vector(sc.reported["genes"]),
-                                                   "thesis"))
+        # every row through the one planner registry (planners/registry.py)
+        add("thesis reported", lambda: registry.plan(sc, "thesis"))
         ga_plans = []
         for seed in ga_seeds:
-            def ga(seed=seed):
-                r = run_ga(P, seed=seed, max_generations=gmax, stall_generations=gstall)
-                return family_plan(P, r.genes, "ga", planner_wall_s=r.wall_s,
-                                   evaluations=r.evaluations, generations=r.generations,
-                                   extra={"seed": seed, "stop_reason": r.stop_reason})
-            p = add(f"GA (seed {seed})", ga)
+            p = add(f"GA (seed {seed})", lambda seed=seed: registry.plan(sc, "ga", seed=seed, max_generations=gmax,
+                                                                 stall_generations=gstall))
             if p is not None:
                 ga_plans.append(p)
-        add("family optimum", lambda: plan_family_optimum(P))
+        add("family optimum", lambda: registry.plan(sc, "optimum"))
         best_ga = min(ga_plans, key=lambda p: p.motion_time_s) if ga_plans else None
         for path in ("family", "ga_path", "joint_line", "cartesian_line"):
             if path == "ga_path" and best_ga is None:
                 continue
-            add(f"TOPP-RA {path}", lambda path=path: plan_toppra(sc, path=path,
-                                                                 reference_plan=best_ga))
+            add(f"TOPP-RA {path}", lambda path=path: registry.plan(sc, "toppra", path=path, reference_plan=best_ga))
         add("TOPP-RA family, spline output (raw)",
-            lambda: plan_toppra(sc, path="family", parametrizer="ParametrizeSpline",
-                                slow_to_limits=False, measure_polygon_cost=False))
-        add("Drake Toppra family (inscribed box)", lambda: plan_toppra_drake(sc, path="family"))
+            lambda: registry.plan(sc, "toppra", path="family", parametrizer="ParametrizeSpline",
+                         slow_to_limits=False, measure_polygon_cost=False))
+        add("Drake Toppra family (inscribed box)", lambda: registry.plan(sc, "toppra-drake", path="family"))
         for J in jerks:
-            add(f"Ruckig line J={J:g}", lambda J=J: plan_ruckig(sc, jerk_limit=J))
+            add(f"Ruckig line J={J:g}", lambda J=J: registry.plan(sc, "ruckig", jerk_limit=J))
         jm = jerks[len(jerks) // 2]
-        add(f"Ruckig joint J={jm:g}", lambda: plan_ruckig(sc, jerk_limit=jm, mode="joint"))
-        add("trajopt (free path)", lambda: plan_trajopt(sc, **trajopt_kw))
+        add(f"Ruckig joint J={jm:g}", lambda: registry.plan(sc, "ruckig", jerk_limit=jm, mode="joint"))
+        add("trajopt (free path)", lambda: registry.plan(sc, "trajopt", **trajopt_kw))
 
         rows = []
         for label, plan in plans:

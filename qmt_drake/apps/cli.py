@@ -1,7 +1,7 @@
 """The `qmt-drake` command line. Argument parsing only; the work is in plain functions.
 
 Exit codes: 0 done, 2 bad input (one line on stderr naming it), 3 no plan meets the limits
-(the least-violating plan is still written), 4 a simulation failed, 130 interrupted (Ctrl-C; a GA
+(the least-violating plan is still written; where none exists, one line naming the binding limit), 4 a simulation failed, 130 interrupted (Ctrl-C; a GA
 run with --checkpoint leaves its checkpoint to resume from).
 
 Every argument is checked before any long computation: output paths first (`check_output_path`),
@@ -26,17 +26,18 @@ from dataclasses import dataclass
 from qmt_drake import malloc_tuning
 from qmt_drake.apps.one_line_parser import OneLineParser
 from qmt_drake.energy.cli_options import add_energy_options
-from qmt_drake.errors import QmtInputError, QmtSimulationError
+from qmt_drake.errors import QmtInputError, QmtNoPlanError, QmtSimulationError
 
-EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 4, 130  # apps/plan_command's (a test checks they agree)
+EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130  # apps/plan_command's (a test checks)
 
-# Copies of the registries' names (tests/test_import.py checks they agree): planners.METHODS,
-# energy_plan.METHODS, plan_command.SPATIAL_ONLY_METHODS, spatial_methods.METHODS,
-# spatial_families (spatial_cli.SPATIAL_FAMILIES), sim.spatial_actuation.ACTUATORS, sim.FEEDFORWARD_OPTIONS.
+# Copies of the registries' names (tests/test_import.py checks they agree): the planner registry's
+# methods of each kind (planners/registry.names), spatial_families (spatial_cli.SPATIAL_FAMILIES),
+# sim.spatial_actuation.ACTUATORS, sim.FEEDFORWARD_OPTIONS. --method takes every name; the registry
+# refuses a method the scenario's kind does not plan, in one line naming the ones it does.
 METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
 ENERGY_METHODS = ("snopt", "ipopt", "steepest", "collocation")
 SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
-SPATIAL_ONLY_METHODS = tuple(m for m in SPATIAL_METHODS if m not in METHODS)
+ALL_METHODS = tuple(dict.fromkeys(METHODS + ENERGY_METHODS + SPATIAL_METHODS))
 SPATIAL_FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")
 SPATIAL_ACTUATORS = ("ideal", "dc_motor")
 FEEDFORWARD_CHOICES = ("none", "back-emf", "full")
@@ -50,11 +51,11 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
                      "--option KEY=VALUE). Energy-time scenarios (ohsaka-fig2/3/4): "
                      f"{', '.join(ENERGY_METHODS)} (their options below). Spatial (3-D) scenarios "
                      f"(ur5-suction-bins, ur5-magnet-part, kind: spatial_transfer): {', '.join(SPATIAL_METHODS)} "
-                     "(optimum: family_optimum; GA: --seed --generations --stall; --carried, --carried-max-scale, "
+                     "(optimum: family_optimum; GA: --seed --generations --stall --checkpoint; --carried, --carried-max-scale, "
                      "--option KEY=VALUE of the planner's int/float keywords). Default: ga, or snopt for an "
                      "energy-time scenario.")
     s.add_argument("scenario", help="built-in name (see `qmt-drake scenarios`) or a YAML path")
-    s.add_argument("--method", default=None, choices=METHODS + ENERGY_METHODS + SPATIAL_ONLY_METHODS)
+    s.add_argument("--method", default=None, choices=ALL_METHODS)
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--json", metavar="PATH|-", help="write the plan as JSON (- for stdout)")
     s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
@@ -74,8 +75,10 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--carried", action="store_true",
                    help="then slow the plan to the fastest time scale the nominal co-simulation carries "
                         "(bisection; every try's verdict and the margin kept go to the plan file)")
-    s.add_argument("--carried-feedforward", choices=FEEDFORWARD_CHOICES, default="full",
-                   help="with --carried: the DC-motor controller's feedforward (tray scenarios: their servos)")
+    s.add_argument("--carried-feedforward", choices=FEEDFORWARD_CHOICES, default=None,
+                   help="with --carried: the DC-motor controller's feedforward (default full; tray scenarios: their "
+                        "servos; spatial scenarios: given, the search co-simulates the scenario's DC motors with it "
+                        "instead of Drake's inverse-dynamics controller)")
     s.add_argument("--carried-max-scale", type=float, default=3.0,
                    help="with --carried: the slowest time scale tried (default 3)")
     s.add_argument("--success", type=float, default=None, metavar="P",
@@ -91,7 +94,7 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
 def simulate_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("scenario")
     g = s.add_mutually_exclusive_group()
-    g.add_argument("--method", default=None, choices=METHODS + SPATIAL_ONLY_METHODS,
+    g.add_argument("--method", default=None, choices=tuple(dict.fromkeys(METHODS + SPATIAL_METHODS)),
                    help="plan first with this method (default ga; energy-time scenarios: snopt; spatial "
                         f"scenarios: {', '.join(SPATIAL_METHODS)})")
     g.add_argument("--plan", metavar="PLAN.json", help="a plan file written by `plan --json`")
@@ -212,6 +215,9 @@ def main(argv=None) -> int:
         # they were when `import qmt_drake` made them; the library leaves the allocator alone.
         malloc_tuning.tune()
         return _resolve(args.func)(args)
+    except QmtNoPlanError as exc:  # no plan meets the limits and none least-violating exists: exit 3, one line
+        print(f"qmt-drake: no plan: {exc}", file=sys.stderr)
+        return EXIT_INFEASIBLE
     except QmtInputError as exc:
         print(f"qmt-drake: error: {exc}", file=sys.stderr)
         return EXIT_INPUT

@@ -20,7 +20,7 @@ from qmt_drake.apps.arg_checks import (
 from qmt_drake.apps.bench import run_bench
 from qmt_drake.apps.benchmark import run_benchmark
 from qmt_drake.apps.cli import EXPLICIT_MAX_TIME_STEP_MS
-from qmt_drake.apps.plan_command import check_tray_method, refuse_spatial_method
+from qmt_drake.apps.plan_command import check_tray_method
 from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
 from qmt_drake.energy.cli import simulate_energy
@@ -31,7 +31,7 @@ from qmt_drake.margin import margin_text
 from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_output_dir, check_output_path
 from qmt_drake.plan_files import load_plan
-from qmt_drake.planners import plan_with
+from qmt_drake.planners import plan_with, registry
 
 
 def cmd_scenarios(args) -> int:
@@ -66,8 +66,7 @@ def cmd_simulate(args) -> int:
         raise QmtInputError(f"--actuator: for spatial scenarios; {args.scenario}'s actuator is its YAML actuator "
                             "section: drop --actuator")
     args.feedforward = args.feedforward or "none"
-    args.method = args.method or "ga"
-    refuse_spatial_method(args)
+    args.method = registry.find(registry.TRANSFER, args.method or "ga", "--method").name  # one line if not planar
     check_outputs(args, "--json", "--record")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")

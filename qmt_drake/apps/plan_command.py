@@ -1,5 +1,7 @@
-"""`qmt-drake plan` on transfer and energy-time scenarios (spatial ones go to apps/spatial_cli.py):
-the checks of every argument before any work, the planner, --carried / --success and the outputs."""
+"""`qmt-drake plan` on every scenario kind: the method and its options checked against the one planner
+registry (apps/plan_options.py, planners/registry.py) before any work; transfer scenarios are planned
+here (--carried / --success and the outputs), spatial ones in apps/spatial_cli.py, energy-time ones in
+energy/cli.py, all through registry.plan."""
 
 from __future__ import annotations
 
@@ -14,19 +16,18 @@ from qmt_drake.apps.arg_checks import (
     check_positive_finite,
     emit_json,
     given,
-    parse_options,
     progress,
 )
-from qmt_drake.budgets import check_plan_budget, check_replay_budget
+from qmt_drake.apps.plan_options import FLAGS, checked_method, scenario_kind
+from qmt_drake.budgets import check_replay_budget
 from qmt_drake.config.scenario import load_scenario
-from qmt_drake.energy.cli import ENERGY_ONLY_OPTIONS, plan_energy
-from qmt_drake.energy.cli import METHODS as ENERGY_METHODS
-from qmt_drake.energy.scenario import is_energy_scenario
+from qmt_drake.energy.cli import plan_energy
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
 from qmt_drake.margin_runs import search_half_step
 from qmt_drake.outputs import check_output_path, is_stdout
-from qmt_drake.planners import METHODS, plan_with
+from qmt_drake.plan import a_kind
+from qmt_drake.planners import registry
 from qmt_drake.planners.ga import check_checkpoint
 from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success
 
@@ -43,47 +44,32 @@ def _check_checkpoint(path, scenario, seed) -> None:
         raise QmtInputError(f"--checkpoint: {exc}") from None
 
 
-TRANSFER_ONLY_OPTIONS = ("generations", "stall", "checkpoint", "option")
-
-
-SPATIAL_ONLY_METHODS = tuple(m for m in spatial_cli.SPATIAL_METHODS if m not in METHODS)
-
-
-def refuse_spatial_method(args) -> None:
-    if args.method in SPATIAL_ONLY_METHODS:
-        raise QmtInputError(f"--method {args.method} plans spatial scenarios; {args.scenario} is a transfer scenario: "
-                            "use --method ga|optimum|thesis|toppra|ruckig|trajopt")
+def _refuse_for_kind(args, kind: str) -> None:
+    """The flags that are not planner options and that a kind cannot use, each with its reason."""
+    if kind != registry.ENERGY:
+        wrong = given(args, ("execute", "recording"))
+        if wrong:
+            raise QmtInputError(f"{' '.join(wrong)}: execute an energy-time plan; {args.scenario} is "
+                                f"{a_kind(kind)} scenario: `qmt-drake simulate {args.scenario} --plan P.json` runs its plan")
+    elif args.carried or args.success is not None:
+        raise QmtInputError(f"{'--carried' if args.carried else '--success'}: the energy-time arm (seed 001) carries no "
+                            "payload it could lose, so there is nothing to slow down for; drop it")
+    if getattr(args, "jerk_limited", False) and not (kind == registry.SPATIAL and args.method == "toppra"):
+        raise QmtInputError(f"--jerk-limited slows a spatial TOPP-RA plan to the jerk limits: use --method toppra on a "
+                            f"spatial scenario ({args.method} on {args.scenario} does not take it; ruckig plans "
+                            "jerk-limited motions itself)")
 
 
 def cmd_plan(args) -> int:
-    if spatial_cli.is_spatial_scenario(args.scenario):
-        return 0 if spatial_cli.plan(args, ENERGY_ONLY_OPTIONS) else EXIT_INFEASIBLE
-    if getattr(args, "jerk_limited", False):
-        raise QmtInputError(f"--jerk-limited: for spatial scenarios' --method toppra; {args.scenario} is not one: drop it")
-    if args.family is not None:
-        raise QmtInputError(f"--family: for spatial scenarios; {args.scenario} sets its family in its file "
-                            "(family.kind); drop --family")
-    if is_energy_scenario(args.scenario):
-        args.method = args.method or "snopt"
-        if args.method not in ENERGY_METHODS:
-            raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is an "
-                                f"energy-time scenario: use --method {'|'.join(ENERGY_METHODS)}")
-        wrong = (given(args, TRANSFER_ONLY_OPTIONS) + (["--seed"] if args.seed != 0 else [])
-                 + (["--carried"] if args.carried else []))
-        if wrong:
-            raise QmtInputError(f"{' '.join(wrong)}: options of transfer planners; {args.scenario} is an "
-                                f"energy-time scenario (--method {args.method}): drop them")
-        return plan_energy(args)
-    args.method = args.method or "ga"
-    if args.method in ENERGY_METHODS:
-        raise QmtInputError(f"--method {args.method} plans energy-time scenarios (ohsaka-fig2/3/4, or a YAML "
-                            f"with kind: energy_time); {args.scenario} is a transfer scenario: use --method "
-                            "ga|optimum|thesis|toppra|ruckig|trajopt")
-    refuse_spatial_method(args)
-    wrong = given(args, ENERGY_ONLY_OPTIONS)
-    if wrong:
-        raise QmtInputError(f"{' '.join(wrong)}: options of the energy-time planners; {args.scenario} is a "
-                            "transfer scenario: drop them")
+    """`qmt-drake plan` on every scenario kind: the method and its options checked against the one
+    registry (apps/plan_options.py) before any work, then the kind's planning and outputs."""
+    kind = scenario_kind(args.scenario)
+    row, options = checked_method(args, kind)
+    _refuse_for_kind(args, kind)
+    if kind == registry.SPATIAL:
+        return 0 if spatial_cli.plan(args, row, options) else EXIT_INFEASIBLE
+    if kind == registry.ENERGY:
+        return plan_energy(args, options)
     check_outputs(args, "--json", "--trajectory-csv")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
@@ -91,52 +77,28 @@ def cmd_plan(args) -> int:
         spatial_cli.check_success_options(args, load_scenario(args.scenario))
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
-    check_int(args.generations, "--generations", 1, "run at least one generation")
-    check_int(args.stall, "--stall", 0, "0 never stops early")
     sc = load_scenario(args.scenario)
     check_tray_method(sc, args.method)
-    check_plan_budget(sc, args.method, args.generations, allow_large=args.allow_large)
     if args.carried:  # the slowest replay the search may run (at the scenario's motion-time bound)
         try:
             check_replay_budget(sc, args.carried_max_scale, allow_large=args.allow_large)
         except QmtInputError as exc:
             raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g}: {exc}") from None
     if args.checkpoint is not None:
-        if args.method != "ga":
-            raise QmtInputError(f"--checkpoint is for --method ga, not {args.method}; drop it")
         _check_checkpoint(args.checkpoint, sc, args.seed)
-    options = {}
-    if args.method == "ga":
-        if args.generations is not None:
-            options["max_generations"] = args.generations
-        if args.stall is not None:
-            options["stall_generations"] = args.stall
-        if args.checkpoint:
-            options["checkpoint_path"] = args.checkpoint
-    given_options = parse_options(args.option)
-    check_plan_options(args.method, sc, given_options, where="--option", allow_large=args.allow_large)
-    options.update(given_options)
-    try:
-        plan = plan_with(args.method, sc, seed=args.seed,
-                         progress=None if args.quiet else progress, **options)
-    except TypeError as exc:
-        if "unexpected keyword argument" in str(exc):
-            raise QmtInputError(f"--option: {exc}; see the planner's docstring for its options") from None
-        if args.option:  # a value of the wrong type reached the planner
-            raise QmtInputError(f"--option {' '.join(args.option)}: a value has the wrong type "
-                                f"({str(exc).splitlines()[0]}); see the planner's docstring") from None
-        raise
+    options = check_plan_options(args.method, sc, options, where=FLAGS, allow_large=args.allow_large)
+    plan = registry.plan(sc, args.method, seed=args.seed, progress=None if args.quiet else progress, **options)
     if args.carried:
         if not plan.feasible:
             raise QmtInputError(f"--carried: the {args.method} plan breaks a limit on the re-check; nothing to "
                                 "time-scale (drop --carried to write the least-violating plan)")
-        plan = plan_fastest_carried(sc, args.method, base_plan=plan, feedforward=args.carried_feedforward,
+        plan = plan_fastest_carried(sc, args.method, base_plan=plan, feedforward=args.carried_feedforward or "full",
                                     s_max=args.carried_max_scale, progress=None if args.quiet else progress)
         search = plan.extra["carried_search"]
         lost = search.get("lost_below")
         search["margin"] = None if lost is None else search["chosen"] / lost - 1.0
         # the chosen plan at the next step size: reported (a flip too), not re-chosen
-        search["half_step"] = search_half_step(sc, plan, feedforward=args.carried_feedforward)
+        search["half_step"] = search_half_step(sc, plan, feedforward=args.carried_feedforward or "full")
         if not args.quiet:
             hs = search["half_step"]
             progress(f"{sc.name} {args.method} x{search['chosen']:.4f} at half the step "
@@ -169,6 +131,6 @@ def check_tray_method(sc, method: str) -> None:
     """One line when the scenario's hand plug-in refuses the method (hands.py)."""
     hand = hand_plugin(sc)
     if method in hand.refused_methods:
-        usable = [m for m in METHODS if m not in hand.refused_methods]
+        usable = [m for m in registry.names(registry.TRANSFER) if m not in hand.refused_methods]
         raise QmtInputError(f"--method {method} is not available for the {hand.kind} scenario '{sc.name}' "
                             f"({hand.refused_methods[method]}); use {', '.join(usable[:-1])} or {usable[-1]}")

@@ -1,40 +1,43 @@
 """`qmt-drake plan` and `simulate` on a spatial (3-D) scenario (`kind: spatial_transfer`, spatial_task.py).
 
     qmt-drake plan ur5-suction-bins --method toppra|ruckig|family_optimum|ga|trajopt --json p.json
-        [--family via_cubic|line_cubic_velocity|trapezoid_ptp (toppra, family_optimum, ga)] [--trajectory-csv p.csv] [--carried [--carried-max-scale K]] [--seed N --generations G --stall S]
-        [--option KEY=VALUE] [--quiet]
+        [--family via_cubic|line_cubic_velocity|trapezoid_ptp (toppra, family_optimum, ga)] [--trajectory-csv p.csv]
+        [--carried [--carried-max-scale K] [--carried-feedforward none|back-emf|full]]
+        [--seed N --generations G --stall S --checkpoint PATH] [--option KEY=VALUE] [--quiet]
     qmt-drake simulate ur5-suction-bins --plan p.json [--time-scale S] [--json out.json]
 
-`plan` runs planners/spatial_methods (every result re-checked at 10x the check rate and slowed by the
+`plan` runs the registry's spatial rows (planners/registry.py -> planners/spatial_methods, spatial_search;
+every result re-checked at 10x the check rate and slowed by the
 smallest time scale that makes that check hold), prints one summary line (motion time, its ratio to
 TOPP-RA's time-optimal duration on the family's path (via_cubic: the IK'd path), the re-check's largest ratio, the time scale applied)
 and writes the plan file (planners/spatial_plan_io: rebuilds the trajectory exactly) and the CSV.
 `--carried` then slows the plan to the fastest time scale the co-simulation carries
-(planners/spatial_carried). `simulate` loads a plan file back (refused in one line when made for
+(planners/spatial_carried; Drake's inverse-dynamics controller, or with --carried-feedforward the
+scenario's DC motors with that feedforward). Limits that no plan meets: exit 3 with the
+least-violating plan written (the GA's best, a plan slowed as far as slowing helps), or, where no
+timing exists at all (a path broken at rest), exit 3 and one line naming the binding limit. `simulate` loads a plan file back (refused in one line when made for
 another scenario, or planar), or plans first with --method, and co-simulates it
-(sim/spatial_cosim) printing the outcome word (outcome.py). Options of planar or energy-time
-scenarios are refused in one line naming them; `optimum` is accepted for `family_optimum`.
+(sim/spatial_cosim) printing the outcome word (outcome.py). A method or option this kind does not take
+is refused by the registry in one line naming it; `optimum` is accepted for `family_optimum`.
 """
 
 from __future__ import annotations
 
-import inspect
 import json
 import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
 
-from qmt_drake.api_checks import option_value
 from qmt_drake.apps.arg_checks import (
     check_int,
     check_outputs,
     check_positive_finite,
     emit_json,
     given,
-    parse_options,
     progress,
 )
+from qmt_drake.apps.plan_options import checked_method
 from qmt_drake.budgets import (
     SPATIAL_REPLAY,
     announce,
@@ -49,11 +52,13 @@ from qmt_drake.jerk import jerk_limited_plan, peak_jerk
 from qmt_drake.margin import margin_text
 from qmt_drake.margin_runs import with_margin
 from qmt_drake.outcome import verdict_line
-from qmt_drake.outputs import check_output_dir, is_stdout, jsonable
+from qmt_drake.outputs import check_output_dir, check_output_path, is_stdout, jsonable
+from qmt_drake.planners import registry
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_families import FAMILIES
-from qmt_drake.planners.spatial_methods import ALIASES, FAMILY_METHODS, METHODS, PLANNERS, plan_toppra_spatial
+from qmt_drake.planners.spatial_methods import METHODS, plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
+from qmt_drake.planners.spatial_search import check_ga_checkpoint
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulate_spatial
@@ -62,17 +67,11 @@ from qmt_drake.sweep.robust import plan_for_success, success_spec
 
 SPATIAL_METHODS = METHODS
 SPATIAL_FAMILIES = FAMILIES
-GA_FLAGS = ("generations", "stall")  # plan_ga_spatial's own flags (their None default: not given)
-# plan's options that a spatial scenario does not take: (dest, its default) -- given when not at the default
-PLAN_REFUSED = (("checkpoint", None), ("carried_feedforward", "full"))
 SIMULATE_REFUSED = (("explicit", False),)
-NOT_FOR_SPATIAL = {"checkpoint": "the spatial GA keeps no checkpoint", "carried_feedforward": "the spatial co-simulation's controller "
-                   "is Drake's inverse dynamics (feedforward always on)",
-                   # physics: the ideal drive is torque sources under Drake's inverse-dynamics controller, with
-                   # no motor loop; the dc_motor drive's back-EMF and PD damping act on the joints as
-                   # physical damping, which the plant integrates with the joints' own (its loop has no
-                   # explicit electrical state to step on its own)
-                   "explicit": "the spatial drives have no separate motor loop to step explicitly: the ideal "
+# physics: the ideal drive is torque sources under Drake's inverse-dynamics controller, with no motor loop; the
+# dc_motor drive's back-EMF and PD damping act on the joints as physical damping, which the plant integrates with
+# the joints' own (its loop has no explicit electrical state to step on its own)
+NOT_FOR_SPATIAL = {"explicit": "the spatial drives have no separate motor loop to step explicitly: the ideal "
                    "drive is torque sources, the dc_motor drive's back-EMF and PD damping are joint damping the "
                    "plant integrates"}
 
@@ -101,77 +100,45 @@ def _refuse_given(args, refused, energy_options) -> None:
                             "spatial scenario: drop them")
 
 
-def _method(args, default: str = "ga") -> str:
-    m = ALIASES.get(args.method or default, args.method or default)
-    if m not in PLANNERS:
-        raise QmtInputError(f"--method {args.method} does not plan spatial scenarios; {args.scenario} is one: use "
-                            f"--method {'|'.join(METHODS)}")
-    return m
-
-
-def _planner_options(args, method: str) -> dict:
-    """The planner's keyword arguments from --seed, --generations, --stall and --option KEY=VALUE,
-    checked against its signature (only int/float keywords) before it runs."""
-    ga = given(args, GA_FLAGS) + (["--seed"] if getattr(args, "seed", 0) != 0 else [])
-    if method != "ga" and ga:
-        raise QmtInputError(f"{' '.join(ga)}: options of --method ga, not {method}; drop them")
-    check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
-    check_int(getattr(args, "generations", None), "--generations", 1, "run at least one generation")
-    check_int(getattr(args, "stall", None), "--stall", 0, "0 never stops early")
-    params = inspect.signature(PLANNERS[method]).parameters
-    allowed = {k: p.default for k, p in params.items()
-               if type(p.default) in (int, float) and k not in ("seed", "generations", "stall")}
-    opts = parse_options(getattr(args, "option", None))
-    for k, v in opts.items():
-        if k not in allowed:
-            raise QmtInputError(f"--option {k}: the spatial {method} planner takes "
-                                f"{', '.join(sorted(allowed)) or 'no options'}")
-        if not isinstance(v, (int, float)) or (isinstance(allowed[k], int) and not isinstance(v, int)):
-            raise QmtInputError(f"--option {k}={v}: give a{'n integer' if isinstance(allowed[k], int) else ' number'}")
-        option_value(k, v, allowed[k], f"--option {k}")  # the API's ranges (api_checks.OPTION_RANGES)
-    family = getattr(args, "family", None)
-    if family is not None:
-        if method not in FAMILY_METHODS:
-            raise QmtInputError(f"--family: {method} plans its own motion; --family applies to --method "
-                                f"{'|'.join(FAMILY_METHODS)}")
-        opts["family"] = family
-    if method == "ga":
-        opts.update(seed=args.seed, **{k: getattr(args, k) for k in GA_FLAGS if getattr(args, k, None) is not None})
-        opts["progress"] = None if args.quiet else progress
-    return opts
-
-
-def _plan(args, sc, method: str, opts: dict):
-    if method == "ga":  # the one spatial planner whose run time the user sizes
-        defaults = inspect.signature(PLANNERS["ga"]).parameters
-        size = {k: opts.get(k, defaults[k].default) for k in ("population", "generations")}
+def _plan(args, sc, row, opts: dict):
+    """The registry's `row` on sc with its checked options; the GA (the one spatial planner whose run
+    time the user sizes) priced and its checkpoint checked first."""
+    if row.name == "ga":
+        d = row.options()
+        size = {k: opts.get(k, d[k]["default"]) for k in ("population", "generations")}
         est = check_budget(spatial_ga_estimate(size["population"], size["generations"]),
                            allow_large=getattr(args, "allow_large", False))
         if not args.quiet:
             announce(est)
+        if opts.get("checkpoint_path") is not None:
+            check_output_path(opts["checkpoint_path"], "--checkpoint")
+            try:
+                check_ga_checkpoint(sc, opts["checkpoint_path"], seed=args.seed,
+                                    **{k: v for k, v in opts.items() if k != "checkpoint_path"})
+            except QmtInputError as exc:
+                raise QmtInputError(f"--checkpoint: {exc}") from None
     if not args.quiet:
-        progress(f"qmt-drake: planning {sc.name} with {method}")
-    return PLANNERS[method](sc, **opts)
+        progress(f"qmt-drake: planning {sc.name} with {row.name}")
+    return registry.plan(sc, row.name, seed=args.seed, progress=None if args.quiet else progress, **opts)
 
 
-def plan(args, energy_options) -> bool:
-    """`qmt-drake plan` on a spatial scenario (module docstring); True when the written plan holds
-    every limit on the re-check."""
-    _refuse_given(args, PLAN_REFUSED, energy_options)
-    method = _method(args)
-    if getattr(args, "jerk_limited", False) and method != "toppra":
-        raise QmtInputError(f"--jerk-limited slows a TOPP-RA plan to the jerk limits; --method {method} does not "
-                            "take it (use --method toppra; ruckig plans jerk-limited motions itself)")
+def plan(args, row, opts: dict) -> bool:
+    """`qmt-drake plan` on a spatial scenario (module docstring), `row` and `opts` the registry's method
+    and options (apps/plan_options.checked_method); True when the written plan holds every limit on
+    the re-check (False: the least-violating plan is written, exit 3)."""
+    method = row.name
     check_outputs(args, "--json", "--trajectory-csv")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
-    opts = _planner_options(args, method)
+    check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     sc = load_spatial_scenario(args.scenario)
+    actuator, feedforward = carried_drive(args)
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
+        check_drive(sc, actuator, feedforward)
         _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
     check_success_options(args, sc)  # the uncertainty section, before any planning
-    p = _plan(args, sc, method, opts)
+    p = _plan(args, sc, row, opts)
     if getattr(args, "jerk_limited", False):  # qmt_drake/jerk.py: slowed until its jerk is within the limits
         p = jerk_limited_plan(sc, p)
     try:  # TOPP-RA's duration on the family's path: the bound (well under a second on a UR5)
@@ -179,9 +146,14 @@ def plan(args, energy_options) -> bool:
         bound = p.raw_duration_s if method == "toppra" else plan_toppra_spatial(sc, family=family).raw_duration_s
     except QmtInputError:
         bound = None
+    holds = p.recheck["max"] <= 1.0 and p.feasible  # feasible: also clear of the obstacles (limits/clearance.py)
+    if (args.carried or getattr(args, "success", None) is not None) and not holds:
+        raise QmtInputError(f"{'--carried' if args.carried else '--success'}: the {method} plan breaks a limit on the "
+                            "re-check; nothing to time-scale (drop it to write the least-violating plan)")
     if args.carried:
         _check_carried_budget(args, p.duration_s)
-        search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress)
+        search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress,
+                                actuator=actuator, feedforward=feedforward)
         p = carried_plan(sc, p, search)
     if getattr(args, "success", None) is not None:
         p = _slow_for_success(args, sc, p)
@@ -192,8 +164,16 @@ def plan(args, energy_options) -> bool:
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
-        print(summary_line(sc, p, bound))
-    return p.recheck["max"] <= 1.0 and p.feasible  # feasible: also clear of the obstacles (limits/clearance.py)
+        print(summary_line(sc, p, bound) + ("" if holds else f"; INFEASIBLE (least-violating plan; binding limit "
+                                                              f"{p.recheck['binding']} at {p.recheck['max']:.4g} of it)"))
+    return holds
+
+
+def carried_drive(args) -> tuple[str, str]:
+    """(actuator, feedforward) of the --carried search: Drake's inverse-dynamics controller (ideal) by
+    default, the scenario's DC motors with --carried-feedforward none|back-emf|full given."""
+    ff = getattr(args, "carried_feedforward", None)
+    return ("ideal", "full") if ff is None else ("dc_motor", ff)
 
 
 def _check_carried_budget(args, motion_time_s: float) -> None:
@@ -274,9 +254,8 @@ def simulate(args, energy_options=()) -> int:
             raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")
         p = load_spatial_plan(args.plan, sc)
     else:
-        method = _method(args)
-        opts = _planner_options(args, method)
-        p = _plan(args, sc, method, opts)
+        row, opts = checked_method(args, SPATIAL_KIND)
+        p = _plan(args, sc, row, opts)
     est = replace(replay_estimate(args.time_scale, p.duration_s, h, cost=SPATIAL_REPLAY),  # at its plant step
                   fix="use a time scale near 1 (the shipped plans are carried at 1-1.5) and the default 1 ms step")
     est = check_budget(est, allow_large=args.allow_large)

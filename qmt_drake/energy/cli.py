@@ -6,7 +6,8 @@ so that the parser loads no Drake); `plan_energy(args)` runs it:
 SCENARIO is one of the built-in experiments (ohsaka-fig2, ohsaka-fig3, ohsaka-fig4) or a YAML file
 of kind energy_time; `--coords X1 X2 X1 X2` replaces its coordinate vector, `--pattern` picks one
 rotation-direction start like "-+-" (default: all 8, every local optimum reported). The work is
-energy/energy_plan.plan_energy_time, whose EnergyPlan (a plan.Plan) is the result. Output: one line
+energy/energy_plan.plan_energy_time reached through the one planner registry (planners/registry.py),
+whose EnergyPlan (a plan.Plan) is the result. Output: one line
 per local optimum on stdout; `--json PATH` writes the plan file (every number, every optimum, the
 best one's `plan` block and trajectory) that `simulate --plan` executes and plan.load_plan reads;
 `--trajectory-csv PATH` writes the best optimum sampled at 1 kHz or finer: t [s], q [rad], qd
@@ -22,30 +23,21 @@ import sys
 
 from qmt_drake.budgets import check_energy_budget
 from qmt_drake.energy.energy_plan import METHODS as METHODS  # the CLI lists them
-from qmt_drake.energy.energy_plan import plan_energy_time
 from qmt_drake.energy.execute import execute, execute_plan, plot_execution
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_one_stdout, check_output_path, is_stdout, jsonable, write_text_atomic
 from qmt_drake.plan_files import load_plan
-
-ENERGY_ONLY_OPTIONS = ("c1", "c2", "m", "divisions", "coords", "pattern", "max_iter", "execute", "recording")
-
-
-def _pattern(s: str | None):
-    if s is None or s == "all":
-        return None
-    if len(s) != 3 or set(s) - {"+", "-", "p", "n"}:
-        raise QmtInputError(f'--pattern "{s}" must be three signs like "--pattern=-+-" or "npn", or "all"')
-    return tuple(1 if c in "+p" else -1 for c in s)
+from qmt_drake.planners import registry
 
 
 def _stderr(line: str) -> None:
     print(line, file=sys.stderr)
 
 
-def plan_energy(args) -> int:
-    """`qmt-drake plan ENERGY_SCENARIO ...` (module docstring)."""
+def plan_energy(args, options: dict) -> int:
+    """`qmt-drake plan ENERGY_SCENARIO ...` (module docstring); `options`: the planner's, from the flags
+    (apps/plan_options.py, already checked against the registry's row)."""
     outputs = {flag: getattr(args, flag[2:].replace("-", "_")) for flag in ("--json", "--execute", "--recording",
                                                                             "--trajectory-csv")}
     check_one_stdout(outputs)
@@ -53,18 +45,14 @@ def plan_energy(args) -> int:
         check_output_path(path, flag)
     talk = not (is_stdout(args.json) or is_stdout(args.trajectory_csv))  # else stdout is the JSON or the CSV
     E = get_experiment(args.scenario)
-    check_energy_budget(args.m if args.m is not None else E.m, args.divisions if args.divisions is not None
-                        else E.divisions, allow_large=args.allow_large)
-    pattern = _pattern(args.pattern)  # checked before any solve, as plan_energy_time checks the rest
+    check_energy_budget(options.get("m") or E.m, options.get("divisions") or E.divisions, allow_large=args.allow_large)
 
     def line(rec: dict) -> None:
         if talk:
             print(f"{rec['start']:>8s} -> {rec['end']}  z={rec['z']:.2f}  T={rec['T_s']:.4f} s  "
                   f"{'ok' if rec['success'] else 'NOT CONVERGED'}")
 
-    plan = plan_energy_time(E, args.method, c1=args.c1, c2=args.c2, m=args.m, divisions=args.divisions,
-                            coords=args.coords, pattern=pattern, max_iter=args.max_iter,
-                            progress=None if args.quiet else _stderr, on_optimum=line)
+    plan = registry.plan(E, args.method, progress=None if args.quiet else _stderr, on_optimum=line, **options)
     result = plan.to_json_dict()
     if plan.feasible and args.trajectory_csv:
         plan.write_csv(args.trajectory_csv)
@@ -104,7 +92,7 @@ def simulate_energy(args) -> int:
         if not args.quiet:
             print(f"qmt-drake: no --plan given: planning {E.name} with --method snopt first; give --plan "
                   "FILE to simulate a saved plan", file=sys.stderr)
-        plan = plan_energy_time(E, "snopt")
+        plan = registry.plan(E, "snopt")
         if not plan.feasible:
             raise QmtInputError(f"{args.scenario}: no start converged; nothing to simulate")
     summary = execute_plan(plan, record_path=args.record)

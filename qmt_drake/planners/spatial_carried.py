@@ -21,12 +21,13 @@ from qmt_drake.sim.spatial_cosim import simulate_spatial
 
 
 def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int = 7, try_planned: bool = True,
-                   progress=None, actuator: str = "ideal", half_step: bool = True) -> dict:
+                   progress=None, actuator: str = "ideal", feedforward: str = "full", half_step: bool = True) -> dict:
     """Bisection on the time scale k (module docstring). Returns {'chosen': smallest carried k found
     (None if not carried even at k_max), 'lost_below': the largest k tried that was lost (None if the
     plan is carried as planned), 'cosim': the chosen k's co-simulation result, 'points': every k tried
     with its outcome, 'k_max', 'iterations', 'wall_s'}. try_planned: co-simulate k = 1 first (the plan as planned).
-    actuator: the co-simulation's ('ideal' or 'dc_motor', sim/spatial_cosim.simulate_spatial).
+    actuator, feedforward: the co-simulation's ('ideal', or 'dc_motor' with feedforward none / back-emf /
+    full: sim/spatial_cosim.simulate_spatial; `qmt-drake plan --carried --carried-feedforward F`).
     half_step: co-simulate the chosen scale once more at half the plant step and report it as
     'half_step' (margin_runs.spatial_half_step: verdict_at_half_step, slip_at_half_step,
     flips_at_half_step); a flip is reported, the choice is not changed."""
@@ -34,7 +35,8 @@ def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int
     points, results, t0 = [], {}, time.perf_counter()
 
     def carried(k: float) -> bool:
-        r = simulate_spatial(sc, TimeScaled(plan.trajectory, k) if k != 1.0 else plan.trajectory, actuator=actuator)
+        r = simulate_spatial(sc, TimeScaled(plan.trajectory, k) if k != 1.0 else plan.trajectory, actuator=actuator,
+                             feedforward=feedforward)
         results[k] = r
         points.append({"time_scale": k, "duration_s": plan.duration_s * k, "outcome": r["outcome"],
                        "max_grip_ratio_while_held": r["max_grip_ratio_while_held"]})
@@ -45,11 +47,12 @@ def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int
         check = None
         if half_step and chosen is not None:
             check = spatial_half_step(sc, TimeScaled(plan.trajectory, chosen) if chosen != 1.0 else plan.trajectory,
-                                      actuator=actuator)
+                                      actuator=actuator, feedforward=feedforward)
             say(f"{sc.name} {plan.method} x{chosen:.4f} at half the step ({check['half_step_s'] * 1e3:g} ms): "
                 f"{check['verdict_at_half_step']}" + (" (the verdict FLIPS)" if check["flips_at_half_step"] else ""))
         return {"chosen": chosen, "half_step": check, "lost_below": lost_below, "cosim": results[chosen if chosen else lost_below],
                 "k_max": float(k_max), "iterations": int(iterations), "points": points, "actuator": actuator,
+                **({"feedforward": feedforward} if actuator != "ideal" else {}),  # ideal: always full
                 "wall_s": time.perf_counter() - t0}
 
     if try_planned and carried(1.0):

@@ -41,15 +41,18 @@ from pydrake.planning import KinematicTrajectoryOptimization
 from pydrake.solvers import SnoptSolver, Solve, SolverOptions
 from pydrake.trajectories import BsplineTrajectory
 
-from qmt_drake.errors import QmtInputError
+from qmt_drake.errors import QmtInputError, QmtNoPlanError
 from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.model.spatial_ik import slerp_unit
+from qmt_drake.planners import registry
+from qmt_drake.planners.registry import SPATIAL
 from qmt_drake.planners.spatial_families import spatial_family, via_cubic
-from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan
+from qmt_drake.planners.spatial_plan_io import SpatialPlan
 from qmt_drake.planners.spatial_ruckig import ruckig_refusal, ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_search import (
     SpatialTightViaProblem,
     SpatialViaProblem,
+    finish_or_least_violating,
     plan_family_optimum,
     plan_ga_spatial,
     tight_time,
@@ -63,9 +66,9 @@ from qmt_drake.planners.spatial_trajectory import (
     check,
 )
 
-METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
+METHODS = registry.names(SPATIAL)  # the registry's spatial rows: toppra, ruckig, family_optimum, ga, trajopt
 FAMILY_METHODS = ("toppra", "family_optimum", "ga")  # the planners that take a `family` (spatial_families)
-ALIASES = {"optimum": "family_optimum"}  # the planar scenarios' name of the family optimum
+ALIASES = registry.aliases(SPATIAL)  # optimum: the planar scenarios' name of the family optimum
 
 
 __all__ = ["METHODS", "FAMILY_METHODS", "ALIASES", "PLANNERS", "plan_all", "plan_toppra_spatial", "plan_ruckig_spatial",
@@ -74,8 +77,11 @@ __all__ = ["METHODS", "FAMILY_METHODS", "ALIASES", "PLANNERS", "plan_all", "plan
 
 
 def _toppra(sc, pp, n_grid: int):
-    r = plan_toppra(pp, sc.chain, velocity_limit=sc.velocity_limit_rad_s,
-                    acceleration_limit=sc.acceleration_limit_rad_s2, terms=sc.terms(), n_grid=n_grid)
+    try:
+        r = plan_toppra(pp, sc.chain, velocity_limit=sc.velocity_limit_rad_s,
+                        acceleration_limit=sc.acceleration_limit_rad_s2, terms=sc.terms(), n_grid=n_grid)
+    except QmtInputError as exc:  # no parameterisation: no timing of this path exists (the message names the limit)
+        raise QmtNoPlanError(str(exc)) from None
     return ToppraTrajectory(pp, r["grid"], r["sd"]), r["planning_s"]
 
 
@@ -88,11 +94,11 @@ def plan_toppra_spatial(sc, *, n_grid: int = 1000, family: str = "via_cubic") ->
         pp = joint_path(sc.q_path_rad, *joint_range_by_name(sc.plant, sc.joint_names))  # kept inside the ranges
         traj, solve_s = _toppra(sc, pp, n_grid)
         s_poses = np.asarray(pp.get_segment_times())[sc.path_pose_index]
-        return finish_plan(sc, "toppra", traj, traj.time_at(s_poses), t0,
+        return finish_or_least_violating(sc, "toppra", traj, traj.time_at(s_poses), t0,
                            {"n_grid": n_grid, "toppra_solve_s": solve_s})
     parts = [_toppra(sc, path, n_grid) for path in fam.paths]
     traj = SequenceTrajectory([p[0] for p in parts])
-    return finish_plan(sc, "toppra", traj, traj.t_start, t0,
+    return finish_or_least_violating(sc, "toppra", traj, traj.t_start, t0,
                        {"family": family, **fam.facts, "n_grid": n_grid,
                         "toppra_solve_s": float(sum(p[1] for p in parts))})
 
@@ -118,7 +124,7 @@ def ruckig_segments(sc, *, rate_hz: float | None = None, iterations: int = 14):
                 lo, hi = (mid, hi) if ok else (lo, mid)
             if lo == 0.0:  # name the limit that binds at the slowest factor tried (hi)
                 r = check(sc, RuckigTrajectory([slowest := _ruckig(sc, qa, qb, hi)]), rate)
-                raise QmtInputError(ruckig_refusal(sc, i, slowest, hi, r["binding"], r["max"]))
+                raise QmtNoPlanError(ruckig_refusal(sc, i, slowest, hi, r["binding"], r["max"]))
             seg, c = _ruckig(sc, qa, qb, lo), lo
         segs.append(seg)
         factors.append(c)
@@ -128,7 +134,7 @@ def ruckig_segments(sc, *, rate_hz: float | None = None, iterations: int = 14):
 def plan_ruckig_spatial(sc) -> SpatialPlan:
     t0 = time.perf_counter()
     traj, factors = ruckig_segments(sc)
-    return finish_plan(sc, "ruckig", traj, traj.t_start, t0, {"segments": len(traj.segments),
+    return finish_or_least_violating(sc, "ruckig", traj, traj.t_start, t0, {"segments": len(traj.segments),
                                                           "acceleration_jerk_factors": factors})
 
 
@@ -168,11 +174,11 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
     opts.SetOption(SnoptSolver.id(), "Major feasibility tolerance", 1e-10)
     res = Solve(to.get_mutable_prog(), None, opts)
     if not res.is_success():
-        raise QmtInputError(f"trajopt found no trajectory through the task poses ({res.get_solution_result()}); "
+        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.get_solution_result()}); "
                             "give it more control points or relax a limit")
     bs = to.ReconstructTrajectory(res)
     traj = PolyTrajectory(bs)
-    return finish_plan(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
+    return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
                    {"control_points": control_points, "solver": res.get_solver_id().name(),
                     "point_fractions": s})
 
@@ -184,8 +190,7 @@ def _normal_at(sc, fractions, x: float) -> np.ndarray:
     return slerp_unit(sc.path_normals[i], sc.path_normals[i + 1], np.clip(u, 0.0, 1.0))[0]
 
 
-PLANNERS = {"toppra": plan_toppra_spatial, "ruckig": plan_ruckig_spatial,
-            "family_optimum": plan_family_optimum, "ga": plan_ga_spatial, "trajopt": plan_trajopt_spatial}
+PLANNERS = registry.functions(SPATIAL)  # a read-only view of the registry's spatial rows
 
 
 def plan_all(sc, methods=METHODS) -> dict:

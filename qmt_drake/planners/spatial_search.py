@@ -24,12 +24,12 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from qmt_drake.config.scenario import GaSettings
-from qmt_drake.errors import QmtInputError
-from qmt_drake.planners.ga import run_ga
+from qmt_drake.errors import QmtInputError, QmtNoPlanError
+from qmt_drake.planners.ga import check_checkpoint, run_ga
 from qmt_drake.planners.spatial_families import spatial_family
-from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan
+from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan, make_spatial_plan
 from qmt_drake.planners.spatial_tight import TIGHT_SAMPLES, tight_scales
-from qmt_drake.planners.spatial_trajectory import check, scale_to_hold
+from qmt_drake.planners.spatial_trajectory import TimeScaled, check, scale_to_hold
 from qmt_drake.problem import Evaluation, MinimumTime
 
 TIGHT_BATCH = 50  # candidates per tight_scales call
@@ -37,12 +37,45 @@ OPT_GRID = 41  # cruise/accel ratios tried per rest-to-rest segment before Brent
 OPT_RATIO_MAX = 20.0
 
 
+LEAST_VIOLATING_SCALE = 20.0  # scale_to_hold's k_max: slower than this, speed no longer matters
+
+
 def _tight_or_refuse(sc, traj, samples: int) -> float:
     k = float(tight_scales(sc, [traj], samples)[0])
     if not np.isfinite(k):
-        scale_to_hold(sc, traj, sc.check_rate_hz, k_max=12.0)  # raises naming the limit broken at rest
-        raise QmtInputError("no time scale makes the trajectory hold its limits; relax a limit")
+        try:
+            scale_to_hold(sc, traj, sc.check_rate_hz, k_max=12.0)  # raises naming the limit broken at rest
+        except QmtNoPlanError:
+            raise
+        except QmtInputError as exc:
+            raise QmtNoPlanError(f"no time scale makes the family's motion hold its limits: {exc}") from None
+        raise QmtNoPlanError("no time scale makes the family's motion hold its limits; relax a limit")
     return k
+
+
+def binding_clause(sc, traj) -> str:
+    """'<limit column> at <ratio> of its limit at t = <s> s (<k>x slower: gravity alone there)': the
+    binding limit of a trajectory no timing holds, from the re-check played LEAST_VIOLATING_SCALE
+    times slower (where speed no longer matters, so what breaks there is the load at rest)."""
+    c = check(sc, TimeScaled(traj, LEAST_VIOLATING_SCALE), sc.recheck_rate_hz)
+    return (f"{c['binding']} at {c['max']:.4g} of its limit at t = {c['binding_time_s']:.4g} s even "
+            f"{LEAST_VIOLATING_SCALE:g}x slower (speed no longer matters there: the load at rest breaks it)")
+
+
+def finish_or_least_violating(sc, method: str, traj, pose_times, t0: float, info: dict) -> SpatialPlan:
+    """spatial_plan_io.finish_plan (the trajectory held at the re-check rate), or, where no time scale
+    up to LEAST_VIOLATING_SCALE holds it, the least-violating plan: the trajectory that many times
+    slower (speed no longer matters there), re-checked and so not feasible, with
+    info['least_violating'] naming the binding limit (the CLI writes it and exits 3)."""
+    try:
+        return finish_plan(sc, method, traj, pose_times, t0, info)
+    except QmtInputError:
+        pass
+    k = LEAST_VIOLATING_SCALE
+    why = binding_clause(sc, traj)
+    return make_spatial_plan(sc, method, TimeScaled(traj, k), np.asarray(pose_times, float) * k,
+                             planning_s=time.perf_counter() - t0, raw_duration_s=traj.duration_s, hold_scale=k,
+                             info={**info, "least_violating": why})
 
 
 def tight_time(sc, shares, samples: int = TIGHT_SAMPLES) -> tuple[float, np.ndarray]:
@@ -96,7 +129,7 @@ def plan_family_optimum(sc, *, restarts: int = 1, family: str = "via_cubic") -> 
     else:
         parts = [_segment_optimum(sc, fam, i) for i in range(fam.n_segments)]
         genes, evaluations = np.concatenate([p[0] for p in parts]), sum(p[1] for p in parts)
-    return finish_plan(sc, "family_optimum", fam.trajectory(genes), fam.pose_times(genes), t0,
+    return finish_or_least_violating(sc, "family_optimum", fam.trajectory(genes), fam.pose_times(genes), t0,
                        {"family": family, **fam.facts, "genes": dict(zip(fam.gene_names, genes)),
                         **_segment_times(fam, genes), "evaluations": evaluations})
 
@@ -182,19 +215,52 @@ def SpatialTightViaProblem(sc, **kwargs) -> SpatialTightFamilyProblem:  # noqa: 
     return SpatialTightFamilyProblem(sc, "via_cubic", **kwargs)
 
 
-def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40, stall: int = 60,
-                    tight_timing: bool = True, family: str = "via_cubic", progress=None) -> SpatialPlan:
-    """The binary GA (planners/ga.run_ga) on the family's genes (module docstring)."""
-    t0 = time.perf_counter()
+def _ga_run(sc, generations: int, population: int, stall: int, tight_timing: bool, family: str):
+    """(problem, settings) of a spatial GA run: what plan_ga_spatial runs and a checkpoint must match."""
     problem = (SpatialTightFamilyProblem if tight_timing else SpatialFamilyProblem)(sc, family)
     settings = GaSettings(population=population, max_generations=generations, stall_generations=stall,
                           fitness_c_per_s=1.0, selection="tournament", encoding="gray", tight_timing=tight_timing)
-    res = run_ga(problem, settings, seed=seed, progress=progress)
-    if not res.feasible:
-        raise QmtInputError(f"the GA found no {family} motion within the limits in {res.generations} generations; "
-                            "give it more generations or relax a limit")
-    genes = problem.realize(res.genes)
+    return problem, settings
+
+
+def check_ga_checkpoint(sc, path, *, seed: int = 0, generations: int = 150, population: int = 40, stall: int = 60,
+                        tight_timing: bool = True, family: str = "via_cubic", **_other) -> None:
+    """One line (ga.check_checkpoint) unless `path` is absent or a checkpoint of this very spatial GA
+    run (same scenario data, family, GA settings and seed); before any work."""
+    problem, settings = _ga_run(sc, generations, population, stall, tight_timing, family)
+    check_checkpoint(path, problem.fingerprint(), settings, seed)
+
+
+def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: int = 40, stall: int = 60,
+                    tight_timing: bool = True, family: str = "via_cubic", progress=None,
+                    checkpoint_path: str | None = None, checkpoint_every: int = 500,
+                    progress_every_s: float = 2.0) -> SpatialPlan:
+    """The binary GA (planners/ga.run_ga) on the family's genes (module docstring). checkpoint_path:
+    the run's state written there every `checkpoint_every` generations and on Ctrl-C, and resumed from
+    by the same call (ga.run_ga: the same plan as an uninterrupted run). When no candidate held the
+    limits, the least-violating plan: the GA's best genes played LEAST_VIOLATING_SCALE times slower
+    (tight timing: no time scale held them) or as they are, not feasible, info['least_violating']
+    naming the binding limit."""
+    t0 = time.perf_counter()
+    problem, settings = _ga_run(sc, generations, population, stall, tight_timing, family)
+    res = run_ga(problem, settings, seed=seed, progress=progress, progress_every_s=progress_every_s,
+                 checkpoint_path=checkpoint_path, checkpoint_every=checkpoint_every)
     fam = problem.family
+    if not res.feasible:  # the least-violating plan, as the planar GA's (plan.feasible False, exit 3)
+        genes = np.asarray(res.genes, float)
+        traj = fam.trajectory(genes)
+        why = (f"the GA found no {family} motion within the limits in {res.generations} generations: "
+               f"{binding_clause(sc, traj)}; relax that limit or move the task poses")
+        info = {"family": family, **fam.facts, "genes": dict(zip(fam.gene_names, genes)), **_segment_times(fam, genes),
+                "generations": res.generations, "evaluations": res.evaluations, "seed": seed,
+                "tight_timing": tight_timing}
+        if progress:
+            progress(f"qmt-drake: {why}")
+        if tight_timing:
+            return finish_or_least_violating(sc, "ga", traj, fam.pose_times(genes), t0, info)
+        return make_spatial_plan(sc, "ga", traj, fam.pose_times(genes), planning_s=time.perf_counter() - t0,
+                                 raw_duration_s=traj.duration_s, hold_scale=1.0, info={**info, "least_violating": why})
+    genes = problem.realize(res.genes)
     return finish_plan(sc, "ga", fam.trajectory(genes), fam.pose_times(genes), t0,
                        {"family": family, **fam.facts, "genes": dict(zip(fam.gene_names, genes)),
                         **_segment_times(fam, genes), "generations": res.generations,

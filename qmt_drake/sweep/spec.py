@@ -34,8 +34,9 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.config.fields import check_keys, read_yaml_mapping, show
+from qmt_drake.config.resolve import kind_of
 from qmt_drake.errors import QmtInputError
-from qmt_drake.planners import METHODS
+from qmt_drake.planners.registry import TRANSFER, find, names
 from qmt_drake.sweep.options import check_options
 from qmt_drake.sweep.parameters import (
     PARAMETERS,
@@ -134,7 +135,8 @@ def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | 
     plans = [raw["plan"]] if "plan" in raw else raw["plans"]
     if not isinstance(plans, list) or not plans:
         raise QmtInputError(f"{where}: 'plans' must be a non-empty list of plan mappings")
-    plans = [_check_plan(p, f"{where}: plans[{i}]", path) for i, p in enumerate(plans)]
+    kind = kind_of(scenario) or TRANSFER  # the planner registry's rows of this kind plan it
+    plans = [_check_plan(p, f"{where}: plans[{i}]", path, kind) for i, p in enumerate(plans)]
     labels = [p["label"] for p in plans]
     if len(set(labels)) != len(labels):
         raise QmtInputError(f"{where}: two plans share the label '{_first_dup(labels)}'; give each "
@@ -235,13 +237,13 @@ def describe_uncertainty(spec: SweepSpec) -> str:
 
 
 # ------------------------------------------------------------------------------------ checks
-def _check_plan(p, at: str, spec_path: Path | None) -> dict:
+def _check_plan(p, at: str, spec_path: Path | None, kind: str = TRANSFER) -> dict:
     if not isinstance(p, dict):
         raise QmtInputError(f"{at}: a plan must be a mapping with 'method' (+ seed, options) or 'file'")
     _check_keys(p, PLAN_KEYS, at)
     out = {"options": {}, "seed": 0}
     if ("method" in p) == ("file" in p):
-        raise QmtInputError(f"{at}: give exactly one of 'method' ({', '.join(METHODS)}) or 'file'")
+        raise QmtInputError(f"{at}: give exactly one of 'method' ({', '.join(names(kind))}) or 'file'")
     if "label" in p and (not isinstance(p["label"], (str, int)) or isinstance(p["label"], bool)
                          or not str(p["label"]).strip()):
         raise QmtInputError(f"{at}.label must be a non-empty string, got {show(p['label'])}")
@@ -259,11 +261,9 @@ def _check_plan(p, at: str, spec_path: Path | None) -> dict:
         out["file"] = str(f.resolve())
         out["label"] = str(p.get("label", f.stem))
         return out
-    if not isinstance(p["method"], str) or p["method"] not in METHODS:
-        raise QmtInputError(f"{at}: unknown method {show(p['method'])}; use one of {', '.join(METHODS)}")
-    out["method"] = str(p["method"])
+    out["method"] = find(kind, p["method"], f"{at}: method").name
     out["seed"] = integer(p.get("seed", 0), f"{at}.seed", minimum=0)
-    out["options"] = check_options(p.get("options"), out["method"], at)
+    out["options"] = check_options(p.get("options"), out["method"], at, kind)
     default = out["method"] + (f"-seed{out['seed']}" if out["method"] == "ga" else "")
     out["label"] = str(p.get("label", default))
     return out
