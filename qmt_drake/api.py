@@ -38,7 +38,7 @@ from qmt_drake.config.resolve import kind_of
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
 from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.energy.experiments import Experiment
-from qmt_drake.energy.scenario import get_experiment
+from qmt_drake.energy.scenario import get_experiment, load_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import build_diagram as _build_diagram
 from qmt_drake.hands import hand_plugin
@@ -70,19 +70,18 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> An
     via5-ch4, crane-tray; ur5-suction-bins, ur5-magnet-part, panda-tray-cup; ohsaka-fig2/3/4) or the
     path of a YAML file, validated (a bad key or value raises QmtInputError with one line naming it
     and the fix). Returns a Scenario (transfer), a SpatialScenario (`kind: spatial_transfer`) or an
-    Experiment (`kind: energy_time`). `overrides` (transfer scenarios only) is merged into the YAML
-    mapping first, key by key (e.g. {"limits": {"moment_limit_Nm": 6e-4}})."""
+    Experiment (`kind: energy_time`). `overrides` is merged into the YAML mapping first, key by key, on
+    every kind (e.g. {"limits": {"moment_limit_Nm": 6e-4}} on a transfer scenario, {"payload":
+    {"mass_kg": 0.4}} on a spatial one), and checked as the file is."""
     C.path_arg(name_or_path, "load_scenario: name_or_path", "scenario YAML file, or a built-in scenario name")
     if overrides is not None and not isinstance(overrides, dict):
         raise QmtInputError(f"load_scenario: overrides {show(overrides)} must be a dict of sections, e.g. "
                             "{'limits': {'moment_limit_Nm': 6e-4}}")
     kind = _kind_of_file(name_or_path)
-    if kind in (SPATIAL_KIND, ENERGY_TIME_KIND):
-        if overrides:
-            raise QmtInputError(f"overrides: scenario {name_or_path} is {a_kind(kind)} scenario; overrides apply to "
-                                "transfer scenarios: edit a copy of its YAML file (energy-time weights are "
-                                "plan_with options: c1, c2, m, divisions)")
-        return load_spatial_scenario(name_or_path) if kind == SPATIAL_KIND else get_experiment(name_or_path)
+    if kind == SPATIAL_KIND:
+        return load_spatial_scenario(name_or_path, overrides)
+    if kind == ENERGY_TIME_KIND:
+        return load_energy_scenario(name_or_path, overrides) if overrides else get_experiment(name_or_path)
     return _load_scenario(name_or_path, overrides)
 
 

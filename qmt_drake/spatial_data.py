@@ -107,11 +107,14 @@ class SpatialScenarioData:
         return self.arm.lock_joints
 
 
-def parse_spatial_data(name_or_path: str | Path) -> SpatialScenarioData:
-    """The plain data of a spatial scenario (a built-in name or a YAML path); QmtInputError (one line
-    naming `file: section.key`) for any bad value the file alone shows."""
+def parse_spatial_data(name_or_path: str | Path, overrides: dict | None = None) -> SpatialScenarioData:
+    """The plain data of a spatial scenario (a built-in name or a YAML path), `overrides` merged into its
+    YAML mapping first (config/fields.merge_overrides); QmtInputError (one line naming `file:
+    section.key`) for any bad value the file alone shows."""
     path = resolve_scenario(name_or_path, SPATIAL)
     raw = F.read_yaml_mapping(path, "spatial scenario", SCENARIO_DIR / "ur5-suction-bins.yaml")
+    if overrides:
+        raw = F.merge_overrides(raw, overrides)
     where = path.name
     F.check_keys(raw, TOP_KEYS, where)
     if raw.get("kind") != SPATIAL:

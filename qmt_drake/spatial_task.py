@@ -149,10 +149,11 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
     return resolve_scenario(name_or_path, SPATIAL_KIND)
 
 
-def load_spatial_scenario(name_or_path: str | Path) -> SpatialScenario:
+def load_spatial_scenario(name_or_path: str | Path, overrides: dict | None = None) -> SpatialScenario:
     """The validated scenario (module docstring); QmtInputError (one line) for any bad input. The file's
-    plain data (spatial_data.parse_spatial_data), built by build_spatial_scenario."""
-    return build_spatial_scenario(parse_spatial_data(name_or_path))
+    plain data (spatial_data.parse_spatial_data, `overrides` merged into its YAML first), built by
+    build_spatial_scenario."""
+    return build_spatial_scenario(parse_spatial_data(name_or_path, overrides))
 
 
 def build_spatial_scenario(data: SpatialScenarioData) -> SpatialScenario:

@@ -130,6 +130,17 @@ def key_path(where: str, key) -> str:
     return f"{where}: {key}" if str(where).endswith((".yaml", ".yml")) else f"{where}.{key}"
 
 
+def merge_overrides(base: dict, extra: dict) -> dict:
+    """`base` with `extra` merged in key by key (nested mappings merge; any other value replaces; a gene
+    map is replaced whole, its keys being the family's genes in order): the one rule for every kind's
+    `overrides`, applied to the raw YAML mapping before it is validated."""
+    out = dict(base)
+    for k, v in extra.items():
+        nested = isinstance(v, dict) and isinstance(out.get(k), dict) and k != "genes"
+        out[k] = merge_overrides(out[k], v) if nested else v
+    return out
+
+
 def show(v) -> str:
     """repr of a user value, cut to 60 characters for a one-line message."""
     s = repr(v)

@@ -120,17 +120,8 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Sc
     raw = read_scenario_yaml(path)
     check_scenario_kind(raw, str(path))
     if overrides:
-        raw = _merge(raw, overrides)
+        raw = fields_mod.merge_overrides(raw, overrides)
     return scenario_from_dict(raw, path)
-
-
-def _merge(base: dict, extra: dict) -> dict:
-    out = dict(base)
-    for k, v in extra.items():
-        # Gene maps are replaced whole: their keys are the family's genes, in order.
-        nested = isinstance(v, dict) and isinstance(out.get(k), dict) and k != "genes"
-        out[k] = _merge(out[k], v) if nested else v
-    return out
 
 
 def scenario_from_dict(raw: dict, path: Path) -> Scenario:

@@ -74,10 +74,13 @@ def read_raw(name_or_path) -> tuple[dict, Path]:
     return read_scenario_yaml(path, example="ohsaka-fig3"), path
 
 
-def load_energy_data(name_or_path) -> EnergyScenarioData:
-    """The plain data (energy/experiments.EnergyScenarioData) of a built-in name or a YAML path: every value
-    the file alone shows checked through config/fields.py (one line naming `file: section.key`)."""
+def load_energy_data(name_or_path, overrides: dict | None = None) -> EnergyScenarioData:
+    """The plain data (energy/experiments.EnergyScenarioData) of a built-in name or a YAML path, `overrides`
+    merged into its YAML first (config/fields.merge_overrides): every value checked through
+    config/fields.py (one line naming `file: section.key`)."""
     raw, path = read_raw(name_or_path)
+    if overrides:
+        raw = F.merge_overrides(raw, overrides)
     where = str(path)
     if raw.get("kind") != KIND:
         raise QmtInputError(f"{path}: kind = {raw.get('kind')!r}; an energy scenario needs kind: {KIND} "
@@ -130,9 +133,10 @@ def load_energy_data(name_or_path) -> EnergyScenarioData:
                               source_path=path)
 
 
-def load_energy_scenario(name_or_path) -> Experiment:
-    """The Experiment (experiments.py) of a built-in name or a YAML path, every value checked."""
-    return build_experiment(load_energy_data(name_or_path))
+def load_energy_scenario(name_or_path, overrides: dict | None = None) -> Experiment:
+    """The Experiment (experiments.py) of a built-in name or a YAML path (`overrides` merged into its YAML
+    first), every value checked."""
+    return build_experiment(load_energy_data(name_or_path, overrides))
 
 
 def build_experiment(data: EnergyScenarioData) -> Experiment:

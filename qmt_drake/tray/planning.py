@@ -8,7 +8,8 @@ re-check use the same limit terms (tray/limit_terms.py) as `qmt-drake plan crane
 
 from __future__ import annotations
 
-from qmt_drake.config.scenario import _merge, load_scenario
+from qmt_drake.config.fields import merge_overrides
+from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.tray_object import BottleSpec
 
 
@@ -30,4 +31,4 @@ def tray_scenario(bottle: BottleSpec, margin: float | None = None, speed_fractio
                   extra: dict | None = None):
     """The crane-tray Scenario carrying `bottle` (see module docstring); `extra` more overrides."""
     o = bottle_overrides(bottle, margin, speed_fraction)
-    return load_scenario("crane-tray", overrides=_merge(o, extra) if extra else o)
+    return load_scenario("crane-tray", overrides=merge_overrides(o, extra) if extra else o)
