@@ -104,10 +104,12 @@ def simulate_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--record", metavar="PATH.html", help="save a Meshcat recording")
     s.add_argument("--time-step-ms", type=float, default=None,
                    help="plant step in ms (default 2 with implicit loop damping, 1 with --explicit)")
-    s.add_argument("--feedforward", choices=FEEDFORWARD_CHOICES, default=None,
+    s.add_argument("--feedforward", choices=FEEDFORWARD_CHOICES + ("shaped",), default=None,
                    help="controller feedforward: none (the thesis's PID; the default), back-emf (Ke N qd_des), "
                         "full (back-emf plus Drake inverse dynamics of the reference; the default of a spatial "
-                        "scenario's dc_motor actuator)")
+                        "scenario's dc_motor actuator), shaped (spatial scenarios: full on a reference slowed "
+                        "where the motors cannot follow it and smoothed over 42 ms so its acceleration steps do "
+                        "not ring the part; docs/spatial_drives.md)")
     s.add_argument("--actuator", choices=SPATIAL_ACTUATORS, default=None,
                    help="spatial scenarios: ideal (Drake's inverse-dynamics controller, the default) or dc_motor "
                         "(PD/PID voltage law, DC motors with gears: the scenario's actuators.motor)")

@@ -264,7 +264,9 @@ def feedforward_keywords(scenario, feedforward: str) -> dict:
     its plug-in's magnet actuation takes it (an ideal torque source has no back EMF: 'full' is the
     inverse dynamics alone, 'back-emf' is refused). One-line QmtInputError for an unknown choice."""
     if feedforward not in FEEDFORWARD_OPTIONS:
-        raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}")
+        spatial = " ('shaped' shapes a spatial arm's reference; a planar plan is played as planned)" \
+            if feedforward == "shaped" else ""
+        raise QmtInputError(f"feedforward must be one of {sorted(FEEDFORWARD_OPTIONS)}, got {feedforward!r}{spatial}")
     return magnet_actuation_of(scenario).feedforward_keywords(scenario, feedforward)
 
 
