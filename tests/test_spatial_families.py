@@ -139,7 +139,7 @@ def test_family_refusals(tmp_path, capsys):
             raw["task"]["face_normals"] = value
         with pytest.raises(QmtInputError, match=match):
             load_spatial_scenario(edited_copy(sc.path, tmp_path, edit))
-    bad([[0.0, 0.0, -1.0]] * 3, "one normal")
+    bad([[0.0, 0.0, -1.0]] * 3, "list of 4 normals .*one per task pose")
     bad([[0.0, 0.0, -1.0]] * 3 + [[0.0, 0.0, 0.0]], "no direction")
     bad([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]] + [[0.0, 0.0, -1.0]] * 2, "opposite")
     bad([[0.0, 0.0, -1.0]] * 3 + ["down"], "face_normals\\[3\\]")
@@ -198,7 +198,7 @@ def test_hand_rotation_refusals(tmp_path):
             del raw["task"]["face_normal"]
             raw["task"]["hand_rpy_rad"] = value
         return edit
-    with pytest.raises(QmtInputError, match="one \\[roll, pitch, yaw\\]"):
+    with pytest.raises(QmtInputError, match="list of 4 \\[roll, pitch, yaw\\] \\(rad\\), one per task pose"):
         load_spatial_scenario(edited_copy(sc.path, tmp_path, edit_with([[3.14159, 0.0, 0.0]] * 3)))
     with pytest.raises(QmtInputError, match="180 degrees"):
         load_spatial_scenario(edited_copy(sc.path, tmp_path, edit_with(
