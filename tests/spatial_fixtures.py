@@ -1,6 +1,7 @@
 """Shared by the spatial tests: a shipped spatial scenario (or a skip when example-robot-data, a test
 extra, is missing), every spatial planner's plan of it at a test budget, and an edited copy of its file."""
 
+import functools
 from pathlib import Path
 
 import pytest
@@ -14,7 +15,7 @@ from qmt_drake.planners.spatial_methods import (
     plan_toppra_spatial,
     plan_trajopt_spatial,
 )
-from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
 
 
 def load_or_skip(name: str):
@@ -26,9 +27,19 @@ def load_or_skip(name: str):
         pytest.skip(str(exc))
 
 
+@functools.cache
+def shipped_toppra(name: str, n_grid: int | None = None):
+    """plan_toppra_spatial of the shipped scenario `name`, computed once per test session (2-4 s each):
+    several test files check the same plan (none changes it)."""
+    sc = load_or_skip(name)
+    return plan_toppra_spatial(sc) if n_grid is None else plan_toppra_spatial(sc, n_grid=n_grid)
+
+
 def plans_of_every_method(sc) -> dict:
     """Each spatial method's plan of sc (TOPP-RA on 400 grid points, the GA at 8 generations of 20)."""
-    return {"toppra": plan_toppra_spatial(sc, n_grid=400), "ruckig": plan_ruckig_spatial(sc),
+    shipped = Path(sc.path).resolve() == (SCENARIO_DIR / f"{sc.name}.yaml").resolve()
+    toppra = shipped_toppra(sc.name, 400) if shipped else plan_toppra_spatial(sc, n_grid=400)
+    return {"toppra": toppra, "ruckig": plan_ruckig_spatial(sc),
             "family_optimum": plan_family_optimum(sc), "ga": plan_ga_spatial(sc, generations=8, population=20),
             "trajopt": plan_trajopt_spatial(sc)}
 

@@ -16,6 +16,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
+from tests.spatial_fixtures import shipped_toppra
 
 JOINT = "shoulder_lift_joint"
 
@@ -58,8 +59,7 @@ def test_toppra_names_the_joint_gravity_overloads(tmp_path):
 
 
 def test_a_toppra_plan_names_its_binding_limit():
-    sc = load_spatial_scenario("ur5-suction-bins")
-    plan = plan_toppra_spatial(sc)
+    plan = shipped_toppra("ur5-suction-bins")
     rc = plan.recheck
     assert rc["binding"] == "suction" and rc["max"] == rc["suction"] > 0.999  # time-optimal: on the grip
     assert 0.0 <= rc["binding_time_s"] <= plan.duration_s

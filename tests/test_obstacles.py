@@ -18,12 +18,11 @@ from qmt_drake.limits.clearance import (
 )
 from qmt_drake.model.obstacles import Obstacle, parse_obstacles, read_mesh_points
 from qmt_drake.outcome import OUTCOMES, with_collision
-from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
-from tests.spatial_fixtures import edited_copy, load_or_skip
+from tests.spatial_fixtures import edited_copy, load_or_skip, shipped_toppra
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "models" / "scenarios"
 DEEP_TOTES = Path(__file__).resolve().parents[1] / "docs" / "examples" / "ur5-deep-totes.yaml"
@@ -149,7 +148,7 @@ def test_toppra_clears_the_shipped_totes_and_collides_with_deeper_ones(ur5, deep
     the plan feasible) and 2.75 cm below the deeper totes' (negative, the plan infeasible with the pair
     named); the pick pose clears the tote's floor by the closed form (the part's box, side^2 = 6 / m
     (I_xx + I_yy - I_zz), hangs below the cup)."""
-    ok = plan_toppra_spatial(ur5, n_grid=400)
+    ok = shipped_toppra("ur5-suction-bins", 400)  # the plan of this same shipped file, shared with other tests
     plan = make_spatial_plan(deep, "toppra", ok.trajectory, ok.pose_times_s, planning_s=0.0,
                              raw_duration_s=ok.raw_duration_s, hold_scale=ok.hold_scale, info={})
     assert ok.check.feasible and plan.check.feasible  # only the clearance differs

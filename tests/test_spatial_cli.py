@@ -16,9 +16,10 @@ from qmt_drake.config.scenario import SPATIAL_METHODS, load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import OUTCOMES
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
-from qmt_drake.planners.spatial_methods import METHODS, plan_toppra_spatial
+from qmt_drake.planners.spatial_methods import METHODS
 from qmt_drake.planners.spatial_plan_io import REBUILD_TOL, load_spatial_plan, plan_file_dict
 from qmt_drake.spatial_task import load_spatial_scenario
+from tests.spatial_fixtures import shipped_toppra
 
 SC = "ur5-suction-bins"
 
@@ -59,7 +60,7 @@ def test_plan_prints_the_summary_and_writes_a_plan_file_that_holds(sc, planned):
     assert d["scenario"] == SC and d["method"] == "family_optimum" and d["n_dof"] == 6
     assert d["recheck_max_ratio"] <= 1.0
     # the TOPP-RA bound printed is TOPP-RA's own duration: the via cubic cannot beat it on this path
-    bound = plan_toppra_spatial(sc).raw_duration_s
+    bound = shipped_toppra(SC).raw_duration_s
     assert f"{d['duration_s'] / bound:.4f} x the TOPP-RA bound {bound:.4f} s" in planned["out"]
 
 
@@ -132,7 +133,7 @@ def test_carried_search_brackets_the_fastest_carried_scale():
     """The magnet's TOPP-RA plan is lost as planned (benchmark); the bisection keeps a carried upper and
     a lost lower end, (k_max - 1) / 2^iterations apart, and every scale tried is consistent with it."""
     mg = load_spatial_scenario("ur5-magnet-part")
-    tp = plan_toppra_spatial(mg, n_grid=400)
+    tp = shipped_toppra("ur5-magnet-part", 400)
     s = carried_search(mg, tp, k_max=1.5, iterations=2)  # carried at 1.5 (benchmark: about 1.37)
     assert s["lost_below"] is not None and s["chosen"] is not None
     assert s["chosen"] - s["lost_below"] == pytest.approx(0.5 / 2 ** 2)

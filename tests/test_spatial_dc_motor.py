@@ -19,7 +19,7 @@ from qmt_drake.spatial_motor import parse_motor_section
 from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
 from qmt_drake.systems.dc_motor import motor_inverse, motor_joints
 from qmt_drake.systems.joint_tracking import JointPidController, pd_voltage
-from tests.spatial_fixtures import edited_copy, load_or_skip
+from tests.spatial_fixtures import edited_copy, load_or_skip, shipped_toppra
 
 SHIPPED = SCENARIO_DIR / "ur5-suction-bins.yaml"
 
@@ -31,7 +31,7 @@ def sc():
 
 @pytest.fixture(scope="module")
 def toppra(sc):
-    return plan_toppra_spatial(sc)
+    return shipped_toppra(sc.name)
 
 
 class Hold:

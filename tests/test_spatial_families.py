@@ -20,10 +20,23 @@ from tests.spatial_fixtures import edited_copy, load_or_skip
 LINE = "line_cubic_velocity"
 
 
+@pytest.fixture(scope="module")
+def ur5_optimum():
+    """plan_family_optimum(ur5-suction-bins, family) computed once per family for the module (4-5 s
+    each): five tests read the same two optima, none changes them."""
+    cache = {}
+
+    def get(family):
+        if family not in cache:
+            cache[family] = plan_family_optimum(load_or_skip("ur5-suction-bins"), family=family)
+        return cache[family]
+    return get
+
+
 @pytest.mark.parametrize("name", ["ur5-suction-bins", "panda-tray-cup"])
-def test_line_family_keeps_the_hand_on_the_straight_lines(name):
+def test_line_family_keeps_the_hand_on_the_straight_lines(name, ur5_optimum):
     sc = load_or_skip(name)
-    plan = plan_family_optimum(sc, family=LINE)
+    plan = ur5_optimum(LINE) if name == "ur5-suction-bins" else plan_family_optimum(sc, family=LINE)
     dev_m, dev_rad = line_errors(sc, plan)
     assert dev_m < LINE_TOL_M and dev_rad < LINE_TOL_RAD
     assert plan.recheck["max"] <= 1.0
@@ -88,10 +101,10 @@ def test_trapezoid_optimum_equals_its_closed_form_and_toppra(tmp_path):
     assert toppra.duration_s == pytest.approx(sum(expected), rel=2e-3)
 
 
-def test_ga_never_beats_the_family_optimum():
+def test_ga_never_beats_the_family_optimum(ur5_optimum):
     sc = load_or_skip("ur5-suction-bins")
     for family in (LINE, "trapezoid_ptp"):
-        opt = plan_family_optimum(sc, family=family)
+        opt = ur5_optimum(family)
         ga = plan_ga_spatial(sc, family=family, generations=25, population=24, stall=25)
         assert ga.recheck["max"] <= 1.0
         assert ga.duration_s >= opt.duration_s * (1 - 1e-4)
@@ -99,9 +112,9 @@ def test_ga_never_beats_the_family_optimum():
 
 
 @pytest.mark.parametrize("family", [LINE, "trapezoid_ptp"])
-def test_family_plan_files_rebuild_exactly(tmp_path, family):
+def test_family_plan_files_rebuild_exactly(tmp_path, family, ur5_optimum):
     sc = load_or_skip("ur5-suction-bins")
-    for plan in (plan_family_optimum(sc, family=family), plan_toppra_spatial(sc, family=family, n_grid=300)):
+    for plan in (ur5_optimum(family), plan_toppra_spatial(sc, family=family, n_grid=300)):
         path = tmp_path / f"{plan.method}.json"
         plan.write_json(path)
         back = load_spatial_plan(path, sc)
@@ -111,9 +124,9 @@ def test_family_plan_files_rebuild_exactly(tmp_path, family):
         assert back.info["family"] == family
 
 
-def test_line_family_plan_is_carried_in_the_cosimulation():
+def test_line_family_plan_is_carried_in_the_cosimulation(ur5_optimum):
     sc = load_or_skip("ur5-suction-bins")
-    plan = plan_family_optimum(sc, family=LINE)
+    plan = ur5_optimum(LINE)
     res = simulate_spatial(sc, plan.trajectory)
     assert res["held"] and res["outcome"] == "carried"
     assert res["max_grip_ratio_while_held"] < 1.0

@@ -12,12 +12,11 @@ import pytest
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.spatial_methods import (
     plan_family_optimum,
-    plan_toppra_spatial,
 )
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import SCENARIO_DIR, load_spatial_scenario
-from tests.spatial_fixtures import edited_copy, load_or_skip, plans_of_every_method
+from tests.spatial_fixtures import edited_copy, load_or_skip, plans_of_every_method, shipped_toppra
 
 SHIPPED = SCENARIO_DIR / "ur5-suction-bins.yaml"
 
@@ -117,7 +116,7 @@ def test_cosim_toppra_carried_and_one_and_a_half_times_faster_detached(sc, plans
 def test_magnet_scenario_plans_hold_and_the_smooth_optimum_is_carried(sc):
     mg = load_spatial_scenario("ur5-magnet-part")
     assert mg.hand_kind == "magnet" and mg.hand_term().name == "magnet_moment"
-    tp, fo = plan_toppra_spatial(mg, n_grid=400), plan_family_optimum(mg)
+    tp, fo = shipped_toppra("ur5-magnet-part", 400), plan_family_optimum(mg)
     for p in (tp, fo):
         r = check(mg, p.trajectory, 10 * mg.check_rate_hz)
         assert r["max"] <= 1.0 and r["magnet_moment"] > 0.99  # on the moment limit, not beyond

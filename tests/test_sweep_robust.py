@@ -12,6 +12,14 @@ from qmt_drake.sweep.runner import dask_client
 from qmt_drake.sweep.spec import load_spec
 
 
+@pytest.fixture(scope="module")
+def client():
+    """One local Dask cluster (2 workers) for the module's three searches: starting one costs ~4 CPU-s,
+    and the searches' answers follow from their rules whatever the number of workers."""
+    with dask_client(None, 2) as cl:
+        yield cl
+
+
 def fake_plan(ref):
     return {"plan_key": ref.key}
 
@@ -23,7 +31,7 @@ def threshold_case(case, plan_doc):
             "held": s >= 1.0 + (0.4 - fr), "max_slip_m": 1e-4, "motion_time_s": 2.0 * s}
 
 
-def test_robust_time_scale_finds_the_quantile(tmp_path):
+def test_robust_time_scale_finds_the_quantile(tmp_path, client):
     raw = {"name": "rb", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
            "monte_carlo": {"cases": 20, "seed": 5},
            "parameters": {"friction": {"dist": "uniform", "low": 0.2, "high": 0.4}}}
@@ -32,17 +40,16 @@ def test_robust_time_scale_finds_the_quantile(tmp_path):
     target = 0.9
     # smallest s with at least 90% of the 20 thresholds <= s: the 18th smallest threshold
     exact = thresholds[int(np.ceil(target * 20)) - 1]
-    with dask_client(None, 2) as cl:
-        r = robust.robust_time_scale(spec, tmp_path, target=target, client=cl, s_min=1.0, s_max=1.5,
-                                     rel_tol=0.01, case_fn=threshold_case, plan_fn=fake_plan)
-        assert r["found"] and r["p"] >= target
-        assert exact <= r["time_scale"] <= exact * 1.01 + 1e-12
-        pts = {h["time_scale"]: h["meets_target"] for h in r["history"]}
-        assert all(ok == (s >= exact) for s, ok in pts.items())  # monotone, as the rule is
-        # Unreachable target: every draw needs more than s_max = 1.05 for a few draws.
-        r2 = robust.robust_time_scale(spec, tmp_path, target=0.999, client=cl, s_min=1.0, s_max=1.05,
-                                      case_fn=threshold_case, plan_fn=fake_plan)
-        assert not r2["found"] and r2["time_scale"] is None
+    r = robust.robust_time_scale(spec, tmp_path, target=target, client=client, s_min=1.0, s_max=1.5,
+                                 rel_tol=0.01, case_fn=threshold_case, plan_fn=fake_plan)
+    assert r["found"] and r["p"] >= target
+    assert exact <= r["time_scale"] <= exact * 1.01 + 1e-12
+    pts = {h["time_scale"]: h["meets_target"] for h in r["history"]}
+    assert all(ok == (s >= exact) for s, ok in pts.items())  # monotone, as the rule is
+    # Unreachable target: every draw needs more than s_max = 1.05 for a few draws.
+    r2 = robust.robust_time_scale(spec, tmp_path, target=0.999, client=client, s_min=1.0, s_max=1.05,
+                                  case_fn=threshold_case, plan_fn=fake_plan)
+    assert not r2["found"] and r2["time_scale"] is None
 
 
 class Rule:
@@ -79,16 +86,15 @@ def test_fastest_carried_time_scale_of_a_family_plan(fake_cosim, scenarios):
     assert plan.peak_moment_ratio == pytest.approx(0.9996 * (1.716 / plan.motion_time_s) ** 2, rel=2e-3)
 
 
-def test_plan_robust_returns_the_slowed_plan(tmp_path, problems):
+def test_plan_robust_returns_the_slowed_plan(tmp_path, problems, client):
     from qmt_drake.plan import family_plan
     P = problems["thesis-ch4"]
     plan = family_plan(P, P.genes_vector(P.scenario.reported["genes"]), "thesis")
     raw = {"name": "pr", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
            "monte_carlo": {"cases": 8, "seed": 1},
            "parameters": {"friction": {"dist": "uniform", "low": 0.3, "high": 0.4}}}
-    with dask_client(None, 1) as cl:
-        slowed, r = robust.plan_robust(plan, raw, tmp_path, target=0.99, client=cl, s_min=1.0, s_max=1.2,
-                                       rel_tol=0.01, case_fn=threshold_case, plan_fn=fake_plan)
+    slowed, r = robust.plan_robust(plan, raw, tmp_path, target=0.99, client=client, s_min=1.0, s_max=1.2,
+                                   rel_tol=0.01, case_fn=threshold_case, plan_fn=fake_plan)
     assert slowed.motion_time_s == pytest.approx(plan.motion_time_s * r["time_scale"])
     assert slowed.feasible and slowed.method == "thesis-robust"
     assert slowed.peak_moment_ratio < plan.peak_moment_ratio
@@ -146,7 +152,7 @@ def test_fastest_carried_time_scales_a_given_plan(fake_cosim, scenarios):
     assert plan.extra["carried_search"]["chosen"] == pytest.approx(plan.motion_time_s / base.motion_time_s)
 
 
-def test_plan_for_success_searches_the_lower_bound_and_checks_on_a_fresh_sweep(tmp_path):
+def test_plan_for_success_searches_the_lower_bound_and_checks_on_a_fresh_sweep(tmp_path, client):
     """plan --success P: the time scale whose Wilson lower bound reaches P under the scenario's
     uncertainty section, then a fresh sweep with another seed (the rule has a closed-form answer)."""
     from qmt_drake import load_scenario, plan_with
@@ -156,9 +162,8 @@ def test_plan_for_success_searches_the_lower_bound_and_checks_on_a_fresh_sweep(t
     plan = plan_with("thesis", sc)
     pf = tmp_path / "p.json"
     plan.write_json(pf)
-    with dask_client(None, 2) as cl:
-        slowed, summary = robust.plan_for_success(plan, pf, tmp_path, target=0.8, check_cases=40, s_max=1.5,
-                                                  client=cl, case_fn=threshold_case, plan_fn=fake_plan)
+    slowed, summary = robust.plan_for_success(plan, pf, tmp_path, target=0.8, check_cases=40, s_max=1.5,
+                                              client=client, case_fn=threshold_case, plan_fn=fake_plan)
     s = summary["search"]["time_scale"]
     assert summary["search"]["ci_low"] >= 0.8
     assert slowed.motion_time_s == pytest.approx(plan.motion_time_s * s, rel=1e-12)

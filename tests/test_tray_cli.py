@@ -26,6 +26,13 @@ def _yaml(tmp_path, **changes):
     return str(p)
 
 
+@pytest.fixture(scope="module")
+def crane_toppra():
+    """plan_with("toppra", crane-tray), planned once (3 s) for the two tests that read it."""
+    from qmt_drake import load_scenario, plan_with
+    return plan_with("toppra", load_scenario("crane-tray"))
+
+
 def _run(capsys, *argv):
     rc = main(list(argv))
     out, err = capsys.readouterr()
@@ -99,7 +106,7 @@ def test_trajopt_is_refused_for_the_tray_in_one_line(capsys, command):
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "use ga, optimum, thesis, toppra, toppra-drake or ruckig" in err
 
 
-def test_benchmark_serves_the_tray(tmp_path):
+def test_benchmark_serves_the_tray(tmp_path, crane_toppra):
     """The benchmark's bound is the level tray's bang-bang time (slide at the planning friction),
     and its co-simulation column runs the bottle through the servos (not the magnet hand)."""
     from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome
@@ -108,7 +115,7 @@ def test_benchmark_serves_the_tray(tmp_path):
     sc = load_scenario("crane-tray")
     A = min(0.8 * 0.3 * 9.81, 9.81 * 0.8 * 0.029 / 0.04371222624913998)
     assert closed_form_bound_s(sc) == pytest.approx(2 * (0.36 / A) ** 0.5, rel=1e-12)
-    assert plan_with("toppra", sc).motion_time_s == pytest.approx(closed_form_bound_s(sc), rel=2e-3)
+    assert crane_toppra.motion_time_s == pytest.approx(closed_form_bound_s(sc), rel=2e-3)
     r = cosim_outcome(sc, plan_with("thesis", sc))  # the seed's 5 s move: carried
     assert r["cosim_note"] is None and r["held"] is True and r["max_slip_m"] < 1e-3
 
@@ -161,16 +168,16 @@ def test_dc_motor_gains_on_a_dynamixel_scenario_are_refused_not_ignored(tmp_path
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "actuator.p / i / d" in err
 
 
-def test_shaped_goals_carry_the_time_optimal_tray_transfer_near_its_bound():
+def test_shaped_goals_carry_the_time_optimal_tray_transfer_near_its_bound(crane_toppra):
     """Issue 20's target: the TOPP-RA transfer (the bang-bang bound 0.782 s) carried within 15 % of
     the bound through the servos. Streamed plainly, the servos lag ~0.1 rad and the same 1.15x replay
     loses the bottle (fastest plain replay ~2.03x); with goals that invert the firmware's loop
     (servo_reference.py) it is carried."""
-    from qmt_drake import load_scenario, plan_with, simulate
+    from qmt_drake import load_scenario, simulate
     shaped = load_scenario("crane-tray")
     assert shaped.actuator.reference == "shaped"
     plain = load_scenario("crane-tray", overrides={"actuator": {"reference": "plain"}})
-    plan = plan_with("toppra", shaped)
+    plan = crane_toppra  # TOPP-RA of this same shipped scenario
     assert plan.motion_time_s == pytest.approx(0.782, rel=2e-3)
     assert simulate(shaped, plan, time_scale=1.15)["outcome"] == "carried"
     assert simulate(plain, plan, time_scale=1.15)["outcome"] != "carried"
