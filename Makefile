@@ -1,7 +1,7 @@
 # `make run` reproduces every seed and the benchmark into out/ (then out/report.html); `make test`
 # runs ruff and the tests. Both create .venv/ with the package installed in editable mode on first
 # use: `run` installs the runtime dependencies and the arms from the field (example-robot-data), `test`
-# adds the test extra (pytest, Pinocchio, ruff, mypy). `make lint` runs ruff and mypy on the public API
+# adds the test extra (pytest, pytest-xdist, Pinocchio, ruff, mypy; the tests run on both cores, a file to a worker). `make lint` runs ruff and mypy on the public API
 # ([tool.mypy] in pyproject.toml lists the modules).
 PY := .venv/bin/python
 STAMP := .venv/.installed
@@ -30,7 +30,7 @@ typecheck: $(TEST_STAMP)
 	$(PY) -m mypy
 
 test: lint
-	MPLBACKEND=Agg $(PY) -m pytest -q
+	MPLBACKEND=Agg $(PY) -m pytest -q -n 2 --dist loadfile
 
 bench: $(STAMP)
 	MPLBACKEND=Agg .venv/bin/qmt-drake bench --out out
