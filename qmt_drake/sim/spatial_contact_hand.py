@@ -63,6 +63,7 @@ from qmt_drake.limits.suction import SuctionTerm, cached_grip
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M, hold_lever_m
 from qmt_drake.sim.spatial_actuation import tracking_report
+from qmt_drake.sim.spatial_hold import HandPart
 from qmt_drake.sim.spatial_recording import SpatialRecording
 from qmt_drake.systems.electromagnet import MagnetParams, electromagnet_force
 from qmt_drake.systems.payload import PayloadSpec, allow_contact
@@ -196,7 +197,7 @@ def add_contact_hand(builder, plant, H, sc, grip, rim_stiffness_N_per_m: float, 
     return scene_graph, part, joint, spec
 
 
-class ContactHand:
+class ContactHand(HandPart):
     """The contact hand part (module docstring), for spatial_cosim.assemble: the part held by contact and a
     pull, its loss simulated. grip: the suction cup's GripModel (the co-simulation's finer rim: its
     rim_points, radius, friction, pull). rim_*: the suction rim's total stiffness [N/m] and Hunt-Crossley
@@ -242,15 +243,6 @@ class ContactHand:
 
     def ports(self, plant) -> dict:
         return {"part_state": plant.get_state_output_port(self.part.model_instance())}
-
-    def set_default(self, plant, H) -> None:  # the part's seat on the face is its joint's default already
-        pass
-
-    def start(self, plant, pctx, H) -> None:
-        pass
-
-    def advance(self, sim, diagram, t_end: float) -> None:
-        sim.AdvanceTo(t_end)
 
     def finish(self, ctx, plant, H, err, logs, drive, traj, t_end) -> dict:
         sc = self.sc

@@ -56,6 +56,7 @@ from qmt_drake.sim.spatial_actuation import (
 from qmt_drake.sim.spatial_contact_hand import ContactHand
 from qmt_drake.sim.spatial_hold import (  # noqa: F401 (re-exported)
     COLLISION_CHECK_EVERY,
+    HandPart,
     HoldLog,
     TrayLog,
     collision_check,
@@ -242,7 +243,7 @@ def add_weld_hand(plant, H, sc):
     return part, plant.AddWeldConstraint(H.body(), H.GetFixedPoseInBodyFrame(), part, RigidTransform())
 
 
-class WeldHand:
+class WeldHand(HandPart):
     """The weld hand part (module docstring): the hold checked on C++ logs (HoldLog) after each chunk, the
     weld released at the first step the hand term's ratio passes 1 (run_until_detached)."""
 

@@ -201,3 +201,20 @@ def collision_check(sc, logs, root_context, outcome: str, lost_at_s, settle_s: f
     at = None if first is None else first["time_s"]
     return with_collision(outcome, at, lost_at_s), {**c, "collided_at_s": at,
                                                     "collision_pair": None if first is None else first["pair"]}
+
+
+class HandPart:
+    """What a spatial hand is to spatial_cosim.assemble (the weld, the contact hand, the tray): it
+    configures the plant, adds its bodies (add), its recording and connections, its monitor and its
+    exported ports, seats the part (set_default, start), advances the run (advance) and classifies it
+    (finish). The defaults here serve a part whose seat is its joint's default and whose run needs no
+    event: advance to the end."""
+
+    def set_default(self, plant, H) -> None:  # the part's seat is its joint's default already
+        pass
+
+    def start(self, plant, pctx, H) -> None:
+        pass
+
+    def advance(self, sim, diagram, t_end: float) -> None:
+        sim.AdvanceTo(t_end)

@@ -22,7 +22,7 @@ from qmt_drake.limits.contact_wrench import face_basis
 from qmt_drake.limits.tray_contact import TrayContactTerm, TrayCup
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.spatial_actuation import tracking_report
-from qmt_drake.sim.spatial_hold import TrayLog, collision_check
+from qmt_drake.sim.spatial_hold import HandPart, TrayLog, collision_check
 from qmt_drake.sim.spatial_recording import SpatialRecording
 from qmt_drake.systems.payload import allow_contact, six_dof_joint_of
 from qmt_drake.systems.tray_object import BottleSpec, add_bottle, add_tray_contact, seated_pose_on_tray
@@ -88,7 +88,7 @@ def add_tray_hand(builder, plant, H, sc):
     return (scene_graph, *add_tray_and_cup(plant, scene_graph, H, sc))
 
 
-class TrayCupHand:
+class TrayCupHand(HandPart):
     """The tray hand part: the cup is a free body standing on the tray box under Coulomb friction (point
     contact, discrete SAP at 1 ms), nothing holds it; after SETTLE_S at the start the plan is played.
     Outcome (qmt_drake/outcome.py): slid_off / tipped / slipped / unfinished / carried.
@@ -122,15 +122,6 @@ class TrayCupHand:
 
     def ports(self, plant) -> dict:
         return {"cup_state": plant.get_state_output_port(self.cup.model_instance())}
-
-    def set_default(self, plant, H) -> None:  # the cup's seat on the tray is its joint's default already
-        pass
-
-    def start(self, plant, pctx, H) -> None:
-        pass
-
-    def advance(self, sim, diagram, t_end: float) -> None:
-        sim.AdvanceTo(t_end)
 
     def finish(self, ctx, plant, H, err, tracking, drive, traj, t_end) -> dict:
         sc, log = self.sc, self.monitor
