@@ -507,21 +507,27 @@ CACHED = ("qmt_drake.config.scenario:builtin_scenarios", "qmt_drake.energy.scena
 @contextlib.contextmanager
 def stubbed():
     """Replace each entry point of STUBS (and CACHED) in every loaded qmt_drake module that holds
-    it (modules import these names at their top, so the defining module is not enough)."""
-    saved = []
+    it (modules import these names at their top, so the defining module is not enough). On the way
+    out every qmt_drake module holding a stub gets the original back, also one first imported while
+    stubbed (the CLI imports its command modules lazily): otherwise the stub would stay in it and a
+    later test in the same process would run into it."""
+    swapped = []
     for spec in STUBS + CACHED:
         mod, _, attr = spec.partition(":")
         original = getattr(importlib.import_module(mod), attr)
         new = functools.cache(original) if spec in CACHED else THROUGH.get(spec, lambda _f: _accepted)(original)
+        swapped.append((attr, original, new))
         for name, m in list(sys.modules.items()):
             if (name == "qmt_drake" or name.startswith("qmt_drake.")) and getattr(m, attr, None) is original:
-                saved.append((m, attr, original))
                 setattr(m, attr, new)
     try:
         yield
     finally:
-        for m, attr, f in saved:
-            setattr(m, attr, f)
+        for name, m in list(sys.modules.items()):
+            if name == "qmt_drake" or name.startswith("qmt_drake."):
+                for attr, original, new in swapped:
+                    if getattr(m, attr, None) is new:
+                        setattr(m, attr, original)
 
 
 def run(argv: list) -> tuple[int | str, str]:
