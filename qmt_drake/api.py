@@ -36,7 +36,6 @@ from qmt_drake.budgets import (
 from qmt_drake.config.fields import show
 from qmt_drake.config.resolve import kind_of
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, Scenario
-from qmt_drake.config.scenario import load_scenario as _load_scenario
 from qmt_drake.energy.experiments import Experiment
 from qmt_drake.energy.scenario import get_experiment, load_energy_scenario
 from qmt_drake.errors import QmtInputError
@@ -52,8 +51,10 @@ from qmt_drake.sim.cosim import CoSim, build_cosim, run
 from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import check_spatial_time_step
 from qmt_drake.spatial_task import SPATIAL_KIND, SpatialScenario, load_spatial_scenario
+from qmt_drake.transfer_scenario import TransferScenario, build_transfer_scenario
+from qmt_drake.transfer_scenario import load_scenario as _load_scenario
 
-AnyScenario = Scenario | SpatialScenario | Experiment
+AnyScenario = TransferScenario | SpatialScenario | Experiment  # what load_scenario returns
 
 __all__ = ["Plan", "Scenario", "build_diagram", "load_plan", "load_scenario", "plan_with", "simulate"]
 
@@ -87,8 +88,10 @@ def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> An
 
 def _scenario_arg(scenario: Any, where: str) -> AnyScenario:
     """A loaded scenario; a built-in name or a YAML path is loaded (load_scenario), anything else refused."""
-    if isinstance(scenario, (Scenario, SpatialScenario, Experiment)):
+    if isinstance(scenario, (TransferScenario, SpatialScenario, Experiment)):
         return scenario
+    if isinstance(scenario, Scenario):  # plain data (load_scenario_data): built and checked here
+        return build_transfer_scenario(scenario)
     if isinstance(scenario, (str, Path)):
         return load_scenario(scenario)
     raise QmtInputError(f"{where}: scenario {show(scenario)} is not a scenario; pass load_scenario(NAME_OR_PATH)")
@@ -192,7 +195,7 @@ def _check_run_args(scenario: AnyScenario, plan: Plan, time_scale: Any, time_ste
         check_output_path(record_path, f"{where}: record_path")  # a folder, an unwritable place: before the run
     if not isinstance(allow_large, bool):
         raise QmtInputError(f"{where}: allow_large {show(allow_large)} must be True or False")
-    if isinstance(scenario, Scenario):
+    if isinstance(scenario, TransferScenario):
         _priced(check_replay_budget, scenario, time_scale, time_step_s, motion_time_s=plan.motion_time_s,
                 allow_large=allow_large)
     elif isinstance(scenario, SpatialScenario):
@@ -231,7 +234,7 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     _check_run_args(scenario, plan, time_scale, time_step_s, record_path, allow_large, "simulate")
     if not isinstance(margin, bool):
         raise QmtInputError(f"simulate: margin {show(margin)} must be True or False")
-    if isinstance(scenario, Scenario):
+    if isinstance(scenario, TransferScenario):
         if actuator is not None:
             raise QmtInputError(f"simulate: actuator: the planar scenario {scenario.name} takes its actuator from its "
                                 "YAML actuator section; drop actuator")
@@ -278,7 +281,7 @@ def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0,
     _check_run_args(scenario, plan, time_scale, time_step_s, None, allow_large, "build_diagram")
     if meshcat is not None and not isinstance(meshcat, Meshcat):
         raise QmtInputError(f"build_diagram: meshcat {show(meshcat)} must be a pydrake Meshcat (or None)")
-    if not isinstance(scenario, Scenario):
+    if not isinstance(scenario, TransferScenario):
         if meshcat is not None:
             raise QmtInputError(f"build_diagram: meshcat: the {KIND_WORDS[scenario_kind_of(scenario)]} co-simulation "
                                 "draws only into its own recording; record with simulate(..., record_path=PATH)")

@@ -51,6 +51,7 @@ from qmt_drake.sim.runner import (
 )
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.tray_object import BottleSpec
+from qmt_drake.transfer_scenario import TransferScenario
 from qmt_drake.tray.conditions import level_tray_acceleration_cap_m_s2
 from qmt_drake.tray.cosim import TrayDiagram, build_tray_diagram, tray_cosim
 from qmt_drake.tray.execute import (
@@ -106,7 +107,7 @@ class HandPlugin:
     build_diagram: Callable[..., TransferDiagram | TrayDiagram]
     check_simulation: Callable[..., Any]
     carried_check: Callable[..., dict]
-    bang_bang_acceleration_m_s2: Callable[[Scenario], float]
+    bang_bang_acceleration_m_s2: Callable[..., float]  # (TransferScenario) -> m/s^2
     limit_caption: Callable[[Scenario, float], str]
     figure_peak_ratio: Callable[[Plan], float]
     plan_ratios_text: Callable[[Plan], str]
@@ -139,7 +140,7 @@ def hand_plugin(scenario: Scenario) -> HandPlugin:
     return plugin
 
 
-def run_simulate(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, record_path: str | Path | None = None,
+def run_simulate(scenario: TransferScenario, plan: Motion, *, time_scale: float = 1.0, record_path: str | Path | None = None,
                  time_step_s: float | None = None, implicit_loop_damping: bool | None = None,
                  feedforward: str = "none") -> dict:
     """The co-simulation of `plan` on `scenario` through its hand's plug-in (api.simulate documents it)."""
@@ -148,7 +149,7 @@ def run_simulate(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, r
                                           feedforward=feedforward)
 
 
-def build_diagram(scenario: Scenario, plan: Motion, **options: Any) -> CoSim:
+def build_diagram(scenario: TransferScenario, plan: Motion, **options: Any) -> CoSim:
     """The co-simulation Diagram through the hand's plug-in (api.build_diagram documents it), as a CoSim
     that sim/cosim_run.run runs (or user code composes: cosim.diagram)."""
     made = hand_plugin(scenario).build_diagram(scenario, plan, **options)
@@ -172,7 +173,7 @@ def energy_cosim(plan: Any, *, record_path: str | Path | None = None, time_scale
 
 
 # ------------------------------------------------------------------------------------- magnet
-def _magnet_carried(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, feedforward: str = "full",
+def _magnet_carried(scenario: TransferScenario, plan: Motion, *, time_scale: float = 1.0, feedforward: str = "full",
                     time_step_s: float | None = None) -> dict:
     r = simulate_transfer(scenario, plan, time_scale=time_scale, time_step_s=time_step_s, keep_series=False,
                           **FEEDFORWARD_OPTIONS[feedforward])
@@ -213,30 +214,30 @@ register_hand(HandPlugin(
 
 
 # --------------------------------------------------------------------------------------- tray
-def _simulate_tray(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0,
+def _simulate_tray(scenario: TransferScenario, plan: Motion, *, time_scale: float = 1.0,
                    record_path: str | Path | None = None, time_step_s: float | None = None,
                    implicit_loop_damping: bool | None = None, feedforward: str = "none",
-                   physical: Scenario | None = None, servo_delay_s: float = 0.0) -> dict:
+                   physical: TransferScenario | None = None, servo_delay_s: float = 0.0) -> dict:
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
     return simulate_tray_plan(scenario, plan, time_scale=time_scale, record_path=record_path, time_step_s=time_step_s,
                               physical=physical, servo_delay_s=servo_delay_s)
 
 
-def _tray_cosim(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0,
+def _tray_cosim(scenario: TransferScenario, plan: Motion, *, time_scale: float = 1.0,
                 record_path: str | Path | None = None, time_step_s: float | None = None,
                 implicit_loop_damping: bool | None = None, feedforward: str = "none",
-                physical: Scenario | None = None, servo_delay_s: float = 0.0) -> CoSim:
+                physical: TransferScenario | None = None, servo_delay_s: float = 0.0) -> CoSim:
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
     return build_tray_plan_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
                                  time_step_s=time_step_s, physical=physical, servo_delay_s=servo_delay_s)
 
 
-def _check_tray_simulation(scenario: Scenario, *, time_step_s: float | None = None,
+def _check_tray_simulation(scenario: TransferScenario, *, time_step_s: float | None = None,
                            implicit_loop_damping: bool | None = None, feedforward: str = "none") -> None:
     check_tray_simulation(scenario, time_step_s, feedforward, implicit_loop_damping)
 
 
-def _tray_carried(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, feedforward: str = "full",
+def _tray_carried(scenario: TransferScenario, plan: Motion, *, time_scale: float = 1.0, feedforward: str = "full",
                   time_step_s: float | None = None) -> dict:
     # through the servos' own firmware loop: the DC-motor feedforward does not apply
     r = _simulate_tray(scenario, plan, time_scale=time_scale, time_step_s=time_step_s)
@@ -245,7 +246,7 @@ def _tray_carried(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, 
             "sim_wall_s": float(r["sim_wall_s"])}
 
 
-def _tray_diagram(scenario: Scenario, plan: Motion, *, time_scale: float = 1.0, time_step_s: float | None = None,
+def _tray_diagram(scenario: TransferScenario, plan: Motion, *, time_scale: float = 1.0, time_step_s: float | None = None,
                   meshcat: Meshcat | None = None, **options: Any) -> TrayDiagram:
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)

@@ -42,7 +42,6 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.api_checks import number, path_arg, times
 from qmt_drake.config.registry import check_registration
-from qmt_drake.config.scenario import Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
 from qmt_drake.limits import LimitReport
@@ -50,9 +49,10 @@ from qmt_drake.outputs import write_text_atomic
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import FamilyTrajectory, JointTrajectory, SampledTrajectory
+from qmt_drake.transfer_scenario import TransferScenario
 
 
-def recheck(scenario: Scenario, trajectory: JointTrajectory, rate_hz: float | None = None,
+def recheck(scenario: TransferScenario, trajectory: JointTrajectory, rate_hz: float | None = None,
             valid: bool = True) -> LimitReport:
     """Limits of `trajectory` sampled at `rate_hz` (default: the scenario's check rate), every
     local maximum near a peak or a limit refined between the samples (LimitSet.report)."""
@@ -296,7 +296,7 @@ def check_csv_args(path: Any, rate_hz: Any, motion_time_s: float) -> None:
                             f"{motion_time_s:g} s, over {CSV_MAX_ROWS:.0e}; lower the rate (1000 Hz is the default)")
 
 
-def make_plan(scenario: Scenario, method: str, trajectory: JointTrajectory, *, genes: dict | None = None,
+def make_plan(scenario: TransferScenario, method: str, trajectory: JointTrajectory, *, genes: dict | None = None,
               planner_wall_s: float = 0.0, evaluations: int = 0, generations: int = 0, valid: bool = True,
               extra: dict | None = None) -> Plan:
     """Wrap a planner's trajectory into a transfer scenario's Plan, re-checking it at the scenario's

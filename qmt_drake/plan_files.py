@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 
-from qmt_drake.config.scenario import Scenario, load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import (
@@ -47,6 +46,7 @@ from qmt_drake.plan_identity import IDENTITY_KEY, check_identity, identity, tran
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.trajectory import FamilyTrajectory, SampledTrajectory
+from qmt_drake.transfer_scenario import TransferScenario, load_scenario
 
 __all__ = ["PLAN_KINDS", "Motion", "PlanKind", "PlanLoader", "check_plan_fits", "load_plan", "plan_file_kind",
            "read_plan_file", "register_plan_kind", "scenario_kind_of"]
@@ -115,7 +115,7 @@ def load_plan(path: str | Path, scenario: Any = None) -> Plan:
     return plan_kind(kind).load(path, d, scenario)
 
 
-def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
+def _load_transfer_plan(path: Path, d: dict, scenario: TransferScenario | None) -> Plan:
     """A transfer plan file against its scenario (module docstring)."""
     if scenario is None:
         src = d.get("scenario_path")
@@ -168,7 +168,7 @@ def _load_transfer_plan(path: Path, d: dict, scenario: Scenario | None) -> Plan:
 
 
 
-def _check_plan_fits(d: dict, path: Path, scenario: Scenario) -> None:
+def _check_plan_fits(d: dict, path: Path, scenario: TransferScenario) -> None:
     """What the file says about its scenario against the one it is run with (files written
     before these keys existed skip the checks they lack)."""
     n = d.get("n_dof")
@@ -187,7 +187,7 @@ def _check_plan_fits(d: dict, path: Path, scenario: Scenario) -> None:
                                 f"{scenario.name} has {mine.tolist()}; plan again for this scenario")
 
 
-def _check_genes(genes: np.ndarray, scenario: Scenario, path: Path) -> None:
+def _check_genes(genes: np.ndarray, scenario: TransferScenario, path: Path) -> None:
     lo, hi = scenario.family.gene_bounds[:, 0], scenario.family.gene_bounds[:, 1]
     for name, g, a, b in zip(scenario.family.gene_names, genes, lo, hi):
         if not np.isfinite(g) or g < a * (1 - 1e-12) or g > b * (1 + 1e-12):
@@ -196,7 +196,7 @@ def _check_genes(genes: np.ndarray, scenario: Scenario, path: Path) -> None:
                                 f"family.genes.{name}")
 
 
-def _check_endpoints(q_start: np.ndarray, q_end: np.ndarray, scenario: Scenario, path: Path | str) -> None:
+def _check_endpoints(q_start: np.ndarray, q_end: np.ndarray, scenario: TransferScenario, path: Path | str) -> None:
     arm = scenario.arm
     ends = arm.tip_position(np.stack([q_start, q_end]))
     want = np.asarray(scenario.task.points_m, float)[[0, -1]]
@@ -206,7 +206,7 @@ def _check_endpoints(q_start: np.ndarray, q_end: np.ndarray, scenario: Scenario,
                             f"scenario {scenario.name}'s start and goal points; plan again for this scenario")
 
 
-def check_plan_fits(plan: Motion, scenario: Scenario) -> None:
+def check_plan_fits(plan: Motion, scenario: TransferScenario) -> None:
     """One-line QmtInputError unless `plan` (anything with n_dof, motion_time_s and sample) has the
     scenario's joint count and starts and ends within PLAN_ENDPOINT_TOL_M of its task's start and
     goal points: the library's own guard against running a plan made for another scenario."""
@@ -282,5 +282,5 @@ def transfer_csv(plan: Plan, path: Any, rate_hz: float) -> None:
     write_text_atomic(path, "\n".join(lines) + "\n")
 
 
-register_plan_kind(TRANSFER_PLAN_KIND, Scenario, _load_transfer_plan, summary=transfer_summary,
+register_plan_kind(TRANSFER_PLAN_KIND, TransferScenario, _load_transfer_plan, summary=transfer_summary,
                    file_dict=transfer_file_dict, write_csv=transfer_csv)

@@ -19,12 +19,12 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from qmt_drake.config.registry import OBJECTIVES, TRANSFER, ObjectivePlugin, for_scenario_kind
-from qmt_drake.config.scenario import Scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
 from qmt_drake.limits import BatchPeaks
 from qmt_drake.sampling import SampleGrid, peak_per_candidate, piecewise_grid, refine_grid
 from qmt_drake.trajectory import FamilyTrajectory
+from qmt_drake.transfer_scenario import TransferScenario
 
 COARSE_STRIDE = 20  # coarse samples are every 20th of the planning grid
 REFINE_MARGIN = 0.01  # refine around coarse samples within 1% of their candidate's coarse peak
@@ -87,7 +87,7 @@ class PlanningProblem:
     """A scenario's transfer task as a Problem (minimum time under its limit set, or the registered
     transfer objective `objective` names)."""
 
-    def __init__(self, scenario: Scenario, objective: MinimumTime | str | None = None) -> None:
+    def __init__(self, scenario: TransferScenario, objective: MinimumTime | str | None = None) -> None:
         self.scenario = scenario
         self.name = scenario.name
         if objective is None or isinstance(objective, str):

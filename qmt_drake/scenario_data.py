@@ -7,7 +7,7 @@ follows from a YAML file to the objects the planners use.
 The kind comes from the file (config/resolve.py: its top-level `kind`, or a design task's `units`):
 
     kind               plain data (this module returns)        built by
-    transfer           config/sections.Scenario                 itself (scenario.arm / limit_set on first use)
+    transfer           config/sections.Scenario                 transfer_scenario.build_transfer_scenario
     spatial_transfer   spatial_data.SpatialScenarioData         spatial_task.build_spatial_scenario
     energy_time        energy/experiments.EnergyScenarioData    energy/scenario.build_experiment
     design_task        design/tasks.Task                        itself (no Drake object: design/ builds per type)
@@ -18,13 +18,11 @@ The data holds no Drake object: numbers, strings, paths, numpy arrays and small 
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import Any
 
 from qmt_drake.config.registry import ENERGY_TIME, TRANSFER
 from qmt_drake.config.resolve import DESIGN_TASK, SPATIAL, is_design_task, kind_of, resolve_scenario
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.config.sections import Scenario
 from qmt_drake.design.tasks import Task, load_task
 from qmt_drake.energy.experiments import EnergyScenarioData
@@ -32,6 +30,7 @@ from qmt_drake.energy.scenario import build_experiment, load_energy_data
 from qmt_drake.errors import QmtInputError
 from qmt_drake.spatial_data import SpatialScenarioData, parse_spatial_data
 from qmt_drake.spatial_task import build_spatial_scenario
+from qmt_drake.transfer_scenario import TransferScenario, build_transfer_scenario, load_scenario
 
 ScenarioData = Scenario | SpatialScenarioData | EnergyScenarioData | Task
 
@@ -54,17 +53,21 @@ def load_scenario_data(name_or_path: str | Path) -> ScenarioData:
     if kind == ENERGY_TIME:
         return load_energy_data(name_or_path)
     resolve_scenario(name_or_path, TRANSFER)  # a file of an unknown kind: one line naming the command
-    # a copy without the arm the loader built to check the per-joint lists (plain data only; rebuilt on use)
-    return dataclasses.replace(load_scenario(name_or_path))
+    # every check of the loader (those against the built arm too), then the plain data only
+    return load_scenario(name_or_path).data()
 
 
 def build_scenario(data: ScenarioData) -> Any:
-    """The built scenario of plain data: a SpatialScenario, an Experiment, or the data itself for a
-    transfer scenario and a design task (which build their models on use)."""
+    """The built scenario of plain data: a SpatialScenario, an Experiment, a TransferScenario (its arm,
+    limit set and bottle built on first use), or the data itself for a design task (design/ builds per type)."""
     if isinstance(data, SpatialScenarioData):
         return build_spatial_scenario(data)
     if isinstance(data, EnergyScenarioData):
         return build_experiment(data)
-    if isinstance(data, (Scenario, Task)):
+    if isinstance(data, TransferScenario):
+        return data
+    if isinstance(data, Scenario):
+        return build_transfer_scenario(data)
+    if isinstance(data, Task):
         return data
     raise QmtInputError(f"build_scenario: {type(data).__name__} is not scenario data; pass load_scenario_data(NAME)")

@@ -40,10 +40,10 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from qmt_drake import malloc_tuning  # noqa: E402
-from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.errors import QmtSimulationError  # noqa: E402
 from qmt_drake.outputs import write_text_atomic  # noqa: E402
 from qmt_drake.sim import IMPLICIT_TIME_STEP_S, GenesPlan, build_transfer_diagram, make_result, run_diagram  # noqa: E402
+from qmt_drake.transfer_scenario import load_scenario  # noqa: E402
 
 EXPLICIT_STEPS_S = (0.25e-3, 0.5e-3, 1e-3, 2e-3)
 IMPLICIT_STEPS_S = (1e-3, 2e-3, 3e-3, 4e-3)

@@ -212,8 +212,8 @@ def run_floor(diagram, plant, h, chunk_s: float = 0.25):
 
 
 def cost_ratio(repeats: int, time_step_s: float) -> dict:
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.sim import GenesPlan, build_transfer_diagram, make_result, run_diagram
+    from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("thesis-ch4")
     plan = GenesPlan(sc, THESIS_GENES_CH4, method="thesis")
     keys = ("ours", "ours_simulation_only", "ours_per_step_monitor", "floor", "floor_previous_plant",

@@ -29,7 +29,7 @@ PROBE = r"""
 import json, sys, time
 import numpy as np
 try:
-    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.transfer_scenario import load_scenario
 except ImportError:
     from qmt_drake.scenario import load_scenario
 from qmt_drake.planners.ga import run_ga

@@ -38,10 +38,10 @@ sys.path.insert(0, str(ROOT))
 
 from pydrake.systems.analysis import Simulator  # noqa: E402
 
-from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.outputs import write_text_atomic  # noqa: E402
 from qmt_drake.sim import GenesPlan, build_transfer_diagram, planned_peak_moment_Nm  # noqa: E402
 from qmt_drake.systems.payload import PayloadSpec  # noqa: E402
+from qmt_drake.transfer_scenario import load_scenario  # noqa: E402
 
 CASES = [  # (plant step [s], PayloadSpec overrides)
     (0.5e-3, {}), (1e-3, {}), (2e-3, {}),

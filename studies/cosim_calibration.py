@@ -31,7 +31,6 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.sim import (  # noqa: E402
     MAGNET_EFFECTIVE_GAP_M,
     GenesPlan,
@@ -39,6 +38,7 @@ from qmt_drake.sim import (  # noqa: E402
     planned_peak_moment_Nm,
     simulate_transfer,
 )
+from qmt_drake.transfer_scenario import load_scenario  # noqa: E402
 
 # The hands' data come from the scenarios' typed `hand` sections (coil, thesis slip boundary).
 _HANDS = {ch: load_scenario(name).hand for ch, name in (("ch2", "thesis-ch2"), ("ch4", "thesis-ch4"))}

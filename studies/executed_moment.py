@@ -28,10 +28,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.outputs import write_text_atomic  # noqa: E402
 from qmt_drake.plan_files import load_plan  # noqa: E402
 from qmt_drake.sim import FEEDFORWARD_OPTIONS, simulate_transfer  # noqa: E402
+from qmt_drake.transfer_scenario import load_scenario  # noqa: E402
 
 NEAR_HOLD_FRACTION = 0.98
 

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.design.codesign import LAYOUT_LOWER_M, LAYOUT_UPPER_M, ROOT, grid_search, pattern_search
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.planners import plan_with
 from qmt_drake.sim import simulate_transfer
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def codesign(out_dir: Path, log, max_layout_evaluations: int = 60) -> None:

@@ -81,9 +81,9 @@ def main(argv=None) -> int:
                          "the same way (default: OUT/benchmark, where `make run` puts the benchmark)")
     a = ap.parse_args(argv)
     from qmt_drake.apps.benchmark import fastest_carried, reusable_fastest_carried
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.sweep.robust import robust_time_scale
     from qmt_drake.sweep.runner import dask_client, run_sweep
+    from qmt_drake.transfer_scenario import load_scenario
     out = Path(a.out)
     a.carried_from = a.carried_from or str(out / "benchmark")
     sweeps = out / "sweeps"

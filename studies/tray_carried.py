@@ -37,12 +37,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from qmt_drake.config.scenario import load_scenario  # noqa: E402
 from qmt_drake.errors import QmtInputError  # noqa: E402
 from qmt_drake.outputs import atomic_output, check_output_dir, jsonable, write_text_atomic  # noqa: E402
 from qmt_drake.planners import plan_with  # noqa: E402
 from qmt_drake.sweep.robust import plan_fastest_carried  # noqa: E402
 from qmt_drake.systems.tray_object import BottleSpec  # noqa: E402
+from qmt_drake.transfer_scenario import load_scenario  # noqa: E402
 from qmt_drake.tray.executed import execute_and_measure  # noqa: E402
 
 FRICTIONS = (0.2, 0.3, 0.4, 0.6)

@@ -13,9 +13,9 @@ import sys
 from pathlib import Path
 
 from qmt_drake.apps.thesis_study import run_ga_seeds
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.planners import plan_with
+from qmt_drake.transfer_scenario import load_scenario
 
 SCENARIO = "via5-ch4"
 

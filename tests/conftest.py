@@ -7,7 +7,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 @pytest.fixture(scope="session")
 def scenarios():
-    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.transfer_scenario import load_scenario
     return {n: load_scenario(n) for n in ("thesis-ch2", "thesis-ch3", "thesis-ch4")}
 
 

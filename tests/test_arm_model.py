@@ -4,7 +4,6 @@ backend is the thesis arms' PlanarChain (same numbers), the spatial one the scen
 import numpy as np
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
 from qmt_drake.model.arm_model import ArmData, build_arm_model
@@ -12,6 +11,7 @@ from qmt_drake.model.planar import PlanarChain
 from qmt_drake.model.spatial_chain import SpatialChain
 from qmt_drake.scenario_data import load_scenario_data
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def test_planar_backend_is_the_thesis_arms_chain():

@@ -16,9 +16,9 @@ from qmt_drake.apps.benchmark import (
     reusable_fastest_carried,
     run_benchmark,
 )
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra
 from qmt_drake.sweep import robust
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def test_quick_benchmark_ch3(tmp_path, monkeypatch):

@@ -3,8 +3,8 @@ payload's coordinates are relative to the hand; studies/contact_drift.py)."""
 
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.sim import GenesPlan
+from qmt_drake.transfer_scenario import load_scenario
 from studies.contact_drift import run_case
 
 

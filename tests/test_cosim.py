@@ -14,7 +14,6 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, TrajectorySource
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.sim import (
     GenesPlan,
@@ -35,6 +34,7 @@ from qmt_drake.systems.electromagnet import MagnetParams, electromagnet_force
 from qmt_drake.systems.joint_tracking import JointPidController
 from qmt_drake.systems.payload import PayloadSpec, add_payload, allow_contact, payload_joint
 from qmt_drake.systems.transfer_monitor import TransferMonitor
+from qmt_drake.transfer_scenario import load_scenario
 
 GA_GENES_CH4 = (0.622, 0.532, 0.562)  # seed 000 section 4.4
 

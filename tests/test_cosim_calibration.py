@@ -5,8 +5,8 @@ import math
 
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.sim import GenesPlan, planned_peak_moment_Nm, simulate_transfer
+from qmt_drake.transfer_scenario import load_scenario
 
 
 @pytest.mark.parametrize("T1, T2, thesis_success", [(1.167, 1.690, True), (1.105, 1.752, False)])

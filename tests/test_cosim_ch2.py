@@ -2,8 +2,8 @@
 
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.sim import GenesPlan, simulate_transfer
+from qmt_drake.transfer_scenario import load_scenario
 
 GA_GENES_CH2 = (1.59, 0.51)  # seed 000 section 2.5, T1 and T2 [s]
 

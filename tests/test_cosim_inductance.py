@@ -4,9 +4,9 @@ with L/R ~ 0.2 ms far below the loop's ~2.5 ms time constant the two agree."""
 import numpy as np
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.sim import GenesPlan, build_transfer_diagram, run_diagram
 from qmt_drake.systems.transfer_monitor import TransferMonitor
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def test_inductance_changes_little():

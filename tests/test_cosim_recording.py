@@ -5,9 +5,9 @@ import re
 
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.recording import make_headless_meshcat
 from qmt_drake.sim import GenesPlan, build_transfer_diagram, run_diagram, simulate_transfer
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def _embedded_bytes(html: str) -> bytes:

@@ -25,7 +25,7 @@ def test_scaling_rule_and_scenario(tmp_path):
     s = scaled_spec(0.20, 0.06)
     np.testing.assert_allclose(s["mass_kg"], [0.547 * 0.2 / 0.16, 0.146 * 0.06 / 0.12])
     np.testing.assert_allclose(s["izz_about_com_kgm2"], [2.440e-3 * (0.2 / 0.16) ** 3, 0.361e-3 * 0.5 ** 3])
-    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.transfer_scenario import load_scenario
     p = write_scenario(0.18, 0.10, tmp_path)
     sc = load_scenario(p)
     assert Path(sc.urdf_path).name.startswith("two_link_ch4_l1_180mm_l2_100mm")
@@ -34,7 +34,7 @@ def test_scaling_rule_and_scenario(tmp_path):
 def test_base_shift_moves_the_task_points_not_the_world(tmp_path):
     import yaml
 
-    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.transfer_scenario import load_scenario
     world = yaml.safe_load((ROOT / "models" / "scenarios" / "thesis-ch4.yaml").read_text())["task"]["points_m"]
     p = write_scenario(0.16, 0.12, tmp_path, base_m=(0.03, -0.02))
     pts = yaml.safe_load(p.read_text())["task"]["points_m"]

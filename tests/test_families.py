@@ -39,8 +39,8 @@ def test_via_cubic_matches_thesis_closed_form(problems):
 
 
 def test_via_cubic_any_number_of_vias(scenarios):
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.families import make_family
+    from qmt_drake.transfer_scenario import load_scenario
     base = scenarios["thesis-ch4"]
     for pts in ([[0.17, 0.20], [-0.18, 0.10]],
                 [[0.17, 0.20], [0.12, 0.19], [0.08, 0.16], [0.0, 0.15], [-0.10, 0.12],

@@ -5,9 +5,9 @@ import re
 import numpy as np
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.planners.ga import BinaryGa, run_ga
 from qmt_drake.problem import PlanningProblem
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def test_gray_and_binary_decoding_cover_every_level(problems):

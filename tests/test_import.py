@@ -103,9 +103,9 @@ def test_every_command_resolves_and_says_what_its_module_says():
 
 
 def test_a_scenario_loaded_without_the_api_builds_its_arm():
-    """The builders register when a scenario first needs them (config/registry.PROVIDERS), not because
+    """The loader builds the arm by plain import (transfer_scenario -> builders), not because
     qmt_drake.api was imported."""
-    got = _probe("from qmt_drake.config.scenario import load_scenario\n"
+    got = _probe("from qmt_drake.transfer_scenario import load_scenario\n"
                  "assert load_scenario('thesis-ch4').arm is not None\n"
                  "assert 'qmt_drake.api' not in sys.modules")
     assert got["pydrake"]

@@ -87,7 +87,7 @@ def test_corrupt_or_foreign_checkpoint(tmp_path, capsys, content, needle):
 
 
 def test_checkpoint_of_the_same_scenario_is_accepted(tmp_path, capsys):
-    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.transfer_scenario import load_scenario
     ck = tmp_path / "ck.json"
     rc, _, err, _ = _run(capsys, "plan", "thesis-ch4", "--generations", "3", "--checkpoint", ck, "--quiet")
     assert rc == 0, err

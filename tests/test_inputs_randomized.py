@@ -124,9 +124,9 @@ def test_check_rate_estimate_against_a_measured_recheck():
     import tracemalloc
 
     from qmt_drake.budgets import check_rate_estimate
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.plan import recheck
     from qmt_drake.planners import plan_with
+    from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("thesis-ch4")
     p = plan_with("thesis", sc)
     recheck(sc, p.trajectory, 1e4)  # warm caches

@@ -63,9 +63,9 @@ def test_refined_peak_on_a_plateau_bounds_a_ten_times_finer_sampling():
     """A jerk-limited line on the tray holds the slide ratio on a plateau (constant acceleration):
     hundreds of sampled 'local maxima' there; only the highest REFINE_MAX_PER_COLUMN are refined,
     and the refined peak still bounds a 10x finer sampling of the trajectory."""
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.limits.limit_set import REFINE_MAX_PER_COLUMN
     from qmt_drake.planners import plan_with
+    from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("crane-tray")
     plan = plan_with("ruckig", sc, jerk_limit=50.0)
     ls = sc.limit_set
@@ -83,7 +83,7 @@ def test_refined_peak_on_a_plateau_bounds_a_ten_times_finer_sampling():
 
 
 def test_an_unknown_row_option_is_refused_not_swallowed():
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.errors import QmtInputError
+    from qmt_drake.transfer_scenario import load_scenario
     with pytest.raises(QmtInputError, match="'polygon_side' is not one of"):
         load_scenario("thesis-ch4").limit_set.toppra_rows(polygon_side=16)

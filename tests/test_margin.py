@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from qmt_drake.apps.benchmark import _half_step
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.margin import criterion, flip_time_scale, half_step_verdict, verdict_margin
 from qmt_drake.margin_runs import (
@@ -18,6 +17,7 @@ from qmt_drake.margin_runs import (
 from qmt_drake.sim.reference import GenesPlan
 from qmt_drake.sim.runner import run_transfer_simulate, simulate_transfer
 from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.transfer_scenario import load_scenario
 from tests.spatial_fixtures import load_or_skip
 from tests.test_actuator_names import lift
 

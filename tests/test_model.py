@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 import yaml
 
-from qmt_drake.config.scenario import MODELS_DIR, SCENARIO_DIR, load_scenario
+from qmt_drake.config.scenario import MODELS_DIR, SCENARIO_DIR
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.arm import ArmModel
+from qmt_drake.transfer_scenario import load_scenario
 
 CH4 = (MODELS_DIR / "two_link_ch4.urdf").read_text()
 BASE_WELD = '<joint name="base_weld" type="fixed">\n    <parent link="world"/>\n    <child link="base"/>'

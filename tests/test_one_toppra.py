@@ -73,8 +73,8 @@ def _same_as_toppra(seen):
 
 
 def test_the_planar_baseline_is_toppras_result(recorded):
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners.baselines.toppra_plan import plan_toppra
+    from qmt_drake.transfer_scenario import load_scenario
 
     plan = plan_toppra(load_scenario("thesis-ch3"), path="joint_line", grid_points=120, measure_polygon_cost=False)
     assert plan.feasible

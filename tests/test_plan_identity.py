@@ -9,7 +9,7 @@ import pytest  # noqa: I001
 import yaml
 
 from qmt_drake.apps.cli import main
-from qmt_drake.config.scenario import SCENARIO_DIR, load_scenario
+from qmt_drake.config.scenario import SCENARIO_DIR
 from qmt_drake.energy.energy_plan import make_energy_plan
 from qmt_drake.energy.experiments import paper_initial_x
 from qmt_drake.energy.scenario import get_experiment
@@ -21,6 +21,7 @@ from qmt_drake.planners import plan_with
 from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import write_spatial_plan
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.transfer_scenario import load_scenario
 from tests.scenario_files import scenario_yaml
 
 

@@ -51,8 +51,8 @@ def test_sampling_outside_the_plan_holds_its_end_states():
     """Before t = 0 the start, after T the goal, at rest: never the polynomial extrapolated."""
     import numpy as np
 
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners import plan_with
+    from qmt_drake.transfer_scenario import load_scenario
     plan = plan_with("thesis", load_scenario("thesis-ch4"))
     T = plan.motion_time_s
     q, qd, qdd = plan.sample(np.array([-1.0, -1e-3, 0.0, T, T + 1e-3, T + 5.0]))

@@ -53,9 +53,9 @@ def test_gravity_time_scale_search_stays_within_the_family_budget():
     than the family's slowest (all genes at their upper bounds): such samples once cost the
     crane-tray optimum all the machine's memory. Rows with no feasible scale within the budget
     are nan."""
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners.optimum import tight_scale
     from qmt_drake.problem import PlanningProblem
+    from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("crane-tray")
     problem = PlanningProblem(sc)
     assert not problem.limit_set.time_scaling_is_exact
@@ -73,8 +73,8 @@ def test_slow_down_search_stops_at_the_time_budget():
     """trajopt's path tilts the tray (it has no tray terms): no slowing within the family's time
     budget keeps the bottle, so the plan is infeasible, quickly, instead of re-checking ever
     slower motions (finish.slow_to_limits_factor's cap)."""
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners.baselines.finish import slowest_allowed_motion_s
+    from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("crane-tray")
     plan = plan_with("trajopt", sc)
     assert not plan.feasible

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from qmt_drake.apps.benchmark import tip_jerk_peak
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.planners.baselines.ruckig_plan import VIA_NOTE, plan_ruckig, ruckig_profile
+from qmt_drake.transfer_scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

@@ -5,11 +5,11 @@ exact slow-down of an overshooting output, solve time, and infeasible limits as 
 import numpy as np
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.planners.baselines.finish import finish_plan
 from qmt_drake.planners.baselines.paths import CartesianLinePath, PathTimingTrajectory
 from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
 from qmt_drake.trajectory import TimeScaledTrajectory
+from qmt_drake.transfer_scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

@@ -6,9 +6,9 @@ family; via points are passed at their times; infeasible limits give infeasible 
 import numpy as np
 import pytest
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.planners.baselines.paths import task_joint_points
 from qmt_drake.planners.baselines.trajopt_plan import basis_weights, plan_trajopt
+from qmt_drake.transfer_scenario import load_scenario
 
 QUICK = {"num_control_points": 10, "constraint_samples": 40}
 

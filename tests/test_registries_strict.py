@@ -7,13 +7,12 @@ from dataclasses import replace
 import pytest
 
 from qmt_drake.actuators import ActuatorPlugin, register_actuator
-from qmt_drake.config.hooks import register_builders, register_validator
 from qmt_drake.config.registry import ACTUATORS, FAMILIES, HANDS, OBJECTIVES, FamilyPlugin, ObjectivePlugin
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import register_hand
 from qmt_drake.plan_files import PLAN_KINDS, register_plan_kind
 from qmt_drake.planners import PLANNERS, plan_with, register_planner, unregister_planner
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def _refused(call, *needles) -> str:
@@ -101,11 +100,8 @@ def test_plug_ins_are_checked_for_their_callables_when_registered():
         HANDS.unregister("magnet_no_check")
 
 
-def test_plan_kinds_validators_and_builders_register_once():
+def test_plan_kinds_register_once():
     _refused(lambda: register_plan_kind("transfer", object, lambda p, d, s: None),
              "plan kind 'transfer' is already registered", "replace=True")
     _refused(lambda: register_plan_kind("other", "Scenario", lambda p, d, s: None), "give the scenario's class")
     assert "other" not in PLAN_KINDS
-    _refused(lambda: register_validator("uncertainty", lambda raw, where: None),
-             "section validator 'uncertainty' is already registered")
-    _refused(lambda: register_builders(arm=lambda sc: None), "builder 'arm' is already registered")

@@ -58,8 +58,8 @@ def test_ruckig_names_the_joint_gravity_overloads(tmp_path):
 def test_planar_ruckig_names_the_weak_joint(weak_joint):
     """The thesis's ch.3 arm with one motor's torque limit made a billion times smaller: no acceleration scale
     holds it within the time budget, and the refusal names that motor's column (not the other's)."""
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners.baselines.ruckig_plan import plan_ruckig
+    from qmt_drake.transfer_scenario import load_scenario
 
     base = load_scenario("thesis-ch3")
     lim = [float(x) for x in base.limits.motor_torque_limit_Nm]

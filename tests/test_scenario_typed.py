@@ -20,10 +20,10 @@ from qmt_drake.config.scenario import (
     TrayHand,
     UrdfArm,
     builtin_scenarios,
-    load_scenario,
 )
 from qmt_drake.systems.electromagnet import THESIS_COILS
 from qmt_drake.systems.payload import PayloadSpec
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def _write(tmp_path, raw, name="s.yaml"):

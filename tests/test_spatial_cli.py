@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 
 from qmt_drake.apps.cli import main
-from qmt_drake.config.scenario import SPATIAL_METHODS, load_scenario
+from qmt_drake.config.scenario import SPATIAL_METHODS
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import OUTCOMES
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_methods import METHODS
 from qmt_drake.planners.spatial_plan_io import REBUILD_TOL, load_spatial_plan, plan_file_dict
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.transfer_scenario import load_scenario
 from tests.spatial_fixtures import shipped_toppra
 
 SC = "ur5-suction-bins"

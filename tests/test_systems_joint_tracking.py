@@ -9,9 +9,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
 from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
+from qmt_drake.transfer_scenario import load_scenario
 
 Q0 = np.array([0.56, 0.72])
 

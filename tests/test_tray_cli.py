@@ -110,8 +110,8 @@ def test_benchmark_serves_the_tray(tmp_path, crane_toppra):
     """The benchmark's bound is the level tray's bang-bang time (slide at the planning friction),
     and its co-simulation column runs the bottle through the servos (not the magnet hand)."""
     from qmt_drake.apps.benchmark import closed_form_bound_s, cosim_outcome
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners import plan_with
+    from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("crane-tray")
     A = min(0.8 * 0.3 * 9.81, 9.81 * 0.8 * 0.029 / 0.04371222624913998)
     assert closed_form_bound_s(sc) == pytest.approx(2 * (0.36 / A) ** 0.5, rel=1e-12)
@@ -134,10 +134,10 @@ def test_a_plant_step_coarser_than_the_servo_loop_is_refused(capsys):
 
 def test_the_library_refuses_a_coarse_tray_step_too():
     """The step check lives in the tray co-simulation itself, not only in the CLI."""
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.errors import QmtInputError
     from qmt_drake.hands import run_simulate
     from qmt_drake.planners import plan_with
+    from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("crane-tray")
     with pytest.raises(QmtInputError, match="control period"):
         run_simulate(sc, plan_with("thesis", sc), time_step_s=5e-3)
@@ -149,8 +149,8 @@ def test_a_replay_too_fast_to_follow_is_never_carried(capsys):
     """Time scale 1e-4: the whole plan fits in less than one servo period. The goal stream must still
     end at the plan's goal, and whatever the servos do, the verdict is not "carried" unless the arm got
     there with the bottle on the tray (qmt_drake/outcome.py)."""
-    from qmt_drake.config.scenario import load_scenario
     from qmt_drake.planners import plan_with
+    from qmt_drake.transfer_scenario import load_scenario
     from qmt_drake.tray.execute import plan_schedule, simulate_tray_plan
     sc = load_scenario("crane-tray")
     plan = plan_with("thesis", sc)

@@ -13,8 +13,8 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.limits.base import RowOptions
+from qmt_drake.transfer_scenario import load_scenario
 from qmt_drake.tray.conditions import contact_wrench, tray_kinematics, tray_ratios
 
 SC = load_scenario("crane-tray")
@@ -164,7 +164,7 @@ def test_gravity_has_one_owner_the_scenarios_world():
     tray terms of the same limit set (before, the tray wrench used a constant g)."""
     import numpy as np
 
-    from qmt_drake.config.scenario import load_scenario
+    from qmt_drake.transfer_scenario import load_scenario
     full = load_scenario("crane-tray")
     half = load_scenario("crane-tray", overrides={"world": {"gravity_m_s2": [0.0, 0.0, -4.905]}})
     q = np.array([[1.2, -2.0, 0.8]])

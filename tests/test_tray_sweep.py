@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from qmt_drake.apps.cli import main
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import jsonable
 from qmt_drake.planners import plan_with
 from qmt_drake.sweep.cases import build_cases, make_plan_doc, run_case
 from qmt_drake.sweep.spec import load_spec
+from qmt_drake.transfer_scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "models" / "scenarios"
 

@@ -18,11 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.outputs import write_text_atomic
 from qmt_drake.planners import registry
 from qmt_drake.planners.ga import run_ga
 from qmt_drake.problem import PlanningProblem
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def _evaluations_per_s(problem, exact: bool, batches: int = 20, batch: int = 50) -> float:

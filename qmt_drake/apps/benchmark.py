@@ -41,13 +41,13 @@ import numpy as np
 
 from qmt_drake.apps.bang_bang import bang_bang_acceleration_m_s2, closed_form_bound_s
 from qmt_drake.apps.benchmark_report import CARRIED_LABEL, benchmark_markdown, write_figures
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import Plan
 from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import registry
 from qmt_drake.sweep.robust import plan_fastest_carried_converged
+from qmt_drake.transfer_scenario import load_scenario
 
 DEFAULT_JERK_LIMITS = (1.0, 10.0, 100.0)  # m/s^3
 

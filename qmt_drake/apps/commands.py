@@ -22,7 +22,7 @@ from qmt_drake.apps.benchmark import run_benchmark
 from qmt_drake.apps.cli import EXPLICIT_MAX_TIME_STEP_MS
 from qmt_drake.apps.plan_command import check_tray_method
 from qmt_drake.budgets import check_ga_runs_budget, check_plan_budget, check_replay_budget
-from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios, load_scenario
+from qmt_drake.config.scenario import ENERGY_TIME_KIND, builtin_scenarios
 from qmt_drake.energy.cli import simulate_energy
 from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError
@@ -32,6 +32,7 @@ from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_output_dir, check_output_path
 from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import plan_with, registry
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def cmd_scenarios(args) -> int:

@@ -20,7 +20,6 @@ from qmt_drake.apps.arg_checks import (
 )
 from qmt_drake.apps.plan_options import FLAGS, checked_method, scenario_kind
 from qmt_drake.budgets import check_replay_budget
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.energy.cli import plan_energy
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
@@ -30,6 +29,7 @@ from qmt_drake.plan import a_kind
 from qmt_drake.planners import registry
 from qmt_drake.planners.ga import check_checkpoint
 from qmt_drake.sweep.robust import plan_fastest_carried, plan_for_success
+from qmt_drake.transfer_scenario import load_scenario
 
 EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130
 

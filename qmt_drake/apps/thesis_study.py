@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.apps import plots
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.hands import run_simulate
 from qmt_drake.outputs import write_text_atomic
 from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import plan_with
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def _ga_worker(scenario: str, seed: int, path: str, overrides: dict | None) -> str:

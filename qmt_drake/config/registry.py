@@ -18,13 +18,11 @@ from typing import Any
 
 from qmt_drake.errors import QmtInputError
 
-# The modules that register the shipped kinds (hands, actuators, objectives, families), the scenario's
-# builders and the `uncertainty` validator (config/hooks.py), imported by name the first time a registry
-# is consulted: whoever loads or unpickles a scenario gets them, whatever else they imported, instead of
+# The modules that register the shipped kinds (hands, actuators, objectives, families), imported by name
+# the first time a registry is consulted: whoever loads or unpickles a scenario gets them, whatever else they imported, instead of
 # as a side effect of `import qmt_drake`; config/ still imports nothing above itself at import time.
 PROVIDERS = ("qmt_drake.hands", "qmt_drake.actuators", "qmt_drake.problem", "qmt_drake.families",
-             "qmt_drake.builders", "qmt_drake.sweep.parameters", "qmt_drake.energy.objective",
-             "qmt_drake.energy.fourier")
+             "qmt_drake.energy.objective", "qmt_drake.energy.fourier")
 _providers_loaded = False
 
 

@@ -19,21 +19,22 @@ task point inside the joint ranges (tray level), the bottle standing at rest on 
 Each section is a small frozen dataclass (config/sections.py) with its own validation
 (config/validate.py), in the spirit of Drake's hardware_sim scenario (`yaml_load_typed`), written
 out so that every bad key gets its own one-line QmtInputError naming the key and the fix. This
-module is the loader: it finds the file, reads and merges the YAML, resolves the arm's URDF, calls
-the section validators and checks the sections against each other and against the loaded arm. Numbers are checked as numbers: a YAML `true`
-is not 1, a string is not 0.5. After the file is read, the arm is loaded once (`Scenario.arm`) and
-the lists that go per joint (motor limits, gains, motors) are checked against its joint count.
+module is the data half of the loader: it finds the file, reads and merges the YAML, resolves the
+arm's URDF, calls the section validators and checks the sections against each other
+(`load_transfer_data`: plain data, no Drake object, nothing registered is called). Numbers are
+checked as numbers: a YAML `true` is not 1, a string is not 0.5. The checks that need the loaded
+arm (per-joint list lengths, tray points reachable, bottle at rest) and the `uncertainty`
+distributions are the other half, qmt_drake/transfer_scenario.load_scenario, above the builders.
 
-Scenarios pickle (sweeps ship them to worker processes); the cached Drake arm is left out of the
-pickled state and rebuilt on first use. `Scenario.fingerprint()` is a sha256 of the validated data
-and the URDF's bytes: what a GA checkpoint or a plan file stores to recognise its scenario.
+`Scenario.fingerprint()` is a sha256 of the validated data and the URDF's bytes: what a GA
+checkpoint or a plan file stores to recognise its scenario.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sized
 from dataclasses import fields
 from pathlib import Path
+from typing import Any
 
 from qmt_drake.config import fields as fields_mod
 from qmt_drake.config.registry import (
@@ -113,9 +114,10 @@ def read_scenario_yaml(path: Path, example: str = "thesis-ch4") -> dict:
     return fields_mod.read_yaml_mapping(path, "scenario", SCENARIO_DIR / (example + ".yaml"))
 
 
-def load_scenario(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
-    """Load a built-in scenario by name or a YAML file by path; `overrides` is merged into the
-    raw YAML mapping first (nested dicts merge key by key)."""
+def load_transfer_data(name_or_path: str | Path, overrides: dict | None = None) -> Scenario:
+    """The plain data of a built-in transfer scenario by name or a YAML file by path; `overrides` is
+    merged into the raw YAML mapping first (nested dicts merge key by key). The checks against the
+    built arm are transfer_scenario.load_scenario's (module docstring)."""
     path = resolve_scenario(name_or_path, TRANSFER)
     raw = read_scenario_yaml(path)
     check_scenario_kind(raw, str(path))
@@ -196,9 +198,6 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         hand=hand,
         actuator=parse_actuator(raw.get("actuator"), limits, f"{where}: actuator"), world=world,
         uncertainty=parse_uncertainty(raw.get("uncertainty"), f"{where}: uncertainty"))
-    _check_against_arm(sc, where)
-    if hand_plugin.check_loaded is not None:
-        hand_plugin.check_loaded(sc, where)  # e.g. the tray: its points reachable, the bottle at rest
     return sc
 
 
@@ -246,9 +245,10 @@ def check_tray_payload(payload: Payload, where: str) -> None:
                             "bottle; give payload.body kind 'bottle' (radius_m, height_m, shell_mass_kg)")
 
 
-def check_tray_scenario(sc: Scenario, where: str) -> None:
+def check_tray_scenario(sc: Any, where: str) -> None:
     """The task's tray points inside the joint ranges (tray level: task.tool_angle_rad) and the
-    bottle standing at rest: one line each, before any planning."""
+    bottle standing at rest: one line each, before any planning. `sc` is the built scenario
+    (transfer_scenario.TransferScenario: its arm and bottle); the tray plug-in's check_loaded."""
     b, hand = sc.payload.body, sc.hand
     assert b is not None and isinstance(hand, TrayHand)  # check_tray_payload and the parser checked both
     if hand.contact_radius_m > b.radius_m:
@@ -265,21 +265,6 @@ def check_tray_scenario(sc: Scenario, where: str) -> None:
             sc.arm.inverse_kinematics(p, sc.task.tool_angle_rad, sc.task.ik_branch, what=f"tray point {i + 1}")
         except QmtInputError as exc:
             raise QmtInputError(f"{where}: task.points_m[{i}] ({p[0]:g}, {p[1]:g}) m: {exc}") from None
-
-
-def _check_against_arm(sc: Scenario, where: str) -> None:
-    """Lists that go one per joint must match the arm's joint count (loads the arm once)."""
-    n = sc.arm.n_dof
-    checks: list[tuple[str, Sized]] = [("limits.motor_torque_limit_Nm", sc.limits.motor_torque_limit_Nm)]
-    checks += [(f"control.{k}", v) for k, v in sc.control.items()]
-    per_joint = ACTUATORS[sc.actuator.kind].per_joint if sc.actuator is not None else None
-    if per_joint is not None:  # the actuator's list with one entry per joint (motors, servos)
-        checks.append((f"actuator.{per_joint}", getattr(sc.actuator, per_joint)))
-    for key, v in checks:
-        if len(v) != n:
-            raise QmtInputError(f"{where}: {key} has {len(v)} entries but the arm "
-                                f"({sc.urdf_path.name}) has {n} joints; give one per joint")
-
 
 
 # ------------------------------------------------------------------------------------ value checks

@@ -1,8 +1,9 @@
 """The scenario's sections as plain typed data (frozen dataclasses), and the Scenario that holds them.
 
-Loaded and validated by config/scenario.py; what a scenario turns into (the arm model, the limit
-set, the tray's bottle) is built by qmt_drake/builders.py, registered in config/hooks.py with `register_builders`,
-so this module imports nothing above config/ (catalogue data aside).
+Loaded and validated by config/scenario.py. Plain data only: what a scenario turns into (the arm model,
+the limit set, the tray's bottle) is built above config/ (qmt_drake/transfer_scenario.TransferScenario,
+with the builders of qmt_drake/builders.py), so this module imports nothing above config/ (catalogue
+data aside) and calls nothing registered.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from typing import Any, Protocol
 import numpy as np
 
 from qmt_drake.catalog import SERVO_CATALOG, CoilSpec, ServoGains
-from qmt_drake.config.hooks import registered_builder
 from qmt_drake.config.registry import DEFAULT_OBJECTIVE_KIND
 
 STANDARD_GRAVITY_M_S2 = 9.81  # the value every model here was calibrated with (and Drake's default)
@@ -244,49 +244,11 @@ class Scenario:
     # for transfer scenarios (problem.py: min_time, the motion time under the limits)
     objective: str = DEFAULT_OBJECTIVE_KIND
 
-    # What a scenario turns into (the arm model, the limit set, the tray's bottle) is built by
-    # qmt_drake/builders.py, which registers its builders in config/hooks.py (register_builders): this module
-    # imports nothing above config/, and every object is built once per scenario object. Their types
-    # (ArmModel, LimitSet, BottleSpec) live above config/, so they are typed Any here.
-    @property
-    def bottle(self) -> Any:
-        """Tray scenarios: the BottleSpec of the payload and the tray hand (builders.build_bottle); None otherwise."""
-        return self._built("bottle")
-
-    @property
-    def arm(self) -> Any:
-        """The ArmModel of the URDF with the carried part welded to the hand (builders.build_arm)."""
-        return self._built("arm")
-
-    @property
-    def limit_set(self) -> Any:
-        """The scenario's LimitSet (builders.build_limit_set)."""
-        return self._built("limit_set")
-
-    def _built(self, what: str) -> Any:
-        cache = self.__dict__.setdefault("_built_objects", {})  # not pickled (__getstate__)
-        if what not in cache:
-            build = registered_builder(what)
-            if build is None:
-                raise RuntimeError(f"no builder registered for scenario.{what} (qmt_drake.builders registers "
-                                   "them; config/registry.PROVIDERS imports it)")
-            cache[what] = build(self)
-        return cache[what]
-
-    @property
-    def gear_ratio(self) -> np.ndarray:
-        return np.asarray(self.arm.gear_ratio, dtype=float)
-
     @property
     def moment_per_accel_kgm(self) -> float:
         """m_o * r_G: payload moment per unit tip acceleration (tray: the bottle's tipping moment
         about its base per unit horizontal tray acceleration, m h_G)."""
         return self.payload.mass_kg * self.payload.com_offset_m
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = dict(self.__dict__)
-        state.pop("_built_objects", None)  # Drake objects, which do not pickle: rebuilt on demand
-        return state
 
     def fingerprint(self) -> str:
         """sha256 (hex) of a canonical JSON of the validated data plus the URDF file's bytes.

@@ -25,7 +25,6 @@ from qmt_drake.catalog import (
     motor_for_rated_torque,
 )
 from qmt_drake.config import fields as fields_mod
-from qmt_drake.config.hooks import registered_validator
 from qmt_drake.config.registry import (
     ACTUATORS,
     DEFAULT_HAND_KIND,
@@ -310,7 +309,7 @@ def parse_dc_motor_gear(a: dict, limits: Limits, where: str) -> DcMotorGear:
 
 def parse_uncertainty(u, where: str) -> dict:
     """The shape only (a mapping with `parameters` and optional `monte_carlo`); the distributions are
-    checked by the sweep spec's validation when `plan --success` uses them."""
+    the sweep's vocabulary, checked by transfer_scenario.load_scenario (sweep/parameters.validate_uncertainty)."""
     if u is None:
         return {}
     if not isinstance(u, dict):
@@ -320,9 +319,6 @@ def parse_uncertainty(u, where: str) -> dict:
     if not isinstance(u.get("parameters"), dict) or not u["parameters"]:
         raise QmtInputError(f"{where}.parameters must be a non-empty mapping of parameter -> distribution "
                             "(the sweep spec's form, models/sweeps/ch4-ga-mc200.yaml)")
-    check = registered_validator("uncertainty")
-    if check is not None:
-        check(u, where)
     return dict(u)
 
 

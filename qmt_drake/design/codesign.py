@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import write_text_atomic
 from qmt_drake.planners import plan_with
+from qmt_drake.transfer_scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -26,7 +26,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.hands import hand_plugin
 from qmt_drake.outputs import jsonable
@@ -36,6 +35,7 @@ from qmt_drake.sim import FEEDFORWARD_OPTIONS, calibrated_coil_current_A, motor_
 from qmt_drake.sweep.parameters import PARAMETERS
 from qmt_drake.sweep.spec import SweepSpec
 from qmt_drake.systems.payload import PayloadSpec
+from qmt_drake.transfer_scenario import load_scenario
 
 CASE_SCHEMA = 1  # bump when run_case's physics changes: every stored result is then recomputed
 

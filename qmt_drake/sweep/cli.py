@@ -28,13 +28,13 @@ from pathlib import Path
 
 from qmt_drake.budgets import announce, check_budget
 from qmt_drake.config.resolve import SPATIAL, kind_of
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_output_dir, check_output_path, write_text_atomic
 from qmt_drake.sweep.budget import estimate_spatial_sweep, estimate_sweep
 from qmt_drake.sweep.cluster import DEFAULT_DASHBOARD_ADDRESS, check_dashboard_address
 from qmt_drake.sweep.runner import check_scheduler_address, format_table, run_sweep
 from qmt_drake.sweep.spec import load_spec
+from qmt_drake.transfer_scenario import load_scenario
 
 EXIT_CASES_FAILED = 4  # qmt_drake.apps.cli.EXIT_SIMULATION
 MAX_WORKERS = 256  # LocalCluster processes

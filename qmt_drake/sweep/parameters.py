@@ -8,7 +8,7 @@ of the calibrated current; the equivalent gap g0), the motor model (multiples of
 resistance), a scenario override (gains as multiples of the scenario's, the planning moment limit),
 a `simulate_transfer` keyword (time scale, step) or the planner (seed, Ruckig jerk limit). "scale"
 parameters multiply the nominal value. sweep/spec.py parses a spec against this table; a scenario's
-`uncertainty` section is checked here too (registered with config/hooks.py at import).
+`uncertainty` section is checked here too (validate_uncertainty, called by transfer_scenario.load_scenario).
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ import numpy as np
 from scipy.stats import truncnorm
 
 from qmt_drake.config.fields import check_keys, is_number, show
-from qmt_drake.config.hooks import register_validator
 from qmt_drake.errors import QmtInputError
 
 MAX_TIME_STEP_S = 0.005  # measured: thesis-ch4 replayed at 2 and 5 ms is carried, at 10 and 20 ms "lost" (a step artifact)
@@ -222,8 +221,6 @@ def validate_uncertainty(u: dict, where: str) -> None:
     if "seed" in mc:
         integer(mc["seed"], f"{where}.monte_carlo.seed")
 
-
-register_validator("uncertainty", validate_uncertainty)
 
 
 def check_spatial_uncertainty(u, hand_kind: str, where: str) -> dict:

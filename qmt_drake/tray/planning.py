@@ -9,8 +9,8 @@ re-check use the same limit terms (tray/limit_terms.py) as `qmt-drake plan crane
 from __future__ import annotations
 
 from qmt_drake.config.fields import merge_overrides
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.systems.tray_object import BottleSpec
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def bottle_overrides(bottle: BottleSpec, margin: float | None = None, speed_fraction: float | None = None) -> dict:
