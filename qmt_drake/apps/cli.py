@@ -112,7 +112,8 @@ def simulate_arguments(s: argparse.ArgumentParser) -> None:
                         "not ring the part; docs/spatial_drives.md)")
     s.add_argument("--actuator", choices=SPATIAL_ACTUATORS, default=None,
                    help="spatial scenarios: ideal (Drake's inverse-dynamics controller, the default) or dc_motor "
-                        "(PD/PID voltage law, DC motors with gears: the scenario's actuators.motor)")
+                        "(PD/PID voltage law, DC motors with gears: the scenario's actuators.motor); planar "
+                        "scenarios: only the YAML's own actuator (dc_motor for actuator.kind dc_motor_gear)")
     s.add_argument("--explicit", action="store_true",
                    help="motors drive the plant directly (no implicit loop damping; needs <= 1 ms)")
     s.add_argument("--json", metavar="PATH|-")
