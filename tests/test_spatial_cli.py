@@ -194,7 +194,7 @@ def planar_plan(tmp_path_factory):
     (["simulate", SC, "--plan", "{spatial}", "--explicit"], "--explicit: not for spatial scenario"),
     (["simulate", SC, "--plan", "{spatial}", "--time-step-ms", "20"], "takes a plant step in (0, 5] ms"),
     (["simulate", "thesis-ch4", "--plan", "{planar}", "--actuator", "ideal"], "actuator.kind dc_motor_gear"),
-    (["simulate", "ohsaka-fig3", "--actuator", "ideal"], "--actuator is an option of the transfer co-simulation"),
+    (["simulate", "ohsaka-fig3", "--actuator", "ideal"], "--actuator: seed 001's arm is driven by ideal torque sources"),
 ])
 def test_refusals_are_one_line_exit_2(sc, planned, planar_plan, tmp_path, argv, needle):
     files = {"{missing}": tmp_path / "none.json", "{planar}": planar_plan, "{spatial}": planned["plan"]}

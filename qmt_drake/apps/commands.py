@@ -73,15 +73,9 @@ def cmd_simulate(args) -> int:
         return spatial_cli.simulate(args)
     if is_energy_scenario(args.scenario):
         args.feedforward = args.feedforward or "none"
-        if args.actuator is not None:
-            raise QmtInputError("--actuator is an option of the transfer co-simulation; the energy-time execution "
-                                "runs the plan as planned: drop --actuator")
         if args.method not in (None, "snopt"):
             raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
                                 "energy-time: give --plan FILE or no --method (it plans with snopt)")
-        if args.margin:
-            raise QmtInputError("--margin: the energy-time execution takes no time scale or plant step to vary; "
-                                "drop --margin (its result states its final error against the tolerance)")
         return simulate_energy(args)
     args.feedforward = args.feedforward or "none"
     args.method = registry.find(registry.TRANSFER, args.method or "ga", "--method").name  # one line if not planar
