@@ -57,3 +57,52 @@ def test_energy_time_simulate_refusals_state_the_physics(energy_plan, capsys, ar
     assert main(["simulate", "ohsaka-fig3", "--plan", str(energy_plan), *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert reason in err and "\n" not in err and "Traceback" not in err
+
+
+@pytest.fixture(scope="module")
+def thesis_plan_file(tmp_path_factory):
+    from qmt_drake.apps.cli import main
+    pj = tmp_path_factory.mktemp("thesis") / "p.json"
+    assert main(["plan", "thesis-ch4", "--method", "thesis", "--json", str(pj), "--quiet"]) == 0
+    return pj
+
+
+def test_export_of_a_planar_plan_streams_its_samples_and_rechecks_the_interpolation(thesis_plan_file, tmp_path):
+    import json
+
+    import numpy as np
+
+    from qmt_drake.apps.cli import main
+    from qmt_drake.export import LinearStream
+    from qmt_drake.plan import recheck
+    from qmt_drake.plan_files import load_plan
+    sc = load_scenario("thesis-ch4")
+    plan = load_plan(thesis_plan_file, scenario=sc)
+    out, rep = tmp_path / "s.csv", tmp_path / "r.json"
+    rc = main(["export", str(thesis_plan_file), "--scenario", "thesis-ch4", "--format", "csv", "--rate", "125",
+               "--interp", "linear", "--out", str(out), "--json", str(rep)])
+    r = json.loads(rep.read_text())
+    assert rc == (0 if r["stream_holds"] else 3)
+    head, *rows = out.read_text().splitlines()
+    assert head.split(",") == ["time_s", *sc.arm.joint_names]
+    data = np.array([[float(v) for v in row.split(",")] for row in rows])
+    t, q = data[:, 0], data[:, 1:]
+    assert np.allclose(np.diff(t), 1 / 125) and t[-1] >= plan.motion_time_s
+    np.testing.assert_array_equal(q, plan.sample(np.minimum(t, plan.motion_time_s))[0])
+    # the linear stream's evaluate (what the planar report refines on) is its sample() inside each interval
+    lin = LinearStream(t, q)
+    mid = 0.5 * (t[1:] + t[:-1])
+    for a, b in zip(lin.evaluate(mid, mid), lin.sample(mid)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_allclose(lin.evaluate(mid, mid)[1], np.diff(q, axis=0) * 125, rtol=1e-12)
+    own = recheck(sc, lin, r["stream_recheck"]["check_rate_hz"])
+    assert r["stream_recheck"]["max"] == pytest.approx(own.worst_ratio, rel=1e-12)
+    assert r["stream_recheck"]["binding"] == max(own.peak_ratios, key=own.peak_ratios.get)
+    assert r["stream_peak_jerk"]["peak_jerk_ratio"] is None  # a planar scenario states no jerk limit
+
+
+def test_export_refuses_the_energy_time_arm_for_its_missing_limits(energy_plan, tmp_path, capsys):
+    from qmt_drake.apps.cli import main
+    assert main(["export", str(energy_plan), "--scenario", "ohsaka-fig3", "--format", "csv", "--rate", "125",
+                 "--out", str(tmp_path / "s.csv")]) == 2
+    assert "states no joint speed, acceleration or torque limit" in capsys.readouterr().err
