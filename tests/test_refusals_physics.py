@@ -106,3 +106,37 @@ def test_export_refuses_the_energy_time_arm_for_its_missing_limits(energy_plan, 
     assert main(["export", str(energy_plan), "--scenario", "ohsaka-fig3", "--format", "csv", "--rate", "125",
                  "--out", str(tmp_path / "s.csv")]) == 2
     assert "states no joint speed, acceleration or torque limit" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["thesis-ch4", "crane-tray"])
+def test_retime_of_a_planar_path_keeps_its_waypoints_and_its_limits_between_samples(name):
+    """A path through 6 postures of the scenario's own thesis plan, retimed by TOPP-RA under the planar
+    limit set: the timed motion passes every waypoint (to 1e-6 rad), starts and ends at rest, and every
+    limit column sampled 5x finer than the re-check (50 kHz) stays within 1e-6 of its limit."""
+    import numpy as np
+
+    from qmt_drake.planners import plan_with
+    from qmt_drake.retime_planar import retime_planar_path
+    sc = load_scenario(name)
+    base = plan_with("thesis", sc)
+    Q = base.sample(np.linspace(0.0, base.motion_time_s, 6))[0]
+    p = retime_planar_path(sc, Q, n_grid=400)
+    assert p.feasible and p.method == "retime_toppra"
+    t = np.linspace(0.0, p.motion_time_s, int(p.motion_time_s * 50_000) + 1)
+    q, qd, qdd = p.sample(t)
+    for w in Q:
+        assert np.min(np.linalg.norm(q - w, axis=1)) < 1e-3  # on the 50 kHz grid: 1e-3 rad
+    np.testing.assert_allclose(q[[0, -1]], Q[[0, -1]], atol=1e-9)
+    assert np.abs(qd[[0, -1]]).max() < 1e-6
+    ls = sc.limit_set
+    cols = ls.columns(q, qd, qdd)[:, ls.ratio_mask]
+    assert cols.max() <= 1.0 + 1e-6
+    assert cols.max() > 0.98  # the fastest timing: some limit is reached
+
+
+def test_retime_refusals_on_planar_and_energy_state_why(capsys):
+    from qmt_drake.apps.cli import main
+    assert main(["retime", "ohsaka-fig3", "--path", "x.csv"]) == 2
+    assert "states no joint speed, acceleration or torque limit" in capsys.readouterr().err
+    assert main(["retime", "thesis-ch4", "--path", "x.csv", "--method", "ga"]) == 2
+    assert "retimed with --method toppra" in capsys.readouterr().err
