@@ -140,3 +140,22 @@ def test_retime_refusals_on_planar_and_energy_state_why(capsys):
     assert "states no joint speed, acceleration or torque limit" in capsys.readouterr().err
     assert main(["retime", "thesis-ch4", "--path", "x.csv", "--method", "ga"]) == 2
     assert "retimed with --method toppra" in capsys.readouterr().err
+
+
+def test_toppra_drake_on_a_spatial_arm_takes_the_joint_limits_and_the_recheck_holds_the_rest():
+    """Drake's Toppra on the UR5 magnet's IK'd path (200 grid points): its s(t) rebuilt as a
+    ToppraTrajectory has Drake's own duration (to 1e-9 relative, before the hold), the plan names the
+    limits Drake's Toppra could not take, and the project's full re-check holds at 10x its rate (the
+    slow-down >= 1); never faster than the project's TOPP-RA on the same path with every row."""
+    from qmt_drake.planners import registry
+    from qmt_drake.planners.spatial_trajectory import check
+    from qmt_drake.spatial_task import load_spatial_scenario
+    sc = load_spatial_scenario("ur5-magnet-part")
+    p = registry.plan(sc, "toppra-drake", n_grid=200)
+    assert p.method == "toppra-drake" and p.feasible
+    assert p.info["not_in_drake_toppra"] == ["motor_torque", "magnet_moment"]
+    assert p.raw_duration_s == pytest.approx(p.info["drake_duration_s"], rel=1e-9)
+    assert p.hold_scale >= 1.0
+    assert check(sc, p.trajectory, 10 * sc.recheck_rate_hz)["max"] <= 1.0 + 1e-6
+    full = registry.plan(sc, "toppra", n_grid=200)
+    assert p.duration_s >= full.duration_s * (1 - 1e-6)

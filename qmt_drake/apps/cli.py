@@ -36,7 +36,7 @@ EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130  #
 # refuses a method the scenario's kind does not plan, in one line naming the ones it does.
 METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
 ENERGY_METHODS = ("snopt", "ipopt", "steepest", "collocation")
-SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
+SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake")
 ALL_METHODS = tuple(dict.fromkeys(METHODS + ENERGY_METHODS + SPATIAL_METHODS))
 SPATIAL_FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")
 SPATIAL_ACTUATORS = ("ideal", "dc_motor")
