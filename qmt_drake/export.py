@@ -120,6 +120,12 @@ def _planar(sc) -> bool:
     return hasattr(sc, "limit_set")
 
 
+def _own_check(sc) -> bool:
+    """A target that brings its own stream check (energy/stream.EnergyStreamTarget: the energy-time arm's
+    joint torques), with its joint_names and recheck_rate_hz and no jerk limit."""
+    return hasattr(sc, "stream_check")
+
+
 def own_recheck_rate(sc) -> float:
     return sc.sampling.check_rate_hz if _planar(sc) else sc.recheck_rate_hz
 
@@ -132,6 +138,8 @@ def limit_check(sc, traj, rate_hz: float) -> dict:
     """The scenario's own re-check of traj at rate_hz as {'max', 'binding', each term's peak ratio}: the
     spatial one (spatial_trajectory.check) or the planar LimitSet's (plan.recheck: every local maximum
     refined between the samples; a joint leaving its range reads as an infinite 'joint_range' ratio)."""
+    if _own_check(sc):
+        return sc.stream_check(traj, rate_hz)
     if not _planar(sc):
         return check(sc, traj, rate_hz)
     rep = recheck(sc, traj, rate_hz)
@@ -144,8 +152,8 @@ def limit_check(sc, traj, rate_hz: float) -> dict:
 
 
 def stream_jerk(sc, traj, rate_hz: float) -> dict:
-    """peak_jerk against the scenario's jerk limit; a planar scenario states none (ratio None)."""
-    if not _planar(sc):
+    """peak_jerk against the scenario's jerk limit; a planar or energy-time scenario states none (ratio None)."""
+    if not (_planar(sc) or _own_check(sc)):
         return peak_jerk(sc, traj, rate_hz)
     n = max(int(math.ceil(traj.duration_s * rate_hz)), 2)
     t = np.linspace(0.0, traj.duration_s, n + 1)

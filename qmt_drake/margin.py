@@ -77,8 +77,7 @@ def energy_margin(summary: dict) -> dict:
     return verdict_margin("carried" if summary.get("reached_goal") else "unfinished",
                           [criterion("final_error_rad", summary.get("final_error_rad"),
                                      ARRIVAL_TOLERANCE_DC_MOTOR_RAD, "unfinished")],
-                          note="energy-time: no payload, the verdict is reached_goal (final error within the "
-                               "arrival tolerance); the margin is that distance")
+                          note="energy-time: no payload, the verdict is reached_goal; no time scale or step to vary")
 
 
 # why the energy-time run has no flip scale and no half-step verdict (physics, not a missing feature)

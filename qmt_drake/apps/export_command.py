@@ -20,7 +20,8 @@ from qmt_drake.apps.arg_checks import check_outputs, emit_json
 from qmt_drake.apps.retime_command import binding
 from qmt_drake.apps.spatial_cli import is_spatial_scenario
 from qmt_drake.config.scenario import load_scenario
-from qmt_drake.energy.scenario import is_energy_scenario
+from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
+from qmt_drake.energy.stream import EnergyStreamTarget
 from qmt_drake.errors import QmtInputError
 from qmt_drake.export import FORMATS, INTERPOLATIONS, check_stream_options, export_plan
 from qmt_drake.hands import run_simulate
@@ -57,13 +58,18 @@ def add_parser(subparsers):
 def cmd_export(args) -> int:
     check_outputs(args, "--out", "--json")
     check_stream_options(args.format, args.rate, args.interp)
-    if is_energy_scenario(args.scenario):
-        raise QmtInputError(f"--scenario {args.scenario}: seed 001's energy-time arm states no joint speed, "
-                            "acceleration or torque limit (the paper gives none) for a stream to be re-checked "
-                            "against; its plan's samples are `plan --trajectory-csv`")
-    spatial = is_spatial_scenario(args.scenario)
-    sc = load_spatial_scenario(args.scenario) if spatial else load_scenario(args.scenario)
-    plan = load_plan_file(args.plan, sc) if spatial else load_plan(args.plan, scenario=sc)
+    spatial, energy = is_spatial_scenario(args.scenario), is_energy_scenario(args.scenario)
+    if energy and args.simulate:
+        raise QmtInputError("--simulate: the energy-time execution runs its plan's Fourier trajectory (its "
+                            "inverse-dynamics controller needs the plan's qdd); drop --simulate, or run "
+                            f"`qmt-drake simulate {args.scenario} --plan {args.plan}`")
+    if spatial:
+        sc = load_spatial_scenario(args.scenario)
+        plan = load_plan_file(args.plan, sc)
+    else:
+        E = get_experiment(args.scenario) if energy else None
+        sc = EnergyStreamTarget(E) if energy else load_scenario(args.scenario)
+        plan = load_plan(args.plan, E) if energy else load_plan(args.plan, scenario=sc)
     rep = export_plan(sc, plan, args.format, args.rate, args.out, args.interp, hold=args.hold,
                       allow_large=args.allow_large)
     stream = rep.pop("stream")

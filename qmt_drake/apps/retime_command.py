@@ -51,10 +51,10 @@ def add_parser(subparsers):
 def cmd_retime(args) -> int:
     check_outputs(args, "--json", "--trajectory-csv")
     if is_energy_scenario(args.scenario):
-        raise QmtInputError(f"scenario {args.scenario}: seed 001's energy-time arm states no joint speed, acceleration "
-                            "or torque limit (the paper gives none), so a path has no fastest timing (any time > 0 "
-                            "is reachable); its timing is the energy-time trade-off: `qmt-drake plan "
-                            f"{args.scenario} --method snopt`")
+        raise QmtInputError(f"scenario {args.scenario}: retime takes a transfer or spatial scenario; an energy-time "
+                            "arm's timing is the energy-time trade-off (`qmt-drake plan "
+                            f"{args.scenario} --method snopt`), and the paper states no limit for a fastest timing "
+                            "(the YAML's joint torque limits time only the front's time-optimal end)")
     check_int(args.n_grid, "--n-grid", 10, "TOPP-RA needs a grid (1000 by default)")
     if not is_spatial_scenario(args.scenario):
         return _retime_planar(args)
