@@ -10,6 +10,17 @@ from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
 
 
+def test_planar_simulate_with_its_own_actuator_says_which_ran(thesis_plan_file, tmp_path):
+    import json
+
+    from qmt_drake.apps.cli import main
+    out = tmp_path / "s.json"
+    assert main(["simulate", "thesis-ch4", "--plan", str(thesis_plan_file), "--actuator", "dc_motor", "--quiet",
+                 "--json", str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["actuator"] == "dc_motor" and d["actuator_kind"] == "dc_motor_gear" and d["outcome"] == "carried"
+
+
 def test_planar_actuator_flag_names_the_yaml_actuator():
     thesis = load_scenario("thesis-ch4")
     check_own_actuator(thesis, None)

@@ -107,6 +107,9 @@ def cmd_simulate(args) -> int:
                          progress=None if args.quiet else progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s,
                           implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
+    if args.actuator is not None:  # it named the YAML's own actuator (check_own_actuator): say which was run
+        result["actuator"] = args.actuator
+        result["actuator_kind"] = sc.actuator.kind
     if args.margin:
         result = with_margin(sc, plan, result, expensive=True, time_scale=args.time_scale, time_step_s=time_step_s,
                              feedforward=args.feedforward, progress=None if args.quiet else progress)
