@@ -1,4 +1,4 @@
-"""A spatial plan as a controller sees it: a stream of samples at the controller's rate, written as CSV
+"""A plan (of any arm: planar or spatial) as a controller sees it: a stream of samples at the controller's rate, written as CSV
 or a ROS 2 JointTrajectory, and re-checked as the controller interpolates it.
 
     report = export_plan(sc, plan, fmt="ros2", rate_hz=125, out="plan.yaml", interp="linear")
@@ -37,8 +37,10 @@ from qmt_drake.budgets import Estimate, check_budget
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import peak_jerk
 from qmt_drake.outputs import write_text_atomic
+from qmt_drake.plan import recheck
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory, TimeScaled, check
 from qmt_drake.timescale import smallest_holding_scale
+from qmt_drake.trajectory import JointTrajectory, PolynomialTrajectory
 
 FORMATS = ("ros2", "csv")
 INTERPOLATIONS = ("linear", "cubic")
@@ -66,8 +68,9 @@ def stream_samples(traj, rate_hz: float):
     return t, q, qd, qdd
 
 
-class LinearStream:
-    """Positions joined by straight lines (module docstring), sample() as spatial_trajectory's kinds."""
+class LinearStream(JointTrajectory):
+    """Positions joined by straight lines (module docstring), sample() as spatial_trajectory's kinds and
+    evaluate() on the stream's samples as breakpoints (the planar limit report refines between them)."""
 
     def __init__(self, t, q) -> None:
         self.t, self.q = np.asarray(t, float), np.asarray(q, float)
@@ -77,6 +80,19 @@ class LinearStream:
         self.v = np.diff(self.q, axis=0) / self.dt  # interval k's velocity
         self.a = np.diff(np.vstack([np.zeros_like(self.v[:1]), self.v]), axis=0) / self.dt  # its step at t_k
         self.duration_s = float(self.t[-1])
+        self.breakpoints_s = self.t
+        self.n_dof = self.q.shape[1]
+
+    def evaluate(self, t_s, t_piece_s):
+        """Interval k's line, k the interval holding t_piece_s; at rest (t_piece_s >= the end) the stop."""
+        t = np.clip(np.atleast_1d(np.asarray(t_s, float)), 0.0, self.duration_s)
+        tp = np.broadcast_to(t_piece_s, t.shape)
+        k = np.clip(np.floor(tp / self.dt + 1e-9).astype(int), 0, len(self.v) - 1)
+        q = self.q[k] + self.v[k] * (t - self.t[k])[:, None]
+        qd, qdd = self.v[k].copy(), self.a[k].copy()
+        rest = tp >= self.duration_s
+        qd[rest], qdd[rest] = 0.0, -self.v[-1] / self.dt
+        return q, qd, qdd
 
     def sample(self, t):
         t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
@@ -88,17 +104,65 @@ class LinearStream:
         return q, qd, qdd
 
 
-def interpolated(t, q, qd, interp: str):
-    """The controller's interpolation of the stream: LinearStream or the cubic Hermite (PolyTrajectory)."""
+def interpolated(t, q, qd, interp: str, planar: bool = False):
+    """The controller's interpolation of the stream: LinearStream or the cubic Hermite (PolyTrajectory;
+    planar: PolynomialTrajectory, whose evaluate() the planar limit report refines between the samples)."""
     if interp == "linear":
         return LinearStream(t, q)
     if interp == "cubic":
-        return PolyTrajectory(PiecewisePolynomial.CubicHermite(t, q.T, qd.T))
+        pp = PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
+        return PolynomialTrajectory(pp) if planar else PolyTrajectory(pp)
     raise QmtInputError(f"--interp {interp!r}: give {'|'.join(INTERPOLATIONS)}")
 
 
+def _planar(sc) -> bool:
+    """A planar scenario (config Scenario: its LimitSet, the one planar re-check); else a spatial one."""
+    return hasattr(sc, "limit_set")
+
+
+def _own_check(sc) -> bool:
+    """A target that brings its own stream check (energy/stream.EnergyStreamTarget: the energy-time arm's
+    joint torques), with its joint_names and recheck_rate_hz and no jerk limit."""
+    return hasattr(sc, "stream_check")
+
+
+def own_recheck_rate(sc) -> float:
+    return sc.sampling.check_rate_hz if _planar(sc) else sc.recheck_rate_hz
+
+
+def joint_names(sc) -> list[str]:
+    return list(sc.arm.joint_names) if _planar(sc) else list(sc.joint_names)
+
+
+def limit_check(sc, traj, rate_hz: float) -> dict:
+    """The scenario's own re-check of traj at rate_hz as {'max', 'binding', each term's peak ratio}: the
+    spatial one (spatial_trajectory.check) or the planar LimitSet's (plan.recheck: every local maximum
+    refined between the samples; a joint leaving its range reads as an infinite 'joint_range' ratio)."""
+    if _own_check(sc):
+        return sc.stream_check(traj, rate_hz)
+    if not _planar(sc):
+        return check(sc, traj, rate_hz)
+    rep = recheck(sc, traj, rate_hz)
+    out = {k: float(v) for k, v in rep.peak_ratios.items()}
+    if not rep.joint_range_ok:
+        out["joint_range"] = math.inf
+    binding = max(out, key=out.get) if out else "none"
+    return {**out, "max": out.get(binding, 0.0), "binding": binding,
+            "refined_local_maxima": rep.refined_local_maxima}
+
+
+def stream_jerk(sc, traj, rate_hz: float) -> dict:
+    """peak_jerk against the scenario's jerk limit; a planar or energy-time scenario states none (ratio None)."""
+    if not (_planar(sc) or _own_check(sc)):
+        return peak_jerk(sc, traj, rate_hz)
+    n = max(int(math.ceil(traj.duration_s * rate_hz)), 2)
+    t = np.linspace(0.0, traj.duration_s, n + 1)
+    j = np.abs(np.diff(traj.sample(t)[2], axis=0)).max(axis=0) / (t[1] - t[0])
+    return {"peak_jerk_rad_s3": j, "peak_jerk_ratio": None, "jerk_rate_hz": float(rate_hz)}
+
+
 def check_rate(sc, rate_hz: float) -> float:
-    return max(CHECK_FACTOR * rate_hz, sc.recheck_rate_hz)
+    return max(CHECK_FACTOR * rate_hz, own_recheck_rate(sc))
 
 
 def check_stream_options(fmt: str, rate_hz, interp: str) -> None:
@@ -149,12 +213,12 @@ def write_stream(path, fmt: str, joint_names, t, q, qd, qdd) -> None:
 def stream_check(sc, stream, rate_hz: float) -> dict:
     """The scenario's limit check of the interpolated stream at check_rate(rate_hz) ('check_rate_hz' added)."""
     rate = check_rate(sc, rate_hz)
-    return {**check(sc, stream, rate), "check_rate_hz": rate}
+    return {**limit_check(sc, stream, rate), "check_rate_hz": rate}
 
 
 def _stream_of(sc, traj, rate_hz: float, interp: str):
     t, q, qd, qdd = stream_samples(traj, rate_hz)
-    stream = interpolated(t, q, qd, interp)
+    stream = interpolated(t, q, qd, interp, _planar(sc))
     return (t, q, qd, qdd), stream, stream_check(sc, stream, rate_hz)
 
 
@@ -181,10 +245,10 @@ def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", 
     k = hold_scale(sc, plan.trajectory, rate_hz, interp) if hold else 1.0
     traj = plan.trajectory if k == 1.0 else TimeScaled(plan.trajectory, k)
     (t, q, qd, qdd), stream, rc = _stream_of(sc, traj, rate_hz, interp)
-    write_stream(out, fmt, sc.joint_names, t, q, qd, qdd)
-    own = check(sc, plan.trajectory, check_rate(sc, rate_hz))
+    write_stream(out, fmt, joint_names(sc), t, q, qd, qdd)
+    own = limit_check(sc, plan.trajectory, check_rate(sc, rate_hz))
     return {"scenario": sc.name, "method": plan.method, "format": fmt, "rate_hz": float(rate_hz), "interp": interp,
             "out": str(out), "n_samples": int(len(t)), "stream_end_s": float(t[-1]), "plan_duration_s": plan.duration_s,
             "hold_scale": k, "stream_recheck": rc, "stream_holds": rc["max"] <= 1.0, "plan_recheck_same_rate": own,
-            "stream_peak_jerk": peak_jerk(sc, stream, rc["check_rate_hz"]),
-            "plan_peak_jerk": peak_jerk(sc, plan.trajectory, sc.recheck_rate_hz), "stream": stream}
+            "stream_peak_jerk": stream_jerk(sc, stream, rc["check_rate_hz"]),
+            "plan_peak_jerk": stream_jerk(sc, plan.trajectory, own_recheck_rate(sc)), "stream": stream}

@@ -25,8 +25,8 @@ The expensive part, on request (`simulate(..., margin=True)`, `qmt-drake simulat
 own scale, then bisection to a stated relative tolerance, at most max_runs runs, one progress line
 per run), and `half_step_verdict`, the verdict at half the plant step. Both take `run(time_scale,
 time_step_s) -> summary`, so they serve every kind through its own simulate entry point; the
-energy-time co-simulation takes neither a time scale nor a step (the plan's timing is its
-optimisation variable), so it has only the cheap part.
+energy-time run has only the cheap part (ENERGY_NO_FLIP says why: ideal unlimited torques under an
+exact-model inverse-dynamics controller follow any time scale, and a continuous plant has no step).
 
 qmt_drake/margin_runs.py (apart: it imports the spatial co-simulation, which sim/runner.py, importing
 this module, must not reach): `spatial_margin`, and `spatial_plant_settings`, which runs the spatial co-simulation (sim/spatial_cosim.py, which fixes a 1 ms SAP
@@ -78,6 +78,13 @@ def energy_margin(summary: dict) -> dict:
                           [criterion("final_error_rad", summary.get("final_error_rad"),
                                      ARRIVAL_TOLERANCE_DC_MOTOR_RAD, "unfinished")],
                           note="energy-time: no payload, the verdict is reached_goal; no time scale or step to vary")
+
+
+# why the energy-time run has no flip scale and no half-step verdict (physics, not a missing feature)
+ENERGY_NO_FLIP = ("not available: seed 001's arm is driven by ideal, unlimited torque sources under an "
+                  "inverse-dynamics controller holding the plant's own model, so it follows the plan at any time "
+                  "scale (the verdict cannot flip with it), and its plant is continuous, integrated by an "
+                  "error-controlled integrator (accuracy 1e-6): there is no plant step to halve")
 
 
 # ------------------------------------------------------------------------------- the expensive part

@@ -17,7 +17,7 @@ from pydrake.multibody.plant import DiscreteContactApproximation
 import qmt_drake.sim.spatial_cosim as spatial_cosim
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin, run_simulate
-from qmt_drake.margin import criterion, energy_margin, expensive_margin, verdict_margin
+from qmt_drake.margin import ENERGY_NO_FLIP, criterion, energy_margin, expensive_margin, verdict_margin
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
 from qmt_drake.plan import ENERGY_PLAN_KIND, SPATIAL_PLAN_KIND
 from qmt_drake.planners.spatial_trajectory import TimeScaled
@@ -100,9 +100,7 @@ def with_margin(scenario, plan, summary: dict, *, expensive: bool = False, time_
     if not expensive:
         return summary
     if kind == ENERGY_PLAN_KIND:
-        summary["margin"]["flip"] = summary["margin"]["half_step"] = (
-            "not available: the energy-time co-simulation takes no time scale or plant step (the plan's timing "
-            "is what it optimises)")
+        summary["margin"]["flip"] = summary["margin"]["half_step"] = ENERGY_NO_FLIP
         return summary
     if kind == SPATIAL_PLAN_KIND:
         run = spatial_run(scenario, plan.trajectory, **(spatial_kw or {}))

@@ -63,6 +63,18 @@ JUDGEMENTS: list = [
     (r"--actuator dc_motor", "planar|tray", r"actuator is its YAML actuator section",
      MISSING, "an interface gap, not physics: the planar arm's YAML actuator already is a DC motor with a gear (the "
      "tray's, Dynamixel servos), and the flag cannot name it"),
+    (r"--actuator dc_motor", "tray", r"Dynamixel position servos .*firmware closes the position loop",
+     PHYSICS, "the tray arm's YAML actuator is Dynamixel position servos: their firmware closes the loop, there is no "
+     "motor voltage to drive (the planar magnet arm's dc_motor_gear YAML actuator is accepted; the message says so)"),
+    (r"--time-step-ms", "energy", r"plant is continuous",
+     PHYSICS, "the vertical arm has no contact: a continuous plant under an error-controlled integrator has no plant "
+     "step to set (the message says so)"),
+    (r"--explicit|--feedforward|--actuator", "energy", r"ideal torque sources",
+     PHYSICS, "seed 001's arm is driven by ideal torque sources (the paper models no motor): no motor loop to step, no "
+     "back-EMF to feed forward, no DC motor data to drive it with (the message says so)"),
+    (r"^retime$", "energy", r"retime takes a transfer or spatial scenario",
+     MISSING, "the paper states no limit, but the YAML's joint torque limits give a path a fastest timing "
+     "(energy/time_optimal times the optimum's own path); retime does not take the energy-time arm"),
     (r"^(retime|export)$", "planar|tray|energy", r"takes a spatial scenario|spatial",
      MISSING, "a planar joint path has a fastest timing and a controller stream as a spatial one does; the commands "
      "take spatial scenarios only"),

@@ -32,7 +32,7 @@ def test_one_table_plans_every_kind():
     assert {m.kind for m in rows} == set(registry.KINDS)
     assert len({(m.kind, m.name) for m in rows}) == len(rows)  # a method once per kind
     assert registry.names(registry.TRANSFER) == ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
-    assert registry.names(registry.SPATIAL) == ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
+    assert registry.names(registry.SPATIAL) == ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake")
     assert registry.names(registry.ENERGY) == ("snopt", "ipopt", "steepest", "collocation")
 
 

@@ -121,8 +121,8 @@ def test_cli_refuses_an_unknown_joint_in_one_line(tmp_path, capsys):
     assert main(["retime", "ur5-suction-bins", "--path", path]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "base_joint" in err
-    assert main(["retime", "thesis-ch2", "--path", path]) == 2
-    assert "spatial scenario" in capsys.readouterr().err
+    assert main(["retime", "thesis-ch2", "--path", path]) == 2  # a planar arm retimes too; not the UR5's joints
+    assert "'base_joint' is not a moving joint of the arm; its joints are joint1" in capsys.readouterr().err
 
 
 def test_a_retimed_plan_file_loads_back_for_export(sc, csv_plan, tmp_path):

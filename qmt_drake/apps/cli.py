@@ -36,7 +36,7 @@ EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130  #
 # refuses a method the scenario's kind does not plan, in one line naming the ones it does.
 METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
 ENERGY_METHODS = ("snopt", "ipopt", "steepest", "collocation")
-SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt")
+SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake")
 ALL_METHODS = tuple(dict.fromkeys(METHODS + ENERGY_METHODS + SPATIAL_METHODS))
 SPATIAL_FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")
 SPATIAL_ACTUATORS = ("ideal", "dc_motor")
@@ -112,7 +112,8 @@ def simulate_arguments(s: argparse.ArgumentParser) -> None:
                         "not ring the part; docs/spatial_drives.md)")
     s.add_argument("--actuator", choices=SPATIAL_ACTUATORS, default=None,
                    help="spatial scenarios: ideal (Drake's inverse-dynamics controller, the default) or dc_motor "
-                        "(PD/PID voltage law, DC motors with gears: the scenario's actuators.motor)")
+                        "(PD/PID voltage law, DC motors with gears: the scenario's actuators.motor); planar "
+                        "scenarios: only the YAML's own actuator (dc_motor for actuator.kind dc_motor_gear)")
     s.add_argument("--explicit", action="store_true",
                    help="motors drive the plant directly (no implicit loop damping; needs <= 1 ms)")
     s.add_argument("--json", metavar="PATH|-")

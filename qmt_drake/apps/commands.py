@@ -48,24 +48,36 @@ def cmd_scenarios(args) -> int:
     return 0
 
 
+# --actuator's words for a planar scenario's YAML actuator kinds (config/sections.py)
+_ACTUATOR_FLAG = {"dc_motor_gear": "dc_motor", "ideal": "ideal"}
+
+
+def check_own_actuator(sc, flag: str | None) -> None:
+    """A planar scenario's drive is its YAML actuator section (the arm's hardware): --actuator may name
+    it (dc_motor for DC motors with gears, ideal for a torque source) and nothing else."""
+    if flag is None:
+        return
+    kind = sc.actuator.kind
+    if _ACTUATOR_FLAG.get(kind) == flag:
+        return
+    if kind == "dynamixel":
+        raise QmtInputError(f"--actuator {flag}: {sc.name}'s actuator is its YAML's Dynamixel position servos "
+                            f"({', '.join(sc.actuator.servos)}), whose firmware closes the position loop: there is "
+                            "no motor voltage or joint torque to drive from outside; drop --actuator")
+    raise QmtInputError(f"--actuator {flag}: {sc.name}'s actuator is its YAML's actuator.kind {kind} "
+                        f"(--actuator {_ACTUATOR_FLAG.get(kind, kind)}); the arm's drive is part of the scenario: "
+                        "drop --actuator or set actuator.kind in a copy of the YAML file")
+
+
 def cmd_simulate(args) -> int:
     if spatial_cli.is_spatial_scenario(args.scenario):
         return spatial_cli.simulate(args)
     if is_energy_scenario(args.scenario):
         args.feedforward = args.feedforward or "none"
-        if args.actuator is not None:
-            raise QmtInputError("--actuator is an option of the transfer co-simulation; the energy-time execution "
-                                "runs the plan as planned: drop --actuator")
         if args.method not in (None, "snopt"):
             raise QmtInputError(f"--method {args.method} plans transfer scenarios; {args.scenario} is "
                                 "energy-time: give --plan FILE or no --method (it plans with snopt)")
-        if args.margin:
-            raise QmtInputError("--margin: the energy-time execution takes no time scale or plant step to vary; "
-                                "drop --margin (its result states its final error against the tolerance)")
         return simulate_energy(args)
-    if args.actuator is not None:
-        raise QmtInputError(f"--actuator: for spatial scenarios; {args.scenario}'s actuator is its YAML actuator "
-                            "section: drop --actuator")
     args.feedforward = args.feedforward or "none"
     args.method = registry.find(registry.TRANSFER, args.method or "ga", "--method").name  # one line if not planar
     check_outputs(args, "--json", "--record")
@@ -78,6 +90,7 @@ def cmd_simulate(args) -> int:
                             f"loop's, not the physics'); use --time-step-ms {EXPLICIT_MAX_TIME_STEP_MS:g} "
                             "or less, or drop --explicit")
     sc = load_scenario(args.scenario)
+    check_own_actuator(sc, args.actuator)
     check_plan_budget(sc, "thesis" if args.plan else args.method, allow_large=args.allow_large)
     check_replay_budget(sc, args.time_scale, None if args.time_step_ms is None else args.time_step_ms * 1e-3,
                         allow_large=args.allow_large)
@@ -95,6 +108,9 @@ def cmd_simulate(args) -> int:
                          progress=None if args.quiet else progress)
     result = run_simulate(sc, plan, time_scale=args.time_scale, record_path=args.record, time_step_s=time_step_s,
                           implicit_loop_damping=not args.explicit, feedforward=args.feedforward)
+    if args.actuator is not None:  # it named the YAML's own actuator (check_own_actuator): say which was run
+        result["actuator"] = args.actuator
+        result["actuator_kind"] = sc.actuator.kind
     if args.margin:
         result = with_margin(sc, plan, result, expensive=True, time_scale=args.time_scale, time_step_s=time_step_s,
                              feedforward=args.feedforward, progress=None if args.quiet else progress)

@@ -7,17 +7,22 @@ Prints one line: the motion time, the re-check's largest ratio and its term, the
 re-check applied, the hand's pose error at the path's ends against the scenario's first/last task
 pose (information: the path is the task), and with --simulate the co-simulation's verdict. --json
 writes the plan file (spatial_plan_io form; `qmt-drake export` reads it). Exit 0 when the plan holds
-every limit, 3 when it does not.
+every limit, 3 when it does not. A planar scenario (thesis arms, CRANE-X7 tray) takes --method toppra
+(qmt_drake/retime_planar.py: its LimitSet's toppra rows, the planar re-check, slowed to hold).
 """
 
 from __future__ import annotations
 
 from qmt_drake.apps.arg_checks import check_int, check_outputs, emit_json, progress
 from qmt_drake.apps.spatial_cli import is_spatial_scenario
+from qmt_drake.config.scenario import load_scenario
+from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError
+from qmt_drake.hands import run_simulate
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import jsonable
 from qmt_drake.retime import METHODS, retime_path
+from qmt_drake.retime_planar import retime_planar_path
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 
@@ -27,7 +32,7 @@ EXIT_INFEASIBLE = 3
 def add_parser(subparsers):
     s = subparsers.add_parser("retime", help="fastest timing of your own joint path (CSV or a ROS 2 JointTrajectory)",
                               description=__doc__.splitlines()[0])
-    s.add_argument("scenario", help="a spatial scenario (built-in name or YAML path)")
+    s.add_argument("scenario", help="a planar or spatial scenario (built-in name or YAML path)")
     s.add_argument("--path", required=True, metavar="FILE",
                    help=".csv (header of joint names, one waypoint a row, rad) or .yaml/.json JointTrajectory")
     s.add_argument("--method", choices=METHODS, default="toppra",
@@ -45,10 +50,14 @@ def add_parser(subparsers):
 
 def cmd_retime(args) -> int:
     check_outputs(args, "--json", "--trajectory-csv")
-    if not is_spatial_scenario(args.scenario):
-        raise QmtInputError(f"scenario {args.scenario}: retime takes a spatial scenario (kind: spatial_transfer, "
-                            "e.g. ur5-suction-bins); `qmt-drake scenarios` lists them")
+    if is_energy_scenario(args.scenario):
+        raise QmtInputError(f"scenario {args.scenario}: retime takes a transfer or spatial scenario; an energy-time "
+                            "arm's timing is the energy-time trade-off (`qmt-drake plan "
+                            f"{args.scenario} --method snopt`), and the paper states no limit for a fastest timing "
+                            "(the YAML's joint torque limits time only the front's time-optimal end)")
     check_int(args.n_grid, "--n-grid", 10, "TOPP-RA needs a grid (1000 by default)")
+    if not is_spatial_scenario(args.scenario):
+        return _retime_planar(args)
     ga = {k: getattr(args, k) for k in ("seed", "generations") if getattr(args, k) is not None}
     if args.method == "toppra" and ga:
         raise QmtInputError(f"--{sorted(ga)[0]}: an option of --method ga; drop it")
@@ -68,6 +77,35 @@ def cmd_retime(args) -> int:
     if args.json != "-":
         print(summary_line(sc, p, sim))
     return 0 if p.recheck["max"] <= 1.0 else EXIT_INFEASIBLE
+
+
+def _retime_planar(args) -> int:
+    """retime on a planar scenario (retime_planar.py): TOPP-RA under its LimitSet, the planar re-check."""
+    if args.method != "toppra" or args.seed is not None or args.generations is not None:
+        raise QmtInputError(f"retime {args.scenario}: a planar scenario's path is retimed with --method toppra "
+                            "(the GA retime searches the spatial via-cubic family); drop --method ga, --seed, "
+                            "--generations")
+    sc = load_scenario(args.scenario)
+    p = retime_planar_path(sc, args.path, n_grid=args.n_grid)
+    sim = run_simulate(sc, p) if args.simulate and p.feasible else None
+    if args.json == "-":
+        emit_json(jsonable({**p.to_json_dict(), "simulation": sim}), "-")
+    elif args.json:
+        p.write_json(args.json)
+    if args.trajectory_csv:
+        p.write_csv(args.trajectory_csv)
+    if args.json != "-":
+        c = p.check
+        line = (f"{sc.name} retime toppra of {p.extra['path_waypoints']} waypoints: T = {p.motion_time_s:.4f} s "
+                f"(slowed by {p.extra.get('slowdown_factor', 1.0):.4f} to hold), re-check max ratio "
+                f"{c.worst_ratio:.5f} ({max(c.peak_ratios, key=c.peak_ratios.get) if c.peak_ratios else 'none'}) "
+                f"at {c.rate_hz:g} Hz, {'feasible' if p.feasible else 'INFEASIBLE'}")
+        if not p.feasible and p.extra.get("infeasible"):
+            line += f" ({p.extra['infeasible']})"
+        if sim is not None:
+            line += f"; co-simulation: {verdict_line(sim['outcome'], sim.get('detached_at_s', sim.get('lost_at_s')))}"
+        print(line)
+    return 0 if p.feasible else EXIT_INFEASIBLE
 
 
 def binding(recheck: dict) -> str:

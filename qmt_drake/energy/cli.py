@@ -26,6 +26,8 @@ from qmt_drake.energy.energy_plan import METHODS as METHODS  # the CLI lists the
 from qmt_drake.energy.execute import execute, execute_plan, plot_execution
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
+from qmt_drake.margin import margin_text
+from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_one_stdout, check_output_path, is_stdout, jsonable, write_text_atomic
 from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import registry
@@ -71,6 +73,30 @@ def plan_energy(args, options: dict) -> int:
     return 0 if plan.feasible else 3
 
 
+_NO_MOTOR = ("seed 001's arm is driven by ideal torque sources (the paper models no motor, gear or torque "
+             "limit)")
+
+
+def refused_options(args) -> tuple[tuple[str, str | None], ...]:
+    """The simulate options that have no meaning on seed 001's arm, each with its physics reason (None: not
+    given)."""
+    return (
+        ("--time-scale", None if args.time_scale == 1.0 else
+         "the energy-time execution runs the plan at the timing its optimiser chose (c2 weighs the motion "
+         "time against the energy); plan with another c2 for another timing"),
+        ("--feedforward", None if args.feedforward == "none" else
+         f"{_NO_MOTOR}: there is no motor voltage and no back-EMF to feed forward; its inverse-dynamics "
+         "controller already has the plan's full torque as feedforward"),
+        ("--explicit", None if not args.explicit else
+         f"{_NO_MOTOR}: there is no motor-voltage loop to step explicitly"),
+        ("--time-step-ms", None if args.time_step_ms is None else
+         "the vertical arm has no contact: its plant is continuous, integrated by an error-controlled "
+         "integrator (accuracy 1e-6) that chooses its own steps; there is no plant step to set"),
+        ("--actuator", None if getattr(args, "actuator", None) is None else
+         f"{_NO_MOTOR}: there is no DC motor or gear data to drive it with"),
+    )
+
+
 def simulate_energy(args) -> int:
     """`qmt-drake simulate ENERGY_SCENARIO [--plan P.json]`: the plan (or a fresh SNOPT plan)
     executed in Drake (energy/execute.py: the vertical arm, inverse-dynamics control); prints the
@@ -78,11 +104,9 @@ def simulate_energy(args) -> int:
     start posture or goal) or of another scenario kind is refused in one line (plan.load_plan)."""
     for flag in ("--json", "--record"):
         check_output_path(getattr(args, flag[2:]), flag)
-    for name, given in (("--time-scale", args.time_scale != 1.0), ("--feedforward", args.feedforward != "none"),
-                        ("--explicit", args.explicit), ("--time-step-ms", args.time_step_ms is not None)):
+    for name, given in refused_options(args):
         if given:
-            raise QmtInputError(f"{name} is an option of the transfer co-simulation; the energy-time "
-                                f"execution runs the plan as planned: drop {name}")
+            raise QmtInputError(f"{name}: {given}: drop {name}")
     E = get_experiment(args.scenario)
     if args.plan:
         plan = load_plan(args.plan, E)
@@ -96,6 +120,8 @@ def simulate_energy(args) -> int:
         if not plan.feasible:
             raise QmtInputError(f"{args.scenario}: no start converged; nothing to simulate")
     summary = execute_plan(plan, record_path=args.record)
+    if getattr(args, "margin", False):  # its margin: the final error against the arrival tolerance
+        summary = with_margin(E, plan, summary, expensive=True)
     text = json.dumps(jsonable(summary), indent=1)
     if args.json == "-":
         print(text)
@@ -104,5 +130,7 @@ def simulate_energy(args) -> int:
             write_text_atomic(args.json, text + "\n")
         print(f"{E.name}: executed T = {summary['motion_time_s']:.4f} s, max tracking error "
               f"{summary['max_tracking_error_rad']:.2e} rad, final error {summary['final_error_rad']:.2e} rad")
+        if "margin" in summary:
+            print(margin_text(summary["margin"]))
     return 0
 

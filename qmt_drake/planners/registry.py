@@ -123,6 +123,8 @@ METHODS: tuple[Method, ...] = (
            internal=("sc",), passes=("seed", "progress")),
     Method("trajopt", SPATIAL, f"{_S}:plan_trajopt_spatial", "Drake's KinematicTrajectoryOptimization",
            internal=("sc",)),
+    Method("toppra-drake", SPATIAL, "qmt_drake.planners.baselines.toppra_plan:plan_toppra_drake_spatial",
+           "Drake's Toppra on the IK'd path (joint limits; the rest held by the re-check)", internal=("sc",)),
     Method("snopt", ENERGY, summary="the energy-time NLP by SNOPT, multi-start", **_ENERGY),
     Method("ipopt", ENERGY, summary="the energy-time NLP by IPOPT, multi-start", **_ENERGY),
     Method("steepest", ENERGY, summary="the paper's steepest descent, multi-start", **_ENERGY),
