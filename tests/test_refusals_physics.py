@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from qmt_drake.apps.commands import check_own_actuator
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.errors import QmtInputError
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def test_planar_simulate_with_its_own_actuator_says_which_ran(thesis_plan_file, tmp_path):

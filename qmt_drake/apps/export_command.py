@@ -19,7 +19,6 @@ from __future__ import annotations
 from qmt_drake.apps.arg_checks import check_outputs, emit_json
 from qmt_drake.apps.retime_command import binding
 from qmt_drake.apps.spatial_cli import is_spatial_scenario
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.energy.stream import EnergyStreamTarget
 from qmt_drake.errors import QmtInputError
@@ -32,6 +31,7 @@ from qmt_drake.plan_files import load_plan
 from qmt_drake.retime import load_plan_file
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.transfer_scenario import load_scenario
 
 EXIT_STREAM_BREAKS = 3
 

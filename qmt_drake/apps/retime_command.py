@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from qmt_drake.apps.arg_checks import check_int, check_outputs, emit_json, progress
 from qmt_drake.apps.spatial_cli import is_spatial_scenario
-from qmt_drake.config.scenario import load_scenario
 from qmt_drake.energy.scenario import is_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import run_simulate
@@ -25,6 +24,7 @@ from qmt_drake.retime import METHODS, retime_path
 from qmt_drake.retime_planar import retime_planar_path
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.transfer_scenario import load_scenario
 
 EXIT_INFEASIBLE = 3
 
