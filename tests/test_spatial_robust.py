@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import yaml
 
+from qmt_drake.api import load_scenario
 from qmt_drake.config.resolve import SCENARIO_DIR
 from qmt_drake.errors import QmtInputError
 from qmt_drake.sim.spatial_actuation import SpatialMotorDrive
@@ -14,7 +15,6 @@ from qmt_drake.sweep.cases import build_cases
 from qmt_drake.sweep.robust import success_spec
 from qmt_drake.sweep.spatial_cases import build_spatial_cases, drawn_drive, perturbed_scenario
 from qmt_drake.sweep.spec import load_spec
-from qmt_drake.api import load_scenario
 
 
 @pytest.fixture(scope="module")
