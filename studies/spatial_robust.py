@@ -9,7 +9,9 @@ OUT/spatial_robust/plans/), then for each drive
                 spread dropped (they act through the DC motors only), the payload / hold / timing spread kept;
   - dc_full     the DC motors, PD law designed from the nominal model, full feedforward, the plain plan;
   - dc_shaped   the same drive on the closed-loop-aware reference (feedforward 'shaped', sim/spatial_reference;
-                its motion ends SHAPING_WINDOW_S later),
+                its motion ends SHAPING_WINDOW_S later);
+  - dc_shaped_actuator_only   dc_shaped with only the drive spread (motors, PD gains) and the timing drawn,
+                the part and the hold nominal: is the reference robust to the actuator model alone?
 the smallest time scale s in [1, S_MAX] at which the estimate k/N of P(carried) over the scenario's
 `uncertainty` section (the plant drawn, the plan and the controller nominal: sweep/spatial_cases) is >= 0.9:
 sweep/robust.robust_time_scale, first on [1, 1.10] (so the 1.10 goal is answered directly), then, if 1.10
@@ -42,20 +44,24 @@ from qmt_drake.sweep.spec import load_spec
 
 SCENARIOS = ("ur5-magnet-part", "ur5-suction-bins", "panda-tray-cup")
 DRIVES = {"ideal": {"actuator": "ideal"}, "dc_full": {"actuator": "dc_motor", "feedforward": "full"},
-          "dc_shaped": {"actuator": "dc_motor", "feedforward": "shaped"}}
+          "dc_shaped": {"actuator": "dc_motor", "feedforward": "shaped"},
+          "dc_shaped_actuator_only": {"actuator": "dc_motor", "feedforward": "shaped"}}
+# dc_shaped_actuator_only: the section's drive spread (motors, gains) and timing only, the payload and hold nominal
+ACTUATOR_ONLY = (*MOTOR_PARAMETERS, "time_scale_jitter")
 TARGET, GOAL, S_MAX = 0.9, 1.10, 1.5
 
 
 def spec_for(sc, plan_file: str, drive: str, cases: int):
     """The scenario's uncertainty section on `drive` with `cases` draws (ideal: the drive parameters dropped)."""
     name = f"{sc.name}-{drive}-n{cases}"
-    if drive != "ideal":
+    if drive in ("dc_full", "dc_shaped"):
         return success_spec(sc, plan_file, cases=cases, name=name, sim=DRIVES[drive])
     u = sc.uncertainty
-    params = {k: v for k, v in u["parameters"].items() if k not in MOTOR_PARAMETERS}
+    keep = (lambda k: k not in MOTOR_PARAMETERS) if drive == "ideal" else (lambda k: k in ACTUATOR_ONLY)
+    params = {k: v for k, v in u["parameters"].items() if keep(k)}
     mc = {**(u.get("monte_carlo") or {}), "cases": cases}
     return load_spec({"name": name, "scenario": str(sc.path), "plans": [{"file": plan_file}],
-                      "sim": DRIVES["ideal"], "monte_carlo": mc, "parameters": params}, name=name)
+                      "sim": DRIVES[drive], "monte_carlo": mc, "parameters": params}, name=name)
 
 
 def search(spec, store: Path, rel_tol: float, workers: int, say) -> dict:
@@ -74,6 +80,27 @@ def lost_cases(store: Path, spec_name: str, s: float) -> list[dict]:
     rows = [r for r in docs if not (r.get("status") == "ok" and r.get("outcome") == "carried")]
     return [{k: r.get(k) for k in ("index", "parameters", "outcome", "detached_at_s", "final_goal_error_rad",
                                    "max_grip_ratio_while_held", "status", "error")} for r in rows]
+
+
+def separation(store: Path, spec_name: str, s: float, section: dict) -> dict:
+    """Per drawn parameter at the point s: (mean over the lost cases - mean over the carried ones) in units
+    of the parameter's spread (normal: std; uniform: (high - low) / sqrt(12)); largest |value| first."""
+    docs = [json.loads(p.read_text()) for p in (store / f"{spec_name}-ts{s:.5f}" / "cases").glob("*.json")]
+    lost = [d for d in docs if not (d.get("status") == "ok" and d.get("outcome") == "carried")]
+    kept = [d for d in docs if d not in lost]
+    if not lost or not kept:
+        return {}
+    out = {}
+    for name, d in section["parameters"].items():
+        sd = d["std"] if "std" in d else (d["high"] - d["low"]) / 12 ** 0.5
+        if name in ("com_lateral_m",):  # either side hurts: its size
+            f = abs
+        else:
+            def f(x):
+                return x
+        m = [sum(f(c["parameters"][name]) for c in g) / len(g) for g in (lost, kept)]
+        out[name] = round((m[0] - m[1]) / sd, 2)
+    return dict(sorted(out.items(), key=lambda kv: -abs(kv[1])))
 
 
 def sigma_outliers(lost: list[dict], section: dict) -> dict:
@@ -99,18 +126,20 @@ def sigma_outliers(lost: list[dict], section: dict) -> dict:
 def markdown(rows: list[dict], cases: int) -> str:
     lines = [f"# P(carried) >= {TARGET} on the spatial scenarios (TOPP-RA, N = {cases} cases per point)", "",
              f"Criterion: estimate k/N >= {TARGET}; s searched on [1, {GOAL}] then [{GOAL}, {S_MAX}]. "
-             "executed/T = (s T + shaping window if shaped) / T.", "",
+             "executed/T = (s T + shaping window if shaped) / T. Last column: the drawn parameters that most separate "
+             "the lost cases from the carried ones at the slowest missing point (mean difference over the spread; "
+             "com_lateral_m by its size).", "",
              "| scenario | T (TOPP-RA) | drive | smallest s with k/N >= 0.9 | executed / T | k/N there | 95 % Wilson | "
-             f"within {GOAL} | at the last miss | lost cases: parameters beyond 1.5 sigma |",
+             f"within {GOAL} | at the last miss | lost - carried there, in sigmas (top 3) |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         f = r["search"]
         miss = [h for h in f["history"] if not h["meets_target"]]
         last_miss = max(miss, key=lambda h: h["time_scale"]) if miss else None
         miss_s = (f"s = {last_miss['time_scale']:.4f}: {last_miss['carried']}/{last_miss['n']}" if last_miss else "-")
-        out = ", ".join(f"{k} {v}/{len(r['lost_at_last_miss'])}" for k, v in r["lost_outliers"].items()) or "-"
+        out = ", ".join(f"{k} {v:+.1f}" for k, v in list((r.get("separation") or {}).items())[:3]) or "-"
         if f["found"]:
-            ex = (f["time_scale"] * r["T_s"] + (SHAPING_WINDOW_S if r["drive"] == "dc_shaped" else 0.0)) / r["T_s"]
+            ex = (f["time_scale"] * r["T_s"] + (SHAPING_WINDOW_S if r["drive"].startswith("dc_shaped") else 0.0)) / r["T_s"]
             lines.append(f"| {r['scenario']} | {r['T_s']:.4f} s | {r['drive']} | {f['time_scale']:.4f} | {ex:.4f} | "
                          f"{round(f['p'] * f['n'])}/{f['n']} | [{f['ci_low']:.3f}, {f['ci_high']:.3f}] | "
                          f"{'yes' if f['within_goal'] else 'no'} | {miss_s} | {out} |")
@@ -148,6 +177,11 @@ def main(argv=None) -> int:
         print(f"[{k}/{len(todo)}] {name} {drive} (N = {args.cases})", file=sys.stderr, flush=True)
         if (name, drive, args.cases) in done:
             rows.append(done[(name, drive, args.cases)])
+            r = rows[-1]
+            miss = [h for h in r["search"]["history"] if not h["meets_target"]]
+            if miss and "separation" not in r:  # a row of an earlier version of this study
+                spec = spec_for(load_scenario(name), str(root / "plans" / f"{name}-toppra.json"), drive, args.cases)
+                r["separation"] = separation(root / "store", spec.name, max(h["time_scale"] for h in miss), spec.raw)
             continue
         sc = load_scenario(name)
         pf = root / "plans" / f"{name}-toppra.json"
@@ -159,8 +193,10 @@ def main(argv=None) -> int:
                    lambda m, k=k: print(f"[{k}/{len(todo)}] {m}", file=sys.stderr, flush=True))
         miss = [h for h in f["history"] if not h["meets_target"]]
         lost = lost_cases(root / "store", spec.name, max(h["time_scale"] for h in miss)) if miss else []
+        s_miss = max(h["time_scale"] for h in miss) if miss else None
         rows.append({"scenario": name, "drive": drive, "cases": args.cases, "T_s": T, "search": f,
-                     "lost_at_last_miss": lost, "lost_outliers": sigma_outliers(lost, spec.raw)})
+                     "lost_at_last_miss": lost, "lost_outliers": sigma_outliers(lost, spec.raw),
+                     "separation": separation(root / "store", spec.name, s_miss, spec.raw) if miss else {}})
         keep = [r for key, r in done.items() if (key[0], key[1]) not in {(x["scenario"], x["drive"]) for x in rows}]
         write_text_atomic(js, json_text({"rows": rows + keep, "wall_s": time.perf_counter() - t0}))
         write_text_atomic(root / "spatial_robust.md", markdown(rows, args.cases))
