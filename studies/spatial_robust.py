@@ -18,8 +18,8 @@ sweep/robust.robust_time_scale, first on [1, 1.10] (so the 1.10 goal is answered
 misses, on [1.10, S_MAX]. Each point is an ordinary sweep in OUT/spatial_robust/store (a rerun resumes every
 finished case); each finished (scenario, drive) row is kept in the JSON, so a rerun skips it.
 
-The criterion is the estimate (k/N >= 0.9), not the 95 % Wilson lower bound: with N <= 39 cases no count
-reaches a lower bound of 0.9 (N/N gives N / (N + 1.96^2)), and 40 cases per point do not fit this machine's
+The criterion is the estimate (k/N >= 0.9), not the 95 % Wilson lower bound: with N <= 34 cases no count
+reaches a lower bound of 0.9 (N/N gives N / (N + 1.96^2)), and 35-40 cases per point do not fit this machine's
 time. Each row states its Wilson interval; the lost cases of the last point that misses are listed with
 their drawn parameters (the JSON) and the parameter most often beyond 1.5 sigma among them (the Markdown).
 
