@@ -21,7 +21,8 @@ finished case); each finished (scenario, drive) row is kept in the JSON, so a re
 The criterion is the estimate (k/N >= 0.9), not the 95 % Wilson lower bound: with N <= 34 cases no count
 reaches a lower bound of 0.9 (N/N gives N / (N + 1.96^2)), and 35-40 cases per point do not fit this machine's
 time. Each row states its Wilson interval; the lost cases of the last point that misses are listed with
-their drawn parameters (the JSON) and the parameter most often beyond 1.5 sigma among them (the Markdown).
+their drawn parameters (the JSON), and the parameters that most separate them from the carried cases
+(`separation`: mean difference in units of the spread) are in the Markdown.
 
 Writes OUT/spatial_robust/spatial_robust.json and .md atomically; progress k/N on stderr.
 """
