@@ -128,6 +128,9 @@ def check_hand_can_vary(spec: SweepSpec, base) -> None:
     if "actuator" in spec.sim:
         raise QmtInputError(f"sweep sim.actuator: for spatial scenarios; scenario {base.name}'s actuator is its "
                             "YAML actuator section")
+    if spec.sim.get("feedforward") == "shaped":
+        raise QmtInputError(f"sweep sim.feedforward shaped: the spatial DC-motor drive's closed-loop-aware reference; "
+                            f"scenario {base.name} is planar: use none, back-emf or full")
     for name in (*spec.fixed, *spec.grid, *spec.distributions):
         if "planar" not in PARAMETERS[name].kinds:
             raise QmtInputError(f"sweep parameter '{name}': for spatial scenarios; the {kind} hand's co-simulation "

@@ -68,10 +68,12 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "motor torque (= back-EMF) constant / catalogue", kinds=BOTH),
     Parameter("motor_resistance_scale", "motor", "resistance_ohm", True, "-",
               "armature resistance / catalogue", kinds=BOTH),
-    Parameter("kp_scale", "scenario", "control.kp", True, "-", "proportional gains / scenario's",
-              inclusive=True),
-    Parameter("kd_scale", "scenario", "control.kd", True, "-", "derivative gains / scenario's",
-              inclusive=True),
+    # planar: control.kp / kd of the scenario; spatial dc_motor: the executed PD law's voltage gains over the
+    # ones designed from the nominal model (spatial_actuation.decentralised_gains), the feedforward nominal
+    Parameter("kp_scale", "scenario", "control.kp", True, "-", "proportional gains / scenario's (designed)",
+              inclusive=True, kinds=BOTH),
+    Parameter("kd_scale", "scenario", "control.kd", True, "-", "derivative gains / scenario's (designed)",
+              inclusive=True, kinds=BOTH),
     Parameter("moment_limit_Nm", "scenario", "limits.moment_limit_Nm", False, "N*m",
               "planning moment limit (replans)"),
     Parameter("time_scale", "sim", "time_scale", False, "-",
@@ -100,8 +102,8 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
 )}
 
 # What each spatial hand's co-simulation varies (sweep/spatial_cases.perturbed_scenario); the motor
-# parameters also need actuators.motor (the dc_motor drive).
-MOTOR_PARAMETERS = ("motor_torque_constant_scale", "motor_resistance_scale", "gear_efficiency")
+# parameters (the motors drawn, and the executed PD law's gains) also need actuators.motor (the dc_motor drive).
+MOTOR_PARAMETERS = ("motor_torque_constant_scale", "motor_resistance_scale", "gear_efficiency", "kp_scale", "kd_scale")
 _COMMON = ("mass_kg", "mass_scale", "com_offset_m", "com_offset_scale", "time_scale_jitter") + MOTOR_PARAMETERS
 SPATIAL_HAND_PARAMETERS = {
     "suction": _COMMON + ("friction", "vacuum_force_scale", "com_lateral_m"),
@@ -233,7 +235,8 @@ def check_spatial_uncertainty(u, hand_kind: str, where: str) -> dict:
     if not isinstance(u, dict) or not isinstance(u.get("parameters"), dict) or not u["parameters"]:
         raise QmtInputError(f"{where} must be a mapping {{parameters: {{mass_scale: {{dist: normal, mean: 1, "
                             f"std: 0.05}}}}, monte_carlo: {{cases: 40, seed: 1}}}}, got {show(u)}")
-    check_keys(u, {"parameters", "monte_carlo"}, where)
+    check_keys(u, {"parameters", "monte_carlo", "sim"}, where)
+    check_success_drive(u.get("sim"), f"{where}.sim")
     allowed = SPATIAL_HAND_PARAMETERS[hand_kind]
     for pname in u["parameters"]:
         if pname in PARAMETERS and pname not in allowed:
@@ -241,3 +244,23 @@ def check_spatial_uncertainty(u, hand_kind: str, where: str) -> dict:
                                 f"not vary it; vary {', '.join(allowed)}")
     validate_uncertainty(u, where)
     return dict(u)
+
+
+SUCCESS_DRIVES = {"ideal": ("full", "shaped"), "dc_motor": ("full", "shaped")}  # --success / sweep drives
+
+
+def check_success_drive(sim, where: str) -> dict:
+    """A spatial `uncertainty.sim` (the drive `--success` runs the drawn cells through): {actuator: ideal |
+    dc_motor, feedforward: full | shaped}, both optional ({} or None: the scenario's real drive, full
+    feedforward). One-line QmtInputError otherwise."""
+    if sim is None:
+        return {}
+    if not isinstance(sim, dict):
+        raise QmtInputError(f"{where} must be a mapping {{actuator: dc_motor, feedforward: shaped}}, got {show(sim)}")
+    check_keys(sim, {"actuator", "feedforward"}, where)
+    if "actuator" in sim and sim["actuator"] not in SUCCESS_DRIVES:
+        raise QmtInputError(f"{where}.actuator: {show(sim['actuator'])}; choose one of {', '.join(SUCCESS_DRIVES)}")
+    if "feedforward" in sim and sim["feedforward"] not in SUCCESS_DRIVES["dc_motor"]:
+        raise QmtInputError(f"{where}.feedforward: {show(sim['feedforward'])}; choose full (the plan as planned) or "
+                            "shaped (the closed-loop-aware reference, sim/spatial_reference)")
+    return dict(sim)

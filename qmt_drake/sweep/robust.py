@@ -34,6 +34,7 @@ from qmt_drake.planners import plan_with
 from qmt_drake.sim import FEEDFORWARD_OPTIONS
 from qmt_drake.spatial_task import SpatialScenario
 from qmt_drake.sweep.cases import check_hand_can_vary
+from qmt_drake.sweep.parameters import check_success_drive
 from qmt_drake.sweep.runner import dask_client, run_sweep
 from qmt_drake.sweep.spatial_cases import check_spatial_spec, spatial_time_scaled_plan
 from qmt_drake.sweep.spec import SweepSpec, load_spec
@@ -318,11 +319,13 @@ def relative_excess(t: float, bound: float) -> float:
 
 # ------------------------------------------------------- plan --success P (scenario's uncertainty)
 def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: int | None = None,
-                 name: str = "success") -> SweepSpec:
+                 name: str = "success", sim: dict | None = None) -> SweepSpec:
     """The sweep spec of `plan_file` (a written plan of `scenario`; None: its optimum, to check the
     section before planning) under the scenario's
-    `uncertainty` section: its parameters, its monte_carlo cases / seed unless given. One-line
-    QmtInputError when the scenario has none or it is not a valid sweep parameter block."""
+    `uncertainty` section: its parameters, its monte_carlo cases / seed unless given, and (spatial) the drive
+    the cells run through: the section's `sim` {actuator, feedforward}, updated by `sim` (default: the
+    scenario's real drive, full feedforward). One-line QmtInputError when the scenario has none, it is not a
+    valid sweep parameter block, or a drive is asked of a planar scenario (its drive is its YAML's)."""
     u = getattr(scenario, "uncertainty", None) or {}
     if not u:
         raise QmtInputError(f"--success: scenario {scenario.name} has no uncertainty section; add one "
@@ -336,10 +339,14 @@ def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: in
     mc.setdefault("cases", 100)
     mc.setdefault("seed", 1)
     spatial = isinstance(scenario, SpatialScenario)
+    if sim and not spatial:
+        raise QmtInputError(f"--success drive {sim}: scenario {scenario.name} is planar; its drive is its YAML's "
+                            "actuator section (a drive choice is for spatial scenarios)")
+    drive = {**check_success_drive(u.get("sim"), "uncertainty.sim"), **check_success_drive(sim, "--success drive")}
     plan_ref = ({"method": "toppra" if spatial else "optimum"} if plan_file is None else {"file": str(plan_file)})
     path = scenario.path if spatial else scenario.source_path
-    spec = load_spec({"name": name, "scenario": str(path), "plans": [plan_ref],
-                      "monte_carlo": mc, "parameters": dict(u["parameters"])}, name=name)
+    spec = load_spec({"name": name, "scenario": str(path), "plans": [plan_ref], "monte_carlo": mc,
+                      "parameters": dict(u["parameters"]), **({"sim": drive} if drive else {})}, name=name)
     if spatial:  # its real drive (sweep/spatial_cases.default_actuator)
         check_spatial_spec(spec, scenario)
     else:
@@ -348,15 +355,15 @@ def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: in
 
 
 def plan_for_success(plan, plan_file, out_dir, *, target: float, check_cases: int = 200, s_max: float = 2.0,
-                     progress=None, scenario=None, rel_tol: float = 0.005, **run_kw):
+                     progress=None, scenario=None, rel_tol: float = 0.005, sim: dict | None = None, **run_kw):
     """The fastest time scale of `plan` whose success probability under its scenario's uncertainty has
     its lower 95 % Wilson bound >= target (robust_time_scale on the sweep store under out_dir, so a
     rerun resumes), then a FRESH sweep of check_cases cases with another seed at that time scale,
     which the search did not see. Returns (the time-scaled Plan, {search, fresh_check}). scenario: the
     plan's scenario (default plan.scenario; a SpatialPlan's is given: a SpatialScenario), rel_tol: the
-    search's final bracket (relative)."""
+    search's final bracket (relative), sim: the drive (success_spec; spatial only)."""
     sc = plan.scenario if scenario is None else scenario
-    spec = success_spec(sc, plan_file)
+    spec = success_spec(sc, plan_file, sim=sim)
     found = robust_time_scale(spec, out_dir, target=target, criterion="lower_bound", s_max=s_max,
                               rel_tol=rel_tol, progress=progress, **run_kw)
     if not found["found"]:
@@ -364,7 +371,7 @@ def plan_for_success(plan, plan_file, out_dir, *, target: float, check_cases: in
                             f"/{found['history'][-1]['n']} carried there); raise --success-max-scale or lower the target")
     s = found["time_scale"]
     seed = int((sc.uncertainty.get("monte_carlo") or {}).get("seed", 1)) + 1000003
-    fresh = success_spec(sc, plan_file, cases=check_cases, seed=seed, name=f"success-check-ts{s:.5f}")
+    fresh = success_spec(sc, plan_file, cases=check_cases, seed=seed, name=f"success-check-ts{s:.5f}", sim=sim)
     raw = dict(fresh.raw)
     raw["parameters"] = {**raw["parameters"], "time_scale": float(s)}
     out = run_sweep(load_spec(raw, name=fresh.name), out_dir, progress=False, figures=False, **run_kw)

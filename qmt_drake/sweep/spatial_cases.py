@@ -38,6 +38,9 @@ from qmt_drake.spatial_task import load_spatial_scenario
 from qmt_drake.sweep.cases import Case, PlanRef, plan_file_hash, stable_hash
 from qmt_drake.sweep.parameters import MOTOR_PARAMETERS, PARAMETERS, SPATIAL_HAND_PARAMETERS
 from qmt_drake.sweep.spec import SweepSpec
+from qmt_drake.systems.joint_tracking import PidGains
+
+GAIN_PARAMETERS = ("kp_scale", "kd_scale")  # the executed PD law's gains over the designed ones (dc_motor)
 
 
 # ------------------------------------------------------------------------- the drawn scenario
@@ -83,7 +86,7 @@ def perturbed_scenario(sc, values: dict):
     if "body" in changes:  # the planners' chain carries the part (joint torques, limit check)
         changes["chain"] = SpatialChain(sc.plant, sc.chain.hand_frame, carried=changes["body"].as_dict(),
                                         reflected_inertia_kgm2=sc.drive["reflected_inertia_kgm2"])
-    if any(k in v for k in MOTOR_PARAMETERS):
+    if any(k in v for k in MOTOR_PARAMETERS if k not in GAIN_PARAMETERS):  # the gains: drawn_drive
         m = sc.motor
         n = len(sc.joint_names)
         changes["motor"] = dataclasses.replace(
@@ -118,9 +121,9 @@ def check_spatial_spec(spec: SweepSpec, base) -> tuple[str, str]:
     if actuator == "dc_motor" and base.motor is None:
         raise QmtInputError(f"sweep sim.actuator dc_motor: scenario {base.name} has no actuators.motor; use ideal")
     feedforward = (spec.raw.get("sim") or {}).get("feedforward", "full")
-    if actuator == "ideal" and feedforward != "full":
-        raise QmtInputError("sweep sim.feedforward applies to sim.actuator dc_motor; the ideal actuator always has "
-                            "the full feedforward")
+    if actuator == "ideal" and feedforward not in ("full", "shaped"):
+        raise QmtInputError(f"sweep sim.feedforward {feedforward}: applies to sim.actuator dc_motor; the ideal actuator "
+                            "always has the full feedforward (or 'shaped': on the shaped reference)")
     if any(n in MOTOR_PARAMETERS for n in spec.parameter_names) and actuator != "dc_motor":
         raise QmtInputError("sweep: motor parameters act through sim.actuator dc_motor; set it or drop them")
     return actuator, feedforward
@@ -142,8 +145,9 @@ def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]
         for point in spec.grid_points():
             for i, draw in enumerate(samples):
                 values = {**spec.fixed, **point, **draw}
-                drawn = {k: float(x) for k, x in values.items() if PARAMETERS[k].target not in ("sim", "motor")}
-                motor = {k: float(x) for k, x in values.items() if PARAMETERS[k].target == "motor"}
+                drive = {k for k in values if k in MOTOR_PARAMETERS}  # motors drawn, the PD law's gains drawn
+                drawn = {k: float(x) for k, x in values.items() if PARAMETERS[k].target != "sim" and k not in drive}
+                motor = {k: float(x) for k, x in values.items() if k in drive}
                 sim = {"time_scale": float(values.get("time_scale", 1.0)) * float(values.get("time_scale_jitter", 1.0)),
                        "actuator": actuator, "feedforward": feedforward}
                 cases.append(Case(index=len(cases), label=pdef["label"], scenario=spec.scenario, scenario_overrides={},
@@ -191,14 +195,28 @@ def _plan(doc: dict, sc):
     return _PLANS[k]
 
 
-def _drive(sc, physical, plan, plan_key: str, feedforward: str):
-    """The nominal DC-motor law (gains, feedforward model) driving the drawn motors."""
+def _drive(sc, physical, plan, plan_key: str, feedforward: str, values: dict):
+    """The nominal DC-motor law (gains, feedforward model) driving the drawn motors (drawn_drive)."""
     k = (sc.name, plan_key, feedforward)
     if k not in _DRIVES:
         _DRIVES[k] = SpatialMotorDrive.for_scenario(sc, plan.trajectory.sample([0.0])[0][0], feedforward)
-    nominal = _DRIVES[k]
-    return nominal if physical.motor is sc.motor else dataclasses.replace(
-        nominal, plant_params=motor_params_for_spatial(physical))
+    return drawn_drive(_DRIVES[k], sc, physical, values)
+
+
+def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict) -> SpatialMotorDrive:
+    """The nominal DC-motor drive (its feedforward model, its loop damping: the controller's) with the drawn
+    motors simulated (`physical`'s, when they differ from `sc`'s) and the executed PD law's voltage gains
+    scaled by values' kp_scale / kd_scale (the integral gain goes with kp: Ki = Kp x the integral rate). The
+    loop damping moved into the plant is added back by the law (sim/actuation.motor_actuation_law), so it
+    stays the nominal one without changing the physics."""
+    d = nominal
+    if physical.motor is not sc.motor:
+        d = dataclasses.replace(d, plant_params=motor_params_for_spatial(physical))
+    kp, kd = float(values.get("kp_scale", 1.0)), float(values.get("kd_scale", 1.0))
+    if kp != 1.0 or kd != 1.0:
+        g = d.gains
+        d = dataclasses.replace(d, gains=PidGains(g.kp_V_per_rad * kp, g.ki_V_per_rad_s * kp, g.kd_V_s_per_rad * kd))
+    return d
 
 
 def run_spatial_case(case: Case, plan_doc: dict) -> dict:
@@ -214,12 +232,13 @@ def run_spatial_case(case: Case, plan_doc: dict) -> dict:
            "plan_feasible": bool(plan.recheck["max"] <= 1.0), "actuator": case.sim["actuator"],
            "host": socket.gethostname(), "pid": os.getpid()}
     try:
-        physical = perturbed_scenario(sc, {**case.payload, **case.motor_scales})
+        drawn = {**case.payload, **case.motor_scales}
+        physical = perturbed_scenario(sc, drawn)
         out["payload_mass_kg"] = float(physical.body.mass_kg)
-        drive = (_drive(sc, physical, plan, case.plan_key, case.sim["feedforward"])
+        drive = (_drive(sc, physical, plan, case.plan_key, case.sim["feedforward"], drawn)
                  if case.sim["actuator"] == "dc_motor" else None)
         traj = plan.trajectory if s == 1.0 else TimeScaled(plan.trajectory, s)
-        r = simulate_spatial(physical, traj, controller_sc=sc, drive=drive)
+        r = simulate_spatial(physical, traj, controller_sc=sc, drive=drive, feedforward=case.sim["feedforward"])
     except (QmtSimulationError, ValueError, RuntimeError) as exc:  # a drawn part Drake cannot simulate
         out.update(status="sim_failed", held=False, outcome="failed", error=f"{type(exc).__name__}: {exc}")
     else:

@@ -53,7 +53,7 @@ SPEC_KEYS = {"name", "description", "uncertainty", "scenario", "plan", "plans", 
 PLAN_KEYS = {"method", "seed", "options", "file", "label"}
 SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping", "actuator"}
 ACTUATORS = ("ideal", "dc_motor")  # sim.actuator, spatial scenarios (sim/spatial_actuation.ACTUATORS)
-FEEDFORWARD = ("none", "back-emf", "full")  # sim.FEEDFORWARD_OPTIONS keys
+FEEDFORWARD = ("none", "back-emf", "full", "shaped")  # sim.FEEDFORWARD_OPTIONS keys; shaped: spatial only
 MAX_CASES = 1_000_000  # beyond any budget (budgets.py): refused before the grid is built
 
 
