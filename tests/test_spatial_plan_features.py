@@ -64,6 +64,30 @@ def test_interrupted_spatial_ga_resumes_to_the_same_plan(sc, tmp_path):
     assert not ckpt.exists()  # a finished run leaves no checkpoint
 
 
+def test_a_stopped_spatial_ga_resumes_with_more_generations(sc, tmp_path):
+    """How long a run may go is not part of its identity (as on the planar arms): stopped at generation 4
+    of 6, it resumes under generations=10 and ends where an uninterrupted 10-generation run ends."""
+    longer = {**GA, "generations": 10, "stall": 10}
+    full = plan_with("ga", sc, seed=1, **longer)
+    ckpt = tmp_path / "ga.ckpt.json"
+
+    class Stop(Exception):
+        pass
+
+    def crash(msg):
+        if "generation 4 of" in msg:
+            raise Stop
+
+    with pytest.raises(Stop):
+        plan_with("ga", sc, seed=1, checkpoint_path=str(ckpt), checkpoint_every=2, progress=crash,
+                  progress_every_s=0.0, **GA)
+    check_ga_checkpoint(sc, ckpt, seed=1, **longer)  # the same run: accepted
+    said = []
+    resumed = plan_with("ga", sc, seed=1, checkpoint_path=str(ckpt), progress=said.append, **longer)
+    assert any(line.startswith("resuming") for line in said), said
+    assert resumed.genes == full.genes and resumed.duration_s == full.duration_s
+
+
 def test_cli_checkpoint_of_another_run_is_refused_in_one_line(capsys, tmp_path):
     bad = tmp_path / "c.json"
     bad.write_text('{"format": "not a checkpoint"}')

@@ -35,6 +35,7 @@ from qmt_drake.problem import Evaluation, MinimumTime
 TIGHT_BATCH = 50  # candidates per tight_scales call
 OPT_GRID = 41  # cruise/accel ratios tried per rest-to-rest segment before Brent
 OPT_RATIO_MAX = 20.0
+GA_RUN_LENGTH = (150, 60)  # the settings' (generations, stall) in a checkpoint's identity; the call's own are used
 
 
 LEAST_VIOLATING_SCALE = 20.0  # scale_to_hold's k_max: slower than this, speed no longer matters
@@ -216,9 +217,11 @@ def SpatialTightViaProblem(sc, **kwargs) -> SpatialTightFamilyProblem:  # noqa: 
 
 
 def _ga_run(sc, generations: int, population: int, stall: int, tight_timing: bool, family: str):
-    """(problem, settings) of a spatial GA run: what plan_ga_spatial runs and a checkpoint must match."""
+    """(problem, settings) of a spatial GA run: what plan_ga_spatial runs and a checkpoint must match.
+    How long it may run (generations, stall) is not part of the run, as on the planar arms (run_ga takes
+    them apart): a run stopped by Ctrl-C resumes with more generations."""
     problem = (SpatialTightFamilyProblem if tight_timing else SpatialFamilyProblem)(sc, family)
-    settings = GaSettings(population=population, max_generations=generations, stall_generations=stall,
+    settings = GaSettings(population=population, max_generations=GA_RUN_LENGTH[0], stall_generations=GA_RUN_LENGTH[1],
                           fitness_c_per_s=1.0, selection="tournament", encoding="gray", tight_timing=tight_timing)
     return problem, settings
 
@@ -243,8 +246,8 @@ def plan_ga_spatial(sc, *, seed: int = 0, generations: int = 150, population: in
     naming the binding limit."""
     t0 = time.perf_counter()
     problem, settings = _ga_run(sc, generations, population, stall, tight_timing, family)
-    res = run_ga(problem, settings, seed=seed, progress=progress, progress_every_s=progress_every_s,
-                 checkpoint_path=checkpoint_path, checkpoint_every=checkpoint_every)
+    res = run_ga(problem, settings, seed=seed, max_generations=generations, stall_generations=stall, progress=progress,
+                 progress_every_s=progress_every_s, checkpoint_path=checkpoint_path, checkpoint_every=checkpoint_every)
     fam = problem.family
     if not res.feasible:  # the least-violating plan, as the planar GA's (plan.feasible False, exit 3)
         genes = np.asarray(res.genes, float)
