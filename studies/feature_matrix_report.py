@@ -13,22 +13,22 @@ JUDGEMENTS: list = [
     (r"--method (snopt|ipopt|steepest|collocation)", r"^(?!energy)", r"plans energy-time|does not plan spatial",
      MISSING, "the energy-time cost (c1 tau'tau + c2) dt needs only joint torques, which every arm has; the solvers "
      "are written for seed 001's Fourier problem only"),
-    (r"--method (ga|optimum|toppra|toppra-drake|ruckig|trajopt)$", "energy", r"plans transfer scenarios",
+    (r"--method (ga|optimum|toppra|toppra-drake|ruckig|trajopt)$", "energy", r"plans transfer scenarios|not energy-time ones",
      MISSING, "a minimum-time plan of the vertical arm under its joint-torque limits is meaningful; the transfer "
      "planners take transfer scenarios only"),
     (r"--method family_optimum", "planar|tray", r"plans spatial scenarios",
      MISSING, "a name only: the transfer planners call the same thing `optimum` (the spatial ones take both)"),
-    (r"--method family_optimum", "energy", r"plans transfer scenarios",
+    (r"--method family_optimum", "energy", r"plans transfer scenarios|not energy-time ones",
      MISSING, "as for the other minimum-time planners on the vertical arm"),
     (r"--method toppra-drake", "UR5|Panda", r"does not plan spatial",
      MISSING, "Drake's TOPP-RA on a spatial path is meaningful; only the planar variant is wired to it"),
-    (r"--method thesis", ".", r"plans transfer scenarios|does not plan spatial",
+    (r"--method thesis", ".", r"plans transfer scenarios|does not plan spatial|plans planar \(kind: transfer\) scenarios, not",
      NO_DATA, "`thesis` replays a published plan's genes; this scenario has no published transfer plan (neither "
      "physics nor a missing feature)"),
     (r"--method trajopt", "tray", r"not available for the tray",
      MISSING, "the tray's level and friction-cone terms are missing from the trajopt constraints (TOPP-RA, Ruckig "
      "and the GA have them); a tray constraint set for trajopt is code, not physics"),
-    (r"GA --checkpoint", "energy", r"plans transfer scenarios",
+    (r"GA --checkpoint", "energy", r"plans transfer scenarios|not energy-time ones",
      MISSING, "no GA plans the vertical arm (see plan --method ga); nothing to checkpoint"),
     (r"GA --checkpoint", "UR5|Panda", r"keeps no checkpoint",
      MISSING, "the spatial GA runs the same planners/ga.run_ga, which writes checkpoints; only the plumbing is missing"),
@@ -55,8 +55,13 @@ JUDGEMENTS: list = [
     (r"--explicit|--feedforward", "tray", r"servos' own firmware loop",
      PHYSICS, "the Dynamixel servos close their position loop in firmware: there is no motor-voltage loop to step "
      "explicitly and no voltage feedforward to add (the message says so)"),
-    (r"--explicit", "UR5|Panda", r"steps at 1 ms|implicitly",
-     MISSING, "the spatial dc_motor drive has a motor loop like the planar one's; an explicit step of it is not offered"),
+    (r"--explicit", "UR5|Panda", r"steps at 1 ms|implicitly|no separate motor loop",
+     MISSING, "a numerical choice, not physics: the spatial dc_motor drive folds its back-EMF and PD damping into the "
+     "plant as joint damping, integrated implicitly (stable at every step); stepping them explicitly, as the planar "
+     "--explicit does, is not offered (the message argues physics; it is a missing option)"),
+    (r"^retime$", "UR5|Panda", r"collides between waypoints",
+     PHYSICS, "the cell's own path (straight lines between a few samples of the base plan) cuts through the cell's "
+     "bins; retime times a path, it cannot change it, so refusing a colliding path is the answer"),
     (r"--feedforward back-emf", "UR5|Panda", r"applies to actuator dc_motor",
      PHYSICS, "the default ideal actuator is a torque source: it has no back-EMF to feed forward (with --actuator "
      "dc_motor the option applies; the message says so)"),
