@@ -118,7 +118,7 @@ def check_plan_options(method: str, sc: AnyScenario, options: dict, *, allow_lar
         d = row.options()
         size = {k: opts.get(k, d[k]["default"]) for k in ("population", "generations")}
         _priced(check_budget, spatial_ga_estimate(size["population"], size["generations"]), allow_large=allow_large, cli=cli)
-    elif kind == registry.ENERGY:
+    elif kind == registry.ENERGY and isinstance(sc, Experiment):  # (the kind says so; mypy needs the type)
         _priced(check_energy_budget, opts.get("m") or sc.m, opts.get("divisions") or sc.divisions,
                 allow_large=allow_large, cli=cli)
     elif kind == registry.TRANSFER:  # the scenario's rates, and the GA's size
