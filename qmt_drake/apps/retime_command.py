@@ -68,15 +68,21 @@ def cmd_retime(args) -> int:
     sc = load_spatial_scenario(args.scenario)
     p = retime_path(sc, args.path, args.method, n_grid=args.n_grid, **ga)
     sim = simulate_spatial(sc, p.trajectory) if args.simulate else None
+    if _write_outputs(args, p, sim):
+        print(summary_line(sc, p, sim))
+    return 0 if p.recheck["max"] <= 1.0 else EXIT_INFEASIBLE
+
+
+def _write_outputs(args, p, sim) -> bool:
+    """The plan (and its co-simulation) to --json and --trajectory-csv; True when the summary line is
+    still to print (--json - takes stdout)."""
     if args.json == "-":
         emit_json(jsonable({**p.to_json_dict(), "simulation": sim}), "-")
     elif args.json:
         p.write_json(args.json)
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
-    if args.json != "-":
-        print(summary_line(sc, p, sim))
-    return 0 if p.recheck["max"] <= 1.0 else EXIT_INFEASIBLE
+    return args.json != "-"
 
 
 def _retime_planar(args) -> int:
@@ -88,13 +94,7 @@ def _retime_planar(args) -> int:
     sc = load_scenario(args.scenario)
     p = retime_planar_path(sc, args.path, n_grid=args.n_grid)
     sim = run_simulate(sc, p) if args.simulate and p.feasible else None
-    if args.json == "-":
-        emit_json(jsonable({**p.to_json_dict(), "simulation": sim}), "-")
-    elif args.json:
-        p.write_json(args.json)
-    if args.trajectory_csv:
-        p.write_csv(args.trajectory_csv)
-    if args.json != "-":
+    if _write_outputs(args, p, sim):
         c = p.check
         line = (f"{sc.name} retime toppra of {p.extra['path_waypoints']} waypoints: T = {p.motion_time_s:.4f} s "
                 f"(slowed by {p.extra.get('slowdown_factor', 1.0):.4f} to hold), re-check max ratio "

@@ -225,12 +225,8 @@ class ContactHand(HandPart):
         return SpatialRecording.add(builder, plant, arm, self.scene_graph)
 
     def connect(self, builder, plant, H, rec, continuous: bool) -> None:
-        sg = self.scene_graph
-        builder.Connect(plant.get_geometry_pose_output_port(), sg.get_source_pose_port(plant.get_source_id()))
-        builder.Connect(sg.get_query_output_port(), plant.get_geometry_query_input_port())
-        if rec is not None:
-            rec.connect(builder, plant, geometry_connected=True)
-        allow_contact(plant, sg, H.body(), self.part)
+        self.connect_scene_graph(builder, plant, rec)
+        allow_contact(plant, self.scene_graph, H.body(), self.part)
         # the ideal actuator's controller integrates its error (continuous state); the dc_motor drive has none
         self.pull = _add_pull(builder, plant, self.joint, self.sc, self.spec, self.grip, self.coil_current_A,
                               continuous=continuous)

@@ -218,3 +218,12 @@ class HandPart:
 
     def advance(self, sim, diagram, t_end: float) -> None:
         sim.AdvanceTo(t_end)
+
+    def connect_scene_graph(self, builder, plant, rec) -> None:
+        """The plant's geometry wired to this part's own SceneGraph (a contact hand, the tray), and the
+        recording drawn from it."""
+        sg = self.scene_graph
+        builder.Connect(plant.get_geometry_pose_output_port(), sg.get_source_pose_port(plant.get_source_id()))
+        builder.Connect(sg.get_query_output_port(), plant.get_geometry_query_input_port())
+        if rec is not None:
+            rec.connect(builder, plant, geometry_connected=True)

@@ -110,12 +110,8 @@ class TrayCupHand(HandPart):
         return SpatialRecording.for_scenario(builder, plant, arm, self.sc, self.scene_graph)
 
     def connect(self, builder, plant, H, rec, continuous: bool) -> None:
-        sg = self.scene_graph
-        builder.Connect(plant.get_geometry_pose_output_port(), sg.get_source_pose_port(plant.get_source_id()))
-        builder.Connect(sg.get_query_output_port(), plant.get_geometry_query_input_port())
-        if rec is not None:
-            rec.connect(builder, plant, geometry_connected=True)
-        allow_contact(plant, sg, self.tray, self.cup)
+        self.connect_scene_graph(builder, plant, rec)
+        allow_contact(plant, self.scene_graph, self.tray, self.cup)
 
     def add_monitor(self, builder, plant, arm, h: float) -> None:
         self.monitor = self.log_type(builder, plant, self.cup, TRAY_LOG_PERIOD_S if h == self.default_step_s else h)
