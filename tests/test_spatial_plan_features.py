@@ -40,20 +40,27 @@ def weak_shoulder(tmp_path_factory):
     return p
 
 
-def test_interrupted_spatial_ga_resumes_to_the_same_plan(sc, tmp_path):
-    full = plan_with("ga", sc, seed=1, **GA)
-    ckpt = tmp_path / "ga.ckpt.json"
+class _Stop(Exception):
+    pass
 
-    class Stop(Exception):
-        pass
+
+def _stopped_at_generation_4(sc, tmp_path) -> Path:
+    """The checkpoint of a seed-1 GA run (GA's size) stopped, as by Ctrl-C, at generation 4."""
+    ckpt = tmp_path / "ga.ckpt.json"
 
     def crash(msg):
         if "generation 4 of" in msg:
-            raise Stop
+            raise _Stop
 
-    with pytest.raises(Stop):
+    with pytest.raises(_Stop):
         plan_with("ga", sc, seed=1, checkpoint_path=str(ckpt), checkpoint_every=2, progress=crash,
                   progress_every_s=0.0, **GA)
+    return ckpt
+
+
+def test_interrupted_spatial_ga_resumes_to_the_same_plan(sc, tmp_path):
+    full = plan_with("ga", sc, seed=1, **GA)
+    ckpt = _stopped_at_generation_4(sc, tmp_path)
     assert ckpt.is_file()
     with pytest.raises(QmtInputError, match="belongs to another run"):  # another seed: refused before any work
         check_ga_checkpoint(sc, ckpt, seed=2, **GA)
@@ -69,18 +76,7 @@ def test_a_stopped_spatial_ga_resumes_with_more_generations(sc, tmp_path):
     of 6, it resumes under generations=10 and ends where an uninterrupted 10-generation run ends."""
     longer = {**GA, "generations": 10, "stall": 10}
     full = plan_with("ga", sc, seed=1, **longer)
-    ckpt = tmp_path / "ga.ckpt.json"
-
-    class Stop(Exception):
-        pass
-
-    def crash(msg):
-        if "generation 4 of" in msg:
-            raise Stop
-
-    with pytest.raises(Stop):
-        plan_with("ga", sc, seed=1, checkpoint_path=str(ckpt), checkpoint_every=2, progress=crash,
-                  progress_every_s=0.0, **GA)
+    ckpt = _stopped_at_generation_4(sc, tmp_path)
     check_ga_checkpoint(sc, ckpt, seed=1, **longer)  # the same run: accepted
     said = []
     resumed = plan_with("ga", sc, seed=1, checkpoint_path=str(ckpt), progress=said.append, **longer)
