@@ -26,13 +26,14 @@ from qmt_drake.limits.contact_wrench import CarriedBody
 from qmt_drake.limits.tray_contact import TrayCup
 from qmt_drake.model.obstacles import Obstacle, parse_obstacles
 from qmt_drake.model.urdf_check import off_chain_locks
-from qmt_drake.model.urdf_package import EXAMPLE_ARMS, package_urdf
+from qmt_drake.model.urdf_package import EXAMPLE_ARMS, example_face_axis, package_urdf
 from qmt_drake.sweep.parameters import check_spatial_uncertainty
 
 HAND_PHYSICS = ("weld", "contact")  # hand.physics: how the co-simulation holds a suction or magnet part
 ACTUATOR_KEYS = ("velocity_limit_rad_s", "acceleration_limit_rad_s2", "jerk_limit_rad_s3", "torque_limit_Nm",
                  "gear_ratio", "rotor_inertia_kgm2")
 OPTIONAL_ACTUATOR_KEYS = ("velocity_limit_rad_s", "torque_limit_Nm", "gear_ratio", "rotor_inertia_kgm2")
+DEFAULT_CHECK_RATE_HZ = 200.0  # limits.check_rate_hz when the section is left out (the shipped scenarios state 200)
 TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits", "world",
             "uncertainty"}
 TASK_KEYS = {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points",
@@ -80,7 +81,7 @@ class SpatialTaskData:
     """`task`: the IK seed, the task poses and their orientations (normals always, rotations when
     hand_rpy_rad fixes the spin), and the transfer points of the carry."""
 
-    seed_rad: np.ndarray
+    seed_rad: np.ndarray | None  # None: the IK tries several starts and keeps the least joint motion
     poses_m: np.ndarray  # (K, 3)
     pose_normals: np.ndarray  # (K, 3) unit, world
     pose_rotations: np.ndarray | None  # (K, 3, 3) R_WH, None: the spin about the normal is free
@@ -140,9 +141,9 @@ def parse_spatial_data(name_or_path: str | Path, overrides: dict | None = None) 
         payload = hand.cup.body(arm.face_axis)
 
     task = _task(F.mapping(raw, "task", where), f"{where}: task", arm.face_axis)
-    lim = F.mapping(raw, "limits", where)
+    lim = F.mapping(raw, "limits", where) if "limits" in raw else {}
     F.check_keys(lim, {"check_rate_hz"}, f"{where}: limits")
-    rate = F.num(lim, "check_rate_hz", f"{where}: limits", positive=True)
+    rate = F.num(lim, "check_rate_hz", f"{where}: limits", positive=True, default=DEFAULT_CHECK_RATE_HZ)
     check_spatial_sizes(where, transfer_points=task.transfer_points, check_rate_hz=rate)
     uncertainty = check_spatial_uncertainty(raw.get("uncertainty"), hand.kind, f"{where}: uncertainty")
     return SpatialScenarioData(name=str(raw.get("name", path.stem)), path=path, arm=arm, actuators=actuators,
@@ -168,7 +169,9 @@ def _arm(raw: dict, where: str, base: Path) -> SpatialArmData:
     if "lock" in raw:
         F.string(raw, "lock", where, choices=("off_chain",))
         lock = off_chain_locks(urdf, hand, lock, source=str(urdf))
-    face = F.direction(raw, "face_axis", where) if "face_axis" in raw else np.array([0.0, 0.0, 1.0])
+    known = example_face_axis(F.string(raw, "package", where)) if "package" in raw else None
+    face = (F.direction(raw, "face_axis", where) if "face_axis" in raw
+            else np.array(known if known is not None else (0.0, 0.0, 1.0)))
     return SpatialArmData(Path(urdf), hand, face, lock)
 
 
@@ -212,7 +215,8 @@ def _payload(raw: dict, where: str) -> CarriedBody:
 
 def _task(tk: dict, w: str, face_axis: np.ndarray) -> SpatialTaskData:
     F.check_keys(tk, TASK_KEYS, w)
-    seed = F.radians(tk, "seed_rad", w, what="one joint angle per joint")  # its length: the builder (joints)
+    # its length: the builder (joints); without it the IK tries several starts (SpatialIK.solve_path)
+    seed = F.radians(tk, "seed_rad", w, what="one joint angle per joint") if "seed_rad" in tk else None
     poses = F.sequence(tk, "poses_m", w, min_length=2, what="positions [x, y, z] (m)")
     check_spatial_sizes(w, task_poses=len(poses))
     P = np.array([F.vector({"p": p}, "p", f"{w}.poses_m[{k}]", length=3) for k, p in enumerate(poses)])

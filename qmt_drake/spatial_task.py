@@ -28,7 +28,8 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   friction, cup {radius_m, height_m, mass_kg, com_height_m (default height / 2)}, margin (0, 1],
   pyramid_edges, tray_size_m: an unfixed cup standing on a tray in the face plane
   (limits/tray_contact.py; no payload section: the cup is the carried body; the tray is massless).
-- task: seed_rad (the IK branch), poses_m (K >= 2 hand positions), and the hand's orientation at them,
+- task: seed_rad (optional, the IK branch; without it the IK tries 12 starts and keeps the path with
+  the least joint motion, model/spatial_ik.SpatialIK.solve_path), poses_m (K >= 2 hand positions), and the hand's orientation at them,
   one of: face_normal (world; the same at every pose; the spin about it is free), face_normals (one
   per pose: e.g. a part picked from a tilted bin), hand_rpy_rad (a full rotation per pose: roll,
   pitch, yaw of the hand frame in the world, Drake's RollPitchYaw); transfer_points (inner points of
@@ -37,7 +38,7 @@ Sections (SI units; models/scenarios/ur5-suction-bins.yaml is the example):
   freely about its face normal at every pose: a suction cup or a magnet does not care, and a 5-joint
   arm can then reach a face-down pose its hand_rpy_rad would over-constrain; with face_normal(s) the
   spin is always free).
-- limits: check_rate_hz (the planners' sampling; the re-check samples at 10x).
+- limits (optional): check_rate_hz (the planners' sampling, default 200 Hz; the re-check samples at 10x).
 - world (optional): obstacles, a list of boxes, cylinders, meshes and bins welded to the world
   (model/obstacles.py; the re-check's clearance, limits/clearance.py; docs/obstacles.md).
 
@@ -183,7 +184,8 @@ def build_spatial_scenario(data: SpatialScenarioData) -> SpatialScenario:
     body, cup = data.payload, hd.cup
 
     w = f"{where}: task"
-    seed = F.radians({"seed_rad": list(tk.seed_rad)}, "seed_rad", w, length=n, what="one joint angle per joint")
+    seed = (None if tk.seed_rad is None else
+            F.radians({"seed_rad": list(tk.seed_rad)}, "seed_rad", w, length=n, what="one joint angle per joint"))
     ik = SpatialIK(plant, H, face_axis=face_axis, name=data.name)
     pts, idx, normals, rotations = spatial_poses.path_points(tk.poses_m, tk.transfer_points, tk.pose_normals,
                                                              tk.pose_rotations, face_axis)

@@ -18,7 +18,9 @@ with one line naming it, the residual and the reason (too few joints for the con
 its limit, a singular orientation, or out of reach) (QmtInputError). A face normal leaves the spin
 about it free (what a suction cup or a magnet needs); a rotation fixes it. `max_joint_step_rad` on a
 path refuses a jump between neighbouring points (a branch change) instead of returning a
-discontinuous joint path.
+discontinuous joint path. Without a seed (`seed=None`), a path is tried from several starts
+(`starts`: the middle of the joint ranges, then deterministic draws inside them) and the solution with
+the least joint motion along the path is kept, so a user need not know the arm's IK branches.
 """
 
 from __future__ import annotations
@@ -37,6 +39,9 @@ ANGLE_TOL_RAD = 1e-6
 LM_DAMPING0 = 1e-9  # first damping (m^2 / rad^2 scale of J J^T) after a rejected Gauss-Newton step
 LM_DAMPING_MAX = 1e3  # beyond this the step is ~ J^T e / lambda, too small to matter: stop
 LM_MAX_REJECTED = 40
+N_STARTS = 12  # seedless path: starts tried (the ranges' middle + draws); the first 3 that succeed are compared
+N_SUCCESSES = 3
+UNBOUNDED_HALF_RANGE_RAD = np.pi  # a start for a joint without a finite range is drawn in [-pi, pi]
 SINGULAR_REL = 1e-6  # a singular value below this x the largest: the constraint's Jacobian loses rank
 
 
@@ -117,10 +122,38 @@ class SpatialIK:
                             f"residual {ep:.3g} m, {ea:.3g} rad; {reason}; move the point or change its "
                             "orientation")
 
+    def starts(self, count: int = N_STARTS) -> np.ndarray:
+        """(count, n) IK starts for a seedless path: the middle of each joint's range (0 for a joint
+        without a finite range), then uniform draws inside the ranges from a fixed generator (the same
+        starts every run, so a scenario's joint path and plan identity are reproducible)."""
+        lo = np.where(np.isfinite(self.lower), self.lower, -UNBOUNDED_HALF_RANGE_RAD)
+        hi = np.where(np.isfinite(self.upper), self.upper, UNBOUNDED_HALF_RANGE_RAD)
+        mid = np.where(np.isfinite(self.lower) & np.isfinite(self.upper), 0.5 * (lo + hi), 0.0)
+        draws = np.random.default_rng(0).uniform(lo, hi, size=(count - 1, len(lo)))
+        return np.vstack([mid, draws])
+
     def solve_path(self, positions_m, *, normals=None, rotations=None, seed, max_joint_step_rad=None,
                    what: str = "path point") -> np.ndarray:
         """(K, n) joint positions along K targets, point k seeded from point k-1 (the first from
-        `seed`); a joint step above max_joint_step_rad between neighbours is refused."""
+        `seed`); a joint step above max_joint_step_rad between neighbours is refused. seed=None tries
+        the paths from `starts()` and keeps the one with the least joint motion (sum of |dq| over the
+        path's steps); if none succeeds, the refusal is the middle start's, saying no start reached it."""
+        if seed is None:
+            found, first_error = [], None
+            for start in self.starts():
+                try:
+                    found.append(self.solve_path(positions_m, normals=normals, rotations=rotations, seed=start,
+                                                 max_joint_step_rad=max_joint_step_rad, what=what))
+                except QmtInputError as e:
+                    first_error = first_error or e
+                if len(found) == N_SUCCESSES:
+                    break
+            if not found:
+                raise QmtInputError(str(first_error)
+                                    .replace("another seed_rad may reach it", f"none of {N_STARTS} IK starts "
+                                             "reached it; give task.seed_rad near a posture that does")
+                                    .replace("or choose another seed", f"(from each of {N_STARTS} IK starts)"))
+            return min(found, key=lambda q: (float(np.abs(np.diff(q, axis=0)).sum()), float(np.abs(q[0]).sum())))
         P = np.atleast_2d(np.asarray(positions_m, float))
         out = np.empty((len(P), self.chain.n_dof))
         prev = np.asarray(seed, float)

@@ -29,6 +29,20 @@ EXAMPLE_ARMS = {
     "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_eef", ()),
     "z1": ("z1_description/urdf/z1.urdf", "gripperStator", ("jointGripper",)),
 }
+# The hand-frame axis a known arm's tool points along, where it is not z: the Z1's wrist rolls about
+# gripperStator's x axis, and the Kinova's j2s6s200_end_effector frame has its x axis along the wrist's
+# roll axis, 0.16 m out from the wrist. tests/test_known_arm_setup.py checks each known arm's face axis
+# against its last joint's axis and the wrist-to-hand offset by Drake's kinematics.
+EXAMPLE_FACE_AXES = {"z1": (1.0, 0.0, 0.0), "kinova": (1.0, 0.0, 0.0)}
+
+
+def example_face_axis(ref: str) -> tuple | None:
+    """The known arm's face axis for `arm.package` ref 'example-robot-data/<arm>' (z unless listed in
+    EXAMPLE_FACE_AXES); None for any other ref."""
+    dist, _, rest = ref.partition("/")
+    if dist != "example-robot-data" or rest not in EXAMPLE_ARMS:
+        return None
+    return EXAMPLE_FACE_AXES.get(rest, (0.0, 0.0, 1.0))
 
 
 def example_robot_urdf(name: str) -> tuple[Path, str, tuple]:
