@@ -34,6 +34,7 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
+from qmt_drake.planners import trajopt_core
 from qmt_drake.planners.baselines.finish import (
     finish_plan,
     infeasible_plan,
@@ -47,7 +48,6 @@ from qmt_drake.planners.trajopt_core import (
     TrajoptProblem,
     basis_weights,
     samples_with_knots,
-    solve,
 )
 from qmt_drake.trajectory import JointTrajectory
 
@@ -174,7 +174,7 @@ def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: 
         terms, F, g = ls.toppra_rows()
         problem.limit_rows.append(LimitRows(lambda q, qd, qdd: ls.toppra_w(terms, q, qd, qdd), F, g, samples,
                                             "limit set rows (" + ", ".join(t.name for t in terms) + ")"))
-    res = solve(problem)
+    res = trajopt_core.solve(problem)
     extra["constraint_samples_with_knots"] = int(samples(res.basis).size)
     extra["solver"] = {"name": "SNOPT", "success": res.success, "info": res.info,
                        "solution_result": res.solution_result,
