@@ -12,7 +12,8 @@
   genes give the shape, the cost is the tight duration), else a candidate is feasible or not as its
   genes give it (the thesis's GA: it must find the feasibility boundary itself).
 
-Both return a SpatialPlan held at the re-check rate (spatial_plan_io.finish_plan).
+Both return a SpatialPlan held at the re-check rate (spatial_plan_io.finish_plan). The optimum's searches
+are the one family-optimum search's (planners/family_optimum_core.py; this is its spatial adapter).
 """
 
 from __future__ import annotations
@@ -21,11 +22,11 @@ import hashlib
 import time
 
 import numpy as np
-from scipy.optimize import minimize, minimize_scalar
 
 from qmt_drake.config.scenario import GaSettings
 from qmt_drake.errors import QmtInputError, QmtNoPlanError
 from qmt_drake.limits.spatial_columns import joint_range_by_name
+from qmt_drake.planners import family_optimum_core
 from qmt_drake.planners.ga import check_checkpoint, run_ga
 from qmt_drake.planners.spatial_families import spatial_family
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan, make_spatial_plan
@@ -136,12 +137,8 @@ def _via_optimum(sc, restarts: int):
         excess = range_excess_rad(fam.trajectory(w / w.sum()).pp, lower, upper)
         return tight_time(sc, x)[0] + RANGE_PENALTY_S_PER_RAD * excess if excess > 0.0 else tight_time(sc, x)[0]
 
-    best = None
-    for x0 in starts:
-        r = minimize(objective, x0 / x0.sum(), method="Nelder-Mead",
-                     options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 600})
-        if best is None or r.fun < best.fun:
-            best = r
+    _, best = family_optimum_core.minimise(objective, [x0 / x0.sum() for x0 in starts],
+                                           options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 600})
     return tight_time(sc, best.x)[1], int(best.nfev)
 
 
@@ -155,12 +152,9 @@ def _segment_optimum(sc, fam, i: int) -> tuple[np.ndarray, int]:
     T = times(grid)
     if not np.isfinite(T).any():
         _tight_or_refuse(sc, fam.segment_trajectory(i, 1.0, 0.0), TIGHT_SAMPLES)
-    j = int(np.argmin(T))
-    lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
-    r = minimize_scalar(lambda x: times([x])[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-6})
-    ratio, best = (r.x, r.fun) if r.fun < T[j] else (grid[j], T[j])
+    ratio, best, evaluations = family_optimum_core.grid_then_brent(times, grid, T, xatol=1e-6)
     k = best / (2.0 + ratio)
-    return np.array([k, k * ratio]), len(grid) + int(r.nfev)
+    return np.array([k, k * ratio]), evaluations
 
 
 def plan_family_optimum(sc, *, restarts: int = 1, family: str = "via_cubic") -> SpatialPlan:
