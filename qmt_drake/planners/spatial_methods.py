@@ -23,7 +23,8 @@
   it the spline tilts the hand between path points until gravity alone breaks the magnet's moment
   limit); SNOPT with a 1e-10 feasibility tolerance. Torque and suction are not in its program
   (nonlinear in the spline's control points), so the result is time-scaled uniformly (scale_to_hold)
-  until their re-check holds.
+  until their re-check holds. The program is the one trajopt's (planners/trajopt_core.py; this is its
+  spatial adapter, the planar one planners/baselines/trajopt_plan.py).
 
 Every planner returns a SpatialPlan (planners/spatial_plan_io: a plan.Plan of the spatial kind).
 Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
