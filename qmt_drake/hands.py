@@ -306,9 +306,6 @@ register_hand(HandPlugin(
     # at their control period, and its search per bottle is a study of its own
     carried_search_note=("not searched here for a tray scenario: qmt-drake plan crane-tray --method toppra "
                          "--carried, or per friction and fill python -m studies.tray_carried"),
-    # its B-spline path does not hold the tray level and its constraints have no tray terms: the
-    # re-check's slow-down search (finish.py) cannot make it keep the tray limits
-    refused_methods={"trajopt": "its path does not hold the tray level and its constraints have no tray terms"},
     case_parameters=TRAY_CASE_PARAMETERS,
     case_overrides=drawn_bottle_overrides,
 ))

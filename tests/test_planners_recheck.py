@@ -70,13 +70,13 @@ def test_gravity_time_scale_search_stays_within_the_family_budget():
 
 
 def test_slow_down_search_stops_at_the_time_budget():
-    """trajopt's path tilts the tray (it has no tray terms): no slowing within the family's time
-    budget keeps the bottle, so the plan is infeasible, quickly, instead of re-checking ever
-    slower motions (finish.slow_to_limits_factor's cap)."""
+    """trajopt with the thesis arms' rows only (payload moment and effort, limit_rows="moment": no tray
+    terms) tilts the tray: no slowing within the family's time budget keeps the bottle, so the plan is
+    infeasible, quickly, instead of re-checking ever slower motions (finish.slow_to_limits_factor's cap)."""
     from qmt_drake.planners.baselines.finish import slowest_allowed_motion_s
     from qmt_drake.transfer_scenario import load_scenario
     sc = load_scenario("crane-tray")
-    plan = plan_with("trajopt", sc)
+    plan = plan_with("trajopt", sc, limit_rows="moment", **METHODS["trajopt"])
     assert not plan.feasible
     assert plan.motion_time_s <= slowest_allowed_motion_s(sc) * (1 + 1e-9)
     assert plan.extra["slowdown_factor"] * plan.extra["raw_check"]["motion_time_s"] <= slowest_allowed_motion_s(sc) * (1 + 1e-9)

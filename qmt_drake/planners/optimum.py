@@ -6,8 +6,9 @@ velocity limit), playing a motion lam times slower divides every peak ratio by l
 gene vector x maps to the tight motion y(x) = time_scaled(x, sqrt(worst_ratio(x))), whose duration is
 T0(x) * sqrt(worst_ratio(x)); the family optimum is the smallest such duration among the y that
 stay inside the gene bounds. That objective is piecewise smooth (a max over samples), so it is
-minimised with bounded Nelder-Mead (scipy) from a seeded Latin hypercube of starts, with a
-penalty for y leaving the bounds; the best y is clipped to the bounds and, if still over a limit,
+minimised with bounded Nelder-Mead (the one family-optimum search, planners/family_optimum_core.py;
+this is its planar adapter) from a seeded Latin hypercube of starts, with a penalty for y leaving
+the bounds; the best y is clipped to the bounds and, if still over a limit,
 slowed by the exact factor. With gravity (or any other non-inertial limit) the tight scale is found
 by a batched bisection on lam instead (`tight_scale`). The winner is re-checked at the check rate
 like every plan.
@@ -18,10 +19,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.optimize import minimize
 from scipy.stats import qmc
 
 from qmt_drake.plan import Plan, family_plan
+from qmt_drake.planners import family_optimum_core
 from qmt_drake.problem import Evaluation, PlanningProblem
 
 BOUND_PENALTY_S = 100.0  # seconds of objective per unit of normalised bound violation
@@ -114,23 +115,17 @@ def plan_family_optimum(problem: PlanningProblem, *, starts: int = 24, polished:
         y, T0, v = tight_motion(problem, (lo + span * z)[None])
         return float(T0[0] + BOUND_PENALTY_S * v[0]) if np.isfinite(T0[0]) else 1e6
 
-    best = None
-    for rank, i in enumerate(order):
-        if not np.isfinite(score[i]):
-            continue
-        res = minimize(objective, (x0[i] - lo) / span, method="Nelder-Mead",
-                       bounds=[(0.0, 1.0)] * lo.size,
-                       options={"xatol": 1e-7, "fatol": 1e-8, "maxiter": 2000})
-        y = tight_motion(problem, (lo + span * res.x)[None])[0][0]
-        y = _settle_inside_bounds(problem, y)
-        if y is None:
-            continue
-        T0 = float(problem.family.motion_time_s(y[None])[0])
+    def settle(res):  # the tight motion of the polished start, inside the gene bounds (or dropped)
+        y = _settle_inside_bounds(problem, tight_motion(problem, (lo + span * res.x)[None])[0][0])
+        return None if y is None else (float(problem.family.motion_time_s(y[None])[0]), y)
+
+    def report(k, T0):
         if progress:
-            progress(f"{problem.scenario.name} optimum: start {rank + 1}/{len(order)} -> "
-                     f"T0 {T0:.5f} s")
-        if best is None or T0 < best[0]:
-            best = (T0, y)
+            progress(f"{problem.scenario.name} optimum: start {k + 1}/{len(order)} -> T0 {T0:.5f} s")
+
+    starts_z = [(x0[i] - lo) / span if np.isfinite(score[i]) else None for i in order]
+    best = family_optimum_core.minimise(objective, starts_z, bounds=[(0.0, 1.0)] * lo.size, settle=settle,
+                                        progress=report, options={"xatol": 1e-7, "fatol": 1e-8, "maxiter": 2000})
     genes = best[1] if best is not None else x0[order[0]]
     plan = family_plan(problem, genes, "optimum")
     if best is not None and not plan.feasible and plan.check.joint_range_ok:

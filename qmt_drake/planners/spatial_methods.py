@@ -23,7 +23,8 @@
   it the spline tilts the hand between path points until gravity alone breaks the magnet's moment
   limit); SNOPT with a 1e-10 feasibility tolerance. Torque and suction are not in its program
   (nonlinear in the spline's control points), so the result is time-scaled uniformly (scale_to_hold)
-  until their re-check holds.
+  until their re-check holds. The program is the one trajopt's (planners/trajopt_core.py; this is its
+  spatial adapter, the planar one planners/baselines/trajopt_plan.py).
 
 Every planner returns a SpatialPlan (planners/spatial_plan_io: a plan.Plan of the spatial kind).
 Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
@@ -37,14 +38,11 @@ import time
 
 import numpy as np
 from pydrake.multibody.inverse_kinematics import AngleBetweenVectorsConstraint
-from pydrake.planning import KinematicTrajectoryOptimization
-from pydrake.solvers import SnoptSolver, Solve, SolverOptions
-from pydrake.trajectories import BsplineTrajectory
 
 from qmt_drake.errors import QmtInputError, QmtNoPlanError
 from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.model.spatial_ik import slerp_unit
-from qmt_drake.planners import registry
+from qmt_drake.planners import registry, trajopt_core
 from qmt_drake.planners.registry import SPATIAL
 from qmt_drake.planners.spatial_families import spatial_family, via_cubic
 from qmt_drake.planners.spatial_plan_io import SpatialPlan
@@ -149,38 +147,25 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
     s = np.asarray(point_fractions, float)
     if s.shape != (len(Q),) or s[0] != 0.0 or s[-1] != 1.0 or np.any(np.diff(s) <= 0.0):
         raise QmtInputError(f"trajopt point_fractions: give {len(Q)} rising fractions from 0 to 1, one per path point")
-    to = KinematicTrajectoryOptimization(n, control_points, 4)
-    to.AddDurationCost(1.0)
-    to.AddPositionBounds(sc.plant.GetPositionLowerLimits(), sc.plant.GetPositionUpperLimits())
-    to.AddVelocityBounds(-sc.velocity_limit_rad_s, sc.velocity_limit_rad_s)
-    to.AddAccelerationBounds(-sc.acceleration_limit_rad_s2, sc.acceleration_limit_rad_s2)
-    to.AddJerkBounds(-sc.jerk_limit_rad_s3, sc.jerk_limit_rad_s3)
-    to.AddDurationConstraint(0.05, 60.0)
-    for sk, qk in zip(s, Q):
-        to.AddPathPositionConstraint(qk, qk, sk)
-    for sk in (0.0, 1.0):
-        to.AddPathVelocityConstraint(np.zeros(n), np.zeros(n), sk)
-        to.AddPathAccelerationConstraint(np.zeros(n), np.zeros(n), sk)
+    lower, upper = sc.plant.GetPositionLowerLimits(), sc.plant.GetPositionUpperLimits()
+    tilt = []
     if max_tilt_rad is not None:  # the face normal within max_tilt_rad of the path's at tilt_samples points
         ctx = sc.plant.CreateDefaultContext()
-        for sk in np.linspace(0.0, 1.0, tilt_samples):
-            tilt = AngleBetweenVectorsConstraint(sc.plant, sc.plant.world_frame(), _normal_at(sc, s, sk), sc.ik.hand,
-                                                 sc.ik.face_axis, 0.0, max_tilt_rad, ctx)
-            to.AddPathPositionConstraint(tilt, sk)
+        tilt = [(AngleBetweenVectorsConstraint(sc.plant, sc.plant.world_frame(), _normal_at(sc, s, sk), sc.ik.hand,
+                                               sc.ik.face_axis, 0.0, max_tilt_rad, ctx), sk)
+                for sk in np.linspace(0.0, 1.0, tilt_samples)]
     u = np.linspace(0.0, 1.0, control_points)
-    guess = [np.array([np.interp(x, s, Q[:, j]) for j in range(n)]).reshape(n, 1) for x in u]
-    to.SetInitialGuess(BsplineTrajectory(to.basis(), guess))
-    opts = SolverOptions()
-    opts.SetOption(SnoptSolver.id(), "Major feasibility tolerance", 1e-10)
-    res = Solve(to.get_mutable_prog(), None, opts)
-    if not res.is_success():
-        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.get_solution_result()}); "
+    guess = np.array([[np.interp(x, s, Q[:, j]) for j in range(n)] for x in u])
+    res = trajopt_core.solve(trajopt_core.TrajoptProblem(
+        Q, s, lower, upper, control_points, (0.05, 60.0), guess, rest_derivatives=2,
+        velocity_limit=sc.velocity_limit_rad_s, acceleration_limit=sc.acceleration_limit_rad_s2,
+        jerk_limit=sc.jerk_limit_rad_s3, path_constraints=tilt, snopt_options={"Major feasibility tolerance": 1e-10}))
+    if not res.success:
+        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}); "
                             "give it more control points or relax a limit")
-    bs = to.ReconstructTrajectory(res)
-    traj = PolyTrajectory(bs)
+    traj = PolyTrajectory(res.trajectory)
     return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
-                   {"control_points": control_points, "solver": res.get_solver_id().name(),
-                    "point_fractions": s})
+                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s})
 
 
 def _normal_at(sc, fractions, x: float) -> np.ndarray:

@@ -12,7 +12,8 @@
   genes give the shape, the cost is the tight duration), else a candidate is feasible or not as its
   genes give it (the thesis's GA: it must find the feasibility boundary itself).
 
-Both return a SpatialPlan held at the re-check rate (spatial_plan_io.finish_plan).
+Both return a SpatialPlan held at the re-check rate (spatial_plan_io.finish_plan). The optimum's searches
+are the one family-optimum search's (planners/family_optimum_core.py; this is its spatial adapter).
 """
 
 from __future__ import annotations
@@ -21,10 +22,11 @@ import hashlib
 import time
 
 import numpy as np
-from scipy.optimize import minimize, minimize_scalar
 
 from qmt_drake.config.scenario import GaSettings
 from qmt_drake.errors import QmtInputError, QmtNoPlanError
+from qmt_drake.limits.spatial_columns import joint_range_by_name
+from qmt_drake.planners import family_optimum_core
 from qmt_drake.planners.ga import check_checkpoint, run_ga
 from qmt_drake.planners.spatial_families import spatial_family
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, finish_plan, make_spatial_plan
@@ -35,6 +37,10 @@ from qmt_drake.problem import Evaluation, MinimumTime
 TIGHT_BATCH = 50  # candidates per tight_scales call
 OPT_GRID = 41  # cruise/accel ratios tried per rest-to-rest segment before Brent
 OPT_RATIO_MAX = 20.0
+RANGE_PENALTY_S_PER_RAD = 100.0  # the via optimum's objective: seconds per radian outside a joint range
+# the ranges the via optimum keeps, shrunk by this (rad): a penalty's optimum lies a hair outside its
+# boundary (where the time it gains outweighs the penalty), so the boundary is drawn this much inside
+RANGE_MARGIN_RAD = 1e-6
 GA_RUN_LENGTH = (150, 60)  # the settings' (generations, stall) in a checkpoint's identity; the call's own are used
 
 
@@ -90,16 +96,49 @@ def tight_time(sc, shares, samples: int = TIGHT_SAMPLES) -> tuple[float, np.ndar
     return k, T * k
 
 
+def range_excess_rad(pp, lower_rad, upper_rad) -> float:
+    """How far (rad) a cubic PiecewisePolynomial q(t) leaves the joint ranges anywhere (0 inside): its
+    values at the breaks and at every stationary point of every piece (the roots of its derivative, a
+    quadratic fitted exactly through three of its values), so between samples too."""
+    b = np.asarray(pp.get_segment_times(), float)
+    t0, t1 = b[:-1], b[1:]
+    d = pp.MakeDerivative(1)
+    d0, dm, d1 = (d.vector_values(t).T for t in (t0, 0.5 * (t0 + t1), t1))  # (P, n) each; C1, so ends agree
+    a2, a1, a0 = 2.0 * d1 + 2.0 * d0 - 4.0 * dm, 4.0 * dm - 3.0 * d0 - d1, d0  # d(u) = a2 u^2 + a1 u + a0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        disc = np.sqrt(np.where(a1 * a1 - 4.0 * a2 * a0 >= 0.0, a1 * a1 - 4.0 * a2 * a0, np.nan))
+        quad = np.abs(a2) > 1e-12 * (np.abs(a1) + np.abs(a0) + 1e-300)
+        roots = [np.where(quad, (-a1 + disc) / (2.0 * a2), -a0 / a1), np.where(quad, (-a1 - disc) / (2.0 * a2), np.nan)]
+    h = (t1 - t0)[:, None]
+    excess = 0.0
+    for u in roots:  # per piece and joint: evaluate joint j at t0 + u h where 0 < u < 1
+        ok = np.isfinite(u) & (u > 0.0) & (u < 1.0)
+        for i, j in zip(*np.nonzero(ok)):
+            v = pp.value(t0[i] + u[i, j] * h[i, 0])[j, 0]
+            excess = max(excess, v - upper_rad[j], lower_rad[j] - v)
+    q = pp.vector_values(b).T
+    return float(max(excess, np.max(q - upper_rad), np.max(lower_rad - q), 0.0))
+
+
 def _via_optimum(sc, restarts: int):
+    """Nelder-Mead over the shares of the tight duration plus RANGE_PENALTY_S_PER_RAD times how far the
+    cubic leaves a joint range shrunk by RANGE_MARGIN_RAD (range_excess_rad: the timing does not move the
+    path, the shares do), so a cubic inside the ranges is found where one exists; inside them the
+    objective is the tight duration alone."""
     m = len(sc.q_poses_rad) - 1
     d = np.linalg.norm(np.diff(sc.q_poses_rad, axis=0), ord=np.inf, axis=1)
     starts = [np.sqrt(d), np.ones(m)][:restarts]
-    best = None
-    for x0 in starts:
-        r = minimize(lambda x: tight_time(sc, x)[0], x0 / x0.sum(), method="Nelder-Mead",
-                     options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 600})
-        if best is None or r.fun < best.fun:
-            best = r
+    lower, upper = joint_range_by_name(sc.plant, sc.joint_names)
+    lower, upper = lower + RANGE_MARGIN_RAD, upper - RANGE_MARGIN_RAD
+    fam = spatial_family(sc, "via_cubic")
+
+    def objective(x):
+        w = np.abs(np.asarray(x, float)) + 1e-6  # the shares as tight_time takes them
+        excess = range_excess_rad(fam.trajectory(w / w.sum()).pp, lower, upper)
+        return tight_time(sc, x)[0] + RANGE_PENALTY_S_PER_RAD * excess if excess > 0.0 else tight_time(sc, x)[0]
+
+    _, best = family_optimum_core.minimise(objective, [x0 / x0.sum() for x0 in starts],
+                                           options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 600})
     return tight_time(sc, best.x)[1], int(best.nfev)
 
 
@@ -113,12 +152,9 @@ def _segment_optimum(sc, fam, i: int) -> tuple[np.ndarray, int]:
     T = times(grid)
     if not np.isfinite(T).any():
         _tight_or_refuse(sc, fam.segment_trajectory(i, 1.0, 0.0), TIGHT_SAMPLES)
-    j = int(np.argmin(T))
-    lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
-    r = minimize_scalar(lambda x: times([x])[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-6})
-    ratio, best = (r.x, r.fun) if r.fun < T[j] else (grid[j], T[j])
+    ratio, best, evaluations = family_optimum_core.grid_then_brent(times, grid, T, xatol=1e-6)
     k = best / (2.0 + ratio)
-    return np.array([k, k * ratio]), len(grid) + int(r.nfev)
+    return np.array([k, k * ratio]), evaluations
 
 
 def plan_family_optimum(sc, *, restarts: int = 1, family: str = "via_cubic") -> SpatialPlan:

@@ -12,6 +12,12 @@ variable; the cost is T. Constraints:
     points and T only;
   - motor torques at the same times: AddEffortBoundsAtNormalizedTimes with joint-side bounds
     N_i * motor limit_i (Drake's inverse dynamics includes the reflected rotor inertia).
+  (`limit_rows="moment"`, the thesis arms' published variant; with `"limit_set"`, the tray, the two
+  items above are instead every limit term's TOPP-RA rows F w(q, qd, qdd) <= g at the same times:
+  the friction cone, the base circle and F_n >= 0 of the bottle, the servos' torques and speeds.)
+
+The program is built and solved by the one trajopt, planners/trajopt_core.py; this is its planar
+adapter (the spatial one is spatial_methods.plan_trajopt_spatial).
 
 The constraints hold at the samples; the result is re-checked at 10 kHz like every plan and, if it
 breaks a limit between samples, played slower by the exact factor with the raw overshoot kept in
@@ -25,12 +31,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from pydrake.planning import KinematicTrajectoryOptimization
-from pydrake.solvers import SnoptSolver, SolverOptions
-from pydrake.trajectories import BsplineTrajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
+from qmt_drake.planners import trajopt_core
 from qmt_drake.planners.baselines.finish import (
     finish_plan,
     infeasible_plan,
@@ -38,21 +42,17 @@ from qmt_drake.planners.baselines.finish import (
     slowest_allowed_motion_s,
 )
 from qmt_drake.planners.baselines.paths import reported_family_plan, task_joint_points
+from qmt_drake.planners.trajopt_core import (
+    LimitRows,
+    RatioRows,
+    TrajoptProblem,
+    basis_weights,
+    samples_with_knots,
+)
 from qmt_drake.trajectory import JointTrajectory
 
-
-def basis_weights(basis, s: float, order: int = 2):
-    """(active indices, weights (order+1, len(active))): q^(k)(s) = P[:, idx] @ weights[k]."""
-    m = basis.num_basis_functions()
-    eye = [np.eye(m)[:, [i]] for i in range(m)]
-    traj = BsplineTrajectory(basis, eye)
-    idx = np.array(basis.ComputeActiveBasisFunctionIndices(s))
-    W = [traj.value(s)[idx, 0]]
-    d = traj
-    for _ in range(order):
-        d = d.MakeDerivative()
-        W.append(d.value(s)[idx, 0])
-    return idx, np.array(W)
+LIMIT_ROWS = ("auto", "moment", "limit_set")
+__all__ = ["basis_weights", "plan_trajopt", "default_via_times", "BsplineJointTrajectory", "LIMIT_ROWS"]
 
 
 class BsplineJointTrajectory(JointTrajectory):
@@ -94,28 +94,35 @@ def default_via_times(scenario, n_points: int) -> np.ndarray:
 
 def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: int = 80,
                  via_times=None, initial_guess: str = "family", max_motion_time_s: float | None = None,
-                 slow_to_limits: bool = True, major_iterations: int = 500) -> Plan:
+                 slow_to_limits: bool = True, major_iterations: int = 500, limit_rows: str = "auto") -> Plan:
     """Minimum-duration B-spline through the task points ("trajopt"); see the module docstring.
 
     num_control_points: B-spline control points (order 4). constraint_samples: normalized times at
-    which the moment and effort constraints are imposed (uniform, ends included). via_times:
+    which the limit rows are imposed (uniform, ends included, plus every knot). via_times:
     normalized times of the via points (default `default_via_times`). initial_guess: "family"
     (least-squares fit to the thesis's reported plan) or "joint_line" (straight joint segments
     over the reported motion time). max_motion_time_s: the duration's upper bound and time budget
-    (default: the family's slowest allowed motion). major_iterations: SNOPT's limit.
+    (default: the family's slowest allowed motion). major_iterations: SNOPT's limit. limit_rows:
+    "moment" (the payload moment's AutoDiff rows and Drake's effort bounds: the thesis arms'
+    published variant), "limit_set" (every term's TOPP-RA rows: the tray's friction cone, base
+    circle and lift, servo torques and speeds) or "auto" (moment when the scenario has a payload
+    moment limit, else limit_set).
     """
     if initial_guess not in ("family", "joint_line"):
         raise QmtInputError("initial_guess must be 'family' or 'joint_line'")
     if num_control_points < 6 or constraint_samples < 3:
         raise QmtInputError("trajopt needs num_control_points >= 6 and constraint_samples >= 3")
+    if limit_rows not in LIMIT_ROWS:
+        raise QmtInputError(f"limit_rows {limit_rows!r}: use {' or '.join(LIMIT_ROWS)}")
+    if limit_rows == "auto":
+        limit_rows = "moment" if scenario.limit_set.term("payload_moment") is not None else "limit_set"
     method = "trajopt"
     t_start = time.perf_counter()
     arm = scenario.arm
     n = arm.n_dof
-    A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
     extra = {"num_control_points": int(num_control_points),
              "constraint_samples": int(constraint_samples), "initial_guess": initial_guess,
-             "path": "free (B-spline through the task points)"}
+             "path": "free (B-spline through the task points)", "limit_rows": limit_rows}
     try:
         qk = task_joint_points(scenario)
     except QmtInputError as exc:
@@ -129,80 +136,57 @@ def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: 
     if sv.size:
         extra["notes"] = ["via points at fixed normalized times (not optimised)"]
 
-    # Initial guess.
+    # Initial guess: a least-squares fit of the control points, at rest at both ends.
     ref = reported_family_plan(scenario)
     T0 = ref.motion_time_s
-    trajopt = KinematicTrajectoryOptimization(n, num_control_points, 4, T0)
-    basis = trajopt.basis()
     sg = np.linspace(0.0, 1.0, 400)
     if initial_guess == "family":
         q_guess = ref.trajectory.sample(sg * T0)[0]
     else:
         knots = np.concatenate([[0], sv, [1]])
         q_guess = np.stack([np.interp(sg, knots, qk[:, j]) for j in range(n)], axis=1)
-    B = np.array([[basis.EvaluateBasisFunctionI(i, s) for i in range(num_control_points)]
-                  for s in sg])
-    P0 = np.linalg.lstsq(B, q_guess, rcond=None)[0]  # (ncp, n)
-    P0[0], P0[-1] = qk[0], qk[-1]
-    P0[1], P0[-2] = qk[0], qk[-1]  # zero end velocity
-    guess = BsplineTrajectory(basis, [P0[i][:, None] for i in range(num_control_points)])
-    trajopt.SetInitialGuess(guess)
-    prog = trajopt.get_mutable_prog()
-    prog.SetInitialGuess(trajopt.duration(), T0)
 
-    trajopt.AddDurationCost(1.0)
-    trajopt.AddDurationConstraint(1e-3, T_max)
-    trajopt.AddPositionBounds(arm.joint_lower_rad, arm.joint_upper_rad)
-    trajopt.AddPathPositionConstraint(qk[0], qk[0], 0.0)
-    trajopt.AddPathPositionConstraint(qk[-1], qk[-1], 1.0)
-    trajopt.AddPathVelocityConstraint(np.zeros(n), np.zeros(n), 0.0)
-    trajopt.AddPathVelocityConstraint(np.zeros(n), np.zeros(n), 1.0)
-    for s, q in zip(sv, qk[1:-1]):
-        trajopt.AddPathPositionConstraint(q, q, float(s))
+    def initial_points(basis):  # least squares on the program's own basis (its knots, to the bit)
+        B = np.array([[basis.EvaluateBasisFunctionI(i, s) for i in range(num_control_points)] for s in sg])
+        P0 = np.linalg.lstsq(B, q_guess, rcond=None)[0]  # (ncp, n)
+        P0[0], P0[-1] = qk[0], qk[-1]
+        P0[1], P0[-2] = qk[0], qk[-1]  # zero end velocity
+        return P0
 
-    # Uniform samples plus every knot: the tip acceleration has a kink at a knot (the jerk of a
-    # cubic B-spline jumps there) and an optimiser puts its peaks exactly there.
-    knots = np.clip(np.asarray(basis.knots()), 0.0, 1.0)
-    samples = np.unique(np.round(np.concatenate([np.linspace(0.0, 1.0, constraint_samples),
-                                                 knots]), 12))
-    extra["constraint_samples_with_knots"] = int(samples.size)
-    P = trajopt.control_points()  # (n, ncp)
-    Tvar = trajopt.duration()
-    for s in samples:
-        idx, W = basis_weights(basis, float(s))
-        k = len(idx)
+    def samples(b):
+        return samples_with_knots(b, constraint_samples)
 
-        def moment(x, W=W, k=k):
-            Pa = x[:n * k].reshape(n, k)
-            T = x[-1]
-            q, q1, q2 = Pa @ W[0], Pa @ W[1], Pa @ W[2]
+    problem = TrajoptProblem(np.asarray(qk, float), np.concatenate([[0.0], sv, [1.0]]), arm.joint_lower_rad,
+                             arm.joint_upper_rad, num_control_points, (1e-3, T_max), initial_points, initial_duration_s=T0,
+                             snopt_options={"Major iterations limit": int(major_iterations)})
+    if limit_rows == "moment":
+        A = scenario.limits.moment_limit_Nm / scenario.moment_per_accel_kgm
+
+        def moment(q, q1, q2, T):
             a = arm.tip_acceleration(q, q1, q2)  # m per (normalized s)^2 (AutoDiffXd)
-            r2 = (a[0] * a[0] + a[1] * a[1]) / (A * A * T**4)
-            return np.array([r2])
+            return np.array([(a[0] * a[0] + a[1] * a[1]) / (A * A * T**4)])
 
-        vars_ = np.concatenate([P[:, idx].reshape(-1), [Tvar]])
-        prog.AddConstraint(moment, [-np.inf], [1.0], vars_, description=f"moment s={s:.3f}")
-    tau_lim = arm.gear_ratio * scenario.limits.motor_torque_limit_Nm
-    trajopt.AddEffortBoundsAtNormalizedTimes(arm.plant, samples, -tau_lim, tau_lim)
-
-    solver = SnoptSolver()
-    opts = SolverOptions()
-    opts.SetOption(solver.solver_id(), "Major iterations limit", int(major_iterations))
-    t0 = time.perf_counter()
-    result = solver.Solve(prog, None, opts)
-    solve_wall = time.perf_counter() - t0
-    info = result.get_solver_details().info
-    extra["solver"] = {"name": "SNOPT", "success": bool(result.is_success()), "info": int(info),
-                       "solution_result": str(result.get_solution_result()),
-                       "duration_s": float(result.GetSolution(Tvar)), "solve_wall_s": solve_wall}
-    traj = BsplineJointTrajectory(trajopt.ReconstructTrajectory(result))
+        problem.ratio_rows.append(RatioRows(moment, samples, "moment"))
+        tau_lim = arm.gear_ratio * scenario.limits.motor_torque_limit_Nm
+        problem.effort = (arm.plant, samples, -tau_lim, tau_lim)
+    else:
+        ls = scenario.limit_set
+        terms, F, g = ls.toppra_rows()
+        problem.limit_rows.append(LimitRows(lambda q, qd, qdd: ls.toppra_w(terms, q, qd, qdd), F, g, samples,
+                                            "limit set rows (" + ", ".join(t.name for t in terms) + ")"))
+    res = trajopt_core.solve(problem)
+    extra["constraint_samples_with_knots"] = int(samples(res.basis).size)
+    extra["solver"] = {"name": "SNOPT", "success": res.success, "info": res.info,
+                       "solution_result": res.solution_result,
+                       "duration_s": res.duration_s, "solve_wall_s": res.solve_wall_s}
+    traj = BsplineJointTrajectory(res.trajectory)
     wall = time.perf_counter() - t_start
-    if not result.is_success():
+    if not res.success:
         at_bound = traj.duration_s >= T_max * (1 - 1e-6)
         return infeasible_plan(
-            scenario, method, f"SNOPT did not converge ({result.get_solution_result()}, info "
-            f"{info})" + (f" with the duration at its upper bound {T_max:.4f} s (the slowest "
-                          "allowed motion): the limits are likely too tight" if at_bound else "")
+            scenario, method, f"SNOPT did not converge ({res.solution_result}, info "
+            f"{res.info})" + (f" with the duration at its upper bound {T_max:.4f} s (the slowest "
+                              "allowed motion): the limits are likely too tight" if at_bound else "")
             + "; the last iterate is kept as the trajectory", planner_wall_s=wall,
             trajectory=traj, extra=extra)
     return finish_plan(scenario, method, traj, planner_wall_s=wall, extra=extra,
