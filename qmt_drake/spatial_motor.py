@@ -8,6 +8,8 @@
         gear_efficiency: 1.0              # optional, (0, 1], default 1 (a loss-free gear, as the planners assume)
         integral_rate_per_s: 0.0          # optional, >= 0, default 0 (a PD law): the PID's integral gain as a
                                           # rate of the loop's stiffness, Ki = K * rate (joint side)
+        control_period_s: 0.002           # optional, the law's sample-and-hold period [s], from the plant step
+                                          # to 0.01 s; default: the plant step (the law acts at every step)
 
 The current limit is not a key: it is the joint's torque limit at the motor, I_max = tau_max / (N eta k_t),
 so the motors never deliver more than the actuators section's torque_limit_Nm (the planners' limit).
@@ -26,10 +28,13 @@ from qmt_drake.config import fields as F
 from qmt_drake.errors import QmtInputError
 
 MOTOR_KEYS = ("torque_constant_Nm_per_A", "resistance_ohm", "voltage_limit_V")
-OPTIONAL_KEYS = ("gear_efficiency", "integral_rate_per_s")
+OPTIONAL_KEYS = ("gear_efficiency", "integral_rate_per_s", "control_period_s")
 # the loop s^3 + 60 s^2 + 900 s + 900 rate (critically damped at 30 rad/s, sim/spatial_actuation) keeps its slow
 # pole pair damped at 0.55 or better up to rate 10 1/s (0.28 at 20, unstable at 60)
 MAX_INTEGRAL_RATE_PER_S = 10.0
+# the slowest sample-and-hold law: its half-period delay costs the loop 8.6 degrees of phase at its 30 rad/s,
+# 17 at 60 rad/s
+MAX_CONTROL_PERIOD_S = 0.01
 
 
 @dataclass(frozen=True)
@@ -42,6 +47,7 @@ class SpatialMotors:
     gear_efficiency: np.ndarray
     current_limit_A: np.ndarray  # tau_max / (N eta k_t): the torque limit at the motor
     integral_rate_per_s: np.ndarray  # Ki / K of the PID [1/s]; zeros: a PD law
+    control_period_s: float | None = None  # the law's sample-and-hold period [s]; None: the plant step
 
 
 def _per_joint(raw: dict, key: str, where: str, n: int, names, default=None, positive: bool = True) -> np.ndarray:
@@ -63,6 +69,20 @@ def check_integral_rate(value, section: str, n: int, joint_names=()) -> np.ndarr
         raise QmtInputError(f"{section}.{key} must be at most {MAX_INTEGRAL_RATE_PER_S:g} 1/s (beyond it the joint "
                             f"loop's slow poles are damped less than 0.55 and ring); got {rate.tolist()}")
     return rate
+
+
+def check_control_period(period_s, time_step_s: float | None = None) -> float | None:
+    """The DC drive law's control period [s] (None: the plant step): one line unless plant step <= period <=
+    MAX_CONTROL_PERIOD_S (a law faster than the plant acts at the plant's steps; beyond the bound the hold's
+    half-period delay costs the loop more than 8.6 degrees of phase at 30 rad/s)."""
+    if period_s is None:
+        return None
+    lo = 0.0 if time_step_s is None else time_step_s * (1.0 - 1e-9)
+    if not (np.isfinite(period_s) and lo < period_s <= MAX_CONTROL_PERIOD_S):
+        floor = "positive" if time_step_s is None else f"at least the plant step {time_step_s * 1e3:g} ms"
+        raise QmtInputError(f"control period {period_s * 1e3:g} ms: the DC drive's law is sampled at a period "
+                            f"{floor} and at most {MAX_CONTROL_PERIOD_S * 1e3:g} ms")
+    return float(period_s)
 
 
 def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: str) -> SpatialMotors | None:
@@ -90,4 +110,8 @@ def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: st
         raise QmtInputError(f"{where}: joint {joint_names[k]}'s motor reaches {stall[k]:.4g} N m at stall through the "
                             f"gear (N eta k_t V/R), below its torque limit {tau_max[k]:g} N m; raise voltage_limit_V "
                             "or torque_constant_Nm_per_A, or lower resistance_ohm")
-    return SpatialMotors(kt, r, v, eta, tau_max / (N * eta * kt), rate)
+    period = raw.get("control_period_s")
+    if period is not None and not F.is_number(period):
+        raise QmtInputError(f"{where}.control_period_s must be a number of seconds; got {F.show(period)}")
+    period = check_control_period(None if period is None else float(period))
+    return SpatialMotors(kt, r, v, eta, tau_max / (N * eta * kt), rate, period)
