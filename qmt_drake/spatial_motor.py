@@ -32,8 +32,9 @@ OPTIONAL_KEYS = ("gear_efficiency", "integral_rate_per_s", "control_period_s")
 # the loop s^3 + 60 s^2 + 900 s + 900 rate (critically damped at 30 rad/s, sim/spatial_actuation) keeps its slow
 # pole pair damped at 0.55 or better up to rate 10 1/s (0.28 at 20, unstable at 60)
 MAX_INTEGRAL_RATE_PER_S = 10.0
-# the slowest sample-and-hold law: its half-period delay costs the loop 8.6 degrees of phase at its 30 rad/s,
-# 17 at 60 rad/s
+# the slowest sample-and-hold law: its half-period delay costs the loop 8.6 degrees of phase at its 30 rad/s (38 at
+# the 132 rad/s of the Panda's wrist joints, damped by their back EMF alone); the Panda tray's shaped TOPP-RA run is
+# still carried at 10 ms (2.1 mrad tracking, docs/spatial_drives.md)
 MAX_CONTROL_PERIOD_S = 0.01
 
 
@@ -74,7 +75,7 @@ def check_integral_rate(value, section: str, n: int, joint_names=()) -> np.ndarr
 def check_control_period(period_s, time_step_s: float | None = None) -> float | None:
     """The DC drive law's control period [s] (None: the plant step): one line unless plant step <= period <=
     MAX_CONTROL_PERIOD_S (a law faster than the plant acts at the plant's steps; beyond the bound the hold's
-    half-period delay costs the loop more than 8.6 degrees of phase at 30 rad/s)."""
+    half-period delay costs the loop more than 8.6 degrees of phase at 30 rad/s: MAX_CONTROL_PERIOD_S)."""
     if period_s is None:
         return None
     lo = 0.0 if time_step_s is None else time_step_s * (1.0 - 1e-9)

@@ -28,6 +28,15 @@ loop's damping keeps Kd = 0 and gets the stiffness that makes b critical (K = b^
 every joint is critically damped at M_jj. The voltage gains come from joint-side K, D through
 joint_tracking.effective_joint_gains (K = c N Kp, D = c N Kd + b, c = N eta k_t / R).
 
+Integral (actuators.motor.integral_rate_per_s, or for_scenario / a sweep's sim.integral_rate_per_s; default 0):
+Ki = K * rate [1/s] on the same nominal design, clamped anti-windup (joint_tracking). Its discrete update reads
+the plant during the step, so the plant's output ports are made live (prepare_plant; Drake's sampled ports
+paired the next state with this step's reference). Control period (actuators.motor.control_period_s, a sweep's
+drawn loop_period_s; default the plant step, the unchanged every-step law): longer than the plant step, the law
+is sampled and held (JointPidController hold_period_s); its derivative then acts on held speeds, so only the
+motors' back EMF b is folded into the plant. `explicit` (`simulate --explicit`): nothing folded into the plant,
+the law applies the loop's damping itself (plant_damping_Nms).
+
 `add_tracking_logs` / `tracking_report` record the arm state and the plan (both actuators) and, with
 motors, the current, and summarise the tracking error along the motion and the largest motor torque
 N k_t i [N*m] over the torque limit.

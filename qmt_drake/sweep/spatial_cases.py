@@ -6,7 +6,9 @@ DC motors' PD law with its back-EMF and inverse-dynamics feedforward) are made f
 scenario; a case simulates a drawn copy of it (`perturbed_scenario`): the part's mass and centre of
 mass, the hand's hold (suction: vacuum pull, cup friction; magnet: pull, hence its moment limit;
 tray: the cup's friction), the motors' torque constant, resistance and gear efficiency (the
-amplifier's current limit stays the nominal one), and the executed timing (time_scale_jitter).
+amplifier's current limit stays the nominal one), the executed law's gains and loop period (kp_scale, kd_scale,
+loop_period_s: drawn_drive), and the executed timing (time_scale_jitter). The spec's sim.integral_rate_per_s
+gives the nominal law an integral (default: the scenario's, 0).
 
 A perturbed copy is cheap: dataclasses.replace of the scenario with a new CarriedBody / GripModel /
 TrayCup / SpatialMotors and, when the body changes, a new SpatialChain on the same plant (no URDF
