@@ -8,8 +8,9 @@
         gear_efficiency: 1.0              # optional, (0, 1], default 1 (a loss-free gear, as the planners assume)
         integral_rate_per_s: 0.0          # optional, >= 0, default 0 (a PD law): the PID's integral gain as a
                                           # rate of the loop's stiffness, Ki = K * rate (joint side)
-        control_period_s: 0.002           # optional, the law's sample-and-hold period [s], from the plant step
-                                          # to 0.01 s; default: the plant step (the law acts at every step)
+
+The law's control period is not a key here (it would change the scenario's identity, plan_identity.py, which
+plans carry): SpatialMotorDrive.for_scenario(control_period_s=) or a sweep's loop_period_s set it.
 
 The current limit is not a key: it is the joint's torque limit at the motor, I_max = tau_max / (N eta k_t),
 so the motors never deliver more than the actuators section's torque_limit_Nm (the planners' limit).
@@ -28,7 +29,7 @@ from qmt_drake.config import fields as F
 from qmt_drake.errors import QmtInputError
 
 MOTOR_KEYS = ("torque_constant_Nm_per_A", "resistance_ohm", "voltage_limit_V")
-OPTIONAL_KEYS = ("gear_efficiency", "integral_rate_per_s", "control_period_s")
+OPTIONAL_KEYS = ("gear_efficiency", "integral_rate_per_s")
 # the loop s^3 + 60 s^2 + 900 s + 900 rate (critically damped at 30 rad/s, sim/spatial_actuation) keeps its slow
 # pole pair damped at 0.55 or better up to rate 10 1/s (0.28 at 20, unstable at 60)
 MAX_INTEGRAL_RATE_PER_S = 10.0
@@ -48,7 +49,6 @@ class SpatialMotors:
     gear_efficiency: np.ndarray
     current_limit_A: np.ndarray  # tau_max / (N eta k_t): the torque limit at the motor
     integral_rate_per_s: np.ndarray  # Ki / K of the PID [1/s]; zeros: a PD law
-    control_period_s: float | None = None  # the law's sample-and-hold period [s]; None: the plant step
 
 
 def _per_joint(raw: dict, key: str, where: str, n: int, names, default=None, positive: bool = True) -> np.ndarray:
@@ -111,8 +111,4 @@ def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: st
         raise QmtInputError(f"{where}: joint {joint_names[k]}'s motor reaches {stall[k]:.4g} N m at stall through the "
                             f"gear (N eta k_t V/R), below its torque limit {tau_max[k]:g} N m; raise voltage_limit_V "
                             "or torque_constant_Nm_per_A, or lower resistance_ohm")
-    period = raw.get("control_period_s")
-    if period is not None and not F.is_number(period):
-        raise QmtInputError(f"{where}.control_period_s must be a number of seconds; got {F.show(period)}")
-    period = check_control_period(None if period is None else float(period))
-    return SpatialMotors(kt, r, v, eta, tau_max / (N * eta * kt), rate, period)
+    return SpatialMotors(kt, r, v, eta, tau_max / (N * eta * kt), rate)

@@ -31,8 +31,8 @@ joint_tracking.effective_joint_gains (K = c N Kp, D = c N Kd + b, c = N eta k_t 
 Integral (actuators.motor.integral_rate_per_s, or for_scenario / a sweep's sim.integral_rate_per_s; default 0):
 Ki = K * rate [1/s] on the same nominal design, clamped anti-windup (joint_tracking). Its discrete update reads
 the plant during the step, so the plant's output ports are made live (prepare_plant; Drake's sampled ports
-paired the next state with this step's reference). Control period (actuators.motor.control_period_s, a sweep's
-drawn loop_period_s; default the plant step, the unchanged every-step law): longer than the plant step, the law
+paired the next state with this step's reference). Control period (for_scenario(control_period_s=), a sweep's
+drawn or fixed loop_period_s; default the plant step, the unchanged every-step law): longer than the plant step, the law
 is sampled and held (JointPidController hold_period_s); its derivative then acts on held speeds, so only the
 motors' back EMF b is folded into the plant. `explicit` (`simulate --explicit`): nothing folded into the plant,
 the law applies the loop's damping itself (plant_damping_Nms).
@@ -141,8 +141,8 @@ class SpatialMotorDrive:
                      control_period_s: float | None = None, explicit: bool = False) -> SpatialMotorDrive:
         """The drive designed from sc (the nominal model). integral_rate_per_s [1/s]: the PID's Ki / K, one
         number or one per joint; None: the scenario's actuators.motor.integral_rate_per_s (default 0, a PD law).
-        control_period_s [s]: the law's sample-and-hold period (check_control_period); None: the scenario's
-        actuators.motor.control_period_s, else the plant step. explicit: module docstring, `--explicit`."""
+        control_period_s [s]: the law's sample-and-hold period (check_control_period); None: the plant step.
+        explicit: module docstring, `--explicit`."""
         if feedforward not in SPATIAL_FEEDFORWARD:
             raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(SPATIAL_FEEDFORWARD)}")
         mp = motor_params_for_spatial(sc)
@@ -156,8 +156,8 @@ class SpatialMotorDrive:
         rate = sc.motor.integral_rate_per_s if integral_rate_per_s is None else check_integral_rate(
             integral_rate_per_s, "sim", mp.n, mp.names)
         gains = decentralised_gains(mp, np.diag(plant.CalcMassMatrix(ctx)), rate)
-        period = sc.motor.control_period_s if control_period_s is None else check_control_period(control_period_s)
-        return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant, control_period_s=period,
+        return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant,
+                   control_period_s=check_control_period(control_period_s),
                    explicit=bool(explicit))
 
     def prepare_plant(self, plant, arm_instance, sc) -> None:
