@@ -15,7 +15,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.model.urdf_check import load_arm_plant
-from qmt_drake.sim.spatial_actuation import SpatialMotorDrive, back_emf_damping
+from qmt_drake.sim.spatial_actuation import SpatialMotorDrive, back_emf_damping, check_drive
 from qmt_drake.sim.spatial_cosim import build_spatial_cosim, simulate_spatial
 from qmt_drake.sweep.cases import build_cases
 from qmt_drake.sweep.spatial_cases import build_spatial_cases, drawn_drive, perturbed_scenario
@@ -185,3 +185,17 @@ def test_a_meaningless_loop_period_is_refused_in_one_line(scenario, sim, paramet
     with pytest.raises(QmtInputError, match=says) as e:
         (build_spatial_cases if "ur5" in scenario else build_cases)(load_spec(spec))
     assert "\n" not in str(e.value)
+
+
+def test_explicit_is_refused_where_meaningless(suction):
+    """--explicit needs the DC drive (the ideal actuator has no motor loop) and, as the planar one, a step of at
+    most 1 ms; both refused in one line before any planning (check_drive) and when a drive is built."""
+    for actuator, h, says in (("ideal", None, "the ideal actuator has no motor loop"),
+                              ("dc_motor", 2e-3, "explicit motor loop is known stable up to 1 ms")):
+        with pytest.raises(QmtInputError, match=says) as e:
+            check_drive(suction, actuator, "full", True, h)
+        assert "\n" not in str(e.value)
+    check_drive(suction, "dc_motor", "full", True, 1e-3)
+    with pytest.raises(QmtInputError, match="known stable up to 1 ms"):
+        build_spatial_cosim(suction, Hold(suction.q_poses_rad[0], 0.05), actuator="dc_motor", explicit=True,
+                            time_step_s=2e-3)

@@ -244,9 +244,9 @@ def simulate(args, energy_options=()) -> int:
     actuator = args.actuator or "ideal"
     feedforward = args.feedforward or "full"
     explicit = bool(getattr(args, "explicit", False))
-    check_drive(sc, actuator, feedforward, explicit)  # refusals (no motor constants, ...) before planning
     check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
     h = None if args.time_step_ms is None else check_spatial_time_step(args.time_step_ms * 1e-3)
+    check_drive(sc, actuator, feedforward, explicit, h)  # refusals (no motor constants, ...) before planning
     if args.plan:
         if args.seed != 0:
             raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")

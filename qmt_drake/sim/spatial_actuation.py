@@ -55,6 +55,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import actuator_joint_names
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.sim.actuation import (
+    EXPLICIT_MAX_TIME_STEP_S,
     FEEDFORWARD_OPTIONS,
     add_implicit_damping_actuation,
     add_motor_actuation_law,
@@ -167,6 +168,7 @@ class SpatialMotorDrive:
         set_drive_inertia(plant, arm_instance, sc)
         h = plant.time_step()
         check_control_period(self.control_period_s, h)
+        check_explicit_step(self.explicit, h)
         move_loop_damping_into_plant(plant, arm_instance, self.plant_damping_Nms(h))
         if self.has_discrete_law(h):
             # the law's discrete update (the integral, the hold) reads the plant during its step: with Drake's
@@ -245,7 +247,14 @@ def add_stepping_feedforward(builder, torque_port, desired_acceleration_port, lo
     return total.get_output_port()
 
 
-def check_drive(sc, actuator: str, feedforward: str, explicit: bool = False) -> None:
+def check_explicit_step(explicit: bool, time_step_s: float | None) -> None:
+    """One line for an explicit law above EXPLICIT_MAX_TIME_STEP_S (the planar --explicit's bound; None: 1 ms)."""
+    if explicit and time_step_s is not None and time_step_s > EXPLICIT_MAX_TIME_STEP_S * (1 + 1e-9):
+        raise QmtInputError(f"--explicit at a {time_step_s * 1e3:g} ms step: the explicit motor loop is known stable up "
+                            f"to {EXPLICIT_MAX_TIME_STEP_S * 1e3:g} ms; lower --time-step-ms or drop --explicit")
+
+
+def check_drive(sc, actuator: str, feedforward: str, explicit: bool = False, time_step_s: float | None = None) -> None:
     """One-line QmtInputError for an unknown actuator or feedforward, a feedforward other than 'full' or
     'shaped' (the shaped reference) on the ideal actuator (its inverse-dynamics controller has the full one
     built in), explicit on the ideal actuator (no motor loop to step), or dc_motor without the scenario's
@@ -258,6 +267,7 @@ def check_drive(sc, actuator: str, feedforward: str, explicit: bool = False) -> 
         raise QmtInputError(f"feedforward {feedforward!r} applies to actuator dc_motor; the ideal actuator's "
                             "inverse-dynamics controller always has the full feedforward (or 'shaped': on the "
                             "shaped reference)")
+    check_explicit_step(explicit, time_step_s)
     if explicit and actuator != "dc_motor":
         raise QmtInputError("--explicit steps the DC drive's loop damping in its law instead of the plant; the ideal "
                             "actuator has no motor loop: add --actuator dc_motor or drop --explicit")
