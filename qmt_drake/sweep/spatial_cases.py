@@ -6,7 +6,9 @@ DC motors' PD law with its back-EMF and inverse-dynamics feedforward) are made f
 scenario; a case simulates a drawn copy of it (`perturbed_scenario`): the part's mass and centre of
 mass, the hand's hold (suction: vacuum pull, cup friction; magnet: pull, hence its moment limit;
 tray: the cup's friction), the motors' torque constant, resistance and gear efficiency (the
-amplifier's current limit stays the nominal one), and the executed timing (time_scale_jitter).
+amplifier's current limit stays the nominal one), the executed law's gains and loop period (kp_scale, kd_scale,
+loop_period_s: drawn_drive), and the executed timing (time_scale_jitter). The spec's sim.integral_rate_per_s
+gives the nominal law an integral (default: the scenario's, 0).
 
 A perturbed copy is cheap: dataclasses.replace of the scenario with a new CarriedBody / GripModel /
 TrayCup / SpatialMotors and, when the body changes, a new SpatialChain on the same plant (no URDF
@@ -34,6 +36,7 @@ from qmt_drake.planners.spatial_plan_io import load_spatial_plan, make_spatial_p
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_actuation import SpatialMotorDrive, motor_params_for_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.spatial_motor import check_control_period, check_integral_rate
 from qmt_drake.spatial_task import load_spatial_scenario
 from qmt_drake.sweep.cases import Case, PlanRef, plan_file_hash, stable_hash
 from qmt_drake.sweep.parameters import MOTOR_PARAMETERS, PARAMETERS, SPATIAL_HAND_PARAMETERS
@@ -41,6 +44,7 @@ from qmt_drake.sweep.spec import SweepSpec
 from qmt_drake.systems.joint_tracking import PidGains
 
 GAIN_PARAMETERS = ("kp_scale", "kd_scale")  # the executed PD law's gains over the designed ones (dc_motor)
+LAW_PARAMETERS = GAIN_PARAMETERS + ("loop_period_s",)  # the executed law's (drawn_drive), not the motors'
 
 
 # ------------------------------------------------------------------------- the drawn scenario
@@ -86,7 +90,7 @@ def perturbed_scenario(sc, values: dict):
     if "body" in changes:  # the planners' chain carries the part (joint torques, limit check)
         changes["chain"] = SpatialChain(sc.plant, sc.chain.hand_frame, carried=changes["body"].as_dict(),
                                         reflected_inertia_kgm2=sc.drive["reflected_inertia_kgm2"])
-    if any(k in v for k in MOTOR_PARAMETERS if k not in GAIN_PARAMETERS):  # the gains: drawn_drive
+    if any(k in v for k in MOTOR_PARAMETERS if k not in LAW_PARAMETERS):  # the law's: drawn_drive
         m = sc.motor
         n = len(sc.joint_names)
         changes["motor"] = dataclasses.replace(
@@ -113,10 +117,10 @@ def check_spatial_spec(spec: SweepSpec, base) -> tuple[str, str]:
                                 f"{', '.join(SPATIAL_HAND_PARAMETERS[base.hand_kind])}")
         if name in MOTOR_PARAMETERS and base.motor is None:
             raise QmtInputError(f"sweep parameter '{name}': scenario {base.name} has no actuators.motor")
-    extra = sorted(set(spec.sim) - {"actuator", "feedforward"})
+    extra = sorted(set(spec.sim) - {"actuator", "feedforward", "integral_rate_per_s"})
     if extra:
-        raise QmtInputError(f"sweep sim.{extra[0]}: the spatial co-simulation steps at 1 ms; give only sim.actuator "
-                            "and sim.feedforward")
+        raise QmtInputError(f"sweep sim.{extra[0]}: the spatial co-simulation steps at 1 ms; give only sim.actuator, "
+                            "sim.feedforward and sim.integral_rate_per_s")
     actuator = spec.sim.get("actuator", default_actuator(base))
     if actuator == "dc_motor" and base.motor is None:
         raise QmtInputError(f"sweep sim.actuator dc_motor: scenario {base.name} has no actuators.motor; use ideal")
@@ -126,13 +130,28 @@ def check_spatial_spec(spec: SweepSpec, base) -> tuple[str, str]:
                             "always has the full feedforward (or 'shaped': on the shaped reference)")
     if any(n in MOTOR_PARAMETERS for n in spec.parameter_names) and actuator != "dc_motor":
         raise QmtInputError("sweep: motor parameters act through sim.actuator dc_motor; set it or drop them")
+    if "integral_rate_per_s" in spec.sim:
+        if actuator != "dc_motor":
+            raise QmtInputError("sweep sim.integral_rate_per_s: the DC-motor drive's PID integral; set sim.actuator "
+                                "dc_motor or drop it (the ideal controller has none)")
+        check_integral_rate(spec.sim["integral_rate_per_s"], "sweep sim", base.n_dof, base.joint_names)
     return actuator, feedforward
+
+
+def drive_options(spec: SweepSpec) -> dict:
+    """The spec's drive options beyond actuator and feedforward that go into each case's sim (only when given:
+    a spec without them keeps its case keys): integral_rate_per_s [1/s] (a number or one per joint)."""
+    rate = spec.sim.get("integral_rate_per_s")
+    if rate is None:
+        return {}
+    return {"integral_rate_per_s": [float(x) for x in rate] if isinstance(rate, list) else float(rate)}
 
 
 def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]]:
     """All cases of a spec on a spatial scenario (plans x grid points x samples) and their plans."""
     base = _scenario(spec.scenario)  # validates the scenario before any long work
     actuator, feedforward = check_spatial_spec(spec, base)
+    options = drive_options(spec)
     samples = spec.samples()
     cases, plans = [], {}
     for pdef in spec.plans:
@@ -149,7 +168,7 @@ def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]
                 drawn = {k: float(x) for k, x in values.items() if PARAMETERS[k].target != "sim" and k not in drive}
                 motor = {k: float(x) for k, x in values.items() if k in drive}
                 sim = {"time_scale": float(values.get("time_scale", 1.0)) * float(values.get("time_scale_jitter", 1.0)),
-                       "actuator": actuator, "feedforward": feedforward}
+                       "actuator": actuator, "feedforward": feedforward, **options}
                 cases.append(Case(index=len(cases), label=pdef["label"], scenario=spec.scenario, scenario_overrides={},
                                   plan_key=ref.key, payload=drawn, magnet={}, motor_scales=motor, sim=sim,
                                   parameters=dict(values), sample=i if spec.distributions else None))
@@ -195,20 +214,23 @@ def _plan(doc: dict, sc):
     return _PLANS[k]
 
 
-def _drive(sc, physical, plan, plan_key: str, feedforward: str, values: dict):
-    """The nominal DC-motor law (gains, feedforward model) driving the drawn motors (drawn_drive)."""
-    k = (sc.name, plan_key, feedforward)
+def _drive(sc, physical, plan, plan_key: str, case_sim: dict, values: dict):
+    """The nominal DC-motor law (gains, feedforward model, the case's integral rate) driving the drawn motors
+    (drawn_drive)."""
+    feedforward, rate = case_sim["feedforward"], case_sim.get("integral_rate_per_s")
+    k = (sc.name, plan_key, feedforward, json.dumps(rate))
     if k not in _DRIVES:
-        _DRIVES[k] = SpatialMotorDrive.for_scenario(sc, plan.trajectory.sample([0.0])[0][0], feedforward)
+        _DRIVES[k] = SpatialMotorDrive.for_scenario(sc, plan.trajectory.sample([0.0])[0][0], feedforward,
+                                                    integral_rate_per_s=rate)
     return drawn_drive(_DRIVES[k], sc, physical, values)
 
 
 def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict) -> SpatialMotorDrive:
     """The nominal DC-motor drive (its feedforward model, its loop damping: the controller's) with the drawn
     motors simulated (`physical`'s, when they differ from `sc`'s) and the executed PD law's voltage gains
-    scaled by values' kp_scale / kd_scale (the integral gain goes with kp: Ki = Kp x the integral rate). The
-    loop damping moved into the plant is added back by the law (sim/actuation.motor_actuation_law), so it
-    stays the nominal one without changing the physics."""
+    scaled by values' kp_scale / kd_scale (the integral gain goes with kp: Ki = Kp x the integral rate), sampled
+    and held at values' loop_period_s [s] when drawn. The loop damping moved into the plant is added back by
+    the law (sim/actuation.motor_actuation_law), so it stays the nominal one without changing the physics."""
     d = nominal
     if physical.motor is not sc.motor:
         d = dataclasses.replace(d, plant_params=motor_params_for_spatial(physical))
@@ -216,6 +238,8 @@ def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict) -> Spati
     if kp != 1.0 or kd != 1.0:
         g = d.gains
         d = dataclasses.replace(d, gains=PidGains(g.kp_V_per_rad * kp, g.ki_V_per_rad_s * kp, g.kd_V_s_per_rad * kd))
+    if "loop_period_s" in values:  # the law sampled and held at the drawn period (at least the plant step)
+        d = dataclasses.replace(d, control_period_s=check_control_period(float(values["loop_period_s"])))
     return d
 
 
@@ -235,7 +259,7 @@ def run_spatial_case(case: Case, plan_doc: dict) -> dict:
         drawn = {**case.payload, **case.motor_scales}
         physical = perturbed_scenario(sc, drawn)
         out["payload_mass_kg"] = float(physical.body.mass_kg)
-        drive = (_drive(sc, physical, plan, case.plan_key, case.sim["feedforward"], drawn)
+        drive = (_drive(sc, physical, plan, case.plan_key, case.sim, drawn)
                  if case.sim["actuator"] == "dc_motor" else None)
         traj = plan.trajectory if s == 1.0 else TimeScaled(plan.trajectory, s)
         r = simulate_spatial(physical, traj, controller_sc=sc, drive=drive, feedforward=case.sim["feedforward"])
