@@ -44,8 +44,18 @@ class JointTrajectory:
     n_dof: int
     holds_end_value = False  # sample() at and after T: rest (False) or the last piece's value (module docstring)
 
-    def evaluate(self, t_s, t_piece_s):  # pragma: no cover - interface
-        raise NotImplementedError
+    def evaluate(self, t_s, t_piece_s):
+        """q, qd, qdd at times t_s with the formulas of the pieces holding t_piece_s; at rest (t_piece_s >= T)
+        the end at rest. This default serves a trajectory that samples itself (holds_end_value): its
+        sample() ONE_SIDED_S inside the piece (one-sided at a breakpoint); the others give their formulas."""
+        if not self.holds_end_value:  # pragma: no cover - interface
+            raise NotImplementedError
+        t = np.atleast_1d(np.asarray(t_s, float))
+        rest = np.broadcast_to(t_piece_s, t.shape) >= self.duration_s
+        te = np.where(rest, self.duration_s, inside_piece(self.breakpoints_s, t, t_piece_s))
+        q, qd, qdd = (np.array(a, dtype=float) for a in self.sample(te))
+        qd[rest], qdd[rest] = 0.0, 0.0
+        return q, qd, qdd
 
     def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """q [rad], qd [rad/s], qdd [rad/s^2], each (len(t), n), at times t [s] (right-continuous).

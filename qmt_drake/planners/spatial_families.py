@@ -36,7 +36,7 @@ from qmt_drake.families.trapezoid import trapezoid_law
 from qmt_drake.model.spatial_ik import slerp_rotations, slerp_unit
 from qmt_drake.planners.spatial_toppra import DrakePath
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
-from qmt_drake.trajectory import JointTrajectory, inside_piece
+from qmt_drake.trajectory import JointTrajectory
 
 FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")  # the planar families' names (families/)
 LAWS = {"line_cubic_velocity": "cubic_velocity", "trapezoid_ptp": "trapezoid"}
@@ -64,7 +64,7 @@ class SegmentTrajectory(JointTrajectory):
     (Drake PiecewisePolynomials on [0, 1], or their DrakePaths, shared between trajectories so their
     derivatives are made once), `law` a law_values name, T1_s, T2_s per segment. breakpoints_s (made on
     first use): each segment's law phases (0, T1, T1 + T2, 2 T1 + T2: u-ddot jumps or kinks there) and the
-    times the law passes its path's knots (a column kinks there)."""
+    times the law passes its path's knots (a column kinks there); evaluate: JointTrajectory's, through sample()."""
 
     holds_end_value = True
 
@@ -94,14 +94,6 @@ class SegmentTrajectory(JointTrajectory):
                 lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
             out.append(self.t_start[i] + np.r_[T1, T1 + T2, 0.5 * (lo + hi)])
         return np.unique(np.clip(np.concatenate(out), 0.0, self.duration_s))
-
-    def evaluate(self, t_s, t_piece_s):
-        """The segments' values ONE_SIDED_S inside the piece of t_piece_s; at rest (t_piece_s >= T) the end."""
-        t = np.atleast_1d(np.asarray(t_s, float))
-        rest = np.broadcast_to(t_piece_s, t.shape) >= self.duration_s
-        q, qd, qdd = self.sample(np.where(rest, self.duration_s, inside_piece(self.breakpoints_s, t, t_piece_s)))
-        qd[rest], qdd[rest] = 0.0, 0.0
-        return q, qd, qdd
 
     def sample(self, t):
         t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)

@@ -49,7 +49,6 @@ from qmt_drake.trajectory import (
     JointTrajectory,
     PolynomialTrajectory,
     TimeScaledTrajectory,
-    inside_piece,
 )
 
 SequenceTrajectory = ConcatenatedTrajectory  # `t_start`: ConcatenatedTrajectory.offsets
@@ -129,7 +128,7 @@ class ToppraTrajectory(JointTrajectory):
 
 class _RuckigSegment(JointTrajectory):
     """One Ruckig trajectory (from rest to rest); breakpoints_s: every joint's phase switches (its jerk
-    jumps there, its acceleration kinks)."""
+    jumps there, its acceleration kinks); evaluate: JointTrajectory's, through sample()."""
 
     holds_end_value = True
 
@@ -146,14 +145,6 @@ class _RuckigSegment(JointTrajectory):
         for j, tj in enumerate(t):
             out[0][j], out[1][j], out[2][j] = self.segment.at_time(float(tj))
         return tuple(out)
-
-    def evaluate(self, t_s, t_piece_s):
-        """Ruckig's own values ONE_SIDED_S inside the piece of t_piece_s; at rest (t_piece_s >= T) the end."""
-        t = np.atleast_1d(np.asarray(t_s, float))
-        rest = np.broadcast_to(t_piece_s, t.shape) >= self.duration_s
-        q, qd, qdd = self.sample(np.where(rest, self.duration_s, inside_piece(self.breakpoints_s, t, t_piece_s)))
-        qd[rest], qdd[rest] = 0.0, 0.0
-        return q, qd, qdd
 
 
 class RuckigTrajectory(SequenceTrajectory):

@@ -43,7 +43,7 @@ from pydrake.multibody.tree import MultibodyForces
 
 from qmt_drake.systems.dc_motor import motor_signals_from_joint_torque
 from qmt_drake.timescale import smallest_holding_scale
-from qmt_drake.trajectory import TimeScaledTrajectory
+from qmt_drake.trajectory import JointTrajectory, TimeScaledTrajectory
 
 SHAPING_WINDOW_S = 0.042  # w: two boxes of 21 ms (1.5 periods of the part's ringing on its weld, about 14 ms)
 QUADRATURE_STEP_S = 2.5e-4  # the running integral of q: Hermite-corrected trapezoid (exact for cubics)
@@ -52,13 +52,18 @@ FIT_MAX_SCALE = 4.0
 FIT_REL_TOL = 1e-3
 
 
-class SampledDataReference:
+class SampledDataReference(JointTrajectory):
     """`traj` as the loop's sampled-data plant integrates it (module docstring): at t, q(t) + h/2 qd(t), qd(t)
     and the step's mean acceleration (qd(t + h) - qd(t)) / h, h = time_step_s [s]."""
+
+    holds_end_value = True  # a JointTrajectory that samples itself (qmt_drake/trajectory.py)
 
     def __init__(self, traj, time_step_s: float) -> None:
         self.inner, self.h = traj, float(time_step_s)
         self.duration_s = traj.duration_s
+        self.n_dof = traj.n_dof
+        b = traj.breakpoints_s
+        self.breakpoints_s = np.unique(np.clip(np.r_[b, b - self.h], 0.0, self.duration_s))
 
     def sample(self, t_s):
         t = np.atleast_1d(np.asarray(t_s, float))
@@ -67,15 +72,19 @@ class SampledDataReference:
         return q + 0.5 * self.h * qd, qd, (qd_next - qd) / self.h
 
 
-class BoxShapedReference:
+class BoxShapedReference(JointTrajectory):
     """`traj` (a spatial_trajectory kind: duration_s, sample(t) -> q, qd, qdd (len(t), n)) seen through a
     moving average of width window_s [s] (module docstring); duration_s = traj's + window_s."""
+
+    holds_end_value = True  # a JointTrajectory that samples itself (qmt_drake/trajectory.py)
 
     def __init__(self, traj, window_s: float = SHAPING_WINDOW_S) -> None:
         if not window_s > 0:
             raise ValueError("the shaping window must be positive")
         self.inner, self.window_s = traj, float(window_s)
         self.duration_s = traj.duration_s + self.window_s
+        self.n_dof = traj.n_dof
+        self.breakpoints_s = np.unique(np.r_[traj.breakpoints_s, traj.breakpoints_s + self.window_s])
         T = traj.duration_s
         self._t = np.linspace(0.0, T, max(2, int(np.ceil(T / QUADRATURE_STEP_S)) + 1))
         q, qd, _ = traj.sample(self._t)
