@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, refine_local_maxima
+from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, peaks_on_pieces
 from qmt_drake.limits.spatial_columns import (
     SPATIAL_RELATIVE_MARGIN,
     TIMED_GROUPS_EXCLUDE,
@@ -42,7 +42,6 @@ from qmt_drake.limits.spatial_columns import (
     peaks,
 )
 from qmt_drake.planners.spatial_toppra import DrakePath
-from qmt_drake.sampling import piecewise_grid
 from qmt_drake.timescale import smallest_holding_scale
 from qmt_drake.trajectory import (
     ConcatenatedTrajectory,
@@ -200,14 +199,10 @@ def between_pieces(sc, traj, rate_hz: float) -> dict | None:
     TOPP-RA plan re-checked at 0.9999)."""
     if not isinstance(traj, JointTrajectory):
         return None
-    bp, evaluate = traj.breakpoints_s, traj.evaluate
-    grid = piecewise_grid(bp[None, :], rate_hz)
     cols = SpatialColumns(sc)
-    values = cols.columns(*evaluate(grid.t_s, grid.t_piece_s))
-    peak, t_peak = values.max(axis=0), grid.t_s[values.argmax(axis=0)]
-    near = np.full(values.shape[1], REFINE_NEAR_LIMIT)
-    peak, t_peak, _ = refine_local_maxima(lambda t, tp: cols.columns(*evaluate(t, tp)), grid, values, peak, t_peak,
-                                          near, relative_margin=SPATIAL_RELATIVE_MARGIN, skip_flat=True)
+    near = np.full(cols.n_columns, REFINE_NEAR_LIMIT)
+    peak, t_peak, _, grid = peaks_on_pieces(cols.columns, traj, rate_hz, near, relative_margin=SPATIAL_RELATIVE_MARGIN,
+                                            skip_flat=True)
     timed = np.array([g not in TIMED_GROUPS_EXCLUDE for g, _ in cols.column_labels])
     b = binding(cols, np.where(timed, peak, -np.inf), t_peak)
     return {"max_timed": b["ratio"], "binding": b["column"], "binding_time_s": b["time_s"], "n_samples": int(grid.t_s.size)}
