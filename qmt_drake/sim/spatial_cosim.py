@@ -316,8 +316,9 @@ class _Delayed(JointTrajectory):
     def __init__(self, traj, settle_s: float) -> None:
         self.inner, self.settle_s = traj, settle_s
         self.duration_s = traj.duration_s + settle_s
-        self.n_dof = traj.n_dof
-        self.breakpoints_s = np.unique(np.r_[0.0, settle_s + traj.breakpoints_s])
+
+    n_dof = property(lambda self: self.inner.n_dof)
+    breakpoints_s = property(lambda self: np.unique(np.r_[0.0, self.settle_s + self.inner.breakpoints_s]))
 
     def sample(self, t):
         t = np.atleast_1d(np.asarray(t, float)) - self.settle_s

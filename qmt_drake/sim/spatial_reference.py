@@ -61,9 +61,10 @@ class SampledDataReference(JointTrajectory):
     def __init__(self, traj, time_step_s: float) -> None:
         self.inner, self.h = traj, float(time_step_s)
         self.duration_s = traj.duration_s
-        self.n_dof = traj.n_dof
-        b = traj.breakpoints_s
-        self.breakpoints_s = np.unique(np.clip(np.r_[b, b - self.h], 0.0, self.duration_s))
+
+    n_dof = property(lambda self: self.inner.n_dof)
+    breakpoints_s = property(lambda self: np.unique(np.clip(np.r_[self.inner.breakpoints_s, self.inner.breakpoints_s
+                                                                  - self.h], 0.0, self.duration_s)))
 
     def sample(self, t_s):
         t = np.atleast_1d(np.asarray(t_s, float))
@@ -83,14 +84,16 @@ class BoxShapedReference(JointTrajectory):
             raise ValueError("the shaping window must be positive")
         self.inner, self.window_s = traj, float(window_s)
         self.duration_s = traj.duration_s + self.window_s
-        self.n_dof = traj.n_dof
-        self.breakpoints_s = np.unique(np.r_[traj.breakpoints_s, traj.breakpoints_s + self.window_s])
         T = traj.duration_s
         self._t = np.linspace(0.0, T, max(2, int(np.ceil(T / QUADRATURE_STEP_S)) + 1))
         q, qd, _ = traj.sample(self._t)
         self._q, self._qd = q, qd
         self._Q = np.vstack([np.zeros(q.shape[1]), np.cumsum(_hermite_area(np.diff(self._t)[:, None], q[:-1], qd[:-1], q[1:],
                                                                            qd[1:]), axis=0)])
+
+    n_dof = property(lambda self: self.inner.n_dof)
+    breakpoints_s = property(lambda self: np.unique(np.r_[self.inner.breakpoints_s, self.inner.breakpoints_s
+                                                          + self.window_s]))
 
     def _held(self, t):
         """The plan at times t [s], at rest before 0 and after its end."""
