@@ -112,17 +112,20 @@ class ToppraTrajectory(JointTrajectory):
 
     def evaluate(self, t, t_piece):
         """q, qd, qdd at times t (s) with the formulas of the piece holding t_piece (one-sided at a grid
-        point or knot: the path is evaluated inside the piece's [s_a, s_b))."""
+        point or knot: the path is evaluated inside the piece's [s_a, s_b)); at rest (t_piece >= T) the end."""
         t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        rest = np.broadcast_to(np.asarray(t_piece, float), t.shape) >= self.duration_s
         tp = np.clip(np.broadcast_to(np.asarray(t_piece, float), t.shape), 0.0, self.duration_s)
         bt, bs = self.pieces()
         j = np.clip(np.searchsorted(bt, tp, side="right") - 1, 0, len(bt) - 2)
         i = np.clip(np.searchsorted(self.t_grid, tp, side="right") - 1, 0, len(self.u) - 1)
         tau = t - self.t_grid[i]
         s = np.clip(self.grid[i] + self.sd[i] * tau + 0.5 * self.u[i] * tau ** 2, bs[j], np.nextafter(bs[j + 1], -np.inf))
-        sd = np.maximum(self.sd[i] + self.u[i] * tau, 0.0)
+        s = np.where(rest, self.grid[-1], s)
+        sd = np.where(rest, 0.0, np.maximum(self.sd[i] + self.u[i] * tau, 0.0))
+        u = np.where(rest, 0.0, self.u[i])
         q, qs, qss = self.path(s, 0), self.path(s, 1), self.path(s, 2)
-        return q, qs * sd[:, None], qs * self.u[i][:, None] + qss * (sd ** 2)[:, None]
+        return q, qs * sd[:, None], qs * u[:, None] + qss * (sd ** 2)[:, None]
 
 
 class _RuckigSegment(JointTrajectory):
