@@ -13,7 +13,7 @@ acceleration, torque with the carried part, the hand's ratio) and the co-simulat
 take a plan:
 
 - `cubic`: the cubic Hermite through the samples' positions and velocities (what ROS 2's
-  joint_trajectory_controller does when velocities are given): Drake's CubicHermite, a PolyTrajectory;
+  joint_trajectory_controller does when velocities are given): Drake's CubicHermite, a PolynomialTrajectory;
 - `linear` (`LinearStream`): positions joined by straight lines, so the velocity is each interval's
   chord slope and steps at every sample; the acceleration is that step over one stream period,
   (v_k - v_(k-1)) / dt, held over interval k (what a controller differentiating its reference once
@@ -38,7 +38,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import peak_jerk
 from qmt_drake.outputs import write_text_atomic
 from qmt_drake.plan import recheck
-from qmt_drake.planners.spatial_trajectory import PolyTrajectory, TimeScaled, check
+from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.timescale import smallest_holding_scale
 from qmt_drake.trajectory import JointTrajectory, PolynomialTrajectory
 
@@ -69,8 +69,11 @@ def stream_samples(traj, rate_hz: float):
 
 
 class LinearStream(JointTrajectory):
-    """Positions joined by straight lines (module docstring), sample() as spatial_trajectory's kinds and
-    evaluate() on the stream's samples as breakpoints (the planar limit report refines between them)."""
+    """Positions joined by straight lines (module docstring), sample() as spatial_trajectory's kinds (clipped
+    into [0, T], the stop at T: holds_end_value) and evaluate() on the stream's samples as breakpoints (the
+    planar limit report and spatial_trajectory.between_pieces refine between them)."""
+
+    holds_end_value = True
 
     def __init__(self, t, q) -> None:
         self.t, self.q = np.asarray(t, float), np.asarray(q, float)
@@ -105,13 +108,13 @@ class LinearStream(JointTrajectory):
 
 
 def interpolated(t, q, qd, interp: str, planar: bool = False):
-    """The controller's interpolation of the stream: LinearStream or the cubic Hermite (PolyTrajectory;
-    planar: PolynomialTrajectory, whose evaluate() the planar limit report refines between the samples)."""
+    """The controller's interpolation of the stream: LinearStream or the cubic Hermite (the one
+    PolynomialTrajectory; sampled the spatial way, clipped into [0, T], for a spatial target)."""
     if interp == "linear":
         return LinearStream(t, q)
     if interp == "cubic":
         pp = PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
-        return PolynomialTrajectory(pp) if planar else PolyTrajectory(pp)
+        return PolynomialTrajectory(pp, holds_end_value=not planar)
     raise QmtInputError(f"--interp {interp!r}: give {'|'.join(INTERPOLATIONS)}")
 
 

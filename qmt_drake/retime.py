@@ -63,7 +63,7 @@ from qmt_drake.planners.spatial_plan_io import (
 )
 from qmt_drake.planners.spatial_search import plan_ga_spatial
 from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
-from qmt_drake.planners.spatial_trajectory import ToppraTrajectory
+from qmt_drake.planners.spatial_trajectory import PolyTrajectory, ToppraTrajectory
 
 METHODS = ("toppra", "ga")
 SAME_RAD = 1e-9  # neighbouring waypoints closer than this (joint-space norm) are one waypoint given twice
@@ -199,19 +199,6 @@ def check_waypoints(sc, Q: np.ndarray, where: str = "joint path") -> None:
                             f"range [{lo[j]:.4f}, {hi[j]:.4f}] rad; move the path inside the range")
 
 
-class _PathByLength:
-    """The spline q(s) with the interface limits/clearance.clearance samples (s, the joint-space length in rad,
-    in place of time)."""
-
-    def __init__(self, pp) -> None:
-        self.pp = pp
-        self.duration_s = float(pp.end_time())
-
-    def sample(self, s):
-        q = self.pp.vector_values(np.clip(np.atleast_1d(np.asarray(s, float)), 0.0, self.duration_s)).T
-        return q, None, None
-
-
 def _where_on_path(s: float, s_waypoints: np.ndarray) -> str:
     """'waypoint k' or 'between waypoints k and k+1 (x % of the way)' for a path position s (rad)."""
     k = int(np.clip(np.searchsorted(s_waypoints, s, side="right") - 1, 0, len(s_waypoints) - 2))
@@ -229,7 +216,7 @@ def path_clearance(sc, Q: np.ndarray, where: str = "joint path", *, refuse: bool
         return {}
     pp = joint_path(Q)
     s_w = np.asarray(pp.get_segment_times(), float)
-    c = clearance(sc, _PathByLength(pp), PATH_CLEARANCE_PER_RAD)
+    c = clearance(sc, PolyTrajectory(pp), PATH_CLEARANCE_PER_RAD)  # the path with its length s [rad] as time
     at_waypoints = [collision_model(sc).distance(q) for q in Q]
     k = int(np.argmin([d[0] for d in at_waypoints]))
     if at_waypoints[k][0] < c["clearance_m"]:  # a waypoint itself is the deepest point

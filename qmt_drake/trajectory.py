@@ -1,31 +1,61 @@
-"""Joint trajectories as every planner returns them, and their conversion to Drake.
+"""Joint trajectories as every planner returns them (planar and spatial), and their conversion to Drake.
 
-A JointTrajectory has `duration_s`, `breakpoints_s` (0, the instants where acceleration may jump,
-and the duration), `n_dof`, and `evaluate(t_s, t_piece_s)` giving q, qd, qdd with the formula of
-the piece that contains `t_piece_s` (so one-sided values at a boundary can be asked for). After
-the duration the arm rests at the final position.
+One protocol for every trajectory of the package (tests/test_one_trajectory.py checks it over the source):
+a JointTrajectory has `duration_s`, `n_dof`, `breakpoints_s` (sorted, from 0 to the duration: 0, the
+instants where a limit column may jump or kink, and the duration), `evaluate(t_s, t_piece_s)` giving q,
+qd, qdd with the formula of the piece that contains `t_piece_s` (so one-sided values at a boundary can be
+asked for), and `sample(t_s)` -> q [rad], qd [rad/s], qdd [rad/s^2], each (len(t), n_dof). The one
+re-check between samples (limits/refine.py) samples every piece with both ends through `evaluate` and
+refines the local maxima inside each piece: the planar LimitSet.report and the spatial
+spatial_trajectory.between_pieces both take `breakpoints_s` and `evaluate` of whatever kind they get.
 
-The spatial planners' trajectories (planners/spatial_trajectory.py) know `duration_s` and
-`sample(t)` only (no breakpoints, no evaluate). TimeScaledTrajectory and ConcatenatedTrajectory
-take either kind (`_evaluates` tells them apart): one implementation of time scaling and of
-playing trajectories one after another for both (spatial_trajectory's TimeScaled and
-SequenceTrajectory are these classes).
+`sample` has two conventions at and after the end (`holds_end_value`): the planar trajectories (False)
+rest there (qd = qdd = 0 from T on); the spatial ones (True: TOPP-RA's profile, the via cubic, the
+families' segments, Ruckig, an export stream) clip t into [0, T] and so give the last piece's value at T
+(the stopping acceleration), which their sampled check needs. TimeScaledTrajectory and
+ConcatenatedTrajectory follow their parts (one implementation of time scaling and of playing
+trajectories one after another for both; spatial_trajectory's TimeScaled and SequenceTrajectory are
+these classes) and still take an object that only samples (duration_s, sample).
 """
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 import numpy.typing as npt
 from pydrake.trajectories import PiecewisePolynomial
+
+ONE_SIDED_S = 1e-9  # a breakpoint's one-sided value: evaluated this far inside the piece
+
+
+def inside_piece(breakpoints_s, t_s, t_piece_s) -> np.ndarray:
+    """t [s] moved at most ONE_SIDED_S inside the piece of `breakpoints_s` holding t_piece_s (one-sided
+    values at a boundary for a formula that picks its piece by t itself)."""
+    bp = np.asarray(breakpoints_s)
+    t = np.atleast_1d(np.asarray(t_s, dtype=float))
+    j = np.clip(np.searchsorted(bp, np.broadcast_to(t_piece_s, t.shape), side="right") - 1, 0, len(bp) - 2)
+    return np.clip(t, bp[j] + ONE_SIDED_S, bp[j + 1] - ONE_SIDED_S)
 
 
 class JointTrajectory:
     duration_s: float
     breakpoints_s: np.ndarray
     n_dof: int
+    holds_end_value = False  # sample() at and after T: rest (False) or the last piece's value (module docstring)
 
-    def evaluate(self, t_s, t_piece_s):  # pragma: no cover - interface
-        raise NotImplementedError
+    def evaluate(self, t_s, t_piece_s):
+        """q, qd, qdd at times t_s with the formulas of the pieces holding t_piece_s; at rest (t_piece_s >= T)
+        the end at rest. This default serves a trajectory that samples itself (holds_end_value): its
+        sample() ONE_SIDED_S inside the piece (one-sided at a breakpoint); the others give their formulas."""
+        if not self.holds_end_value:  # pragma: no cover - interface
+            raise NotImplementedError
+        t = np.atleast_1d(np.asarray(t_s, float))
+        rest = np.broadcast_to(t_piece_s, t.shape) >= self.duration_s
+        te = np.where(rest, self.duration_s, inside_piece(self.breakpoints_s, t, t_piece_s))
+        q, qd, qdd = (np.array(a, dtype=float) for a in self.sample(te))
+        qd[rest], qdd[rest] = 0.0, 0.0
+        return q, qd, qdd
 
     def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """q [rad], qd [rad/s], qdd [rad/s^2], each (len(t), n), at times t [s] (right-continuous).
@@ -70,27 +100,42 @@ class FamilyTrajectory(JointTrajectory):
                                     np.broadcast_to(t_piece_s, t.shape).astype(float))
 
 
-class PolynomialTrajectory(JointTrajectory):
-    """A Drake PiecewisePolynomial of q starting at t = 0 (its derivatives give qd, qdd)."""
+def _segment_times(pp) -> np.ndarray:
+    """A Drake trajectory's piece boundaries [s, its own time]: a PiecewisePolynomial's segment times, a
+    B-spline's distinct knots."""
+    if hasattr(pp, "get_segment_times"):
+        return np.asarray(pp.get_segment_times(), dtype=float)
+    return np.unique(np.asarray(pp.basis().knots(), dtype=float))
 
-    def __init__(self, pp: PiecewisePolynomial, breakpoints_s=None) -> None:
+
+class PolynomialTrajectory(JointTrajectory):
+    """A Drake trajectory of q in time (a PiecewisePolynomial: the via cubic, a stream's cubic Hermite; or
+    trajopt's BsplineTrajectory), its derivatives giving qd, qdd; its start_time() is t = 0 here.
+    `holds_end_value` (the spatial kind, spatial_trajectory.PolyTrajectory): sample() is the trajectory
+    itself at t clipped into [0, T]; else the protocol's sample (resting after T)."""
+
+    def __init__(self, pp, breakpoints_s=None, *, holds_end_value: bool = False) -> None:
         self.pp = pp
-        self.pp_d = pp.derivative(1)
-        self.pp_dd = pp.derivative(2)
+        self.pp_d = pp.MakeDerivative(1)  # the same values as PiecewisePolynomial.derivative
+        self.pp_dd = pp.MakeDerivative(2)
+        self.t0 = float(pp.start_time())
         self.duration_s = float(pp.end_time() - pp.start_time())
         self.n_dof = pp.rows()
-        bp = np.asarray(pp.get_segment_times() if breakpoints_s is None else breakpoints_s)
-        self.breakpoints_s = np.unique(np.concatenate([[0.0, self.duration_s], bp]))
+        self.holds_end_value = bool(holds_end_value)
+        bp = np.asarray(_segment_times(pp) - self.t0 if breakpoints_s is None else breakpoints_s)
+        self.breakpoints_s = np.unique(np.clip(np.concatenate([[0.0, self.duration_s], bp]), 0.0, self.duration_s))
+
+    def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if not self.holds_end_value:
+            return super().sample(t_s)
+        t = self.t0 + np.clip(np.atleast_1d(np.asarray(t_s, float)), 0.0, self.duration_s)
+        return tuple(d.vector_values(t).T for d in (self.pp, self.pp_d, self.pp_dd))
 
     def evaluate(self, t_s, t_piece_s):
         t = np.atleast_1d(np.asarray(t_s, dtype=float))
         tp = np.broadcast_to(t_piece_s, t.shape)
         rest = tp >= self.duration_s
-        # One-sided values: keep the time 1e-9 s inside the piece it belongs to.
-        bp = self.breakpoints_s
-        j = np.clip(np.searchsorted(bp, tp, side="right") - 1, 0, len(bp) - 2)
-        te = np.clip(t, bp[j] + 1e-9, bp[j + 1] - 1e-9)
-        te = np.where(rest, self.duration_s, te)
+        te = np.where(rest, self.duration_s, inside_piece(self.breakpoints_s, t, tp)) + self.t0
         q = self.pp.vector_values(te).T
         qd = np.where(rest[:, None], 0.0, self.pp_d.vector_values(te).T)
         qdd = np.where(rest[:, None], 0.0, self.pp_dd.vector_values(te).T)
@@ -163,10 +208,10 @@ class CallableTrajectory(JointTrajectory):
         return q, qd, qdd
 
 
-def _evaluates(traj) -> bool:
-    """True for a trajectory of this module's protocol (evaluate with breakpoints_s), False for one
-    that only samples (the spatial planners')."""
-    return hasattr(traj, "breakpoints_s")
+def _own_sample(traj) -> bool:
+    """True where a combinator samples through its part's sample() (a part that holds its end value, or
+    an object that only samples), False where it evaluates the protocol's way (module docstring)."""
+    return not isinstance(traj, JointTrajectory) or traj.holds_end_value
 
 
 def _slowed(q, qd, qdd, k: float):
@@ -183,9 +228,17 @@ class TimeScaledTrajectory(JointTrajectory):
             raise ValueError("time scale must be positive")
         self.inner, self.factor = inner, float(factor)
         self.duration_s = inner.duration_s * self.factor
-        if _evaluates(inner):
-            self.breakpoints_s = inner.breakpoints_s * self.factor
+        self.holds_end_value = _own_sample(inner)
+        if isinstance(inner, JointTrajectory):
             self.n_dof = inner.n_dof
+
+    @cached_property
+    def breakpoints_s(self) -> np.ndarray:
+        """inner's, scaled; made on first use (a TOPP-RA profile finds its pieces lazily); none (AttributeError)
+        for a sampling-only inner."""
+        if not isinstance(self.inner, JointTrajectory):
+            raise AttributeError("breakpoints_s: a sampling-only trajectory has none")
+        return self.inner.breakpoints_s * self.factor
 
     @property
     def k(self) -> float:
@@ -196,7 +249,7 @@ class TimeScaledTrajectory(JointTrajectory):
         return _slowed(*self.inner.evaluate(np.asarray(t_s) / f, np.asarray(t_piece_s) / f), f)
 
     def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if _evaluates(self):
+        if not self.holds_end_value:
             return super().sample(t_s)
         return _slowed(*self.inner.sample(np.asarray(t_s, float) / self.factor), self.factor)
 
@@ -210,17 +263,23 @@ class ConcatenatedTrajectory(JointTrajectory):
         self.parts = list(parts)
         self.offsets = np.concatenate([[0.0], np.cumsum([p.duration_s for p in self.parts])])
         self.duration_s = float(self.offsets[-1])
-        if all(_evaluates(p) for p in self.parts):
-            self.breakpoints_s = np.unique(np.concatenate(
-                [p.breakpoints_s + o for p, o in zip(self.parts, self.offsets[:-1])]))
+        self.holds_end_value = any(_own_sample(p) for p in self.parts)
+        if all(isinstance(p, JointTrajectory) for p in self.parts):
             self.n_dof = self.parts[0].n_dof
+
+    @cached_property
+    def breakpoints_s(self) -> np.ndarray:
+        """The parts' breakpoints, offset; made on first use; none (AttributeError) if a part only samples."""
+        if not all(isinstance(p, JointTrajectory) for p in self.parts):
+            raise AttributeError("breakpoints_s: a sampling-only part has none")
+        return np.unique(np.concatenate([p.breakpoints_s + o for p, o in zip(self.parts, self.offsets[:-1])]))
 
     @property
     def t_start(self) -> np.ndarray:
         return self.offsets
 
     def sample(self, t_s: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if _evaluates(self):
+        if not self.holds_end_value:
             return super().sample(t_s)
         t = np.clip(np.atleast_1d(np.asarray(t_s, float)), 0.0, self.duration_s)
         k = np.clip(np.searchsorted(self.offsets, t, side="right") - 1, 0, len(self.parts) - 1)

@@ -1,5 +1,5 @@
-"""One time scaling and one concatenation for both trajectory protocols (qmt_drake/trajectory.py):
-the planar JointTrajectory (evaluate, breakpoints) and the spatial sampling-only kind, each checked
+"""One time scaling and one concatenation (qmt_drake/trajectory.py) for a JointTrajectory (evaluate,
+breakpoints) and for an object that only samples (still accepted: duration_s and sample), each checked
 against closed forms (q = sin, a cubic)."""
 
 import numpy as np
@@ -11,7 +11,7 @@ from qmt_drake.trajectory import ConcatenatedTrajectory, PolynomialTrajectory, T
 
 
 class Sine:
-    """Sampling-only (the spatial protocol): q = a sin(t) on [0, T], two joints."""
+    """Sampling-only (no JointTrajectory): q = a sin(t) on [0, T], two joints."""
 
     def __init__(self, a=1.0, T=2.0):
         self.a, self.duration_s = a, T

@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.config.registry import ENERGY_TIME, FAMILIES, FamilyPlugin
 from qmt_drake.errors import QmtInputError
@@ -200,13 +199,8 @@ class FourierTrajectory(JointTrajectory):
 
     def evaluate(self, t_s, t_piece_s=None):
         return self.family.sample(self.x, t_s)
-
-    def to_piecewise_polynomial(self, rate_hz: float = 1000.0):
-        """Drake PiecewisePolynomial: cubic Hermite through q with the exact qd at every sample
-        (pydrake 1.51 has no quintic Hermite)."""
-        t = np.linspace(0.0, self.duration_s, max(int(np.ceil(self.duration_s * rate_hz)), 1) + 1)
-        q, qd, _ = self.family.sample(self.x, t)
-        return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
+    # to_piecewise_polynomial: JointTrajectory's (the cubic Hermite through q and the exact qd at rate_hz;
+    # pydrake 1.51 has no quintic Hermite)
 
 
 # seed 001 eq. 5; the energy problem builds it from the start posture and m (energy/problem.py)

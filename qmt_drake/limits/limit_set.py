@@ -29,9 +29,8 @@ from scipy.linalg import block_diag
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.base import RowOptions
 from qmt_drake.limits.refine import REFINE_MAX_PER_COLUMN as REFINE_MAX_PER_COLUMN  # re-exported (tests)
-from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, refine_local_maxima
+from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, peaks_on_pieces
 from qmt_drake.limits.toppra_form import rows_constraint
-from qmt_drake.sampling import piecewise_grid
 
 JOINT_EXCESS_TOL_RAD = 1e-12
 
@@ -105,22 +104,11 @@ class LimitSet:
 
     # ------------------------------------------------------------------ one trajectory (re-check)
     def report(self, trajectory, rate_hz: float, valid: bool = True, refine: bool = True) -> LimitReport:
-        grid = piecewise_grid(trajectory.breakpoints_s[None, :], rate_hz)
-        q, qd, qdd = trajectory.evaluate(grid.t_s, grid.t_piece_s)
-        cols = self.columns(q, qd, qdd)
-        peak = cols.max(axis=0)
-        k_peak = cols.argmax(axis=0)
-        t_peak = grid.t_s[k_peak]
-        refined_count = 0
-        if refine:
-            peak, t_peak, refined_count = self._refine(trajectory, grid, cols, peak, t_peak)
-        return self._make_report(rate_hz, float(trajectory.duration_s), peak, t_peak, valid, refined_count)
-
-    def _refine(self, trajectory, grid, cols, peak, t_peak):
-        """The sampled local maxima that matter refined on the trajectory (limits/refine.py)."""
+        """The re-check of a trajectory of any kind: its pieces sampled at rate_hz, the sampled local maxima that
+        matter refined between the samples (limits/refine.peaks_on_pieces, the spatial re-check's too)."""
         near_limit = np.where(self.ratio_mask, REFINE_NEAR_LIMIT, -0.02)
-        return refine_local_maxima(lambda t, tp: self.columns(*trajectory.evaluate(t, tp)), grid, cols, peak, t_peak,
-                                   near_limit)
+        peak, t_peak, refined_count, _ = peaks_on_pieces(self.columns, trajectory, rate_hz, near_limit, refine=refine)
+        return self._make_report(rate_hz, float(trajectory.duration_s), peak, t_peak, valid, refined_count)
 
     def _make_report(self, rate_hz, T, peak, t_peak, valid, refined_count) -> LimitReport:
         moment = self.term("payload_moment")

@@ -7,11 +7,18 @@ column by a batched golden-section search on the trajectory itself, between the 
 within its piece (sampling.SampleGrid), so the reported peak is the trajectory's local maximum, not
 the largest sample. Where the column jumps inside the bracket (an acceleration switching between
 samples) the search closes on the jump and returns the larger one-sided value.
+
+`peaks_on_pieces` is the one re-check between samples of a trajectory of any kind (the protocol of
+qmt_drake/trajectory.py): every piece between its breakpoints_s sampled with both ends, one-sided through
+its evaluate(t, t_piece), the local maxima refined inside each piece. The planar LimitSet.report and the
+spatial spatial_trajectory.between_pieces are this function with their own columns.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from qmt_drake.sampling import SampleGrid, piecewise_grid
 
 REFINE_RELATIVE_MARGIN = 0.02  # refine local maxima within 2% of their column's sampled peak ...
 REFINE_NEAR_LIMIT = 0.98  # ... or above 98% of the limit (ratio columns) / within 0.02 rad (excess)
@@ -22,6 +29,22 @@ GOLDEN_ITERATIONS = 60  # bracket of one sample step shrinks by 0.618^60 ~ 3e-13
 # O(step^2 f''), so a sample far down the list cannot overtake them. The report says how many
 # were refined.
 REFINE_MAX_PER_COLUMN = 64
+
+
+def peaks_on_pieces(columns, trajectory, rate_hz: float, near_limit, *, refine: bool = True,
+                    relative_margin: float = REFINE_RELATIVE_MARGIN, skip_flat: bool = False):
+    """(peak (M,), t_peak (M,) s, refined count, grid) of the columns `columns(q, qd, qdd) -> (S, M)` over a
+    trajectory's pieces (module docstring; rate_hz the samples per second of each piece); `refine` and the
+    keywords as refine_local_maxima."""
+    grid: SampleGrid = piecewise_grid(trajectory.breakpoints_s[None, :], rate_hz)
+    cols = columns(*trajectory.evaluate(grid.t_s, grid.t_piece_s))
+    peak = cols.max(axis=0)
+    t_peak = grid.t_s[cols.argmax(axis=0)]
+    if not refine:
+        return peak, t_peak, 0, grid
+    peak, t_peak, refined = refine_local_maxima(lambda t, tp: columns(*trajectory.evaluate(t, tp)), grid, cols, peak,
+                                                t_peak, near_limit, relative_margin=relative_margin, skip_flat=skip_flat)
+    return peak, t_peak, refined, grid
 
 
 def refine_local_maxima(columns_at, grid, cols, peak, t_peak, near_limit, *,

@@ -25,6 +25,8 @@ LINE_TOL_M and LINE_TOL_RAD (`line_deviation` reports both).
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 from pydrake.trajectories import PiecewisePolynomial
 
@@ -34,6 +36,7 @@ from qmt_drake.families.trapezoid import trapezoid_law
 from qmt_drake.model.spatial_ik import slerp_rotations, slerp_unit
 from qmt_drake.planners.spatial_toppra import DrakePath
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
+from qmt_drake.trajectory import JointTrajectory
 
 FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")  # the planar families' names (families/)
 LAWS = {"line_cubic_velocity": "cubic_velocity", "trapezoid_ptp": "trapezoid"}
@@ -43,6 +46,7 @@ LINE_STEP_M = 0.02  # first IK point spacing along a line; halved until the tole
 LINE_MAX_POINTS = 4096  # per segment
 T1_MIN_S = 0.02  # gene bounds (s): accel/decel times at least this, cruise times from 0
 GENE_MAX_S = 3.0
+KNOT_TIME_BISECTIONS = 60  # the time a segment's law reaches a path knot, to 2^-60 of the segment
 
 
 def law_values(law: str, T1, T2, t):
@@ -55,10 +59,14 @@ def law_values(law: str, T1, T2, t):
     raise ValueError(f"unknown time law {law!r}")
 
 
-class SegmentTrajectory:
+class SegmentTrajectory(JointTrajectory):
     """Rest-to-rest segments played one after another (module docstring): `paths` joint paths q_i(u)
     (Drake PiecewisePolynomials on [0, 1], or their DrakePaths, shared between trajectories so their
-    derivatives are made once), `law` a law_values name, T1_s, T2_s per segment."""
+    derivatives are made once), `law` a law_values name, T1_s, T2_s per segment. breakpoints_s (made on
+    first use): each segment's law phases (0, T1, T1 + T2, 2 T1 + T2: u-ddot jumps or kinks there) and the
+    times the law passes its path's knots (a column kinks there); evaluate: JointTrajectory's, through sample()."""
+
+    holds_end_value = True
 
     def __init__(self, paths, law: str, T1_s, T2_s) -> None:
         self.paths = [p if isinstance(p, DrakePath) else DrakePath(p) for p in paths]
@@ -70,6 +78,22 @@ class SegmentTrajectory:
         self.segment_s = 2.0 * self.T1_s + self.T2_s
         self.t_start = np.r_[0.0, np.cumsum(self.segment_s)]
         self.duration_s = float(self.t_start[-1])
+        self.n_dof = self.paths[0].dof
+
+    @cached_property
+    def breakpoints_s(self) -> np.ndarray:
+        out = [self.t_start]
+        for i, path in enumerate(self.paths):
+            T1, T2 = self.T1_s[i], self.T2_s[i]
+            knots = np.asarray(path.pp.get_segment_times(), float)
+            knots = knots[(knots > 0.0) & (knots < 1.0)]
+            lo, hi = np.zeros_like(knots), np.full_like(knots, self.segment_s[i])
+            for _ in range(KNOT_TIME_BISECTIONS):  # u(t) is non-decreasing: bisect for u(t) = knot
+                mid = 0.5 * (lo + hi)
+                below = law_values(self.law, T1, T2, mid)[0] < knots
+                lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+            out.append(self.t_start[i] + np.r_[T1, T1 + T2, 0.5 * (lo + hi)])
+        return np.unique(np.clip(np.concatenate(out), 0.0, self.duration_s))
 
     def sample(self, t):
         t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)

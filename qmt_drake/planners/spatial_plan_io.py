@@ -66,6 +66,7 @@ from qmt_drake.planners.spatial_trajectory import (
     scale_to_hold,
 )
 from qmt_drake.spatial_task import SpatialScenario, load_spatial_scenario
+from qmt_drake.trajectory import PolynomialTrajectory
 
 REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: rebuilt vs planned (only rounding may differ, ~1e-13)
 POSE_TOL = 1e-6  # m and rad: the plan's first/last sample on the scenario's first/last task pose (Drake FK)
@@ -179,11 +180,11 @@ def trajectory_spec(traj, ruckig_segments=None) -> dict:
     if isinstance(traj, SegmentTrajectory):
         return {"kind": "segments", "law": traj.law, "T1_s": traj.T1_s, "T2_s": traj.T2_s,
                 "paths": [_cubic_spec(p.pp) for p in traj.paths]}
-    if isinstance(traj, PolyTrajectory) and isinstance(traj.pp, BsplineTrajectory):
+    if isinstance(traj, PolynomialTrajectory) and isinstance(traj.pp, BsplineTrajectory):
         bs = traj.pp
         return {"kind": "bspline", "order": bs.basis().order(), "knots_s": np.asarray(bs.basis().knots()),
                 "control_points_rad": np.hstack(bs.control_points()).T}
-    if isinstance(traj, PolyTrajectory):
+    if isinstance(traj, PolynomialTrajectory):
         return _cubic_spec(traj.pp)
     raise ValueError(f"no plan-file form for a {type(traj).__name__}")
 

@@ -1,9 +1,12 @@
 """Joint trajectories of a spatial scenario, their sampled limit check, time scaling and pose check.
 
-A trajectory is any object with `duration_s` and `sample(t) -> (q, qd, qdd)` ((S, n) arrays for (S,)
-times in s). Three kinds: `ToppraTrajectory` (a path q(s) with TOPP-RA's constant-s-ddot profile on
-its grid), `SequenceTrajectory` (trajectories one after another), `PolyTrajectory` (a Drake trajectory in time: a via-point cubic PiecewisePolynomial, trajopt's
-BsplineTrajectory), `RuckigTrajectory` (Ruckig segments, each from rest to rest). `TimeScaled(traj, k)` plays
+Every trajectory is a qmt_drake.trajectory.JointTrajectory (one protocol with the planar ones: duration_s,
+n_dof, breakpoints_s, evaluate(t, t_piece), `sample(t) -> (q, qd, qdd)` ((S, n) arrays for (S,) times in
+s), sampling clipped into [0, T]: holds_end_value). The kinds: `ToppraTrajectory` (a path q(s) with
+TOPP-RA's constant-s-ddot profile on its grid), `SequenceTrajectory` (trajectories one after another),
+`PolyTrajectory(pp)` (trajectory.PolynomialTrajectory of a Drake trajectory in time: a via-point cubic
+PiecewisePolynomial, trajopt's BsplineTrajectory; the name stays for callers), `RuckigTrajectory` (Ruckig
+segments, each from rest to rest), planners/spatial_families.SegmentTrajectory. `TimeScaled(traj, k)` plays
 one k times slower: q(t / k), qd / k, qdd / k^2 (positions, hence every task pose, unchanged).
 TimeScaled and SequenceTrajectory are qmt_drake.trajectory's TimeScaledTrajectory and
 ConcatenatedTrajectory (one implementation for planar and spatial trajectories; the names stay).
@@ -14,12 +17,13 @@ the carried part, reflected rotor inertia), the hand's term (limits/suction.py, 
 1 = on the limit; with refine=True (the re-check of every plan) the local maxima between the samples
 refined as the planar re-check does (limits/spatial_columns.py, limits/refine.py), and the binding
 column named.
-`between_pieces(sc, traj, rate_hz)` re-checks a TOPP-RA trajectory on its own pieces: TOPP-RA holds its
-rows at its grid points only, s-ddot jumps there and a column kinks where the path's third derivative
-jumps (its knots), so each piece is sampled with both ends (one-sided) and refined inside.
+`between_pieces(sc, traj, rate_hz)` re-checks any trajectory on its own pieces (its breakpoints_s, through
+its evaluate: the planar re-check's way): each piece sampled with both ends (one-sided) and refined
+inside, so a column that jumps at a breakpoint (TOPP-RA's s-ddot at its grid points, where it holds its
+rows only; a time law's phase switch; a Ruckig jerk switch) or kinks there (a path's knots) is seen.
 `scale_to_hold(sc, traj, rate_hz)` returns the trajectory itself when every ratio is <= 1, else the
 smallest time scale k > 1 (bisection to a relative 1e-4, k then rounded up) for which the sampled
-check holds (with refine=True: the refined check, then, for a TOPP-RA trajectory, `between_pieces`).
+check holds (with refine=True: the refined check, then `between_pieces`).
 `pose_errors(sc, traj, times)` measures, with Drake's forward kinematics, how far the hand is from each
 task pose (position, and face normal or rotation) at the given times (m, rad).
 """
@@ -29,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, refine_local_maxima
+from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, peaks_on_pieces
 from qmt_drake.limits.spatial_columns import (
     SPATIAL_RELATIVE_MARGIN,
     TIMED_GROUPS_EXCLUDE,
@@ -38,15 +42,30 @@ from qmt_drake.limits.spatial_columns import (
     peaks,
 )
 from qmt_drake.planners.spatial_toppra import DrakePath
-from qmt_drake.sampling import piecewise_grid
 from qmt_drake.timescale import smallest_holding_scale
-from qmt_drake.trajectory import ConcatenatedTrajectory, TimeScaledTrajectory, _slowed
+from qmt_drake.trajectory import (
+    ConcatenatedTrajectory,
+    JointTrajectory,
+    PolynomialTrajectory,
+    TimeScaledTrajectory,
+)
 
 SequenceTrajectory = ConcatenatedTrajectory  # `t_start`: ConcatenatedTrajectory.offsets
 TimeScaled = TimeScaledTrajectory  # `k`: TimeScaledTrajectory.factor
 
 
-class ToppraTrajectory:
+def PolyTrajectory(pp) -> PolynomialTrajectory:  # noqa: N802 - the old class's name, for callers
+    """A spatial trajectory of a Drake trajectory in time (PiecewisePolynomial or BsplineTrajectory): the one
+    PolynomialTrajectory, sampling clipped into [0, T] (holds_end_value)."""
+    return PolynomialTrajectory(pp, holds_end_value=True)
+
+
+class ToppraTrajectory(JointTrajectory):
+    """A path q(s) (a Drake PiecewisePolynomial in s) played with TOPP-RA's profile: s-dot `sd` at the `grid`
+    points, s-ddot constant between them. breakpoints_s: the times of its pieces (`pieces`)."""
+
+    holds_end_value = True
+
     def __init__(self, pp, grid, sd) -> None:
         self.path = DrakePath(pp)
         self.grid, self.sd = np.asarray(grid, float), np.asarray(sd, float)
@@ -54,7 +73,12 @@ class ToppraTrajectory:
         self.u = (self.sd[1:] ** 2 - self.sd[:-1] ** 2) / (2.0 * ds)
         self.t_grid = np.r_[0.0, np.cumsum(2.0 * ds / (self.sd[:-1] + self.sd[1:]))]
         self.duration_s = float(self.t_grid[-1])
+        self.n_dof = self.path.dof
         self._pieces = None
+
+    @property
+    def breakpoints_s(self) -> np.ndarray:
+        return self.pieces()[0]
 
     def sample(self, t):
         t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
@@ -88,37 +112,35 @@ class ToppraTrajectory:
 
     def evaluate(self, t, t_piece):
         """q, qd, qdd at times t (s) with the formulas of the piece holding t_piece (one-sided at a grid
-        point or knot: the path is evaluated inside the piece's [s_a, s_b))."""
+        point or knot: the path is evaluated inside the piece's [s_a, s_b)); at rest (t_piece >= T) the end."""
         t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
+        rest = np.broadcast_to(np.asarray(t_piece, float), t.shape) >= self.duration_s
         tp = np.clip(np.broadcast_to(np.asarray(t_piece, float), t.shape), 0.0, self.duration_s)
         bt, bs = self.pieces()
         j = np.clip(np.searchsorted(bt, tp, side="right") - 1, 0, len(bt) - 2)
         i = np.clip(np.searchsorted(self.t_grid, tp, side="right") - 1, 0, len(self.u) - 1)
         tau = t - self.t_grid[i]
         s = np.clip(self.grid[i] + self.sd[i] * tau + 0.5 * self.u[i] * tau ** 2, bs[j], np.nextafter(bs[j + 1], -np.inf))
-        sd = np.maximum(self.sd[i] + self.u[i] * tau, 0.0)
+        s = np.where(rest, self.grid[-1], s)
+        sd = np.where(rest, 0.0, np.maximum(self.sd[i] + self.u[i] * tau, 0.0))
+        u = np.where(rest, 0.0, self.u[i])
         q, qs, qss = self.path(s, 0), self.path(s, 1), self.path(s, 2)
-        return q, qs * sd[:, None], qs * self.u[i][:, None] + qss * (sd ** 2)[:, None]
+        return q, qs * sd[:, None], qs * u[:, None] + qss * (sd ** 2)[:, None]
 
 
-class PolyTrajectory:
-    def __init__(self, pp) -> None:
-        self.pp = pp
-        self._d = [pp, pp.MakeDerivative(1), pp.MakeDerivative(2)]
-        self.t0 = pp.start_time()
-        self.duration_s = float(pp.end_time() - pp.start_time())
+class _RuckigSegment(JointTrajectory):
+    """One Ruckig trajectory (from rest to rest); breakpoints_s: every joint's phase switches (its jerk
+    jumps there, its acceleration kinks); evaluate: JointTrajectory's, through sample()."""
 
-    def sample(self, t):
-        t = self.t0 + np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration_s)
-        return tuple(d.vector_values(t).T for d in self._d)
-
-
-class _RuckigSegment:
-    """One Ruckig trajectory with the sample() of this module."""
+    holds_end_value = True
 
     def __init__(self, segment) -> None:
         self.segment = segment
         self.duration_s = float(segment.duration)
+        self.n_dof = int(segment.degrees_of_freedom)
+        switches = [np.cumsum(p.t) for p in segment.profiles[0]]
+        self.breakpoints_s = np.unique(np.clip(np.concatenate([[0.0, self.duration_s], *switches]),
+                                               0.0, self.duration_s))
 
     def sample(self, t):
         out = [np.empty((len(t), self.segment.degrees_of_freedom)) for _ in range(3)]
@@ -170,60 +192,20 @@ def check(sc, traj, rate_hz: float, terms=None, *, refine: bool = False) -> dict
     return out
 
 
-def _smooth_pieces(traj):
-    """(breakpoints (P,) s, evaluate(t, t_piece)) of a trajectory made of TOPP-RA profiles (ToppraTrajectory,
-    played slower or one after another), between whose breakpoints every limit column is smooth; None for
-    any other (its re-check's refinement between samples is all there is)."""
-    if isinstance(traj, ToppraTrajectory):
-        return traj.pieces()[0], traj.evaluate
-    if isinstance(traj, TimeScaled):
-        inner = _smooth_pieces(traj.inner)
-        if inner is None:
-            return None
-        k, f = traj.k, inner[1]
-        return inner[0] * k, lambda t, tp: _slowed(*f(np.asarray(t) / k, np.asarray(tp) / k), k)
-    if isinstance(traj, SequenceTrajectory):
-        parts = [_smooth_pieces(p) for p in traj.parts]
-        if any(p is None for p in parts):
-            return None
-        offsets = traj.offsets
-
-        def evaluate(t, tp):
-            t = np.atleast_1d(np.asarray(t, float))
-            tp = np.broadcast_to(np.asarray(tp, float), t.shape)
-            m = np.clip(np.searchsorted(offsets, tp, side="right") - 1, 0, len(parts) - 1)
-            out = None
-            for i, (_, f) in enumerate(parts):
-                sel = m == i
-                if sel.any():
-                    vals = f(t[sel] - offsets[i], tp[sel] - offsets[i])
-                    out = out or [np.empty((t.size, v.shape[1])) for v in vals]
-                    for o, v in zip(out, vals):
-                        o[sel] = v
-            return tuple(out)
-
-        return np.unique(np.concatenate([b + o for (b, _), o in zip(parts, offsets[:-1])])), evaluate
-    return None
-
-
 def between_pieces(sc, traj, rate_hz: float) -> dict | None:
-    """The re-check of a TOPP-RA trajectory on its own pieces (`_smooth_pieces`: the grid points and the path's
-    knots, where a column jumps or kinks): every piece sampled at rate_hz and at both its ends (one-sided), the
-    local maxima refined inside each piece (limits/refine.py); {'max_timed', 'binding', 'binding_time_s',
-    'n_samples'}, or None for a trajectory without such pieces. Sampling across a kink, the re-check's
-    refinement brackets a maximum that is not smooth there and can miss it (TALOS's arm: 1.0008 of an
-    acceleration limit between samples of a plan re-checked at 0.9999)."""
-    found = _smooth_pieces(traj)
-    if found is None:
+    """The re-check of a trajectory on its own pieces (its breakpoints_s: for TOPP-RA the grid points and the
+    path's knots, where a column jumps or kinks), as the planar LimitSet.report does: every piece sampled at
+    rate_hz and at both its ends (one-sided, through its evaluate), the local maxima refined inside each
+    piece (limits/refine.py); {'max_timed', 'binding', 'binding_time_s', 'n_samples'}, or None for an object
+    that only samples. Sampling across a jump or kink, the re-check's refinement brackets a maximum that is
+    not smooth there and can miss it (TALOS's arm: 1.0008 of an acceleration limit between samples of a
+    TOPP-RA plan re-checked at 0.9999)."""
+    if not isinstance(traj, JointTrajectory):
         return None
-    bp, evaluate = found
-    grid = piecewise_grid(bp[None, :], rate_hz)
     cols = SpatialColumns(sc)
-    values = cols.columns(*evaluate(grid.t_s, grid.t_piece_s))
-    peak, t_peak = values.max(axis=0), grid.t_s[values.argmax(axis=0)]
-    near = np.full(values.shape[1], REFINE_NEAR_LIMIT)
-    peak, t_peak, _ = refine_local_maxima(lambda t, tp: cols.columns(*evaluate(t, tp)), grid, values, peak, t_peak,
-                                          near, relative_margin=SPATIAL_RELATIVE_MARGIN, skip_flat=True)
+    near = np.full(cols.n_columns, REFINE_NEAR_LIMIT)
+    peak, t_peak, _, grid = peaks_on_pieces(cols.columns, traj, rate_hz, near, relative_margin=SPATIAL_RELATIVE_MARGIN,
+                                            skip_flat=True)
     timed = np.array([g not in TIMED_GROUPS_EXCLUDE for g, _ in cols.column_labels])
     b = binding(cols, np.where(timed, peak, -np.inf), t_peak)
     return {"max_timed": b["ratio"], "binding": b["column"], "binding_time_s": b["time_s"], "n_samples": int(grid.t_s.size)}
@@ -239,9 +221,9 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
     (a joint outside its range stays outside; the re-check reports it). With `refine` the k found on
     the samples is then checked with the local maxima refined between them and, where a maximum
     between samples still breaks a limit, raised until the refined check holds too (the k of a plan
-    that holds between its samples is the sampled one, unchanged); then, for a TOPP-RA trajectory, raised the same
-    way until it also holds on its own pieces (`between_pieces`: TOPP-RA holds its rows at its grid points only,
-    and a column kinks at the path's knots, where the refinement between samples can miss a maximum)."""
+    that holds between its samples is the sampled one, unchanged); then raised the same way until it also holds
+    on its own pieces (`between_pieces`: a column jumps or kinks at a breakpoint, e.g. TOPP-RA holds its rows
+    at its grid points only, where the refinement between samples can miss a maximum)."""
     k = 1.0
     if not _held(sc, traj, 1.0, rate_hz, False):
         if not _held(sc, traj, k_max, rate_hz, False):
@@ -259,7 +241,8 @@ def scale_to_hold(sc, traj, rate_hz: float, *, k_max: float = 20.0, rel_tol: flo
 
 
 def _held_on_pieces(sc, traj, k, rate_hz) -> bool:
-    """True if a TOPP-RA trajectory k times slower holds on its own pieces (`between_pieces`); True for others."""
+    """True if the trajectory k times slower holds on its own pieces (`between_pieces`; True for an object that
+    only samples)."""
     r = between_pieces(sc, traj if k == 1.0 else TimeScaled(traj, k), rate_hz)
     return r is None or r["max_timed"] <= 1.0
 

@@ -75,6 +75,7 @@ from qmt_drake.sim.spatial_tray_hand import (  # noqa: F401 (re-exported)
     add_tray_hand,
     classify_tray_run,
 )
+from qmt_drake.trajectory import JointTrajectory
 
 TIME_STEP_S = 1e-3  # the plant step by default [s]
 MAX_TIME_STEP_S = 5e-3  # the largest plant step a user may choose [s]
@@ -311,12 +312,17 @@ class WeldHand(HandPart):
                 **tracking_report(logs, ctx, traj.duration_s, self.sc, drive), **hit}
 
 
-class _Delayed:
-    """traj after `settle_s` of rest at its start (a spatial_trajectory kind)."""
+class _Delayed(JointTrajectory):
+    """traj (a JointTrajectory that holds its end value, a spatial kind) after `settle_s` of rest at its start."""
+
+    holds_end_value = True
 
     def __init__(self, traj, settle_s: float) -> None:
         self.inner, self.settle_s = traj, settle_s
         self.duration_s = traj.duration_s + settle_s
+
+    n_dof = property(lambda self: self.inner.n_dof)
+    breakpoints_s = property(lambda self: np.unique(np.r_[0.0, self.settle_s + self.inner.breakpoints_s]))
 
     def sample(self, t):
         t = np.atleast_1d(np.asarray(t, float)) - self.settle_s

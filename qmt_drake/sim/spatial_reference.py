@@ -43,7 +43,7 @@ from pydrake.multibody.tree import MultibodyForces
 
 from qmt_drake.systems.dc_motor import motor_signals_from_joint_torque
 from qmt_drake.timescale import smallest_holding_scale
-from qmt_drake.trajectory import TimeScaledTrajectory
+from qmt_drake.trajectory import JointTrajectory, TimeScaledTrajectory
 
 SHAPING_WINDOW_S = 0.042  # w: two boxes of 21 ms (1.5 periods of the part's ringing on its weld, about 14 ms)
 QUADRATURE_STEP_S = 2.5e-4  # the running integral of q: Hermite-corrected trapezoid (exact for cubics)
@@ -52,13 +52,19 @@ FIT_MAX_SCALE = 4.0
 FIT_REL_TOL = 1e-3
 
 
-class SampledDataReference:
+class SampledDataReference(JointTrajectory):
     """`traj` as the loop's sampled-data plant integrates it (module docstring): at t, q(t) + h/2 qd(t), qd(t)
     and the step's mean acceleration (qd(t + h) - qd(t)) / h, h = time_step_s [s]."""
+
+    holds_end_value = True  # a JointTrajectory that samples itself (qmt_drake/trajectory.py)
 
     def __init__(self, traj, time_step_s: float) -> None:
         self.inner, self.h = traj, float(time_step_s)
         self.duration_s = traj.duration_s
+
+    n_dof = property(lambda self: self.inner.n_dof)
+    breakpoints_s = property(lambda self: np.unique(np.clip(np.r_[self.inner.breakpoints_s, self.inner.breakpoints_s
+                                                                  - self.h], 0.0, self.duration_s)))
 
     def sample(self, t_s):
         t = np.atleast_1d(np.asarray(t_s, float))
@@ -67,9 +73,11 @@ class SampledDataReference:
         return q + 0.5 * self.h * qd, qd, (qd_next - qd) / self.h
 
 
-class BoxShapedReference:
+class BoxShapedReference(JointTrajectory):
     """`traj` (a spatial_trajectory kind: duration_s, sample(t) -> q, qd, qdd (len(t), n)) seen through a
     moving average of width window_s [s] (module docstring); duration_s = traj's + window_s."""
+
+    holds_end_value = True  # a JointTrajectory that samples itself (qmt_drake/trajectory.py)
 
     def __init__(self, traj, window_s: float = SHAPING_WINDOW_S) -> None:
         if not window_s > 0:
@@ -82,6 +90,10 @@ class BoxShapedReference:
         self._q, self._qd = q, qd
         self._Q = np.vstack([np.zeros(q.shape[1]), np.cumsum(_hermite_area(np.diff(self._t)[:, None], q[:-1], qd[:-1], q[1:],
                                                                            qd[1:]), axis=0)])
+
+    n_dof = property(lambda self: self.inner.n_dof)
+    breakpoints_s = property(lambda self: np.unique(np.r_[self.inner.breakpoints_s, self.inner.breakpoints_s
+                                                          + self.window_s]))
 
     def _held(self, t):
         """The plan at times t [s], at rest before 0 and after its end."""
