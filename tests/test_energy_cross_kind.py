@@ -7,12 +7,17 @@ import json
 
 import numpy as np
 import pytest
+from pydrake.multibody.tree import MultibodyForces
 
 from qmt_drake.apps.cli import main
 from qmt_drake.energy.as_transfer import load_transfer_plan, transfer_scenario_of
+from qmt_drake.energy.cross_kind import plan_energy_time_spatial
 from qmt_drake.energy.dynamics import drake_inverse_dynamics
 from qmt_drake.energy.kinematics import tip_position
 from qmt_drake.energy.scenario import get_experiment
+from qmt_drake.model.urdf_check import load_arm_plant
+from qmt_drake.planners.spatial_plan_io import load_spatial_plan
+from qmt_drake.spatial_task import load_spatial_scenario
 
 
 def _torque_ratio(plan, E) -> float:
@@ -94,3 +99,67 @@ def test_the_adapter_keeps_the_experiment_arm_and_postures():
         assert np.linalg.norm(sc.ik.pose(q)[0] - p) < 1e-9
     assert [t.name for t in sc.terms()] == ["motor_torque"]
     assert np.allclose(sc.torque_limit_Nm, E.torque_limit_Nm)
+
+
+# ------------------------------------------------------------------ the energy-time cost on a spatial arm
+
+def _drake_torques(sc, q, qd, qdd) -> np.ndarray:
+    """Joint torques by a fresh MultibodyPlant of the scenario's URDF with its carried part welded to the hand
+    (model/urdf_check.load_arm_plant), Drake's CalcInverseDynamics with gravity, plus the reflected rotor
+    inertia N^2 J_r qdd; joints mapped by name."""
+    plant, _, names = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, carried=sc.body.as_dict())
+    assert names == list(sc.joint_names)
+    ctx = plant.CreateDefaultContext()
+    iq = [plant.GetJointByName(n).position_start() for n in names]
+    iv = [plant.GetJointByName(n).velocity_start() for n in names]
+    forces = MultibodyForces(plant)
+    out = np.empty_like(q)
+    x, v, a = np.zeros(plant.num_positions()), np.zeros(plant.num_velocities()), np.zeros(plant.num_velocities())
+    for k in range(len(q)):
+        x[iq], v[iv], a[iv] = q[k], qd[k], qdd[k]
+        plant.SetPositions(ctx, x)
+        plant.SetVelocities(ctx, v)
+        forces.SetZero()
+        plant.CalcForceElementsContribution(ctx, forces)
+        out[k] = plant.CalcInverseDynamics(ctx, a, forces)[iv]
+    return out + sc.drive["reflected_inertia_kgm2"] * qdd
+
+
+@pytest.mark.parametrize("method", ["snopt", "steepest"])
+def test_energy_time_solvers_plan_a_spatial_arm_within_its_torque_limits(method, tmp_path, capsys):
+    """`qmt-drake plan ur5-magnet-part --method snopt|steepest`: a plan of the spatial kind whose cost z =
+    integral (c1 tau'tau + c2) dt, recomputed from Drake's own torques at 10x the plan's re-check rate, is
+    the plan's (the 400-point trapezoid against the fine grid: 1e-3), cheaper than the solver's start, with
+    every torque within the limits at those samples."""
+    path = tmp_path / "p.json"
+    assert main(["plan", "ur5-magnet-part", "--method", method, "--quiet", "--json", str(path)]) == 0
+    sc = load_spatial_scenario("ur5-magnet-part")
+    plan = load_spatial_plan(path, sc)
+    info = json.loads(path.read_text())["info"]
+    assert plan.feasible and info["objective"] == "energy_time" and info["z"] < info["start_z"]
+    t = np.linspace(0.0, plan.motion_time_s, int(np.ceil(plan.motion_time_s * 10 * sc.recheck_rate_hz)) + 1)
+    q, qd, qdd = plan.sample(t)
+    tau = _drake_torques(sc, q, qd, qdd)
+    assert np.max(np.abs(tau) / sc.torque_limit_Nm) <= 1.0 + 1e-9
+    z = info["c1"] * np.trapezoid(np.sum(tau * tau, axis=1), t) + info["c2"] * plan.motion_time_s
+    assert z == pytest.approx(info["z"], rel=1e-3)
+
+
+def test_snopt_and_ipopt_agree_on_the_spatial_energy_time_optimum():
+    """Two solvers on the same program (energy/cross_kind.py) from the same start: the same optimum (on
+    panda-tray-cup, whose tray rows make many constraints active at once, they stop 0.2 % apart in z: two
+    KKT points of the sampled program, not one optimum)."""
+    sc = load_spatial_scenario("ur5-suction-bins")
+    a, b = (plan_energy_time_spatial(sc, method=m) for m in ("snopt", "ipopt"))
+    assert a.info["z"] == pytest.approx(b.info["z"], rel=1e-5)
+
+
+@pytest.mark.parametrize("argv,msg", [
+    (["ur5-suction-bins", "--method", "snopt", "--c2", "0"], "c2 = 0 has no stable solution"),
+    (["ur5-suction-bins", "--method", "steepest", "--m", "3"], "--m: not an option of the spatial (3-D) steepest"),
+    (["ur5-suction-bins", "--method", "collocation"], "collocation plans energy-time"),
+])
+def test_spatial_energy_time_bad_options_exit_2_one_line(argv, msg, capsys):
+    assert main(["plan", *argv, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert msg in err and "\n" not in err and "Traceback" not in err

@@ -37,7 +37,7 @@ EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130  #
 METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
 ENERGY_METHODS = ("snopt", "ipopt", "steepest", "collocation", "toppra", "toppra-drake", "ruckig", "trajopt",
                   "family_optimum", "ga")
-SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake")
+SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake", "snopt", "ipopt", "steepest")
 ALL_METHODS = tuple(dict.fromkeys(METHODS + ENERGY_METHODS + SPATIAL_METHODS))
 SPATIAL_FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")
 SPATIAL_ACTUATORS = ("ideal", "dc_motor")

@@ -126,6 +126,12 @@ METHODS: tuple[Method, ...] = (
            internal=("sc",)),
     Method("toppra-drake", SPATIAL, "qmt_drake.planners.baselines.toppra_plan:plan_toppra_drake_spatial",
            "Drake's Toppra on the IK'd path (joint limits; the rest held by the re-check)", internal=("sc",)),
+    # seed 001's energy-time cost on a spatial arm's via-cubic family under its re-check's limits (energy/cross_kind.py)
+    *(Method(name, SPATIAL, "qmt_drake.energy.cross_kind:plan_energy_time_spatial", summary, internal=("sc",),
+             passes=("method",))
+      for name, summary in (("snopt", "the energy-time cost over the via cubic's segment times, SNOPT"),
+                            ("ipopt", "the energy-time cost over the via cubic's segment times, IPOPT"),
+                            ("steepest", "the energy-time cost over the via cubic's segment times, steepest descent"))),
     Method("snopt", ENERGY, summary="the energy-time NLP by SNOPT, multi-start", **_ENERGY),
     Method("ipopt", ENERGY, summary="the energy-time NLP by IPOPT, multi-start", **_ENERGY),
     Method("steepest", ENERGY, summary="the paper's steepest descent, multi-start", **_ENERGY),

@@ -1,0 +1,189 @@
+"""Seed 001's energy-time cost on a spatial arm (issue 27 item 6: "the energy-time cost (c1 tau'tau + c2) dt
+needs only joint torques, which every arm has"): `qmt-drake plan ur5-suction-bins --method snopt|ipopt|steepest`.
+
+    minimise  z(x) = integral_0^T (c1 tau(t)'tau(t) + c2) dt     [N^2 m^2 s]
+    over      x = the via-cubic family's segment times [s] (planners/spatial_families.ViaCubicFamily: the
+              joint-space cubic through the scenario's IK'd task poses, at rest at both ends; the family
+              every spatial planner's path is)
+    subject to every ratio column of the spatial re-check (limits/spatial_columns: joint range, speed,
+              acceleration, torque and the hand's term) <= 1 at CON_SAMPLES fixed fractions of the motion's
+              time, and the family's gene box. k(x), the tight time scale (planners/spatial_tight.tight_scales:
+              the smallest factor by which the motion must be slowed so that they hold at its samples), is the
+              steepest descent's restoration and the final check.
+
+tau are the joint torques the arm's drives deliver, gravity, the carried part and the reflected rotor inertia
+included (the scenario's SpatialChain, the same the torque limit is checked on). z is the trapezoid rule on
+SAMPLES points evenly spaced in time plus both ends. Seed 001's weights are the defaults (c1 = 1, c2 = 1e5);
+--c1 / --c2 change them (energy/objective.check_weights: both > 0).
+
+Solvers (one start: the family's tight timing of its default shares, that is the TOPP-free fastest member of
+the shape spatial_search starts from, played 1.5x slower):
+- snopt / ipopt: Drake's MathematicalProgram, cost and constraints as callbacks with central finite-difference
+  gradients (relative step FD_STEP; the genes are a few seconds and every column is smooth in them; a single
+  max-ratio constraint, kinked where the binding sample switches, took SNOPT 10 min), SNOPT or IPOPT.
+- steepest: seed 001's steepest descent with a restoration step (as energy/steepest.py restores the end
+  point): x <- x - a grad z, then, where k(x) > 1, every segment time times k (the motion slowed until it
+  holds); the step a halved until z decreases (Armijo, 1e-4), doubled after a success; stops when the
+  step's relative decrease of z is below 1e-10 or after max_iter steps.
+The result is finished as every spatial plan (spatial_search.finish_or_least_violating: re-checked at 10x the
+check rate and, where it only holds at its own samples, slowed by the smallest factor that makes the fine
+re-check hold; no factor: the least-violating plan, exit 3). Its info has c1, c2, z, the energy integral,
+the solver's status and the start's z. `collocation` (a transcription of seed 001's Fourier dynamics) is not
+offered on this kind.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from pydrake.solvers import IpoptSolver, MathematicalProgram, SnoptSolver, SolverOptions
+
+from qmt_drake.energy.nlp import _ad_wrap
+from qmt_drake.energy.objective import check_weights
+from qmt_drake.errors import QmtInputError
+from qmt_drake.limits.spatial_columns import SpatialColumns
+from qmt_drake.planners.spatial_families import spatial_family
+from qmt_drake.planners.spatial_search import finish_or_least_violating, tight_time
+from qmt_drake.planners.spatial_tight import TIGHT_SAMPLES, tight_scales
+
+SAMPLES = 400  # cost quadrature points over the motion
+CON_SAMPLES = 200  # constraint points of the NLPs (the result is then held at the re-check's 10x rate)
+FD_STEP = 1e-6  # central differences: relative step on each segment time
+START_SLOWDOWN = 1.5
+PAPER_C1, PAPER_C2 = 1.0, 1e5  # seed 001's weights (models/scenarios/ohsaka-fig3.yaml)
+SOLVERS = ("snopt", "ipopt", "steepest")
+
+
+class SpatialEnergyTime:
+    """z(x) and k(x) of one spatial scenario's via-cubic family (module docstring)."""
+
+    def __init__(self, sc, c1: float, c2: float) -> None:
+        check_weights(c1, c2)
+        self.sc, self.c1, self.c2 = sc, float(c1), float(c2)
+        self.family = spatial_family(sc, "via_cubic")
+        self.lower, self.upper = self.family.lower, self.family.upper
+        self.columns = SpatialColumns(sc)
+
+    def torques(self, x) -> tuple[np.ndarray, np.ndarray]:
+        """(t [s], tau (S, n) [N m]) of the family member x on SAMPLES points."""
+        traj = self.family.trajectory(np.asarray(x, float))
+        t = np.linspace(0.0, traj.duration_s, SAMPLES)
+        q, qd, qdd = traj.sample(t)
+        return t, self.sc.chain.evaluate(q, qd, qdd).joint_torque_Nm
+
+    def energy(self, x) -> float:
+        """integral tau'tau dt [N^2 m^2 s] (trapezoid)."""
+        t, tau = self.torques(x)
+        return float(np.trapezoid(np.sum(tau * tau, axis=1), t))
+
+    def z(self, x) -> float:
+        return self.c1 * self.energy(x) + self.c2 * float(np.sum(x))
+
+    def scale(self, x) -> float:
+        return float(tight_scales(self.sc, [self.family.trajectory(np.asarray(x, float))], TIGHT_SAMPLES)[0])
+
+    def ratios(self, x) -> np.ndarray:
+        """(CON_SAMPLES * M,) every ratio column of the re-check (limits/spatial_columns) at CON_SAMPLES fixed
+        fractions of the motion's time: the NLP's constraints, each smooth in x."""
+        traj = self.family.trajectory(np.asarray(x, float))
+        q, qd, qdd = traj.sample(np.linspace(0.0, 1.0, CON_SAMPLES) * traj.duration_s)
+        return self.columns.columns(q, qd, qdd).ravel()
+
+    def gradient(self, f, x) -> np.ndarray:
+        """d f / d x by central differences ((m,) for a scalar f, (K, m) for a vector f)."""
+        x = np.asarray(x, float)
+        cols = []
+        for i in range(x.size):
+            h = FD_STEP * max(abs(x[i]), 1e-3)
+            e = np.zeros_like(x)
+            e[i] = h
+            cols.append((np.asarray(f(x + e)) - np.asarray(f(x - e))) / (2 * h))
+        return np.stack(cols, axis=-1)
+
+    def start(self) -> np.ndarray:
+        d = np.linalg.norm(np.diff(self.sc.q_poses_rad, axis=0), ord=np.inf, axis=1)
+        return np.clip(tight_time(self.sc, np.sqrt(d))[1] * START_SLOWDOWN, self.lower, self.upper)
+
+
+def _solve_program(P: SpatialEnergyTime, x0, solver: str, max_iter: int) -> tuple[np.ndarray, bool, str]:
+    prog = MathematicalProgram()
+    x = prog.NewContinuousVariables(len(x0), "T")
+    s = 1.0 / P.c2  # z / c2: seconds plus (c1/c2) energy, near unit scale
+
+    def cost(v):
+        return P.z(v) * s, P.gradient(P.z, v) * s
+
+    def limit(v):
+        return P.ratios(v), P.gradient(P.ratios, v)
+
+    prog.AddCost(_ad_wrap(cost), vars=x)
+    n_rows = P.ratios(x0).size
+    prog.AddConstraint(_ad_wrap(limit), lb=np.full(n_rows, -np.inf), ub=np.ones(n_rows), vars=x)
+    prog.AddBoundingBoxConstraint(P.lower, P.upper, x)
+    opts = SolverOptions()
+    if solver == "snopt":
+        sol = SnoptSolver()
+        opts.SetOption(sol.solver_id(), "Major optimality tolerance", 1e-7)
+        opts.SetOption(sol.solver_id(), "Major feasibility tolerance", 1e-9)
+        opts.SetOption(sol.solver_id(), "Major iterations limit", int(max_iter))
+    else:
+        sol = IpoptSolver()
+        opts.SetOption(sol.solver_id(), "tol", 1e-7)
+        opts.SetOption(sol.solver_id(), "print_level", 0)
+        opts.SetOption(sol.solver_id(), "max_iter", int(max_iter))
+    if not sol.available():
+        raise QmtInputError(f"{solver} is not available in this Drake build; use --method steepest")
+    r = sol.Solve(prog, np.asarray(x0, float), opts)
+    return np.asarray(r.GetSolution(x), float), bool(r.is_success()), str(r.get_solution_result())
+
+
+def _restore(P: SpatialEnergyTime, x) -> np.ndarray:
+    """x slowed until it holds (k <= 1); inf genes where no scale does."""
+    k = P.scale(x)
+    return np.clip(x * k, P.lower, P.upper) if k > 1.0 else x
+
+
+def _steepest(P: SpatialEnergyTime, x0, max_iter: int) -> tuple[np.ndarray, bool, str]:
+    x, z = np.asarray(x0, float), P.z(x0)
+    a = 1e-2 * float(np.mean(x)) / max(float(np.linalg.norm(P.gradient(P.z, x))), 1e-300)
+    for it in range(max_iter):
+        g = P.gradient(P.z, x)
+        while a > 1e-16:
+            y = _restore(P, np.clip(x - a * g, P.lower, P.upper))
+            zy = P.z(y)
+            if np.isfinite(zy) and zy <= z - 1e-4 * a * float(g @ g) or (zy < z and a < 1e-12):
+                break
+            a *= 0.5
+        else:
+            return x, True, f"converged: no decreasing step after {it} iterations"
+        if (z - zy) <= 1e-10 * abs(z):
+            return y, True, f"converged: relative decrease below 1e-10 after {it + 1} iterations"
+        x, z, a = y, zy, 2.0 * a
+    return x, False, f"stopped at max_iter = {max_iter}"
+
+
+def plan_energy_time_spatial(sc, *, method: str, c1: float = PAPER_C1, c2: float = PAPER_C2,
+                             max_iter: int = 200):
+    """The energy-time optimum of spatial scenario sc (module docstring) by `method` (snopt | ipopt |
+    steepest): its SpatialPlan, re-checked."""
+    if method not in SOLVERS:
+        raise QmtInputError(f"method {method!r}: the spatial energy-time planners are {'|'.join(SOLVERS)}")
+    t0 = time.perf_counter()
+    P = SpatialEnergyTime(sc, c1, c2)
+    x0 = P.start()
+    if method == "steepest":
+        x, ok, status = _steepest(P, x0, max_iter)
+    else:
+        x, ok, status = _solve_program(P, x0, method, max_iter)
+    x = np.clip(x, P.lower, P.upper)
+    k = P.scale(x)
+    if not np.isfinite(k):
+        raise QmtInputError(f"{sc.name}: {method} ended at segment times {np.round(x, 4).tolist()} s that no "
+                            "time scale makes hold; a bug or a limit broken at rest")
+    x = _restore(P, x)  # a solver's last iterate may sit a hair outside k <= 1
+    fam = P.family
+    info = {"objective": "energy_time", "c1": P.c1, "c2": P.c2, "z": P.z(x), "energy_integral_N2m2s": P.energy(x),
+            "start_z": P.z(x0), "solver_status": status, "converged": ok, "family": "via_cubic",
+            "genes": dict(zip(fam.gene_names, x)), "segment_times_s": fam.segment_times(x)}
+    return finish_or_least_violating(sc, method, fam.trajectory(x), fam.pose_times(x), t0, info)
