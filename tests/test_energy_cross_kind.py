@@ -11,13 +11,15 @@ from pydrake.multibody.tree import MultibodyForces
 
 from qmt_drake.apps.cli import main
 from qmt_drake.energy.as_transfer import load_transfer_plan, transfer_scenario_of
-from qmt_drake.energy.cross_kind import plan_energy_time_spatial
+from qmt_drake.energy.cross_kind import plan_energy_time_spatial, plan_energy_time_transfer
 from qmt_drake.energy.dynamics import drake_inverse_dynamics
 from qmt_drake.energy.kinematics import tip_position
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.model.urdf_check import load_arm_plant
+from qmt_drake.plan_files import load_plan
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.transfer_scenario import load_scenario
 
 
 def _torque_ratio(plan, E) -> float:
@@ -163,3 +165,50 @@ def test_spatial_energy_time_bad_options_exit_2_one_line(argv, msg, capsys):
     assert main(["plan", *argv, "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert msg in err and "\n" not in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------ the energy-time cost on a planar arm
+
+def _drake_planar_torques(arm, q, qd, qdd) -> np.ndarray:
+    """Joint torques by Drake's CalcInverseDynamics with gravity on the arm's plant (the carried part welded,
+    the actuators' reflected rotor inertia in its mass matrix), joints mapped by name."""
+    plant = arm.plant
+    ctx = plant.CreateDefaultContext()
+    iq = [plant.GetJointByName(n).position_start() for n in arm.joint_names]
+    iv = [plant.GetJointByName(n).velocity_start() for n in arm.joint_names]
+    forces = MultibodyForces(plant)
+    out = np.empty_like(q)
+    x, v, a = np.zeros(plant.num_positions()), np.zeros(plant.num_velocities()), np.zeros(plant.num_velocities())
+    for k in range(len(q)):
+        x[iq], v[iv], a[iv] = q[k], qd[k], qdd[k]
+        plant.SetPositions(ctx, x)
+        plant.SetVelocities(ctx, v)
+        forces.SetZero()
+        plant.CalcForceElementsContribution(ctx, forces)
+        out[k] = plant.CalcInverseDynamics(ctx, a, forces)[iv]
+    return out
+
+
+def test_snopt_plans_the_planar_magnet_arm_within_its_motor_torques(tmp_path, capsys):
+    """`qmt-drake plan thesis-ch4 --method snopt`: a feasible transfer plan (its own re-check: the moment and
+    motor torques), whose motor torques by Drake at 10x the re-check rate stay within the limits and whose z,
+    recomputed from them, is the plan's."""
+    path = tmp_path / "p.json"
+    assert main(["plan", "thesis-ch4", "--method", "snopt", "--quiet", "--json", str(path)]) == 0
+    sc = load_scenario("thesis-ch4")
+    plan = load_plan(path, sc)
+    assert plan.feasible and plan.method == "snopt" and plan.extra["z"] < plan.extra["start_z"]
+    t = np.linspace(0.0, plan.motion_time_s, int(np.ceil(plan.motion_time_s * 10 * sc.sampling.check_rate_hz)) + 1)
+    q, qd, qdd = plan.sample(t)
+    tau = _drake_planar_torques(sc.arm, q, qd, qdd)
+    limit = sc.gear_ratio * np.asarray(sc.limits.motor_torque_limit_Nm)
+    assert np.max(np.abs(tau) / limit) <= 1.0 + 1e-9
+    z = plan.extra["c1"] * np.trapezoid(np.sum(tau * tau, axis=1), t) + plan.extra["c2"] * plan.motion_time_s
+    assert z == pytest.approx(plan.extra["z"], rel=1e-3)
+
+
+def test_snopt_and_ipopt_agree_on_the_tray_energy_time_optimum():
+    sc = load_scenario("crane-tray")
+    a, b = (plan_energy_time_transfer(sc, method=m) for m in ("snopt", "ipopt"))
+    assert a.feasible and b.feasible
+    assert a.extra["z"] == pytest.approx(b.extra["z"], rel=1e-5)

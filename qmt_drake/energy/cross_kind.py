@@ -43,9 +43,12 @@ from qmt_drake.energy.nlp import _ad_wrap
 from qmt_drake.energy.objective import check_weights
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.spatial_columns import SpatialColumns
+from qmt_drake.plan import family_plan
+from qmt_drake.planners.optimum import tight_scale
 from qmt_drake.planners.spatial_families import spatial_family
 from qmt_drake.planners.spatial_search import finish_or_least_violating, tight_time
 from qmt_drake.planners.spatial_tight import TIGHT_SAMPLES, tight_scales
+from qmt_drake.problem import PlanningProblem
 
 SAMPLES = 400  # cost quadrature points over the motion
 CON_SAMPLES = 200  # constraint points of the NLPs (the result is then held at the re-check's 10x rate)
@@ -53,24 +56,46 @@ FD_STEP = 1e-6  # central differences: relative step on each segment time
 START_SLOWDOWN = 1.5
 PAPER_C1, PAPER_C2 = 1.0, 1e5  # seed 001's weights (models/scenarios/ohsaka-fig3.yaml)
 SOLVERS = ("snopt", "ipopt", "steepest")
+HOLD_STEPS = (1.0001, 1.001, 1.01, 1.1)  # the planar plan's slow-downs until its fine re-check holds
 
 
-class SpatialEnergyTime:
-    """z(x) and k(x) of one spatial scenario's via-cubic family (module docstring)."""
+class EnergyTimeOnFamily:
+    """z(x), the constraint rows and the restoration of one scenario's family (module docstring); a kind
+    supplies its family's motion, its torques, its ratio columns and its tight scale."""
 
-    def __init__(self, sc, c1: float, c2: float) -> None:
+    lower: np.ndarray
+    upper: np.ndarray
+
+    def __init__(self, c1: float, c2: float) -> None:
         check_weights(c1, c2)
-        self.sc, self.c1, self.c2 = sc, float(c1), float(c2)
-        self.family = spatial_family(sc, "via_cubic")
-        self.lower, self.upper = self.family.lower, self.family.upper
-        self.columns = SpatialColumns(sc)
+        self.c1, self.c2 = float(c1), float(c2)
+
+    def motion(self, x, fractions) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """(T [s], q, qd, qdd) of member x at these fractions of its time."""
+        raise NotImplementedError
+
+    def joint_torques(self, q, qd, qdd) -> np.ndarray:
+        raise NotImplementedError
+
+    def column_ratios(self, q, qd, qdd) -> np.ndarray:
+        """(S, M) the kind's limit columns, each <= 1 where it holds."""
+        raise NotImplementedError
+
+    def scale(self, x) -> float:
+        """The smallest time scale (slow-down factor) at which x holds its limits; inf: none."""
+        raise NotImplementedError
+
+    def slowed(self, x, k: float) -> np.ndarray:
+        """The genes of x played k times slower."""
+        raise NotImplementedError
+
+    def start(self) -> np.ndarray:
+        raise NotImplementedError
 
     def torques(self, x) -> tuple[np.ndarray, np.ndarray]:
         """(t [s], tau (S, n) [N m]) of the family member x on SAMPLES points."""
-        traj = self.family.trajectory(np.asarray(x, float))
-        t = np.linspace(0.0, traj.duration_s, SAMPLES)
-        q, qd, qdd = traj.sample(t)
-        return t, self.sc.chain.evaluate(q, qd, qdd).joint_torque_Nm
+        T, q, qd, qdd = self.motion(x, np.linspace(0.0, 1.0, SAMPLES))
+        return np.linspace(0.0, T, SAMPLES), self.joint_torques(q, qd, qdd)
 
     def energy(self, x) -> float:
         """integral tau'tau dt [N^2 m^2 s] (trapezoid)."""
@@ -78,17 +103,14 @@ class SpatialEnergyTime:
         return float(np.trapezoid(np.sum(tau * tau, axis=1), t))
 
     def z(self, x) -> float:
-        return self.c1 * self.energy(x) + self.c2 * float(np.sum(x))
-
-    def scale(self, x) -> float:
-        return float(tight_scales(self.sc, [self.family.trajectory(np.asarray(x, float))], TIGHT_SAMPLES)[0])
+        T = self.motion(x, np.zeros(1))[0]
+        return self.c1 * self.energy(x) + self.c2 * T
 
     def ratios(self, x) -> np.ndarray:
-        """(CON_SAMPLES * M,) every ratio column of the re-check (limits/spatial_columns) at CON_SAMPLES fixed
-        fractions of the motion's time: the NLP's constraints, each smooth in x."""
-        traj = self.family.trajectory(np.asarray(x, float))
-        q, qd, qdd = traj.sample(np.linspace(0.0, 1.0, CON_SAMPLES) * traj.duration_s)
-        return self.columns.columns(q, qd, qdd).ravel()
+        """(CON_SAMPLES * M,) every ratio column of the re-check at CON_SAMPLES fixed fractions of the
+        motion's time: the NLP's constraints, each smooth in x."""
+        _, q, qd, qdd = self.motion(x, np.linspace(0.0, 1.0, CON_SAMPLES))
+        return self.column_ratios(q, qd, qdd).ravel()
 
     def gradient(self, f, x) -> np.ndarray:
         """d f / d x by central differences ((m,) for a scalar f, (K, m) for a vector f)."""
@@ -101,12 +123,76 @@ class SpatialEnergyTime:
             cols.append((np.asarray(f(x + e)) - np.asarray(f(x - e))) / (2 * h))
         return np.stack(cols, axis=-1)
 
+
+class SpatialEnergyTime(EnergyTimeOnFamily):
+    """A spatial scenario's via-cubic family (segment times)."""
+
+    def __init__(self, sc, c1: float, c2: float) -> None:
+        super().__init__(c1, c2)
+        self.sc = sc
+        self.family = spatial_family(sc, "via_cubic")
+        self.lower, self.upper = self.family.lower, self.family.upper
+        self.columns = SpatialColumns(sc)
+
+    def motion(self, x, fractions):
+        traj = self.family.trajectory(np.asarray(x, float))
+        return (traj.duration_s, *traj.sample(np.asarray(fractions) * traj.duration_s))
+
+    def joint_torques(self, q, qd, qdd):
+        return self.sc.chain.evaluate(q, qd, qdd).joint_torque_Nm
+
+    def column_ratios(self, q, qd, qdd):
+        return self.columns.columns(q, qd, qdd)
+
+    def scale(self, x) -> float:
+        return float(tight_scales(self.sc, [self.family.trajectory(np.asarray(x, float))], TIGHT_SAMPLES)[0])
+
+    def slowed(self, x, k: float) -> np.ndarray:
+        return np.asarray(x, float) * k
+
     def start(self) -> np.ndarray:
         d = np.linalg.norm(np.diff(self.sc.q_poses_rad, axis=0), ord=np.inf, axis=1)
         return np.clip(tight_time(self.sc, np.sqrt(d))[1] * START_SLOWDOWN, self.lower, self.upper)
 
 
-def _solve_program(P: SpatialEnergyTime, x0, solver: str, max_iter: int) -> tuple[np.ndarray, bool, str]:
+class PlanarEnergyTime(EnergyTimeOnFamily):
+    """A transfer (planar magnet, tray) scenario's family (its YAML family and gene bounds)."""
+
+    def __init__(self, problem: PlanningProblem, c1: float, c2: float) -> None:
+        super().__init__(c1, c2)
+        self.problem, self.family = problem, problem.family
+        self.lower, self.upper = problem.lower, problem.upper
+        ls = problem.limit_set
+        self.ub = np.where(ls.ratio_mask, 1.0, 0.0)  # a ratio column <= 1; joint-range excess [rad] <= 0
+
+    def motion(self, x, fractions):
+        T = float(self.family.motion_time_s(np.atleast_2d(x))[0])
+        return (T, *self.family.sample(x, np.asarray(fractions) * T))
+
+    def joint_torques(self, q, qd, qdd):
+        return self.problem.arm.hand_state(q, qd, qdd).joint_torque_Nm
+
+    def column_ratios(self, q, qd, qdd):
+        c = self.problem.limit_set.columns(q, qd, qdd)
+        return c + (1.0 - self.ub)  # the joint-range columns shifted so that every column holds at <= 1
+
+    def scale(self, x) -> float:
+        k = float(tight_scale(self.problem, np.atleast_2d(x))[0])
+        return k if np.isfinite(k) else np.inf
+
+    def slowed(self, x, k: float) -> np.ndarray:
+        return self.family.time_scaled(x, k)[0]
+
+    def start(self) -> np.ndarray:
+        mid = 0.5 * (self.lower + self.upper)
+        k = self.scale(mid)
+        if not np.isfinite(k):
+            raise QmtInputError(f"{self.problem.name}: the middle of the family's gene box holds no limit at any "
+                                "speed; nothing to start the energy-time solvers from")
+        return np.clip(self.slowed(mid, k * START_SLOWDOWN), self.lower, self.upper)
+
+
+def _solve_program(P: EnergyTimeOnFamily, x0, solver: str, max_iter: int) -> tuple[np.ndarray, bool, str]:
     prog = MathematicalProgram()
     x = prog.NewContinuousVariables(len(x0), "T")
     s = 1.0 / P.c2  # z / c2: seconds plus (c1/c2) energy, near unit scale
@@ -138,13 +224,13 @@ def _solve_program(P: SpatialEnergyTime, x0, solver: str, max_iter: int) -> tupl
     return np.asarray(r.GetSolution(x), float), bool(r.is_success()), str(r.get_solution_result())
 
 
-def _restore(P: SpatialEnergyTime, x) -> np.ndarray:
-    """x slowed until it holds (k <= 1); inf genes where no scale does."""
+def _restore(P: EnergyTimeOnFamily, x) -> np.ndarray:
+    """x slowed until it holds (k <= 1)."""
     k = P.scale(x)
-    return np.clip(x * k, P.lower, P.upper) if k > 1.0 else x
+    return np.clip(P.slowed(x, k), P.lower, P.upper) if 1.0 < k < np.inf else x
 
 
-def _steepest(P: SpatialEnergyTime, x0, max_iter: int) -> tuple[np.ndarray, bool, str]:
+def _steepest(P: EnergyTimeOnFamily, x0, max_iter: int) -> tuple[np.ndarray, bool, str]:
     x, z = np.asarray(x0, float), P.z(x0)
     a = 1e-2 * float(np.mean(x)) / max(float(np.linalg.norm(P.gradient(P.z, x))), 1e-300)
     for it in range(max_iter):
@@ -163,27 +249,50 @@ def _steepest(P: SpatialEnergyTime, x0, max_iter: int) -> tuple[np.ndarray, bool
     return x, False, f"stopped at max_iter = {max_iter}"
 
 
-def plan_energy_time_spatial(sc, *, method: str, c1: float = PAPER_C1, c2: float = PAPER_C2,
-                             max_iter: int = 200):
-    """The energy-time optimum of spatial scenario sc (module docstring) by `method` (snopt | ipopt |
-    steepest): its SpatialPlan, re-checked."""
+def _solve(P: EnergyTimeOnFamily, method: str, max_iter: int, where: str) -> tuple[np.ndarray, dict]:
+    """(genes that hold on the samples, info) of `method` on P from P.start()."""
     if method not in SOLVERS:
-        raise QmtInputError(f"method {method!r}: the spatial energy-time planners are {'|'.join(SOLVERS)}")
-    t0 = time.perf_counter()
-    P = SpatialEnergyTime(sc, c1, c2)
+        raise QmtInputError(f"method {method!r}: the energy-time planners of this kind are {'|'.join(SOLVERS)}")
     x0 = P.start()
     if method == "steepest":
         x, ok, status = _steepest(P, x0, max_iter)
     else:
         x, ok, status = _solve_program(P, x0, method, max_iter)
     x = np.clip(x, P.lower, P.upper)
-    k = P.scale(x)
-    if not np.isfinite(k):
-        raise QmtInputError(f"{sc.name}: {method} ended at segment times {np.round(x, 4).tolist()} s that no "
-                            "time scale makes hold; a bug or a limit broken at rest")
-    x = _restore(P, x)  # a solver's last iterate may sit a hair outside k <= 1
+    if not np.isfinite(P.scale(x)):
+        raise QmtInputError(f"{where}: {method} ended at genes {np.round(x, 4).tolist()} that no time scale makes "
+                            "hold; a bug or a limit broken at rest")
+    x = _restore(P, x)  # a solver's last iterate may sit a hair outside the limits
+    return x, {"objective": "energy_time", "c1": P.c1, "c2": P.c2, "z": P.z(x),
+               "energy_integral_N2m2s": P.energy(x), "start_z": P.z(x0), "solver_status": status, "converged": ok}
+
+
+def plan_energy_time_spatial(sc, *, method: str, c1: float = PAPER_C1, c2: float = PAPER_C2,
+                             max_iter: int = 200):
+    """The energy-time optimum of spatial scenario sc (module docstring) by `method` (snopt | ipopt |
+    steepest): its SpatialPlan, re-checked."""
+    t0 = time.perf_counter()
+    P = SpatialEnergyTime(sc, c1, c2)
+    x, info = _solve(P, method, max_iter, sc.name)
     fam = P.family
-    info = {"objective": "energy_time", "c1": P.c1, "c2": P.c2, "z": P.z(x), "energy_integral_N2m2s": P.energy(x),
-            "start_z": P.z(x0), "solver_status": status, "converged": ok, "family": "via_cubic",
-            "genes": dict(zip(fam.gene_names, x)), "segment_times_s": fam.segment_times(x)}
+    info.update(family="via_cubic", genes=dict(zip(fam.gene_names, x)), segment_times_s=fam.segment_times(x))
     return finish_or_least_violating(sc, method, fam.trajectory(x), fam.pose_times(x), t0, info)
+
+
+def plan_energy_time_transfer(scenario, *, method: str, c1: float = PAPER_C1, c2: float = PAPER_C2,
+                              max_iter: int = 200):
+    """The energy-time optimum of a transfer scenario (planar magnet, tray) over its family's genes by
+    `method`: its Plan, re-checked at the scenario's check rate; where that fine re-check fails, slowed by
+    the smallest of HOLD_STEPS factors that makes it hold (none: the plan as solved, not feasible: exit 3)."""
+    t0 = time.perf_counter()
+    problem = PlanningProblem(scenario)
+    P = PlanarEnergyTime(problem, c1, c2)
+    x, info = _solve(P, method, max_iter, scenario.name)
+    plan = family_plan(problem, x, method, planner_wall_s=time.perf_counter() - t0, extra=info)
+    for k in HOLD_STEPS:
+        if plan.feasible:
+            break
+        y = np.clip(P.slowed(x, k), P.lower, P.upper)
+        plan = family_plan(problem, y, method, planner_wall_s=time.perf_counter() - t0,
+                           extra={**info, "hold_scale": k, "z": P.z(y), "energy_integral_N2m2s": P.energy(y)})
+    return plan

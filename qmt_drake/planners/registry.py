@@ -115,6 +115,10 @@ METHODS: tuple[Method, ...] = (
            "Ruckig's jerk-limited motion", internal=("scenario",)),
     Method("trajopt", TRANSFER, "qmt_drake.planners.baselines.trajopt_plan:plan_trajopt",
            "Drake's trajectory optimisation", internal=("scenario",)),
+    # seed 001's energy-time cost on the scenario's family under its limit set (energy/cross_kind.py)
+    *(Method(name, TRANSFER, "qmt_drake.energy.cross_kind:plan_energy_time_transfer",
+             f"the energy-time cost over the family's genes, {how}", internal=("scenario",), passes=("method",))
+      for name, how in (("snopt", "SNOPT"), ("ipopt", "IPOPT"), ("steepest", "steepest descent"))),
     Method("toppra", SPATIAL, f"{_S}:plan_toppra_spatial", "TOPP-RA on the family's path", internal=("sc",)),
     Method("ruckig", SPATIAL, f"{_S}:plan_ruckig_spatial", "Ruckig rest to rest between task poses",
            internal=("sc",)),
