@@ -1,35 +1,39 @@
-"""Seed 001's energy-time cost on a spatial arm (issue 27 item 6: "the energy-time cost (c1 tau'tau + c2) dt
-needs only joint torques, which every arm has"): `qmt-drake plan ur5-suction-bins --method snopt|ipopt|steepest`.
+"""Seed 001's energy-time cost on the other arms (issue 27 item 6: "the energy-time cost (c1 tau'tau + c2) dt
+needs only joint torques, which every arm has"): `qmt-drake plan thesis-ch4 | crane-tray | ur5-suction-bins |
+ur5-magnet-part | panda-tray-cup --method snopt|ipopt|steepest [--c1 C1 --c2 C2 --max-iter N]`.
 
     minimise  z(x) = integral_0^T (c1 tau(t)'tau(t) + c2) dt     [N^2 m^2 s]
-    over      x = the via-cubic family's segment times [s] (planners/spatial_families.ViaCubicFamily: the
-              joint-space cubic through the scenario's IK'd task poses, at rest at both ends; the family
-              every spatial planner's path is)
-    subject to every ratio column of the spatial re-check (limits/spatial_columns: joint range, speed,
-              acceleration, torque and the hand's term) <= 1 at CON_SAMPLES fixed fractions of the motion's
-              time, and the family's gene box. k(x), the tight time scale (planners/spatial_tight.tight_scales:
-              the smallest factor by which the motion must be slowed so that they hold at its samples), is the
-              steepest descent's restoration and the final check.
+    over      x = the genes of a family every arm of the kind has: on a spatial arm the via cubic's segment
+              times (planners/spatial_families.ViaCubicFamily: the joint-space cubic through the scenario's
+              IK'd task poses, at rest at both ends); on a planar magnet or tray arm the scenario's own
+              family (its YAML `family`, gene box and all: thesis-ch4's via cubic T1..T3, crane-tray's T1, T2)
+    subject to every limit column of the kind's re-check <= 1 at CON_SAMPLES fixed fractions of the motion's
+              time (spatial: limits/spatial_columns, joint range, speed, acceleration, torque and the hand's
+              term; planar: the scenario's LimitSet columns, the magnet's moment or the tray's terms, motor
+              torques, joint speed; a joint-range column, an excess in rad, <= 0), and the gene box.
 
-tau are the joint torques the arm's drives deliver, gravity, the carried part and the reflected rotor inertia
-included (the scenario's SpatialChain, the same the torque limit is checked on). z is the trapezoid rule on
-SAMPLES points evenly spaced in time plus both ends. Seed 001's weights are the defaults (c1 = 1, c2 = 1e5);
---c1 / --c2 change them (energy/objective.check_weights: both > 0).
+tau are the joint torques the drives deliver, gravity, the carried part and the reflected rotor inertia
+included (the kind's own model, the one its torque limit is checked on). z is the trapezoid rule on SAMPLES
+points evenly spaced in time. Seed 001's weights are the defaults (c1 = 1, c2 = 1e5); --c1 / --c2 change them
+(energy/objective.check_weights: both > 0).
 
-Solvers (one start: the family's tight timing of its default shares, that is the TOPP-free fastest member of
-the shape spatial_search starts from, played 1.5x slower):
+One start: the family's tight timing (the smallest slow-down at which it holds: planners/spatial_tight on a
+spatial arm, planners/optimum.tight_scale on a planar one) of a default shape (spatial: segment times as the
+square roots of the joint moves; planar: the middle of the gene box), played START_SLOWDOWN times slower.
 - snopt / ipopt: Drake's MathematicalProgram, cost and constraints as callbacks with central finite-difference
   gradients (relative step FD_STEP; the genes are a few seconds and every column is smooth in them; a single
   max-ratio constraint, kinked where the binding sample switches, took SNOPT 10 min), SNOPT or IPOPT.
 - steepest: seed 001's steepest descent with a restoration step (as energy/steepest.py restores the end
-  point): x <- x - a grad z, then, where k(x) > 1, every segment time times k (the motion slowed until it
-  holds); the step a halved until z decreases (Armijo, 1e-4), doubled after a success; stops when the
-  step's relative decrease of z is below 1e-10 or after max_iter steps.
-The result is finished as every spatial plan (spatial_search.finish_or_least_violating: re-checked at 10x the
-check rate and, where it only holds at its own samples, slowed by the smallest factor that makes the fine
-re-check hold; no factor: the least-violating plan, exit 3). Its info has c1, c2, z, the energy integral,
-the solver's status and the start's z. `collocation` (a transcription of seed 001's Fourier dynamics) is not
-offered on this kind.
+  point): x <- x - a grad z, then, where the motion breaks a limit, the motion slowed by its tight scale; the
+  step a halved until z decreases (Armijo, 1e-4), doubled after a success; stops when no step decreases z,
+  when the relative decrease is below 1e-10, or after max_iter steps. The uniform slow-down moves along the
+  time direction only, so on an active limit it stops short of the NLPs' optimum (a few per cent in z).
+The result is re-checked as every plan of its kind: a spatial plan by spatial_search.finish_or_least_violating
+(10x the check rate, slowed by the smallest factor that makes the fine re-check hold; none: the least-violating
+plan, exit 3), a planar one by plan.family_plan (its check rate), slowed by the first of HOLD_STEPS that makes
+it hold (none: not feasible, exit 3). Its info / extra has c1, c2, z, the energy integral, the start's z and
+the solver's status. `collocation` (a transcription of seed 001's planar Fourier dynamics) is not offered on
+these kinds.
 """
 
 from __future__ import annotations
