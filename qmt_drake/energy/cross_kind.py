@@ -246,7 +246,7 @@ def _steepest(P: EnergyTimeOnFamily, x0, max_iter: int) -> tuple[np.ndarray, boo
                 break
             a *= 0.5
         else:
-            return x, True, f"converged: no decreasing step after {it} iterations"
+            return x, False, f"stopped: no decreasing step (an active limit) after {it} iterations"
         if (z - zy) <= 1e-10 * abs(z):
             return y, True, f"converged: relative decrease below 1e-10 after {it + 1} iterations"
         x, z, a = y, zy, 2.0 * a
