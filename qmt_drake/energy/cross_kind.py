@@ -241,7 +241,8 @@ def _steepest(P: EnergyTimeOnFamily, x0, max_iter: int) -> tuple[np.ndarray, boo
         g = P.gradient(P.z, x)
         while a > 1e-16:
             y = _restore(P, np.clip(x - a * g, P.lower, P.upper))
-            zy = P.z(y)
+            holds = P.scale(y) <= 1.0 + 1e-9  # a step no slow-down within the gene box restores is refused
+            zy = P.z(y) if holds else np.inf
             if np.isfinite(zy) and zy <= z - 1e-4 * a * float(g @ g) or (zy < z and a < 1e-12):
                 break
             a *= 0.5
