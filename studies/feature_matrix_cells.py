@@ -32,9 +32,10 @@ METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajo
 BASE_METHOD = {"transfer": "thesis", "spatial": "toppra", "energy": "snopt"}
 # The energy-time planners' cheap problem: one Fourier term, one rotation-direction start.
 ENERGY_SMALL = ["--m", "1", "--pattern=-+-", "--divisions", "20"]
+ENERGY_SOLVERS = ("snopt", "ipopt", "steepest", "collocation")  # the Fourier planners ENERGY_SMALL is for
 # GA sizes that run in seconds (transfer GA: the scenario's population; spatial: --option population).
 GA_SMALL = {"transfer": ["--stall", "2"], "spatial": ["--stall", "2", "--option", "population=6"],
-            "energy": ["--stall", "2"]}
+            "energy": ["--stall", "2", "--option", "population=6"]}  # the energy arm's GA is the spatial one
 # The one value the override rows change: a dotted key of the scenario YAML and the factor applied.
 OVERRIDE = {"thesis-ch4": ("payload.mass_kg", 1.1), "crane-tray": ("payload.mass_kg", 1.1),
             "ohsaka-fig3": ("objective.c2", 0.5), "ur5-suction-bins": ("payload.mass_kg", 1.1),
@@ -103,7 +104,7 @@ FEATURES = [f"plan --method {m}" for m in METHODS] + [
 
 def _plan_words(name: str, fam: str, method: str, generations: int = 2) -> list:
     w = ["qmt-drake", "plan", name, "--method", method, "--quiet"]
-    if fam == "energy":
+    if fam == "energy" and method in ENERGY_SOLVERS:  # the transfer planners on the arm take no Fourier options
         w += ENERGY_SMALL + (["--max-iter", "200"] if method == "steepest" else [])
     if method == "ga":
         w += ["--generations", str(generations), *GA_SMALL[fam]]
@@ -122,8 +123,8 @@ def cell(feature: str, kind: str) -> Cell:
     if feature == "GA --checkpoint + resume":
         # a long run stopped by Ctrl-C at its first progress line (the GA writes its checkpoint then),
         # and the same command again, a few generations past the checkpoint's: it must say it resumes
-        words = ["qmt-drake", "plan", name, "--method", "ga", *(ENERGY_SMALL if fam == "energy" else []),
-                 "--generations", "100000", "--stall", "0", *GA_SMALL[fam][2:]]
+        words = ["qmt-drake", "plan", name, "--method", "ga", "--generations", "100000", "--stall", "0",
+                 *GA_SMALL[fam][2:]]
         first = words + ["--checkpoint", "ga.ckpt", "--json", "p1.json"]
         again = [w if w != "100000" else "{GEN}" for w in words] + ["--checkpoint", "ga.ckpt", "--json", "p2.json"]
         return Cell(feature, kind, [{"argv": first, "mode": "interrupt"}, {"argv": again, "mode": "resume"}],

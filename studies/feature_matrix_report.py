@@ -10,16 +10,17 @@ from studies.feature_matrix_cells import BASE_METHOD, ENERGY_SMALL, FEATURES, KI
 # meaningless for this arm) or "missing feature" (it could exist; the code does not offer it).
 MISSING, PHYSICS, NO_DATA = "missing feature", "physics", "no data"
 JUDGEMENTS: list = [
-    (r"--method (snopt|ipopt|steepest|collocation)", r"^(?!energy)", r"plans energy-time|does not plan spatial",
-     MISSING, "the energy-time cost (c1 tau'tau + c2) dt needs only joint torques, which every arm has; the solvers "
-     "are written for seed 001's Fourier problem only"),
-    (r"--method (ga|optimum|toppra|toppra-drake|ruckig|trajopt)$", "energy", r"plans transfer scenarios|not energy-time ones",
-     MISSING, "a minimum-time plan of the vertical arm under its joint-torque limits is meaningful; the transfer "
-     "planners take transfer scenarios only"),
+    (r"--method collocation", r"^(?!energy)", r"plans energy-time",
+     MISSING, "direct collocation transcribes seed 001's planar Fourier problem only; on this arm snopt, ipopt and "
+     "steepest minimise the same cost (c1 tau'tau + c2) dt over the family's genes under the kind's limits "
+     "(energy/cross_kind.py); a collocation of the kind's own dynamics and hand terms is not built"),
+    (r"--method (ga|optimum|toppra|toppra-drake|ruckig|trajopt|family_optimum)$|GA --checkpoint", "energy",
+     r"needs the joints' torque limits",
+     PHYSICS, "an energy-time scenario without limits.joint_torque_Nm (ohsaka-fig2: the paper states none) has ideal "
+     "torque sources and no other limit: the arm could move arbitrarily fast, so a minimum time has no meaning "
+     "(the message asks for the limits)"),
     (r"--method family_optimum", "planar|tray", r"plans spatial scenarios",
      MISSING, "a name only: the transfer planners call the same thing `optimum` (the spatial ones take both)"),
-    (r"--method family_optimum", "energy", r"plans transfer scenarios|not energy-time ones",
-     MISSING, "as for the other minimum-time planners on the vertical arm"),
     (r"--method toppra-drake", "UR5|Panda", r"does not plan spatial",
      MISSING, "Drake's TOPP-RA on a spatial path is meaningful; only the planar variant is wired to it"),
     (r"--method thesis", ".", r"plans transfer scenarios|does not plan spatial|plans planar \(kind: transfer\) scenarios, not",
@@ -28,8 +29,6 @@ JUDGEMENTS: list = [
     (r"--method trajopt", "tray", r"not available for the tray",
      MISSING, "the tray's level and friction-cone terms are missing from the trajopt constraints (TOPP-RA, Ruckig "
      "and the GA have them); a tray constraint set for trajopt is code, not physics"),
-    (r"GA --checkpoint", "energy", r"plans transfer scenarios|not energy-time ones",
-     MISSING, "no GA plans the vertical arm (see plan --method ga); nothing to checkpoint"),
     (r"GA --checkpoint", "UR5|Panda", r"keeps no checkpoint",
      MISSING, "the spatial GA runs the same planners/ga.run_ga, which writes checkpoints; only the plumbing is missing"),
     (r"--margin", "energy", r"takes no time scale",

@@ -31,9 +31,12 @@ def test_one_table_plans_every_kind():
     rows = registry.rows()
     assert {m.kind for m in rows} == set(registry.KINDS)
     assert len({(m.kind, m.name) for m in rows}) == len(rows)  # a method once per kind
-    assert registry.names(registry.TRANSFER) == ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt")
-    assert registry.names(registry.SPATIAL) == ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake")
-    assert registry.names(registry.ENERGY) == ("snopt", "ipopt", "steepest", "collocation")
+    assert registry.names(registry.TRANSFER) == ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt",
+                                                 "snopt", "ipopt", "steepest")
+    assert registry.names(registry.SPATIAL) == ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake",
+                                                "snopt", "ipopt", "steepest")
+    assert registry.names(registry.ENERGY) == ("snopt", "ipopt", "steepest", "collocation", "toppra", "toppra-drake",
+                                               "ruckig", "trajopt", "family_optimum", "ga")
 
 
 def test_every_method_of_every_kind_is_reached_by_plan(scenarios, monkeypatch):
@@ -81,7 +84,8 @@ def test_a_method_of_another_kind_is_refused_naming_this_kinds_methods(scenarios
     (lambda s: plan_with("ga", s[registry.SPATIAL], bogus=1), "plan_with option bogus: not an option of the spatial (3-D) ga"),
     (lambda s: plan_with("ga", s[registry.TRANSFER], generations=2.5), "generations 2.5 must be an integer"),
     (lambda s: plan_with("ga", s[registry.TRANSFER], population=8), "population is the scenario's ga.population"),
-    (lambda s: plan_with("toppra", s[registry.SPATIAL], c1=1.0), "(the energy-time snopt, ipopt, steepest and collocation planners take it)"),
+    (lambda s: plan_with("toppra", s[registry.SPATIAL], c1=1.0), "(the planar snopt, ipopt and steepest, spatial (3-D) snopt, ipopt and steepest and "
+                                                               "energy-time snopt, ipopt, steepest and collocation planners take it)"),
     (lambda s: plan_with("nope", s[registry.ENERGY]), "'nope' is unknown"),
     (lambda s: registry.plan(s[registry.SPATIAL], "toppra", seed=-1), "seed -1 must be >= 0"),
 ])
@@ -93,11 +97,10 @@ def test_api_refusals_are_one_line(scenarios, call, needle):
 
 @pytest.mark.parametrize("argv, needle", [
     (["plan", "thesis-ch4", "--option", "bogus=1"], "--option bogus: not an option of the planar ga planner"),
-    (["plan", "ohsaka-fig3", "--method", "toppra"], "--method toppra plans planar (kind: transfer) and spatial "
-                                                    "(3-D) (kind: spatial_transfer) scenarios, not energy-time ones; "
-                                                    "energy-time scenarios take snopt|"),
+    (["plan", "ohsaka-fig3", "--method", "thesis"], "--method thesis plans planar (kind: transfer) scenarios, not "
+                                                    "energy-time ones; energy-time scenarios take snopt|"),
     (["plan", "ohsaka-fig3", "--generations", "3"], "--generations: not an option of the energy-time snopt planner"),
-    (["plan", "thesis-ch4", "--c1", "2"], "--c1: not an option of the planar ga planner (the energy-time snopt"),
+    (["plan", "thesis-ch4", "--c1", "2"], "--c1: not an option of the planar ga planner (the planar snopt"),
     (["plan", "ur5-magnet-part", "--method", "toppra", "--seed", "2"], "--seed: the spatial transfer toppra planner "
                                                                       "draws no random numbers"),
     (["plan", "ur5-magnet-part", "--method", "ga", "--option", "generations=0"], "--option generations 0 must be >= 1"),

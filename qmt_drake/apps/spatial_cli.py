@@ -119,17 +119,18 @@ def _plan(args, sc, row, opts: dict):
     return registry.plan(sc, row.name, seed=args.seed, progress=None if args.quiet else progress, **opts)
 
 
-def plan(args, row, opts: dict) -> bool:
+def plan(args, row, opts: dict, scenario=None) -> bool:
     """`qmt-drake plan` on a spatial scenario (module docstring), `row` and `opts` the registry's method
     and options (apps/plan_options.checked_method); True when the written plan holds every limit on
-    the re-check (False: the least-violating plan is written, exit 3)."""
+    the re-check (False: the least-violating plan is written, exit 3). scenario: a SpatialScenario built
+    elsewhere (energy/as_transfer: seed 001's arm), else args.scenario's."""
     method = row.name
     check_outputs(args, "--json", "--trajectory-csv")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
-    sc = load_spatial_scenario(args.scenario)
+    sc = load_spatial_scenario(args.scenario) if scenario is None else scenario
     actuator, feedforward = carried_drive(args)
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         check_drive(sc, actuator, feedforward)

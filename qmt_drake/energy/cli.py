@@ -21,14 +21,17 @@ from __future__ import annotations
 import json
 import sys
 
+from qmt_drake.apps import spatial_cli
 from qmt_drake.budgets import check_energy_budget
+from qmt_drake.energy.as_transfer import file_kind, load_transfer_plan, transfer_scenario_of
 from qmt_drake.energy.energy_plan import METHODS as METHODS  # the CLI lists them
-from qmt_drake.energy.execute import execute, execute_plan, plot_execution
+from qmt_drake.energy.execute import execute, execute_plan, execute_transfer_plan, plot_execution
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.margin import margin_text
 from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_one_stdout, check_output_path, is_stdout, jsonable, write_text_atomic
+from qmt_drake.plan import ENERGY_PLAN_KIND, SPATIAL_PLAN_KIND
 from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import registry
 
@@ -47,6 +50,8 @@ def plan_energy(args, options: dict) -> int:
         check_output_path(path, flag)
     talk = not (is_stdout(args.json) or is_stdout(args.trajectory_csv))  # else stdout is the JSON or the CSV
     E = get_experiment(args.scenario)
+    if args.method not in METHODS:  # a transfer planner: the arm as a minimum-time transfer (energy/as_transfer.py)
+        return _plan_transfer(args, E, options)
     check_energy_budget(options.get("m") or E.m, options.get("divisions") or E.divisions, allow_large=args.allow_large)
 
     def line(rec: dict) -> None:
@@ -71,6 +76,17 @@ def plan_energy(args, options: dict) -> int:
         else:
             write_text_atomic(args.json, text + "\n")
     return 0 if plan.feasible else 3
+
+
+def _plan_transfer(args, E, options: dict) -> int:
+    """`qmt-drake plan ohsaka-fig3 --method toppra|ruckig|...`: the spatial planner on the arm's transfer
+    (energy/as_transfer.py) with the spatial CLI's outputs; exit 3 with the least-violating plan."""
+    for flag in ("--execute", "--recording"):
+        if getattr(args, flag[2:]):
+            raise QmtInputError(f"{flag}: the energy-time execution of a {args.method} plan is `qmt-drake simulate "
+                                f"{args.scenario} --plan P.json`; drop {flag}")
+    sc = transfer_scenario_of(E)
+    return 0 if spatial_cli.plan(args, registry.find(registry.SPATIAL, args.method), options, scenario=sc) else 3
 
 
 _NO_MOTOR = ("seed 001's arm is driven by ideal torque sources (the paper models no motor, gear or torque "
@@ -108,7 +124,9 @@ def simulate_energy(args) -> int:
         if given:
             raise QmtInputError(f"{name}: {given}: drop {name}")
     E = get_experiment(args.scenario)
-    if args.plan:
+    if args.plan and file_kind(args.plan) == SPATIAL_PLAN_KIND:  # a transfer planner's plan of this arm
+        plan = load_transfer_plan(args.plan, E)
+    elif args.plan:
         plan = load_plan(args.plan, E)
         if not plan.feasible:
             raise QmtInputError(f"--plan {args.plan}: no start converged when it was planned; nothing to simulate")
@@ -119,7 +137,8 @@ def simulate_energy(args) -> int:
         plan = registry.plan(E, "snopt")
         if not plan.feasible:
             raise QmtInputError(f"{args.scenario}: no start converged; nothing to simulate")
-    summary = execute_plan(plan, record_path=args.record)
+    summary = execute_plan(plan, record_path=args.record) if plan.scenario_kind == ENERGY_PLAN_KIND else \
+        execute_transfer_plan(plan, record_path=args.record)
     if getattr(args, "margin", False):  # its margin: the final error against the arrival tolerance
         summary = with_margin(E, plan, summary, expensive=True)
     text = json.dumps(jsonable(summary), indent=1)

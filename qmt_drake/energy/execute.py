@@ -30,6 +30,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, MatrixGain, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.energy.as_transfer import PlanFamily
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import joint_to_actuation_matrix
@@ -188,6 +189,16 @@ def build_plan_execution_cosim(plan, record_path: str | Path | None = None) -> C
 def execute_plan(plan, record_path: str | Path | None = None) -> dict:
     """`plan` executed by build_plan_execution_cosim and the one run: its summary dict."""
     return run(build_plan_execution_cosim(plan, record_path))
+
+
+def execute_transfer_plan(plan, record_path: str | Path | None = None) -> dict:
+    """A transfer planner's plan of seed 001's arm (energy/as_transfer.py: a spatial-kind plan) executed by the
+    same co-simulation (its samples as the reference, the scenario's URDF): the summary of execute_plan."""
+    if getattr(plan.scenario, "experiment", None) is None:
+        raise QmtInputError(f"a {plan.scenario_kind} plan of {plan.scenario.name} is not a plan of seed 001's arm; "
+                            "plan this energy-time scenario first")
+    return run(build_execution_cosim(PlanFamily(plan), None, recording_path=record_path, urdf=plan.scenario.urdf,
+                                     summarize=lambda ex: _plan_summary(plan, ex.summary())))
 
 
 def plot_execution(ex: Execution, path, title: str = "") -> None:

@@ -93,6 +93,7 @@ def _resolve(target: str | Callable[..., Any]) -> Callable[..., Any]:
 _T, _S = "qmt_drake.planners.transfer", "qmt_drake.planners.spatial_methods"
 _GA_REFUSED = {"population": "the transfer GA's population is the scenario's ga.population; set it there "
                              "(the API: overrides={'ga': {'population': N}})"}
+_XFER = "qmt_drake.energy.as_transfer:plan_transfer"
 _ENERGY = dict(run="qmt_drake.energy.energy_plan:plan_energy_time", internal=("E",), passes=("method", "progress"))
 
 # The table. Transfer rows first (the thesis arms, the tray), then spatial, then energy-time; within a
@@ -114,6 +115,10 @@ METHODS: tuple[Method, ...] = (
            "Ruckig's jerk-limited motion", internal=("scenario",)),
     Method("trajopt", TRANSFER, "qmt_drake.planners.baselines.trajopt_plan:plan_trajopt",
            "Drake's KinematicTrajectoryOptimization (the one trajopt, planners/trajopt_core)", internal=("scenario",)),
+    # seed 001's energy-time cost on the scenario's family under its limit set (energy/cross_kind.py)
+    *(Method(name, TRANSFER, "qmt_drake.energy.cross_kind:plan_energy_time_transfer",
+             f"the energy-time cost over the family's genes, {how}", internal=("scenario",), passes=("method",))
+      for name, how in (("snopt", "SNOPT"), ("ipopt", "IPOPT"), ("steepest", "steepest descent"))),
     Method("toppra", SPATIAL, f"{_S}:plan_toppra_spatial", "TOPP-RA on the family's path", internal=("sc",)),
     Method("ruckig", SPATIAL, f"{_S}:plan_ruckig_spatial", "Ruckig rest to rest between task poses",
            internal=("sc",)),
@@ -125,10 +130,29 @@ METHODS: tuple[Method, ...] = (
            "Drake's KinematicTrajectoryOptimization (the one trajopt, planners/trajopt_core)", internal=("sc",)),
     Method("toppra-drake", SPATIAL, "qmt_drake.planners.baselines.toppra_plan:plan_toppra_drake_spatial",
            "Drake's Toppra on the IK'd path (joint limits; the rest held by the re-check)", internal=("sc",)),
+    # seed 001's energy-time cost on a spatial arm's via-cubic family under its re-check's limits (energy/cross_kind.py)
+    *(Method(name, SPATIAL, "qmt_drake.energy.cross_kind:plan_energy_time_spatial", summary, internal=("sc",),
+             passes=("method",))
+      for name, summary in (("snopt", "the energy-time cost over the via cubic's segment times, SNOPT"),
+                            ("ipopt", "the energy-time cost over the via cubic's segment times, IPOPT"),
+                            ("steepest", "the energy-time cost over the via cubic's segment times, steepest descent"))),
     Method("snopt", ENERGY, summary="the energy-time NLP by SNOPT, multi-start", **_ENERGY),
     Method("ipopt", ENERGY, summary="the energy-time NLP by IPOPT, multi-start", **_ENERGY),
     Method("steepest", ENERGY, summary="the paper's steepest descent, multi-start", **_ENERGY),
     Method("collocation", ENERGY, summary="direct collocation, multi-start", **_ENERGY),
+    # the transfer planners on seed 001's arm: the spatial planner on its joint-space transfer
+    # (energy/as_transfer.py: its URDF, start and end postures, joint-torque limits, no part)
+    *(Method(name, ENERGY, _XFER, f"{summary} (the arm as a minimum-time transfer)", aliases=aliases,
+             options_of=of, internal=("sc",), passes=("method", "seed", "progress"))
+      for name, of, summary, aliases in (
+          ("toppra", f"{_S}:plan_toppra_spatial", "TOPP-RA on the joint path", ()),
+          ("toppra-drake", "qmt_drake.planners.baselines.toppra_plan:plan_toppra_drake_spatial",
+           "Drake's Toppra on the joint path", ()),
+          ("ruckig", f"{_S}:plan_ruckig_spatial", "Ruckig rest to rest", ()),
+          ("trajopt", f"{_S}:plan_trajopt_spatial", "Drake's KinematicTrajectoryOptimization", ()),
+          ("family_optimum", "qmt_drake.planners.spatial_search:plan_family_optimum", "the family's fastest member",
+           ("optimum",)),
+          ("ga", "qmt_drake.planners.spatial_search:plan_ga_spatial", "the binary GA on the family's genes", ()))),
 )
 _USER: dict[tuple[str, str], Method] = {}  # register_method's rows (a built-in's name swaps it)
 
