@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.apps.cli import main
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import CollisionModel, certified_clearance, collision_model
 from qmt_drake.model.obstacles import Obstacle
@@ -106,3 +107,10 @@ def test_refusals(tmp_path):
     near = Obstacle("near", "box", (0.54, -0.84, 0.0), size_m=(0.1, 0.1, 0.4))  # next to the start pose's tip
     with pytest.raises(QmtInputError, match="first task pose is itself within the margin"):
         collision_free_path(two_link(tmp_path, [near]), margin_m=0.05)
+
+
+def test_plan_refuses_avoid_options_without_avoid_and_on_a_planar_arm(capsys):
+    assert main(["plan", "ur5-suction-bins", "--method", "toppra", "--avoid-seed", "3"]) == 2
+    assert "options of --avoid" in capsys.readouterr().err
+    assert main(["plan", "ch2", "--method", "toppra", "--avoid"]) == 2
+    assert "--avoid plans a collision-free path among a spatial scenario's world.obstacles" in capsys.readouterr().err
