@@ -43,7 +43,7 @@ def test_a_path_that_clears_reports_its_clearance(ur5, tmp_path, capsys):
     line = capsys.readouterr().out.strip()
     assert "\n" not in line and "re-check max ratio" in line and "(suction)" in line
     plan = retime_path(ur5, path)
-    assert f"; clearance {plan.info['path_clearance']['clearance_m']:+.4f} m (carried/part vs obstacle/" in line
+    assert f"; clearance {plan.info['path_clearance']['clearance_m']:.4f} m (carried/part vs obstacle/" in line
     c = plan.info["path_clearance"]
     assert 0.0 < c["clearance_m"] < 0.1 and c["clearance_pair"][1].startswith("obstacle/")
     assert plan.clearance["clearance_m"] == pytest.approx(c["clearance_m"], abs=2e-4)  # the timed plan's own
@@ -76,7 +76,7 @@ def test_a_path_through_the_deeper_totes_is_refused_with_where_and_how_deep(deep
     capsys.readouterr()
     assert main(["retime", str(DEEP_TOTES), "--path", path, "--collisions", "report"]) == 3
     line = capsys.readouterr().out.strip()
-    assert "\n" not in line and f"clearance {c['clearance_m']:+.4f} m (" in line and "; COLLIDES)" in line
+    assert "\n" not in line and f"clearance {c['clearance_m']:.4f} m (" in line and "; COLLIDES)" in line
 
 
 def test_a_waypoint_inside_the_tote_floor_is_named(ur5):
