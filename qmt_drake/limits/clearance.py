@@ -18,6 +18,18 @@ shapes overlap by that depth), the pair and the time. `clearance_of_states(sc, t
 same on given joint states (the co-simulation's logged motion, sim/spatial_cosim.py): every k-th state,
 then every state within k of the local minima less than REFINE_BAND_M above the smallest.
 
+`certified_clearance(sc, traj, rate_hz, tol_m)` bounds the clearance BETWEEN samples: every point of the
+arm's and part's shapes lies within rho_j of joint j's axis (`CollisionModel.speed_radii_m`: each shape's
+bounding ball carried inwards joint by joint by the triangle inequality, the same at every configuration), so
+no point moves faster than v = sum_j rho_j |qd_j| and the signed distance (the smallest over the pairs, capped
+at HORIZON_M) changes no faster than v. On an interval [a, b] of length h with the speed bound V =
+max(v_a, v_b) + h max(a_a, a_b) (a = sum_j rho_j |qdd_j|: the speed's change within the interval, first order)
+the clearance is at least (d_a + d_b - V h) / 2; intervals whose bound is below the smallest found less tol_m
+are halved until none is, so the true smallest lies in [clearance_lower_bound_m, clearance_m] and the two
+differ by at most tol_m. The plans' re-check (`clearance`, above) is unchanged (the published numbers and the
+golden files); the certified value is what the collision-free path (planners/collision_free.py) and
+studies/obstacles_clearance --collision-free report.
+
 The carried part's shape (`carried_shapes`): a suction or magnet hand's part is the solid box with the
 payload's principal moments (a^2 = 6 (I_yy + I_zz - I_xx) / m, ...) centred at its centre of mass, in the
 hand's axes; a tray hand's tray is its box (tray_size_m, upper face through the hand frame's origin) and
