@@ -2,7 +2,7 @@
 obstacles against without (docs/obstacles.md).
 
     cd <checkout> && PYTHONPATH=. .venv/bin/python -m studies.obstacles_clearance [--out out]
-        [--ga-generations 30] [--no-cosim] [--kto] [--collision-free]
+        [--ga-generations 30] [--no-cosim] [--kto] [--collision-free [poses] [ends]]
 
 Cells: ur5-suction-bins (its shipped totes), the same task in docs/examples/ur5-deep-totes.yaml (totes 4 cm
 deeper than the task's lift clears) and panda-tray-cup (its table). The planners do not see obstacles, so
@@ -19,7 +19,7 @@ TOPP-RA) the path of Drake's KinematicTrajectoryOptimization with MinimumDistanc
 (`kto_path`), re-checked the same way.
 
 --collision-free: in every cell, the certified collision-free path (planners/collision_free.collision_free_scenario,
-FREE_TRIES seeds) timed by every planner, each row's clearance certified (limits/clearance.certified_clearance at
+FREE_TRIES seeds; through every task pose, and/or only from the first to the last) timed by every planner, each row's clearance certified (limits/clearance.certified_clearance at
 10x the re-check rate, a bound between samples), and the cell's collision-free TOPP-RA plan co-simulated in it.
 
 Side by side per cell: the fastest plan within every limit without the obstacles (every plan) and with them
@@ -108,13 +108,14 @@ def _row(cell_name: str, p, note: str = "", cell=None) -> dict:
     return row
 
 
-def collision_free_rows(cell, name: str, ga_generations: int) -> tuple[list, dict, dict]:
-    """([(row, plan)] of every planner on the collision-free path (planners/collision_free.py, FREE_TRIES seeded
-    paths from seed 0, the one TOPP-RA times fastest), the path's facts, {method: plan})."""
+def collision_free_rows(cell, name: str, ga_generations: int, through: str) -> tuple[list, dict, dict]:
+    """([(row, plan)] of every planner on the collision-free path through the task's `through` (poses: every
+    task pose; ends: the first and the last; planners/collision_free.py, FREE_TRIES seeded paths from seed 0,
+    the one TOPP-RA times fastest), the path's facts, {method: plan})."""
     t0 = time.perf_counter()
-    free, facts = collision_free_scenario(cell, seed=0, tries=FREE_TRIES)
+    free, facts = collision_free_scenario(cell, seed=0, tries=FREE_TRIES, through=through)
     facts["planning_s"] = time.perf_counter() - t0
-    print(f"  {name} collision-free path: {facts['vertices']} vertices, {facts['path_length_rad']:.3f} rad, certified "
+    print(f"  {name} collision-free path through the {through}: {facts['vertices']} vertices, {facts['path_length_rad']:.3f} rad, certified "
           f">= {facts['path_clearance_lower_bound_m']:.4f} m, seed {facts['seed']} ({facts['planning_s']:.1f} s)",
           flush=True)
     plans = {}
@@ -124,7 +125,8 @@ def collision_free_rows(cell, name: str, ga_generations: int) -> tuple[list, dic
         except QmtNoPlanError as exc:
             facts.setdefault("no_plan", {})[m] = str(exc)
             print(f"  {name} {m} on the collision-free path: no plan ({exc})", flush=True)
-    return [(_row(name, p, " (collision-free path)", cell), p) for p in plans.values()], facts, plans
+    note = " (collision-free path)" if through == "poses" else " (collision-free, ends only)"
+    return [(_row(name, p, note, cell), p) for p in plans.values()], facts, plans
 
 
 def _raised(path: Path, dz: float, tmp: Path) -> Path:
@@ -213,7 +215,8 @@ def fastest_carried(cell, pairs: list, key: str) -> dict | None:
     return best
 
 
-def run(ga_generations: int, cosim: bool, kto: bool = False, free: bool = False) -> dict:
+def run(ga_generations: int, cosim: bool, kto: bool = False, free: tuple = ()) -> dict:
+    """The study (module docstring); free: the collision-free paths to plan in every cell, ("poses", "ends")."""
     rows, side, paths, cosims = [], [], {}, {}
     with tempfile.TemporaryDirectory() as tmp:
         for task, cells in TASKS.items():
@@ -234,20 +237,21 @@ def run(ga_generations: int, cosim: bool, kto: bool = False, free: bool = False)
                         p = retime_path(cell, kto_path(cell, raised.q_path_rad), "toppra", collisions="report")
                         print(f"  {name} TOPP-RA on the KTO path: {p.duration_s:.4f} s", flush=True)
                         pairs.append((_row(name, p, " (KTO path)"), p))
-                if free:
+                for through in free:
+                    key = f"{name} through the {through}"
                     try:
-                        extra, facts, fplans = collision_free_rows(cell, name, ga_generations)
+                        extra, facts, fplans = collision_free_rows(cell, name, ga_generations, through)
                     except QmtNoPlanError as exc:  # reported, not hidden: the cell's row says the planner failed
-                        paths[name] = {"failed": str(exc)}
-                        print(f"  {name} collision-free path: FAILED ({exc})", flush=True)
-                        extra, fplans = [], {}
+                        paths[key] = {"failed": str(exc)}
+                        print(f"  {key}: collision-free path FAILED ({exc})", flush=True)
+                        continue
                     pairs += extra
-                    paths.setdefault(name, facts if fplans else None)
-                if free and fplans:
-                    r = simulate_spatial(cell, fplans["toppra"].trajectory)  # the co-simulation, in the cell
-                    cosims[name] = {k: r.get(k) for k in ("outcome", "collided_at_s", "clearance_m", "clearance_pair",
-                                                          "clearance_time_s", "lost_at_s")}
-                    print(f"  {name} collision-free TOPP-RA co-simulated: {cosims[name]}", flush=True)
+                    paths[key] = facts
+                    if "toppra" in fplans:
+                        r = simulate_spatial(cell, fplans["toppra"].trajectory)  # the co-simulation, in the cell
+                        cosims[key] = {k: r.get(k) for k in ("outcome", "collided_at_s", "clearance_m",
+                                                             "clearance_pair", "clearance_time_s", "lost_at_s")}
+                        print(f"  {key}: collision-free TOPP-RA co-simulated: {cosims[key]}", flush=True)
                 rows += [r for r, _ in pairs]
                 entry = {"cell": name, "without_obstacles": without, "with_obstacles": _fastest(pairs, "feasible")[0]}
                 if cosim:
@@ -293,12 +297,14 @@ def main(argv=None) -> None:
     ap.add_argument("--ga-generations", type=int, default=30)
     ap.add_argument("--no-cosim", action="store_true")
     ap.add_argument("--kto", action="store_true", help="also retime a KinematicTrajectoryOptimization path (kto_path)")
-    ap.add_argument("--collision-free", action="store_true",
-                    help="also every planner on the collision-free path (planners/collision_free.py) in every cell, "
-                         "and every row's clearance certified at 10x the re-check rate")
+    ap.add_argument("--collision-free", nargs="*", choices=("poses", "ends"), default=None,
+                    help="also every planner on the collision-free path (planners/collision_free.py) through the "
+                         "task's poses and/or its ends in every cell (no value: both), and every row's clearance "
+                         "certified at 10x the re-check rate")
     a = ap.parse_args(argv)
     check_output_dir(a.out, "--out")
-    res = run(a.ga_generations, not a.no_cosim, a.kto, a.collision_free)
+    free = () if a.collision_free is None else tuple(a.collision_free or ("poses", "ends"))
+    res = run(a.ga_generations, not a.no_cosim, a.kto, free)
     text = tables(res)
     print(text)
     out = Path(a.out) / "obstacles"

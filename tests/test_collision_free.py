@@ -105,7 +105,7 @@ def test_refusals(tmp_path):
     with pytest.raises(QmtInputError, match="margin"):
         collision_free_path(two_link(tmp_path, [POST]), margin_m=-1.0)
     near = Obstacle("near", "box", (0.54, -0.84, 0.0), size_m=(0.1, 0.1, 0.4))  # next to the start pose's tip
-    with pytest.raises(QmtInputError, match="first task pose is itself within the margin"):
+    with pytest.raises(QmtInputError, match="task pose 0 is itself within the margin"):
         collision_free_path(two_link(tmp_path, [near]), margin_m=0.05)
 
 

@@ -72,8 +72,10 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.add_argument("--jerk-limited", action="store_true", help="spatial --method toppra: slowed until its peak jerk "
                    "is within the scenario's jerk limits (qmt_drake/jerk.py)")
-    s.add_argument("--avoid", action="store_true", help="spatial scenarios with world.obstacles: plan along a "
-                   "collision-free path (planners/collision_free.py: RRT-Connect, shortcut, certified spline)")
+    s.add_argument("--avoid", nargs="?", const="poses", choices=("poses", "ends"), default=None,
+                   help="spatial scenarios with world.obstacles: plan along a collision-free path "
+                        "(planners/collision_free.py: RRT-Connect, shortcut, certified spline) through every task "
+                        "pose (--avoid, --avoid poses) or from the first to the last only (--avoid ends)")
     s.add_argument("--avoid-margin", type=float, default=0.005, metavar="M",
                    help="with --avoid: the path planner's clearance in m (default 0.005)")
     s.add_argument("--avoid-seed", type=int, default=0, metavar="N", help="with --avoid: the path planner's seed")

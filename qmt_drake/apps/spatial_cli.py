@@ -135,12 +135,12 @@ def plan(args, row, opts: dict) -> bool:
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     sc = load_spatial_scenario(args.scenario)
     avoided = None
-    if getattr(args, "avoid", False):  # the task becomes the certified collision-free path (planners/collision_free)
+    if getattr(args, "avoid", None):  # the task becomes the certified collision-free path (planners/collision_free)
         check_positive_finite(args.avoid_margin, "--avoid-margin", "e.g. 0.005 (m)")
         check_int(args.avoid_tries, "--avoid-tries", 1, "plan at least one path")
         check_int(args.avoid_seed, "--avoid-seed", 0, "seeds are non-negative integers")
         sc, avoided = collision_free_scenario(sc, margin_m=args.avoid_margin, seed=args.avoid_seed,
-                                              tries=args.avoid_tries)
+                                              tries=args.avoid_tries, through=args.avoid)
     actuator, feedforward = carried_drive(args)
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         check_drive(sc, actuator, feedforward)
@@ -181,7 +181,8 @@ def plan(args, row, opts: dict) -> bool:
 
 def _avoided_text(a) -> str:
     """The --avoid path in the summary line (planners/collision_free.py)."""
-    return "" if a is None else (f"; along the collision-free path (seed {a['seed']}, {a['vertices']} vertices, "
+    return "" if a is None else (f"; along the collision-free path through the task's {a['through']} (seed "
+                                 f"{a['seed']}, {a['vertices']} vertices, "
                                  f"certified >= {a['path_clearance_lower_bound_m']:.4f} m)")
 
 

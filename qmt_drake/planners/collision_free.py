@@ -5,7 +5,8 @@ times, and certified clear between its samples; then any planner and family time
     sc_free, info = collision_free_scenario(load_spatial_scenario("docs/examples/ur5-deep-totes.yaml"), seed=0)
     plan_toppra_spatial(sc_free)        # or any registry method: the task is now the collision-free path
 
-1. RRT-Connect (Kuffner and LaValle 2000) from the first task pose's joints to the last's, in the box of
+1. RRT-Connect (Kuffner and LaValle 2000) from each task pose's joints to the next's (through="poses", the
+   default: the task's lifts kept) or from the first to the last only ("ends": the inner poses dropped), in the box of
    the task path's joint values padded by BOX_PAD_RAD (inside the URDF ranges). A configuration is valid
    when Drake's signed distance of the arm's and the part's shapes from the obstacles
    (limits/clearance.CollisionModel) is at least margin_m and the hand's face normal is within
@@ -54,6 +55,7 @@ SMOOTH_ROUNDS = 8
 CERTIFY_PER_RAD = 400  # the path's certification samples per radian of chord length (then halved as needed)
 CERTIFY_TOL_M = 2e-4
 TRY_GRID = 400  # TOPP-RA's grid when choosing between tries
+THROUGH = ("poses", "ends")  # the path passes every task pose (one leg each), or only the first and the last
 
 
 class PathInLength:
@@ -216,7 +218,7 @@ def smooth(chk, V, margin_m: float, max_tilt_rad: float) -> dict:
 
 
 def collision_free_path(sc, *, margin_m: float = MARGIN_M, seed: int = 0, max_tilt_rad: float = MAX_TILT_RAD,
-                        box_pad_rad: float = BOX_PAD_RAD) -> dict:
+                        box_pad_rad: float = BOX_PAD_RAD, through: str = "poses") -> dict:
     """The certified collision-free path from the first to the last task pose (module docstring): Q (K, n)
     waypoints of the smoothed spline, vertex_index, vertices (the shortcut's), certificate
     (certified_clearance of the spline in its chord length), counts."""
@@ -225,20 +227,27 @@ def collision_free_path(sc, *, margin_m: float = MARGIN_M, seed: int = 0, max_ti
                             "path option or describe the cell (docs/obstacles.md)")
     if not (np.isfinite(margin_m) and margin_m > 0):
         raise QmtInputError(f"collision-free margin {margin_m!r} must be a positive distance in m (e.g. 0.005)")
+    if through not in THROUGH:
+        raise QmtInputError(f"collision-free path through {through!r}: give one of {', '.join(THROUGH)}")
     chk = Checker(sc, margin_m, max_tilt_rad)
-    qa, qb = (np.asarray(q, float) for q in (sc.q_poses_rad[0], sc.q_poses_rad[-1]))
-    for end, q in (("first", qa), ("last", qb)):
-        if not chk.valid(q):
-            d = chk.cm.distance(q)
-            raise QmtInputError(f"collision-free path: the {end} task pose is itself within the margin "
+    Qs = np.asarray(sc.q_poses_rad, float)
+    stops = list(range(len(Qs))) if through == "poses" else [0, len(Qs) - 1]
+    for k in stops:
+        if not chk.valid(Qs[k]):
+            d = chk.cm.distance(Qs[k])
+            raise QmtInputError(f"collision-free path: task pose {k} is itself within the margin or tilted "
                                 f"({d[0] * 1e3:.1f} mm, {d[1]} vs {d[2]}); give a margin below it")
     rng = np.random.default_rng(seed)
     Qp = np.asarray(sc.q_path_rad, float)
     box = (np.maximum(Qp.min(axis=0) - box_pad_rad, chk.lo), np.minimum(Qp.max(axis=0) + box_pad_rad, chk.hi))
-    raw = rrt_connect(chk, qa, qb, rng, box)
-    V = shortcut(chk, raw, rng)
-    out = smooth(chk, V, margin_m, max_tilt_rad)
-    return {**out, "rrt_waypoints": len(raw), "checks": chk.checks, "margin_m": margin_m, "seed": seed}
+    V, n_raw = [Qs[stops[0]]], 0
+    for a, b in zip(stops[:-1], stops[1:]):  # one RRT-Connect and shortcut per leg between stops
+        raw = rrt_connect(chk, Qs[a], Qs[b], rng, box)
+        V += list(shortcut(chk, raw, rng)[1:])
+        n_raw += len(raw) - 1
+    out = smooth(chk, np.array(V), margin_m, max_tilt_rad)
+    return {**out, "rrt_waypoints": n_raw + 1, "checks": chk.checks, "margin_m": margin_m, "seed": seed,
+            "through": through}
 
 
 def toppra_time_s(sc, pp) -> float:
@@ -249,7 +258,7 @@ def toppra_time_s(sc, pp) -> float:
 
 
 def collision_free_scenario(sc, *, margin_m: float = MARGIN_M, seed: int = 0, tries: int = 1,
-                            max_tilt_rad: float = MAX_TILT_RAD) -> tuple:
+                            max_tilt_rad: float = MAX_TILT_RAD, through: str = "poses") -> tuple:
     """(scenario whose task is the collision-free path, the path's facts) (module docstring); tries > 1:
     the paths of seeds seed, seed + 1, ..., the one TOPP-RA times fastest kept (a path TOPP-RA cannot time,
     e.g. the hand's limit broken at rest, is passed over)."""
@@ -257,7 +266,7 @@ def collision_free_scenario(sc, *, margin_m: float = MARGIN_M, seed: int = 0, tr
         raise QmtInputError(f"collision-free tries {tries!r} must be an integer >= 1 (seeded paths to choose from)")
     best = None
     for k in range(tries):
-        r = collision_free_path(sc, margin_m=margin_m, seed=seed + k, max_tilt_rad=max_tilt_rad)
+        r = collision_free_path(sc, margin_m=margin_m, seed=seed + k, max_tilt_rad=max_tilt_rad, through=through)
         try:
             r["toppra_time_s"] = toppra_time_s(sc, r["path"].pp)
         except QmtInputError:
@@ -274,7 +283,7 @@ def collision_free_scenario(sc, *, margin_m: float = MARGIN_M, seed: int = 0, tr
                   path_pose_index=idx, q_poses_rad=Q[idx], poses_m=pts[idx], pose_normals=normals[idx],
                   pose_rotations=None if rot is None else rot[idx])
     c = r["certificate"]
-    facts = {"margin_m": margin_m, "seed": r["seed"], "tries": tries, "toppra_time_s": r["toppra_time_s"],
+    facts = {"margin_m": margin_m, "through": through, "seed": r["seed"], "tries": tries, "toppra_time_s": r["toppra_time_s"],
              "rrt_waypoints": r["rrt_waypoints"], "vertices": len(idx),
              "waypoints": len(Q), "smooth_rounds": r["smooth_rounds"], "validity_checks": r["checks"],
              "path_length_rad": float(r["path"].duration_s), "max_tilt_rad": r["max_tilt_rad"],
