@@ -20,8 +20,9 @@ times, and certified clear between its samples; then any planner and family time
    length that TOPP-RA and retime time; fewer waypoints, gentler turns: on the deep totes, points every 6 cm
    of the polyline took TOPP-RA 3.31 s, its vertices alone 2.56 s, same seed). That spline is
    certified (limits/clearance.certified_clearance on the path in its chord length, a Lipschitz bound
-   between samples, tolerance CERTIFY_TOL_M) and its tilt sampled; where the certified lower bound is below
-   margin_m / 2 or the tilt exceeds max_tilt_rad + TILT_SLACK_RAD, the polyline's edges around that spot are
+   between samples, tolerance CERTIFY_TOL_M), its tilt and the hand's limit ratio holding still sampled
+   (50 a radian); where the certified lower bound is below margin_m / 2, the tilt exceeds max_tilt_rad +
+   TILT_SLACK_RAD or the ratio at rest HOLD_AT_REST_MAX, the polyline's edges around that spot are
    halved, up to SMOOTH_ROUNDS times. A path that still does not clear is refused (QmtNoPlanError).
 
 Deterministic given seed (numpy's default_rng). `collision_free_scenario` returns the scenario whose task is
@@ -46,6 +47,7 @@ from qmt_drake.planners.spatial_trajectory import ToppraTrajectory
 MARGIN_M = 0.005  # the planner's clearance at its configurations; the smoothed path is certified >= MARGIN_M / 2
 MAX_TILT_RAD = 0.15
 TILT_SLACK_RAD = 0.05
+HOLD_AT_REST_MAX = 0.95  # the smoothed path: the hand's limit ratio holding still at most this (a TOPP-RA timing exists)
 BOX_PAD_RAD = 0.5
 STEP_M = 0.08  # RRT-Connect's extension step (point-displacement bound)
 EDGE_STEP_M = 0.01
@@ -189,6 +191,15 @@ def shortcut(chk, path, rng, tries: int = SHORTCUT_TRIES) -> np.ndarray:
     return np.array(P)
 
 
+def hold_at_rest(sc, q) -> np.ndarray:
+    """(S,) the hand's largest limit ratio holding still at each of the joint states q (S, n) (0 for a stand-in
+    scenario without the arm's chain)."""
+    if not hasattr(sc, "chain"):
+        return np.zeros(len(q))
+    zero = np.zeros_like(q)
+    return sc.hand_term().columns(sc.chain.evaluate(q, zero, zero)).max(axis=1)
+
+
 def smooth(chk, V, margin_m: float, max_tilt_rad: float) -> dict:
     """The certified C2 path through the polyline V (module docstring, step 3)."""
     V = np.asarray(V, float)
@@ -200,12 +211,14 @@ def smooth(chk, V, margin_m: float, max_tilt_rad: float) -> dict:
         path = PathInLength(pp)
         cert = certified_clearance(chk.sc, path, CERTIFY_PER_RAD, tol_m=CERTIFY_TOL_M)
         s = np.linspace(0.0, path.duration_s, max(int(path.duration_s * 50), 2))
-        tilts = np.array([chk.tilt(q) for q in path.sample(s)[0]])
+        qs = path.sample(s)[0]
+        tilts = np.array([chk.tilt(q) for q in qs])
+        held = hold_at_rest(chk.sc, qs)
         bad_s = [cert["clearance_time_s"]] if cert["clearance_lower_bound_m"] < 0.5 * margin_m else []
-        bad_s += list(s[tilts > max_tilt_rad + TILT_SLACK_RAD])
+        bad_s += list(s[(tilts > max_tilt_rad + TILT_SLACK_RAD) | (held > HOLD_AT_REST_MAX)])
         if not bad_s:
             return {"Q": Q, "vertex_index": idx, "vertices": V, "certificate": cert, "smooth_rounds": rounds,
-                    "max_tilt_rad": float(tilts.max()), "path": path}
+                    "max_tilt_rad": float(tilts.max()), "max_hold_ratio_at_rest": float(held.max()), "path": path}
         s_v = np.asarray(pp.get_segment_times())  # halve the polyline's edges next to each bad spot
         split = sorted({int(np.clip(np.searchsorted(s_v, x) - 1, 0, len(V) - 2)) for x in bad_s})
         split = sorted(set(split) | {max(k - 1, 0) for k in split} | {min(k + 1, len(V) - 2) for k in split})
@@ -213,8 +226,9 @@ def smooth(chk, V, margin_m: float, max_tilt_rad: float) -> dict:
             V = np.insert(V, k + 1, 0.5 * (V[k] + V[k + 1]), axis=0)
             is_vertex = np.insert(is_vertex, k + 1, False)
     raise QmtNoPlanError(f"collision-free path: its smoothed spline still comes within "
-                         f"{cert['clearance_lower_bound_m'] * 1e3:.2f} mm (certified) or tilts "
-                         f"{tilts.max():.2f} rad after {SMOOTH_ROUNDS} refinements; lower the margin")
+                         f"{cert['clearance_lower_bound_m'] * 1e3:.2f} mm (certified), tilts {tilts.max():.2f} rad "
+                         f"or needs {held.max():.3f} of the hand's limit at rest after {SMOOTH_ROUNDS} refinements; "
+                         "lower the margin")
 
 
 def collision_free_path(sc, *, margin_m: float = MARGIN_M, seed: int = 0, max_tilt_rad: float = MAX_TILT_RAD,
@@ -287,6 +301,7 @@ def collision_free_scenario(sc, *, margin_m: float = MARGIN_M, seed: int = 0, tr
              "rrt_waypoints": r["rrt_waypoints"], "vertices": len(idx),
              "waypoints": len(Q), "smooth_rounds": r["smooth_rounds"], "validity_checks": r["checks"],
              "path_length_rad": float(r["path"].duration_s), "max_tilt_rad": r["max_tilt_rad"],
+             "max_hold_ratio_at_rest": r["max_hold_ratio_at_rest"],
              "path_clearance_m": c["clearance_m"], "path_clearance_lower_bound_m": c["clearance_lower_bound_m"],
              "path_clearance_pair": c["clearance_pair"], "path_certificate_samples": c["clearance_samples"]}
     return new, facts
