@@ -99,6 +99,20 @@ def test_rrt_connect_finds_a_certified_path_round_the_post(tmp_path):
     assert isinstance(path, PathInLength)
 
 
+def test_through_every_task_pose(tmp_path):
+    """through="poses" (the default): one leg per pair of task poses, each pose a vertex of the path; "ends":
+    the inner pose is not visited."""
+    sc = two_link(tmp_path, [POST])
+    mid = np.array([0.0, 1.4])  # the elbow folded: the tip 0.65 m from the shoulder, well inside the post at 1 m
+    sc.q_poses_rad = np.array([sc.q_poses_rad[0], mid, sc.q_poses_rad[1]])
+    sc.q_path_rad = sc.q_poses_rad
+    r = collision_free_path(sc, margin_m=0.01, seed=0, box_pad_rad=2.0)
+    assert any(np.array_equal(v, mid) for v in r["Q"][r["vertex_index"]])
+    assert r["certificate"]["clearance_lower_bound_m"] >= 0.005
+    with pytest.raises(QmtInputError, match="through 'middle'"):
+        collision_free_path(sc, through="middle")
+
+
 def test_refusals(tmp_path):
     with pytest.raises(QmtInputError, match="no world.obstacles"):
         collision_free_path(two_link(tmp_path, []))
