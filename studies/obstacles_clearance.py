@@ -2,7 +2,7 @@
 obstacles against without (docs/obstacles.md).
 
     cd <checkout> && PYTHONPATH=. .venv/bin/python -m studies.obstacles_clearance [--out out]
-        [--ga-generations 30] [--no-cosim]
+        [--ga-generations 30] [--no-cosim] [--kto] [--collision-free [poses] [ends]]
 
 Cells: ur5-suction-bins (its shipped totes), the same task in docs/examples/ur5-deep-totes.yaml (totes 4 cm
 deeper than the task's lift clears) and panda-tray-cup (its table). The planners do not see obstacles, so
@@ -17,6 +17,10 @@ clears by DETOUR_MARGIN_M (IK solves the raised poses: the scenario loader), the
 optimum and the GA under the same limits, each re-checked in the cell. --kto also retimes (qmt_drake/retime.py,
 TOPP-RA) the path of Drake's KinematicTrajectoryOptimization with MinimumDistanceLowerBoundConstraint
 (`kto_path`), re-checked the same way.
+
+--collision-free: in every cell, the certified collision-free path (planners/collision_free.collision_free_scenario,
+FREE_TRIES seeds; through every task pose, and/or only from the first to the last) timed by every planner, each row's clearance certified (limits/clearance.certified_clearance at
+10x the re-check rate, a bound between samples), and the cell's collision-free TOPP-RA plan co-simulated in it.
 
 Side by side per cell: the fastest plan within every limit without the obstacles (every plan) and with them
 (clearance >= 0 as well, detour plans included), and, unless --no-cosim, the fastest CARRIED time of each:
@@ -45,8 +49,10 @@ from pydrake.planning import KinematicTrajectoryOptimization
 from pydrake.solvers import Solve
 from pydrake.trajectories import BsplineTrajectory
 
-from qmt_drake.limits.clearance import collision_model
+from qmt_drake.errors import QmtNoPlanError
+from qmt_drake.limits.clearance import certified_clearance, collision_model
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
+from qmt_drake.planners.collision_free import collision_free_scenario
 from qmt_drake.planners.spatial_carried import carried_search
 from qmt_drake.planners.spatial_methods import PLANNERS, plan_ga_spatial
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
@@ -66,6 +72,8 @@ DETOUR_STEPS = 5
 KTO_BOUND_M = 0.009
 KTO_CONTROL_POINTS, KTO_SAMPLES, KTO_TILT_RAD, KTO_WAYPOINTS = 12, 60, 0.02, 40
 CARRIED_K_MAX = 1.5
+FREE_TRIES = 4  # --collision-free: seeded paths per cell, the one TOPP-RA times fastest kept
+CERTIFY_RATE_FACTOR = 10
 CARRIED_ITERATIONS = 6
 
 
@@ -84,12 +92,41 @@ def _in_cell(cell, plan):
                              raw_duration_s=plan.raw_duration_s, hold_scale=plan.hold_scale, info={})
 
 
-def _row(cell_name: str, p, note: str = "") -> dict:
+def _row(cell_name: str, p, note: str = "", cell=None) -> dict:
+    """The plan's table row; with `cell`, also its clearance certified independently of the planner and of the
+    re-check (limits/clearance.certified_clearance at CERTIFY_RATE_FACTOR x the re-check rate, bounded between
+    samples)."""
     c = p.clearance
-    return {"cell": cell_name, "method": p.method + note, "motion_time_s": p.duration_s,
-            "recheck_max_ratio": p.recheck["max"], "within_limits": bool(p.check.feasible),
-            "clearance_m": c.get("clearance_m"), "clearance_pair": c.get("clearance_pair"),
-            "clearance_time_s": c.get("clearance_time_s"), "feasible": bool(p.feasible)}
+    row = {"cell": cell_name, "method": p.method + note, "motion_time_s": p.duration_s,
+           "recheck_max_ratio": p.recheck["max"], "within_limits": bool(p.check.feasible),
+           "clearance_m": c.get("clearance_m"), "clearance_pair": c.get("clearance_pair"),
+           "clearance_time_s": c.get("clearance_time_s"), "feasible": bool(p.feasible)}
+    if cell is not None:
+        cc = certified_clearance(cell, p.trajectory, CERTIFY_RATE_FACTOR * cell.recheck_rate_hz)
+        row["certified"] = {k: cc[k] for k in ("clearance_m", "clearance_lower_bound_m", "clearance_time_s",
+                                                "clearance_samples", "certified", "tolerance_m")}
+    return row
+
+
+def collision_free_rows(cell, name: str, ga_generations: int, through: str) -> tuple[list, dict, dict]:
+    """([(row, plan)] of every planner on the collision-free path through the task's `through` (poses: every
+    task pose; ends: the first and the last; planners/collision_free.py, FREE_TRIES seeded paths from seed 0,
+    the one TOPP-RA times fastest), the path's facts, {method: plan})."""
+    t0 = time.perf_counter()
+    free, facts = collision_free_scenario(cell, seed=0, tries=FREE_TRIES, through=through)
+    facts["planning_s"] = time.perf_counter() - t0
+    print(f"  {name} collision-free path through the {through}: {facts['vertices']} vertices, {facts['path_length_rad']:.3f} rad, certified "
+          f">= {facts['path_clearance_lower_bound_m']:.4f} m, seed {facts['seed']} ({facts['planning_s']:.1f} s)",
+          flush=True)
+    plans = {}
+    for m in PLANNERS:
+        try:
+            plans.update(_plans(free, (m,), ga_generations))
+        except QmtNoPlanError as exc:
+            facts.setdefault("no_plan", {})[m] = str(exc)
+            print(f"  {name} {m} on the collision-free path: no plan ({exc})", flush=True)
+    note = " (collision-free path)" if through == "poses" else " (collision-free, ends only)"
+    return [(_row(name, p, note, cell), p) for p in plans.values()], facts, plans
 
 
 def _raised(path: Path, dz: float, tmp: Path) -> Path:
@@ -178,8 +215,9 @@ def fastest_carried(cell, pairs: list, key: str) -> dict | None:
     return best
 
 
-def run(ga_generations: int, cosim: bool, kto: bool = False) -> dict:
-    rows, side = [], []
+def run(ga_generations: int, cosim: bool, kto: bool = False, free: tuple = ()) -> dict:
+    """The study (module docstring); free: the collision-free paths to plan in every cell, ("poses", "ends")."""
+    rows, side, paths, cosims = [], [], {}, {}
     with tempfile.TemporaryDirectory() as tmp:
         for task, cells in TASKS.items():
             base = load_spatial_scenario(task)
@@ -187,7 +225,8 @@ def run(ga_generations: int, cosim: bool, kto: bool = False) -> dict:
             for cell_ref in cells:
                 cell = base if cell_ref == task else load_spatial_scenario(cell_ref)
                 name = CELL_NAMES.get(str(cell_ref), str(cell_ref))
-                pairs = [(_row(name, q), q) for q in (p if cell is base else _in_cell(cell, p) for p in plans.values())]
+                pairs = [(_row(name, q, cell=cell if free else None), q)
+                         for q in (p if cell is base else _in_cell(cell, p) for p in plans.values())]
                 without = _fastest(pairs, "within_limits")[0]
                 if min(r["clearance_m"] for r, _ in pairs) < 0:
                     toppra = pairs[0][1]  # PLANNERS lists TOPP-RA first
@@ -198,6 +237,21 @@ def run(ga_generations: int, cosim: bool, kto: bool = False) -> dict:
                         p = retime_path(cell, kto_path(cell, raised.q_path_rad), "toppra", collisions="report")
                         print(f"  {name} TOPP-RA on the KTO path: {p.duration_s:.4f} s", flush=True)
                         pairs.append((_row(name, p, " (KTO path)"), p))
+                for through in free:
+                    key = f"{name} through the {through}"
+                    try:
+                        extra, facts, fplans = collision_free_rows(cell, name, ga_generations, through)
+                    except QmtNoPlanError as exc:  # reported, not hidden: the cell's row says the planner failed
+                        paths[key] = {"failed": str(exc)}
+                        print(f"  {key}: collision-free path FAILED ({exc})", flush=True)
+                        continue
+                    pairs += extra
+                    paths[key] = facts
+                    if "toppra" in fplans:
+                        r = simulate_spatial(cell, fplans["toppra"].trajectory)  # the co-simulation, in the cell
+                        cosims[key] = {k: r.get(k) for k in ("outcome", "collided_at_s", "clearance_m",
+                                                             "clearance_pair", "clearance_time_s", "lost_at_s")}
+                        print(f"  {key}: collision-free TOPP-RA co-simulated: {cosims[key]}", flush=True)
                 rows += [r for r, _ in pairs]
                 entry = {"cell": name, "without_obstacles": without, "with_obstacles": _fastest(pairs, "feasible")[0]}
                 if cosim:
@@ -205,16 +259,21 @@ def run(ga_generations: int, cosim: bool, kto: bool = False) -> dict:
                                                                          "within_limits")
                     entry["carried_with_obstacles"] = fastest_carried(cell, pairs, "feasible")
                 side.append(entry)
-    return {"ga_generations": ga_generations, "rows": rows, "side_by_side": side}
+    return {"ga_generations": ga_generations, "rows": rows, "side_by_side": side, "collision_free_paths": paths,
+            "collision_free_toppra_cosim": cosims}
 
 
 def tables(res: dict) -> str:
-    out = ["| cell | method | T (s) | re-check max ratio | smallest clearance (m) | pair | at (s) | feasible |",
-           "|---|---|---|---|---|---|---|---|"]
+    cert = any("certified" in r for r in res["rows"])
+    out = ["| cell | method | T (s) | re-check max ratio | smallest clearance (m) | pair | at (s) | feasible |"
+           + (" certified at 10x: smallest [lower bound] (m) |" if cert else ""),
+           "|---|---|---|---|---|---|---|---|" + ("---|" if cert else "")]
     for r in res["rows"]:
         pair = " vs ".join(r["clearance_pair"] or ["-"])
+        c = r.get("certified")
         out.append(f"| {r['cell']} | {r['method']} | {r['motion_time_s']:.4f} | {r['recheck_max_ratio']:.4f} | "
-                   f"{r['clearance_m']:+.4f} | {pair} | {r['clearance_time_s']:.3f} | {'yes' if r['feasible'] else 'NO'} |")
+                   f"{r['clearance_m']:+.4f} | {pair} | {r['clearance_time_s']:.3f} | {'yes' if r['feasible'] else 'NO'} |"
+                   + (f" {c['clearance_m']:+.4f} [{c['clearance_lower_bound_m']:+.4f}] |" if c else (" - |" if cert else "")))
     out += ["", "| cell | fastest within the limits, without obstacles | with obstacles (clear) | fastest carried "
             "without obstacles | with obstacles |", "|---|---|---|---|---|"]
 
@@ -238,9 +297,14 @@ def main(argv=None) -> None:
     ap.add_argument("--ga-generations", type=int, default=30)
     ap.add_argument("--no-cosim", action="store_true")
     ap.add_argument("--kto", action="store_true", help="also retime a KinematicTrajectoryOptimization path (kto_path)")
+    ap.add_argument("--collision-free", nargs="*", choices=("poses", "ends"), default=None,
+                    help="also every planner on the collision-free path (planners/collision_free.py) through the "
+                         "task's poses and/or its ends in every cell (no value: both), and every row's clearance "
+                         "certified at 10x the re-check rate")
     a = ap.parse_args(argv)
     check_output_dir(a.out, "--out")
-    res = run(a.ga_generations, not a.no_cosim, a.kto)
+    free = () if a.collision_free is None else tuple(a.collision_free or ("poses", "ends"))
+    res = run(a.ga_generations, not a.no_cosim, a.kto, free)
     text = tables(res)
     print(text)
     out = Path(a.out) / "obstacles"

@@ -52,7 +52,7 @@ def test_a_path_that_clears_reports_its_clearance(ur5, tmp_path, capsys):
     assert _dense_min(ur5, HAND_PATH, 0.0, L, 3000) >= c["clearance_m"] - 1e-6
 
 
-def test_a_path_through_the_deeper_totes_is_refused_with_where_and_how_deep(deep, tmp_path):
+def test_a_path_through_the_deeper_totes_is_refused_with_where_and_how_deep(deep, tmp_path, capsys):
     with pytest.raises(QmtInputError) as exc:
         retime_path(deep, HAND_PATH)
     msg = str(exc.value)
@@ -72,6 +72,11 @@ def test_a_path_through_the_deeper_totes_is_refused_with_where_and_how_deep(deep
     # the CLI: exit 2, the same one line
     path = write_csv(tmp_path / "p.csv", NAMES, HAND_PATH)
     assert main(["retime", str(DEEP_TOTES), "--path", path]) == 2
+    # --collisions report: timed, the line says COLLIDES with the depth, exit 3 (not 0: the plan is infeasible)
+    capsys.readouterr()
+    assert main(["retime", str(DEEP_TOTES), "--path", path, "--collisions", "report"]) == 3
+    line = capsys.readouterr().out.strip()
+    assert "\n" not in line and f"clearance {c['clearance_m']:.4f} m (" in line and "; COLLIDES)" in line
 
 
 def test_a_waypoint_inside_the_tote_floor_is_named(ur5):

@@ -73,6 +73,15 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.add_argument("--jerk-limited", action="store_true", help="spatial --method toppra: slowed until its peak jerk "
                    "is within the scenario's jerk limits (qmt_drake/jerk.py)")
+    s.add_argument("--avoid", nargs="?", const="poses", choices=("poses", "ends"), default=None,
+                   help="spatial scenarios with world.obstacles: plan along a collision-free path "
+                        "(planners/collision_free.py: RRT-Connect, shortcut, certified spline) through every task "
+                        "pose (--avoid, --avoid poses) or from the first to the last only (--avoid ends)")
+    s.add_argument("--avoid-margin", type=float, default=0.005, metavar="M",
+                   help="with --avoid: the path planner's clearance in m (default 0.005)")
+    s.add_argument("--avoid-seed", type=int, default=0, metavar="N", help="with --avoid: the path planner's seed")
+    s.add_argument("--avoid-tries", type=int, default=1, metavar="N",
+                   help="with --avoid: plan N seeded paths (seeds N0, N0 + 1, ...) and keep the one TOPP-RA times fastest")
     s.add_argument("--carried", action="store_true",
                    help="then slow the plan to the fastest time scale the nominal co-simulation carries "
                         "(bisection; every try's verdict and the margin kept go to the plan file)")

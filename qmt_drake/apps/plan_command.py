@@ -54,6 +54,14 @@ def _refuse_for_kind(args, kind: str) -> None:
     elif args.carried or args.success is not None:
         raise QmtInputError(f"{'--carried' if args.carried else '--success'}: the energy-time arm (seed 001) carries no "
                             "payload it could lose, so there is nothing to slow down for; drop it")
+    if not getattr(args, "avoid", None) and (getattr(args, "avoid_margin", 0.005) != 0.005
+                                              or getattr(args, "avoid_tries", 1) != 1
+                                              or getattr(args, "avoid_seed", 0) != 0):
+        raise QmtInputError("--avoid-margin / --avoid-seed / --avoid-tries: options of --avoid (the collision-free "
+                            "path); add --avoid or drop them")
+    if getattr(args, "avoid", None) and kind != registry.SPATIAL:
+        raise QmtInputError(f"--avoid plans a collision-free path among a spatial scenario's world.obstacles; "
+                            f"{args.scenario} is {a_kind(kind)} scenario: drop it")
     if getattr(args, "jerk_limited", False) and not (kind == registry.SPATIAL and args.method == "toppra"):
         raise QmtInputError(f"--jerk-limited slows a spatial TOPP-RA plan to the jerk limits: use --method toppra on a "
                             f"spatial scenario ({args.method} on {args.scenario} does not take it; ruckig plans "

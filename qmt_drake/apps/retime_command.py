@@ -5,10 +5,11 @@
 
 Prints one line: the motion time, the re-check's largest ratio and its term, the time scale the
 re-check applied, the hand's pose error at the path's ends against the scenario's first/last task
-pose (information: the path is the task), and with --simulate the co-simulation's verdict. --json
-writes the plan file (spatial_plan_io form; `qmt-drake export` reads it). Exit 0 when the plan holds
-every limit, 3 when it does not. A planar scenario (thesis arms, CRANE-X7 tray) takes --method toppra
-(qmt_drake/retime_planar.py: its LimitSet's toppra rows, the planar re-check, slowed to hold).
+pose (information: the path is the task), its clearance from the obstacles (a colliding path is refused,
+exit 2, unless --collisions report: then timed, reported COLLIDES, exit 3), and with --simulate the
+co-simulation's verdict. --json writes the plan file (spatial_plan_io form; `qmt-drake export` reads
+it). Exit 0 when the plan holds every limit and clears the obstacles, 3 when it does not. A planar
+scenario (thesis arms, CRANE-X7 tray) takes --method toppra (qmt_drake/retime_planar.py: its LimitSet's toppra rows, the planar re-check, slowed to hold).
 """
 
 from __future__ import annotations
@@ -40,6 +41,9 @@ def add_parser(subparsers):
     s.add_argument("--n-grid", type=int, default=1000, help="toppra: grid points along the path")
     s.add_argument("--seed", type=int, default=None, help="ga: the generator's seed (default 0)")
     s.add_argument("--generations", type=int, default=None, help="ga: maximum generations")
+    s.add_argument("--collisions", choices=("refuse", "report"), default="refuse",
+                   help="spatial scenarios with world.obstacles: refuse a path that collides (default, exit 2) or "
+                        "time it anyway and report it (the plan infeasible, exit 3)")
     s.add_argument("--json", metavar="PATH|-", help="write the plan file")
     s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
     s.add_argument("--simulate", action="store_true", help="then co-simulate it (carried or not)")
@@ -66,11 +70,12 @@ def cmd_retime(args) -> int:
     if args.method == "ga":
         ga["progress"] = None if args.quiet else progress
     sc = load_spatial_scenario(args.scenario)
-    p = retime_path(sc, args.path, args.method, n_grid=args.n_grid, **ga)
+    p = retime_path(sc, args.path, args.method, n_grid=args.n_grid, collisions=args.collisions, **ga)
     sim = simulate_spatial(sc, p.trajectory) if args.simulate else None
     if _write_outputs(args, p, sim):
         print(summary_line(sc, p, sim))
-    return 0 if p.recheck["max"] <= 1.0 else EXIT_INFEASIBLE
+    # feasible: the re-check holds and the timed plan clears the obstacles (spatial_plan_io's clearance re-check)
+    return 0 if p.recheck["max"] <= 1.0 and p.feasible else EXIT_INFEASIBLE
 
 
 def _write_outputs(args, p, sim) -> bool:
@@ -87,6 +92,8 @@ def _write_outputs(args, p, sim) -> bool:
 
 def _retime_planar(args) -> int:
     """retime on a planar scenario (retime_planar.py): TOPP-RA under its LimitSet, the planar re-check."""
+    if args.collisions != "refuse":
+        raise QmtInputError(f"--collisions {args.collisions}: a planar scenario has no obstacles to report; drop it")
     if args.method != "toppra" or args.seed is not None or args.generations is not None:
         raise QmtInputError(f"retime {args.scenario}: a planar scenario's path is retimed with --method toppra "
                             "(the GA retime searches the spatial via-cubic family); drop --method ga, --seed, "
@@ -126,9 +133,13 @@ def summary_line(sc, p, sim) -> str:
             f"start/end {e[0, 0] * 1e3:.3g}/{e[1, 0] * 1e3:.3g} mm and {e[0, 1]:.2g}/{e[1, 1]:.2g} rad from the "
             f"first/last task pose (information); {p.planning_s:.2f} s")
     c = p.info.get("path_clearance")
-    if c:  # the scenario has obstacles: the path's smallest clearance (a colliding path is refused before)
+    if c:  # the scenario has obstacles: the path's smallest clearance (--collisions refuse: a colliding path stopped)
         line += (f"; clearance >= {c['clearance_m']:.4f} m (no obstacle nearer)" if c["clearance_pair"] is None else
-                 f"; clearance {c['clearance_m']:.4f} m ({' vs '.join(c['clearance_pair'])} at {c['at']})")
+                 f"; clearance {c['clearance_m']:.4f} m ({' vs '.join(c['clearance_pair'])} at {c['at']}"
+                 f"{'; COLLIDES' if c['clearance_m'] < 0 else ''})")
+    t = p.clearance
+    if t and t.get("clearance_pair") and t["clearance_m"] < 0 <= (c or {}).get("clearance_m", 0.0):
+        line += f"; the timed plan COLLIDES ({t['clearance_m']:+.4f} m at {t['clearance_time_s']:.4f} s)"
     if sim is not None:
         line += f"; co-simulation: {verdict_line(sim['outcome'], sim['lost_at_s'])}"
     return line

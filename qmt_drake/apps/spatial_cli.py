@@ -54,6 +54,7 @@ from qmt_drake.margin_runs import with_margin
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import check_output_dir, check_output_path, is_stdout, jsonable
 from qmt_drake.planners import registry
+from qmt_drake.planners.collision_free import collision_free_scenario
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_families import FAMILIES
 from qmt_drake.planners.spatial_methods import METHODS, plan_toppra_spatial
@@ -131,12 +132,21 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     sc = load_spatial_scenario(args.scenario) if scenario is None else scenario
+    avoided = None
+    if getattr(args, "avoid", None):  # the task becomes the certified collision-free path (planners/collision_free)
+        check_positive_finite(args.avoid_margin, "--avoid-margin", "e.g. 0.005 (m)")
+        check_int(args.avoid_tries, "--avoid-tries", 1, "plan at least one path")
+        check_int(args.avoid_seed, "--avoid-seed", 0, "seeds are non-negative integers")
+        sc, avoided = collision_free_scenario(sc, margin_m=args.avoid_margin, seed=args.avoid_seed,
+                                              tries=args.avoid_tries, through=args.avoid)
     actuator, feedforward = carried_drive(args)
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         check_drive(sc, actuator, feedforward)
         _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
     check_success_options(args, sc)  # the uncertainty section, before any planning
     p = _plan(args, sc, row, opts)
+    if avoided is not None:
+        p = p.replace(extra={**p.extra, "collision_free_path": avoided})
     if getattr(args, "jerk_limited", False):  # qmt_drake/jerk.py: slowed until its jerk is within the limits
         p = jerk_limited_plan(sc, p)
     try:  # TOPP-RA's duration on the family's path: the bound (well under a second on a UR5)
@@ -162,9 +172,16 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
-        print(summary_line(sc, p, bound) + ("" if holds else f"; INFEASIBLE (least-violating plan; binding limit "
+        print(summary_line(sc, p, bound) + _avoided_text(avoided) + ("" if holds else f"; INFEASIBLE (least-violating plan; binding limit "
                                                               f"{p.recheck['binding']} at {p.recheck['max']:.4g} of it)"))
     return holds
+
+
+def _avoided_text(a) -> str:
+    """The --avoid path in the summary line (planners/collision_free.py)."""
+    return "" if a is None else (f"; along the collision-free path through the task's {a['through']} (seed "
+                                 f"{a['seed']}, {a['vertices']} vertices, "
+                                 f"certified >= {a['path_clearance_lower_bound_m']:.4f} m)")
 
 
 def carried_drive(args) -> tuple[str, str]:

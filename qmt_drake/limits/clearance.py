@@ -18,6 +18,18 @@ shapes overlap by that depth), the pair and the time. `clearance_of_states(sc, t
 same on given joint states (the co-simulation's logged motion, sim/spatial_cosim.py): every k-th state,
 then every state within k of the local minima less than REFINE_BAND_M above the smallest.
 
+`certified_clearance(sc, traj, rate_hz, tol_m)` bounds the clearance BETWEEN samples: every point of the
+arm's and part's shapes lies within rho_j of joint j's axis (`CollisionModel.speed_radii_m`: each shape's
+bounding ball carried inwards joint by joint by the triangle inequality, the same at every configuration), so
+no point moves faster than v = sum_j rho_j |qd_j| and the signed distance (the smallest over the pairs, capped
+at HORIZON_M) changes no faster than v. On an interval [a, b] of length h with the speed bound V =
+max(v_a, v_b) + h max(a_a, a_b) (a = sum_j rho_j |qdd_j|: the speed's change within the interval, first order)
+the clearance is at least (d_a + d_b - V h) / 2; intervals whose bound is below the smallest found less tol_m
+are halved until none is, so the true smallest lies in [clearance_lower_bound_m, clearance_m] and the two
+differ by at most tol_m. The plans' re-check (`clearance`, above) is unchanged (the published numbers and the
+golden files); the certified value is what the collision-free path (planners/collision_free.py) and
+studies/obstacles_clearance --collision-free report.
+
 The carried part's shape (`carried_shapes`): a suction or magnet hand's part is the solid box with the
 payload's principal moments (a^2 = 6 (I_yy + I_zz - I_xx) / m, ...) centred at its centre of mass, in the
 hand's axes; a tray hand's tray is its box (tray_size_m, upper face through the hand frame's origin) and
@@ -26,6 +38,7 @@ the cup a cylinder standing on the tray's centre.
 
 from __future__ import annotations
 
+import heapq
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -54,6 +67,7 @@ REFINE_MINIMA = 3
 REFINE_PASSES = 2
 REFINE_POINTS = 21
 MIN_PART_SIDE_M = 1e-3
+CERTIFY_TOL_M = 2e-4  # certified_clearance: the reported smallest is within this of the true smallest
 REFINE_BAND_M = 0.02  # logged states: a minimum this close to the smallest is looked at state by state
 _MODELS: dict = {}
 
@@ -128,16 +142,18 @@ class CollisionModel:
         plant.RegisterAsSourceForSceneGraph(sg)
         model = H.model_instance()
         self.names = {}
-        robot = []
+        robot, balls = [], []  # balls: (body, centre in the body frame, radius m) of each arm/part geometry
         for link, name, shape, X in urdf_collision_shapes(sc.urdf):
             if plant.HasBodyNamed(link, model):
                 body = plant.GetBodyByName(link, model)
                 robot.append(plant.RegisterCollisionGeometry(body, X, shape, name, proximity()))
                 self.names[robot[-1]] = name
+                balls.append((body, X.translation(), shape_radius(shape)))
         X_BH = H.GetFixedPoseInBodyFrame()
         for name, shape, X_HG in carried_shapes(sc):
             robot.append(plant.RegisterCollisionGeometry(H.body(), X_BH @ X_HG, shape, f"carried/{name}", proximity()))
             self.names[robot[-1]] = f"carried/{name}"
+            balls.append((H.body(), (X_BH @ X_HG).translation(), shape_radius(shape)))
         obs = register_obstacles(plant, sc.obstacles, illustration=False)
         self.names.update({i: f"obstacle/{ob.name}" for i, ob in zip(obs, sc.obstacles)})
         plant.Finalize()
@@ -153,6 +169,7 @@ class CollisionModel:
             decl = decl.ExcludeWithin(GeometrySet(obs))
         sg.collision_filter_manager(self.sg_context).Apply(decl)
         self.n_robot_geometries, self.n_obstacles = len(robot), len(obs)
+        self.speed_radii_m = _speed_radii(plant, model, balls)
 
     def distance(self, q) -> tuple[float, str, str]:
         """(smallest signed distance m, arm/part geometry, obstacle geometry) at joint positions q
@@ -165,6 +182,40 @@ class CollisionModel:
                 a, b = self.names[p.id_A], self.names[p.id_B]
                 best = (float(p.distance), *((b, a) if a.startswith("obstacle/") else (a, b)))
         return best
+
+
+def shape_radius(shape) -> float:
+    """Radius (m) of a ball about the shape's own origin that holds the whole shape."""
+    if isinstance(shape, Box):
+        return 0.5 * float(np.linalg.norm(shape.size()))
+    if isinstance(shape, Cylinder):
+        return float(np.hypot(shape.radius(), 0.5 * shape.length()))
+    if isinstance(shape, Sphere):
+        return float(shape.radius())
+    hull = shape.GetConvexHull()
+    return float(max(np.linalg.norm(hull.vertex(i)) for i in range(hull.num_vertices())))
+
+
+def _speed_radii(plant, model, balls) -> np.ndarray:
+    """(n,) rho_j: every arm/part geometry point lies within rho_j (m) of joint j's origin at EVERY
+    configuration (prismatic joints: 1), so that no point moves faster than sum_j rho_j |qd_j| (m/s).
+    A ball (centre c in body B, radius r) is carried inwards joint by joint: about the inboard joint's
+    origin it is the ball of radius |c - o_child| + r, which is that same point on the parent (the joint
+    frames coincide at their origins for a revolute joint), whatever the joint's angle (the triangle
+    inequality; configuration independent, hence conservative)."""
+    inboard = {plant.get_joint(j).child_body().index(): plant.get_joint(j) for j in plant.GetJointIndices()}
+    rho = np.zeros(plant.num_positions(model))
+    for body, c, r in balls:
+        while body.index() in inboard:
+            joint = inboard[body.index()]
+            radius = float(np.linalg.norm(np.asarray(c) - joint.frame_on_child().GetFixedPoseInBodyFrame().translation())) + r
+            if joint.num_positions():
+                e = np.zeros(plant.num_positions())
+                e[joint.position_start()] = 1.0
+                k = int(np.argmax(plant.GetPositionsFromArray(model, e)))
+                rho[k] = max(rho[k], radius if joint.type_name() == "revolute" else np.inf)  # others: no bound
+            body, c, r = joint.parent_body(), joint.frame_on_parent().GetFixedPoseInBodyFrame().translation(), radius
+    return rho
 
 
 def collision_model(sc) -> CollisionModel:
@@ -209,6 +260,50 @@ def clearance_of_states(sc, t_s, q_rad, every: int = 1) -> dict:
     out["first_contact"] = None if first is None else {"time_s": float(t[first]), "pair": list(done[first][1:]),
                                                        "depth_m": float(-done[first][0])}
     return out
+
+
+def certified_clearance(sc, traj, rate_hz: float, tol_m: float = CERTIFY_TOL_M, max_points: int = 200_000) -> dict:
+    """The smallest clearance along traj with a bound between samples (module docstring, "certified"):
+    sampled at rate_hz, then every interval whose lower bound is below (smallest found - tol_m) is
+    halved until none is. The keys of `clearance` plus clearance_lower_bound_m (the true smallest
+    signed distance lies in [clearance_lower_bound_m, clearance_m], clearance_m - lower bound <= tol_m
+    unless max_points ran out: 'certified' False) and speed_bound_m_s (the largest point-speed bound)."""
+    cm = collision_model(sc)
+    rho = cm.speed_radii_m
+
+    def at(tt):
+        q, qd, qdd = traj.sample(np.atleast_1d(np.asarray(tt, float)))
+        return ([cm.distance(qk) for qk in q], np.abs(np.asarray(qd)) @ rho, np.abs(np.asarray(qdd)) @ rho)
+
+    t = sample_times(traj.duration_s, rate_hz)
+    res, v, a = at(t)
+    pts = {float(tk): (r, vk, ak) for tk, r, vk, ak in zip(t, res, v, a)}
+    best = min(pts.items(), key=lambda kv: kv[1][0][0])
+
+    def lower(ta, tb):
+        (da, va, aa), (db, vb, ab) = pts[ta], pts[tb]
+        h = tb - ta
+        speed = max(va, vb) + h * max(aa, ab)  # bound on |d(clearance)/dt| over the interval
+        return min(da[0], db[0], 0.5 * (da[0] + db[0] - speed * h)), speed
+
+    heap = []
+    for ta, tb in zip(t[:-1], t[1:]):
+        heapq.heappush(heap, (lower(float(ta), float(tb))[0], float(ta), float(tb)))
+    vmax = float(max(v))
+    while heap and heap[0][0] < best[1][0][0] - tol_m and len(pts) < max_points:
+        _, ta, tb = heapq.heappop(heap)
+        tm = 0.5 * (ta + tb)
+        r, vm, am = at([tm])
+        pts[tm] = (r[0], float(vm[0]), float(am[0]))
+        vmax = max(vmax, float(vm[0]))
+        if r[0][0] < best[1][0][0]:
+            best = (tm, pts[tm])
+        for lo, hi in ((ta, tm), (tm, tb)):
+            heapq.heappush(heap, (lower(lo, hi)[0], lo, hi))
+    bound = min(best[1][0][0], heap[0][0]) if heap else best[1][0][0]
+    out = _result(*best[1][0], best[0], len(pts))
+    return {**out, "clearance_lower_bound_m": float(bound), "tolerance_m": float(tol_m),
+            "certified": bool(best[1][0][0] - bound <= tol_m), "speed_bound_m_s": vmax}
 
 
 def clearance(sc, traj, rate_hz: float) -> dict:
