@@ -4,6 +4,7 @@ tip through a post: RRT-Connect must fold the elbow around it. Checked against c
 radii of the links, the smallest distance of a sphere on a turning link from a wall) and against an
 independent dense sampling of Drake's signed distance along the certified spline."""
 
+import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -17,7 +18,9 @@ from qmt_drake.model.obstacles import Obstacle
 from qmt_drake.model.spatial_ik import SpatialIK
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.planners.collision_free import PathInLength, collision_free_path
+from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
+from qmt_drake.spatial_task import load_spatial_scenario
 from tests.test_obstacles import one_link
 
 _INERTIA = '<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
@@ -128,3 +131,18 @@ def test_plan_refuses_avoid_options_without_avoid_and_on_a_planar_arm(capsys):
     assert "options of --avoid" in capsys.readouterr().err
     assert main(["plan", "ch2", "--method", "toppra", "--avoid"]) == 2
     assert "--avoid plans a collision-free path among a spatial scenario's world.obstacles" in capsys.readouterr().err
+
+
+def test_a_plan_made_with_avoid_simulates_against_its_scenario(tmp_path, capsys):
+    """`plan SC --avoid --json P` then `simulate SC --plan P`: the file's collision-free facts rebuild the
+    path it was planned on (the same seed: the same path), so the plan loads against SC itself."""
+    path = tmp_path / "p.json"
+    assert main(["plan", "ur5-suction-bins", "--method", "toppra", "--avoid", "--json", str(path), "--quiet"]) in (0, None)
+    sc = load_spatial_scenario("ur5-suction-bins")
+    plan = load_spatial_plan(path, sc)
+    assert plan.duration_s == json.loads(path.read_text())["duration_s"]
+    assert plan.extra["collision_free_path"]["seed"] == 0
+    broken = path.read_text().replace('"through": "poses"', '"through": "nowhere"')
+    (tmp_path / "q.json").write_text(broken)
+    with pytest.raises(QmtInputError):
+        load_spatial_plan(tmp_path / "q.json", sc)

@@ -297,7 +297,7 @@ def collision_free_scenario(sc, *, margin_m: float = MARGIN_M, seed: int = 0, tr
                   path_pose_index=idx, q_poses_rad=Q[idx], poses_m=pts[idx], pose_normals=normals[idx],
                   pose_rotations=None if rot is None else rot[idx])
     c = r["certificate"]
-    facts = {"margin_m": margin_m, "through": through, "seed": r["seed"], "tries": tries, "toppra_time_s": r["toppra_time_s"],
+    facts = {"margin_m": margin_m, "through": through, "seed": r["seed"], "tries": tries, "tilt_limit_rad": max_tilt_rad, "toppra_time_s": r["toppra_time_s"],
              "rrt_waypoints": r["rrt_waypoints"], "vertices": len(idx),
              "waypoints": len(Q), "smooth_rounds": r["smooth_rounds"], "validity_checks": r["checks"],
              "path_length_rad": float(r["path"].duration_s), "max_tilt_rad": r["max_tilt_rad"],

@@ -52,6 +52,7 @@ from qmt_drake.plan_identity import (
     identity,
     spatial_sections,
 )
+from qmt_drake.planners.collision_free import MAX_TILT_RAD, collision_free_scenario
 from qmt_drake.planners.spatial_families import SegmentTrajectory
 from qmt_drake.planners.spatial_ruckig import ruckig_rest_to_rest, ruckig_segment_limits
 from qmt_drake.planners.spatial_trajectory import (
@@ -323,12 +324,34 @@ def load_spatial_plan(path, sc) -> Plan:
     return _load(Path(path), read_plan_file(path), sc)
 
 
+def _planned_scenario(d: dict, path: Path, sc):
+    """sc, checked to fit the file; for a plan made with `plan --avoid`, the scenario it was planned on:
+    sc with its task replaced by the collision-free path, planned again from the file's facts (the chosen
+    seed, margin and legs: the same path, planners/collision_free.py) when sc itself does not fit."""
+    facts = d.get("collision_free_path")
+    try:
+        _check_fits(d, path, sc)
+        return sc
+    except QmtInputError:
+        if not isinstance(facts, dict):
+            raise
+    try:
+        avoided, _ = collision_free_scenario(sc, margin_m=float(facts["margin_m"]), seed=int(facts["seed"]),
+                                             through=str(facts["through"]),
+                                             max_tilt_rad=float(facts.get("tilt_limit_rad", MAX_TILT_RAD)))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise QmtInputError(f"plan file {path}: its collision_free_path facts are incomplete ({exc}); plan again "
+                            f"with `qmt-drake plan {sc.name} --avoid --json PATH`") from None
+    _check_fits(d, path, avoided)
+    return avoided
+
+
 def _load(path: Path, d: dict, sc) -> Plan:
     """plan.load_plan's loader of spatial files: sc None reloads the file's own scenario."""
     if sc is None:
         src = d.get("scenario_path")
         sc = load_spatial_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
-    _check_fits(d, path, sc)
+    sc = _planned_scenario(d, path, sc)
     try:
         traj = trajectory_from_spec(d["rebuild"])
         stored = d["trajectory"]
