@@ -21,6 +21,7 @@ import yaml
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.urdf_check import example_robot_urdf, load_arm_plant
+from qmt_drake.model.urdf_package import example_face_axis
 from qmt_drake.planners.spatial_methods import plan_family_optimum, plan_toppra_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
@@ -55,11 +56,12 @@ def task_around(name: str, plant, H, arm: dict, actuators: dict, seed, tmp_path:
                 face_normal=None) -> Path:
     """The scenario file `name`.yaml in tmp_path: poses around the hand's position at the seed (pick,
     lift by 15 % of its distance from the world origin, carry sideways by 25 %, lower), the face
-    normal `face_normal` (world) or the hand's own there (the arm's face_axis, default z, in world),
+    normal `face_normal` (world) or the hand's own there (the arm's face_axis, default its known arm's or z),
     the `arm` and `actuators` sections as given, a 0.3 kg part 3 cm out along the face axis on a 40 N
     suction cup."""
     seed = np.asarray(seed, float)
-    axis = np.asarray(arm.get("face_axis", (0.0, 0.0, 1.0)), float)
+    known = example_face_axis(arm["package"]) if "package" in arm else None  # a known arm's tool axis
+    axis = np.asarray(arm.get("face_axis", known if known is not None else (0.0, 0.0, 1.0)), float)
     ctx = plant.CreateDefaultContext()
     plant.SetPositions(ctx, seed)
     X = H.CalcPoseInWorld(ctx)

@@ -17,10 +17,11 @@ from qmt_drake.limits.clearance import CollisionModel, certified_clearance, coll
 from qmt_drake.model.obstacles import Obstacle
 from qmt_drake.model.spatial_ik import SpatialIK
 from qmt_drake.model.urdf_check import load_arm_plant
-from qmt_drake.planners.collision_free import PathInLength, collision_free_path
+from qmt_drake.planners.collision_free import collision_free_path
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
 from qmt_drake.spatial_task import load_spatial_scenario
+from qmt_drake.trajectory import PolynomialTrajectory
 from tests.test_obstacles import one_link
 
 _INERTIA = '<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
@@ -99,7 +100,7 @@ def test_rrt_connect_finds_a_certified_path_round_the_post(tmp_path):
     assert dense >= c["clearance_lower_bound_m"] - 1e-12 and dense >= 0.005
     again = collision_free_path(sc, margin_m=0.01, seed=3, box_pad_rad=2.0)
     assert np.array_equal(again["Q"], r["Q"])  # deterministic given the seed
-    assert isinstance(path, PathInLength)
+    assert isinstance(path, PolynomialTrajectory) and path.holds_end_value  # sampled in s, clipped into [0, L]
 
 
 def test_through_every_task_pose(tmp_path):

@@ -29,7 +29,7 @@ def test_the_two_kinds_refuse_each_others_commands_in_one_line(capsys):
     assert main(["simulate", "ohsaka-fig3", "--method", "ga"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "energy-time" in err and "--plan" in err
-    assert main(["plan", "thesis-ch4", "--method", "snopt"]) == 2
+    assert main(["plan", "thesis-ch4", "--method", "collocation"]) == 2  # snopt plans a planar arm too
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "not planar ones; planar scenarios take ga|" in err
 
@@ -97,5 +97,5 @@ def test_other_kinds_go_to_the_shared_loader(tmp_path, capsys):
     p = tmp_path / "x.yaml"
     p.write_text("name: x\n")
     assert p.as_posix() not in EXPERIMENTS
-    assert main(["plan", str(p), "--method", "snopt"]) == 2
+    assert main(["plan", str(p), "--method", "collocation"]) == 2  # energy-time only (snopt plans every kind)
     assert "kind: energy_time" in capsys.readouterr().err

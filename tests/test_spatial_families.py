@@ -227,8 +227,9 @@ def test_python_api_takes_the_family_and_refuses_it_where_it_does_not_apply():
     from qmt_drake import plan_with
     sc = load_or_skip("ur5-suction-bins")
     assert plan_with("optimum", sc, family="trapezoid_ptp").info["family"] == "trapezoid_ptp"
-    with pytest.raises(QmtInputError, match=r"not an option of the spatial \(3-D\) ruckig planner \(the spatial \(3-D\) toppra, "
-                                           r"family_optimum and ga planners take it\); it takes no options"):
+    with pytest.raises(QmtInputError, match=r"not an option of the spatial \(3-D\) ruckig planner \(the planners that take "
+                                           r"it: spatial \(3-D\) toppra, family_optimum and ga; energy-time toppra, "
+                                           r"family_optimum and ga\); it takes no options"):
         plan_with("ruckig", sc, family=LINE)
     with pytest.raises(QmtInputError, match=r"not an option of the spatial \(3-D\) ga planner; did you mean 'generations'"):
         plan_with("ga", sc, generation=3)

@@ -42,7 +42,7 @@ from qmt_drake.errors import QmtInputError, QmtNoPlanError
 from qmt_drake.limits.clearance import certified_clearance, collision_model
 from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
-from qmt_drake.planners.spatial_trajectory import ToppraTrajectory
+from qmt_drake.planners.spatial_trajectory import PolyTrajectory, ToppraTrajectory
 
 MARGIN_M = 0.005  # the planner's clearance at its configurations; the smoothed path is certified >= MARGIN_M / 2
 MAX_TILT_RAD = 0.15
@@ -58,19 +58,6 @@ CERTIFY_PER_RAD = 400  # the path's certification samples per radian of chord le
 CERTIFY_TOL_M = 2e-4
 TRY_GRID = 400  # TOPP-RA's grid when choosing between tries
 THROUGH = ("poses", "ends")  # the path passes every task pose (one leg each), or only the first and the last
-
-
-class PathInLength:
-    """A joint path q(s) (s its chord length, rad) with the sample() of a trajectory (q, dq/ds, d2q/ds2), so
-    limits/clearance samples and certifies it in s."""
-
-    def __init__(self, pp) -> None:
-        self.pp, self.d1, self.d2 = pp, pp.derivative(1), pp.derivative(2)
-        self.duration_s = float(pp.end_time())
-
-    def sample(self, s):
-        s = np.clip(np.atleast_1d(np.asarray(s, float)), 0.0, self.duration_s)
-        return tuple(f.vector_values(s).T for f in (self.pp, self.d1, self.d2))
 
 
 class Checker:
@@ -208,7 +195,7 @@ def smooth(chk, V, margin_m: float, max_tilt_rad: float) -> dict:
     for rounds in range(SMOOTH_ROUNDS + 1):
         Q, idx = V, np.flatnonzero(is_vertex)
         pp = joint_path(Q, lo, hi)
-        path = PathInLength(pp)
+        path = PolyTrajectory(pp)  # the path in its chord length s (rad) as a trajectory: sampled in s
         cert = certified_clearance(chk.sc, path, CERTIFY_PER_RAD, tol_m=CERTIFY_TOL_M)
         s = np.linspace(0.0, path.duration_s, max(int(path.duration_s * 50), 2))
         qs = path.sample(s)[0]

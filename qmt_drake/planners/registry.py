@@ -230,13 +230,15 @@ def check(kind: str, method: Any, options: dict, where: str | dict = "plan_with 
 
 
 def _takers(key: str) -> str:
-    """' (the planar ga and spatial (3-D) ga planners take it)': the rows whose option `key` is."""
+    """' (the planar ga planner takes it)', or ' (the planners that take it: planar ga; spatial (3-D) ga)':
+    the rows whose option `key` is, grouped by kind."""
     by_kind = {k: [m.name for m in rows(k) if key in m.options()] for k in KINDS}
     groups = [f"{_WORDS[k]} {_and(ms)}" for k, ms in by_kind.items() if ms]
     if not groups:
         return ""
-    many = len(groups) > 1 or any(len(ms) > 1 for ms in by_kind.values())
-    return f" (the {_and(groups)} planner{'s take' if many else ' takes'} it)"
+    if len(groups) > 1:
+        return f" (the planners that take it: {'; '.join(groups)})"
+    return f" (the {groups[0]} planner{'s take' if len(next(ms for ms in by_kind.values() if ms)) > 1 else ' takes'} it)"
 
 
 def _and(words: list[str]) -> str:
