@@ -100,11 +100,11 @@ def _motion(out: dict, s: float):
 def certify_time_scale(spec: SweepSpec | dict | str, out_dir, *, n_search: int, n_fresh: int, batch: int,
                        s_min: float = 1.0, s_max: float = 1.5, goal: float | None = 1.10, rel_tol: float = 0.01,
                        target: float = 0.9, confidence: float = 0.95, fresh_tries: int = 3,
-                       raise_step: float = 0.02, client=None, progress=None, **run_kw) -> dict:
+                       raise_step: float = 0.02, step_up: float = 0.1, client=None, progress=None, **run_kw) -> dict:
     """The smallest time scale of the spec's single plan passing the sequential test on the search draws
     (the spec's seed), then confirmed on fresh draws (module docstring). Search: s_min first, then `goal`
-    (answers "within the goal?" directly), then bisection in log s to rel_tol on the bracket that holds the
-    answer. Returns {found, certified, time_scale (certified scale, or the searched one if no fresh check
+    (answers "within the goal?" directly), then up by factors 1 + step_up until a point passes (or s_max), then
+    bisection in log s to rel_tol on the bracket that holds the answer. Returns {found, certified, time_scale (certified scale, or the searched one if no fresh check
     passed), search_scale, points: [...], fresh: [...]}; found False: s_max misses on the search draws."""
     if not isinstance(spec, SweepSpec):
         spec = load_spec(spec)
@@ -132,11 +132,15 @@ def certify_time_scale(spec: SweepSpec | dict | str, out_dir, *, n_search: int, 
                 hi = goal
             else:
                 lo = goal
-        if hi is None:
-            if not passes(s_max):
+        while hi is None:  # upward in steps of step_up (a passing point costs all its cases), then s_max
+            s = min(s_max, lo * (1 + step_up))
+            if passes(s):
+                hi = s
+            elif s >= s_max:
                 return {"found": False, "certified": False, "time_scale": None, "search_scale": None,
                         "points": points, "fresh": []}
-            hi = s_max
+            else:
+                lo = s
         while hi / lo - 1 > rel_tol:
             mid = math.sqrt(lo * hi)
             if passes(mid):
