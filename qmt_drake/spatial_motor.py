@@ -54,6 +54,17 @@ def _per_joint(raw: dict, key: str, where: str, n: int, names, default=None, pos
     return F.vector({key: v}, key, where, positive=positive, nonnegative=not positive, length=n)
 
 
+def check_integral_rate(value, section: str, n: int, joint_names=()) -> np.ndarray:
+    """`section`.integral_rate_per_s, the PID's Ki / K [1/s]: one number or one per joint, in
+    [0, MAX_INTEGRAL_RATE_PER_S]; an (n,) array, or a one-line QmtInputError naming it."""
+    key = "integral_rate_per_s"
+    rate = _per_joint({key: value}, key, section, n, list(joint_names) or list(range(n)), positive=False)
+    if np.any(rate > MAX_INTEGRAL_RATE_PER_S):
+        raise QmtInputError(f"{section}.{key} must be at most {MAX_INTEGRAL_RATE_PER_S:g} 1/s (beyond it the joint "
+                            f"loop's slow poles are damped less than 0.55 and ring); got {rate.tolist()}")
+    return rate
+
+
 def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: str) -> SpatialMotors | None:
     """The validated `actuators.motor` mapping (module docstring); None when absent. One-line
     QmtInputError naming the key and the fix for anything else."""
@@ -70,10 +81,7 @@ def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: st
     eta = _per_joint(raw, "gear_efficiency", where, n, joint_names, default=1.0)
     if np.any(eta > 1.0):
         raise QmtInputError(f"{where}.gear_efficiency must be in (0, 1]; got {eta.tolist()}")
-    rate = _per_joint(raw, "integral_rate_per_s", where, n, joint_names, default=0.0, positive=False)
-    if np.any(rate > MAX_INTEGRAL_RATE_PER_S):
-        raise QmtInputError(f"{where}.integral_rate_per_s must be at most {MAX_INTEGRAL_RATE_PER_S:g} 1/s (beyond it the "
-                            f"joint loop's slow poles are damped less than 0.55 and ring); got {rate.tolist()}")
+    rate = check_integral_rate(raw.get("integral_rate_per_s", 0.0), where, n, joint_names)
     tau_max, N = np.asarray(torque_limit_Nm, float), np.asarray(gear_ratio, float)
     stall = N * eta * kt * v / r  # joint torque at stall with the full voltage [N*m]
     short = np.flatnonzero(stall < tau_max)

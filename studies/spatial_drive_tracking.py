@@ -21,6 +21,7 @@ Writes OUT/spatial_drive_tracking/spatial_drive_tracking.json and .png atomicall
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import io
 import json
 import sys
@@ -34,6 +35,7 @@ from qmt_drake.outputs import check_output_dir, jsonable, write_bytes_atomic, wr
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim import spatial_reference
 from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.spatial_motor import check_integral_rate
 from qmt_drake.timescale import smallest_holding_scale
 
 SCENARIOS = ("ur5-magnet-part", "ur5-suction-bins", "panda-tray-cup")
@@ -135,6 +137,9 @@ def main(argv=None) -> int:
     ap.add_argument("--window", type=float, default=spatial_reference.SHAPING_WINDOW_S,
                     help="the shaped reference's kernel width [s] (two boxes of half of it)")
     ap.add_argument("--replot", action="store_true", help="redraw the PNG from the JSON already in OUT, run nothing")
+    ap.add_argument("--integral-rate", type=float, default=None, metavar="PER_S",
+                    help="the DC drive's PID integral rate Ki/K [1/s] (default: the scenario's, 0); runs the dc_motor "
+                         "variants only")
     args = ap.parse_args(argv)
     check_output_dir(args.out, "--out")
     folder = Path(args.out) / "spatial_drive_tracking"
@@ -153,7 +158,12 @@ def main(argv=None) -> int:
     for name in args.only or SCENARIOS:
         sc = load_scenario(name)
         plan = plan_with("toppra", sc)
-        for actuator, feedforward in VARIANTS:
+        variants = VARIANTS
+        if args.integral_rate is not None:  # the law designed with the integral (the scenario's motor section)
+            rate = check_integral_rate(args.integral_rate, "--integral-rate", sc.n_dof)
+            sc = dataclasses.replace(sc, motor=dataclasses.replace(sc.motor, integral_rate_per_s=rate))
+            variants = [v for v in VARIANTS if v[0] == "dc_motor"]
+        for actuator, feedforward in variants:
             r = row(sc, plan, actuator, feedforward, args.window)
             rows.append(r)
             print(f"{name:18s} {actuator:8s} {feedforward:6s} 1x: {r['outcome_at_1x']:9s} ratio "

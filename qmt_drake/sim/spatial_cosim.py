@@ -177,7 +177,7 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
     elif sc.hand_physics == "contact":  # the part held by contact and a pull, not a weld (sim/spatial_contact_hand)
         kw = {"time_step_s": h, **(contact or {})}
         h = kw.pop("time_step_s")
-        hand, ctrl = ContactHand(sc, grip, **kw), sc  # (its ideal controller: the scenario's own model)
+        hand = ContactHand(sc, grip, **kw)  # (its controller: ctrl, the nominal model when sc is drawn)
     else:
         hand = WeldHand(sc, sc.hand_term(grip), actuator)
     traj = closed_loop_reference(traj, feedforward, drive, h)  # feedforward 'shaped': sim/spatial_reference

@@ -128,6 +128,9 @@ def check_hand_can_vary(spec: SweepSpec, base) -> None:
     if "actuator" in spec.sim:
         raise QmtInputError(f"sweep sim.actuator: for spatial scenarios; scenario {base.name}'s actuator is its "
                             "YAML actuator section")
+    if "integral_rate_per_s" in spec.sim:  # (sweep/spatial_cases.check_spatial_spec)
+        raise QmtInputError(f"sweep sim.integral_rate_per_s: for the spatial DC-motor drive; scenario {base.name}'s "
+                            "gains are its YAML control section")
     if spec.sim.get("feedforward") == "shaped":
         raise QmtInputError(f"sweep sim.feedforward shaped: the spatial DC-motor drive's closed-loop-aware reference; "
                             f"scenario {base.name} is planar: use none, back-emf or full")

@@ -257,7 +257,7 @@ def check_success_drive(sim, where: str) -> dict:
         return {}
     if not isinstance(sim, dict):
         raise QmtInputError(f"{where} must be a mapping {{actuator: dc_motor, feedforward: shaped}}, got {show(sim)}")
-    check_keys(sim, {"actuator", "feedforward"}, where)
+    check_keys(sim, {"actuator", "feedforward", "integral_rate_per_s"}, where)  # the rate: spatial_cases checks it
     if "actuator" in sim and sim["actuator"] not in SUCCESS_DRIVES:
         raise QmtInputError(f"{where}.actuator: {show(sim['actuator'])}; choose one of {', '.join(SUCCESS_DRIVES)}")
     if "feedforward" in sim and sim["feedforward"] not in SUCCESS_DRIVES["dc_motor"]:

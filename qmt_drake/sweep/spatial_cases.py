@@ -34,6 +34,7 @@ from qmt_drake.planners.spatial_plan_io import load_spatial_plan, make_spatial_p
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_actuation import SpatialMotorDrive, motor_params_for_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.spatial_motor import check_integral_rate
 from qmt_drake.spatial_task import load_spatial_scenario
 from qmt_drake.sweep.cases import Case, PlanRef, plan_file_hash, stable_hash
 from qmt_drake.sweep.parameters import MOTOR_PARAMETERS, PARAMETERS, SPATIAL_HAND_PARAMETERS
@@ -113,10 +114,10 @@ def check_spatial_spec(spec: SweepSpec, base) -> tuple[str, str]:
                                 f"{', '.join(SPATIAL_HAND_PARAMETERS[base.hand_kind])}")
         if name in MOTOR_PARAMETERS and base.motor is None:
             raise QmtInputError(f"sweep parameter '{name}': scenario {base.name} has no actuators.motor")
-    extra = sorted(set(spec.sim) - {"actuator", "feedforward"})
+    extra = sorted(set(spec.sim) - {"actuator", "feedforward", "integral_rate_per_s"})
     if extra:
-        raise QmtInputError(f"sweep sim.{extra[0]}: the spatial co-simulation steps at 1 ms; give only sim.actuator "
-                            "and sim.feedforward")
+        raise QmtInputError(f"sweep sim.{extra[0]}: the spatial co-simulation steps at 1 ms; give only sim.actuator, "
+                            "sim.feedforward and sim.integral_rate_per_s")
     actuator = spec.sim.get("actuator", default_actuator(base))
     if actuator == "dc_motor" and base.motor is None:
         raise QmtInputError(f"sweep sim.actuator dc_motor: scenario {base.name} has no actuators.motor; use ideal")
@@ -126,13 +127,28 @@ def check_spatial_spec(spec: SweepSpec, base) -> tuple[str, str]:
                             "always has the full feedforward (or 'shaped': on the shaped reference)")
     if any(n in MOTOR_PARAMETERS for n in spec.parameter_names) and actuator != "dc_motor":
         raise QmtInputError("sweep: motor parameters act through sim.actuator dc_motor; set it or drop them")
+    if "integral_rate_per_s" in spec.sim:
+        if actuator != "dc_motor":
+            raise QmtInputError("sweep sim.integral_rate_per_s: the DC-motor drive's PID integral; set sim.actuator "
+                                "dc_motor or drop it (the ideal controller has none)")
+        check_integral_rate(spec.sim["integral_rate_per_s"], "sweep sim", base.n_dof, base.joint_names)
     return actuator, feedforward
+
+
+def drive_options(spec: SweepSpec) -> dict:
+    """The spec's drive options beyond actuator and feedforward that go into each case's sim (only when given:
+    a spec without them keeps its case keys): integral_rate_per_s [1/s] (a number or one per joint)."""
+    rate = spec.sim.get("integral_rate_per_s")
+    if rate is None:
+        return {}
+    return {"integral_rate_per_s": [float(x) for x in rate] if isinstance(rate, list) else float(rate)}
 
 
 def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]]:
     """All cases of a spec on a spatial scenario (plans x grid points x samples) and their plans."""
     base = _scenario(spec.scenario)  # validates the scenario before any long work
     actuator, feedforward = check_spatial_spec(spec, base)
+    options = drive_options(spec)
     samples = spec.samples()
     cases, plans = [], {}
     for pdef in spec.plans:
@@ -149,7 +165,7 @@ def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]
                 drawn = {k: float(x) for k, x in values.items() if PARAMETERS[k].target != "sim" and k not in drive}
                 motor = {k: float(x) for k, x in values.items() if k in drive}
                 sim = {"time_scale": float(values.get("time_scale", 1.0)) * float(values.get("time_scale_jitter", 1.0)),
-                       "actuator": actuator, "feedforward": feedforward}
+                       "actuator": actuator, "feedforward": feedforward, **options}
                 cases.append(Case(index=len(cases), label=pdef["label"], scenario=spec.scenario, scenario_overrides={},
                                   plan_key=ref.key, payload=drawn, magnet={}, motor_scales=motor, sim=sim,
                                   parameters=dict(values), sample=i if spec.distributions else None))
@@ -195,11 +211,14 @@ def _plan(doc: dict, sc):
     return _PLANS[k]
 
 
-def _drive(sc, physical, plan, plan_key: str, feedforward: str, values: dict):
-    """The nominal DC-motor law (gains, feedforward model) driving the drawn motors (drawn_drive)."""
-    k = (sc.name, plan_key, feedforward)
+def _drive(sc, physical, plan, plan_key: str, case_sim: dict, values: dict):
+    """The nominal DC-motor law (gains, feedforward model, the case's integral rate) driving the drawn motors
+    (drawn_drive)."""
+    feedforward, rate = case_sim["feedforward"], case_sim.get("integral_rate_per_s")
+    k = (sc.name, plan_key, feedforward, json.dumps(rate))
     if k not in _DRIVES:
-        _DRIVES[k] = SpatialMotorDrive.for_scenario(sc, plan.trajectory.sample([0.0])[0][0], feedforward)
+        _DRIVES[k] = SpatialMotorDrive.for_scenario(sc, plan.trajectory.sample([0.0])[0][0], feedforward,
+                                                    integral_rate_per_s=rate)
     return drawn_drive(_DRIVES[k], sc, physical, values)
 
 
@@ -235,7 +254,7 @@ def run_spatial_case(case: Case, plan_doc: dict) -> dict:
         drawn = {**case.payload, **case.motor_scales}
         physical = perturbed_scenario(sc, drawn)
         out["payload_mass_kg"] = float(physical.body.mass_kg)
-        drive = (_drive(sc, physical, plan, case.plan_key, case.sim["feedforward"], drawn)
+        drive = (_drive(sc, physical, plan, case.plan_key, case.sim, drawn)
                  if case.sim["actuator"] == "dc_motor" else None)
         traj = plan.trajectory if s == 1.0 else TimeScaled(plan.trajectory, s)
         r = simulate_spatial(physical, traj, controller_sc=sc, drive=drive, feedforward=case.sim["feedforward"])

@@ -51,7 +51,7 @@ EXPLICIT_MAX_TIME_STEP_S = 1e-3  # sim.actuation.EXPLICIT_MAX_TIME_STEP_S (a tes
 SPEC_KEYS = {"name", "description", "uncertainty", "scenario", "plan", "plans", "sim",
              "monte_carlo", "parameters"}
 PLAN_KEYS = {"method", "seed", "options", "file", "label"}
-SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping", "actuator"}
+SIM_KEYS = {"feedforward", "time_step_s", "implicit_loop_damping", "actuator", "integral_rate_per_s"}  # the last: spatial
 ACTUATORS = ("ideal", "dc_motor")  # sim.actuator, spatial scenarios (sim/spatial_actuation.ACTUATORS)
 FEEDFORWARD = ("none", "back-emf", "full", "shaped")  # sim.FEEDFORWARD_OPTIONS keys; shaped: spatial only
 MAX_CASES = 1_000_000  # beyond any budget (budgets.py): refused before the grid is built
