@@ -64,7 +64,7 @@ KIND = {"thesis-ch2": "thesis", "thesis-ch3": "thesis", "thesis-ch4": "thesis", 
 CASES = {"thesis": (100, 100), "tray": (100, 100), "spatial": (60, 60)}
 S_MAX = {"thesis": 1.5, "tray": 1.5, "spatial": 1.5}
 REL_TOL = {"thesis": 0.01, "tray": 0.01, "spatial": 0.02}
-BATCH = {"thesis": 25, "tray": 20, "spatial": 10}
+BATCH = {"thesis": 25, "tray": 20, "spatial": 4}
 
 
 def kind(name: str) -> str:
