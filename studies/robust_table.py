@@ -63,7 +63,7 @@ KIND = {"thesis-ch2": "thesis", "thesis-ch3": "thesis", "thesis-ch4": "thesis", 
 # cases per point (search, fresh): planar ~0.15-0.6 s a case, the tray ~2-4 s, spatial 5-25 s
 CASES = {"thesis": (100, 100), "tray": (100, 100), "spatial": (60, 60)}
 S_MAX = {"thesis": 1.5, "tray": 1.5, "spatial": 1.5}
-REL_TOL = {"thesis": 0.01, "tray": 0.01, "spatial": 0.02}
+REL_TOL = {"thesis": 0.01, "tray": 0.01, "spatial": 0.11}  # spatial: the 10 % steps only (a passing point is 60 cases of 5-25 s)
 BATCH = {"thesis": 25, "tray": 20, "spatial": 4}
 
 
