@@ -44,7 +44,9 @@ from qmt_drake.api import load_scenario, plan_with
 from qmt_drake.apps.bang_bang import closed_form_bound_s
 from qmt_drake.apps.benchmark import fastest_carried
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
+from qmt_drake.plan import make_plan
 from qmt_drake.planners.spatial_carried import carried_search
+from qmt_drake.planners.spatial_plan_io import make_spatial_plan
 from qmt_drake.sim.spatial_reference import SHAPING_WINDOW_S
 from qmt_drake.spatial_motor import check_integral_rate
 from qmt_drake.spatial_task import SpatialScenario
@@ -180,15 +182,21 @@ def margin_plan(name: str, plans: Path) -> dict:
     sc = load_scenario(name)
     vals = derated_values(section(name)["parameters"])
     path = plans / f"{name}-margin.json"
+    # planned for the derated hand, written as a plan of the NOMINAL scenario (re-checked there; the plan file
+    # names the scenario whose content it was made for, and the sweep runs it on the nominal one)
     if kind(name) == "spatial":
-        p = plan_with("toppra", perturbed_scenario(sc, vals))
+        d = plan_with("toppra", perturbed_scenario(sc, vals))
+        p = make_spatial_plan(sc, "toppra-margin", d.trajectory, d.pose_times_s, planning_s=d.planning_s,
+                              raw_duration_s=d.raw_duration_s, hold_scale=d.hold_scale,
+                              info={**(d.info or {}), "derated": vals})
         T = float(p.duration_s)
     else:  # the CRANE-X7 tray: the bottle's friction, mass and centre-of-mass height in the scenario
         pay = sc.payload
         ov = {"hand": {"friction": vals.get("friction", sc.hand.friction)},
               "payload": {"mass_kg": pay.mass_kg * vals.get("mass_scale", 1.0),
                           "com_offset_m": pay.com_offset_m * vals.get("com_offset_scale", 1.0)}}
-        p = plan_with("toppra", load_scenario(name, overrides=ov))
+        d = plan_with("toppra", load_scenario(name, overrides=ov))
+        p = make_plan(sc, "toppra-margin", d.trajectory, genes=d.genes, extra={"derated": vals})
         T = float(p.motion_time_s)
     p.write_json(path)
     return {"derated": vals, "quantile": QUANTILE, "plan_file": str(path), "T_s": T}

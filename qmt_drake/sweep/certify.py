@@ -79,6 +79,8 @@ def test_time_scale(spec: SweepSpec, s: float, out_dir, *, seed: int, n: int, ba
         lost = [r.get("index") for r in res if not r.get("held")] + [f.get("index") for f in out["failures"]
                                                                      if "key" in f]
         run = len(res) + out["failed"]
+        if out["failed"] and not res:  # every case refused (e.g. a plan file of another scenario): not a loss
+            raise QmtInputError(f"{spec.name} x{s:.5f}: no case ran: {out['failures'][0].get('error')}")
         verdict = sequential_verdict(len(lost), run, n, target, confidence)
         say(f"{spec.name} x{s:.5f} seed {seed}: {run - len(lost)}/{run} carried of {n} -> {verdict}")
         if verdict != "open" or m >= n:
