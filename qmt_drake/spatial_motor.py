@@ -9,6 +9,9 @@
         integral_rate_per_s: 0.0          # optional, >= 0, default 0 (a PD law): the PID's integral gain as a
                                           # rate of the loop's stiffness, Ki = K * rate (joint side)
 
+The law's control period is not a key here (it would change the scenario's identity, plan_identity.py, which
+plans carry): SpatialMotorDrive.for_scenario(control_period_s=) or a sweep's loop_period_s set it.
+
 The current limit is not a key: it is the joint's torque limit at the motor, I_max = tau_max / (N eta k_t),
 so the motors never deliver more than the actuators section's torque_limit_Nm (the planners' limit).
 A motor that cannot reach that torque even at stall through the gear (N eta k_t V_max / R < tau_max)
@@ -30,6 +33,10 @@ OPTIONAL_KEYS = ("gear_efficiency", "integral_rate_per_s")
 # the loop s^3 + 60 s^2 + 900 s + 900 rate (critically damped at 30 rad/s, sim/spatial_actuation) keeps its slow
 # pole pair damped at 0.55 or better up to rate 10 1/s (0.28 at 20, unstable at 60)
 MAX_INTEGRAL_RATE_PER_S = 10.0
+# the slowest sample-and-hold law: its half-period delay costs the loop 8.6 degrees of phase at its 30 rad/s (38 at
+# the 132 rad/s of the Panda's wrist joints, damped by their back EMF alone); the Panda tray's shaped TOPP-RA run is
+# still carried at 10 ms (2.1 mrad tracking, docs/spatial_drives.md)
+MAX_CONTROL_PERIOD_S = 0.01
 
 
 @dataclass(frozen=True)
@@ -63,6 +70,20 @@ def check_integral_rate(value, section: str, n: int, joint_names=()) -> np.ndarr
         raise QmtInputError(f"{section}.{key} must be at most {MAX_INTEGRAL_RATE_PER_S:g} 1/s (beyond it the joint "
                             f"loop's slow poles are damped less than 0.55 and ring); got {rate.tolist()}")
     return rate
+
+
+def check_control_period(period_s, time_step_s: float | None = None) -> float | None:
+    """The DC drive law's control period [s] (None: the plant step): one line unless plant step <= period <=
+    MAX_CONTROL_PERIOD_S (a law faster than the plant acts at the plant's steps; beyond the bound the hold's
+    half-period delay costs the loop more than 8.6 degrees of phase at 30 rad/s: MAX_CONTROL_PERIOD_S)."""
+    if period_s is None:
+        return None
+    lo = 0.0 if time_step_s is None else time_step_s * (1.0 - 1e-9)
+    if not (np.isfinite(period_s) and lo < period_s <= MAX_CONTROL_PERIOD_S):
+        floor = "positive" if time_step_s is None else f"at least the plant step {time_step_s * 1e3:g} ms"
+        raise QmtInputError(f"control period {period_s * 1e3:g} ms: the DC drive's law is sampled at a period "
+                            f"{floor} and at most {MAX_CONTROL_PERIOD_S * 1e3:g} ms")
+    return float(period_s)
 
 
 def parse_motor_section(raw, joint_names, torque_limit_Nm, gear_ratio, where: str) -> SpatialMotors | None:

@@ -192,7 +192,7 @@ def planar_plan(tmp_path_factory):
     (["simulate", SC, "--plan", "{spatial}", "--time-scale", "1e6", "--allow-large"], "more memory than this machine"),
     (["simulate", SC, "--plan", "{spatial}", "--actuator", "stepper"], "invalid choice: 'stepper'"),
     (["simulate", SC, "--plan", "{spatial}", "--feedforward", "none"], "applies to actuator dc_motor"),
-    (["simulate", SC, "--plan", "{spatial}", "--explicit"], "--explicit: not for spatial scenario"),
+    (["simulate", SC, "--plan", "{spatial}", "--explicit"], "the ideal actuator has no motor loop: add --actuator dc_motor"),
     (["simulate", SC, "--plan", "{spatial}", "--time-step-ms", "20"], "takes a plant step in (0, 5] ms"),
     (["simulate", "thesis-ch4", "--plan", "{planar}", "--actuator", "ideal"], "actuator.kind dc_motor_gear"),
     (["simulate", "ohsaka-fig3", "--actuator", "ideal"], "--actuator: seed 001's arm is driven by ideal torque sources"),

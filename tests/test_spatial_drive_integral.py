@@ -43,7 +43,7 @@ def test_integral_gain_is_the_rate_times_the_stiffness(panda):
     q0 = panda.q_poses_rad[0]
     pd = SpatialMotorDrive.for_scenario(panda, q0, "shaped")
     pid = SpatialMotorDrive.for_scenario(panda, q0, "shaped", integral_rate_per_s=5.0)
-    assert not pd.has_discrete_law and pid.has_discrete_law
+    assert not pd.has_discrete_law(1e-3) and pid.has_discrete_law(1e-3)
     np.testing.assert_array_equal(pid.gains.kp_V_per_rad, pd.gains.kp_V_per_rad)
     np.testing.assert_allclose(pid.gains.ki_V_per_rad_s, 5.0 * pd.gains.kp_V_per_rad, rtol=1e-15)
     with pytest.raises(QmtInputError, match=r"^sim.integral_rate_per_s must be at most 10 1/s") as e:

@@ -67,13 +67,10 @@ from qmt_drake.sweep.robust import plan_for_success, success_spec
 
 SPATIAL_METHODS = METHODS
 SPATIAL_FAMILIES = FAMILIES
-SIMULATE_REFUSED = (("explicit", False),)
-# physics: the ideal drive is torque sources under Drake's inverse-dynamics controller, with no motor loop; the
-# dc_motor drive's back-EMF and PD damping act on the joints as physical damping, which the plant integrates with
-# the joints' own (its loop has no explicit electrical state to step on its own)
-NOT_FOR_SPATIAL = {"explicit": "the spatial drives have no separate motor loop to step explicitly: the ideal "
-                   "drive is torque sources, the dc_motor drive's back-EMF and PD damping are joint damping the "
-                   "plant integrates"}
+# --explicit (dc_motor only, sim/spatial_actuation.check_drive): the law applies the loop's damping (PD and back
+# EMF) itself, nothing folded into the plant as joint damping, as the planar --explicit
+SIMULATE_REFUSED = ()
+NOT_FOR_SPATIAL: dict = {}
 
 
 def is_spatial_scenario(name_or_path) -> bool:
@@ -246,9 +243,10 @@ def simulate(args, energy_options=()) -> int:
     sc = load_spatial_scenario(args.scenario)
     actuator = args.actuator or "ideal"
     feedforward = args.feedforward or "full"
-    check_drive(sc, actuator, feedforward)  # refusals (no motor constants, ...) before planning
+    explicit = bool(getattr(args, "explicit", False))
     check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
     h = None if args.time_step_ms is None else check_spatial_time_step(args.time_step_ms * 1e-3)
+    check_drive(sc, actuator, feedforward, explicit, h)  # refusals (no motor constants, ...) before planning
     if args.plan:
         if args.seed != 0:
             raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")
@@ -263,10 +261,11 @@ def simulate(args, energy_options=()) -> int:
         announce(est)
     traj = p.trajectory if args.time_scale == 1.0 else TimeScaled(p.trajectory, args.time_scale)
     t0 = time.perf_counter()
-    r = simulate_spatial(sc, traj, record_path=args.record, actuator=actuator, feedforward=feedforward, time_step_s=h)
+    r = simulate_spatial(sc, traj, record_path=args.record, actuator=actuator, feedforward=feedforward, time_step_s=h,
+                         explicit=explicit)
     wall = time.perf_counter() - t0
     r = with_margin(sc, p, r, expensive=bool(getattr(args, "margin", False)), time_scale=args.time_scale,
-                    spatial_kw={"actuator": actuator, "feedforward": feedforward, "time_step_s": h},
+                    spatial_kw={"actuator": actuator, "feedforward": feedforward, "time_step_s": h, "explicit": explicit},
                     progress=None if args.quiet else progress)
     emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
                         "time_step_s": h, **r, "wall_s": wall}), args.json)

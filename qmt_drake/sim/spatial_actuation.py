@@ -28,6 +28,15 @@ loop's damping keeps Kd = 0 and gets the stiffness that makes b critical (K = b^
 every joint is critically damped at M_jj. The voltage gains come from joint-side K, D through
 joint_tracking.effective_joint_gains (K = c N Kp, D = c N Kd + b, c = N eta k_t / R).
 
+Integral (actuators.motor.integral_rate_per_s, or for_scenario / a sweep's sim.integral_rate_per_s; default 0):
+Ki = K * rate [1/s] on the same nominal design, clamped anti-windup (joint_tracking). Its discrete update reads
+the plant during the step, so the plant's output ports are made live (prepare_plant; Drake's sampled ports
+paired the next state with this step's reference). Control period (for_scenario(control_period_s=), a sweep's
+drawn or fixed loop_period_s; default the plant step, the unchanged every-step law): longer than the plant step, the law
+is sampled and held (JointPidController hold_period_s); its derivative then acts on held speeds, so only the
+motors' back EMF b is folded into the plant. `explicit` (`simulate --explicit`): nothing folded into the plant,
+the law applies the loop's damping itself (plant_damping_Nms).
+
 `add_tracking_logs` / `tracking_report` record the arm state and the plan (both actuators) and, with
 motors, the current, and summarise the tracking error along the motion and the largest motor torque
 N k_t i [N*m] over the torque limit.
@@ -46,13 +55,14 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import actuator_joint_names
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.sim.actuation import (
+    EXPLICIT_MAX_TIME_STEP_S,
     FEEDFORWARD_OPTIONS,
     add_implicit_damping_actuation,
     add_motor_actuation_law,
     motor_actuation_law,
 )
 from qmt_drake.sim.plant import move_loop_damping_into_plant
-from qmt_drake.spatial_motor import MOTOR_KEYS, check_integral_rate
+from qmt_drake.spatial_motor import MOTOR_KEYS, check_control_period, check_integral_rate
 from qmt_drake.systems.dc_motor import DcMotorParams, dc_motors_as_primitives
 from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
 
@@ -108,6 +118,12 @@ def decentralised_gains(mp: DcMotorParams, joint_inertia_kgm2, integral_rate_per
     return PidGains(K / per_kp, K * np.broadcast_to(integral_rate_per_s, (n,)) / per_kp, (D - b) / per_kp)
 
 
+def back_emf_damping(mp: DcMotorParams) -> np.ndarray:
+    """The motors' back-EMF damping at the joints, N^2 eta k_t^2 / R [N*m*s/rad] (effective_joint_gains of
+    a zero law)."""
+    return effective_joint_gains(PidGains(np.zeros(mp.n), np.zeros(mp.n), np.zeros(mp.n)), mp)[1]
+
+
 @dataclass
 class SpatialMotorDrive:
     """What the dc_motor actuator needs, built before the simulated plant (refusals come first)."""
@@ -118,12 +134,16 @@ class SpatialMotorDrive:
     feedforward: str
     id_plant: object  # continuous arm + welded part + N^2 J_r: the feedforward's inverse dynamics
     plant_params: DcMotorParams | None = None  # the simulated motors when they differ from the law's model (params)
+    control_period_s: float | None = None  # the law's sample-and-hold period [s]; None: every plant step
+    explicit: bool = False  # True: nothing folded into the plant, the law's damping applied by the law itself
 
     @classmethod
-    def for_scenario(cls, sc, q_start_rad, feedforward: str = "full",
-                     integral_rate_per_s=None) -> SpatialMotorDrive:
+    def for_scenario(cls, sc, q_start_rad, feedforward: str = "full", integral_rate_per_s=None,
+                     control_period_s: float | None = None, explicit: bool = False) -> SpatialMotorDrive:
         """The drive designed from sc (the nominal model). integral_rate_per_s [1/s]: the PID's Ki / K, one
-        number or one per joint; None: the scenario's actuators.motor.integral_rate_per_s (default 0, a PD law)."""
+        number or one per joint; None: the scenario's actuators.motor.integral_rate_per_s (default 0, a PD law).
+        control_period_s [s]: the law's sample-and-hold period (check_control_period); None: the plant step.
+        explicit: module docstring, `--explicit`."""
         if feedforward not in SPATIAL_FEEDFORWARD:
             raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(SPATIAL_FEEDFORWARD)}")
         mp = motor_params_for_spatial(sc)
@@ -137,24 +157,42 @@ class SpatialMotorDrive:
         rate = sc.motor.integral_rate_per_s if integral_rate_per_s is None else check_integral_rate(
             integral_rate_per_s, "sim", mp.n, mp.names)
         gains = decentralised_gains(mp, np.diag(plant.CalcMassMatrix(ctx)), rate)
-        return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant)
+        return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant,
+                   control_period_s=check_control_period(control_period_s),
+                   explicit=bool(explicit))
 
     def prepare_plant(self, plant, arm_instance, sc) -> None:
         """Before the simulated plant's Finalize: reflected inertia, and the loop damping in the joints
         (move_loop_damping_into_plant and the motor wiring go by actuator order: it must be the joints')."""
         require_joint_order(plant, arm_instance, sc.joint_names)
         set_drive_inertia(plant, arm_instance, sc)
-        move_loop_damping_into_plant(plant, arm_instance, self.loop_damping_Nms)
-        if self.has_discrete_law:
-            # the law's discrete update (the integral) reads the plant during its step: with Drake's sampled
-            # output ports it saw the NEXT state against this step's reference (sim/plant.py), and integrated
-            # about h qd of error per step (measured: 2 mrad on the Panda's nominal shaped run at 5 1/s)
+        h = plant.time_step()
+        check_control_period(self.control_period_s, h)
+        check_explicit_step(self.explicit, h)
+        move_loop_damping_into_plant(plant, arm_instance, self.plant_damping_Nms(h))
+        if self.has_discrete_law(h):
+            # the law's discrete update (the integral, the hold) reads the plant during its step: with Drake's
+            # sampled output ports it saw the NEXT state against this step's reference (sim/plant.py), and
+            # integrated about h qd of error per step (measured: 2 mrad on the Panda's nominal shaped run at 5 1/s)
             plant.SetUseSampledOutputPorts(False)
 
-    @property
-    def has_discrete_law(self) -> bool:
-        """True when the law has discrete state of its own (the integral): it then runs as JointPidController."""
-        return bool(np.any(self.gains.ki_V_per_rad_s != 0.0))
+    def sampled(self, time_step_s: float) -> bool:
+        """True when the law is sampled and held at a period longer than the plant step."""
+        return self.control_period_s is not None and self.control_period_s > time_step_s * (1.0 + 1e-9)
+
+    def has_discrete_law(self, time_step_s: float) -> bool:
+        """True when the law has discrete state of its own (the integral, the hold): it runs as JointPidController."""
+        return bool(np.any(self.gains.ki_V_per_rad_s != 0.0)) or self.sampled(time_step_s)
+
+    def plant_damping_Nms(self, time_step_s: float) -> np.ndarray:
+        """The joint damping folded into the plant (stepped implicitly, added back by the law): the loop's
+        D (PD + back EMF) when the law acts at every step; the back EMF alone when the law is sampled (its
+        derivative acts on the sampled speed, held: not a damping of the plant's own step); none explicitly."""
+        if self.explicit:
+            return np.zeros(self.params.n)
+        if self.sampled(time_step_s):
+            return back_emf_damping(self.params)
+        return self.loop_damping_Nms
 
     def add_to(self, builder, plant, arm_instance, desired_state_port, desired_acceleration_port, time_step_s):
         """Wire law, motors and feedforward into the builder (after Finalize); returns the applied
@@ -162,13 +200,16 @@ class SpatialMotorDrive:
         mp, n = self.params, self.params.n
         require_joint_order(plant, arm_instance, mp.names)  # the motors' torques go to the actuators in this order
         opts = SPATIAL_FEEDFORWARD[self.feedforward]
+        sampled, D = self.sampled(time_step_s), self.plant_damping_Nms(time_step_s)
         pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
                                  motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),
-                                 torque_feedforward=opts.get("inverse_dynamics_feedforward", False))
+                                 torque_feedforward=opts.get("inverse_dynamics_feedforward", False),
+                                 hold_period_s=self.control_period_s if sampled else None)
         pm = mp if self.plant_params is None else self.plant_params  # the motors simulated (a sweep draws them)
-        compiled = motor_actuation_law(pid, pm, self.loop_damping_Nms)  # None with an integral term
-        # a PD law is one compiled system with the motors; a PID runs as the Python controller (its integral
-        # is a discrete state with anti-windup) driving the motors as Drake primitives
+        # a PD law at every step is one compiled system with the motors; a PID or a sampled law runs as the
+        # Python controller (the integral and the held voltage are discrete states) driving the motors as
+        # Drake primitives; so does the explicit law (one wiring, nothing folded into the plant)
+        compiled = None if sampled or self.explicit else motor_actuation_law(pid, pm, D)  # None with an integral
         law = builder.AddNamedSystem("motor_actuation" if compiled is not None else "controller", compiled or pid)
         state = plant.get_state_output_port(arm_instance)
         split = builder.AddNamedSystem("arm_state_split", Demultiplexer([n, n]))
@@ -180,18 +221,17 @@ class SpatialMotorDrive:
             builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
             builder.Connect(desired_acceleration_port, inv.get_input_port_desired_acceleration())
             ff = inv.get_output_port_generalized_force()
-            if self.feedforward == "shaped":  # + D h qdd_des: what the implicit loop damping takes over a step
-                ff = add_stepping_feedforward(builder, ff, desired_acceleration_port, self.loop_damping_Nms,
-                                              time_step_s)
+            if self.feedforward == "shaped" and np.any(D):  # + D h qdd_des: what the implicit damping takes
+                ff = add_stepping_feedforward(builder, ff, desired_acceleration_port, D, time_step_s)
             builder.Connect(ff, law.GetInputPort("feedforward_torque"))
         if compiled is not None:
             return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),
-                                           self.loop_damping_Nms, time_step_s, pm)
+                                           D, time_step_s, pm)
         motors = builder.AddNamedSystem("motors", dc_motors_as_primitives(pm))
         builder.Connect(law.GetOutputPort("voltage_command"), motors.GetInputPort("voltage_command"))
         builder.Connect(split.get_output_port(1), motors.GetInputPort("joint_velocity"))
         return add_implicit_damping_actuation(builder, plant, arm_instance, motors, split.get_output_port(1),
-                                              self.loop_damping_Nms, time_step_s, pm)
+                                              D, time_step_s, pm)
 
 
 def add_stepping_feedforward(builder, torque_port, desired_acceleration_port, loop_damping_Nms, time_step_s):
@@ -207,10 +247,18 @@ def add_stepping_feedforward(builder, torque_port, desired_acceleration_port, lo
     return total.get_output_port()
 
 
-def check_drive(sc, actuator: str, feedforward: str) -> None:
+def check_explicit_step(explicit: bool, time_step_s: float | None) -> None:
+    """One line for an explicit law above EXPLICIT_MAX_TIME_STEP_S (the planar --explicit's bound; None: 1 ms)."""
+    if explicit and time_step_s is not None and time_step_s > EXPLICIT_MAX_TIME_STEP_S * (1 + 1e-9):
+        raise QmtInputError(f"--explicit at a {time_step_s * 1e3:g} ms step: the explicit motor loop is known stable up "
+                            f"to {EXPLICIT_MAX_TIME_STEP_S * 1e3:g} ms; lower --time-step-ms or drop --explicit")
+
+
+def check_drive(sc, actuator: str, feedforward: str, explicit: bool = False, time_step_s: float | None = None) -> None:
     """One-line QmtInputError for an unknown actuator or feedforward, a feedforward other than 'full' or
     'shaped' (the shaped reference) on the ideal actuator (its inverse-dynamics controller has the full one
-    built in), or dc_motor without the scenario's motor constants; builds nothing (the CLI asks before planning)."""
+    built in), explicit on the ideal actuator (no motor loop to step), or dc_motor without the scenario's
+    motor constants; builds nothing (the CLI asks before planning)."""
     if actuator not in ACTUATORS:
         raise QmtInputError(f"actuator {actuator!r}: choose one of {', '.join(ACTUATORS)}")
     if feedforward not in SPATIAL_FEEDFORWARD:
@@ -219,14 +267,19 @@ def check_drive(sc, actuator: str, feedforward: str) -> None:
         raise QmtInputError(f"feedforward {feedforward!r} applies to actuator dc_motor; the ideal actuator's "
                             "inverse-dynamics controller always has the full feedforward (or 'shaped': on the "
                             "shaped reference)")
+    check_explicit_step(explicit, time_step_s)
+    if explicit and actuator != "dc_motor":
+        raise QmtInputError("--explicit steps the DC drive's loop damping in its law instead of the plant; the ideal "
+                            "actuator has no motor loop: add --actuator dc_motor or drop --explicit")
     if actuator == "dc_motor":
         motor_params_for_spatial(sc)  # (the feedforward's own choices: SpatialMotorDrive.for_scenario)
 
 
-def spatial_drive(sc, q_start_rad, actuator: str, feedforward: str) -> SpatialMotorDrive | None:
+def spatial_drive(sc, q_start_rad, actuator: str, feedforward: str, explicit: bool = False) -> SpatialMotorDrive | None:
     """None for `ideal`, the dc_motor drive otherwise (check_drive's refusals first)."""
-    check_drive(sc, actuator, feedforward)
-    return None if actuator == "ideal" else SpatialMotorDrive.for_scenario(sc, q_start_rad, feedforward)
+    check_drive(sc, actuator, feedforward, explicit)
+    return None if actuator == "ideal" else SpatialMotorDrive.for_scenario(sc, q_start_rad, feedforward,
+                                                                           explicit=explicit)
 
 
 def add_tracking_logs(builder, arm_state_port, desired_state_port, period_s: float, motors=None) -> dict:

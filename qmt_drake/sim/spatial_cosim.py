@@ -29,6 +29,7 @@ Example-robot-data's Panda declares no actuators: the tray co-simulation adds on
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -154,7 +155,7 @@ def simulate_spatial(sc, traj, **options) -> dict:
 def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
                         feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
                         drive: SpatialMotorDrive | None = None, time_step_s: float | None = None,
-                        export: bool = False) -> CoSim:
+                        export: bool = False, explicit: bool = False) -> CoSim:
     """The co-simulation of `traj` on scenario sc as a CoSim, its parts chosen by the hand (the weld, the
     contact hand, the tray) and the actuator. grip: the suction hand's stability set in the co-simulation
     (default: the scenario's cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the
@@ -164,11 +165,14 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
     spatial_contact_hand.build_contact_cosim. controller_sc: the model the controller and its feedforward
     are built from (default sc; a sweep case simulates a drawn sc under the nominal controller); drive: a
     prepared dc_motor drive instead. time_step_s: the plant step [s] (default TIME_STEP_S; the plan is
-    sampled and the hold checked at it). export: export the named ports (user composition)."""
+    sampled and the hold checked at it). export: export the named ports (user composition). explicit: the
+    dc_motor law applies its loop damping itself, nothing folded into the plant (SpatialMotorDrive)."""
     h = check_spatial_time_step(time_step_s)
     ctrl = sc if controller_sc is None else controller_sc
     if drive is None:
-        drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward)
+        drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward, explicit)
+    elif explicit:
+        drive = dataclasses.replace(drive, explicit=True)
     if sc.hand_kind == "suction" and grip is None:  # built once per cup (its hull is 12 % of a run)
         grip = cached_grip(sc.grip.radius_m, sc.grip.pull_force_N, sc.grip.friction, face_normal=sc.grip.basis[2],
                            rim_points=FINE_GRIP[0], pyramid_edges=FINE_GRIP[1])

@@ -21,6 +21,7 @@ from scipy.stats import truncnorm
 
 from qmt_drake.config.fields import check_keys, is_number, show
 from qmt_drake.errors import QmtInputError
+from qmt_drake.spatial_motor import MAX_CONTROL_PERIOD_S
 
 MAX_TIME_STEP_S = 0.005  # measured: thesis-ch4 replayed at 2 and 5 ms is carried, at 10 and 20 ms "lost" (a step artifact)
 
@@ -99,11 +100,16 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               lower=-math.inf, kinds=SPATIAL),
     Parameter("gear_efficiency", "motor", "gear_efficiency", False, "-", "every joint's gear efficiency",
               upper=1.0, kinds=SPATIAL),
+    # the DC drive law's sample-and-hold period (a firmware loop; sim/spatial_actuation), from the spatial sweeps'
+    # 1 ms plant step (sim/spatial_cosim.TIME_STEP_S) to spatial_motor.MAX_CONTROL_PERIOD_S
+    Parameter("loop_period_s", "motor", "control_period_s", False, "s", "DC drive law's control period (held)",
+              lower=1e-3, inclusive=True, upper=MAX_CONTROL_PERIOD_S, kinds=SPATIAL),
 )}
 
 # What each spatial hand's co-simulation varies (sweep/spatial_cases.perturbed_scenario); the motor
 # parameters (the motors drawn, and the executed PD law's gains) also need actuators.motor (the dc_motor drive).
-MOTOR_PARAMETERS = ("motor_torque_constant_scale", "motor_resistance_scale", "gear_efficiency", "kp_scale", "kd_scale")
+MOTOR_PARAMETERS = ("motor_torque_constant_scale", "motor_resistance_scale", "gear_efficiency", "kp_scale", "kd_scale",
+                    "loop_period_s")
 _COMMON = ("mass_kg", "mass_scale", "com_offset_m", "com_offset_scale", "time_scale_jitter") + MOTOR_PARAMETERS
 SPATIAL_HAND_PARAMETERS = {
     "suction": _COMMON + ("friction", "vacuum_force_scale", "com_lateral_m"),

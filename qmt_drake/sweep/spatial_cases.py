@@ -6,7 +6,9 @@ DC motors' PD law with its back-EMF and inverse-dynamics feedforward) are made f
 scenario; a case simulates a drawn copy of it (`perturbed_scenario`): the part's mass and centre of
 mass, the hand's hold (suction: vacuum pull, cup friction; magnet: pull, hence its moment limit;
 tray: the cup's friction), the motors' torque constant, resistance and gear efficiency (the
-amplifier's current limit stays the nominal one), and the executed timing (time_scale_jitter).
+amplifier's current limit stays the nominal one), the executed law's gains and loop period (kp_scale, kd_scale,
+loop_period_s: drawn_drive), and the executed timing (time_scale_jitter). The spec's sim.integral_rate_per_s
+gives the nominal law an integral (default: the scenario's, 0).
 
 A perturbed copy is cheap: dataclasses.replace of the scenario with a new CarriedBody / GripModel /
 TrayCup / SpatialMotors and, when the body changes, a new SpatialChain on the same plant (no URDF
@@ -34,7 +36,7 @@ from qmt_drake.planners.spatial_plan_io import load_spatial_plan, make_spatial_p
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_actuation import SpatialMotorDrive, motor_params_for_spatial
 from qmt_drake.sim.spatial_cosim import simulate_spatial
-from qmt_drake.spatial_motor import check_integral_rate
+from qmt_drake.spatial_motor import check_control_period, check_integral_rate
 from qmt_drake.spatial_task import load_spatial_scenario
 from qmt_drake.sweep.cases import Case, PlanRef, plan_file_hash, stable_hash
 from qmt_drake.sweep.parameters import MOTOR_PARAMETERS, PARAMETERS, SPATIAL_HAND_PARAMETERS
@@ -42,6 +44,7 @@ from qmt_drake.sweep.spec import SweepSpec
 from qmt_drake.systems.joint_tracking import PidGains
 
 GAIN_PARAMETERS = ("kp_scale", "kd_scale")  # the executed PD law's gains over the designed ones (dc_motor)
+LAW_PARAMETERS = GAIN_PARAMETERS + ("loop_period_s",)  # the executed law's (drawn_drive), not the motors'
 
 
 # ------------------------------------------------------------------------- the drawn scenario
@@ -87,7 +90,7 @@ def perturbed_scenario(sc, values: dict):
     if "body" in changes:  # the planners' chain carries the part (joint torques, limit check)
         changes["chain"] = SpatialChain(sc.plant, sc.chain.hand_frame, carried=changes["body"].as_dict(),
                                         reflected_inertia_kgm2=sc.drive["reflected_inertia_kgm2"])
-    if any(k in v for k in MOTOR_PARAMETERS if k not in GAIN_PARAMETERS):  # the gains: drawn_drive
+    if any(k in v for k in MOTOR_PARAMETERS if k not in LAW_PARAMETERS):  # the law's: drawn_drive
         m = sc.motor
         n = len(sc.joint_names)
         changes["motor"] = dataclasses.replace(
@@ -225,9 +228,9 @@ def _drive(sc, physical, plan, plan_key: str, case_sim: dict, values: dict):
 def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict) -> SpatialMotorDrive:
     """The nominal DC-motor drive (its feedforward model, its loop damping: the controller's) with the drawn
     motors simulated (`physical`'s, when they differ from `sc`'s) and the executed PD law's voltage gains
-    scaled by values' kp_scale / kd_scale (the integral gain goes with kp: Ki = Kp x the integral rate). The
-    loop damping moved into the plant is added back by the law (sim/actuation.motor_actuation_law), so it
-    stays the nominal one without changing the physics."""
+    scaled by values' kp_scale / kd_scale (the integral gain goes with kp: Ki = Kp x the integral rate), sampled
+    and held at values' loop_period_s [s] when drawn. The loop damping moved into the plant is added back by
+    the law (sim/actuation.motor_actuation_law), so it stays the nominal one without changing the physics."""
     d = nominal
     if physical.motor is not sc.motor:
         d = dataclasses.replace(d, plant_params=motor_params_for_spatial(physical))
@@ -235,6 +238,8 @@ def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict) -> Spati
     if kp != 1.0 or kd != 1.0:
         g = d.gains
         d = dataclasses.replace(d, gains=PidGains(g.kp_V_per_rad * kp, g.ki_V_per_rad_s * kp, g.kd_V_s_per_rad * kd))
+    if "loop_period_s" in values:  # the law sampled and held at the drawn period (at least the plant step)
+        d = dataclasses.replace(d, control_period_s=check_control_period(float(values["loop_period_s"])))
     return d
 
 

@@ -9,6 +9,11 @@ Control law (per joint i, evaluated at the control period T_c with the latest me
     z[k+1] = z[k] + T_c e_m   unless the output is saturated and e_m pushes further into
                               saturation (conditional integration / clamping anti-windup)
 
+Sampled law (`hold_period_s` = T_h > T_c, a firmware loop slower than the plant step T_c): u is computed at
+sample instants only and held (zero-order hold) in between; a sample falls on the first update (period T_c)
+at or after each k T_h, its voltage applies from that step on (no computation delay), and the integral then
+grows by T_h e_m per sample. hold_period_s None (default): u is evaluated at every step, as before.
+
 Needs: estimated_state from a plant whose output ports are live (`use_sampled_output_ports=False`,
 as `sim.plant.transfer_plant_config` sets): the integral is a discrete update that reads the plant
 during its step; with sampled ports it would pair the next state with this step's reference.
@@ -20,7 +25,8 @@ Ports
         feedforward_torque   (n,)  [N*m]          joint torque feedforward (only if enabled)
     output
         voltage_command      (n,)  [V]            to DcMotorWithGear.voltage_command
-    state (only if any Ki != 0): discrete z (n,) [rad*s], the motor-side error integral.
+    state (only if any Ki != 0): discrete z (n,) [rad*s], the motor-side error integral; with hold_period_s
+        also the held voltage (n,) [V] and the next sample time (1,) [s].
 
 `primitive_pd_controller(pid)` builds the same law for a controller without integral term from
 Drake primitives (MatrixGain, Adder, Saturation: no Python call per step), with the same ports
@@ -113,8 +119,10 @@ class JointPidController(LeafSystem):
     """PID with clamping anti-windup; see the module docstring for the law, ports and units."""
 
     def __init__(self, gains: PidGains, gear_ratio, voltage_limit_V, *, control_period_s: float = 1e-3,
-                 motor=None, back_emf_feedforward: bool = False, torque_feedforward: bool = False):
-        """motor: a DcMotorParams, needed for either feedforward (Kt, R, efficiency)."""
+                 motor=None, back_emf_feedforward: bool = False, torque_feedforward: bool = False,
+                 hold_period_s: float | None = None):
+        """motor: a DcMotorParams, needed for either feedforward (Kt, R, efficiency). hold_period_s [s]: the
+        sampled law's period (module docstring), at least control_period_s; None: evaluated every step."""
         super().__init__()
         n = gains.n
         self._n = n
@@ -133,8 +141,17 @@ class JointPidController(LeafSystem):
         self._x_in = self.DeclareVectorInputPort("estimated_state", 2 * n)
         self._ff_in = self.DeclareVectorInputPort("feedforward_torque", n) if torque_feedforward else None
         self._has_integral = bool(np.any(gains.ki_V_per_rad_s != 0.0))
+        self._Th = None if hold_period_s is None else float(hold_period_s)
+        if self._Th is not None and not self._Th >= self._Tc:
+            raise ValueError(f"hold_period_s {self._Th} s is shorter than the control period {self._Tc} s")
         if self._has_integral:
             self._z = self.DeclareDiscreteState(n)
+        if self._Th is not None:  # the held voltage and the next sample time, updated at every step
+            self._held = self.DeclareDiscreteState(n)
+            self._next = self.DeclareDiscreteState(1)
+            self._eps = 1e-6 * self._Tc  # sample instants accumulate rounding; the steps are T_c apart
+            self.DeclarePeriodicDiscreteUpdateEvent(self._Tc, 0.0, self._update_sampled)
+        elif self._has_integral:
             self.DeclarePeriodicDiscreteUpdateEvent(self._Tc, 0.0, self._update_integral)
         self.DeclareVectorOutputPort("voltage_command", n, self._calc_voltage)
 
@@ -151,15 +168,35 @@ class JointPidController(LeafSystem):
             u = u + self._v_per_Nm * self._ff_in.Eval(context)
         return u, e
 
+    def _sampling_now(self, context) -> bool:
+        return context.get_time() + self._eps >= context.get_discrete_state(self._next).get_value()[0]
+
     def _calc_voltage(self, context, output: BasicVector):
+        if self._Th is not None and not self._sampling_now(context):  # between samples: the held voltage
+            output.SetFromVector(context.get_discrete_state(self._held).get_value())
+            return
         u, _ = self._unsaturated(context)
         output.SetFromVector(np.minimum(np.maximum(u, -self._Vmax), self._Vmax))
 
-    def _update_integral(self, context, discrete_state):
-        u, e = self._unsaturated(context)
+    def _integrated(self, context, u, e, period_s: float):
+        """z after one period_s of the error e, clamped (anti-windup) where u saturates and e pushes further."""
         z = context.get_discrete_state(self._z).get_value()
         pushing_out = ((u > self._Vmax) & (e > 0)) | ((u < -self._Vmax) & (e < 0))
-        discrete_state.get_mutable_vector(self._z).SetFromVector(np.where(pushing_out, z, z + self._Tc * e))
+        return np.where(pushing_out, z, z + period_s * e)
+
+    def _update_integral(self, context, discrete_state):
+        u, e = self._unsaturated(context)
+        discrete_state.get_mutable_vector(self._z).SetFromVector(self._integrated(context, u, e, self._Tc))
+
+    def _update_sampled(self, context, discrete_state):
+        if not self._sampling_now(context):
+            return
+        u, e = self._unsaturated(context)
+        discrete_state.get_mutable_vector(self._held).SetFromVector(np.minimum(np.maximum(u, -self._Vmax), self._Vmax))
+        t_next = context.get_discrete_state(self._next).get_value()[0] + self._Th
+        discrete_state.get_mutable_vector(self._next).SetFromVector([t_next])
+        if self._has_integral:
+            discrete_state.get_mutable_vector(self._z).SetFromVector(self._integrated(context, u, e, self._Th))
 
 
 def pd_voltage(pid: JointPidController, x_des, x, feedforward_torque=None, ops=FLOAT) -> list:
