@@ -101,7 +101,7 @@ def test_api_refusals_are_one_line(scenarios, call, needle):
     (["plan", "ohsaka-fig3", "--method", "thesis"], "--method thesis plans planar (kind: transfer) scenarios, not "
                                                     "energy-time ones; energy-time scenarios take snopt|"),
     (["plan", "ohsaka-fig3", "--generations", "3"], "--generations: not an option of the energy-time snopt planner"),
-    (["plan", "thesis-ch4", "--c1", "2"], "--c1: not an option of the planar ga planner (the planar snopt"),
+    (["plan", "thesis-ch4", "--c1", "2"], "--c1: not an option of the planar ga planner (the planners that take it: planar snopt"),
     (["plan", "ur5-magnet-part", "--method", "toppra", "--seed", "2"], "--seed: the spatial transfer toppra planner "
                                                                       "draws no random numbers"),
     (["plan", "ur5-magnet-part", "--method", "ga", "--option", "generations=0"], "--option generations 0 must be >= 1"),
