@@ -178,8 +178,11 @@ def cell(feature: str, kind: str) -> Cell:
              "simulate --record (HTML)": ["--record", "rec.html"], "simulate --margin": ["--margin"]}
     if feature in extra:
         out = ["rec.html"] if feature.endswith("(HTML)") else []
-        return Cell(feature, kind, [sim + extra[feature] + ["--json", "sim.json"]], expect=["sim.json", *out],
-                    needs_base=True, evidence=SIM_EVIDENCE.get(feature))
+        words, evidence = extra[feature], SIM_EVIDENCE.get(feature)
+        if feature == "simulate --explicit" and fam == "spatial":  # the spatial --explicit is the DC drive's law
+            words, evidence = ["--actuator", "dc_motor", "--explicit"], ("sim.json", "explicit", None, True)
+        return Cell(feature, kind, [sim + words + ["--json", "sim.json"]], expect=["sim.json", *out],
+                    needs_base=True, evidence=evidence)
     if feature == "retime":
         return Cell(feature, kind, [["qmt-drake", "retime", name, "--path", "path.csv", "--method", "toppra",
                                      "--quiet", "--json", "plan.json"]], expect=["plan.json"], needs_base=True,

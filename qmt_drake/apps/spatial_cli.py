@@ -286,7 +286,7 @@ def simulate(args, energy_options=()) -> int:
                     spatial_kw={"actuator": actuator, "feedforward": feedforward, "time_step_s": h, "explicit": explicit},
                     progress=None if args.quiet else progress)
     emit_json(jsonable({"scenario": sc.name, "method": p.method, "plan_file": args.plan, "time_scale": args.time_scale,
-                        "time_step_s": h, **r, "wall_s": wall}), args.json)
+                        "time_step_s": h, "explicit": explicit, **r, "wall_s": wall}), args.json)
     if args.json != "-":
         print(f"{sc.name} {p.method} x{args.time_scale:g}: {verdict_line(r['outcome'], r.get('collided_at_s') or r['lost_at_s'])}, "
               f"T = {r['duration_s']:.4f} s, largest hand ratio while held {r['max_grip_ratio_while_held']:.4f}, "
