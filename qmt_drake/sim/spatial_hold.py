@@ -59,6 +59,18 @@ def rotation_from_quaternion(q_wxyz) -> np.ndarray:
                      sxz - swy, syz + swx, 1.0 - sxx - syy], axis=1).reshape(-1, 3, 3)
 
 
+def step_into_sample(plant, data: np.ndarray, n_state: int) -> np.ndarray:
+    """The logged [state; acceleration] columns with sample j's acceleration that of the step INTO x_j.
+    That is what a discrete plant's sampled acceleration port gives; with live ports (a drive whose law
+    has a state of its own switches them on: spatial_actuation.SpatialMotorDrive.prepare_plant) the port
+    gives the step OUT of x_j, so the accelerations are moved one sample later (sample 0 keeps its own)."""
+    if plant.has_sampled_output_ports() or data.shape[1] < 2:
+        return data
+    out = data.copy()
+    out[n_state:, 1:] = data[n_state:, :-1]
+    return out
+
+
 class HoldLog:
     """Every plant step, the free part's state (13) and generalized acceleration (6) side by side."""
 
@@ -66,7 +78,7 @@ class HoldLog:
         inst = part_body.model_instance()
         if plant.num_positions(inst) != 7 or plant.num_velocities(inst) != 6:
             raise ValueError("HoldLog: the part must be a free body alone in its model instance")
-        self.term = term
+        self.term, self.plant = term, plant
         mux = builder.AddNamedSystem("part_motion", Multiplexer([13, 6]))
         builder.Connect(plant.get_state_output_port(inst), mux.get_input_port(0))
         builder.Connect(plant.get_generalized_acceleration_output_port(inst), mux.get_input_port(1))
@@ -75,7 +87,8 @@ class HoldLog:
     def ratios(self, root_context, start: int = 0, stop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(times, ratios) of the logged samples start:stop: the hand term's largest column."""
         log = self.logger.FindLog(root_context)
-        t, d = log.sample_times()[start:stop], log.data()[:, start:stop]
+        d = step_into_sample(self.plant, log.data(), 13)
+        t, d = log.sample_times()[start:stop], d[:, start:stop]
         state = {"rotation": rotation_from_quaternion(d[0:4].T), "angular_velocity_rad_s": d[7:10].T,
                  "angular_acceleration_rad_s2": d[13:16].T, "linear_acceleration_m_s2": d[16:19].T}
         if len(t) == 0:
@@ -112,7 +125,7 @@ class TrayLog:
         """(update times, ratios): sample j as the former monitor's update at t_{j-1} (HoldLog's
         samples), for the updates at or after start_s."""
         log = self.logger.FindLog(root_context)
-        t, d = log.sample_times(), log.data()
+        t, d = log.sample_times(), step_into_sample(self.plant, log.data(), self.nx)
         j = np.flatnonzero(t[:-1] >= start_s) + 1
         ctx = self.plant.CreateDefaultContext()
         i = int(self.cup.index())
