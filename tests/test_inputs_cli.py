@@ -57,7 +57,7 @@ def a_file(tmp_path):
     (["bench", "--seeds", "0"], "--seeds 0 must be >= 1"),
     (["benchmark", "--ga-seeds", "-1"], "--ga-seeds -1 must be >= 0"),
     (["benchmark", "--jerk-limits", "0"], "--jerk-limits 0.0 must be a finite positive number"),
-    (["plan", "thesis-ch4", "--method", "thesis", "--checkpoint", "c.json"], "--checkpoint: not an option of the planar thesis planner (the planar ga"),
+    (["plan", "thesis-ch4", "--method", "thesis", "--checkpoint", "c.json"], "--checkpoint: not an option of the planar thesis planner (the planners that take it: planar ga"),
     (["plan", "thesis-ch4", "--option", "novalue"], "--option 'novalue' must be KEY=VALUE"),
 ])
 def test_bad_argument_is_refused_before_any_work(tmp_path, a_file, capsys, argv, needle):
