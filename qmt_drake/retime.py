@@ -55,6 +55,7 @@ from qmt_drake.limits.clearance import clearance, collision_model
 from qmt_drake.plan_files import read_plan_file
 from qmt_drake.planners.spatial_plan_io import (
     REBUILD_TOL,
+    RETIMED_METHODS,
     SpatialPlan,
     finish_plan,
     load_spatial_plan,
@@ -301,7 +302,7 @@ def load_plan_file(path, sc) -> SpatialPlan:
     """A plan file of sc: a retimed path's (module docstring) or any other (load_spatial_plan)."""
     d = read_plan_file(path)
     method = d.get("method")
-    if method not in ("retime_toppra", "retime_ga"):
+    if method not in RETIMED_METHODS:
         return load_spatial_plan(path, sc)
     if d.get("scenario") != sc.name or d.get("joint_names") != list(sc.joint_names):
         raise QmtInputError(f"plan file {path} retimes a path of scenario {d.get('scenario')} (joints "

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 import yaml
 
+from qmt_drake import load_plan
 from qmt_drake.apps.cli import main
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.spatial_methods import plan_toppra_spatial
@@ -136,3 +137,14 @@ def test_a_retimed_plan_file_loads_back_for_export(sc, csv_plan, tmp_path):
     np.testing.assert_allclose(back.pose_error, csv_plan.pose_error, rtol=1e-9)
     with pytest.raises(QmtInputError, match="retimes a path of scenario ur5-suction-bins"):
         load_plan_file(tmp_path / "r.json", load_or_skip("ur5-magnet-part"))
+
+
+def test_a_retimed_plan_file_is_simulated_by_the_cli_and_named_to_the_generic_loader(sc, csv_plan, tmp_path, capsys):
+    """`retime ... --json r.json` then `simulate SC --plan r.json` (was refused: '2 task-pose times; the scenario
+    has 4 task poses'); qmt_drake.load_plan points to retime.load_plan_file in one line."""
+    csv_plan.write_json(tmp_path / "r.json")
+    assert main(["simulate", "ur5-suction-bins", "--plan", str(tmp_path / "r.json"), "--json", str(tmp_path / "s.json")]) \
+        in (0, None)
+    assert "retime_toppra x1:" in capsys.readouterr().out
+    with pytest.raises(QmtInputError, match=r"retime.load_plan_file\(path, scenario\)"):
+        load_plan(tmp_path / "r.json", sc)

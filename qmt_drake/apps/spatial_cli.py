@@ -58,9 +58,9 @@ from qmt_drake.planners.collision_free import collision_free_scenario
 from qmt_drake.planners.spatial_carried import carried_plan, carried_search
 from qmt_drake.planners.spatial_families import FAMILIES
 from qmt_drake.planners.spatial_methods import METHODS, plan_toppra_spatial
-from qmt_drake.planners.spatial_plan_io import load_spatial_plan
 from qmt_drake.planners.spatial_search import check_ga_checkpoint
 from qmt_drake.planners.spatial_trajectory import TimeScaled
+from qmt_drake.retime import load_plan_file
 from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulate_spatial
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
@@ -268,7 +268,7 @@ def simulate(args, energy_options=()) -> int:
     if args.plan:
         if args.seed != 0:
             raise QmtInputError("--seed: the plan file is already planned; drop --seed or --plan")
-        p = load_spatial_plan(args.plan, sc)
+        p = load_plan_file(args.plan, sc)  # a retimed path's file too (retime.load_plan_file)
     else:
         row, opts = checked_method(args, SPATIAL_KIND)
         p = _plan(args, sc, row, opts)

@@ -346,8 +346,14 @@ def _planned_scenario(d: dict, path: Path, sc):
     return avoided
 
 
+RETIMED_METHODS = ("retime_toppra", "retime_ga")  # retime.py's plans (retime.load_plan_file loads them)
+
+
 def _load(path: Path, d: dict, sc) -> Plan:
     """plan.load_plan's loader of spatial files: sc None reloads the file's own scenario."""
+    if d.get("method") in RETIMED_METHODS:  # its task is the user's path, not the scenario's poses
+        raise QmtInputError(f"plan file {path} times a joint path from `qmt-drake retime`; load it with "
+                            "qmt_drake.retime.load_plan_file(path, scenario) (`qmt-drake simulate` and `export` do)")
     if sc is None:
         src = d.get("scenario_path")
         sc = load_spatial_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
