@@ -328,9 +328,12 @@ def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: in
     valid sweep parameter block, or a drive is asked of a planar scenario (its drive is its YAML's)."""
     u = getattr(scenario, "uncertainty", None) or {}
     if not u:
-        raise QmtInputError(f"--success: scenario {scenario.name} has no uncertainty section; add one "
-                            "(uncertainty: {parameters: {friction: {dist: normal, mean: 0.3, std: 0.03}}, "
-                            "monte_carlo: {cases: 100, seed: 1}})")
+        mu = getattr(getattr(scenario, "grip", None), "friction", None)  # a spatial suction cup's own friction
+        example = ("mass_scale: {dist: normal, mean: 1.0, std: 0.05}" if mu is None else
+                   f"friction: {{dist: normal, mean: {mu:g}, std: {0.1 * mu:.2g}}}")
+        raise QmtInputError(f"--success: scenario {scenario.name} has no uncertainty section; add one, e.g. "
+                            f"uncertainty: {{parameters: {{{example}}}, monte_carlo: {{cases: 40, seed: 1}}}} "
+                            "(models/scenarios/*.yaml show every parameter)")
     mc = dict(u.get("monte_carlo") or {})
     if cases is not None:
         mc["cases"] = int(cases)
