@@ -44,7 +44,7 @@ import numpy as np
 from pydrake.solvers import IpoptSolver, MathematicalProgram, SnoptSolver, SolverOptions
 
 from qmt_drake.energy.nlp import _ad_wrap
-from qmt_drake.energy.objective import check_weights
+from qmt_drake.energy.objective import check_weights, energy_time_cost, trapezoid_weights
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.spatial_columns import SpatialColumns
 from qmt_drake.plan import family_plan
@@ -55,6 +55,7 @@ from qmt_drake.planners.spatial_tight import TIGHT_SAMPLES, tight_scales
 from qmt_drake.problem import PlanningProblem
 
 SAMPLES = 400  # cost quadrature points over the motion
+WEIGHTS = trapezoid_weights(SAMPLES)  # the cost's quadrature on SAMPLES equally spaced times
 CON_SAMPLES = 200  # constraint points of the NLPs (the result is then held at the re-check's 10x rate)
 FD_STEP = 1e-6  # central differences: relative step on each segment time
 START_SLOWDOWN = 1.5
@@ -102,13 +103,13 @@ class EnergyTimeOnFamily:
         return np.linspace(0.0, T, SAMPLES), self.joint_torques(q, qd, qdd)
 
     def energy(self, x) -> float:
-        """integral tau'tau dt [N^2 m^2 s] (trapezoid)."""
+        """integral tau'tau dt [N^2 m^2 s] (objective.energy_time_cost, trapezoid)."""
         t, tau = self.torques(x)
-        return float(np.trapezoid(np.sum(tau * tau, axis=1), t))
+        return energy_time_cost(tau, t[-1], 1.0, 0.0, WEIGHTS)
 
     def z(self, x) -> float:
-        T = self.motion(x, np.zeros(1))[0]
-        return self.c1 * self.energy(x) + self.c2 * T
+        t, tau = self.torques(x)
+        return energy_time_cost(tau, t[-1], self.c1, self.c2, WEIGHTS)
 
     def ratios(self, x) -> np.ndarray:
         """(CON_SAMPLES * M,) every ratio column of the re-check at CON_SAMPLES fixed fractions of the

@@ -26,6 +26,20 @@ PAPER_DIVISIONS = 40
 FINE_DIVISIONS = 2000
 
 
+def trapezoid_weights(nodes: int) -> np.ndarray:
+    """(nodes,) trapezoid weights of nodes equally spaced nodes on [0, 1] (multiply by T for [0, T])."""
+    w = np.full(nodes, 1.0 / (nodes - 1))
+    w[[0, -1]] *= 0.5
+    return w
+
+
+def energy_time_cost(tau: np.ndarray, T: float, c1: float, c2: float, w: np.ndarray) -> float:
+    """z = integral_0^T (c1 tau'tau + c2) dt [N^2 m^2 s] of tau (S, n) [N m] on S equally spaced times,
+    by the trapezoid weights w (trapezoid_weights(S)): the one implementation of seed 001's cost, also
+    used on every other arm (energy/cross_kind.py); c1 = 1, c2 = 0 gives the energy integral alone."""
+    return float(T * (w @ (c1 * np.sum(tau * tau, axis=1) + c2)))
+
+
 def check_weights(c1: float, c2: float) -> None:
     if not (np.isfinite(c1) and np.isfinite(c2)) or c1 < 0 or c2 < 0:
         raise QmtInputError(f"cost weights c1 = {c1}, c2 = {c2} must be finite and >= 0 "
@@ -52,8 +66,7 @@ class EnergyObjective:
         if int(self.divisions) != self.divisions or self.divisions < 2:
             raise QmtInputError(f"time divisions {self.divisions} must be an integer >= 2")
         s = np.linspace(0.0, 1.0, int(self.divisions) + 1)
-        self.w = np.full(s.size, 1.0 / self.divisions)
-        self.w[[0, -1]] *= 0.5
+        self.w = trapezoid_weights(s.size)
         self.B: Basis = basis(s, self.family.m)
         self.evaluations = 0
 
@@ -65,13 +78,12 @@ class EnergyObjective:
         T = self.family.unpack(x)[2]
         tau = self.torques(x)
         self.evaluations += 1
-        return float(T * (self.w @ (self.c1 * np.sum(tau * tau, axis=1) + self.c2)))
+        return energy_time_cost(tau, T, self.c1, self.c2, self.w)
 
     def energy_integral(self, x) -> float:
         """integral of tau' tau dt (N^2 m^2 s) alone."""
         T = self.family.unpack(x)[2]
-        tau = self.torques(x)
-        return float(T * (self.w @ np.sum(tau * tau, axis=1)))
+        return energy_time_cost(self.torques(x), T, 1.0, 0.0, self.w)
 
     def value_and_gradient(self, x):
         """z and dz/dx for the paper's trajectory vector x (2nm+1,)."""
