@@ -90,26 +90,28 @@ def row(sc, plan, actuator, feedforward, window_s) -> dict:
     return out
 
 
-def figure_png(rows: list[dict]) -> bytes:
+def figure_png(rows: list[dict], note: str = "") -> bytes:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = [n for n in SCENARIOS if any(r["scenario"] == n for r in rows)]
-    labels = [f"{a}\n{'shaped' if f == 'shaped' else 'plain'} ref." for a, f in VARIANTS]
+    variants = [v for v in VARIANTS if any((r["actuator"], r["feedforward"]) == v for r in rows)]  # the run's only
+    labels = [f"{a}\n{'shaped' if f == 'shaped' else 'plain'} ref." for a, f in variants]
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
-    width = 0.8 / len(VARIANTS)
+    width = 0.8 / len(variants)
     panels = (("max_tracking_error_rad_at_1x", 1e3, "max tracking error at 1x [mrad] (log)", None),
               ("max_hand_ratio_while_held_at_1x", 1.0, "largest hand ratio while held at 1x [-]", (0.9, 1.08)),
               ("fastest_carried_time_over_plan", 1.0, "fastest carried time / TOPP-RA plan time [-]", (0.9, 1.45)))
     for ax, (key, unit, title, ylim) in zip(axes, panels):
-        for j, (a, f) in enumerate(VARIANTS):
+        for j, (a, f) in enumerate(variants):
             vals = []
             for n in names:
                 r = next((r for r in rows if (r["scenario"], r["actuator"], r["feedforward"]) == (n, a, f)), None)
                 v = None if r is None else r[key]
                 vals.append(np.nan if v is None else v * unit)
-            ax.bar(np.arange(len(names)) + (j - (len(VARIANTS) - 1) / 2) * width, vals, width, label=labels[j])
+            ax.bar(np.arange(len(names)) + (j - (len(variants) - 1) / 2) * width, vals, width, label=labels[j],
+                   color=f"C{VARIANTS.index((a, f))}")  # a variant keeps its colour in every run's figure
         ax.set_xticks(np.arange(len(names)), names, fontsize=8)
         ax.set_ylabel(title)
         if ylim is None:
@@ -122,12 +124,18 @@ def figure_png(rows: list[dict]) -> bytes:
         ax.grid(axis="y", alpha=0.3)
     axes[2].axhline(1.03, color="r", lw=0.8, ls=":", label="goal 1.03")
     fig.legend(*axes[2].get_legend_handles_labels(), loc="lower center", ncol=5, fontsize=8)
-    fig.suptitle("Spatial drives: plain plan vs closed-loop-aware (shaped) reference, DC motors and ideal actuators")
+    fig.suptitle("Spatial drives: plain plan vs closed-loop-aware (shaped) reference, DC motors and ideal actuators"
+                 + (f" ({note})" if note else ""))
     fig.tight_layout(rect=(0, 0.1, 1, 1))
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
     return buf.getvalue()
+
+
+def _note(args) -> str:
+    """The title's note on a non-default drive law (--integral-rate)."""
+    return "" if args.integral_rate is None else f"DC drive PID, integral rate {args.integral_rate:g} 1/s"
 
 
 def main(argv=None) -> int:
@@ -145,7 +153,7 @@ def main(argv=None) -> int:
     folder = Path(args.out) / "spatial_drive_tracking"
     if args.replot:
         write_bytes_atomic(folder / "spatial_drive_tracking.png", figure_png(
-            json.loads((folder / "spatial_drive_tracking.json").read_text())["rows"]))
+            json.loads((folder / "spatial_drive_tracking.json").read_text())["rows"], _note(args)))
         print(f"wrote {folder}/spatial_drive_tracking.png")
         return 0
     if not args.window > 0:
@@ -173,7 +181,7 @@ def main(argv=None) -> int:
     doc = {"window_s": args.window, "rel_tol": REL_TOL, "rows": rows,
            "command": "python -m studies.spatial_drive_tracking " + " ".join(argv if argv is not None else sys.argv[1:])}
     write_text_atomic(folder / "spatial_drive_tracking.json", json.dumps(jsonable(doc), indent=1))
-    write_bytes_atomic(folder / "spatial_drive_tracking.png", figure_png(rows))
+    write_bytes_atomic(folder / "spatial_drive_tracking.png", figure_png(rows, _note(args)))
     print(f"wrote {folder}/spatial_drive_tracking.json and .png")
     return 0
 
