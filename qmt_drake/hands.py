@@ -49,6 +49,7 @@ from qmt_drake.sim.runner import (
     simulate_transfer,
     transfer_simulate_cosim,
 )
+from qmt_drake.sim.sim_settings import simulation_of, time_step_of
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.tray_object import BottleSpec
 from qmt_drake.transfer_scenario import TransferScenario
@@ -254,7 +255,8 @@ def _tray_diagram(scenario: TransferScenario, plan: Motion, *, time_scale: float
     assert isinstance(act, DynamixelServos)  # check_tray_simulation refused every other actuator
     schedule = plan_schedule(plan, time_scale=time_scale, period_s=act.control_period_s,
                              shaped_for=scenario if act.reference == "shaped" else None)
-    kw: dict[str, Any] = {} if time_step_s is None else {"time_step_s": time_step_s}
+    step = time_step_of(time_step_s, scenario, None)  # the run's, else the scenario's simulation.plant.time_step
+    kw: dict[str, Any] = {"simulation": simulation_of(scenario), **({} if step is None else {"time_step_s": step})}
     return build_tray_diagram(schedule, act.gains(), scenario.bottle, servo_period_s=act.control_period_s,
                               meshcat=meshcat, **kw, **options)
 

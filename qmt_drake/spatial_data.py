@@ -21,6 +21,7 @@ from qmt_drake import spatial_poses
 from qmt_drake.budgets import SPATIAL_MAX_GRIP_COUNT, check_spatial_sizes
 from qmt_drake.config import fields as F
 from qmt_drake.config.resolve import SCENARIO_DIR, SPATIAL, resolve_scenario
+from qmt_drake.config.simulation import NO_SIMULATION, Simulation, parse_simulation
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody
 from qmt_drake.limits.tray_contact import TrayCup
@@ -35,7 +36,12 @@ ACTUATOR_KEYS = ("velocity_limit_rad_s", "acceleration_limit_rad_s2", "jerk_limi
 OPTIONAL_ACTUATOR_KEYS = ("velocity_limit_rad_s", "torque_limit_Nm", "gear_ratio", "rotor_inertia_kgm2")
 DEFAULT_CHECK_RATE_HZ = 200.0  # limits.check_rate_hz when the section is left out (the shipped scenarios state 200)
 TOP_KEYS = {"kind", "name", "description", "arm", "actuators", "payload", "hand", "task", "limits", "world",
-            "uncertainty"}
+            "uncertainty", "simulation"}
+# why a spatial scenario's plant is discrete (simulation.plant.time_step 0 refused) and a weld hand refuses TAMSI
+DISCRETE_ONLY = ("the hand (a weld constraint, a contact seat or the tray's cup) is stepped by the discrete plant's "
+                 "contact solver and the hold is checked at every plant step")
+WELD_NO_TAMSI = ("the hand holds its part by a weld constraint (hand.physics weld), which Drake's TAMSI solver does "
+                 "not model")
 TASK_KEYS = {"seed_rad", "face_normal", "face_normals", "hand_rpy_rad", "poses_m", "transfer_points",
              "free_spin_about_normal"}
 
@@ -102,6 +108,7 @@ class SpatialScenarioData:
     check_rate_hz: float
     obstacles: tuple[Obstacle, ...] = ()
     uncertainty: dict = field(default_factory=dict)
+    simulation: Simulation = NO_SIMULATION  # `simulation`: the co-simulation's plant and simulator settings
 
     @property
     def lock_joints(self) -> dict:
@@ -146,9 +153,11 @@ def parse_spatial_data(name_or_path: str | Path, overrides: dict | None = None) 
     rate = F.num(lim, "check_rate_hz", f"{where}: limits", positive=True, default=DEFAULT_CHECK_RATE_HZ)
     check_spatial_sizes(where, transfer_points=task.transfer_points, check_rate_hz=rate)
     uncertainty = check_spatial_uncertainty(raw.get("uncertainty"), hand.kind, f"{where}: uncertainty")
+    simulation = parse_simulation(raw.get("simulation"), where, continuous=DISCRETE_ONLY,
+                                  no_tamsi=WELD_NO_TAMSI if hand.kind != "tray" and hand.physics == "weld" else None)
     return SpatialScenarioData(name=str(raw.get("name", path.stem)), path=path, arm=arm, actuators=actuators,
                                hand=hand, payload=payload, task=task, check_rate_hz=rate, obstacles=obstacles,
-                               uncertainty=uncertainty)
+                               uncertainty=uncertainty, simulation=simulation)
 
 
 def _arm(raw: dict, where: str, base: Path) -> SpatialArmData:

@@ -57,6 +57,7 @@ import numpy as np
 from qmt_drake import spatial_poses
 from qmt_drake.config import fields as F
 from qmt_drake.config.resolve import SCENARIO_DIR, SPATIAL, resolve_scenario  # noqa: F401 (SCENARIO_DIR: re-exported)
+from qmt_drake.config.simulation import NO_SIMULATION, Simulation
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody, MagnetMomentTerm
 from qmt_drake.limits.motor_torque import MotorTorqueTerm
@@ -110,6 +111,7 @@ class SpatialScenario:
     path_rotations: np.ndarray | None = None  # (P, 3, 3)
     obstacles: tuple = ()  # world.obstacles (model/obstacles.Obstacle), welded to the world
     uncertainty: dict | None = None  # `uncertainty` (sweep/parameters.check_spatial_uncertainty); {}: none
+    simulation: Simulation = NO_SIMULATION  # `simulation` (config/simulation.py): its co-simulation's Drake settings
 
     @property
     def n_dof(self) -> int:
@@ -204,7 +206,7 @@ def build_spatial_scenario(data: SpatialScenarioData) -> SpatialScenario:
                          hand_kind=hd.kind, hand_physics=hd.physics, moment_limit_Nm=hd.moment_limit_Nm,
                          face_axis=face_axis, cup=cup, motor=motor, pose_normals=tk.pose_normals, path_normals=normals,
                          pose_rotations=tk.pose_rotations, path_rotations=rotations, obstacles=data.obstacles,
-                         uncertainty=data.uncertainty)
+                         uncertainty=data.uncertainty, simulation=data.simulation)
     if cup is None:
         _check_holds_at_rest(sc, f"{where}: payload")
     return sc

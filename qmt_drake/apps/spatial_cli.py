@@ -62,7 +62,7 @@ from qmt_drake.planners.spatial_search import check_ga_checkpoint
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.retime import load_plan_file
 from qmt_drake.sim.spatial_actuation import check_drive
-from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulate_spatial
+from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulate_spatial, spatial_time_step
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
 from qmt_drake.sweep.robust import plan_for_success, success_spec
 
@@ -264,6 +264,8 @@ def simulate(args, energy_options=()) -> int:
     explicit = bool(getattr(args, "explicit", False))
     check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
     h = None if args.time_step_ms is None else check_spatial_time_step(args.time_step_ms * 1e-3)
+    if h is None and sc.simulation.plant.time_step is not None:  # the scenario's simulation.plant.time_step
+        h = spatial_time_step(sc, None)
     check_drive(sc, actuator, feedforward, explicit, h)  # refusals (no motor constants, ...) before planning
     if args.plan:
         if args.seed != 0:

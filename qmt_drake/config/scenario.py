@@ -73,6 +73,7 @@ from qmt_drake.config.sections import (  # noqa: F401 (re-exported: the scenario
     UrdfArm,
     World,
 )
+from qmt_drake.config.simulation import parse_simulation
 from qmt_drake.config.validate import (
     WORLD_KEYS,
     check_scenario_kind,
@@ -89,7 +90,7 @@ from qmt_drake.errors import QmtInputError
 
 # ---------------------------------------------------------------------------------------- loading
 _TOP_KEYS = {"name", "description", "world", "uncertainty", "arm", "hand", "actuator", "payload", "task", "limits",
-             "family", "objective", "ga", "sampling", "control", "reported", "notes", "source"}
+             "family", "objective", "ga", "sampling", "control", "reported", "notes", "source", "simulation"}
 _SECTION_KEYS = {
     "world": WORLD_KEYS,
     "arm": {"kind", "urdf", "hand_frame"},
@@ -105,6 +106,9 @@ _SECTION_KEYS = {
 }
 
 
+# why a transfer scenario's plant cannot be continuous (simulation.plant.time_step 0)
+DISCRETE_ONLY = ("its co-simulation samples the drive, the monitor and the logs at the plant step and steps the "
+                 "hand's point contact (and the motor loop's damping) in the discrete plant's solver")
 ENERGY_TIME_KIND = ENERGY_TIME  # seed 001's scenarios (qmt_drake/energy/scenario.py) share the folder
 
 
@@ -197,7 +201,8 @@ def scenario_from_dict(raw: dict, path: Path) -> Scenario:
         notes=tuple(notes), arm_spec=arm_spec,
         hand=hand,
         actuator=parse_actuator(raw.get("actuator"), limits, f"{where}: actuator"), world=world,
-        uncertainty=parse_uncertainty(raw.get("uncertainty"), f"{where}: uncertainty"))
+        uncertainty=parse_uncertainty(raw.get("uncertainty"), f"{where}: uncertainty"),
+        simulation=parse_simulation(raw.get("simulation"), where, continuous=DISCRETE_ONLY))
     return sc
 
 

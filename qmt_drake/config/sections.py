@@ -19,6 +19,7 @@ import numpy as np
 
 from qmt_drake.catalog import SERVO_CATALOG, CoilSpec, ServoGains
 from qmt_drake.config.registry import DEFAULT_OBJECTIVE_KIND
+from qmt_drake.config.simulation import NO_SIMULATION, Simulation
 
 STANDARD_GRAVITY_M_S2 = 9.81  # the value every model here was calibrated with (and Drake's default)
 
@@ -243,6 +244,9 @@ class Scenario:
     # `objective: {kind: ...}`: what the planners minimise, a kind registered in config/registry.OBJECTIVES
     # for transfer scenarios (problem.py: min_time, the motion time under the limits)
     objective: str = DEFAULT_OBJECTIVE_KIND
+    # `simulation`: Drake's plant and simulator settings of its co-simulations (config/simulation.py); how a
+    # plan is simulated, not what is planned, so no part of the fingerprint or of a plan's identity
+    simulation: Simulation = NO_SIMULATION
 
     @property
     def moment_per_accel_kgm(self) -> float:
@@ -253,11 +257,12 @@ class Scenario:
     def fingerprint(self) -> str:
         """sha256 (hex) of a canonical JSON of the validated data plus the URDF file's bytes.
 
-        Left out: where the files are (source_path, urdf_path: the URDF counts by content) and
-        the prose (description, notes, reported). Any edit that can change a plan or a
+        Left out: where the files are (source_path, urdf_path: the URDF counts by content),
+        the prose (description, notes, reported) and how a plan is co-simulated (simulation). Any edit that can change a plan or a
         simulation changes the fingerprint."""
         data = {f.name: _canonical(getattr(self, f.name)) for f in fields(self)
-                if f.name not in ("source_path", "urdf_path", "description", "notes", "reported", "uncertainty")}
+                if f.name not in ("source_path", "urdf_path", "description", "notes", "reported", "uncertainty",
+                                  "simulation")}
         if data.get("objective") == DEFAULT_OBJECTIVE_KIND:  # the default leaves plans and checkpoints of older files valid
             del data["objective"]
         if isinstance(data.get("arm_spec"), dict):

@@ -30,6 +30,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, MatrixGain, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.config.simulation import NO_SIMULATION, Simulation
 from qmt_drake.energy.as_transfer import PlanFamily
 from qmt_drake.energy.dynamics import OHSAKA_URDF, inverse_dynamics_with_gravity
 from qmt_drake.errors import QmtInputError
@@ -39,6 +40,7 @@ from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.plan import ENERGY_PLAN_KIND
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 from qmt_drake.sim.cosim_run import CoSim, run
+from qmt_drake.sim.sim_settings import simulation_of
 
 
 @dataclass
@@ -73,13 +75,16 @@ class Execution:
 
 def build_execution_cosim(family, x, settle_s: float = 0.3, wn_rad_s: float = 30.0, zeta: float = 1.0,
                           recording_path: str | Path | None = None, initial_error_rad=None,
-                          urdf: str | Path = OHSAKA_URDF, summarize=None) -> CoSim:
+                          urdf: str | Path = OHSAKA_URDF, summarize=None,
+                          simulation: Simulation = NO_SIMULATION) -> CoSim:
     """The diagram of the module docstring as a CoSim (cosim_run.run); its result an Execution
-    (summarised by Execution.summary, or `summarize`)."""
+    (summarised by Execution.summary, or `summarize`). simulation: the scenario's `simulation` section
+    (config/simulation.py): plant.time_step > 0 makes the simulated plant discrete at that step (the
+    controller's model stays continuous), its simulator fields replace the run's (accuracy: the 1e-6 here)."""
     T = float(family.unpack(x)[2])
     n = family.n
     builder = DiagramBuilder()
-    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, simulation.plant.time_step or 0.0)
     arm = add_urdf(plant, urdf)
     plant.Finalize()
     ctrl_plant = MultibodyPlant(0.0)
@@ -119,7 +124,8 @@ def build_execution_cosim(family, x, settle_s: float = 0.3, wn_rad_s: float = 30
         pctx = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
         plant.SetPositions(pctx, q[0] + (0 if initial_error_rad is None else np.asarray(initial_error_rad)))
         plant.SetVelocities(pctx, np.zeros(n))
-        sim.get_mutable_integrator().set_target_accuracy(1e-6)
+        if simulation.simulator.accuracy is None:  # the scenario's accuracy is applied by cosim_run.run
+            sim.get_mutable_integrator().set_target_accuracy(1e-6)
         sim.Initialize()
         if vis is not None:
             start_recording(vis)
@@ -139,7 +145,8 @@ def build_execution_cosim(family, x, settle_s: float = 0.3, wn_rad_s: float = 30
                  summarize or (lambda ex: ex.summary()), monitor=None,
                  ports={"desired_state": xs.get_output_port(), "arm_state": plant.get_state_output_port(),
                         "joint_torque": ctl.get_output_port_control()},
-                 loggers={"arm_state": log_x, "joint_torque": log_u, "desired_state": log_d})
+                 loggers={"arm_state": log_x, "joint_torque": log_u, "desired_state": log_d},
+                 simulator_settings=simulation.simulator)
 
 
 def _connect_by_name(builder, plant, arm, torque_port) -> None:
@@ -183,7 +190,8 @@ def build_plan_execution_cosim(plan, record_path: str | Path | None = None) -> C
         raise QmtInputError(f"a {getattr(plan, 'scenario_kind', type(plan).__name__)} plan cannot run in the "
                             "energy-time execution; plan this energy-time scenario first")
     return build_execution_cosim(plan.problem.family, plan.x, recording_path=record_path,
-                                 summarize=lambda ex: _plan_summary(plan, ex.summary()))
+                                 summarize=lambda ex: _plan_summary(plan, ex.summary()),
+                                 simulation=simulation_of(plan.scenario))
 
 
 def execute_plan(plan, record_path: str | Path | None = None) -> dict:
@@ -198,7 +206,8 @@ def execute_transfer_plan(plan, record_path: str | Path | None = None) -> dict:
         raise QmtInputError(f"a {plan.scenario_kind} plan of {plan.scenario.name} is not a plan of seed 001's arm; "
                             "plan this energy-time scenario first")
     return run(build_execution_cosim(PlanFamily(plan), None, recording_path=record_path, urdf=plan.scenario.urdf,
-                                     summarize=lambda ex: _plan_summary(plan, ex.summary())))
+                                     summarize=lambda ex: _plan_summary(plan, ex.summary()),
+                                     simulation=simulation_of(plan.scenario.experiment)))
 
 
 def plot_execution(ex: Execution, path, title: str = "") -> None:

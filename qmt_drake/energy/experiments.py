@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from qmt_drake.config.simulation import NO_SIMULATION, Simulation
 from qmt_drake.energy.problem import EnergyProblem
 
 
@@ -35,6 +36,7 @@ class EnergyScenarioData:
     torque_limit_Nm: tuple[float, ...] | None
     urdf: Path  # arm.urdf (absolute); its tip link 'tip'
     source_path: Path
+    simulation: Simulation = NO_SIMULATION  # `simulation` (config/simulation.py): the execution's Drake settings
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,7 @@ class Experiment:
     torque_limit_Nm: tuple[float, ...] | None = None     # |tau_i| bound for the time-optimal end
     arm: object = None                                   # VerticalArm (None: the Ohsaka arm)
     source_path: Path | None = None
+    simulation: Simulation = NO_SIMULATION               # `simulation`: the execution's plant step, simulator
 
     def problem(self, **over) -> EnergyProblem:
         kw = dict(X0=self.coordinate_vector_m[:2], XT=self.coordinate_vector_m[2:], c1=self.c1,

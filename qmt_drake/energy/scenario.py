@@ -32,6 +32,7 @@ from qmt_drake.config import fields as F
 from qmt_drake.config.registry import FAMILIES, OBJECTIVES, for_scenario_kind
 from qmt_drake.config.resolve import kind_of, resolve_scenario
 from qmt_drake.config.scenario import ENERGY_TIME_KIND, SCENARIO_DIR, builtin_scenarios, read_scenario_yaml
+from qmt_drake.config.simulation import parse_simulation
 from qmt_drake.energy.dynamics import OHSAKA_URDF, VerticalArm, ohsaka_arm
 from qmt_drake.energy.experiments import EnergyScenarioData, Experiment
 from qmt_drake.energy.kinematics import check_reachable
@@ -41,7 +42,9 @@ from qmt_drake.errors import QmtInputError
 KIND = ENERGY_TIME_KIND
 ENERGY_SCENARIO_DIR = SCENARIO_DIR  # beside the transfer scenarios, told apart by `kind`
 
-_KEYS = {"name", "kind", "description", "source", "arm", "task", "family", "objective", "limits", "paper"}
+_KEYS = {"name", "kind", "description", "source", "arm", "task", "family", "objective", "limits", "paper", "simulation"}
+# the vertical arm touches nothing: simulation.plant's contact fields have nothing to act on
+NO_CONTACT = "the vertical arm makes no contact (its tip mass is welded to the last link): the field has nothing to act on"
 _SECTIONS = {
     "arm": {"urdf", "tip_frame"},
     "task": {"coordinate_vector_m", "start_posture"},
@@ -130,7 +133,8 @@ def load_energy_data(name_or_path, overrides: dict | None = None) -> EnergyScena
     return EnergyScenarioData(str(raw.get("name", path.stem)), str(raw.get("description", "")).strip(), X,
                               c1=c1, c2=c2, m=m, divisions=div, T_init_s=T_init, fixed_T_s=fixed_T, moving_joints=mj,
                               paper_initial_a=init, reported=reported, torque_limit_Nm=lim, urdf=urdf,
-                              source_path=path)
+                              source_path=path, simulation=parse_simulation(raw.get("simulation"), where,
+                                                                            no_contact=NO_CONTACT))
 
 
 def load_energy_scenario(name_or_path, overrides: dict | None = None) -> Experiment:
@@ -160,7 +164,7 @@ def build_experiment(data: EnergyScenarioData) -> Experiment:
     E = Experiment(data.name, data.description, X, c1=data.c1, c2=data.c2, m=data.m, divisions=data.divisions,
                    T_init_s=data.T_init_s, fixed_T_s=data.fixed_T_s, moving_joints=mj,
                    paper_initial_a=dict(data.paper_initial_a), reported=data.reported,
-                   torque_limit_Nm=data.torque_limit_Nm, arm=arm, source_path=path)
+                   torque_limit_Nm=data.torque_limit_Nm, arm=arm, source_path=path, simulation=data.simulation)
     for what, fn in (("objective", lambda: check_weights(data.c1, data.c2)),
                      ("task.coordinate_vector_m", lambda: (check_reachable(arm, X[:2], "start point X(0)"),
                                                            check_reachable(arm, X[2:], "end point X(T)")))):

@@ -11,7 +11,8 @@ per scenario) and run here: the one place that makes a Drake `Simulator`. A kind
 
 and `summarize(result)` turns that result into the summary dict in the one outcome vocabulary
 (qmt_drake/outcome.py): "outcome", "held", and the kind's own facts. `run` keeps the typed result in
-cosim.result and the simulator in cosim.simulator (its context holds the loggers' data).
+cosim.result and the simulator in cosim.simulator (its context holds the loggers' data). The scenario's
+`simulation.simulator` fields (cosim.simulator_settings) are applied to the Simulator before `start`.
 
 This module imports nothing of the project: every kind's module can run through it without a circle.
 """
@@ -24,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import ApplySimulatorConfig, ExtractSimulatorConfig, Simulator
 
 
 @dataclass
@@ -49,6 +50,9 @@ class CoSim:
     handles: Any = None
     simulator: Any = None
     result: Any = None
+    # the scenario's simulation.simulator (config/simulation.SimulatorSettings, plain data); None or nothing
+    # given: the Simulator as made
+    simulator_settings: Any = None
 
     def __getattr__(self, name: str) -> Any:
         # only called for names the dataclass does not have: the kind's record answers them
@@ -68,6 +72,12 @@ def run(cosim: CoSim) -> dict:
     # hold them; collecting those costs ~1.5 ms.
     gc.collect(1)
     sim = Simulator(cosim.diagram)
+    given = cosim.simulator_settings.given() if cosim.simulator_settings is not None else {}
+    if given:  # only the scenario's fields over the Simulator as made (sim/sim_settings.py: why)
+        cfg = ExtractSimulatorConfig(sim)
+        for k, v in given.items():
+            setattr(cfg, k, v)
+        ApplySimulatorConfig(cfg, sim)
     cosim.simulator = sim
     cosim.start(sim)
     t_wall = time.perf_counter()

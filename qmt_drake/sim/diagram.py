@@ -49,6 +49,7 @@ from qmt_drake.sim.plant import (
 )
 from qmt_drake.sim.posthoc import add_step_logs, summary_from_logs
 from qmt_drake.sim.reference import plan_start, reference_trajectories
+from qmt_drake.sim.sim_settings import simulation_of, time_step_of
 from qmt_drake.systems.dc_motor import DcMotorParams
 from qmt_drake.systems.payload import PayloadSpec
 from qmt_drake.systems.transfer_monitor import TransferMonitor, payload_motion_as_primitives
@@ -81,6 +82,7 @@ class TransferDiagram:
     simulator: object = None  # set by run_diagram (its context holds the loggers' data)
     step_logs: dict | None = None  # per-step C++ logs (sim.posthoc); None: the per-step monitor
     delivered: object = None  # the system whose motor_torque / electrical_power are reported
+    simulator_settings: object = None  # the scenario's simulation.simulator (sim/cosim_run.run applies it)
 
     def summary(self, root_context) -> np.ndarray:
         """The monitor's summary (TransferMonitor.SUMMARY_FIELDS + peak motor torques) of the run
@@ -94,6 +96,20 @@ class TransferDiagram:
         default context already holds; use it to reset a context that was changed)."""
         set_initial_state(self.plant, self.plant.GetMyMutableContextFromRoot(root_context), self.arm_instance,
                           self.hand_body, self.payload_body, self.q_start)
+
+
+def transfer_time_step(scenario, time_step_s: float | None, implicit_loop_damping: bool, *,
+                       refuse_unstable: bool = True) -> float:
+    """The plant step [s]: the run's time_step_s, else the scenario's simulation.plant.time_step, else the loop
+    scheme's default (`default_time_step_s`); checked (`check_time_step`), a step from the scenario named so."""
+    step = time_step_of(time_step_s, scenario, default_time_step_s(implicit_loop_damping))
+    try:
+        check_time_step(step, implicit_loop_damping, refuse_unstable=refuse_unstable)
+    except QmtInputError as exc:
+        if time_step_s is not None or simulation_of(scenario).plant.time_step is None:
+            raise
+        raise QmtInputError(f"scenario {scenario.name}: simulation.plant.time_step: {exc}") from None
+    return step
 
 
 def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, time_scale: float = 1.0,
@@ -130,7 +146,8 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
     feedback implicitly (`add_implicit_damping_actuation`), which keeps the loop stable at the 2 ms
     default step; off, the motors drive the plant directly (explicit) and time_step_s must be
     <= 1 ms (the 1 ms default; larger steps are refused). time_step_s=None picks the scheme's
-    default (`default_time_step_s`). step_logs=True (implicit loop only) replaces the per-step
+    default (`default_time_step_s`), or the scenario's simulation.plant.time_step when it gives one (its
+    other simulation.plant fields replace transfer_plant_config's). step_logs=True (implicit loop only) replaces the per-step
     monitor by per-step C++ logs and TransferDiagram.summary (module docstring); the diagram then
     has no `summary` output port. monitor_period_s samples the per-step monitor more sparsely.
     primitive_controller: a PD law (no integral term) runs as Drake primitives
@@ -141,9 +158,8 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
                                inverse_dynamics_feedforward=inverse_dynamics_feedforward,
                                primitive_controller=primitive_controller, motor_params=motor_params)
     implicit_loop_damping = actuation.loop_scheme(scenario, options)
-    if time_step_s is None:
-        time_step_s = default_time_step_s(implicit_loop_damping)
-    check_time_step(time_step_s, implicit_loop_damping, refuse_unstable=not allow_unstable_step)
+    time_step_s = transfer_time_step(scenario, time_step_s, implicit_loop_damping,
+                                     refuse_unstable=not allow_unstable_step)
     if scenario.hand is not None and not isinstance(scenario.hand, MagnetHand):
         raise QmtInputError(f"build_transfer_diagram builds the magnet hand's diagram; scenario {scenario.name} "
                             f"has a {scenario.hand.kind} hand (on a tray: Dynamixel servos): use qmt_drake.build_diagram")
@@ -236,4 +252,5 @@ def build_transfer_diagram(scenario, plan, *, time_step_s: float | None = None, 
         frame_arm(meshcat, plant, plant.GetMyContextFromRoot(ctx), arm)
     return TransferDiagram(diagram, plant, tp.scene_graph, arm, payload, hand, motors, ctrl, magnet, monitor,
                            loggers, q0, t_end, t_end + settle_s, current, spec, setup.motor_params, time_step_s,
-                           bool(implicit_loop_damping), visualizer, step_logs=step_logs, delivered=delivered)
+                           bool(implicit_loop_damping), visualizer, step_logs=step_logs, delivered=delivered,
+                           simulator_settings=simulation_of(scenario).simulator)

@@ -15,6 +15,8 @@ too:
                               state paired with this step's reference: wrong tracking errors and
                               slips, no error raised.
 
+A scenario's `simulation.plant` fields (config/simulation.py) replace these where it gives them.
+
 `add_transfer_plant` adds and configures that plant, the arm and the payload; `finalize_transfer_plant`
 finalises it and sets the plant's DEFAULT state to the plan's start (arm at q_start at rest, the
 payload seated on the face), so a fresh default context of any diagram holding it is ready to
@@ -29,8 +31,10 @@ import numpy as np
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import JointActuatorIndex
 
+from qmt_drake.config.simulation import NO_SIMULATION, PlantSettings
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.arm import add_arm
+from qmt_drake.sim.sim_settings import plant_config, simulation_of
 from qmt_drake.systems.payload import (
     PayloadSpec,
     add_payload,
@@ -40,12 +44,15 @@ from qmt_drake.systems.payload import (
 )
 
 
-def transfer_plant_config(time_step_s: float) -> MultibodyPlantConfig:
-    """The MultibodyPlantConfig every transfer diagram uses (module docstring: why each setting)."""
+def transfer_plant_config(time_step_s: float, settings: PlantSettings = NO_SIMULATION.plant) -> MultibodyPlantConfig:
+    """The MultibodyPlantConfig every transfer diagram uses (module docstring: why each setting), with the
+    scenario's `simulation.plant` fields (`settings`) over it and the step time_step_s [s] (already resolved:
+    sim/sim_settings.time_step_of)."""
     if isinstance(time_step_s, bool) or not (isinstance(time_step_s, (int, float)) and time_step_s > 0):
         raise QmtInputError(f"plant time step must be a positive number of seconds, got {time_step_s!r}")
-    return MultibodyPlantConfig(time_step=float(time_step_s), discrete_contact_approximation="lagged",
+    base = MultibodyPlantConfig(time_step=float(time_step_s), discrete_contact_approximation="lagged",
                                 contact_model="point", use_sampled_output_ports=False)
+    return plant_config(base, settings, time_step=float(time_step_s))
 
 
 @dataclass
@@ -68,7 +75,7 @@ def add_transfer_plant(builder, scenario, time_step_s: float, *, payload_spec: P
     payload (the scenario's payload body and hand contact data unless payload_spec is given).
     The plant is NOT finalised: add joint damping etc., then call `finalize_transfer_plant`.
     n_dof_expected (a plan's joint count) is checked against the arm: one-line QmtInputError."""
-    plant, scene_graph = AddMultibodyPlant(transfer_plant_config(time_step_s), builder)
+    plant, scene_graph = AddMultibodyPlant(transfer_plant_config(time_step_s, simulation_of(scenario).plant), builder)
     plant.mutable_gravity_field().set_gravity_vector(np.asarray(scenario.world.gravity_m_s2, float))
     arm = add_arm(plant, scenario.urdf_path)
     n = sum(plant.get_joint(j).num_velocities() for j in plant.GetJointIndices(arm))

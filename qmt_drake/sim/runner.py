@@ -15,12 +15,11 @@ from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.recording import make_headless_meshcat, save_recording, start_recording
 from qmt_drake.sim.actuation import (
     FEEDFORWARD_OPTIONS,
-    check_time_step,
     default_time_step_s,
     explicit_step_known_unstable,
 )
 from qmt_drake.sim.cosim_run import CoSim, run
-from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram
+from qmt_drake.sim.diagram import TransferDiagram, build_transfer_diagram, transfer_time_step
 from qmt_drake.sim.magnet_actuation import magnet_actuation_of
 from qmt_drake.sim.magnet_hand import magnet_hand_of
 from qmt_drake.systems.transfer_monitor import DETACH_GAP_M, DETACH_SLIP_M, TransferMonitor, check_seated
@@ -150,7 +149,8 @@ def transfer_cosim(td: TransferDiagram, *, chunk_s: float = 0.25, max_tracking_e
     return CoSim("magnet", td.diagram, td.plant, start, advance,
                  finish or (lambda sim, wall: (td.run_summary, wall)),
                  summarize or (lambda result: TransferMonitor.unpack(result[0])),
-                 ports=exports, loggers=td.loggers, monitor=td.monitor, handles=td)
+                 ports=exports, loggers=td.loggers, monitor=td.monitor, handles=td,
+                 simulator_settings=getattr(td, "simulator_settings", None))
 
 
 def run_diagram(td: TransferDiagram, *, chunk_s: float = 0.25, max_tracking_error_rad: float = 0.5,
@@ -280,8 +280,7 @@ def check_simulation_inputs(scenario, *, time_step_s: float | None = None,
     kw = feedforward_keywords(scenario, feedforward)
     magnet_actuation_of(scenario).check(scenario, implicit_loop_damping=implicit_loop_damping)
     implicit = True if implicit_loop_damping is None else bool(implicit_loop_damping)
-    if time_step_s is not None:
-        check_time_step(time_step_s, implicit, refuse_unstable=True)
+    transfer_time_step(scenario, time_step_s, implicit)  # the run's step, or the scenario's simulation.plant's
     return kw
 
 

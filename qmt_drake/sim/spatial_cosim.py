@@ -48,6 +48,7 @@ from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.cosim_run import CoSim, run
+from qmt_drake.sim.sim_settings import apply_contact_settings, simulation_of
 from qmt_drake.sim.spatial_actuation import (
     SpatialMotorDrive,
     add_tracking_logs,
@@ -100,6 +101,18 @@ def check_spatial_time_step(time_step_s) -> float:
         raise QmtInputError(f"time step {time_step_s * 1e3:g} ms: the spatial co-simulation takes a plant step in "
                             f"(0, {MAX_TIME_STEP_S * 1e3:g}] ms (default {TIME_STEP_S * 1e3:g} ms)")
     return float(time_step_s)
+
+
+def spatial_time_step(sc, time_step_s: float | None) -> float:
+    """The plant step [s]: the run's time_step_s, else the scenario's simulation.plant.time_step, else
+    TIME_STEP_S; checked (check_spatial_time_step), a step from the scenario named so."""
+    step = simulation_of(sc).plant.time_step if time_step_s is None else time_step_s
+    try:
+        return check_spatial_time_step(step)
+    except QmtInputError as exc:
+        if time_step_s is not None:
+            raise
+        raise QmtInputError(f"scenario {sc.name}: simulation.plant.time_step: {exc}") from None
 
 
 def add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
@@ -168,7 +181,7 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
     prepared dc_motor drive instead. time_step_s: the plant step [s] (default TIME_STEP_S; the plan is
     sampled and the hold checked at it). export: export the named ports (user composition). explicit: the
     dc_motor law applies its loop damping itself, nothing folded into the plant (SpatialMotorDrive)."""
-    h = check_spatial_time_step(time_step_s)
+    h = spatial_time_step(sc, time_step_s)
     ctrl = sc if controller_sc is None else controller_sc
     if drive is None:
         drive = spatial_drive(ctrl, traj.sample([0.0])[0][0], actuator, feedforward, explicit)
@@ -201,6 +214,7 @@ def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool) -
     plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap if hand.approximation == "sap"
                                              else hand.approximation)
     hand.configure(plant)
+    apply_contact_settings(plant, simulation_of(sc).plant)  # the scenario's simulation.plant over the hand's
     builder.AddSystem(plant)
     arm = H.model_instance()
     hand.add(builder, plant, H)
@@ -235,7 +249,8 @@ def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool) -
 
     return CoSim(hand.kind, diagram, plant, start, lambda sim: hand.advance(sim, diagram, t_end), finish, dict,
                  ports=ports, loggers={**logs, **hand.loggers}, monitor=hand.monitor,
-                 handles=SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, hand=hand))
+                 handles=SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, hand=hand),
+                 simulator_settings=simulation_of(sc).simulator)
 
 
 def add_weld_hand(plant, H, sc):

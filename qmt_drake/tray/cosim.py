@@ -34,11 +34,13 @@ from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, Trajector
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.config.scenario import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
+from qmt_drake.config.simulation import NO_SIMULATION, Simulation
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.arm import add_urdf
 from qmt_drake.recording import add_meshcat_visualizer, make_headless_meshcat, save_recording, start_recording
 from qmt_drake.sim.cosim_run import CoSim, run
+from qmt_drake.sim.sim_settings import plant_config
 from qmt_drake.systems.dc_motor import DcMotorWithGear, dc_motors_as_primitives
 from qmt_drake.systems.dynamixel_servo import (
     CONTROL_PERIOD_S,
@@ -98,6 +100,7 @@ class TrayDiagram:
     motor: object = None
     time_step_s: float = TIME_STEP_S
     servo_period_s: float = CONTROL_PERIOD_S
+    simulator_settings: object = None  # the scenario's simulation.simulator (sim/cosim_run.run applies it)
 
 
 def _goal_trajectory(schedule: GoalSchedule) -> PiecewisePolynomial:
@@ -110,7 +113,8 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
                        time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                        bottle_offset_xy=(0.0, 0.0), log_period_s: float = 5e-3, meshcat=None,
                        motor=None, compiled_servo: bool = True, python_monitor: bool = False,
-                       step_log: bool = False, contact_approximation: str = "lagged") -> TrayDiagram:
+                       step_log: bool = False, contact_approximation: str | None = None,
+                       simulation: Simulation = NO_SIMULATION) -> TrayDiagram:
     """The closed loop of the module docstring. Raises QmtInputError (one line) on bad steps.
     motor: DcMotorParams of the three servos' motors (default motor_params(CRANE_X7_PLANAR_SERVOS),
     the lossless equivalent). compiled_servo: the servo law as Drake primitives (systems/servo_law.py,
@@ -123,15 +127,18 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
     step_log: also log the arm's state and the plant's generalized acceleration of the arm (its
     discrete step's (v_next - v) / h) at every plant step, as arm_state_step / arm_accel_step (the
     executed motion that tray/executed.py evaluates the limits on). contact_approximation: the plant's
-    MultibodyPlantConfig.discrete_contact_approximation (tamsi, sap, similar, lagged; default lagged)."""
+    MultibodyPlantConfig.discrete_contact_approximation (tamsi, sap, similar, lagged; None: the scenario's
+    simulation.plant one, else lagged). simulation: the scenario's `simulation` section (config/simulation.py):
+    its plant fields over this plant's config (time_step_s and contact_approximation, resolved by the caller,
+    over them), its simulator fields on the run's Simulator."""
     if not time_step_s > 0 or not servo_period_s > 0:
         raise QmtInputError(f"time step {time_step_s} s and servo period {servo_period_s} s must be positive")
     bottle = bottle or BottleSpec.pet_500ml()
     bottle.check_rests(float(np.sum(schedule.q_start)))  # the tray's tilt at the start (0 = level)
     builder = DiagramBuilder()
-    cfg = MultibodyPlantConfig(time_step=time_step_s, discrete_contact_approximation=contact_approximation,
-                               contact_model="point",
-                               use_sampled_output_ports=False)
+    cfg = plant_config(MultibodyPlantConfig(time_step=time_step_s, discrete_contact_approximation="lagged",
+                                            contact_model="point", use_sampled_output_ports=False),
+                       simulation.plant, time_step=time_step_s, discrete_contact_approximation=contact_approximation)
     plant, scene_graph = AddMultibodyPlant(cfg, builder)
     arm = add_urdf(plant, URDF_PATH)
     tray = plant.GetBodyByName("tray", arm)
@@ -187,7 +194,7 @@ def build_tray_diagram(schedule: GoalSchedule, gains: ServoGains, bottle: Bottle
         visualizer = add_meshcat_visualizer(builder, scene_graph, meshcat)
     diagram = builder.Build()
     return TrayDiagram(diagram, plant, scene_graph, arm, tray, bottle_body, servo_law, loggers, schedule, bottle, X_TB0,
-                       visualizer, motor, time_step_s, servo_period_s)
+                       visualizer, motor, time_step_s, servo_period_s, simulation.simulator)
 
 
 @dataclass
@@ -315,6 +322,7 @@ def tray_cosim(td: TrayDiagram, *, recording=None, keep_series: bool = True, sum
 
     return CoSim("tray", td.diagram, td.plant, start, lambda sim: sim.AdvanceTo(schedule.t_end_s), finish,
                  summarize or (lambda r: r.summary_dict()), loggers=td.loggers, handles=td,
+                 simulator_settings=td.simulator_settings,
                  ports={"arm_state": td.plant.get_state_output_port(td.arm),
                         "bottle_state": td.plant.get_state_output_port(td.bottle_body.model_instance())})
 
@@ -343,7 +351,8 @@ def tray_result(td: TrayDiagram, root_context, wall: float, keep_series: bool) -
 def build_tray_cosim(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                      time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                      keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None,
-                     step_log: bool = False, contact_approximation: str = "lagged", summarize=None) -> CoSim:
+                     step_log: bool = False, contact_approximation: str | None = None, summarize=None,
+                     simulation: Simulation = NO_SIMULATION) -> CoSim:
     """The tray co-simulation over the schedule as a CoSim (build_tray_diagram, tray_cosim); with
     recording_path, a Meshcat HTML replay is written there."""
     bottle = bottle or BottleSpec.pet_500ml()
@@ -352,7 +361,7 @@ def build_tray_cosim(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSp
         meshcat = make_headless_meshcat(*RECORDING_CAMERA_M)
     td = build_tray_diagram(schedule, gains, bottle, time_step_s=time_step_s, servo_period_s=servo_period_s,
                             meshcat=meshcat, bottle_offset_xy=bottle_offset_xy, motor=motor, step_log=step_log,
-                            contact_approximation=contact_approximation)
+                            contact_approximation=contact_approximation, simulation=simulation)
     return tray_cosim(td, recording=None if meshcat is None else (meshcat, recording_path), keep_series=keep_series,
                       summarize=summarize)
 
@@ -360,7 +369,7 @@ def build_tray_cosim(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSp
 def simulate_tray(schedule: GoalSchedule, gains: ServoGains, bottle: BottleSpec | None = None, *,
                   time_step_s: float = TIME_STEP_S, servo_period_s: float = CONTROL_PERIOD_S,
                   keep_series: bool = True, recording_path=None, bottle_offset_xy=(0.0, 0.0), motor=None,
-                  step_log: bool = False, contact_approximation: str = "lagged") -> TrayResult:
+                  step_log: bool = False, contact_approximation: str | None = None) -> TrayResult:
     """Run the diagram over the schedule (build_tray_cosim, the one run); with recording_path, write a
     Meshcat HTML replay there. step_log: the series also hold the arm's state and acceleration at every
     plant step (build_tray_diagram). contact_approximation: the plant's discrete contact approximation."""

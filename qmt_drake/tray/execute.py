@@ -19,6 +19,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_SERVO_RAD, transfer_outcome
 from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.sim.cosim_run import CoSim, run
+from qmt_drake.sim.sim_settings import simulation_of, time_step_of
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
 from qmt_drake.systems.servo_reference import shaped_goals
 from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, build_tray_cosim, tray_margin
@@ -81,10 +82,14 @@ def check_tray_simulation(scenario, time_step_s: float | None = None, feedforwar
         raise QmtInputError(f"{scenario.source_path}: the tray co-simulation needs actuator kind 'dynamixel' with "
                             "servos [XM540-W270, XM430-W350, XM430-W350] (the CRANE-X7's)")
     period_ms = act.control_period_s * 1e3
+    given = None if time_step_s is None else f"--time-step-ms {time_step_s * 1e3:g}"
+    if time_step_s is None and simulation_of(scenario).plant.time_step is not None:  # the scenario's step
+        time_step_s = simulation_of(scenario).plant.time_step
+        given = f"{scenario.name}: simulation.plant.time_step {time_step_s:g} s"
     if time_step_s is not None and time_step_s * 1e3 > period_ms * (1 + 1e-9):
         # a plant step coarser than the servo loop changes the verdict (5 ms: the seed's 5 s move
         # "slips" 2.6 mm; 1 ms: carried), so it would be a silent wrong answer
-        raise QmtInputError(f"--time-step-ms {time_step_s * 1e3:g}: the tray co-simulation's plant step must not "
+        raise QmtInputError(f"{given}: the tray co-simulation's plant step must not "
                             f"exceed the servos' control period ({period_ms:g} ms); use {period_ms:g} or less")
 
 
@@ -103,14 +108,15 @@ def delayed(schedule: GoalSchedule, delay_s: float) -> GoalSchedule:
 
 def build_tray_plan_cosim(scenario, plan, *, time_scale: float = 1.0, record_path=None,
                           time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
-                          contact_approximation: str = "lagged") -> CoSim:
+                          contact_approximation: str | None = None) -> CoSim:
     """`plan` on `scenario`'s CRANE-X7 as a CoSim (the tray plug-in's build_cosim); its summary is
     simulate_tray_plan's (see the module docstring).
     physical: the scenario whose bottle (mass, centre of mass, friction) is simulated, when it
     differs from the one the servos' goals are shaped for (a sweep case's drawn bottle: the
     controller knows only the nominal one); None: `scenario` itself. servo_delay_s: the goal stream
     arrives that late (`delayed`). contact_approximation: the plant's discrete contact approximation
-    (tamsi, sap, similar, lagged: studies/verdict_margins.py)."""
+    (tamsi, sap, similar, lagged: studies/verdict_margins.py; None: the scenario's simulation.plant one, else
+    lagged). time_step_s None: the scenario's simulation.plant.time_step, else TIME_STEP_S."""
     check_tray_simulation(scenario, time_step_s)
     check_plan_fits(plan, scenario)  # a plan made for another scenario is refused by the library
     act = scenario.actuator
@@ -118,9 +124,10 @@ def build_tray_plan_cosim(scenario, plan, *, time_scale: float = 1.0, record_pat
                           shaped_for=scenario if act.reference == "shaped" else None)
     sched = delayed(sched, float(servo_delay_s))
 
-    return build_tray_cosim(sched, act.gains(), (physical or scenario).bottle, time_step_s=time_step_s or TIME_STEP_S,
+    return build_tray_cosim(sched, act.gains(), (physical or scenario).bottle,
+                            time_step_s=time_step_of(time_step_s, scenario, TIME_STEP_S),
                             servo_period_s=act.control_period_s, keep_series=False, recording_path=record_path,
-                            contact_approximation=contact_approximation,
+                            contact_approximation=contact_approximation, simulation=simulation_of(scenario),
                             summarize=lambda r: tray_plan_summary(plan, r, time_scale))
 
 
@@ -144,7 +151,7 @@ def tray_plan_summary(plan, r, time_scale: float = 1.0) -> dict:
 
 def simulate_tray_plan(scenario, plan, *, time_scale: float = 1.0, record_path=None,
                        time_step_s: float | None = None, physical=None, servo_delay_s: float = 0.0,
-                       contact_approximation: str = "lagged") -> dict:
+                       contact_approximation: str | None = None) -> dict:
     """The summary of `plan` executed on `scenario`'s CRANE-X7 (build_tray_plan_cosim, the one run)."""
     return run(build_tray_plan_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
                                      time_step_s=time_step_s, physical=physical, servo_delay_s=servo_delay_s,
