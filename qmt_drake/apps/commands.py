@@ -32,6 +32,7 @@ from qmt_drake.margin_runs import with_margin
 from qmt_drake.outputs import check_output_dir, check_output_path
 from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import plan_with, registry
+from qmt_drake.sim.sim_settings import time_step_of
 from qmt_drake.transfer_scenario import load_scenario
 
 
@@ -92,10 +93,10 @@ def cmd_simulate(args) -> int:
     sc = load_scenario(args.scenario)
     check_own_actuator(sc, args.actuator)
     check_plan_budget(sc, "thesis" if args.plan else args.method, allow_large=args.allow_large)
-    check_replay_budget(sc, args.time_scale, None if args.time_step_ms is None else args.time_step_ms * 1e-3,
-                        allow_large=args.allow_large)
-    hand = hand_plugin(sc)
     time_step_s = None if args.time_step_ms is None else args.time_step_ms * 1e-3
+    # priced at the step it runs at: --time-step-ms, else the scenario's simulation.plant.time_step
+    check_replay_budget(sc, args.time_scale, time_step_of(time_step_s, sc, None), allow_large=args.allow_large)
+    hand = hand_plugin(sc)
     # What the co-simulation needs from the scenario and the options, before planning.
     hand.check_simulation(sc, time_step_s=time_step_s, implicit_loop_damping=not args.explicit,
                           feedforward=args.feedforward)

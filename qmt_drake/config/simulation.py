@@ -3,7 +3,7 @@
     simulation:
       plant:                      # fields of pydrake.multibody.plant.MultibodyPlantConfig, Drake's names
         time_step: 0.001          # [s]; the kind's default when left out (planar magnet 2 ms, 1 ms --explicit;
-                                  #   tray 0.5 ms; spatial 1 ms; seed 001 continuous)
+                                  #   tray 1 ms; spatial 1 ms; seed 001 continuous)
         discrete_contact_approximation: sap     # tamsi | sap | similar | lagged
         penetration_allowance: 0.001            # [m]
         stiction_tolerance: 0.0001              # [m/s]
