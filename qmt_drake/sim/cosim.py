@@ -21,7 +21,9 @@ hand parts and two drives), an energy-time one through energy/execute.build_exec
 Options: time_scale (replay time_scale times slower), record_path (a Meshcat HTML replay), time_step_s
 (the plant step [s]; None: the kind's default), feedforward and, for planar magnet arms,
 implicit_loop_damping; spatial: actuator ('ideal' or 'dc_motor'), export (export the named ports, for
-composition in user code; api.build_diagram sets it).
+composition in user code; api.build_diagram sets it). A run option given here overrides the scenario's
+`simulation:` section (config/simulation.py: Drake's plant and simulator settings), which overrides the
+kind's default (sim/sim_settings.py).
 """
 
 from __future__ import annotations
