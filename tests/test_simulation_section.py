@@ -21,13 +21,13 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.plan_files import load_plan
 from qmt_drake.plan_identity import energy_sections, identity, spatial_sections, transfer_sections
 from qmt_drake.planners import plan_with
-from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.planners.spatial_plan_io import write_spatial_plan
 from qmt_drake.scenario_data import load_scenario_data
 from qmt_drake.sim.cosim import build_cosim
 from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.tray.execute import build_tray_plan_cosim
 from tests.scenario_files import scenario_yaml
+from tests.spatial_fixtures import shipped_toppra
 
 SIMULATOR = {"integration_scheme": "runge_kutta2", "max_step_size": 0.002, "accuracy": 0.001,
              "use_error_control": False, "target_realtime_rate": 0.0, "publish_every_time_step": False}
@@ -50,12 +50,12 @@ def _plan_file(name, tmp_path):
     path = tmp_path / f"{name}.json"
     sc = load_scenario(name)
     if name == "ur5-suction-bins":
-        write_spatial_plan(sc, plan_toppra_spatial(sc, n_grid=200), path)
+        write_spatial_plan(sc, shipped_toppra(name, 400), path)  # once per session, shared with test_obstacles
     elif name == "ohsaka-fig2":
         P = sc.problem(m=3)
         make_energy_plan(sc, P, "test", restore_endpoint(P, paper_initial_x(P, {}, sc.fixed_T_s)), True).write_json(path)
     else:
-        plan_with("thesis" if name == "thesis-ch4" else "toppra", sc).write_json(path)
+        plan_with("thesis", sc).write_json(path)
     return path
 
 
