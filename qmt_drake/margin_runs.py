@@ -21,6 +21,7 @@ from qmt_drake.margin import ENERGY_NO_FLIP, criterion, energy_margin, expensive
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
 from qmt_drake.plan import ENERGY_PLAN_KIND, SPATIAL_PLAN_KIND
 from qmt_drake.planners.spatial_trajectory import TimeScaled
+from qmt_drake.sim.sim_settings import time_step_of
 
 APPROXIMATIONS = {"tamsi": DiscreteContactApproximation.kTamsi, "sap": DiscreteContactApproximation.kSap,
                   "similar": DiscreteContactApproximation.kSimilar, "lagged": DiscreteContactApproximation.kLagged}
@@ -104,7 +105,8 @@ def with_margin(scenario, plan, summary: dict, *, expensive: bool = False, time_
         return summary
     if kind == SPATIAL_PLAN_KIND:
         run = spatial_run(scenario, plan.trajectory, **(spatial_kw or {}))
-        h = (spatial_kw or {}).get("time_step_s") or spatial_cosim.TIME_STEP_S
+        # the step the run used (the run's option, else the scenario's simulation section, else 1 ms)
+        h = spatial_cosim.spatial_time_step(scenario, (spatial_kw or {}).get("time_step_s"))
     else:
         run, h = transfer_run(scenario, plan, time_step_s=time_step_s, feedforward=feedforward), summary["time_step_s"]
     summary["margin"].update(expensive_margin(run, summary, h, time_scale=time_scale, progress=progress))
@@ -117,7 +119,7 @@ def search_half_step(sc, plan, *, feedforward: str = "full", time_step_s: float 
     hand's default): {'time_step_s', 'half_step_s', 'verdict_at_half_step' (the outcome),
     'slip_at_half_step' [m], 'flips_at_half_step'}. One run; nothing is re-chosen."""
     hand = hand_plugin(sc)
-    h = float(time_step_s or hand.replay_cost.default_step_s)
+    h = float(time_step_of(time_step_s, sc, hand.replay_cost.default_step_s))  # the search's own step
     r = hand.carried_check(sc, plan, feedforward=feedforward, time_step_s=0.5 * h)
     return {"time_step_s": h, "half_step_s": 0.5 * h, "verdict_at_half_step": r["outcome"],
             "slip_at_half_step": r["max_slip_m"], "flips_at_half_step": not r["held"]}
@@ -128,7 +130,7 @@ def spatial_half_step(sc, trajectory, *, actuator: str = "ideal", feedforward: s
     trajectory at half the spatial co-simulation's step; 'slip_at_half_step' is the tray hand's final
     slide [m] (None for a cup or magnet, whose weld does not slide: 'deciding_at_half_step' then holds
     the hand ratio against 1)."""
-    h = spatial_cosim.TIME_STEP_S
+    h = spatial_cosim.spatial_time_step(sc, None)  # the scenario's simulation section, else 1 ms
     r = spatial_run(sc, trajectory, actuator=actuator, feedforward=feedforward)(1.0, 0.5 * h)
     m = r["margin"]
     return {"time_step_s": h, "half_step_s": 0.5 * h, "verdict_at_half_step": r["outcome"],

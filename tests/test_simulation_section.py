@@ -228,3 +228,42 @@ def test_the_cli_runs_at_the_sections_step_and_time_step_ms_wins(tmp_path, capsy
     assert main(["simulate", tray, "--method", "toppra", "--quiet"]) == 2  # refused before planning
     assert "simulation.plant.time_step 0.002 s: the tray co-simulation's plant step must not exceed" \
         in capsys.readouterr().err
+
+
+def test_the_half_step_verdict_halves_the_step_the_run_used_not_the_kinds_default(monkeypatch):
+    """--margin's 'verdict at half the step' is at half of the section's step (else it would re-run the same
+    step and call the verdict step-independent)."""
+    import qmt_drake.margin_runs as margin_runs
+
+    steps = []
+
+    def fake_spatial_run(sc, trajectory, **kw):
+        def run(time_scale, time_step_s):
+            steps.append(time_step_s)
+            return {"outcome": "carried", "held": True, "margin": dict.fromkeys(("quantity", "value", "threshold",
+                                                                                  "ratio"))}
+        return run
+
+    monkeypatch.setattr(margin_runs, "spatial_run", fake_spatial_run)
+    sc = _with("ur5-suction-bins", plant={"time_step": 5e-4})
+    half = margin_runs.spatial_half_step(sc, trajectory=None)
+    assert (half["time_step_s"], half["half_step_s"], steps) == (5e-4, 2.5e-4, [2.5e-4])
+    assert margin_runs.spatial_half_step(load_scenario("ur5-suction-bins"), None)["half_step_s"] == 5e-4
+
+
+def test_the_transfer_searchs_half_step_is_half_the_sections_step(monkeypatch):
+    import qmt_drake.margin_runs as margin_runs
+
+    seen = []
+
+    class Hand:
+        replay_cost = type("Cost", (), {"default_step_s": 2e-3})
+
+        def carried_check(self, sc, plan, *, feedforward, time_step_s):
+            seen.append(time_step_s)
+            return {"outcome": "carried", "max_slip_m": 0.0, "held": True}
+
+    monkeypatch.setattr(margin_runs, "hand_plugin", lambda sc: Hand())
+    r = margin_runs.search_half_step(_with("thesis-ch4", plant={"time_step": 1e-3}), plan=None)
+    assert (r["time_step_s"], seen) == (1e-3, [5e-4])
+    assert margin_runs.search_half_step(load_scenario("thesis-ch4"), plan=None)["half_step_s"] == 1e-3
