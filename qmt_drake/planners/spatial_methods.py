@@ -171,7 +171,9 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
         res, kept = keep_clear(sc, problem, res, clearance_m, max_tilt_rad, tilt_samples)
         info["trajopt_clearance"] = kept
     if not (res.success or info.get("trajopt_clearance", {}).get("used")):
-        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}); "
+        rounds = info.get("trajopt_clearance", {}).get("rounds")
+        also = f", nor with the clearance ({rounds[-1]['result']})" if rounds else ""
+        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}{also}); "
                             "give it more control points or relax a limit")
     traj = PolyTrajectory(res.trajectory)
     return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,

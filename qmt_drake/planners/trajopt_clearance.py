@@ -46,7 +46,8 @@ from qmt_drake.planners.spatial_trajectory import PolyTrajectory
 SAMPLES = 80  # MinimumDistanceLowerBoundConstraint's uniform path fractions
 REFINE_ROUNDS = 2
 REFINE_POINTS = 5  # fractions added around a certified minimum below bound / 2, 1 / (4 SAMPLES) apart
-MAJOR_ITERATIONS = 150  # SNOPT's major iterations (~30 s on the deep totes' collision-free path)
+MAJOR_ITERATIONS = 150  # SNOPT's major iterations, and its minor (QP) iterations in all: a deterministic bound
+MINOR_ITERATIONS = 20000  # on the time (a stalled solve took 530 s without the second)
 FEASIBILITY_TOL = 1e-8  # SNOPT's major feasibility tolerance (the plain program's 1e-10 stalls on distances)
 INFLUENCE_M = 0.01  # pairs within bound + this enter the constraint (Drake's default)
 FIT_POINTS = 400  # the seed's least-squares fit of the control points to the path
@@ -91,7 +92,7 @@ def clear_problem(sc, p: trajopt_core.TrajoptProblem, bound_m: float, max_tilt_r
     else:
         guess, duration = start
     opts = {**p.snopt_options, "Major feasibility tolerance": FEASIBILITY_TOL, "Major iterations limit": MAJOR_ITERATIONS,
-            "Iterations limit": 10 ** 7}
+            "Iterations limit": MINOR_ITERATIONS}
     return trajopt_core.TrajoptProblem(
         p.path_rad, p.fractions, p.lower_rad, p.upper_rad, p.control_points, p.duration_bounds_s, guess,
         initial_duration_s=duration, rest_derivatives=p.rest_derivatives, velocity_limit=p.velocity_limit,
