@@ -24,7 +24,9 @@
   limit); SNOPT with a 1e-10 feasibility tolerance. Torque and suction are not in its program
   (nonlinear in the spline's control points), so the result is time-scaled uniformly (scale_to_hold)
   until their re-check holds. The program is the one trajopt's (planners/trajopt_core.py; this is its
-  spatial adapter, the planar one planners/baselines/trajopt_plan.py).
+  spatial adapter, the planar one planners/baselines/trajopt_plan.py). In a cell (sc.obstacles), where the
+  result's certified clearance is below half of `clearance_m`, the program is solved again with Drake's
+  MinimumDistanceLowerBoundConstraint (planners/trajopt_clearance.py).
 
 Every planner returns a SpatialPlan (planners/spatial_plan_io: a plan.Plan of the spatial kind).
 Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
