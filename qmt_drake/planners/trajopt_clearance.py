@@ -20,8 +20,8 @@ was (`first`, a trajopt_core.TrajoptResult):
    normal kept within max_tilt_rad of THAT path's normal (Drake's forward kinematics at each tilt
    sample; the plain program's slerp between the path points is not a normal the clear path has: the
    collision-free path's straight joint edges tilt the hand up to 0.13 rad from it, and the two
-   constraints together left SNOPT no feasible point). SNOPT stops at MAJOR_ITERATIONS (deterministic
-   bound on the time); a point that meets every constraint (trajopt_core.INFEASIBLE_TOL) is accepted
+   constraints together left SNOPT no feasible point). SNOPT stops at MAJOR_ITERATIONS and MINOR_ITERATIONS
+   (a deterministic bound on the time); a point that meets every constraint (trajopt_core.INFEASIBLE_TOL) is accepted
    then, reported as not proven minimal.
 4. Certified again; where the lower bound is below bound_m / 2, constraint samples are added around the
    smallest (REFINE_POINTS at spacing 1 / (4 SAMPLES)) and the program solved again from the last point,
