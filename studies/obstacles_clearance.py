@@ -3,6 +3,7 @@ obstacles against without (docs/obstacles.md).
 
     cd <checkout> && PYTHONPATH=. .venv/bin/python -m studies.obstacles_clearance [--out out]
         [--ga-generations 30] [--no-cosim] [--kto] [--collision-free [poses] [ends]]
+    ... -m studies.obstacles_clearance --avoid-check SEED [--avoid-through poses|ends]   (avoid_check only)
 
 Cells: ur5-suction-bins (its shipped totes), the same task in docs/examples/ur5-deep-totes.yaml (totes 4 cm
 deeper than the task's lift clears) and panda-tray-cup (its table). The planners do not see obstacles, so
@@ -127,6 +128,34 @@ def collision_free_rows(cell, name: str, ga_generations: int, through: str) -> t
             print(f"  {name} {m} on the collision-free path: no plan ({exc})", flush=True)
     note = " (collision-free path)" if through == "poses" else " (collision-free, ends only)"
     return [(_row(name, p, note, cell), p) for p in plans.values()], facts, plans
+
+
+def avoid_check(seed: int, through: str = "poses", methods=("toppra", "trajopt")) -> list:
+    """--avoid-check: `plan docs/examples/ur5-deep-totes.yaml --avoid [through] --avoid-seed SEED` by each method
+    (its planning wall time), each row's clearance certified as in --collision-free, and each plan co-simulated
+    in the cell (ideal actuators): the outcome and a touch (docs/obstacles.md, trajopt that keeps the clearance)."""
+    cell = load_spatial_scenario(DEEP_TOTES)
+    free, facts = collision_free_scenario(cell, seed=seed, through=through)
+    rows = []
+    for m in methods:
+        t0 = time.perf_counter()
+        try:
+            p = PLANNERS[m](free)
+        except QmtNoPlanError as exc:
+            print(f"| ur5-deep-totes | {m} (collision-free path, seed {seed}, {through}) | no plan: {exc} |", flush=True)
+            rows.append({"method": m, "no_plan": str(exc), "planning_wall_s": time.perf_counter() - t0})
+            continue
+        wall = time.perf_counter() - t0
+        row = _row("ur5-deep-totes", p, f" (collision-free path, seed {seed}, {through})", cell)
+        r = simulate_spatial(free, p.trajectory)
+        row.update(planning_wall_s=wall, outcome=r["outcome"], collided_at_s=r.get("collided_at_s"),
+                   trajopt_clearance=p.extra.get("trajopt_clearance"))
+        c = row["certified"]
+        print(f"| ur5-deep-totes | {row['method']} | {p.duration_s:.4f} | {p.recheck['max']:.5f} | "
+              f"{row['clearance_m']:+.4f} | {c['clearance_m']:+.4f} [{c['clearance_lower_bound_m']:+.4f}] | "
+              f"{'yes' if p.feasible else 'NO'} | {wall:.1f} | {r['outcome']} |", flush=True)
+        rows.append(row)
+    return rows
 
 
 def _raised(path: Path, dz: float, tmp: Path) -> Path:
@@ -301,8 +330,19 @@ def main(argv=None) -> None:
                     help="also every planner on the collision-free path (planners/collision_free.py) through the "
                          "task's poses and/or its ends in every cell (no value: both), and every row's clearance "
                          "certified at 10x the re-check rate")
+    ap.add_argument("--avoid-check", type=int, default=None, metavar="SEED",
+                    help="only: toppra and trajopt on the deep totes' --avoid path of this seed (avoid_check)")
+    ap.add_argument("--avoid-through", choices=("poses", "ends"), default="poses")
     a = ap.parse_args(argv)
     check_output_dir(a.out, "--out")
+    if a.avoid_check is not None:
+        print("| cell | method | T (s) | re-check max ratio | clearance (m) | certified at 10x [lower bound] (m) | "
+              "feasible | planning (s) | co-simulated |")
+        rows = avoid_check(a.avoid_check, a.avoid_through)
+        out = Path(a.out) / "obstacles"
+        out.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(out / f"avoid_check_{a.avoid_through}_{a.avoid_check}.json", json.dumps(jsonable(rows), indent=1))
+        return
     free = () if a.collision_free is None else tuple(a.collision_free or ("poses", "ends"))
     res = run(a.ga_generations, not a.no_cosim, a.kto, free)
     text = tables(res)

@@ -139,6 +139,7 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
         check_int(args.avoid_seed, "--avoid-seed", 0, "seeds are non-negative integers")
         sc, avoided = collision_free_scenario(sc, margin_m=args.avoid_margin, seed=args.avoid_seed,
                                               tries=args.avoid_tries, through=args.avoid)
+        opts = {"clearance_m": args.avoid_margin, **opts} if method == "trajopt" else opts  # trajopt keeps that margin
     actuator, feedforward = carried_drive(args)
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         check_drive(sc, actuator, feedforward)

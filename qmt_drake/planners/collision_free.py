@@ -7,7 +7,9 @@ times, and certified clear between its samples; then any planner and family time
 
 1. RRT-Connect (Kuffner and LaValle 2000) from each task pose's joints to the next's (through="poses", the
    default: the task's lifts kept) or from the first to the last only ("ends": the inner poses dropped), in the box of
-   the task path's joint values padded by BOX_PAD_RAD (inside the URDF ranges). A configuration is valid
+   the task path's joint values padded by BOX_PAD_RAD (inside the URDF ranges) first; a leg it does not join
+   within MAX_NODES iterations is planned again in the whole joint ranges (the same generator carried on:
+   deterministic given the seed; a detour wider than the pad, e.g. round a tall wall). A configuration is valid
    when Drake's signed distance of the arm's and the part's shapes from the obstacles
    (limits/clearance.CollisionModel) is at least margin_m and the hand's face normal is within
    max_tilt_rad of one of the task path's normals (a suction cup, a magnet and a tray are held near
@@ -129,8 +131,9 @@ def _trace(tree, parent, k) -> list:
     return out
 
 
-def rrt_connect(chk, qa, qb, rng, box) -> list:
-    """Joint-space RRT-Connect from qa to qb ((K, n) path incl. both), sampling uniformly in box (lo, hi)."""
+def rrt_connect(chk, qa, qb, rng, box, where: str = "") -> list:
+    """Joint-space RRT-Connect from qa to qb ((K, n) path incl. both), sampling uniformly in box (lo, hi);
+    QmtNoPlanError after MAX_NODES iterations (`where` says which boxes were tried)."""
     if chk.edge(qa, qb):
         return [qa, qb]
     trees = ([qa], [-1], [qb], [-1])
@@ -150,7 +153,20 @@ def rrt_connect(chk, qa, qb, rng, box) -> list:
                 return path if np.array_equal(path[0], qa) else path[::-1]
         a_tree, a_par, b_tree, b_par = b_tree, b_par, a_tree, a_par
     raise QmtNoPlanError(f"collision-free path: RRT-Connect joined no path within {MAX_NODES} iterations "
-                         f"(margin {chk.margin * 1e3:.1f} mm); lower the margin or widen the tilt")
+                         f"(margin {chk.margin * 1e3:.1f} mm{where}); lower the margin or widen the tilt")
+
+
+def rrt_widening(chk, qa, qb, rng, boxes) -> tuple[list, int]:
+    """(path, index of the box it was found in): rrt_connect in each box of `boxes` in turn (the task's
+    box first, then the joint ranges), each with its own MAX_NODES budget, the same generator carried on
+    (deterministic given the seed; a leg the first box joins is the very path of a single try)."""
+    for k, box in enumerate(boxes[:-1]):
+        try:
+            return rrt_connect(chk, qa, qb, rng, box), k
+        except QmtNoPlanError:  # not joined within its budget: the next, wider box
+            pass
+    where = ", in the task's box, then in the joint ranges" if len(boxes) > 1 else ""
+    return rrt_connect(chk, qa, qb, rng, boxes[-1], where), len(boxes) - 1
 
 
 def shortcut(chk, path, rng, tries: int = SHORTCUT_TRIES) -> np.ndarray:
@@ -219,10 +235,11 @@ def smooth(chk, V, margin_m: float, max_tilt_rad: float) -> dict:
 
 
 def collision_free_path(sc, *, margin_m: float = MARGIN_M, seed: int = 0, max_tilt_rad: float = MAX_TILT_RAD,
-                        box_pad_rad: float = BOX_PAD_RAD, through: str = "poses") -> dict:
+                        box_pad_rad: float = BOX_PAD_RAD, through: str = "poses", widen: bool = True) -> dict:
     """The certified collision-free path from the first to the last task pose (module docstring): Q (K, n)
     waypoints of the smoothed spline, vertex_index, vertices (the shortcut's), certificate
-    (certified_clearance of the spline in its chord length), counts."""
+    (certified_clearance of the spline in its chord length), counts, widened_legs (the legs joined only in
+    the joint ranges: module docstring, step 1; widen=False: the task's box only)."""
     if not sc.obstacles:
         raise QmtInputError(f"scenario {sc.name} has no world.obstacles: nothing to avoid; drop the collision-free "
                             "path option or describe the cell (docs/obstacles.md)")
@@ -241,14 +258,18 @@ def collision_free_path(sc, *, margin_m: float = MARGIN_M, seed: int = 0, max_ti
     rng = np.random.default_rng(seed)
     Qp = np.asarray(sc.q_path_rad, float)
     box = (np.maximum(Qp.min(axis=0) - box_pad_rad, chk.lo), np.minimum(Qp.max(axis=0) + box_pad_rad, chk.hi))
-    V, n_raw = [Qs[stops[0]]], 0
-    for a, b in zip(stops[:-1], stops[1:]):  # one RRT-Connect and shortcut per leg between stops
-        raw = rrt_connect(chk, Qs[a], Qs[b], rng, box)
+    boxes = [box] + ([(chk.lo, chk.hi)] if widen and not (np.array_equal(box[0], chk.lo)
+                                                          and np.array_equal(box[1], chk.hi)) else [])
+    V, n_raw, widened = [Qs[stops[0]]], 0, []
+    for leg, (a, b) in enumerate(zip(stops[:-1], stops[1:])):  # one RRT-Connect and shortcut per leg between stops
+        raw, k = rrt_widening(chk, Qs[a], Qs[b], rng, boxes)
+        if k:
+            widened.append(leg)
         V += list(shortcut(chk, raw, rng)[1:])
         n_raw += len(raw) - 1
     out = smooth(chk, np.array(V), margin_m, max_tilt_rad)
     return {**out, "rrt_waypoints": n_raw + 1, "checks": chk.checks, "margin_m": margin_m, "seed": seed,
-            "through": through}
+            "through": through, "widened_legs": widened}
 
 
 def toppra_time_s(sc, pp) -> float:

@@ -24,7 +24,9 @@
   limit); SNOPT with a 1e-10 feasibility tolerance. Torque and suction are not in its program
   (nonlinear in the spline's control points), so the result is time-scaled uniformly (scale_to_hold)
   until their re-check holds. The program is the one trajopt's (planners/trajopt_core.py; this is its
-  spatial adapter, the planar one planners/baselines/trajopt_plan.py).
+  spatial adapter, the planar one planners/baselines/trajopt_plan.py). In a cell (sc.obstacles), where the
+  result's certified clearance is below half of `clearance_m`, the program is solved again with Drake's
+  MinimumDistanceLowerBoundConstraint (planners/trajopt_clearance.py).
 
 Every planner returns a SpatialPlan (planners/spatial_plan_io: a plan.Plan of the spatial kind).
 Every method's result is passed through spatial_trajectory.scale_to_hold at the re-check rate (10x
@@ -43,6 +45,7 @@ from qmt_drake.errors import QmtInputError, QmtNoPlanError
 from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.model.spatial_ik import slerp_unit
 from qmt_drake.planners import registry, trajopt_core
+from qmt_drake.planners.collision_free import MARGIN_M
 from qmt_drake.planners.registry import SPATIAL
 from qmt_drake.planners.spatial_families import spatial_family, via_cubic
 from qmt_drake.planners.spatial_plan_io import SpatialPlan
@@ -63,6 +66,7 @@ from qmt_drake.planners.spatial_trajectory import (
     ToppraTrajectory,
     check,
 )
+from qmt_drake.planners.trajopt_clearance import keep_clear
 
 METHODS = registry.names(SPATIAL)  # the registry's spatial rows: toppra, ruckig, family_optimum, ga, trajopt
 FAMILY_METHODS = ("toppra", "family_optimum", "ga")  # the planners that take a `family` (spatial_families)
@@ -137,8 +141,12 @@ def plan_ruckig_spatial(sc) -> SpatialPlan:
 
 
 def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, max_tilt_rad: float = 0.02,
-                         tilt_samples: int = 40) -> SpatialPlan:
+                         tilt_samples: int = 40, clearance_m: float = MARGIN_M) -> SpatialPlan:
+    """trajopt (module docstring); in a cell (sc.obstacles) the result keeps clearance_m from the obstacles
+    where the plain program does not clear (planners/trajopt_clearance.keep_clear; 0: the plain program only)."""
     t0 = time.perf_counter()
+    if not (np.isfinite(clearance_m) and clearance_m >= 0.0):
+        raise QmtInputError(f"trajopt clearance_m {clearance_m!r} must be a distance >= 0 in m (0: no clearance constraint)")
     Q, n = sc.q_path_rad, sc.n_dof
     if point_fractions is None:
         d = np.linalg.norm(np.diff(Q, axis=0), axis=1)
@@ -156,16 +164,22 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
                 for sk in np.linspace(0.0, 1.0, tilt_samples)]
     u = np.linspace(0.0, 1.0, control_points)
     guess = np.array([[np.interp(x, s, Q[:, j]) for j in range(n)] for x in u])
-    res = trajopt_core.solve(trajopt_core.TrajoptProblem(
+    problem = trajopt_core.TrajoptProblem(
         Q, s, lower, upper, control_points, (0.05, 60.0), guess, rest_derivatives=2,
         velocity_limit=sc.velocity_limit_rad_s, acceleration_limit=sc.acceleration_limit_rad_s2,
-        jerk_limit=sc.jerk_limit_rad_s3, path_constraints=tilt, snopt_options={"Major feasibility tolerance": 1e-10}))
-    if not res.success:
-        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}); "
+        jerk_limit=sc.jerk_limit_rad_s3, path_constraints=tilt, snopt_options={"Major feasibility tolerance": 1e-10})
+    res, info = trajopt_core.solve(problem), {}
+    if sc.obstacles and clearance_m > 0.0:  # the clearance as a constraint where the plain program does not keep it
+        res, kept = keep_clear(sc, problem, res, clearance_m, max_tilt_rad, tilt_samples)
+        info["trajopt_clearance"] = kept
+    if not (res.success or info.get("trajopt_clearance", {}).get("used")):
+        rounds = info.get("trajopt_clearance", {}).get("rounds")
+        also = f", nor with the clearance ({rounds[-1]['result']})" if rounds else ""
+        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}{also}); "
                             "give it more control points or relax a limit")
     traj = PolyTrajectory(res.trajectory)
     return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
-                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s})
+                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s, **info})
 
 
 def _normal_at(sc, fractions, x: float) -> np.ndarray:

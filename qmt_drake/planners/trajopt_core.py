@@ -34,6 +34,7 @@ from pydrake.trajectories import BsplineTrajectory
 
 ORDER = 4  # cubic B-splines
 FD_STEP = 1e-6  # central-difference step of LimitRows (relative to max(1, |x|))
+INFEASIBLE_TOL = 1e-6  # an unsuccessful solve names the constraints its point breaks by more than this
 
 
 def basis_weights(basis, s: float, order: int = 2):
@@ -113,6 +114,7 @@ class TrajoptResult:
     trajectory: object  # the BsplineTrajectory in time (ReconstructTrajectory)
     basis: object
     samples: dict  # {rows name: path fractions}
+    infeasible_constraints: list | None = None  # not success: the constraints the returned point breaks (tol 1e-6)
 
 
 def _fractions(samples, basis) -> np.ndarray:
@@ -229,6 +231,8 @@ def solve(p: TrajoptProblem) -> TrajoptResult:
     t0 = time.perf_counter()
     result = solver.Solve(prog, None, opts)
     wall = time.perf_counter() - t0
-    return TrajoptResult(bool(result.is_success()), str(result.get_solution_result()),
+    ok = bool(result.is_success())
+    return TrajoptResult(ok, str(result.get_solution_result()),
                          int(result.get_solver_details().info), float(result.GetSolution(Tvar)), wall,
-                         to.ReconstructTrajectory(result), basis, used)
+                         to.ReconstructTrajectory(result), basis, used,
+                         None if ok else list(result.GetInfeasibleConstraintNames(prog, INFEASIBLE_TOL)))
