@@ -426,7 +426,7 @@ def test_every_variant_probes_what_its_old_loop_probed(kind, param):
         if kind == "noise" or param > 1.0:  # the old growth never ends if nothing above 1 holds
             h0, p0 = _recorder(kind, param)
             h1, p1 = _recorder(kind, param)
-            assert old_time_optimal(lambda k: 0.0 if h0(k) else 2.0, raw) == energy_slowdown(h1, raw).holding
+            assert old_time_optimal(lambda k, h0=h0: 0.0 if h0(k) else 2.0, raw) == energy_slowdown(h1, raw).holding
             _same(p0, p1)
     for k_max, its, planned in ((2.5, 7, True), (2.5, 7, False), (1.2, 3, True)):  # spatial --carried
         h0, p0 = _recorder(kind, param)
