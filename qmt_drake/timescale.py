@@ -12,13 +12,14 @@ whose published numbers depend on them (each caller's probed sequence is kept to
 - ends: probe the bracket's ends first, in the order given (("lo", "hi"): the planned scale first,
   ("hi", "lo"): first whether the slowest holds at all); a fast end that holds ends the search there,
   a slow end that fails ends it with nothing holding;
-- grow: no bracket yet, only a start with a known verdict (`Grow`): step from it by a factor until
-  the verdict flips (toward holding from a failing start, away from it from a holding one).
+- grow: no bracket yet, only a start with a known verdict (`Grow`): step from it by a factor (or a
+  table of factors from the start) until the verdict flips (toward holding from a failing start,
+  away from it from a holding one).
 
 Used by the planar baselines' re-check (planners/baselines/finish.py), Ruckig's limit scale
 (ruckig_plan.py), the energy-time TOPP-RA end (energy/time_optimal.py), the spatial --hold / jerk /
 scale_to_hold (`smallest_holding_scale`), and every "slow until carried" (planners/spatial_carried.py,
-sweep/robust.py). `bisect_batch` is the same bisection for many plans at once, with the Illinois
+sweep/robust.py), the flip of a run's verdict (margin.py). `bisect_batch` is the same bisection for many plans at once, with the Illinois
 regula falsi as a further midpoint (planners/spatial_tight.py).
 """
 
@@ -36,12 +37,14 @@ MIDPOINTS = ("arithmetic", "geometric")
 @dataclass(frozen=True)
 class Grow:
     """The bracketing phase: from `start` (its verdict `start_holds`; None: probe it), probe
-    `first` (default start x factor), then keep multiplying by `factor` until the verdict flips.
+    `first` (default start x factor), then keep multiplying by `factor` until the verdict flips;
+    or (`table`) probe start x f for each f in turn (start / f where holding lies below).
     limit: no step from a point at or beyond it (x >= limit when factor > 1, x <= limit when < 1),
     a step is clipped to it when `clip`; tries: at most this many probes in this phase; follow: the
     kept end moves to each probe whose verdict is the start's (else it stays at start)."""
     start: float
-    factor: float
+    factor: float = 0.0
+    table: tuple[float, ...] = ()
     start_holds: bool | None = False
     first: float | None = None
     limit: float | None = None
@@ -104,13 +107,17 @@ def search_scale(holds: Callable[[float], bool], lo: float | None = None, hi: fl
             return result(lo, hi, "no_hold", None)
     if grow is not None:
         g = grow
-        kept, up = g.start, g.factor > 1.0
+        kept = g.start
         kept_holds = probe(kept) if g.start_holds is None else g.start_holds
+        up = kept_holds != (safe == "above") if g.table else g.factor > 1.0
+        tries = len(g.table) if g.table and g.tries is None else g.tries
         x, tried = kept, 0
         while True:
-            if g.tries is not None and tried >= g.tries or max_probes is not None and n >= max_probes:
+            if tries is not None and tried >= tries or max_probes is not None and n >= max_probes:
                 return result(min(kept, x), max(kept, x), "exhausted", kept if kept_holds else None)
-            if tried == 0 and g.first is not None:
+            if g.table:
+                x = g.start * g.table[tried] if up else g.start / g.table[tried]
+            elif tried == 0 and g.first is not None:
                 x = g.first
             else:
                 if g.limit is not None and (x >= g.limit if up else x <= g.limit):

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from qmt_drake.energy.time_optimal import slowdown_search as energy_slowdown
+from qmt_drake.margin import OUTWARD_FACTORS, flip_search
 from qmt_drake.planners.baselines.finish import slowdown_search as planar_slowdown
 from qmt_drake.planners.baselines.ruckig_plan import _largest_scale
 from qmt_drake.planners.spatial_carried import carried_bisection
@@ -86,11 +87,7 @@ ALLOWED = {
     "planners/spatial_families.py": "bisection in time t for u(t) = a path knot (not a scale)",
     "planners/optimum.py": "tight_scale: a batched bisection in log lam over a GA population (40 halvings); "
                            "not routed this session (file outside the s15 slow list)",
-    "planners/spatial_methods.py": "ruckig_segments: Ruckig's limit factor c per segment; file owned by "
-                                   "another helper this session",
     "sweep/certify.py": "certify_time_scale: sequential-test search; sweep/* owned by another helper this session",
-    "margin.py": "flip_time_scale: the verdict's flip around a run, outward by a table of factors then geometric; "
-                 "not routed this session (file outside the s15 slow list)",
 }
 
 
@@ -368,6 +365,38 @@ def old_jerk(record, T_of, lo, hi, rel_tol):
     return best_J, (hi if best_J < hi else None)
 
 
+def old_spatial_ruckig(ok, iterations):
+    lo, hi = 0.0, 1.0
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo, hi
+
+
+def old_flip(probe, time_scale, held0, tolerance, max_runs):
+    points = []
+
+    def counted(s):
+        points.append(s)
+        return probe(s)
+    same, other = time_scale, None
+    for f in OUTWARD_FACTORS:
+        if len(points) >= max_runs:
+            break
+        s = time_scale / f if held0 else time_scale * f
+        if counted(s) != held0:
+            other = s
+            break
+        same = s
+    while other is not None and max(same, other) / min(same, other) - 1 > tolerance and len(points) < max_runs:
+        mid = math.sqrt(same * other)
+        if counted(mid) == held0:
+            same = mid
+        else:
+            other = mid
+    return same, other
+
+
 def old_illinois(g, lo, hi, g_lo, g_hi, rel_tol, max_steps):
     kept = np.zeros(len(lo), dtype=int)
     for _ in range(max_steps):
@@ -444,6 +473,32 @@ def test_every_variant_probes_what_its_old_loop_probed(kind, param):
         best, lost = old_scale(h0, s_max, tol)
         r = scale_bisection(h1, s_max, tol)
         assert best == r.holding and lost == (r.lo if r.holding is not None and r.holding > r.lo else None)
+        _same(p0, p1)
+
+
+@pytest.mark.parametrize("kind,param", _predicates())
+def test_the_spatial_ruckig_factor_probes_what_its_old_loop_probed(kind, param):
+    """planners/spatial_methods.ruckig_segments: the largest factor c in (0, 1] of Ruckig's limits, 14 halvings."""
+    h0, p0 = _recorder(kind, param, safe="below")
+    h1, p1 = _recorder(kind, param, safe="below")
+    lo, hi = old_spatial_ruckig(h0, 14)
+    r = search_scale(h1, 0.0, 1.0, safe="below", steps=14)
+    assert (lo, hi) == (r.lo, r.hi) and r.holding == lo
+    _same(p0, p1)
+
+
+@pytest.mark.parametrize("kind,param", _predicates())
+def test_the_margin_flip_probes_what_its_old_loop_probed(kind, param):
+    """margin.flip_time_scale: outward from the run's scale by OUTWARD_FACTORS, then geometric, max_runs in all."""
+    for ts, tol, runs in ((1.0, 0.01, 12), (1.3, 0.001, 30), (0.8, 0.01, 2), (1.0, 0.5, 1)):
+        h = _recorder(kind, param)[0]
+        held0 = bool(h(ts))
+        h0, p0 = _recorder(kind, param)
+        h1, p1 = _recorder(kind, param)
+        same, other = old_flip(h0, ts, held0, tol, runs)
+        r = flip_search(h1, ts, held0, tol, runs)
+        new_same, new_other = (r.hi, r.lo) if held0 else (r.lo, r.hi)
+        assert (same, other) == (new_same, None if r.status == "exhausted" else new_other)
         _same(p0, p1)
 
 
