@@ -17,7 +17,7 @@ whose published numbers depend on them (each caller's probed sequence is kept to
   away from it from a holding one).
 
 Used by the planar baselines' re-check (planners/baselines/finish.py), Ruckig's limit scale
-(ruckig_plan.py), the energy-time TOPP-RA end (energy/time_optimal.py), the spatial --hold / jerk /
+(ruckig_plan.py; spatial: planners/spatial_methods.ruckig_segments), the energy-time TOPP-RA end (energy/time_optimal.py), the spatial --hold / jerk /
 scale_to_hold (`smallest_holding_scale`), and every "slow until carried" (planners/spatial_carried.py,
 sweep/robust.py), the flip of a run's verdict (margin.py). `bisect_batch` is the same bisection for many plans at once, with the Illinois
 regula falsi as a further midpoint (planners/spatial_tight.py).
