@@ -42,6 +42,7 @@ from collections.abc import Callable
 
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
+from qmt_drake.timescale import Grow, search_scale
 
 FLIP_TOLERANCE = 0.005  # relative width of the final bracket of the flip scale (0.5 %)
 FLIP_MAX_RUNS = 12
@@ -126,21 +127,10 @@ def flip_time_scale(run: Callable[[float, float | None], dict], summary: dict, *
         say(f"margin: run {len(points)} of at most {max_runs}: time scale {s:.5g}: {r['outcome']}")
         return bool(r["held"])
 
-    same, other = time_scale, None
-    for f in OUTWARD_FACTORS:
-        if len(points) >= max_runs:
-            break
-        s = time_scale / f if held0 else time_scale * f
-        if probe(s) != held0:
-            other = s
-            break
-        same = s
-    while other is not None and max(same, other) / min(same, other) - 1 > tolerance and len(points) < max_runs:
-        mid = math.sqrt(same * other)
-        if probe(mid) == held0:
-            same = mid
-        else:
-            other = mid
+    found = flip_search(probe, time_scale, held0, tolerance, max_runs)
+    same, other = (found.hi, found.lo) if held0 else (found.lo, found.hi)  # same: the run's verdict
+    if found.status == "exhausted":
+        other = None
     if other is None:
         return {"flip_time_scale": None, "carried_at": same if held0 else None, "lost_at": None if held0 else same,
                 "relative_to_run": None, "bracket_relative_width": None, "converged": False, "tolerance": tolerance,
@@ -152,6 +142,14 @@ def flip_time_scale(run: Callable[[float, float | None], dict], summary: dict, *
             "relative_to_run": flip / time_scale - 1.0, "bracket_relative_width": width,
             "converged": width <= tolerance, "tolerance": tolerance, "runs": len(points), "max_runs": max_runs,
             "points": points}
+
+
+def flip_search(held, time_scale: float, held0: bool, tolerance: float, max_runs: int):
+    """The margin's variant of the one search (timescale.search_scale, carried above, lost below): from the
+    run's scale outward by OUTWARD_FACTORS (faster when carried, slower when lost) until the verdict flips,
+    then geometric bisection to `tolerance`; max_runs runs in all."""
+    return search_scale(held, midpoint="geometric", rel_tol=tolerance, max_probes=max_runs,
+                        grow=Grow(start=time_scale, start_holds=held0, table=OUTWARD_FACTORS))
 
 
 def half_step_verdict(run: Callable[[float, float | None], dict], summary: dict, time_step_s: float, *,

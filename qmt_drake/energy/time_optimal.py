@@ -12,7 +12,7 @@ Solved by the one TOPP-RA (planners/toppra_core.parameterise) with toppra's cons
 output. The result is checked by sampling (default 20001 points, also between toppra's gridpoints): its
 peak |tau_i| / tau_max,i is reported as it is; when it is above 1 (toppra enforces the limits at
 its gridpoints only), the motion is played slower by the smallest factor that brings it to <= 1
-(bisection: with gravity the ratio is not a pure lam^-2 law) and both are reported.
+(`slowdown_search`, a bisection: with gravity the ratio is not a pure lam^-2 law) and both are reported.
 
 Units: s, N m, N^2 m^2 s.
 """
@@ -28,6 +28,7 @@ from qmt_drake.energy.dynamics import inverse_dynamics_with_gravity
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.toppra_form import rows_constraint
 from qmt_drake.planners.toppra_core import parameterise, toppra_path
+from qmt_drake.timescale import Grow, search_scale
 
 
 @dataclass
@@ -66,6 +67,12 @@ def _torques(arm, traj, t, lam: float = 1.0):
     return inverse_dynamics_with_gravity(q, qd, qdd, arm, derivatives=False)
 
 
+def slowdown_search(holds, raw_peak: float):
+    """Seed 001's variant of the one search (timescale.search_scale): 1 fails; from sqrt(raw_peak) up by
+    1 % until it holds, then 40 arithmetic bisection steps from [1, that]."""
+    return search_scale(holds, steps=40, grow=Grow(start=1.0, factor=1.01, first=np.sqrt(raw_peak), follow=False))
+
+
 def time_optimal_on_path(problem, x, torque_limit_Nm, grid_points: int = 400,
                          check_samples: int = 20001) -> TimeOptimalResult:
     """TOPP-RA on the path of the Fourier trajectory x of `problem` (module docstring)."""
@@ -100,13 +107,7 @@ def time_optimal_on_path(problem, x, torque_limit_Nm, grid_points: int = 400,
     raw_peak, t, tau = peak(1.0)
     lam = 1.0
     if raw_peak > 1.0:
-        lo, hi = 1.0, np.sqrt(raw_peak)
-        while peak(hi)[0] > 1.0:
-            hi *= 1.01
-        for _ in range(40):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if peak(mid)[0] > 1.0 else (lo, mid)
-        lam = hi
+        lam = slowdown_search(lambda k: not peak(k)[0] > 1.0, raw_peak).holding
     p, t, tau = peak(lam)
     energy = float(np.trapezoid(np.sum(tau * tau, axis=1), t))
     return TimeOptimalResult(raw_T * lam, energy, p, raw_T, raw_peak, lam, code, wall,

@@ -3,7 +3,7 @@
 A plan resting on a limit (TOPP-RA's is time-optimal) leaves no margin for the closed loop's
 tracking error, so the co-simulation (sim/spatial_cosim) may lose the part that the planners'
 sampled check says is held. `carried_search` plays the plan k times slower (TimeScaled: positions,
-hence every task pose, unchanged) and bisects k in [1, k_max] for the smallest k whose
+hence every task pose, unchanged) and bisects k in [1, k_max] (timescale.search_scale, the co-simulation as its predicate) for the smallest k whose
 co-simulation carries the part; `carried_plan` turns its answer into a SpatialPlan (re-checked at
 the re-check rate, task poses checked again by Drake FK). Used by `qmt-drake plan SPATIAL --carried`
 and by studies/spatial_benchmark.py (one implementation).
@@ -18,6 +18,7 @@ from qmt_drake.margin_runs import spatial_half_step
 from qmt_drake.planners.spatial_plan_io import SpatialPlan, make_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.sim.spatial_cosim import simulate_spatial
+from qmt_drake.timescale import search_scale
 
 
 def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int = 7, try_planned: bool = True,
@@ -55,15 +56,15 @@ def carried_search(sc, plan: SpatialPlan, *, k_max: float = 2.5, iterations: int
                 **({"feedforward": feedforward} if actuator != "ideal" else {}),  # ideal: always full
                 "wall_s": time.perf_counter() - t0}
 
-    if try_planned and carried(1.0):
-        return done(1.0, None)
-    if not carried(float(k_max)):
-        return done(None, float(k_max))
-    lo, hi = 1.0, float(k_max)
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if carried(mid) else (mid, hi)
-    return done(hi, lo)
+    found = carried_bisection(carried, float(k_max), iterations, try_planned)
+    lost = {"end": None, "no_hold": found.hi}.get(found.status, found.lo)  # the largest k tried that was lost
+    return done(found.holding, lost)
+
+
+def carried_bisection(carried, k_max: float, iterations: int, try_planned: bool):
+    """The spatial variant of the one search (timescale.search_scale) with the co-simulation as predicate:
+    k = 1 first (if try_planned), then k_max, then `iterations` arithmetic bisection steps."""
+    return search_scale(carried, 1.0, k_max, steps=iterations, ends=("lo", "hi") if try_planned else ("hi",))
 
 
 def carried_plan(sc, plan: SpatialPlan, search: dict) -> SpatialPlan:

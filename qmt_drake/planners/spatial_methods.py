@@ -67,6 +67,7 @@ from qmt_drake.planners.spatial_trajectory import (
     check,
 )
 from qmt_drake.planners.trajopt_clearance import keep_clear
+from qmt_drake.timescale import search_scale
 
 METHODS = registry.names(SPATIAL)  # the registry's spatial rows: toppra, ruckig, family_optimum, ga, trajopt
 FAMILY_METHODS = ("toppra", "family_optimum", "ga")  # the planners that take a `family` (spatial_families)
@@ -119,11 +120,10 @@ def ruckig_segments(sc, *, rate_hz: float | None = None, iterations: int = 14):
     for i, (qa, qb) in enumerate(zip(sc.q_poses_rad[:-1], sc.q_poses_rad[1:])):
         seg, c = _ruckig(sc, qa, qb, 1.0), 1.0
         if check(sc, RuckigTrajectory([seg]), rate)["max"] > 1.0:
-            lo, hi = 0.0, 1.0
-            for _ in range(iterations):
-                mid = 0.5 * (lo + hi)
-                ok = check(sc, RuckigTrajectory([_ruckig(sc, qa, qb, mid)]), rate)["max"] <= 1.0
-                lo, hi = (mid, hi) if ok else (lo, mid)
+            def holds(c, qa=qa, qb=qb):
+                return check(sc, RuckigTrajectory([_ruckig(sc, qa, qb, c)]), rate)["max"] <= 1.0
+            found = search_scale(holds, 0.0, 1.0, safe="below", steps=iterations)  # the one search, on c
+            lo, hi = found.lo, found.hi
             if lo == 0.0:  # name the limit that binds at the slowest factor tried (hi)
                 r = check(sc, RuckigTrajectory([slowest := _ruckig(sc, qa, qb, hi)]), rate)
                 raise QmtNoPlanError(ruckig_refusal(sc, i, slowest, hi, r["binding"], r["max"]))

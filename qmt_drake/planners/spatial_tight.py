@@ -14,7 +14,7 @@ acceleration limits are rows of the same kind. k_rows = 1 / min_r v_r is then ex
 where the rows are the term's limit (the suction polyhedron, joint torques). Where they are polygons
 inside its circles (the tray's friction cone and base circle, the magnet's moment circle) the terms'
 ratio columns hold at k_rows with room to spare; k is then bisected on the columns themselves between
-k_rows and the joint limits' own scale. `tight_scales` does this for many trajectories at
+k_rows and the joint limits' own scale (timescale.bisect_batch: the Illinois regula falsi, in v = 1/k). `tight_scales` does this for many trajectories at
 `samples` points each: the scale at which their largest ratio is 1 on those samples, where
 spatial_trajectory.scale_to_hold bisects with a full check per step.
 """
@@ -26,6 +26,7 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.base import RowOptions
 from qmt_drake.model.spatial_chain import HandSample
+from qmt_drake.timescale import bisect_batch
 
 # samples per motion: about the planners' check rate (200 Hz) over a 2.4 s transfer; the plans are
 # then re-checked and held at the re-check rate (10x) like every spatial plan
@@ -68,28 +69,6 @@ def _column_max(sc, terms, parts, QD, QDD, v, which, samples: int):
     for term in terms:
         worst = np.maximum(worst, np.max(term.columns(state), axis=1))
     return worst.reshape(len(which), samples).max(axis=1)
-
-
-def _illinois(g, lo, hi, g_lo, g_hi):
-    """Root of g (vectorised, increasing through 0) bracketed by lo (g_lo <= 0) and hi (g_hi > 0):
-    regula falsi with the Illinois halving; returns the feasible end lo once hi / lo - 1 <= TIGHT_REL_TOL."""
-    kept = np.zeros(len(lo), dtype=int)  # +1: lo kept last step, -1: hi kept
-    for _ in range(TIGHT_MAX_STEPS):
-        open_ = hi > lo * (1.0 + TIGHT_REL_TOL)
-        if not np.any(open_):
-            break
-        i = np.flatnonzero(open_)
-        m = (lo[i] * g_hi[i] - hi[i] * g_lo[i]) / (g_hi[i] - g_lo[i])
-        inside = (m > lo[i]) & (m < hi[i])
-        m = np.where(inside, m, 0.5 * (lo[i] + hi[i]))
-        gm = g(m, i)
-        left = gm <= 0.0
-        j, k = i[left], i[~left]
-        g_hi[j] = np.where(kept[j] == 1, 0.5 * g_hi[j], g_hi[j])  # lo moves again: halve hi's value
-        g_lo[k] = np.where(kept[k] == -1, 0.5 * g_lo[k], g_lo[k])
-        lo[j], g_lo[j], kept[j] = m[left], gm[left], 1
-        hi[k], g_hi[k], kept[k] = m[~left], gm[~left], -1
-    return lo
 
 
 def tight_scales(sc, trajectories, samples: int = TIGHT_SAMPLES) -> np.ndarray:
@@ -137,7 +116,8 @@ def tight_scales(sc, trajectories, samples: int = TIGHT_SAMPLES) -> np.ndarray:
             lo[ready[loose[done]]] = hi[ready[loose[done]]]
             rest = loose[~done]
             if len(rest):
-                lo[ready[rest]] = _illinois(lambda v, i: excess(v, rest[i]), lo[ready[rest]].copy(),
-                                            hi[ready[rest]].copy(), g_lo[rest].copy(), g_hi[~done].copy())
+                lo[ready[rest]] = bisect_batch(lambda v, i: excess(v, rest[i]), lo[ready[rest]].copy(),
+                                               hi[ready[rest]].copy(), g_lo[rest].copy(), g_hi[~done].copy(),
+                                               rel_tol=TIGHT_REL_TOL, max_steps=TIGHT_MAX_STEPS, midpoint="illinois")
     with np.errstate(divide="ignore"):
         return 1.0 / lo

@@ -21,7 +21,6 @@ the result's history so a non-monotone case shows.
 
 from __future__ import annotations
 
-import math
 import time
 from contextlib import nullcontext
 
@@ -39,6 +38,7 @@ from qmt_drake.sweep.runner import dask_client, run_sweep
 from qmt_drake.sweep.spatial_cases import check_spatial_spec, spatial_time_scaled_plan
 from qmt_drake.sweep.spec import SweepSpec, load_spec
 from qmt_drake.sweep.stats import wilson_interval
+from qmt_drake.timescale import search_scale
 from qmt_drake.trajectory import TimeScaledTrajectory
 
 
@@ -92,24 +92,27 @@ def robust_time_scale(spec: SweepSpec | dict | str, out_dir="out", *, target: fl
     ctx = nullcontext(client) if client is not None else dask_client(scheduler, workers)
     t0 = time.perf_counter()
     with ctx as cl:
-        hi_pt = evaluate(s_max, cl)
-        if not hi_pt["meets_target"]:
+        points = {}
+
+        def meets(s: float) -> bool:
+            points[s] = evaluate(s, cl)
+            return points[s]["meets_target"]
+
+        found = robust_bisection(meets, s_min, s_max, rel_tol)
+        if found.holding is None:
             return dict(found=False, time_scale=None, target=target, criterion=criterion, history=history,
                         wall_s=time.perf_counter() - t0)
-        lo_pt = evaluate(s_min, cl)
-        best = lo_pt if lo_pt["meets_target"] else hi_pt
-        lo_s, hi_s = s_min, s_max
-        while not lo_pt["meets_target"] and hi_s / lo_s - 1 > rel_tol:
-            mid = math.sqrt(lo_s * hi_s)
-            pt = evaluate(mid, cl)
-            if pt["meets_target"]:
-                hi_s, best = mid, pt
-            else:
-                lo_s = mid
+        best = points[found.holding]
     return dict(found=True, target=target, criterion=criterion, confidence=confidence,
                 time_scale=best["time_scale"], motion_time_s=best["motion_time_s"], p=best["p"],
                 ci_low=best["ci_low"], ci_high=best["ci_high"], n=best["n"],
                 history=sorted(history, key=lambda h: h["time_scale"]), wall_s=time.perf_counter() - t0)
+
+
+def robust_bisection(meets, s_min: float, s_max: float, rel_tol: float):
+    """The sweeps' variant of the one search (timescale.search_scale): s_max first (is the target reachable?),
+    then s_min, then geometric bisection to rel_tol; meets(s): the sweep at s meets the target."""
+    return search_scale(meets, s_min, s_max, midpoint="geometric", rel_tol=rel_tol, ends=("hi", "lo"))
 
 
 def _motion_time(out: dict, s: float):
@@ -183,45 +186,27 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
         lo, hi = (float(x) for x in jerk_range_m_s3)
         if not 0 < lo < hi:
             raise QmtInputError(f"jerk_range_m_s3 must be two increasing positive numbers, got {jerk_range_m_s3}")
-        make = lambda J: plan_with("ruckig", scenario, jerk_limit=J, **planner_options)  # noqa: E731
-        best_plan = make(lo)
-        if not record("jerk_limit_m_s3", lo, best_plan):
+        plans = {}
+
+        def carried_at(J: float) -> bool:
+            plans[J] = plan_with("ruckig", scenario, jerk_limit=J, **planner_options)
+            return record("jerk_limit_m_s3", J, plans[J])
+
+        found = jerk_bisection(carried_at, lambda J: plans[J].motion_time_s, lo, hi, rel_tol)
+        if found.holding is None:
             raise QmtInputError(f"{scenario.name}: even the ruckig plan at the lowest jerk limit {lo:g} m/s^3 is "
                                 "lost in the co-simulation; lower jerk_range_m_s3[0]")
-        best_J = lo
-        top = make(hi)
-        if record("jerk_limit_m_s3", hi, top):
-            best_plan, best_J = top, hi
-        else:
-            # Stop when the carried and the lost plan differ by rel_tol in motion time (J itself
-            # matters only through it).
-            T_lost = top.motion_time_s
-            while best_plan.motion_time_s / T_lost - 1 > rel_tol and hi / lo > 1.0001:
-                mid = math.sqrt(lo * hi)
-                p = make(mid)
-                if record("jerk_limit_m_s3", mid, p):
-                    lo, best_plan, best_J = mid, p, mid
-                else:
-                    hi, T_lost = mid, p.motion_time_s
+        best_J, hi = found.holding, found.hi
         search = {"variable": "jerk_limit_m_s3", "chosen": best_J, "lost_above": hi if best_J < hi else None}
-        plan = best_plan
+        plan = plans[best_J]
     else:
         base = base_plan if base_plan is not None else plan_with(method, scenario, seed=seed, **planner_options)
         if not base.feasible:
             raise QmtInputError(f"{scenario.name}: the {method} plan breaks a limit; nothing to time-scale")
-        lo, hi = 1.0, float(s_max)
-        if record("time_scale", lo, base, lo):
-            best_s = lo
-        else:
-            if not record("time_scale", hi, base, hi):
-                raise QmtInputError(f"{scenario.name}: the {method} plan is lost even {hi:g}x slower; raise s_max")
-            best_s = hi
-            while hi / lo - 1 > rel_tol:
-                mid = math.sqrt(lo * hi)
-                if record("time_scale", mid, base, mid):
-                    hi = best_s = mid
-                else:
-                    lo = mid
+        found = scale_bisection(lambda s: record("time_scale", s, base, s), float(s_max), rel_tol)
+        if found.holding is None:
+            raise QmtInputError(f"{scenario.name}: the {method} plan is lost even {found.hi:g}x slower; raise s_max")
+        best_s, lo = found.holding, found.lo
         search = {"variable": "time_scale", "chosen": best_s, "lost_below": lo if best_s > lo else None}
         plan = time_scaled_plan(base, best_s, f"{method}-carried")
     plan.method = f"{method}-carried"
@@ -232,6 +217,22 @@ def plan_fastest_carried(scenario, method: str = "ruckig", *, feedforward: str =
                        "note_carried": f"carried in the nominal co-simulation with feedforward '{feedforward}'; "
                                        "execute it with that controller"})
     return plan
+
+
+def jerk_bisection(carried_at, motion_time_s, J_lo: float, J_hi: float, rel_tol: float):
+    """The jerk-limit variant of the one search (timescale.search_scale; a small J is carried): J_lo (must be
+    carried), then J_hi, then geometric bisection until the carried and the lost plan differ by rel_tol in
+    motion time (J itself matters only through it) or J by 1e-4."""
+    def done(lo: float, hi: float) -> bool:
+        return not (motion_time_s(lo) / motion_time_s(hi) - 1 > rel_tol and hi / lo > 1.0001)
+
+    return search_scale(carried_at, J_lo, J_hi, safe="below", midpoint="geometric", done=done, ends=("lo", "hi"))
+
+
+def scale_bisection(carried, s_max: float, rel_tol: float):
+    """The time-scale variant (timescale.search_scale): s = 1 (the plan as planned) first, then s_max, then
+    geometric bisection to rel_tol; carried(s): the plan s times slower is carried."""
+    return search_scale(carried, 1.0, s_max, midpoint="geometric", rel_tol=rel_tol, ends=("lo", "hi"))
 
 
 def plan_fastest_carried_converged(scenario, method: str = "ruckig", *,

@@ -19,6 +19,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.families import make_family
 from qmt_drake.plan import Plan, make_plan, recheck
 from qmt_drake.planners.baselines.paths import task_joint_points
+from qmt_drake.timescale import Grow, search_scale
 from qmt_drake.trajectory import JointTrajectory, RestTrajectory, TimeScaledTrajectory
 
 
@@ -58,7 +59,7 @@ def slow_to_limits_factor(scenario, trajectory, check, tries: int = 40, *,
     """(factor, slowed trajectory, its check): the motion played `factor` times slower until every
     limit holds on the refined re-check. Exact (factor = sqrt(worst ratio), repeated for the refined
     peaks) when the limit set allows the time-scaling shortcut; with gravity, a growth by 1.5 then a
-    bisection on the factor to `rel_tol` (each step a re-check). The growth stops once the motion
+    geometric bisection on the factor to `rel_tol` (`slowdown_search`, each step a re-check). The growth stops once the motion
     would exceed `max_motion_time_s` (a re-check of a very slow motion takes millions of samples):
     then the slowest factor within the budget is returned with its failing check."""
     if scenario.limit_set.time_scaling_is_exact:
@@ -70,22 +71,25 @@ def slow_to_limits_factor(scenario, trajectory, check, tries: int = 40, *,
             if worst_ratio(check) <= 1.0:
                 break
         return factor, traj, check
-    factor_cap = max_motion_time_s / trajectory.duration_s
-    lo, hi, c = 1.0, 1.0, check
-    for _ in range(tries):  # find a slow enough factor within the time budget
-        if hi >= factor_cap:
-            return hi, TimeScaledTrajectory(trajectory, hi), c
-        hi = min(hi * 1.5, factor_cap)
-        c = recheck(scenario, TimeScaledTrajectory(trajectory, hi))
-        if worst_ratio(c) <= 1.0:
-            break
-        lo = hi
-    while hi / lo - 1 > rel_tol:  # then the fastest within rel_tol
-        mid = np.sqrt(lo * hi)
-        c = recheck(scenario, TimeScaledTrajectory(trajectory, mid))
-        lo, hi = (lo, mid) if worst_ratio(c) <= 1.0 else (mid, hi)
-    traj = TimeScaledTrajectory(trajectory, hi)
-    return hi, traj, recheck(scenario, traj)
+    checks = {1.0: check}
+
+    def holds(k: float) -> bool:
+        checks[k] = recheck(scenario, TimeScaledTrajectory(trajectory, k))
+        return worst_ratio(checks[k]) <= 1.0
+
+    found = slowdown_search(holds, max_motion_time_s / trajectory.duration_s, tries, rel_tol)
+    k = found.hi  # the fastest that holds, or (growth out of budget or tries) the slowest tried
+    if found.status == "capped":  # the slowest factor within the budget, with its failing check
+        return k, TimeScaledTrajectory(trajectory, k), checks[k]
+    traj = TimeScaledTrajectory(trajectory, k)
+    return k, traj, recheck(scenario, traj)
+
+
+def slowdown_search(holds, factor_cap: float, tries: int, rel_tol: float):
+    """The planar baselines' variant of the one search (timescale.search_scale): from 1 (failing),
+    growth by 1.5 up to factor_cap in at most `tries` probes, then geometric bisection to rel_tol."""
+    return search_scale(holds, safe="above", midpoint="geometric", rel_tol=rel_tol,
+                        grow=Grow(start=1.0, factor=1.5, limit=factor_cap, tries=tries))
 
 
 def finish_plan(scenario, method: str, trajectory: JointTrajectory, *, planner_wall_s: float,

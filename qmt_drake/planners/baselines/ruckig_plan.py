@@ -51,6 +51,7 @@ from qmt_drake.planners.baselines.finish import (
 from qmt_drake.planners.baselines.paths import CartesianLinePath, task_joint_points
 from qmt_drake.planners.ruckig_core import rest_to_rest
 from qmt_drake.sampling import piecewise_grid
+from qmt_drake.timescale import Grow, search_scale
 from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
 
 MODES = ("cartesian_line", "joint")
@@ -148,52 +149,33 @@ def _worst(scenario, traj: JointTrajectory, rate_hz: float) -> float:
 def _largest_scale(make, worst, lam_max: float | None, rtol: float, max_duration_s: float,
                    max_steps: int = 80):
     """Largest lam (<= lam_max if given) with worst(make(lam)) <= 1; (lam, traj, steps) or
-    (None, the slowest trajectory tried, steps) if none before the motion gets longer than max_duration_s."""
-    steps = 0
+    (None, the slowest trajectory tried, steps) if none before the motion gets longer than max_duration_s.
+    The one search (timescale.search_scale) on a limit scale (small lam holds): from lam_max (or 1), doubling
+    while it holds (until the motion no longer gets shorter: jerk binds), else halving until it holds (until
+    the motion is longer than max_duration_s), then geometric bisection to rtol; max_steps calls in all."""
+    trajs = {}
+
+    def holds(lam: float) -> bool:
+        trajs[lam] = trajs["last"] = make(lam)
+        return worst(trajs[lam]) <= 1.0
+
     lam = 1.0 if lam_max is None else lam_max
-    traj = make(lam)
-    steps += 1
-    ok = worst(traj) <= 1.0
+    ok = holds(lam)
     if ok and lam_max is not None:
-        return lam, traj, steps
-    lo = hi = None
-    if ok:
-        lo, lo_traj = lam, traj
-        while steps < max_steps:  # grow until a limit breaks
-            lam *= 2.0
-            t = make(lam)
-            steps += 1
-            if worst(t) <= 1.0:
-                if t.duration_s >= lo_traj.duration_s * (1 - 1e-9):
-                    return lo, lo_traj, steps  # the acceleration limit no longer binds (jerk does)
-                lo, lo_traj = lam, t
-            else:
-                hi = lam
-                break
-        if hi is None:
-            return lo, lo_traj, steps
-    else:
-        hi = lam
-        while lam > 1e-12 and steps < max_steps:
-            lam *= 0.5
-            t = make(lam)
-            steps += 1
-            if worst(t) <= 1.0:
-                lo, lo_traj = lam, t
-                break
-            if t.duration_s > max_duration_s:  # slower still would only be longer
-                return None, t, steps
-        if lo is None:
-            return None, t, steps
-    while hi / lo - 1 > rtol and steps < max_steps:
-        mid = np.sqrt(lo * hi)
-        t = make(mid)
-        steps += 1
-        if worst(t) <= 1.0:
-            lo, lo_traj = mid, t
-        else:
-            hi = mid
-    return lo, lo_traj, steps
+        return lam, trajs[lam], 1
+
+    def stop(x: float, held: bool, kept: float) -> bool:
+        if held:  # the acceleration limit no longer binds (jerk does): keep the last holding scale
+            return trajs[x].duration_s >= trajs[kept].duration_s * (1 - 1e-9)
+        return trajs[x].duration_s > max_duration_s  # slower still would only be longer
+
+    grow = Grow(start=lam, factor=2.0, start_holds=True) if ok else \
+        Grow(start=lam, factor=0.5, limit=1e-12, clip=False, follow=False)
+    found = search_scale(holds, safe="below", midpoint="geometric", rel_tol=rtol, max_probes=max_steps, grow=grow,
+                         stop=stop, probes=1)
+    if found.holding is None:
+        return None, trajs["last"], found.probes
+    return found.holding, trajs[found.holding], found.probes
 
 
 def _binding_clause(scenario, slowest, rate_hz: float) -> str:
