@@ -1,0 +1,267 @@
+"""Direct collocation of seed 001's energy-time cost on the other arms (issue 27 item 6):
+`qmt-drake plan thesis-ch4 | crane-tray | ur5-suction-bins | ur5-magnet-part | panda-tray-cup --method collocation
+[--c1 C1 --c2 C2 --max-iter N --option knots=K]`.
+
+The transcription (a MathematicalProgram solved by SNOPT) is a Hermite-Simpson collocation of the joint-space
+double integrator: state (q [rad], qd [rad/s]), input qdd [rad/s^2] first-order hold. Decision variables: the
+knots' q, qd, qdd and one time step h_j [s] per segment between consecutive task poses (K = `knots` intervals
+per segment, so the total time T = K sum h_j is free and so is each pose's time). For the double integrator
+the Hermite-Simpson defects
+
+    qd_{k+1} - qd_k = h (qdd_k + qdd_{k+1}) / 2,   q_{k+1} - q_k = h qd_k + h^2 (qdd_k / 3 + qdd_{k+1} / 6)
+
+are its exact integration under a first-order-hold input, so the collocated motion is the cubic Hermite
+spline of (q, qd) at the knots, whose qdd is piecewise linear, continuous and equal to the knots' qdd: the
+plan's trajectory is that spline (trajectory.PolynomialTrajectory of Drake's PiecewisePolynomial.CubicHermite).
+Boundary conditions from the task: q at the scenario's task poses (start, vias, goal: the IK'd poses the
+other planners of the kind use), at rest (qd = 0) at the start and the goal; qdd free there (as the via cubic).
+Limits: every ratio column of the kind's re-check <= 1 at every knot (the rows of energy/cross_kind: the
+spatial SpatialColumns, the planar LimitSet columns), each knot its own constraint on its own 3n variables
+(central differences, the columns are smooth in them). Cost: z = integral (c1 tau'tau + c2) dt [N^2 m^2 s] by
+energy/objective.energy_time_cost (the one implementation), the trapezoid rule on each segment's knots,
+tau the kind's joint torques (cross_kind's joint_torques: gravity, the carried part, the rotor inertia).
+
+Start: the cross-kind SNOPT optimum over the family's genes (energy/cross_kind), sampled at the knots; the
+collocation then frees the path between the poses. The plan is re-checked as every plan of its kind (spatial:
+spatial_search.finish_or_least_violating, planar: baselines/finish.finish_plan, both slowing it by the
+smallest factor that makes the re-check hold between samples). Its extra / info holds c1, c2, z (of the final,
+re-checked trajectory on cross_kind.SAMPLES points, as cross_kind reports its own), z on the knots, the start's
+z, the knots and the solver's status. Seed 001's own collocation (energy/collocation.py) is unchanged.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from pydrake.solvers import MathematicalProgram, SnoptSolver, SolverOptions
+from pydrake.trajectories import PiecewisePolynomial
+
+from qmt_drake.energy.cross_kind import (
+    PAPER_C1,
+    PAPER_C2,
+    SAMPLES,
+    WEIGHTS,
+    EnergyTimeOnFamily,
+    PlanarEnergyTime,
+    SpatialEnergyTime,
+    _solve,
+)
+from qmt_drake.energy.nlp import _ad_wrap
+from qmt_drake.energy.objective import energy_time_cost, trapezoid_weights
+from qmt_drake.errors import QmtInputError
+from qmt_drake.families.via_cubic import ViaCubic
+from qmt_drake.planners.baselines.finish import finish_plan
+from qmt_drake.planners.baselines.paths import task_joint_points
+from qmt_drake.planners.spatial_search import finish_or_least_violating
+from qmt_drake.planners.spatial_trajectory import PolyTrajectory
+from qmt_drake.problem import PlanningProblem
+from qmt_drake.trajectory import PolynomialTrajectory
+
+KNOTS = 10  # collocation intervals per segment between task poses
+FD_STEP = 1e-6  # central differences on a knot's q, qd, qdd (absolute, they are O(1))
+INTERIOR = (0.5,)  # fractions of each interval where the limits are held too
+H_MIN_S = 1e-4  # a time step's lower bound [s]
+H_GROWTH = 20.0  # a time step's upper bound: this many times its start
+
+
+class Transcription:
+    """The collocation program's pieces on one kind (module docstring): P the kind's cross-kind problem
+    (its torques and ratio columns), poses (S + 1, n) rad, K intervals per segment."""
+
+    def __init__(self, P: EnergyTimeOnFamily, poses, knots: int) -> None:
+        self.P, self.poses, self.K = P, np.asarray(poses, float), int(knots)
+        self.S, self.n = self.poses.shape[0] - 1, self.poses.shape[1]
+        self.N = self.S * self.K + 1
+        self.w = trapezoid_weights(self.K + 1)
+
+    def times(self, h) -> np.ndarray:
+        """(N,) knot times [s] of segment time steps h (S,)."""
+        return np.r_[0.0, np.cumsum(np.repeat(np.asarray(h, float), self.K))]
+
+    def _fd(self, f, Z):
+        """f(q, qd, qdd) -> (N, R) at the knots Z (N, 3n), and its (N, R, 3n) per-knot Jacobian by central
+        differences, in one batched call of f."""
+        N, m = Z.shape
+        E = FD_STEP * np.eye(m)
+        batch = np.concatenate([Z[:, None, :], Z[:, None, :] + E, Z[:, None, :] - E], axis=1).reshape(-1, m)
+        n = self.n
+        F = np.asarray(f(batch[:, :n], batch[:, n:2 * n], batch[:, 2 * n:]), float).reshape(N, 1 + 2 * m, -1)
+        J = (F[:, 1:1 + m] - F[:, 1 + m:]) / (2 * FD_STEP)
+        return F[:, 0], np.transpose(J, (0, 2, 1))
+
+    def z_knots(self, h, tau) -> float:
+        """z [N^2 m^2 s] on the knots: energy_time_cost on each segment's K + 1 knots (trapezoid), summed."""
+        K = self.K
+        return sum(energy_time_cost(tau[j * K:(j + 1) * K + 1], K * h[j], self.P.c1, self.P.c2, self.w)
+                   for j in range(self.S))
+
+    def cost(self, v):
+        """(z / c2, its gradient) of the packed variables v = (h (S,), Z (N, 3n))."""
+        h, Z = v[:self.S], v[self.S:].reshape(self.N, 3 * self.n)
+        tau, J = self._fd(self.P.joint_torques, Z)
+        K, c1, s = self.K, self.P.c1, 1.0 / self.P.c2
+        g_tau = np.zeros_like(tau)
+        g_h = np.zeros(self.S)
+        for j in range(self.S):
+            seg = slice(j * K, (j + 1) * K + 1)
+            g_tau[seg] += 2.0 * c1 * K * h[j] * self.w[:, None] * tau[seg]
+            g_h[j] = energy_time_cost(tau[seg], K, c1, self.P.c2, self.w)  # dz/dh_j = z_j / h_j
+        g_Z = np.einsum("kr,krm->km", g_tau, J)
+        return self.z_knots(h, tau) * s, np.r_[g_h, g_Z.ravel()] * s
+
+    def limits(self, z):
+        """(ratio columns at one knot, their Jacobian) for that knot's (q, qd, qdd)."""
+        F, J = self._fd(self.P.column_ratios, np.asarray(z, float)[None])
+        return F[0], J[0]
+
+    def between(self, s: float):
+        """The ratio columns at fraction s of an interval, as a function of (Z_k, Z_k+1, h) (6n + 1,): the
+        collocated cubic there (module docstring), the columns' Jacobian chained through it."""
+        n = self.n
+        I = np.eye(n)
+        a, b = s * s / 2 - s ** 3 / 6, s ** 3 / 6
+
+        def f(v):
+            v = np.asarray(v, float)
+            qk, vk, ak, _, _, ak1 = (v[i * n:(i + 1) * n] for i in range(6))
+            h = v[-1]
+            z = np.r_[qk + h * s * vk + h * h * (a * ak + b * ak1), vk + h * (s - s * s / 2) * ak + h * s * s / 2 * ak1,
+                      (1 - s) * ak + s * ak1]
+            D = np.zeros((3 * n, 6 * n + 1))  # d z / d v
+            D[:n, :n], D[:n, n:2 * n], D[:n, 2 * n:3 * n], D[:n, 5 * n:6 * n] = I, h * s * I, h * h * a * I, h * h * b * I
+            D[n:2 * n, n:2 * n], D[n:2 * n, 2 * n:3 * n] = I, h * (s - s * s / 2) * I
+            D[n:2 * n, 5 * n:6 * n] = h * s * s / 2 * I
+            D[2 * n:, 2 * n:3 * n], D[2 * n:, 5 * n:6 * n] = (1 - s) * I, s * I
+            D[:n, -1] = s * vk + 2 * h * (a * ak + b * ak1)
+            D[n:2 * n, -1] = (s - s * s / 2) * ak + s * s / 2 * ak1
+            F, J = self.limits(z)
+            return F, J @ D
+        return f
+
+    def seed(self, traj_sample, pose_times) -> tuple[np.ndarray, np.ndarray]:
+        """(h (S,), Z (N, 3n)) from a motion sample(t) -> (q, qd, qdd) whose poses are at pose_times [s]."""
+        h = np.diff(np.asarray(pose_times, float)) / self.K
+        q, qd, qdd = traj_sample(self.times(h))
+        return h, np.hstack([q, qd, qdd])
+
+    def build(self, h0, Z0, max_iter: int):
+        prog = MathematicalProgram()
+        n, N, K = self.n, self.N, self.K
+        h = prog.NewContinuousVariables(self.S, "h")
+        q = prog.NewContinuousVariables(N, n, "q")
+        qd = prog.NewContinuousVariables(N, n, "qd")
+        qdd = prog.NewContinuousVariables(N, n, "qdd")
+        Zv = np.hstack([q, qd, qdd])
+        prog.AddBoundingBoxConstraint(H_MIN_S, H_GROWTH * np.max(h0), h)
+        for j, pose in enumerate(self.poses):  # the task's poses; rest at the start and the goal
+            prog.AddBoundingBoxConstraint(pose, pose, q[j * K])
+        prog.AddBoundingBoxConstraint(np.zeros(n), np.zeros(n), qd[0])
+        prog.AddBoundingBoxConstraint(np.zeros(n), np.zeros(n), qd[-1])
+        for k in range(N - 1):  # Hermite-Simpson defects of the double integrator (module docstring)
+            hk = h[k // K]
+            dv = qd[k + 1] - qd[k] - hk * (qdd[k] + qdd[k + 1]) / 2
+            dq = q[k + 1] - q[k] - hk * qd[k] - hk * hk * (qdd[k] / 3 + qdd[k + 1] / 6)
+            for e in (*dv, *dq):
+                prog.AddConstraint(e, 0.0, 0.0)
+        rows = self.limits(Z0[0])[0].size
+        for k in range(N):
+            prog.AddConstraint(_ad_wrap(self.limits), lb=np.full(rows, -np.inf), ub=np.ones(rows), vars=Zv[k])
+        for k in range(N - 1):  # and inside every interval (a steep column, e.g. a magnet's, between knots)
+            for frac in INTERIOR:
+                prog.AddConstraint(_ad_wrap(self.between(frac)), lb=np.full(rows, -np.inf), ub=np.ones(rows),
+                                   vars=np.r_[Zv[k], Zv[k + 1], [h[k // K]]])
+        allv = np.r_[h, Zv.ravel()]
+        prog.AddCost(_ad_wrap(self.cost), vars=allv)
+        prog.SetInitialGuess(h, h0)
+        prog.SetInitialGuess(Zv, Z0)
+        opts = SolverOptions()
+        sid = SnoptSolver().solver_id()
+        opts.SetOption(sid, "Major optimality tolerance", 1e-6)
+        opts.SetOption(sid, "Major feasibility tolerance", 1e-9)
+        opts.SetOption(sid, "Major iterations limit", int(max_iter))
+        return prog, opts, h, Zv
+
+    def solve(self, h0, Z0, max_iter: int):
+        """(h, Z, status, success) of SNOPT from (h0, Z0)."""
+        prog, opts, h, Zv = self.build(h0, Z0, max_iter)
+        solver = SnoptSolver()
+        if not solver.available():
+            raise QmtInputError("collocation needs SNOPT, which this Drake build lacks; use --method ipopt")
+        r = solver.Solve(prog, None, opts)
+        return (np.asarray(r.GetSolution(h), float), np.asarray(r.GetSolution(Zv), float),
+                str(r.get_solution_result()), bool(r.is_success()))
+
+    def spline(self, h, Z) -> PiecewisePolynomial:
+        """q(t): the cubic Hermite spline of the knots' (q, qd) (the collocated motion, module docstring)."""
+        n = self.n
+        return PiecewisePolynomial.CubicHermite(self.times(h), Z[:, :n].T, Z[:, n:2 * n].T)
+
+
+def z_of(P: EnergyTimeOnFamily, traj) -> float:
+    """z of a trajectory as cross_kind reports its own: energy_time_cost on SAMPLES points."""
+    t = np.linspace(0.0, traj.duration_s, SAMPLES)
+    q, qd, qdd = traj.evaluate(t, np.minimum(t, np.nextafter(traj.duration_s, 0.0)))
+    return energy_time_cost(P.joint_torques(q, qd, qdd), traj.duration_s, P.c1, P.c2, WEIGHTS)
+
+
+def _check_knots(knots) -> int:
+    if isinstance(knots, bool) or not float(knots).is_integer() or not 2 <= int(knots) <= 200:
+        raise QmtInputError(f"knots = {knots}: collocation intervals per segment between task poses must be an "
+                            "integer in [2, 200] (default 10)")
+    return int(knots)
+
+
+def _collocate(P, poses, sample, pose_times, knots, max_iter, x0_z):
+    """(spline, info) of the collocation started from a motion (sample, pose_times)."""
+    tr = Transcription(P, poses, _check_knots(knots))
+    h0, Z0 = tr.seed(sample, pose_times)
+    h, Z, status, ok = tr.solve(h0, Z0, max_iter)
+    tau = P.joint_torques(Z[:, :tr.n], Z[:, tr.n:2 * tr.n], Z[:, 2 * tr.n:])
+    info = {"objective": "energy_time", "c1": P.c1, "c2": P.c2, "knots_per_segment": tr.K,
+            "z_knots": tr.z_knots(h, tau), "start_z": x0_z, "solver_status": status, "converged": ok,
+            "segment_times_s": (tr.K * h).tolist()}
+    return tr, h, tr.spline(h, Z), info
+
+
+def plan_collocation_spatial(sc, *, c1: float = PAPER_C1, c2: float = PAPER_C2, max_iter: int = 200,
+                             knots: int = KNOTS):
+    """The energy-time optimum of spatial scenario sc by direct collocation (module docstring): its
+    SpatialPlan, re-checked (spatial_search.finish_or_least_violating)."""
+    t0 = time.perf_counter()
+    _check_knots(knots)
+    P = SpatialEnergyTime(sc, c1, c2)
+    x, _ = _solve(P, "snopt", max_iter, sc.name)
+    fam = P.family
+    seed = fam.trajectory(x)
+    tr, h, pp, info = _collocate(P, sc.q_poses_rad, seed.sample, fam.pose_times(x), knots, max_iter, P.z(x))
+    plan = finish_or_least_violating(sc, "collocation", PolyTrajectory(pp), tr.times(h)[::tr.K], t0, info)
+    plan.info["z"] = z_of(P, plan.trajectory)
+    return plan
+
+
+def plan_collocation_transfer(scenario, *, c1: float = PAPER_C1, c2: float = PAPER_C2, max_iter: int = 200,
+                              knots: int = KNOTS):
+    """The energy-time optimum of a transfer scenario (planar magnet, tray) by direct collocation (module
+    docstring): its Plan, re-checked at the scenario's check rate and slowed until it holds
+    (baselines/finish.finish_plan)."""
+    t0 = time.perf_counter()
+    _check_knots(knots)
+    problem = PlanningProblem(scenario)
+    fam = problem.family
+    poses = task_joint_points(scenario)
+    P = PlanarEnergyTime(problem, c1, c2)
+    x, _ = _solve(P, "snopt", max_iter, scenario.name)
+    T = float(fam.motion_time_s(np.atleast_2d(x))[0])
+    if len(poses) == 2:
+        pose_times = np.array([0.0, T])
+    elif isinstance(fam, ViaCubic):
+        pose_times = fam.breakpoints_s(x)[0]
+    else:
+        raise QmtInputError(f"{scenario.name}: collocation needs the time at which the family passes each of the "
+                            f"task's {len(poses)} points; its {type(fam).__name__} family does not say: use --method snopt")
+    tr, h, pp, info = _collocate(P, poses, lambda t: fam.sample(x, t), pose_times, knots, max_iter, P.z(x))
+    plan = finish_plan(scenario, "collocation", PolynomialTrajectory(pp), planner_wall_s=time.perf_counter() - t0,
+                       extra=info)
+    plan.extra["z"] = z_of(P, plan.trajectory)
+    return plan
