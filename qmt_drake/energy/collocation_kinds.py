@@ -34,6 +34,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.solvers import MathematicalProgram, SnoptSolver, SolverOptions
 from pydrake.trajectories import PiecewisePolynomial
 
@@ -61,6 +62,12 @@ from qmt_drake.trajectory import PolynomialTrajectory
 KNOTS = 10  # collocation intervals per segment between task poses
 FD_STEP = 1e-6  # central differences on a knot's q, qd, qdd (absolute, they are O(1))
 INTERIOR = (0.5,)  # fractions of each interval where the limits are held too
+FINE = 64  # fine check points per interval after a solve
+MARGIN = 1e-4  # the limits are held at 1 - MARGIN: a hand's term balanced by the motion (a tilted hand) does not
+# hold when slowed, so the re-check must find it held as it is, between its own samples too
+REFINE_TOL = -MARGIN / 2  # a ratio above 1 + this between the held points adds the point
+NEAR = 1e-3  # local maxima of the fine check above 1 - NEAR are refined between its points
+REFINE_ROUNDS = 10  # solves after the first one with points added
 H_MIN_S = 1e-4  # a time step's lower bound [s]
 H_GROWTH = 20.0  # a time step's upper bound: this many times its start
 
@@ -74,6 +81,8 @@ class Transcription:
         self.S, self.n = self.poses.shape[0] - 1, self.poses.shape[1]
         self.N = self.S * self.K + 1
         self.w = trapezoid_weights(self.K + 1)
+        q0 = self.poses[:1]
+        self.rows = int(np.asarray(P.column_ratios(q0, 0 * q0, 0 * q0)).shape[1])  # ratio columns per point
 
     def times(self, h) -> np.ndarray:
         """(N,) knot times [s] of segment time steps h (S,)."""
@@ -110,34 +119,56 @@ class Transcription:
         g_Z = np.einsum("kr,krm->km", g_tau, J)
         return self.z_knots(h, tau) * s, np.r_[g_h, g_Z.ravel()] * s
 
-    def limits(self, z):
-        """(ratio columns at one knot, their Jacobian) for that knot's (q, qd, qdd)."""
-        F, J = self._fd(self.P.column_ratios, np.asarray(z, float)[None])
-        return F[0], J[0]
+    def at(self, v, points):
+        """(Zp (P, 3n), D (P, 3n, 6n + 1)): (q, qd, qdd) of the collocated cubic at points (P, 2) = (interval k,
+        fraction s in [0, 1)) of the packed variables v, and its derivative by (Z_k, Z_k+1, h_j) (the cubic
+        of the module docstring: qdd linear, qd and q its integrals)."""
+        n, S = self.n, self.S
+        Z = v[S:].reshape(self.N, 3 * n)
+        k = points[:, 0].astype(int)
+        s = points[:, 1][:, None]
+        h = v[k // self.K][:, None]
+        qk, vk, ak = Z[k, :n], Z[k, n:2 * n], Z[k, 2 * n:]
+        ak1 = Z[k + 1, 2 * n:]
+        a, b, c, d = s * s / 2 - s ** 3 / 6, s ** 3 / 6, s - s * s / 2, s * s / 2
+        Zp = np.hstack([qk + h * s * vk + h * h * (a * ak + b * ak1), vk + h * (c * ak + d * ak1), (1 - s) * ak + s * ak1])
+        P, eye = len(k), np.eye(n)
+        D = np.zeros((P, 3 * n, 6 * n + 1))
+        for r, col, coef in ((0, 0, 1.0 + 0 * s), (0, 1, h * s), (0, 2, h * h * a), (0, 5, h * h * b),
+                                              (1, 1, 1.0 + 0 * s), (1, 2, h * c), (1, 5, h * d),
+                                              (2, 2, 1 - s), (2, 5, s)):
+            D[:, r * n:(r + 1) * n, col * n:(col + 1) * n] = coef[:, :, None] * eye
+        D[:, :n, -1] = s * vk + 2 * h * (a * ak + b * ak1)
+        D[:, n:2 * n, -1] = c * ak + d * ak1
+        return Zp, D
 
-    def between(self, s: float):
-        """The ratio columns at fraction s of an interval, as a function of (Z_k, Z_k+1, h) (6n + 1,): the
-        collocated cubic there (module docstring), the columns' Jacobian chained through it."""
-        n = self.n
-        I = np.eye(n)
-        a, b = s * s / 2 - s ** 3 / 6, s ** 3 / 6
+    def columns(self, points):
+        """The function v -> (every ratio column at `points`, its Jacobian (P * R, len(v))) and its sparsity
+        pattern: one batched call of the kind's columns (central differences) for all points."""
+        n, S, K = self.n, self.S, self.K
+        k = points[:, 0].astype(int)
+        idx = np.hstack([S + 3 * n * k[:, None] + np.arange(3 * n), S + 3 * n * (k + 1)[:, None] + np.arange(3 * n),
+                         (k // K)[:, None]])  # (P, 6n + 1) the variables each point depends on
+        nv = S + 3 * n * self.N
 
         def f(v):
-            v = np.asarray(v, float)
-            qk, vk, ak, _, _, ak1 = (v[i * n:(i + 1) * n] for i in range(6))
-            h = v[-1]
-            z = np.r_[qk + h * s * vk + h * h * (a * ak + b * ak1), vk + h * (s - s * s / 2) * ak + h * s * s / 2 * ak1,
-                      (1 - s) * ak + s * ak1]
-            D = np.zeros((3 * n, 6 * n + 1))  # d z / d v
-            D[:n, :n], D[:n, n:2 * n], D[:n, 2 * n:3 * n], D[:n, 5 * n:6 * n] = I, h * s * I, h * h * a * I, h * h * b * I
-            D[n:2 * n, n:2 * n], D[n:2 * n, 2 * n:3 * n] = I, h * (s - s * s / 2) * I
-            D[n:2 * n, 5 * n:6 * n] = h * s * s / 2 * I
-            D[2 * n:, 2 * n:3 * n], D[2 * n:, 5 * n:6 * n] = (1 - s) * I, s * I
-            D[:n, -1] = s * vk + 2 * h * (a * ak + b * ak1)
-            D[n:2 * n, -1] = (s - s * s / 2) * ak + s * s / 2 * ak1
-            F, J = self.limits(z)
-            return F, J @ D
-        return f
+            Zp, D = self.at(np.asarray(v, float), points)
+            F, J = self._fd(self.P.column_ratios, Zp)
+            G = np.einsum("prm,pmv->prv", J, D)  # (P, R, 6n + 1)
+            out = np.zeros((F.size, nv))
+            rows = np.arange(F.size).reshape(F.shape)
+            np.add.at(out, (rows[:, :, None], idx[:, None, :]), G)  # knot points repeat no index; sums if they do
+            return F.ravel(), out
+        R = self.rows
+        pattern = [(int(p * R + r), int(c)) for p in range(len(k)) for r in range(R) for c in np.unique(idx[p])]
+        return f, pattern
+
+    def points(self, extra=()) -> np.ndarray:
+        """(P, 2) where the limits are held: every knot (the last as interval N - 2 at s = 1), INTERIOR fractions
+        of every interval, and `extra` (interval, fraction) points added by the refinement."""
+        pts = [(k, 0.0) for k in range(self.N - 1)] + [(self.N - 2, 1.0)]
+        pts += [(k, f) for k in range(self.N - 1) for f in INTERIOR] + list(extra)
+        return np.array(pts, float)
 
     def seed(self, traj_sample, pose_times) -> tuple[np.ndarray, np.ndarray]:
         """(h (S,), Z (N, 3n)) from a motion sample(t) -> (q, qd, qdd) whose poses are at pose_times [s]."""
@@ -145,7 +176,7 @@ class Transcription:
         q, qd, qdd = traj_sample(self.times(h))
         return h, np.hstack([q, qd, qdd])
 
-    def build(self, h0, Z0, max_iter: int):
+    def build(self, h0, Z0, max_iter: int, extra=()):
         prog = MathematicalProgram()
         n, N, K = self.n, self.N, self.K
         h = prog.NewContinuousVariables(self.S, "h")
@@ -164,14 +195,11 @@ class Transcription:
             dq = q[k + 1] - q[k] - hk * qd[k] - hk * hk * (qdd[k] / 3 + qdd[k + 1] / 6)
             for e in (*dv, *dq):
                 prog.AddConstraint(e, 0.0, 0.0)
-        rows = self.limits(Z0[0])[0].size
-        for k in range(N):
-            prog.AddConstraint(_ad_wrap(self.limits), lb=np.full(rows, -np.inf), ub=np.ones(rows), vars=Zv[k])
-        for k in range(N - 1):  # and inside every interval (a steep column, e.g. a magnet's, between knots)
-            for frac in INTERIOR:
-                prog.AddConstraint(_ad_wrap(self.between(frac)), lb=np.full(rows, -np.inf), ub=np.ones(rows),
-                                   vars=np.r_[Zv[k], Zv[k + 1], [h[k // K]]])
         allv = np.r_[h, Zv.ravel()]
+        f, pattern = self.columns(self.points(extra))
+        rows = f(np.r_[h0, Z0.ravel()])[0].size
+        con = prog.AddConstraint(_ad_dense(f), lb=np.full(rows, -np.inf), ub=np.full(rows, 1.0 - MARGIN), vars=allv)
+        con.evaluator().SetGradientSparsityPattern(pattern)
         prog.AddCost(_ad_wrap(self.cost), vars=allv)
         prog.SetInitialGuess(h, h0)
         prog.SetInitialGuess(Zv, Z0)
@@ -182,9 +210,9 @@ class Transcription:
         opts.SetOption(sid, "Major iterations limit", int(max_iter))
         return prog, opts, h, Zv
 
-    def solve(self, h0, Z0, max_iter: int):
-        """(h, Z, status, success) of SNOPT from (h0, Z0)."""
-        prog, opts, h, Zv = self.build(h0, Z0, max_iter)
+    def solve(self, h0, Z0, max_iter: int, extra=()):
+        """(h, Z, status, success) of SNOPT from (h0, Z0), the limits held at self.points(extra)."""
+        prog, opts, h, Zv = self.build(h0, Z0, max_iter, extra)
         solver = SnoptSolver()
         if not solver.available():
             raise QmtInputError("collocation needs SNOPT, which this Drake build lacks; use --method ipopt")
@@ -196,6 +224,20 @@ class Transcription:
         """q(t): the cubic Hermite spline of the knots' (q, qd) (the collocated motion, module docstring)."""
         n = self.n
         return PiecewisePolynomial.CubicHermite(self.times(h), Z[:, :n].T, Z[:, n:2 * n].T)
+
+
+def _ad_dense(fun_val_grad):
+    """nlp._ad_wrap for a constraint on every variable in their own order (the solver's AutoDiff seed is the
+    identity then: no product with it)."""
+    def f(v):
+        if v.dtype != object:
+            return fun_val_grad(np.asarray(v, dtype=float))[0]
+        dx = ExtractGradient(v)
+        val, g = fun_val_grad(ExtractValue(v).ravel())
+        if dx.shape != (v.size, v.size) or not np.array_equal(dx, np.eye(v.size)):
+            g = g @ dx
+        return InitializeAutoDiff(np.asarray(val).reshape(-1, 1), g).ravel()
+    return f
 
 
 def z_of(P: EnergyTimeOnFamily, traj) -> float:
@@ -212,15 +254,55 @@ def _check_knots(knots) -> int:
     return int(knots)
 
 
+def fine_violations(tr: Transcription, h, Z) -> tuple[float, list]:
+    """(the largest ratio of the collocated motion (its spline) between its knots, the (interval, fraction) of each interval's
+    largest ratio where it exceeds 1 + REFINE_TOL): FINE points per interval, each interval's largest refined by
+    the vertex of the parabola through it and its neighbours (a peak between two points)."""
+    f = np.arange(FINE + 1) / FINE
+    m, tk = tr.N - 1, tr.times(h)
+    pp = tr.spline(h, Z)  # the plan's motion itself (equal to the collocated cubic where the defects hold)
+    d1, d2 = pp.MakeDerivative(1), pp.MakeDerivative(2)
+
+    def worst(pts):
+        k = pts[:, 0].astype(int)
+        t = np.clip(tk[k] + pts[:, 1] * (tk[k + 1] - tk[k]), tk[k] + 1e-12, tk[k + 1] - 1e-12)  # inside its piece
+        q, qd, qdd = (p.vector_values(t).T for p in (pp, d1, d2))
+        return np.asarray(tr.P.column_ratios(q, qd, qdd)).max(axis=1)
+    W = worst(np.array([(k, x) for k in range(m) for x in f])).reshape(m, -1)
+    kk, ii = np.nonzero((W[:, 1:-1] >= W[:, :-2]) & (W[:, 1:-1] >= W[:, 2:]) & (W[:, 1:-1] > 1.0 - NEAR))
+    ii = ii + 1  # every local maximum near a limit, refined to its parabola's vertex
+    y0, y1, y2 = W[kk, ii - 1], W[kk, ii], W[kk, ii + 1]
+    curv = y0 - 2 * y1 + y2
+    step = np.where(curv < 0, 0.5 * (y0 - y2) / np.where(curv < 0, curv, -1.0), 0.0)
+    sv = np.clip((ii + np.clip(step, -1, 1)) / FINE, 0.0, 1.0)
+    Wv = worst(np.c_[kk, sv]) if len(kk) else np.zeros(0)
+    bad = {}
+    for k, x, w in [*zip(kk, sv, Wv), *((k, f[j], W[k, j]) for k, j in enumerate(np.argmax(W, axis=1)))]:
+        if w > 1.0 + REFINE_TOL and w > bad.get(int(k), (0, -np.inf))[1]:
+            bad[int(k)] = (float(x), float(w))
+    peak = max(float(W.max()), float(Wv.max()) if len(Wv) else -np.inf)
+    bad = [(k, x) for k, (x, _) in sorted(bad.items())]
+    return peak, bad
+
+
 def _collocate(P, poses, sample, pose_times, knots, max_iter, x0_z):
-    """(spline, info) of the collocation started from a motion (sample, pose_times)."""
+    """(transcription, h, spline, info) of the collocation started from a motion (sample, pose_times); where
+    the collocated motion breaks a limit between the held points, those points are held too and it is solved
+    again from there (at most REFINE_ROUNDS times)."""
     tr = Transcription(P, poses, _check_knots(knots))
-    h0, Z0 = tr.seed(sample, pose_times)
-    h, Z, status, ok = tr.solve(h0, Z0, max_iter)
+    h, Z = tr.seed(sample, pose_times)
+    extra: list = []
+    for rnd in range(REFINE_ROUNDS + 1):
+        h, Z, status, ok = tr.solve(h, Z, max_iter, extra)
+        peak, bad = fine_violations(tr, h, Z)
+        if not bad or rnd == REFINE_ROUNDS:
+            break
+        extra += bad
     tau = P.joint_torques(Z[:, :tr.n], Z[:, tr.n:2 * tr.n], Z[:, 2 * tr.n:])
     info = {"objective": "energy_time", "c1": P.c1, "c2": P.c2, "knots_per_segment": tr.K,
             "z_knots": tr.z_knots(h, tau), "start_z": x0_z, "solver_status": status, "converged": ok,
-            "segment_times_s": (tr.K * h).tolist()}
+            "segment_times_s": (tr.K * h).tolist(), "refined_points": len(extra), "refine_rounds": rnd,
+            "fine_peak_ratio": peak}
     return tr, h, tr.spline(h, Z), info
 
 
