@@ -170,8 +170,6 @@ def planar_plan(tmp_path_factory):
 @pytest.mark.parametrize("argv, needle", [
     (["plan", SC, "--method", "bogus"], "invalid choice: 'bogus'"),
     (["plan", SC, "--method", "thesis"], "--method thesis plans planar (kind: transfer) scenarios, not spatial (3-D) ones"),
-    (["plan", SC, "--method", "collocation"], "--method collocation plans energy-time (kind: energy_time) scenarios, "
-     "not spatial"),
     (["plan", SC, "--success", "1.5"], "--success 1.5 must be a probability in (0, 1)"),
     (["plan", SC, "--success", "0.9", "--carried"], "--carried and --success both choose the time scale"),
     (["plan", SC, "--method", "toppra", "--checkpoint", "c.pkl"], "--checkpoint: not an option of the spatial (3-D) "

@@ -1,6 +1,6 @@
 """Direct collocation of seed 001's energy-time cost on the other arms (issue 27 item 6):
 `qmt-drake plan thesis-ch4 | crane-tray | ur5-suction-bins | ur5-magnet-part | panda-tray-cup --method collocation
-[--c1 C1 --c2 C2 --max-iter N --option knots=K]`.
+[--c1 C1 --c2 C2 --max-iter N --option knots=K (default 6)]`.
 
 The transcription (a MathematicalProgram solved by SNOPT) is a Hermite-Simpson collocation of the joint-space
 double integrator: state (q [rad], qd [rad/s]), input qdd [rad/s^2] first-order hold. Decision variables: the
@@ -59,7 +59,7 @@ from qmt_drake.planners.spatial_trajectory import PolyTrajectory
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.trajectory import PolynomialTrajectory
 
-KNOTS = 10  # collocation intervals per segment between task poses
+KNOTS = 6  # collocation intervals per segment between task poses
 FD_STEP = 1e-6  # central differences on a knot's q, qd, qdd (absolute, they are O(1))
 INTERIOR = (0.5,)  # fractions of each interval where the limits are held too
 FINE = 64  # fine check points per interval after a solve
@@ -250,7 +250,7 @@ def z_of(P: EnergyTimeOnFamily, traj) -> float:
 def _check_knots(knots) -> int:
     if isinstance(knots, bool) or not float(knots).is_integer() or not 2 <= int(knots) <= 200:
         raise QmtInputError(f"knots = {knots}: collocation intervals per segment between task poses must be an "
-                            "integer in [2, 200] (default 10)")
+                            f"integer in [2, 200] (default {KNOTS})")
     return int(knots)
 
 
