@@ -76,13 +76,14 @@ class Transcription:
     """The collocation program's pieces on one kind (module docstring): P the kind's cross-kind problem
     (its torques and ratio columns), poses (S + 1, n) rad, K intervals per segment."""
 
-    def __init__(self, P: EnergyTimeOnFamily, poses, knots: int) -> None:
+    def __init__(self, P: EnergyTimeOnFamily, poses, knots: int, rows=None) -> None:
         self.P, self.poses, self.K = P, np.asarray(poses, float), int(knots)
+        self.rows_of = rows or P.column_ratios  # the constraint rows (q, qd, qdd) -> (S, R), each <= 1
         self.S, self.n = self.poses.shape[0] - 1, self.poses.shape[1]
         self.N = self.S * self.K + 1
         self.w = trapezoid_weights(self.K + 1)
         q0 = self.poses[:1]
-        self.rows = int(np.asarray(P.column_ratios(q0, 0 * q0, 0 * q0)).shape[1])  # ratio columns per point
+        self.rows = int(np.asarray(self.rows_of(q0, 0 * q0, 0 * q0)).shape[1])  # constraint rows per point
 
     def times(self, h) -> np.ndarray:
         """(N,) knot times [s] of segment time steps h (S,)."""
@@ -153,7 +154,7 @@ class Transcription:
 
         def f(v):
             Zp, D = self.at(np.asarray(v, float), points)
-            F, J = self._fd(self.P.column_ratios, Zp)
+            F, J = self._fd(self.rows_of, Zp)
             G = np.einsum("prm,pmv->prv", J, D)  # (P, R, 6n + 1)
             out = np.zeros((F.size, nv))
             rows = np.arange(F.size).reshape(F.shape)
@@ -247,6 +248,26 @@ def z_of(P: EnergyTimeOnFamily, traj) -> float:
     return energy_time_cost(P.joint_torques(q, qd, qdd), traj.duration_s, P.c1, P.c2, WEIGHTS)
 
 
+def grip_rows(columns):
+    """The spatial re-check's columns (limits/spatial_columns.SpatialColumns) with each grip term's column (a
+    suction cup's or a magnet face's: the largest of its polytope's rows F w / g, kinked where the largest
+    switches) replaced by those rows themselves, each smooth: the same limit for an NLP's gradients."""
+    grips = [t for t in columns.terms if hasattr(t, "grip")]
+
+    def rows(q, qd, qdd):
+        full = columns.columns(q, qd, qdd)
+        if not grips:
+            return full
+        state = columns.chain.evaluate(q, qd, qdd)
+        parts, at = [], 0
+        for t in grips:
+            sl = columns.slices[t.name]
+            parts += [full[:, at:sl.start], t.wrench(state) @ (t.grip.F / t.grip.g[:, None]).T]
+            at = sl.stop
+        return np.concatenate([*parts, full[:, at:]], axis=1)
+    return rows
+
+
 def _check_knots(knots) -> int:
     if isinstance(knots, bool) or not float(knots).is_integer() or not 2 <= int(knots) <= 200:
         raise QmtInputError(f"knots = {knots}: collocation intervals per segment between task poses must be an "
@@ -276,20 +297,20 @@ def fine_violations(tr: Transcription, h, Z) -> tuple[float, list]:
     step = np.where(curv < 0, 0.5 * (y0 - y2) / np.where(curv < 0, curv, -1.0), 0.0)
     sv = np.clip((ii + np.clip(step, -1, 1)) / FINE, 0.0, 1.0)
     Wv = worst(np.c_[kk, sv]) if len(kk) else np.zeros(0)
-    bad = {}
+    bad = {}  # every local maximum over the limit (several in one interval: each held from the next solve)
     for k, x, w in [*zip(kk, sv, Wv), *((k, f[j], W[k, j]) for k, j in enumerate(np.argmax(W, axis=1)))]:
-        if w > 1.0 + REFINE_TOL and w > bad.get(int(k), (0, -np.inf))[1]:
-            bad[int(k)] = (float(x), float(w))
+        if w > 1.0 + REFINE_TOL:
+            bad.setdefault((int(k), round(float(x) * FINE)), (int(k), float(x)))
     peak = max(float(W.max()), float(Wv.max()) if len(Wv) else -np.inf)
-    bad = [(k, x) for k, (x, _) in sorted(bad.items())]
+    bad = sorted(bad.values())
     return peak, bad
 
 
-def _collocate(P, poses, sample, pose_times, knots, max_iter, x0_z):
+def _collocate(P, poses, sample, pose_times, knots, max_iter, x0_z, rows=None):
     """(transcription, h, spline, info) of the collocation started from a motion (sample, pose_times); where
     the collocated motion breaks a limit between the held points, those points are held too and it is solved
     again from there (at most REFINE_ROUNDS times)."""
-    tr = Transcription(P, poses, _check_knots(knots))
+    tr = Transcription(P, poses, _check_knots(knots), rows)
     h, Z = tr.seed(sample, pose_times)
     extra: list = []
     for rnd in range(REFINE_ROUNDS + 1):
@@ -316,7 +337,8 @@ def plan_collocation_spatial(sc, *, c1: float = PAPER_C1, c2: float = PAPER_C2, 
     x, _ = _solve(P, "snopt", max_iter, sc.name)
     fam = P.family
     seed = fam.trajectory(x)
-    tr, h, pp, info = _collocate(P, sc.q_poses_rad, seed.sample, fam.pose_times(x), knots, max_iter, P.z(x))
+    tr, h, pp, info = _collocate(P, sc.q_poses_rad, seed.sample, fam.pose_times(x), knots, max_iter, P.z(x),
+                                 grip_rows(P.columns))
     plan = finish_or_least_violating(sc, "collocation", PolyTrajectory(pp), tr.times(h)[::tr.K], t0, info)
     plan.info["z"] = z_of(P, plan.trajectory)
     return plan
