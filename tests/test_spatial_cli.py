@@ -180,7 +180,7 @@ def planar_plan(tmp_path_factory):
     (["plan", SC, "--method", "toppra", "--option", "n_grid=1.5"], "--option n_grid 1.5 must be an integer"),
     (["plan", SC, "--carried", "--carried-max-scale", "0.5"], "--carried-max-scale 0.5 must exceed 1"),
     (["plan", SC, "--c2", "5"], "--c2: not an option of the spatial (3-D) ga planner (the planners that take it: "
-     "planar snopt, ipopt and steepest; spatial (3-D) snopt"),
+     "planar snopt, ipopt, steepest and collocation; spatial (3-D) snopt"),
     (["simulate", SC, "--plan", "{missing}"], "does not exist"),
     (["simulate", SC, "--plan", "{planar}"], "is a planar plan (scenario thesis-ch4)"),
     (["simulate", "thesis-ch4", "--plan", "{spatial}"], "is a spatial (3-D) plan for scenario ur5-suction-bins"),

@@ -15,9 +15,13 @@ spline of (q, qd) at the knots, whose qdd is piecewise linear, continuous and eq
 plan's trajectory is that spline (trajectory.PolynomialTrajectory of Drake's PiecewisePolynomial.CubicHermite).
 Boundary conditions from the task: q at the scenario's task poses (start, vias, goal: the IK'd poses the
 other planners of the kind use), at rest (qd = 0) at the start and the goal; qdd free there (as the via cubic).
-Limits: every ratio column of the kind's re-check <= 1 at every knot (the rows of energy/cross_kind: the
-spatial SpatialColumns, the planar LimitSet columns), each knot its own constraint on its own 3n variables
-(central differences, the columns are smooth in them). Cost: z = integral (c1 tau'tau + c2) dt [N^2 m^2 s] by
+Limits: every ratio column of the kind's re-check <= 1 - MARGIN (the rows of energy/cross_kind: the spatial
+SpatialColumns, a grip's column as its polytope's smooth rows; the planar LimitSet columns) at every knot and
+interval midpoint, in one batched constraint with its sparsity pattern (each point depends on its interval's
+two knots and time step; central differences). After a solve the spline is checked at FINE points per interval
+(local maxima refined); every maximum over 1 - MARGIN / 2 is held too and the program solved again from there
+(at most REFINE_ROUNDS times). Held as it is, not slowed: a hand's term partly balanced by the motion (a tilted
+cup or tray) breaks when the motion is slowed. Cost: z = integral (c1 tau'tau + c2) dt [N^2 m^2 s] by
 energy/objective.energy_time_cost (the one implementation), the trapezoid rule on each segment's knots,
 tau the kind's joint torques (cross_kind's joint_torques: gravity, the carried part, the rotor inertia).
 
@@ -26,7 +30,8 @@ collocation then frees the path between the poses. The plan is re-checked as eve
 spatial_search.finish_or_least_violating, planar: baselines/finish.finish_plan, both slowing it by the
 smallest factor that makes the re-check hold between samples). Its extra / info holds c1, c2, z (of the final,
 re-checked trajectory on cross_kind.SAMPLES points, as cross_kind reports its own), z on the knots, the start's
-z, the knots and the solver's status. Seed 001's own collocation (energy/collocation.py) is unchanged.
+z (the cross-kind SNOPT optimum's), the knots, the refinement's rounds and points and the solver's status. A
+planar family that does not say when it passes more than two task points is refused in one line. Seed 001's own collocation (energy/collocation.py) is unchanged.
 """
 
 from __future__ import annotations
