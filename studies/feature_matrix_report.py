@@ -10,11 +10,10 @@ from studies.feature_matrix_cells import BASE_METHOD, ENERGY_SMALL, FEATURES, KI
 # meaningless for this arm) or "missing feature" (it could exist; the code does not offer it).
 MISSING, PHYSICS, NO_DATA = "missing feature", "physics", "no data"
 JUDGEMENTS: list = [
-    (r"--method collocation", r"^(?!energy)", r"plans energy-time",
-     MISSING, "direct collocation transcribes seed 001's planar Fourier problem only; on this arm snopt, ipopt and "
-     "steepest minimise the same cost (c1 tau'tau + c2) dt over the family's genes under the kind's limits "
-     "(energy/cross_kind.py); a collocation of the kind's own dynamics and hand terms is not built"),
-    (r"--method (ga|optimum|toppra|toppra-drake|ruckig|trajopt|family_optimum)$|GA --checkpoint", "energy",
+    (r"--method collocation", r"^(?!energy)", r"collocation needs the time at which the family passes",
+     MISSING, "energy/collocation_kinds pins each task pose at a knot; a family that does not say when it passes its "
+     "task's via points (neither two points nor a via cubic) gives it no time to seed them with"),
+    (r"--method (ga|optimum|toppra|toppra-drake|ruckig|trajopt|family_optimum)$|GA --checkpoint|^retime$", "energy",
      r"needs the joints' torque limits",
      PHYSICS, "an energy-time scenario without limits.joint_torque_Nm (ohsaka-fig2: the paper states none) has ideal "
      "torque sources and no other limit: the arm could move arbitrarily fast, so a minimum time has no meaning "
@@ -76,9 +75,6 @@ JUDGEMENTS: list = [
     (r"--explicit|--feedforward|--actuator", "energy", r"ideal torque sources",
      PHYSICS, "seed 001's arm is driven by ideal torque sources (the paper models no motor): no motor loop to step, no "
      "back-EMF to feed forward, no DC motor data to drive it with (the message says so)"),
-    (r"^retime$", "energy", r"retime takes a transfer or spatial scenario",
-     MISSING, "the paper states no limit, but the YAML's joint torque limits give a path a fastest timing "
-     "(energy/time_optimal times the optimum's own path); retime does not take the energy-time arm"),
     (r"^(retime|export)$", "planar|tray|energy", r"takes a spatial scenario|spatial",
      MISSING, "a planar joint path has a fastest timing and a controller stream as a spatial one does; the commands "
      "take spatial scenarios only"),

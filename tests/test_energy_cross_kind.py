@@ -159,7 +159,6 @@ def test_snopt_and_ipopt_agree_on_the_spatial_energy_time_optimum():
 @pytest.mark.parametrize("argv,msg", [
     (["ur5-suction-bins", "--method", "snopt", "--c2", "0"], "c2 = 0 has no stable solution"),
     (["ur5-suction-bins", "--method", "steepest", "--m", "3"], "--m: not an option of the spatial (3-D) steepest"),
-    (["ur5-suction-bins", "--method", "collocation"], "collocation plans energy-time"),
 ])
 def test_spatial_energy_time_bad_options_exit_2_one_line(argv, msg, capsys):
     assert main(["plan", *argv, "--quiet"]) == 2

@@ -29,9 +29,9 @@ def test_the_two_kinds_refuse_each_others_commands_in_one_line(capsys):
     assert main(["simulate", "ohsaka-fig3", "--method", "ga"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "energy-time" in err and "--plan" in err
-    assert main(["plan", "thesis-ch4", "--method", "collocation"]) == 2  # snopt plans a planar arm too
+    assert main(["plan", "ohsaka-fig3", "--method", "thesis"]) == 2  # snopt, collocation plan a planar arm too
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "not planar ones; planar scenarios take ga|" in err
+    assert len(err.splitlines()) == 1 and "not energy-time ones; energy-time scenarios take snopt|" in err
 
 
 def test_scenarios_lists_every_kind(capsys):
@@ -97,5 +97,5 @@ def test_other_kinds_go_to_the_shared_loader(tmp_path, capsys):
     p = tmp_path / "x.yaml"
     p.write_text("name: x\n")
     assert p.as_posix() not in EXPERIMENTS
-    assert main(["plan", str(p), "--method", "collocation"]) == 2  # energy-time only (snopt plans every kind)
-    assert "kind: energy_time" in capsys.readouterr().err
+    assert main(["plan", str(p), "--method", "collocation"]) == 2  # every kind's method: the transfer loader says why
+    assert "missing section 'arm'" in capsys.readouterr().err

@@ -32,9 +32,9 @@ def test_one_table_plans_every_kind():
     assert {m.kind for m in rows} == set(registry.KINDS)
     assert len({(m.kind, m.name) for m in rows}) == len(rows)  # a method once per kind
     assert registry.names(registry.TRANSFER) == ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt",
-                                                 "snopt", "ipopt", "steepest")
+                                                 "snopt", "ipopt", "steepest", "collocation")
     assert registry.names(registry.SPATIAL) == ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake",
-                                                "snopt", "ipopt", "steepest")
+                                                "snopt", "ipopt", "steepest", "collocation")
     assert registry.names(registry.ENERGY) == ("snopt", "ipopt", "steepest", "collocation", "toppra", "toppra-drake",
                                                "ruckig", "trajopt", "family_optimum", "ga")
 
@@ -84,9 +84,9 @@ def test_a_method_of_another_kind_is_refused_naming_this_kinds_methods(scenarios
     (lambda s: plan_with("ga", s[registry.SPATIAL], bogus=1), "plan_with option bogus: not an option of the spatial (3-D) ga"),
     (lambda s: plan_with("ga", s[registry.TRANSFER], generations=2.5), "generations 2.5 must be an integer"),
     (lambda s: plan_with("ga", s[registry.TRANSFER], population=8), "population is the scenario's ga.population"),
-    (lambda s: plan_with("toppra", s[registry.SPATIAL], c1=1.0), "(the planners that take it: planar snopt, ipopt and steepest; spatial (3-D) "
-                                                               "snopt, ipopt and steepest; energy-time snopt, ipopt, steepest and "
-                                                               "collocation)"),
+    (lambda s: plan_with("toppra", s[registry.SPATIAL], c1=1.0), "(the planners that take it: planar snopt, ipopt, steepest and "
+                                                               "collocation; spatial (3-D) snopt, ipopt, steepest and collocation; "
+                                                               "energy-time snopt, ipopt, steepest and collocation)"),
     (lambda s: plan_with("nope", s[registry.ENERGY]), "'nope' is unknown"),
     (lambda s: registry.plan(s[registry.SPATIAL], "toppra", seed=-1), "seed -1 must be >= 0"),
 ])

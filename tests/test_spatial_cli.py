@@ -170,8 +170,6 @@ def planar_plan(tmp_path_factory):
 @pytest.mark.parametrize("argv, needle", [
     (["plan", SC, "--method", "bogus"], "invalid choice: 'bogus'"),
     (["plan", SC, "--method", "thesis"], "--method thesis plans planar (kind: transfer) scenarios, not spatial (3-D) ones"),
-    (["plan", SC, "--method", "collocation"], "--method collocation plans energy-time (kind: energy_time) scenarios, "
-     "not spatial"),
     (["plan", SC, "--success", "1.5"], "--success 1.5 must be a probability in (0, 1)"),
     (["plan", SC, "--success", "0.9", "--carried"], "--carried and --success both choose the time scale"),
     (["plan", SC, "--method", "toppra", "--checkpoint", "c.pkl"], "--checkpoint: not an option of the spatial (3-D) "
@@ -182,7 +180,7 @@ def planar_plan(tmp_path_factory):
     (["plan", SC, "--method", "toppra", "--option", "n_grid=1.5"], "--option n_grid 1.5 must be an integer"),
     (["plan", SC, "--carried", "--carried-max-scale", "0.5"], "--carried-max-scale 0.5 must exceed 1"),
     (["plan", SC, "--c2", "5"], "--c2: not an option of the spatial (3-D) ga planner (the planners that take it: "
-     "planar snopt, ipopt and steepest; spatial (3-D) snopt"),
+     "planar snopt, ipopt, steepest and collocation; spatial (3-D) snopt"),
     (["simulate", SC, "--plan", "{missing}"], "does not exist"),
     (["simulate", SC, "--plan", "{planar}"], "is a planar plan (scenario thesis-ch4)"),
     (["simulate", "thesis-ch4", "--plan", "{spatial}"], "is a spatial (3-D) plan for scenario ur5-suction-bins"),

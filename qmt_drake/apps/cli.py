@@ -34,10 +34,12 @@ EXIT_INPUT, EXIT_INFEASIBLE, EXIT_SIMULATION, EXIT_INTERRUPTED = 2, 3, 4, 130  #
 # methods of each kind (planners/registry.names), spatial_families (spatial_cli.SPATIAL_FAMILIES),
 # sim.spatial_actuation.ACTUATORS, sim.FEEDFORWARD_OPTIONS. --method takes every name; the registry
 # refuses a method the scenario's kind does not plan, in one line naming the ones it does.
-METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt", "snopt", "ipopt", "steepest")
+METHODS = ("ga", "optimum", "thesis", "toppra", "toppra-drake", "ruckig", "trajopt", "snopt", "ipopt", "steepest",
+           "collocation")
 ENERGY_METHODS = ("snopt", "ipopt", "steepest", "collocation", "toppra", "toppra-drake", "ruckig", "trajopt",
                   "family_optimum", "ga")
-SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake", "snopt", "ipopt", "steepest")
+SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake", "snopt", "ipopt", "steepest",
+                   "collocation")
 ALL_METHODS = tuple(dict.fromkeys(METHODS + ENERGY_METHODS + SPATIAL_METHODS))
 SPATIAL_FAMILIES = ("via_cubic", "line_cubic_velocity", "trapezoid_ptp")
 SPATIAL_ACTUATORS = ("ideal", "dc_motor")

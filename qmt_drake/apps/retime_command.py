@@ -10,13 +10,16 @@ exit 2, unless --collisions report: then timed, reported COLLIDES, exit 3), and 
 co-simulation's verdict. --json writes the plan file (spatial_plan_io form; `qmt-drake export` reads
 it). Exit 0 when the plan holds every limit and clears the obstacles, 3 when it does not. A planar
 scenario (thesis arms, CRANE-X7 tray) takes --method toppra (qmt_drake/retime_planar.py: its LimitSet's toppra rows, the planar re-check, slowed to hold).
+An energy-time scenario with joint torque limits (ohsaka-fig3) is retimed as its joint-space transfer
+(energy/as_transfer.py), under those limits; `simulate SCENARIO --plan FILE` runs the file in seed 001's execution.
 """
 
 from __future__ import annotations
 
 from qmt_drake.apps.arg_checks import check_int, check_outputs, emit_json, progress
 from qmt_drake.apps.spatial_cli import is_spatial_scenario
-from qmt_drake.energy.scenario import is_energy_scenario
+from qmt_drake.energy.as_transfer import transfer_scenario_of
+from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import run_simulate
 from qmt_drake.outcome import verdict_line
@@ -54,13 +57,12 @@ def add_parser(subparsers):
 
 def cmd_retime(args) -> int:
     check_outputs(args, "--json", "--trajectory-csv")
-    if is_energy_scenario(args.scenario):
-        raise QmtInputError(f"scenario {args.scenario}: retime takes a transfer or spatial scenario; an energy-time "
-                            "arm's timing is the energy-time trade-off (`qmt-drake plan "
-                            f"{args.scenario} --method snopt`), and the paper states no limit for a fastest timing "
-                            "(the YAML's joint torque limits time only the front's time-optimal end)")
     check_int(args.n_grid, "--n-grid", 10, "TOPP-RA needs a grid (1000 by default)")
-    if not is_spatial_scenario(args.scenario):
+    energy = is_energy_scenario(args.scenario)
+    if energy and args.simulate:
+        raise QmtInputError(f"--simulate: retime {args.scenario} --json FILE, then `qmt-drake simulate {args.scenario} "
+                            "--plan FILE` runs it in seed 001's execution (energy/execute.py)")
+    if not energy and not is_spatial_scenario(args.scenario):
         return _retime_planar(args)
     ga = {k: getattr(args, k) for k in ("seed", "generations") if getattr(args, k) is not None}
     if args.method == "toppra" and ga:
@@ -69,7 +71,8 @@ def cmd_retime(args) -> int:
     check_int(ga.get("generations"), "--generations", 1, "run at least one generation")
     if args.method == "ga":
         ga["progress"] = None if args.quiet else progress
-    sc = load_spatial_scenario(args.scenario)
+    # seed 001's arm: its joint-space transfer (energy/as_transfer.py: its joint torque limits; none: one line)
+    sc = transfer_scenario_of(get_experiment(args.scenario)) if energy else load_spatial_scenario(args.scenario)
     p = retime_path(sc, args.path, args.method, n_grid=args.n_grid, collisions=args.collisions, **ga)
     sim = simulate_spatial(sc, p.trajectory) if args.simulate else None
     if _write_outputs(args, p, sim):

@@ -20,7 +20,8 @@ TASK_DIR = MODELS_DIR / "tasks"  # seed 003's design tasks (design/tasks.py): no
 DESIGN_TASK = "design_task"  # what load_scenario_data calls a design task file
 SPATIAL = "spatial_transfer"  # spatial_task.SPATIAL_KIND (config imports nothing above it)
 # planners/spatial_methods.METHODS (named here for the same reason; a test checks they agree)
-SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake", "snopt", "ipopt", "steepest")
+SPATIAL_METHODS = ("toppra", "ruckig", "family_optimum", "ga", "trajopt", "toppra-drake", "snopt", "ipopt", "steepest",
+                   "collocation")
 
 # What each kind is called in a message, and the command that takes it.
 _KIND_ROUTES = {

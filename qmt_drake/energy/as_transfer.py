@@ -51,7 +51,7 @@ from qmt_drake.model.spatial_ik import SpatialIK
 from qmt_drake.model.urdf_check import urdf_joint_limits
 from qmt_drake.plan import Plan
 from qmt_drake.planners import registry
-from qmt_drake.planners.spatial_plan_io import load_spatial_plan
+from qmt_drake.retime import load_plan_file
 from qmt_drake.spatial_task import SpatialScenario
 
 HAND_FRAME = "tip"
@@ -172,8 +172,9 @@ def plan_transfer(E: Experiment, *, method: str, seed: int = 0, progress=None, *
 
 
 def load_transfer_plan(path, E: Experiment) -> Plan:
-    """A spatial-kind plan file of E's arm (module docstring), rebuilt and checked against E's transfer."""
-    return load_spatial_plan(path, transfer_scenario_of(E))
+    """A spatial-kind plan file of E's arm (module docstring) or a retimed path of it (`qmt-drake retime`),
+    rebuilt and checked against E's transfer."""
+    return load_plan_file(path, transfer_scenario_of(E))
 
 
 def file_kind(path) -> str | None:

@@ -32,8 +32,8 @@ The result is re-checked as every plan of its kind: a spatial plan by spatial_se
 (10x the check rate, slowed by the smallest factor that makes the fine re-check hold; none: the least-violating
 plan, exit 3), a planar one by plan.family_plan (its check rate), slowed by the first of HOLD_STEPS that makes
 it hold (none: not feasible, exit 3). Its info / extra has c1, c2, z, the energy integral, the start's z and
-the solver's status. `collocation` (a transcription of seed 001's planar Fourier dynamics) is not offered on
-these kinds.
+the solver's status. `collocation` on these kinds is energy/collocation_kinds.py (the same cost and limit rows on
+a free joint path, started from this module's SNOPT optimum).
 """
 
 from __future__ import annotations

@@ -119,6 +119,9 @@ METHODS: tuple[Method, ...] = (
     *(Method(name, TRANSFER, "qmt_drake.energy.cross_kind:plan_energy_time_transfer",
              f"the energy-time cost over the family's genes, {how}", internal=("scenario",), passes=("method",))
       for name, how in (("snopt", "SNOPT"), ("ipopt", "IPOPT"), ("steepest", "steepest descent"))),
+    Method("collocation", TRANSFER, "qmt_drake.energy.collocation_kinds:plan_collocation_transfer",
+           "the energy-time cost by direct collocation of the joint-space double integrator, SNOPT",
+           internal=("scenario",)),
     Method("toppra", SPATIAL, f"{_S}:plan_toppra_spatial", "TOPP-RA on the family's path", internal=("sc",)),
     Method("ruckig", SPATIAL, f"{_S}:plan_ruckig_spatial", "Ruckig rest to rest between task poses",
            internal=("sc",)),
@@ -136,6 +139,8 @@ METHODS: tuple[Method, ...] = (
       for name, summary in (("snopt", "the energy-time cost over the via cubic's segment times, SNOPT"),
                             ("ipopt", "the energy-time cost over the via cubic's segment times, IPOPT"),
                             ("steepest", "the energy-time cost over the via cubic's segment times, steepest descent"))),
+    Method("collocation", SPATIAL, "qmt_drake.energy.collocation_kinds:plan_collocation_spatial",
+           "the energy-time cost by direct collocation of the joint-space double integrator, SNOPT", internal=("sc",)),
     Method("snopt", ENERGY, summary="the energy-time NLP by SNOPT, multi-start", **_ENERGY),
     Method("ipopt", ENERGY, summary="the energy-time NLP by IPOPT, multi-start", **_ENERGY),
     Method("steepest", ENERGY, summary="the paper's steepest descent, multi-start", **_ENERGY),
