@@ -136,7 +136,7 @@ def gen_plan_with(rng, w):
     while len(out) < N_CALLS:
         k = int(rng.integers(0, 7))
         if k == 0:
-            m = pick(rng, BAD_TYPES + ["", "gaa", "collocation", "toppra-drak"])
+            m = pick(rng, BAD_TYPES + ["", "gaa", "colocation", "toppra-drak"])
             out.append((f"type: plan_with(method={m!r})", lambda m=m: plan_with(m, sc)))
         elif k == 1:
             s = pick(rng, bad_paths(w) + [3, NAN, "no-such-scenario"])

@@ -207,7 +207,7 @@ def test_refusals_are_one_line_exit_2(sc, planned, planar_plan, tmp_path, argv, 
 def test_load_scenario_points_to_the_cli_and_names_the_methods():
     assert SPATIAL_METHODS == METHODS
     with pytest.raises(QmtInputError, match=rf"qmt-drake plan {SC} --method toppra\|ruckig\|family_optimum\|ga\|"
-                                            rf"trajopt\|toppra-drake\|snopt\|ipopt\|steepest --json PLAN.json` .* `qmt-drake simulate {SC} --plan"):
+                                            rf"trajopt\|toppra-drake\|snopt\|ipopt\|steepest\|collocation --json PLAN.json` .* `qmt-drake simulate {SC} --plan"):
         load_scenario(SC)
 
 
