@@ -294,12 +294,17 @@ def planar_row(name: str, draws_n: int) -> dict:
     return {"scenario": name, "model": PLANAR[name], **summary(k, N_CERT["planar"])}
 
 
-def spatial_row(name: str, plan_file: str, draws_n: int, rest_n: int) -> dict:
+def spatial_row(name: str, plan_file: str, draws_n: int, rest_n: int, only: list[str] | None = None,
+                step_s: float = 1e-3) -> dict:
+    """A spatial row: the hold scale of draws_n draws, P(held at rest) of rest_n; `only`: draw just these
+    parameters (the others nominal); step_s [s]: the plan's hand motion sampled at this step."""
     sc = load_spatial_scenario(name)
     plan = load_spatial_plan(plan_file, sc)
     q0 = plan.trajectory.sample([0.0])[0][0]
-    motion = hand_motion(sc, plan.trajectory)
+    motion = hand_motion(sc, plan.trajectory, step_s)
     draws = draws_of(name, plan_file, max(draws_n, rest_n))
+    if only is not None:
+        draws = [{k: v for k, v in d.items() if k in only} for d in draws]
     per = [spatial_draw(sc, motion, d) for d in draws[:draws_n]]
     rest = at_rest_ratios(sc, q0, draws[:rest_n]) if sc.hand_kind != "tray" else np.array([r["at_rest_ratio"]
                                                                                            for r in per])
@@ -320,13 +325,18 @@ def main(argv=None) -> int:
     ap.add_argument("--draws", type=int, default=10000, help="planar draws (closed form)")
     ap.add_argument("--spatial-draws", type=int, default=100, help="spatial draws for the hold scale")
     ap.add_argument("--rest-draws", type=int, default=2000, help="spatial draws for P(held at rest)")
+    ap.add_argument("--only-parameters", default=None, metavar="A,B",
+                    help="spatial rows: draw only these parameters (the others nominal)")
+    ap.add_argument("--step-ms", type=float, default=1.0, help="spatial rows: the plan's motion sampled at this step")
     ap.add_argument("--out", default="out/hold_floor.json")
     a = ap.parse_args(argv)
+    only = None if a.only_parameters is None else a.only_parameters.split(",")
     rows = []
     for name in a.only.split(","):
         print(f"{name} ...", file=sys.stderr, flush=True)
         rows.append(planar_row(name, a.draws) if name in PLANAR else
-                    spatial_row(name, str(Path(a.plans) / f"{name}-base.json"), a.spatial_draws, a.rest_draws))
+                    spatial_row(name, str(Path(a.plans) / f"{name}-base.json"), a.spatial_draws, a.rest_draws, only,
+                                a.step_ms * 1e-3))
         write_text_atomic(a.out, json.dumps(jsonable({"rows": rows}), indent=1))
     for r in rows:
         print(f"{r['scenario']}: P(held at rest) {r['p_held_at_rest']:.3f}, k q50 {r['k_q50']:.4f} q90 {r['k_q90']:.4f} "
