@@ -21,7 +21,7 @@ SHAPING_WINDOW_S later, counted in the executed time).
             smallest scale passing the sequential Wilson test on the search draws, then fresh draws of another seed.
   margin    the base planner run against the hand derated to the section's QUANTILE (hold: friction, vacuum,
             magnet pull at the lower quantile; mass, centre-of-mass height at the upper one; the lateral centre
-            of mass is left nominal: an off-axis part is lost at rest, which no plan changes, and planning for
+            of mass is left nominal: an off-axis part loads the hold at rest, which no plan changes, and planning for
             its 90 % offset slows the UR5 plans 2.6-3.1x), then certified the same way from x1. Not for ch.2-4: the planar magnet's
             hold is drawn inside the co-simulation only (sweep/cases.run_case), no planner takes a derated coil.
 Each finished step of a row is kept in OUT/robust_table/robust_table.json (atomic writes); a rerun skips it, and

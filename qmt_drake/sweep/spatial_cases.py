@@ -43,6 +43,14 @@ from qmt_drake.sweep.parameters import MOTOR_PARAMETERS, PARAMETERS, SPATIAL_HAN
 from qmt_drake.sweep.spec import SweepSpec
 from qmt_drake.systems.joint_tracking import PidGains
 
+# The drawn gears' efficiency (< 1) switched at zero joint speed (dc_motor.gear_gain: eta motoring, 1 back-driven)
+# makes a joint held against gravity chatter at the 1 ms loop's Nyquist rate: the arm stands still to 1e-7 rad
+# while its speed flips sign every step (4e-4 rad/s on the UR5), and the carried part's logged acceleration
+# (0.1-0.3 m/s^2) adds 0.03-0.05 to the hold ratio of a part at rest and lost UR5 magnet draws at 0.04 s that the
+# limit model holds (studies/hold_floor.py, docs/robustness.md). Cases that draw the gear efficiency simulate the
+# regularised switch (dc_motor's efficiency_blend_speed_rad_s, as Coulomb friction is regularised at zero speed):
+# 25x the chatter's speed, below 1 % of the joints' speed limits; above 3x it the switched model is unchanged.
+EFFICIENCY_BLEND_RAD_S = 0.01
 GAIN_PARAMETERS = ("kp_scale", "kd_scale")  # the executed PD law's gains over the designed ones (dc_motor)
 LAW_PARAMETERS = GAIN_PARAMETERS + ("loop_period_s",)  # the executed law's (drawn_drive), not the motors'
 
@@ -169,6 +177,8 @@ def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]
                 motor = {k: float(x) for k, x in values.items() if k in drive}
                 sim = {"time_scale": float(values.get("time_scale", 1.0)) * float(values.get("time_scale_jitter", 1.0)),
                        "actuator": actuator, "feedforward": feedforward, **options}
+                if "gear_efficiency" in values:  # in the key: such cases simulate the regularised gear switch
+                    sim["efficiency_blend_speed_rad_s"] = EFFICIENCY_BLEND_RAD_S
                 cases.append(Case(index=len(cases), label=pdef["label"], scenario=spec.scenario, scenario_overrides={},
                                   plan_key=ref.key, payload=drawn, magnet={}, motor_scales=motor, sim=sim,
                                   parameters=dict(values), sample=i if spec.distributions else None))
@@ -222,18 +232,23 @@ def _drive(sc, physical, plan, plan_key: str, case_sim: dict, values: dict):
     if k not in _DRIVES:
         _DRIVES[k] = SpatialMotorDrive.for_scenario(sc, plan.trajectory.sample([0.0])[0][0], feedforward,
                                                     integral_rate_per_s=rate)
-    return drawn_drive(_DRIVES[k], sc, physical, values)
+    return drawn_drive(_DRIVES[k], sc, physical, values, case_sim.get("efficiency_blend_speed_rad_s"))
 
 
-def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict) -> SpatialMotorDrive:
+def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict,
+                efficiency_blend_speed_rad_s: float | None = None) -> SpatialMotorDrive:
     """The nominal DC-motor drive (its feedforward model, its loop damping: the controller's) with the drawn
     motors simulated (`physical`'s, when they differ from `sc`'s) and the executed PD law's voltage gains
     scaled by values' kp_scale / kd_scale (the integral gain goes with kp: Ki = Kp x the integral rate), sampled
     and held at values' loop_period_s [s] when drawn. The loop damping moved into the plant is added back by
-    the law (sim/actuation.motor_actuation_law), so it stays the nominal one without changing the physics."""
+    the law (sim/actuation.motor_actuation_law), so it stays the nominal one without changing the physics.
+    efficiency_blend_speed_rad_s [rad/s]: the drawn motors' gear switch regularised (EFFICIENCY_BLEND_RAD_S)."""
     d = nominal
     if physical.motor is not sc.motor:
-        d = dataclasses.replace(d, plant_params=motor_params_for_spatial(physical))
+        pm = motor_params_for_spatial(physical)
+        if efficiency_blend_speed_rad_s is not None:
+            pm = dataclasses.replace(pm, efficiency_blend_speed_rad_s=float(efficiency_blend_speed_rad_s))
+        d = dataclasses.replace(d, plant_params=pm)
     kp, kd = float(values.get("kp_scale", 1.0)), float(values.get("kd_scale", 1.0))
     if kp != 1.0 or kd != 1.0:
         g = d.gains
