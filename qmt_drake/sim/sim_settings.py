@@ -33,8 +33,9 @@ def simulation_of(scenario: Any) -> Simulation:
     return sim if isinstance(sim, Simulation) else NO_SIMULATION
 
 
-def time_step_of(run_option: float | None, scenario: Any, default: float) -> float:
-    """The plant step [s] by the precedence of the module docstring."""
+def time_step_of(run_option: float | None, scenario: Any, default: float | None) -> float | None:
+    """The plant step [s] by the precedence of the module docstring (default None: the caller's own default
+    applies later)."""
     if run_option is not None:
         return run_option
     step = simulation_of(scenario).plant.time_step
