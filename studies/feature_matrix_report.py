@@ -69,9 +69,6 @@ JUDGEMENTS: list = [
     (r"--actuator dc_motor", "tray", r"Dynamixel position servos .*firmware closes the position loop",
      PHYSICS, "the tray arm's YAML actuator is Dynamixel position servos: their firmware closes the loop, there is no "
      "motor voltage to drive (the planar magnet arm's dc_motor_gear YAML actuator is accepted; the message says so)"),
-    (r"--time-step-ms", "energy", r"plant is continuous",
-     PHYSICS, "the vertical arm has no contact: a continuous plant under an error-controlled integrator has no plant "
-     "step to set (the message says so)"),
     (r"--explicit|--feedforward|--actuator", "energy", r"ideal torque sources",
      PHYSICS, "seed 001's arm is driven by ideal torque sources (the paper models no motor): no motor loop to step, no "
      "back-EMF to feed forward, no DC motor data to drive it with (the message says so)"),

@@ -3,6 +3,8 @@ the other feature x kind cells of docs/features.md run (session 13, helper refus
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from qmt_drake.apps.commands import check_own_actuator
@@ -58,7 +60,6 @@ def test_energy_time_margin_is_the_final_error_against_the_arrival_tolerance(ene
 
 
 @pytest.mark.parametrize("argv,reason", [
-    (["--time-step-ms", "1"], "plant is continuous, integrated by an error-controlled integrator"),
     (["--actuator", "dc_motor"], "ideal torque sources (the paper models no motor"),
     (["--explicit"], "no motor-voltage loop to step explicitly"),
     (["--feedforward", "back-emf"], "no motor voltage and no back-EMF"),
@@ -68,6 +69,25 @@ def test_energy_time_simulate_refusals_state_the_physics(energy_plan, capsys, ar
     assert main(["simulate", "ohsaka-fig3", "--plan", str(energy_plan), *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert reason in err and "\n" not in err and "Traceback" not in err
+
+
+def test_energy_time_simulate_takes_a_plant_step_and_refuses_one_out_of_range(energy_plan, tmp_path, capsys):
+    """--time-step-ms makes seed 001's plant discrete at that step (the default: continuous); the tracking
+    error shrinks towards the continuous run's as the step does (a discrete plant converging, not a flag)."""
+    from qmt_drake.apps.cli import main
+    errors = {}
+    for step in (None, "1", "0.25"):
+        sj = tmp_path / f"s{step}.json"
+        assert main(["simulate", "ohsaka-fig3", "--plan", str(energy_plan), "--json", str(sj), "--quiet",
+                     *(["--time-step-ms", step] if step else [])]) == 0
+        s = json.loads(sj.read_text())
+        assert s["time_step_s"] == (None if step is None else float(step) * 1e-3)
+        errors[step] = s["max_tracking_error_rad"]
+    assert errors[None] < errors["0.25"] < errors["1"]
+    for bad in ("0", "-1", "20", "nan"):
+        assert main(["simulate", "ohsaka-fig3", "--plan", str(energy_plan), "--time-step-ms", bad]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "plant step in (0, 10] ms" in err and "\n" not in err
 
 
 @pytest.fixture(scope="module")

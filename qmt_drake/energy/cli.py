@@ -21,6 +21,8 @@ from __future__ import annotations
 import json
 import sys
 
+import numpy as np
+
 from qmt_drake.apps import spatial_cli
 from qmt_drake.budgets import check_energy_budget
 from qmt_drake.energy.as_transfer import file_kind, load_transfer_plan, transfer_scenario_of
@@ -105,12 +107,23 @@ def refused_options(args) -> tuple[tuple[str, str | None], ...]:
          "controller already has the plan's full torque as feedforward"),
         ("--explicit", None if not args.explicit else
          f"{_NO_MOTOR}: there is no motor-voltage loop to step explicitly"),
-        ("--time-step-ms", None if args.time_step_ms is None else
-         "the vertical arm has no contact: its plant is continuous, integrated by an error-controlled "
-         "integrator (accuracy 1e-6) that chooses its own steps; there is no plant step to set"),
         ("--actuator", None if getattr(args, "actuator", None) is None else
          f"{_NO_MOTOR}: there is no DC motor or gear data to drive it with"),
     )
+
+
+MAX_ENERGY_STEP_MS = 10.0  # the inverse-dynamics loop's 30 rad/s poles stay well inside a discrete step's reach
+
+
+def energy_time_step(time_step_ms) -> float | None:
+    """--time-step-ms on seed 001's arm [s]: a discrete plant at that step (None: the scenario's section, else
+    the continuous plant under the error-controlled integrator); one line outside (0, MAX_ENERGY_STEP_MS]."""
+    if time_step_ms is None:
+        return None
+    if not (np.isfinite(time_step_ms) and 0.0 < time_step_ms <= MAX_ENERGY_STEP_MS):
+        raise QmtInputError(f"--time-step-ms {time_step_ms:g}: the energy-time execution takes a plant step in "
+                            f"(0, {MAX_ENERGY_STEP_MS:g}] ms (default: a continuous plant); e.g. --time-step-ms 1")
+    return time_step_ms * 1e-3
 
 
 def simulate_energy(args) -> int:
@@ -123,6 +136,7 @@ def simulate_energy(args) -> int:
     for name, given in refused_options(args):
         if given:
             raise QmtInputError(f"{name}: {given}: drop {name}")
+    step_s = energy_time_step(args.time_step_ms)
     E = get_experiment(args.scenario)
     if args.plan and file_kind(args.plan) == SPATIAL_PLAN_KIND:  # a transfer planner's plan of this arm
         plan = load_transfer_plan(args.plan, E)
@@ -137,8 +151,8 @@ def simulate_energy(args) -> int:
         plan = registry.plan(E, "snopt")
         if not plan.feasible:
             raise QmtInputError(f"{args.scenario}: no start converged; nothing to simulate")
-    summary = execute_plan(plan, record_path=args.record) if plan.scenario_kind == ENERGY_PLAN_KIND else \
-        execute_transfer_plan(plan, record_path=args.record)
+    summary = execute_plan(plan, record_path=args.record, time_step_s=step_s) if plan.scenario_kind == ENERGY_PLAN_KIND \
+        else execute_transfer_plan(plan, record_path=args.record, time_step_s=step_s)
     if getattr(args, "margin", False):  # its margin: the final error against the arrival tolerance
         summary = with_margin(E, plan, summary, expensive=True)
     text = json.dumps(jsonable(summary), indent=1)

@@ -20,6 +20,7 @@ The reference is sampled exactly from the Fourier family at 5 kHz and linearly i
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -181,7 +182,19 @@ def _plan_summary(plan, summary: dict) -> dict:
     return summary
 
 
-def build_plan_execution_cosim(plan, record_path: str | Path | None = None) -> CoSim:
+def _stepped(simulation: Simulation, time_step_s: float | None) -> Simulation:
+    """The scenario's section with the run's plant step (None: the section's own, else continuous)."""
+    if time_step_s is None:
+        return simulation
+    return dataclasses.replace(simulation, plant=dataclasses.replace(simulation.plant, time_step=float(time_step_s)))
+
+
+def _with_step(summary: dict, simulation: Simulation) -> dict:
+    summary["time_step_s"] = simulation.plant.time_step  # None: a continuous plant (error-controlled integrator)
+    return summary
+
+
+def build_plan_execution_cosim(plan, record_path: str | Path | None = None, time_step_s: float | None = None) -> CoSim:
     """`plan` (an energy-time Plan) as a CoSim: its summary is Execution.summary with the scenario, the method,
     the motion time [s], whether the arm reached the goal (outcome.py's arrival tolerance [rad]) and the
     outcome word: seed 001 carries nothing that can be lost, so it is carried (goal reached) or
@@ -189,25 +202,28 @@ def build_plan_execution_cosim(plan, record_path: str | Path | None = None) -> C
     if getattr(plan, "scenario_kind", None) != ENERGY_PLAN_KIND or plan.problem is None:
         raise QmtInputError(f"a {getattr(plan, 'scenario_kind', type(plan).__name__)} plan cannot run in the "
                             "energy-time execution; plan this energy-time scenario first")
+    sim = _stepped(simulation_of(plan.scenario), time_step_s)
     return build_execution_cosim(plan.problem.family, plan.x, recording_path=record_path,
-                                 summarize=lambda ex: _plan_summary(plan, ex.summary()),
-                                 simulation=simulation_of(plan.scenario))
+                                 summarize=lambda ex: _with_step(_plan_summary(plan, ex.summary()), sim),
+                                 simulation=sim)
 
 
-def execute_plan(plan, record_path: str | Path | None = None) -> dict:
-    """`plan` executed by build_plan_execution_cosim and the one run: its summary dict."""
-    return run(build_plan_execution_cosim(plan, record_path))
+def execute_plan(plan, record_path: str | Path | None = None, time_step_s: float | None = None) -> dict:
+    """`plan` executed by build_plan_execution_cosim and the one run: its summary dict. time_step_s [s]: the
+    plant step (a run option over the scenario's simulation.plant.time_step; None and no section: continuous)."""
+    return run(build_plan_execution_cosim(plan, record_path, time_step_s))
 
 
-def execute_transfer_plan(plan, record_path: str | Path | None = None) -> dict:
+def execute_transfer_plan(plan, record_path: str | Path | None = None, time_step_s: float | None = None) -> dict:
     """A transfer planner's plan of seed 001's arm (energy/as_transfer.py: a spatial-kind plan) executed by the
     same co-simulation (its samples as the reference, the scenario's URDF): the summary of execute_plan."""
     if getattr(plan.scenario, "experiment", None) is None:
         raise QmtInputError(f"a {plan.scenario_kind} plan of {plan.scenario.name} is not a plan of seed 001's arm; "
                             "plan this energy-time scenario first")
+    sim = _stepped(simulation_of(plan.scenario.experiment), time_step_s)
     return run(build_execution_cosim(PlanFamily(plan), None, recording_path=record_path, urdf=plan.scenario.urdf,
-                                     summarize=lambda ex: _plan_summary(plan, ex.summary()),
-                                     simulation=simulation_of(plan.scenario.experiment)))
+                                     summarize=lambda ex: _with_step(_plan_summary(plan, ex.summary()), sim),
+                                     simulation=sim))
 
 
 def plot_execution(ex: Execution, path, title: str = "") -> None:
