@@ -244,8 +244,7 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
         return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale, time_step_s=time_step_s,
                            feedforward=feedforward or "none")
     spatial = plan.scenario_kind == SPATIAL_PLAN_KIND
-    for name, given in (("time_step_s", time_step_s is not None and not spatial),
-                        ("feedforward", feedforward is not None and not spatial),
+    for name, given in (("feedforward", feedforward is not None and not spatial),
                         ("actuator", actuator is not None and not spatial),
                         ("time_scale", plan.scenario_kind == ENERGY_PLAN_KIND and time_scale != 1.0)):
         if given:
@@ -258,7 +257,8 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
                                  feedforward=feedforward, time_step_s=time_step_s))
         return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale,
                            spatial_kw={"actuator": actuator, "feedforward": feedforward, "time_step_s": time_step_s})
-    return with_margin(scenario, plan, run(build_cosim(scenario, plan, record_path=record_path)), expensive=margin)
+    return with_margin(scenario, plan, run(build_cosim(scenario, plan, record_path=record_path, time_step_s=time_step_s)),
+                       expensive=margin)
 
 
 @C.strict_call

@@ -165,12 +165,12 @@ def build_diagram(scenario: TransferScenario, plan: Motion, **options: Any) -> C
 def energy_cosim(plan: Any, *, record_path: str | Path | None = None, time_scale: float = 1.0,
                  time_step_s: float | None = None, feedforward: str | None = None) -> CoSim:
     """The energy-time arm's co-simulation of `plan` (energy/execute.build_plan_execution_cosim): an
-    ideal inverse-dynamics drive on a continuous plant (no plant step), played as planned."""
-    for name, given in (("time_scale", time_scale != 1.0), ("time_step_s", time_step_s is not None),
-                        ("feedforward", feedforward not in (None, "full"))):
-        if given:  # its error-controlled integrator has no step; its controller's feedforward is always on
+    ideal inverse-dynamics drive, played as planned; time_step_s [s]: a discrete plant at that step (None: the
+    scenario's simulation section, else continuous)."""
+    for name, given in (("time_scale", time_scale != 1.0), ("feedforward", feedforward not in (None, "full"))):
+        if given:  # played at its optimiser's timing; its controller's feedforward is always on
             raise QmtInputError(f"{name}: the energy-time co-simulation does not take it; drop {name}")
-    return build_plan_execution_cosim(plan, record_path)
+    return build_plan_execution_cosim(plan, record_path, time_step_s)
 
 
 # ------------------------------------------------------------------------------------- magnet

@@ -84,8 +84,9 @@ def energy_margin(summary: dict) -> dict:
 # why the energy-time run has no flip scale and no half-step verdict (physics, not a missing feature)
 ENERGY_NO_FLIP = ("not available: seed 001's arm is driven by ideal, unlimited torque sources under an "
                   "inverse-dynamics controller holding the plant's own model, so it follows the plan at any time "
-                  "scale (the verdict cannot flip with it), and its plant is continuous, integrated by an "
-                  "error-controlled integrator (accuracy 1e-6): there is no plant step to halve")
+                  "scale (the verdict cannot flip with it); its plant is continuous by default (an error-controlled "
+                  "integrator, accuracy 1e-6: no step to halve), and a discrete run (--time-step-ms) converges to "
+                  "that one as its step shrinks")
 
 
 # ------------------------------------------------------------------------------- the expensive part

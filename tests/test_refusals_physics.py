@@ -87,7 +87,7 @@ def test_energy_time_simulate_takes_a_plant_step_and_refuses_one_out_of_range(en
     for bad in ("0", "-1", "20", "nan"):
         assert main(["simulate", "ohsaka-fig3", "--plan", str(energy_plan), "--time-step-ms", bad]) == 2
         err = capsys.readouterr().err.strip()
-        assert "plant step in (0, 10] ms" in err and "\n" not in err
+        assert "plant step in (0, 10] ms (default" in err and "--time-step-ms" in err and "\n" not in err
 
 
 @pytest.fixture(scope="module")

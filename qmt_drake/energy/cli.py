@@ -21,13 +21,17 @@ from __future__ import annotations
 import json
 import sys
 
-import numpy as np
-
 from qmt_drake.apps import spatial_cli
 from qmt_drake.budgets import check_energy_budget
 from qmt_drake.energy.as_transfer import file_kind, load_transfer_plan, transfer_scenario_of
 from qmt_drake.energy.energy_plan import METHODS as METHODS  # the CLI lists them
-from qmt_drake.energy.execute import execute, execute_plan, execute_transfer_plan, plot_execution
+from qmt_drake.energy.execute import (
+    check_time_step,
+    execute,
+    execute_plan,
+    execute_transfer_plan,
+    plot_execution,
+)
 from qmt_drake.energy.scenario import get_experiment
 from qmt_drake.errors import QmtInputError
 from qmt_drake.margin import margin_text
@@ -112,20 +116,6 @@ def refused_options(args) -> tuple[tuple[str, str | None], ...]:
     )
 
 
-MAX_ENERGY_STEP_MS = 10.0  # the inverse-dynamics loop's 30 rad/s poles stay well inside a discrete step's reach
-
-
-def energy_time_step(time_step_ms) -> float | None:
-    """--time-step-ms on seed 001's arm [s]: a discrete plant at that step (None: the scenario's section, else
-    the continuous plant under the error-controlled integrator); one line outside (0, MAX_ENERGY_STEP_MS]."""
-    if time_step_ms is None:
-        return None
-    if not (np.isfinite(time_step_ms) and 0.0 < time_step_ms <= MAX_ENERGY_STEP_MS):
-        raise QmtInputError(f"--time-step-ms {time_step_ms:g}: the energy-time execution takes a plant step in "
-                            f"(0, {MAX_ENERGY_STEP_MS:g}] ms (default: a continuous plant); e.g. --time-step-ms 1")
-    return time_step_ms * 1e-3
-
-
 def simulate_energy(args) -> int:
     """`qmt-drake simulate ENERGY_SCENARIO [--plan P.json]`: the plan (or a fresh SNOPT plan)
     executed in Drake (energy/execute.py: the vertical arm, inverse-dynamics control); prints the
@@ -136,7 +126,7 @@ def simulate_energy(args) -> int:
     for name, given in refused_options(args):
         if given:
             raise QmtInputError(f"{name}: {given}: drop {name}")
-    step_s = energy_time_step(args.time_step_ms)
+    step_s = check_time_step(None if args.time_step_ms is None else args.time_step_ms * 1e-3, "--time-step-ms", 1e3)
     E = get_experiment(args.scenario)
     if args.plan and file_kind(args.plan) == SPATIAL_PLAN_KIND:  # a transfer planner's plan of this arm
         plan = load_transfer_plan(args.plan, E)

@@ -182,6 +182,22 @@ def _plan_summary(plan, summary: dict) -> dict:
     return summary
 
 
+MAX_TIME_STEP_S = 10e-3  # a discrete plant's largest step: the 30 rad/s inverse-dynamics loop stays resolved
+
+
+def check_time_step(time_step_s, name: str = "time_step_s", per_s: float = 1.0) -> float | None:
+    """A run's plant step [s] for seed 001's arm (None: the scenario's section, else continuous); one line naming
+    `name` (given in units of 1/per_s s, e.g. per_s=1e3 for --time-step-ms) outside (0, MAX_TIME_STEP_S]."""
+    if time_step_s is None:
+        return None
+    ok = isinstance(time_step_s, (int, float)) and not isinstance(time_step_s, bool) and np.isfinite(time_step_s)
+    if not (ok and 0.0 < time_step_s <= MAX_TIME_STEP_S):
+        shown = f"{time_step_s * per_s:g}" if ok else repr(time_step_s)
+        raise QmtInputError(f"{name} {shown}: the energy-time execution takes a plant step in "
+                            f"(0, {MAX_TIME_STEP_S * per_s:g}] {'ms' if per_s == 1e3 else 's'} (default: a continuous plant)")
+    return float(time_step_s)
+
+
 def _stepped(simulation: Simulation, time_step_s: float | None) -> Simulation:
     """The scenario's section with the run's plant step (None: the section's own, else continuous)."""
     if time_step_s is None:
@@ -202,7 +218,7 @@ def build_plan_execution_cosim(plan, record_path: str | Path | None = None, time
     if getattr(plan, "scenario_kind", None) != ENERGY_PLAN_KIND or plan.problem is None:
         raise QmtInputError(f"a {getattr(plan, 'scenario_kind', type(plan).__name__)} plan cannot run in the "
                             "energy-time execution; plan this energy-time scenario first")
-    sim = _stepped(simulation_of(plan.scenario), time_step_s)
+    sim = _stepped(simulation_of(plan.scenario), check_time_step(time_step_s))
     return build_execution_cosim(plan.problem.family, plan.x, recording_path=record_path,
                                  summarize=lambda ex: _with_step(_plan_summary(plan, ex.summary()), sim),
                                  simulation=sim)
@@ -220,7 +236,7 @@ def execute_transfer_plan(plan, record_path: str | Path | None = None, time_step
     if getattr(plan.scenario, "experiment", None) is None:
         raise QmtInputError(f"a {plan.scenario_kind} plan of {plan.scenario.name} is not a plan of seed 001's arm; "
                             "plan this energy-time scenario first")
-    sim = _stepped(simulation_of(plan.scenario.experiment), time_step_s)
+    sim = _stepped(simulation_of(plan.scenario.experiment), check_time_step(time_step_s))
     return run(build_execution_cosim(PlanFamily(plan), None, recording_path=record_path, urdf=plan.scenario.urdf,
                                      summarize=lambda ex: _with_step(_plan_summary(plan, ex.summary()), sim),
                                      simulation=sim))
