@@ -98,8 +98,11 @@ def run_interrupted(argv: list, cwd: Path, timeout: float, pattern: str = r"gene
     (at the latest after `timeout`); (exit code or None, stdout, stderr, seconds, interrupted)."""
     t0 = time.perf_counter()
     with open(cwd / "interrupted.stdout", "w+") as out_f:
+        # SIGINT back to its default in the child: a shell's `&` starts jobs with SIGINT ignored, and a Python
+        # child that inherits SIG_IGN installs no KeyboardInterrupt handler, so the Ctrl-C would be lost
         proc = subprocess.Popen(expand(argv), cwd=cwd, stdout=out_f, stderr=subprocess.PIPE, text=True,
-                                start_new_session=True)
+                                start_new_session=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         lines, seen = [], threading.Event()
 
         def read():

@@ -13,6 +13,7 @@ from qmt_drake.energy.as_transfer import load_transfer_plan, transfer_scenario_o
 from qmt_drake.energy.cross_kind import plan_energy_time_transfer
 from qmt_drake.energy.dynamics import drake_inverse_dynamics
 from qmt_drake.energy.scenario import get_experiment
+from qmt_drake.plan_files import load_plan
 from qmt_drake.planners import registry
 from qmt_drake.planners.baselines.paths import task_joint_points
 from qmt_drake.planners.spatial_plan_io import load_spatial_plan
@@ -25,7 +26,7 @@ def _times(T: float, rate_hz: float) -> np.ndarray:
     return np.linspace(0.0, T, int(np.ceil(T * 10 * rate_hz)) + 1)
 
 
-def test_collocation_plans_the_planar_magnet_arm():
+def test_collocation_plans_the_planar_magnet_arm(tmp_path):
     """plan_with("collocation", thesis-ch4, knots=3) (the registry's row of `plan --method collocation`): a feasible plan through the task's points, at
     rest at both ends, whose acceleration is continuous at the knots (the Hermite-Simpson defects are the
     double integrator's exact integration), whose motor torques by Drake at 10x the re-check rate hold, whose z
@@ -50,6 +51,12 @@ def test_collocation_plans_the_planar_magnet_arm():
     assert z == pytest.approx(x["z"], rel=1e-3)
     family = plan_energy_time_transfer(sc, method="snopt")
     assert x["z"] < family.extra["z"] and x["z"] < x["start_z"]
+    # its plan file (1 kHz samples, the quintic between them) re-checks as the plan did: each breakpoint's q, qd
+    # stored AT it (a one-sided 1e-9 s inset once made the reload 1.0027 of the moment limit, infeasible)
+    plan.write_json(tmp_path / "c.json")
+    again = load_plan(tmp_path / "c.json", sc)
+    assert again.feasible
+    assert again.check.peak_moment_ratio == pytest.approx(plan.check.peak_moment_ratio, abs=1e-6)
 
 
 def test_collocation_plans_a_spatial_arm(tmp_path, capsys):
