@@ -150,3 +150,29 @@ def test_probe_refuses_a_closed_port_after_its_timeout():
     with pytest.raises(QmtInputError, match="no Dask scheduler answered within 0.5 s"):
         probe_scheduler("tcp://127.0.0.1:1", 0.5)
     assert 0.4 < time.perf_counter() - t < 3.0  # retried while refused (a starting scheduler), then one line
+
+
+def test_a_case_on_a_cluster_without_workers_fails_instead_of_waiting_for_good():
+    from qmt_drake.sweep.runner import _result_while_workers_live
+
+    class Future:
+        def __init__(self, ready_after):
+            self.calls, self.ready_after = 0, ready_after
+
+        def result(self, timeout):
+            self.calls += 1
+            if self.calls > self.ready_after:
+                return "done"
+            raise TimeoutError
+
+    class Client:
+        def __init__(self, workers):
+            self.workers = workers
+
+        def scheduler_info(self):
+            return {"workers": self.workers}
+
+    with pytest.raises(RuntimeError, match="no Dask worker alive"):
+        _result_while_workers_live(Client({}), Future(10 ** 9), poll_s=1.0, no_worker_s=3.0)
+    # a cluster with a worker keeps waiting, however long the case takes
+    assert _result_while_workers_live(Client({"w": {}}), Future(50), poll_s=1.0, no_worker_s=3.0) == "done"

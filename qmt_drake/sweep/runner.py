@@ -234,13 +234,30 @@ def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failu
         fut = cl.submit(case_fn, c, doc_futs[c.plan_key], key=f"case-{c.key[:16]}-{uuid.uuid4().hex[:8]}",
                         pure=False)
         try:
-            res = fut.result()
+            res = _result_while_workers_live(cl, fut)
         except Exception as exc:  # noqa: BLE001 - as above
             _record_failure(failures, c, exc, prog)
             continue
         stored += _store_result(store, c, res, prog)
         fut.release()
     return stored
+
+
+NO_WORKER_S = 120.0  # how long a case waits on a cluster with no worker at all before it is failed
+
+
+def _result_while_workers_live(cl, fut, poll_s: float = 5.0, no_worker_s: float = NO_WORKER_S):
+    """fut.result(), but not forever: a cluster that has lost every worker (a nanny that could not restart
+    one) would leave it waiting for good; after no_worker_s [s] without a worker, RuntimeError (the case is
+    recorded as failed and the sweep resumes it on the next run)."""
+    without = 0.0
+    while True:
+        try:
+            return fut.result(timeout=poll_s)
+        except TimeoutError:
+            without = 0.0 if cl.scheduler_info().get("workers") else without + poll_s
+            if without >= no_worker_s:
+                raise RuntimeError(f"no Dask worker alive for {no_worker_s:g} s; run the sweep again to resume") from None
 
 
 def _record_failure(failures: list, c, exc: BaseException, prog: Progress) -> None:
