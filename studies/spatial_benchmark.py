@@ -34,6 +34,7 @@ from functools import partial
 from pathlib import Path
 
 from qmt_drake.apps.spatial_figures import plan_series, write_spatial_figures
+from qmt_drake.energy.energy_plan import METHODS as ENERGY_TIME_METHODS
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import HORIZON_M, collision_model
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
@@ -68,7 +69,9 @@ def run(scenario: str, ga_generations: int, actuator: str = "ideal") -> dict:
     simulate = partial(simulate_spatial, actuator=actuator)
     if actuator != "ideal":  # refused before any planning when the scenario has no motor constants
         motor_params_for_spatial(sc)
-    planners = dict(PLANNERS, ga=partial(plan_ga_spatial, generations=ga_generations))
+    # the minimum-time methods: the energy-time ones (energy_plan.METHODS) minimise another cost and take c1, c2
+    planners = {m: f for m, f in PLANNERS.items() if m not in ENERGY_TIME_METHODS}
+    planners["ga"] = partial(plan_ga_spatial, generations=ga_generations)
     for family in FAMILY_ROWS:  # the rest-to-rest families: TOPP-RA on their path, their optimum, the GA
         for m in FAMILY_METHODS:
             planners[f"{m}-{family}"] = partial(planners[m], family=family)
