@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+from qmt_drake.config.simulation import APPROXIMATIONS  # noqa: F401 (re-exported: the one list of Drake's names)
 from qmt_drake.errors import QmtInputError, QmtSimulationError
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
 from qmt_drake.timescale import Grow, search_scale
@@ -47,7 +48,6 @@ from qmt_drake.timescale import Grow, search_scale
 FLIP_TOLERANCE = 0.005  # relative width of the final bracket of the flip scale (0.5 %)
 FLIP_MAX_RUNS = 12
 OUTWARD_FACTORS = (1.02, 1.1, 1.5, 2.5)  # geometric steps out from the run's own scale until it flips
-APPROXIMATIONS = ("tamsi", "sap", "similar", "lagged")  # MultibodyPlantConfig.discrete_contact_approximation
 
 
 def criterion(quantity: str, value: float | None, threshold: float, outcome_over: str) -> dict:

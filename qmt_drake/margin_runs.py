@@ -12,8 +12,6 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import SimpleNamespace
 
-from pydrake.multibody.plant import DiscreteContactApproximation
-
 import qmt_drake.sim.spatial_cosim as spatial_cosim
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin, run_simulate
@@ -21,10 +19,9 @@ from qmt_drake.margin import ENERGY_NO_FLIP, criterion, energy_margin, expensive
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
 from qmt_drake.plan import ENERGY_PLAN_KIND, SPATIAL_PLAN_KIND
 from qmt_drake.planners.spatial_trajectory import TimeScaled
-from qmt_drake.sim.sim_settings import time_step_of
+from qmt_drake.sim.sim_settings import APPROXIMATION_ENUMS, time_step_of
 
-APPROXIMATIONS = {"tamsi": DiscreteContactApproximation.kTamsi, "sap": DiscreteContactApproximation.kSap,
-                  "similar": DiscreteContactApproximation.kSimilar, "lagged": DiscreteContactApproximation.kLagged}
+APPROXIMATIONS = APPROXIMATION_ENUMS  # Drake's names -> its enum (sim/sim_settings.py, the one map)
 
 
 def spatial_margin(sc, summary: dict) -> dict:

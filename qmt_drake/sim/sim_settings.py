@@ -23,7 +23,7 @@ from pydrake.multibody.plant import DiscreteContactApproximation, MultibodyPlant
 
 from qmt_drake.config.simulation import NO_SIMULATION, PlantSettings, Simulation
 
-_APPROXIMATION = {"tamsi": DiscreteContactApproximation.kTamsi, "sap": DiscreteContactApproximation.kSap,
+APPROXIMATION_ENUMS = {"tamsi": DiscreteContactApproximation.kTamsi, "sap": DiscreteContactApproximation.kSap,
                   "similar": DiscreteContactApproximation.kSimilar, "lagged": DiscreteContactApproximation.kLagged}
 
 
@@ -56,7 +56,7 @@ def apply_contact_settings(plant, settings: PlantSettings) -> None:
     constructor argument: the kind passes time_step_of)."""
     given = settings.given()
     if "discrete_contact_approximation" in given:
-        plant.set_discrete_contact_approximation(_APPROXIMATION[given["discrete_contact_approximation"]])
+        plant.set_discrete_contact_approximation(APPROXIMATION_ENUMS[given["discrete_contact_approximation"]])
     if "penetration_allowance" in given:
         plant.set_penetration_allowance(given["penetration_allowance"])
     if "stiction_tolerance" in given:
