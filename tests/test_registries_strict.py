@@ -105,3 +105,21 @@ def test_plan_kinds_register_once():
              "plan kind 'transfer' is already registered", "replace=True")
     _refused(lambda: register_plan_kind("other", "Scenario", lambda p, d, s: None), "give the scenario's class")
     assert "other" not in PLAN_KINDS
+
+
+@pytest.mark.parametrize("kind", ["transfer", "spatial_transfer", "energy_time"])
+def test_every_function_of_a_kinds_view_takes_the_scenario_alone(kind):
+    """registry.functions(kind)[name](scenario) is a whole call for every row: a row that shares its
+    function with others (the energy-time solvers, told which by `method`) gets its name bound, so
+    spatial_methods.plan_all over every spatial row does not stop on a missing keyword."""
+    import inspect
+
+    from qmt_drake.planners import registry
+
+    view = registry.functions(kind)
+    assert len(view) > 0
+    for name in view:
+        sig = inspect.signature(view[name])
+        required = [p for p in sig.parameters.values() if p.default is p.empty
+                    and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+        assert len(required) == 1, (name, [p.name for p in required])

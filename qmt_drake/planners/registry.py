@@ -26,6 +26,7 @@ import importlib
 import inspect
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 from qmt_drake.api_checks import OPTION_RANGES, REAL_RANGES, _closest, number, option_value
@@ -309,8 +310,8 @@ class _Functions(Mapping):
 
     def __getitem__(self, name: str) -> Callable[..., Any]:
         for m in rows(self.kind):
-            if m.name == name:
-                return m.function
+            if m.name == name:  # a row that shares its function with others is told which it is
+                return partial(m.function, method=m.name) if "method" in m.passes else m.function
         raise KeyError(name)
 
     def __iter__(self) -> Iterator[str]:
