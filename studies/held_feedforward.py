@@ -1,15 +1,16 @@
 """The held law's feedforward lag and its compensation (issue 29 item 2; docs/spatial_drives.md).
 
     PYTHONPATH=$PWD .venv/bin/python -m studies.held_feedforward --out out [--only panda-tray-cup]
-        [--periods-ms 2 4 8] [--feedforward shaped full] [--magnet-scale 1.4]
+        [--periods-ms 2 4 8] [--feedforward shaped full] [--scale ur5-magnet-part=1.4 ur5-suction-bins=1.05]
 
 For ur5-magnet-part, ur5-suction-bins and panda-tray-cup, the TOPP-RA plan (api.plan_with) is co-simulated on the
 DC-motor drive (sim/spatial_actuation.SpatialMotorDrive) with the law sampled and held at each loop period, its
 feedforward evaluated at the sample instant ("none", the uncompensated law), at the middle of the hold
 ("midpoint") or on the plan's mean over the hold ("mean", the default); plus the every-step law (period None) as
-the reference row. The magnet's plan is played --magnet-scale times slower (default 1.4: carried on the
-plain plan's every-step law, whose fastest carried scale is 1.305, so that every row compares the whole motion;
-at 1x it detaches within 15 ms). Each row: outcome, largest hand ratio while held, largest and RMS tracking error
+the reference row. A plan may be played slower (--scale NAME=K; default: the magnet's 1.4x, carried by the plain
+plan's every-step law, whose fastest carried scale is 1.305, and the suction's 1.05x: at 1x its plan rides its
+limit, ratio 1.0000 on the every-step law, and every held law loses the part within 20 ms whatever its feedforward),
+so that every row compares the whole motion. Each row: outcome, largest hand ratio while held, largest and RMS tracking error
 |q_ref - q| [rad] during the motion, goal error [rad].
 
 Writes OUT/held_feedforward/held_feedforward.json atomically.
@@ -32,7 +33,7 @@ from qmt_drake.systems.joint_tracking import HOLD_COMPENSATIONS
 
 SCENARIOS = ("ur5-magnet-part", "ur5-suction-bins", "panda-tray-cup")
 PERIODS_MS = (2.0, 4.0, 8.0)
-MAGNET_SCALE = 1.4
+SCALES = {"ur5-magnet-part": 1.4, "ur5-suction-bins": 1.05}
 
 
 def row(sc, traj, feedforward: str, period_s, compensation: str, scale: float = 1.0) -> dict:
@@ -43,6 +44,7 @@ def row(sc, traj, feedforward: str, period_s, compensation: str, scale: float = 
     return {"scenario": sc.name, "time_scale": scale, "feedforward": feedforward, "loop_period_s": period_s,
             "hold_compensation": compensation if period_s is not None else "(every step)",
             "outcome": r["outcome"], "lost_at_s": r["lost_at_s"],
+            "contact_ratio_first_above_1_s": r.get("contact_ratio_first_above_1_s"),
             "max_hand_ratio_while_held": r["max_grip_ratio_while_held"],
             "max_tracking_error_rad": r["max_tracking_error_rad"],
             "rms_tracking_error_rad": r["rms_tracking_error_rad"],
@@ -54,7 +56,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("out"))
     ap.add_argument("--only", nargs="*", choices=SCENARIOS)
     ap.add_argument("--periods-ms", nargs="*", type=float, default=list(PERIODS_MS))
-    ap.add_argument("--magnet-scale", type=float, default=MAGNET_SCALE)
+    ap.add_argument("--scale", nargs="*", default=[f"{k}={v:g}" for k, v in SCALES.items()],
+                    help="NAME=K: play scenario NAME's plan K times slower")
     ap.add_argument("--feedforward", nargs="*", default=["shaped", "full"], choices=["shaped", "full"])
     args = ap.parse_args(argv)
     check_output_dir(args.out, "--out")
@@ -63,7 +66,7 @@ def main(argv=None) -> int:
     for name in args.only or SCENARIOS:
         sc = load_scenario(name)
         traj = plan_with("toppra", sc).trajectory
-        scale = args.magnet_scale if name == "ur5-magnet-part" else 1.0
+        scale = {k: float(v) for k, v in (x.split("=") for x in args.scale)}.get(name, 1.0)
         traj = traj if scale == 1.0 else TimeScaled(traj, scale)
         for ff in args.feedforward:
             cases = [(None, "none")] + [(p * 1e-3, c) for p in args.periods_ms for c in reversed(HOLD_COMPENSATIONS)]
