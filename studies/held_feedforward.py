@@ -44,7 +44,7 @@ def row(sc, traj, feedforward: str, period_s, compensation: str, scale: float = 
     return {"scenario": sc.name, "time_scale": scale, "feedforward": feedforward, "loop_period_s": period_s,
             "hold_compensation": compensation if period_s is not None else "(every step)",
             "outcome": r["outcome"], "lost_at_s": r["lost_at_s"],
-            "contact_ratio_first_above_1_s": r.get("contact_ratio_first_above_1_s"),
+            "contact_ratio_first_above_1_s": r.get("contact_ratio_first_above_1_s"), "max_slide_m": r.get("max_slide_m"),
             "max_hand_ratio_while_held": r["max_grip_ratio_while_held"],
             "max_tracking_error_rad": r["max_tracking_error_rad"],
             "rms_tracking_error_rad": r["rms_tracking_error_rad"],
