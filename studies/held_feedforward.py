@@ -5,13 +5,14 @@
 
 For ur5-magnet-part, ur5-suction-bins and panda-tray-cup, the TOPP-RA plan (api.plan_with) is co-simulated on the
 DC-motor drive (sim/spatial_actuation.SpatialMotorDrive) with the law sampled and held at each loop period, its
-feedforward evaluated at the sample instant ("none", the uncompensated law), at the middle of the hold
-("midpoint") or on the plan's mean over the hold ("mean", the default); plus the every-step law (period None) as
+feedforward evaluated at the sample instant ("none", the uncompensated law), at the middle of the hold's plant
+steps ("midpoint") or on the reference's mean over them ("mean", the default; joint_tracking.HoldCompensatedReference);
+plus the every-step law (period None) as
 the reference row. A plan may be played slower (--scale NAME=K; default: the magnet's 1.4x, carried by the plain
 plan's every-step law, whose fastest carried scale is 1.305, and the suction's 1.05x: at 1x its plan rides its
-limit, ratio 1.0000 on the every-step law, and every held law loses the part within 20 ms whatever its feedforward),
-so that every row compares the whole motion. Each row: outcome, largest hand ratio while held, largest and RMS tracking error
-|q_ref - q| [rad] during the motion, goal error [rad].
+limit, ratio 1.0000 on the every-step law, and every held law loses the part within 100 ms whatever its feedforward),
+so that every row compares the whole motion. Each row: outcome, largest hand ratio while held (the tray: also the
+cup's largest slide [m]), largest and RMS tracking error |q_ref - q| [rad] during the motion, goal error [rad].
 
 Writes OUT/held_feedforward/held_feedforward.json atomically.
 """
@@ -60,13 +61,17 @@ def main(argv=None) -> int:
                     help="NAME=K: play scenario NAME's plan K times slower")
     ap.add_argument("--feedforward", nargs="*", default=["shaped", "full"], choices=["shaped", "full"])
     args = ap.parse_args(argv)
+    try:
+        scales = {k: float(v) for k, v in (x.split("=") for x in args.scale)}
+    except ValueError:
+        ap.error(f"--scale {' '.join(args.scale)}: give NAME=K pairs, e.g. ur5-magnet-part=1.4")
     check_output_dir(args.out, "--out")
     out_dir = args.out / "held_feedforward"
     rows = []
     for name in args.only or SCENARIOS:
         sc = load_scenario(name)
         traj = plan_with("toppra", sc).trajectory
-        scale = {k: float(v) for k, v in (x.split("=") for x in args.scale)}.get(name, 1.0)
+        scale = scales.get(name, 1.0)
         traj = traj if scale == 1.0 else TimeScaled(traj, scale)
         for ff in args.feedforward:
             cases = [(None, "none")] + [(p * 1e-3, c) for p in args.periods_ms for c in reversed(HOLD_COMPENSATIONS)]
