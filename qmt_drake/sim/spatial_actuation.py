@@ -34,7 +34,11 @@ the plant during the step, so the plant's output ports are made live (prepare_pl
 paired the next state with this step's reference). Control period (for_scenario(control_period_s=), a sweep's
 drawn or fixed loop_period_s; default the plant step, the unchanged every-step law): longer than the plant step, the law
 is sampled and held (JointPidController hold_period_s); its derivative then acts on held speeds, so only the
-motors' back EMF b is folded into the plant. `explicit` (`simulate --explicit`): nothing folded into the plant,
+motors' back EMF b is folded into the plant. The held feedforwards (back EMF, inverse dynamics, stepping)
+are evaluated on the reference's mean over the coming hold's plant steps (hold_compensation "mean", the
+default; joint_tracking.HoldCompensatedReference), not at the sample instant, where they lag the plan by T/2;
+"midpoint" and "none" (the uncompensated law) for comparison (docs/spatial_drives.md). The P/D terms keep the
+reference at the sample instant. `explicit` (`simulate --explicit`): nothing folded into the plant,
 the law applies the loop's damping itself (plant_damping_Nms).
 
 `add_tracking_logs` / `tracking_report` record the arm state and the plan (both actuators) and, with
@@ -64,7 +68,13 @@ from qmt_drake.sim.actuation import (
 from qmt_drake.sim.plant import move_loop_damping_into_plant
 from qmt_drake.spatial_motor import MOTOR_KEYS, check_control_period, check_integral_rate
 from qmt_drake.systems.dc_motor import DcMotorParams, dc_motors_as_primitives
-from qmt_drake.systems.joint_tracking import JointPidController, PidGains, effective_joint_gains
+from qmt_drake.systems.joint_tracking import (
+    HOLD_COMPENSATIONS,
+    HoldCompensatedReference,
+    JointPidController,
+    PidGains,
+    effective_joint_gains,
+)
 
 ACTUATORS = ("ideal", "dc_motor")
 # the spatial drives' feedforward words: the planar ones, and `shaped` = `full` on the closed-loop-aware reference
@@ -136,14 +146,19 @@ class SpatialMotorDrive:
     plant_params: DcMotorParams | None = None  # the simulated motors when they differ from the law's model (params)
     control_period_s: float | None = None  # the law's sample-and-hold period [s]; None: every plant step
     explicit: bool = False  # True: nothing folded into the plant, the law's damping applied by the law itself
+    hold_compensation: str = HOLD_COMPENSATIONS[0]  # a held law's feedforward: the plan's mean over the hold
 
     @classmethod
     def for_scenario(cls, sc, q_start_rad, feedforward: str = "full", integral_rate_per_s=None,
-                     control_period_s: float | None = None, explicit: bool = False) -> SpatialMotorDrive:
+                     control_period_s: float | None = None, explicit: bool = False,
+                     hold_compensation: str = HOLD_COMPENSATIONS[0]) -> SpatialMotorDrive:
         """The drive designed from sc (the nominal model). integral_rate_per_s [1/s]: the PID's Ki / K, one
         number or one per joint; None: the scenario's actuators.motor.integral_rate_per_s (default 0, a PD law).
         control_period_s [s]: the law's sample-and-hold period (check_control_period); None: the plant step.
-        explicit: module docstring, `--explicit`."""
+        explicit: module docstring, `--explicit`. hold_compensation: what a held law's feedforward is evaluated
+        on (joint_tracking.HOLD_COMPENSATIONS; module docstring)."""
+        if hold_compensation not in HOLD_COMPENSATIONS:
+            raise QmtInputError(f"hold compensation {hold_compensation!r}: choose one of {', '.join(HOLD_COMPENSATIONS)}")
         if feedforward not in SPATIAL_FEEDFORWARD:
             raise QmtInputError(f"feedforward {feedforward!r}: choose one of {', '.join(SPATIAL_FEEDFORWARD)}")
         mp = motor_params_for_spatial(sc)
@@ -159,7 +174,7 @@ class SpatialMotorDrive:
         gains = decentralised_gains(mp, np.diag(plant.CalcMassMatrix(ctx)), rate)
         return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant,
                    control_period_s=check_control_period(control_period_s),
-                   explicit=bool(explicit))
+                   explicit=bool(explicit), hold_compensation=hold_compensation)
 
     def prepare_plant(self, plant, arm_instance, sc) -> None:
         """Before the simulated plant's Finalize: reflected inertia, and the loop damping in the joints
@@ -194,17 +209,29 @@ class SpatialMotorDrive:
             return back_emf_damping(self.params)
         return self.loop_damping_Nms
 
-    def add_to(self, builder, plant, arm_instance, desired_state_port, desired_acceleration_port, time_step_s):
+    def add_to(self, builder, plant, arm_instance, desired_state_port, desired_acceleration_port, time_step_s,
+               reference=None):
         """Wire law, motors and feedforward into the builder (after Finalize); returns the applied
-        motor signals system (joint_torque, voltage, current, motor_torque, electrical_power)."""
+        motor signals system (joint_torque, voltage, current, motor_torque, electrical_power). reference: the
+        (positions, acceleration) PiecewisePolynomials behind the two ports, which a held law's compensated
+        feedforward evaluates ahead (HoldCompensatedReference; needed only then)."""
         mp, n = self.params, self.params.n
         require_joint_order(plant, arm_instance, mp.names)  # the motors' torques go to the actuators in this order
         opts = SPATIAL_FEEDFORWARD[self.feedforward]
         sampled, D = self.sampled(time_step_s), self.plant_damping_Nms(time_step_s)
+        back_emf = opts.get("back_emf_feedforward", False)
+        ff_state, ff_acc, ahead = desired_state_port, desired_acceleration_port, None
+        if sampled and self.hold_compensation != "none" and (back_emf or opts.get("inverse_dynamics_feedforward")):
+            if reference is None:
+                raise ValueError("a held law's compensated feedforward needs the reference polynomials (reference=)")
+            ahead = builder.AddNamedSystem("hold_compensated_reference", HoldCompensatedReference(
+                *reference[:2], self.control_period_s, time_step_s, self.hold_compensation))
+            ff_state, ff_acc = ahead.GetOutputPort("desired_state"), ahead.GetOutputPort("desired_acceleration")
         pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
-                                 motor=mp, back_emf_feedforward=opts.get("back_emf_feedforward", False),
+                                 motor=mp, back_emf_feedforward=back_emf,
                                  torque_feedforward=opts.get("inverse_dynamics_feedforward", False),
-                                 hold_period_s=self.control_period_s if sampled else None)
+                                 hold_period_s=self.control_period_s if sampled else None,
+                                 feedforward_velocity_port=ahead is not None and back_emf)
         pm = mp if self.plant_params is None else self.plant_params  # the motors simulated (a sweep draws them)
         # a PD law at every step is one compiled system with the motors; a PID or a sampled law runs as the
         # Python controller (the integral and the held voltage are discrete states) driving the motors as
@@ -216,13 +243,17 @@ class SpatialMotorDrive:
         builder.Connect(state, split.get_input_port())
         builder.Connect(desired_state_port, law.GetInputPort("desired_state"))
         builder.Connect(state, law.GetInputPort("estimated_state"))
+        if ahead is not None and back_emf:
+            ff_split = builder.AddNamedSystem("feedforward_state_split", Demultiplexer([n, n]))
+            builder.Connect(ff_state, ff_split.get_input_port())
+            builder.Connect(ff_split.get_output_port(1), law.GetInputPort("feedforward_velocity"))
         if opts.get("inverse_dynamics_feedforward"):
             inv = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(self.id_plant))
-            builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
-            builder.Connect(desired_acceleration_port, inv.get_input_port_desired_acceleration())
+            builder.Connect(ff_state, inv.get_input_port_estimated_state())
+            builder.Connect(ff_acc, inv.get_input_port_desired_acceleration())
             ff = inv.get_output_port_generalized_force()
             if self.feedforward == "shaped" and np.any(D):  # + D h qdd_des: what the implicit damping takes
-                ff = add_stepping_feedforward(builder, ff, desired_acceleration_port, D, time_step_s)
+                ff = add_stepping_feedforward(builder, ff, ff_acc, D, time_step_s)
             builder.Connect(ff, law.GetInputPort("feedforward_torque"))
         if compiled is not None:
             return add_motor_actuation_law(builder, plant, arm_instance, law, split.get_output_port(1),

@@ -139,7 +139,7 @@ def add_drive(builder, plant, arm, ctrl_sc, drive, reference, time_step_s: float
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
     motors = add_ideal_controller(builder, plant, arm, ctrl_sc, src, src_a) if drive is None else \
-        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), time_step_s)
+        drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), time_step_s, (pp, acc))
     return src, motors
 
 

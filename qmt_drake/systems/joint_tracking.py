@@ -13,6 +13,12 @@ Sampled law (`hold_period_s` = T_h > T_c, a firmware loop slower than the plant 
 sample instants only and held (zero-order hold) in between; a sample falls on the first update (period T_c)
 at or after each k T_h, its voltage applies from that step on (no computation delay), and the integral then
 grows by T_h e_m per sample. hold_period_s None (default): u is evaluated at every step, as before.
+A feedforward evaluated at the sample instant and held lags the plan by T_h/2 on average (a feedforward
+ramp of slope s held by a zero-order hold is s (T_h - T_c)/2 short of the every-step law over the hold, s T_h/2
+of a continuous one). `HoldCompensatedReference` gives the feedforward the reference's mean over the coming
+hold instead, and `feedforward_velocity_port` lets the back-EMF feedforward read its speed from it (the P/D
+terms keep the reference at the sample instant, where the measurement is; sim/spatial_actuation,
+docs/spatial_drives.md).
 
 Needs: estimated_state from a plant whose output ports are live (`use_sampled_output_ports=False`,
 as `sim.plant.transfer_plant_config` sets): the integral is a discrete update that reads the plant
@@ -23,6 +29,8 @@ Ports
         desired_state        (2n,) [rad, rad/s]   joint-side q_des, qd_des (e.g. TrajectorySource)
         estimated_state      (2n,) [rad, rad/s]   joint-side q, qd (the arm's state output port)
         feedforward_torque   (n,)  [N*m]          joint torque feedforward (only if enabled)
+        feedforward_velocity (n,)  [rad/s]        the back-EMF feedforward's desired speed (only with
+                                                  feedforward_velocity_port; else desired_state's qd_des)
     output
         voltage_command      (n,)  [V]            to DcMotorWithGear.voltage_command
     state (only if any Ki != 0): discrete z (n,) [rad*s], the motor-side error integral; with hold_period_s
@@ -120,9 +128,10 @@ class JointPidController(LeafSystem):
 
     def __init__(self, gains: PidGains, gear_ratio, voltage_limit_V, *, control_period_s: float = 1e-3,
                  motor=None, back_emf_feedforward: bool = False, torque_feedforward: bool = False,
-                 hold_period_s: float | None = None):
+                 hold_period_s: float | None = None, feedforward_velocity_port: bool = False):
         """motor: a DcMotorParams, needed for either feedforward (Kt, R, efficiency). hold_period_s [s]: the
-        sampled law's period (module docstring), at least control_period_s; None: evaluated every step."""
+        sampled law's period (module docstring), at least control_period_s; None: evaluated every step.
+        feedforward_velocity_port: the back-EMF feedforward reads the input feedforward_velocity."""
         super().__init__()
         n = gains.n
         self._n = n
@@ -140,6 +149,9 @@ class JointPidController(LeafSystem):
         self._xd_in = self.DeclareVectorInputPort("desired_state", 2 * n)
         self._x_in = self.DeclareVectorInputPort("estimated_state", 2 * n)
         self._ff_in = self.DeclareVectorInputPort("feedforward_torque", n) if torque_feedforward else None
+        if feedforward_velocity_port and not back_emf_feedforward:
+            raise ValueError("feedforward_velocity_port without the back-EMF feedforward: nothing reads it")
+        self._ffv_in = self.DeclareVectorInputPort("feedforward_velocity", n) if feedforward_velocity_port else None
         self._has_integral = bool(np.any(gains.ki_V_per_rad_s != 0.0))
         self._Th = None if hold_period_s is None else float(hold_period_s)
         if self._Th is not None and not self._Th >= self._Tc:
@@ -163,7 +175,7 @@ class JointPidController(LeafSystem):
         if self._has_integral:
             u = u + self._g.ki_V_per_rad_s * context.get_discrete_state(self._z).get_value()
         if self._ke is not None:
-            u = u + self._ke * self._xd_in.Eval(context)[n:]
+            u = u + self._ke * (self._xd_in.Eval(context)[n:] if self._ffv_in is None else self._ffv_in.Eval(context))
         if self._ff_in is not None:
             u = u + self._v_per_Nm * self._ff_in.Eval(context)
         return u, e
@@ -199,10 +211,52 @@ class JointPidController(LeafSystem):
             discrete_state.get_mutable_vector(self._z).SetFromVector(self._integrated(context, u, e, self._Th))
 
 
+HOLD_COMPENSATIONS = ("mean", "midpoint", "none")  # what a held law's feedforward is evaluated on (the first: default)
+
+
+class HoldCompensatedReference(LeafSystem):
+    """The plan as a feedforward held for hold_period_s = T_h from each sample instant t should see it (module
+    docstring); the plant steps time_step_s = h, so the hold spans the m steps t + j h < t + T_h. Outputs
+    desired_state (2n) [rad, rad/s] and desired_acceleration (n) [rad/s^2] at time t:
+
+        "mean"      the mean of the reference at the hold's m steps: what the every-step law's feedforward
+                    would ask over the hold, averaged (to first order; the torque is not linear in the state).
+                    Where the acceleration jumps inside the hold it takes each side's share;
+        "midpoint"  the reference at the middle of the hold's steps, t + (m - 1) h / 2 (t + T_h/2 as h -> 0):
+                    one side of such a jump for the whole hold.
+
+    pp: the reference positions as a PiecewisePolynomial whose derivative is the speed (CubicHermite), acc: its
+    acceleration; both held at their end values beyond it, as Drake evaluates them."""
+
+    def __init__(self, pp, acc, hold_period_s: float, time_step_s: float, mode: str = "mean"):
+        super().__init__()
+        if mode not in HOLD_COMPENSATIONS[:2]:
+            raise ValueError(f"hold compensation {mode!r}: choose one of {', '.join(HOLD_COMPENSATIONS[:2])}")
+        if not 0 < time_step_s <= hold_period_s:
+            raise ValueError(f"hold period {hold_period_s} s and plant step {time_step_s} s: need 0 < step <= period")
+        m = int(np.ceil(hold_period_s / time_step_s - 1e-6))  # the steps a sample's voltage is held over
+        self._offsets = np.arange(m) * time_step_s if mode == "mean" else np.array([(m - 1) * time_step_s / 2])
+        self._pp, self._acc = pp.Clone(), acc.Clone()
+        n = pp.rows()
+        self.DeclareVectorOutputPort("desired_state", 2 * n, self._calc_state)
+        self.DeclareVectorOutputPort("desired_acceleration", n, self._calc_acceleration)
+
+    def _calc_state(self, context, output: BasicVector):
+        ts = context.get_time() + self._offsets
+        q = np.mean([self._pp.value(t).ravel() for t in ts], axis=0)
+        output.SetFromVector(np.r_[q, np.mean([self._pp.EvalDerivative(t, 1).ravel() for t in ts], axis=0)])
+
+    def _calc_acceleration(self, context, output: BasicVector):
+        output.SetFromVector(np.mean([self._acc.value(t).ravel() for t in context.get_time() + self._offsets], axis=0))
+
+
 def pd_voltage(pid: JointPidController, x_des, x, feedforward_torque=None, ops=FLOAT) -> list:
     """`pid`'s law without the integral, per joint: v = clip(Kp N (q_des - q) + Kd N (qd_des - qd)
     [+ Ke N qd_des] [+ tau_ff R / (N eta Kt)], +-V_max) [V]; x_des, x: the 2n desired / estimated
     states (floats or drake symbolic Expressions with ops=SYMBOLIC, systems.scalar_ops)."""
+    if pid._ffv_in is not None:
+        raise ValueError("the compiled law reads the back-EMF feedforward's speed from desired_state; "
+                         "feedforward_velocity_port is the held law's (JointPidController)")
     n = pid._n
     out = []
     for k in range(n):
