@@ -175,17 +175,16 @@ def bisect_batch(excess: Callable[[np.ndarray, np.ndarray], np.ndarray], lo: np.
     increasing through 0 from lo to hi, g_lo <= 0 and g_hi > 0; safe "above": decreasing, the hi end holds)
     until hi <= lo (1 + rel_tol) or max_steps rounds (rel_tol None: max_steps rounds of every search, the
     whole batch evaluated each round); returns the holding ends. excess(x, i) evaluates the open searches i
-    at x in one batch (for a verdict only: -1.0 holds, 1.0 fails, with midpoint "arithmetic").
+    at x in one batch (a verdict only, -1.0 holds and 1.0 fails, does for midpoint "arithmetic").
     midpoint "illinois": regula falsi with the Illinois halving of the end kept twice (arithmetic
-    when the secant leaves the bracket; needs g_lo, g_hi); "arithmetic": plain bisection."""
+    when the secant leaves the bracket; needs g_lo, g_hi, updated in place); "arithmetic": plain
+    bisection (g_lo, g_hi unused)."""
     if midpoint not in ("illinois", "arithmetic"):
         raise ValueError(f"batched midpoint must be 'illinois' or 'arithmetic', got {midpoint!r}")
     if safe not in ("above", "below"):
         raise ValueError(f"safe must be 'above' or 'below', got {safe!r}")
-    if g_lo is None or g_hi is None:
-        if midpoint == "illinois":
-            raise ValueError("the Illinois midpoint needs the ends' values g_lo and g_hi")
-        g_lo, g_hi = np.zeros(len(lo)), np.zeros(len(lo))
+    if midpoint == "illinois" and (g_lo is None or g_hi is None):
+        raise ValueError("the Illinois midpoint needs the ends' values g_lo and g_hi")
     kept = np.zeros(len(lo), dtype=int)  # +1: lo kept last step, -1: hi kept
     every = np.arange(len(lo))
     for _ in range(max_steps):
@@ -196,14 +195,17 @@ def bisect_batch(excess: Callable[[np.ndarray, np.ndarray], np.ndarray], lo: np.
             if not np.any(open_):
                 break
             i = np.flatnonzero(open_)
-        half = 0.5 * (lo[i] + hi[i])
-        if midpoint == "illinois":
-            m = (lo[i] * g_hi[i] - hi[i] * g_lo[i]) / (g_hi[i] - g_lo[i])
-            m = np.where((m > lo[i]) & (m < hi[i]), m, half)
-        else:
-            m = half
+        lo_i, hi_i = lo[i], hi[i]
+        half = 0.5 * (lo_i + hi_i)
+        if midpoint == "arithmetic":  # the ends' values play no part
+            gm = excess(half, i)
+            left = gm <= 0.0 if safe == "below" else gm > 0.0  # the lo end moves to the midpoint
+            lo[i], hi[i] = np.where(left, half, lo_i), np.where(left, hi_i, half)
+            continue
+        m = (lo_i * g_hi[i] - hi_i * g_lo[i]) / (g_hi[i] - g_lo[i])
+        m = np.where((m > lo_i) & (m < hi_i), m, half)
         gm = excess(m, i)
-        left = gm <= 0.0 if safe == "below" else gm > 0.0  # the lo end moves to m
+        left = gm <= 0.0 if safe == "below" else gm > 0.0
         j, k = i[left], i[~left]
         g_hi[j] = np.where(kept[j] == 1, 0.5 * g_hi[j], g_hi[j])  # lo moves again: halve hi's value
         g_lo[k] = np.where(kept[k] == -1, 0.5 * g_lo[k], g_lo[k])

@@ -130,8 +130,7 @@ def scale_loops(source: str) -> list[int]:
 
 
 # Loops the criterion finds that are not a scale search of one plan, or are another helper's this session.
-ALLOWED = {
-    "timescale.py": "the one search itself",
+ALLOWED = {  # (timescale.py, the one search itself, takes its midpoints through names the criterion does not follow)
     "planners/spatial_families.py": "bisection in time t for u(t) = a path knot (not a scale)",
     "sweep/certify.py": "certify_time_scale: sequential-test search; sweep/* owned by another helper this session",
 }
