@@ -16,13 +16,13 @@ whose published numbers depend on them (each caller's probed sequence is kept to
   table of factors from the start) until the verdict flips (toward holding from a failing start,
   away from it from a holding one).
 
-Used by the planar baselines' re-check (planners/baselines/finish.py), Ruckig's limit scale
-(ruckig_plan.py; spatial: planners/spatial_methods.ruckig_segments), the energy-time TOPP-RA end (energy/time_optimal.py), the spatial --hold / jerk /
-scale_to_hold (`smallest_holding_scale`), and every "slow until carried" (planners/spatial_carried.py,
-sweep/robust.py), the flip of a run's verdict (margin.py), the refined spatial re-check's raise
-(spatial_trajectory._raised_until). `bisect_batch` is the same bisection for many plans at once, with the Illinois
-regula falsi as a further midpoint (planners/spatial_tight.py) and a fixed number of rounds over a whole
-batch (the planar GA's tight timing, planners/optimum.tight_scale).
+Used by the planar baselines' re-check (planners/baselines/finish.py), Ruckig's limit scale (ruckig_plan.py;
+spatial: planners/spatial_methods.ruckig_segments), the energy-time TOPP-RA end (energy/time_optimal.py), the
+spatial --hold / scale_to_hold (`smallest_holding_scale`) and its refined raise (spatial_trajectory._raised_until),
+the jerk limit (jerk.jerk_time_scale), every "slow until carried" (planners/spatial_carried.py, sweep/robust.py)
+and the flip of a run's verdict (margin.py). `bisect_batch` is the same bisection for many plans at once, with
+the Illinois regula falsi as a further midpoint (planners/spatial_tight.py), or a fixed number of rounds over a
+whole batch (the planar GA's tight timing, planners/optimum.tight_scale).
 """
 
 from __future__ import annotations

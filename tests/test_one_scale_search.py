@@ -1,11 +1,13 @@
 """One "slow until it holds" / "slow until carried" (issue 27 item 4): timescale.search_scale.
 
-(a) No other module of qmt_drake bisects a scale in a loop of its own (an AST criterion that fired on
-    every loop this replaced; the remaining hits are listed with their reason, and each must still fire).
+(a) No other module of qmt_drake bisects a scale, or grows a bracket by a factor, in a loop of its own (an
+    AST criterion that fired on every loop this replaced; the remaining hits are listed with their reason,
+    and each must still fire).
 (b) Each variant against a closed-form predicate (holds iff k >= k*, or lam <= lam* on a limit scale):
     the answer holds, lies within the tolerance of the threshold, and no failing k is returned.
-(c) Each caller's variant probes exactly the sequence of scales its own loop on main 0210711 probed
-    (the loops are transcribed below as they were), so the published numbers stay bit-identical.
+(c) Each caller's variant probes exactly the sequence of scales its own loop on main 0210711 (session 16's:
+    main 1d491b2) probed (the loops are transcribed below as they were), so the published numbers stay
+    bit-identical.
 """
 
 import ast
