@@ -111,6 +111,8 @@ def search_scale(holds: Callable[[float], bool], lo: float | None = None, hi: fl
             return result(lo, hi, "no_hold", None)
     if grow is not None:
         g = grow
+        if not g.table and not g.factor > 0.0:  # (an empty table would step by 0 for ever)
+            raise ValueError(f"Grow needs a factor > 0 or a non-empty table, got {g!r}")
         kept = g.start
         kept_holds = probe(kept) if g.start_holds is None else g.start_holds
         up = kept_holds != (safe == "above") if g.table else g.factor > 1.0

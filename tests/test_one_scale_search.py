@@ -23,7 +23,7 @@ from qmt_drake.jerk import jerk_time_scale
 from qmt_drake.margin import OUTWARD_FACTORS, flip_search
 from qmt_drake.planners.baselines.finish import slowdown_search as planar_slowdown
 from qmt_drake.planners.baselines.ruckig_plan import _largest_scale
-from qmt_drake.planners.optimum import tight_scale
+from qmt_drake.planners.optimum import _slow_until_confirmed, tight_scale
 from qmt_drake.planners.spatial_carried import carried_bisection
 from qmt_drake.planners.spatial_trajectory import _raised_until
 from qmt_drake.sweep.robust import jerk_bisection, robust_bisection, scale_bisection
@@ -527,6 +527,14 @@ def old_tight_scale(problem, genes, *, lam_max=1e3, iterations=40):  # planners/
     return np.where(ok & feasible_hi, np.exp(hi), np.nan)
 
 
+def old_slow_until_confirmed(problem, genes, step=1e-6, tries=60):  # planners/optimum.py on main 1d491b2
+    for k in range(tries):
+        y = problem.family.time_scaled(genes, 1.0 + step * 2**k)[0]
+        if problem.confirm(y):
+            return y
+    return genes
+
+
 def _predicates():
     """Thresholds inside, below and beyond every bracket, and non-monotone verdicts (a hash of the bits)."""
     out = [("threshold", k) for k in (0.2, 0.999, 1.0, 1.00003, 1.2345, 1.5, 2.0, 2.5, 3.7, 9.99, 40.0, 1e3)]
@@ -777,3 +785,26 @@ def test_a_batch_searched_from_above_answers_a_closed_form():
     out = bisect_batch(excess, lo.copy(), hi.copy(), excess(lo, np.arange(4)), excess(hi, np.arange(4)),
                        rel_tol=1e-9, max_steps=200, safe="above")
     assert np.all(out >= roots) and np.all(out <= roots * (1 + 1e-8)), out - roots
+
+
+@pytest.mark.parametrize("kind,param", _predicates())
+def test_the_optimums_confirming_slowdown_probes_what_its_old_loop_probed(kind, param):
+    """planners/optimum._slow_until_confirmed: 1 + 1e-6 2^k for k < tries until confirmed (Grow.table, steps=0)."""
+    class Confirming(_Batch):
+        def confirm(self, y):
+            return self.holds(float(y[0]))
+
+    genes = np.array([1.0, 0.3, 1.0])
+    for step, tries in ((1e-6, 60), (1e-3, 5), (0.5, 3), (1e-6, 0)):
+        runs = []
+        for fn in (old_slow_until_confirmed, _slow_until_confirmed):
+            problem = Confirming(kind, param)
+            problem.holds, probed = _recorder(kind, param)
+            runs.append((fn(problem, genes, step, tries), probed))
+        assert np.array_equal(runs[0][0], runs[1][0])
+        _same(runs[0][1], runs[1][1])
+
+
+def test_a_growth_with_neither_factor_nor_table_is_refused():
+    with pytest.raises(ValueError, match="factor > 0 or a non-empty table"):
+        search_scale(lambda x: True, grow=Grow(start=1.0, table=()))

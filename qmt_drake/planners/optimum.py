@@ -24,7 +24,7 @@ from scipy.stats import qmc
 from qmt_drake.plan import Plan, family_plan
 from qmt_drake.planners import family_optimum_core
 from qmt_drake.problem import Evaluation, PlanningProblem
-from qmt_drake.timescale import bisect_batch
+from qmt_drake.timescale import Grow, bisect_batch, search_scale
 
 BOUND_PENALTY_S = 100.0  # seconds of objective per unit of normalised bound violation
 
@@ -149,12 +149,14 @@ def plan_family_optimum(problem: PlanningProblem, *, starts: int = 24, polished:
 
 def _slow_until_confirmed(problem, genes, step: float = 1e-6, tries: int = 60):
     """Play the motion 1e-6, 2e-6, 4e-6 ... slower until the refined re-check passes (no exact
-    factor exists when gravity acts)."""
-    for k in range(tries):
-        y = problem.family.time_scaled(genes, 1.0 + step * 2**k)[0]
-        if problem.confirm(y):
-            return y
-    return genes
+    factor exists when gravity acts): timescale.search_scale on that table of factors, not bisected."""
+    def slowed(lam):
+        return problem.family.time_scaled(genes, lam)[0]
+    if tries < 1:
+        return genes
+    found = search_scale(lambda lam: problem.confirm(slowed(lam)), steps=0,
+                         grow=Grow(start=1.0, table=tuple(1.0 + step * 2**k for k in range(tries))))
+    return genes if found.holding is None else slowed(found.holding)
 
 
 def _settle_inside_bounds(problem, y):
