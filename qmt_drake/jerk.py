@@ -24,7 +24,7 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled
-from qmt_drake.timescale import smallest_holding_scale
+from qmt_drake.timescale import Grow, search_scale
 
 JERK_REL_TOL = 1e-4
 JERK_K_MAX = 1e4
@@ -40,6 +40,22 @@ def peak_jerk(sc, traj, rate_hz: float) -> dict:
             "jerk_rate_hz": float(rate_hz)}
 
 
+def jerk_time_scale(ratio, ratio_before: float, who: str, k_max: float = JERK_K_MAX,
+                    rel_tol: float = JERK_REL_TOL) -> float:
+    """The smallest time scale k (to rel_tol) with ratio(k) <= 1, given ratio_before = ratio(1): 1 if
+    within; else doubling from sqrt(ratio_before) (exact for the smooth part's k^-2 .. k^-3) to
+    bracket it, no further than k_max (QmtInputError naming `who`), then bisected (timescale.search_scale)."""
+    if not ratio_before > 1.0:  # (a nan ratio too, as before)
+        return 1.0
+    first = max(math.sqrt(ratio_before), 1.0 + rel_tol)
+    found = search_scale(lambda k: ratio(k) <= 1.0, rel_tol=rel_tol,
+                         grow=Grow(start=1.0, first=first, factor=2.0, limit=k_max, clip=False, stop_past_limit=True))
+    if found.status == "capped":
+        raise QmtInputError(f"{who} jerk stays over the limit even {k_max:g} times slower; "
+                            "raise actuators.jerk_limit_rad_s3")
+    return found.holding
+
+
 def jerk_limited_plan(sc, plan):
     """`plan` slowed to its scenario's jerk limits (module docstring); the plan itself when within them."""
     t0 = time.perf_counter()
@@ -49,15 +65,7 @@ def jerk_limited_plan(sc, plan):
     def ratio(k: float) -> float:
         return peak_jerk(sc, TimeScaled(plan.trajectory, k), rate)["peak_jerk_ratio"]
 
-    lo, hi = 1.0, 1.0
-    if before["peak_jerk_ratio"] > 1.0:
-        hi = max(math.sqrt(before["peak_jerk_ratio"]), 1.0 + JERK_REL_TOL)
-        while ratio(hi) > 1.0:
-            lo, hi = hi, 2.0 * hi
-            if hi > JERK_K_MAX:
-                raise QmtInputError(f"{sc.name}: the {plan.method} plan's jerk stays over the limit even "
-                                    f"{JERK_K_MAX:g} times slower; raise actuators.jerk_limit_rad_s3")
-        hi = smallest_holding_scale(lo, hi, lambda k: ratio(k) <= 1.0, JERK_REL_TOL)
+    hi = jerk_time_scale(ratio, before["peak_jerk_ratio"], f"{sc.name}: the {plan.method} plan's")
     traj = plan.trajectory if hi == 1.0 else TimeScaled(plan.trajectory, hi)
     after = peak_jerk(sc, traj, rate)
     info = {**plan.info, "jerk_limited": True, "jerk_time_scale": hi, "duration_before_jerk_limit_s": plan.duration_s,

@@ -29,10 +29,10 @@ energy-time run has only the cheap part (ENERGY_NO_FLIP says why: ideal unlimite
 exact-model inverse-dynamics controller follow any time scale, and a continuous plant has no step).
 
 qmt_drake/margin_runs.py (apart: it imports the spatial co-simulation, which sim/runner.py, importing
-this module, must not reach): `spatial_margin`, and `spatial_plant_settings`, which runs the spatial co-simulation (sim/spatial_cosim.py, which fixes a 1 ms SAP
-plant) at another step or discrete contact approximation by setting that module's step and
-approximation for the duration of a `with` block: the margin's half step and the verdict study
-(studies/verdict_margins.py) use it.
+this module, must not reach): `spatial_margin`, and `spatial_plant_options`, the run options (time_step_s,
+contact_approximation) that run the spatial co-simulation (sim/spatial_cosim.py: 1 ms SAP by default) at another
+step or discrete contact approximation over the scenario's simulation section: the verdict study
+(studies/verdict_margins.py) uses them; the margin's half step passes its step to spatial_run the same way.
 """
 
 from __future__ import annotations

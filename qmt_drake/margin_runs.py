@@ -2,15 +2,13 @@
 what `simulate` calls on every result (the cheap part; the expensive one on request), the
 run(time_scale, time_step_s) closures of the transfer (`transfer_run`, through hands.run_simulate)
 and spatial (`spatial_run`) co-simulations, the spatial summary's cheap margin (`spatial_margin`),
-and `spatial_plant_settings` to run the spatial co-simulation at another plant step or discrete
-contact approximation. Apart from margin.py because it imports the co-simulations, which import it."""
+and `spatial_plant_options`, the run options of the spatial co-simulation at another plant step or
+discrete contact approximation. Apart from margin.py because it imports the co-simulations, which import it."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from types import SimpleNamespace
+from collections.abc import Callable
 
 import qmt_drake.sim.spatial_cosim as spatial_cosim
 from qmt_drake.errors import QmtInputError
@@ -42,25 +40,18 @@ def spatial_margin(sc, summary: dict) -> dict:
     return verdict_margin(summary["outcome"], crit)
 
 
-@contextmanager
-def spatial_plant_settings(time_step_s: float | None = None, approximation: str | None = None) -> Iterator[None]:
-    """Inside the block, sim/spatial_cosim runs its plant at time_step_s [s] (None: its 1 ms) with the
-    discrete contact approximation `approximation` (APPROXIMATIONS key; None: its SAP). Not
-    re-entrant across threads: it sets that module's globals and restores them on exit."""
+def spatial_plant_options(time_step_s: float | None = None, approximation: str | None = None) -> dict:
+    """simulate_spatial's run options (passed through spatial_run as well) for another plant step
+    time_step_s [s] and discrete contact approximation `approximation` (APPROXIMATIONS key); None: not
+    given (the scenario's simulation.plant, else 1 ms SAP). As run options they win over the scenario's
+    section (sim/sim_settings: run option > section > kind default); checked here in one line each."""
     if approximation is not None and approximation not in APPROXIMATIONS:
         raise QmtInputError(f"contact approximation {approximation!r}: use one of {', '.join(APPROXIMATIONS)}")
     if time_step_s is not None and not (time_step_s > 0 and abs(1e-3 / time_step_s - round(1e-3 / time_step_s)) < 1e-9):
         raise QmtInputError(f"time step {time_step_s} s: the spatial co-simulation needs 1 ms divided by a whole "
                             "number (its hold check runs in 250 ms chunks of whole steps)")
-    saved = spatial_cosim.TIME_STEP_S, spatial_cosim.DiscreteContactApproximation
-    try:
-        if time_step_s is not None:
-            spatial_cosim.TIME_STEP_S = float(time_step_s)
-        if approximation is not None:
-            spatial_cosim.DiscreteContactApproximation = SimpleNamespace(kSap=APPROXIMATIONS[approximation])
-        yield
-    finally:
-        spatial_cosim.TIME_STEP_S, spatial_cosim.DiscreteContactApproximation = saved
+    return {k: v for k, v in (("time_step_s", None if time_step_s is None else float(time_step_s)),
+                              ("contact_approximation", approximation)) if v is not None}
 
 
 def spatial_run(sc, trajectory, **simulate_kw):

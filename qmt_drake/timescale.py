@@ -16,11 +16,13 @@ whose published numbers depend on them (each caller's probed sequence is kept to
   table of factors from the start) until the verdict flips (toward holding from a failing start,
   away from it from a holding one).
 
-Used by the planar baselines' re-check (planners/baselines/finish.py), Ruckig's limit scale
-(ruckig_plan.py; spatial: planners/spatial_methods.ruckig_segments), the energy-time TOPP-RA end (energy/time_optimal.py), the spatial --hold / jerk /
-scale_to_hold (`smallest_holding_scale`), and every "slow until carried" (planners/spatial_carried.py,
-sweep/robust.py), the flip of a run's verdict (margin.py). `bisect_batch` is the same bisection for many plans at once, with the Illinois
-regula falsi as a further midpoint (planners/spatial_tight.py).
+Used by the planar baselines' re-check (planners/baselines/finish.py), Ruckig's limit scale (ruckig_plan.py;
+spatial: planners/spatial_methods.ruckig_segments), the energy-time TOPP-RA end (energy/time_optimal.py), the
+spatial --hold / scale_to_hold (`smallest_holding_scale`) and its refined raise (spatial_trajectory._raised_until),
+the jerk limit (jerk.jerk_time_scale), every "slow until carried" (planners/spatial_carried.py, sweep/robust.py)
+and the flip of a run's verdict (margin.py). `bisect_batch` is the same bisection for many plans at once, with
+the Illinois regula falsi as a further midpoint (planners/spatial_tight.py), or a fixed number of rounds over a
+whole batch (the planar GA's tight timing, planners/optimum.tight_scale).
 """
 
 from __future__ import annotations
@@ -40,8 +42,9 @@ class Grow:
     `first` (default start x factor), then keep multiplying by `factor` until the verdict flips;
     or (`table`) probe start x f for each f in turn (start / f where holding lies below).
     limit: no step from a point at or beyond it (x >= limit when factor > 1, x <= limit when < 1),
-    a step is clipped to it when `clip`; tries: at most this many probes in this phase; follow: the
-    kept end moves to each probe whose verdict is the start's (else it stays at start)."""
+    a step is clipped to it when `clip`; unclipped, a step landing beyond it is probed, or with
+    `stop_past_limit` not (status "capped"); tries: at most this many probes in this phase; follow:
+    the kept end moves to each probe whose verdict is the start's (else it stays at start)."""
     start: float
     factor: float = 0.0
     table: tuple[float, ...] = ()
@@ -49,6 +52,7 @@ class Grow:
     first: float | None = None
     limit: float | None = None
     clip: bool = True
+    stop_past_limit: bool = False
     tries: int | None = None
     follow: bool = True
 
@@ -107,6 +111,8 @@ def search_scale(holds: Callable[[float], bool], lo: float | None = None, hi: fl
             return result(lo, hi, "no_hold", None)
     if grow is not None:
         g = grow
+        if not g.table and not g.factor > 0.0:  # (an empty table would step by 0 for ever)
+            raise ValueError(f"Grow needs a factor > 0 or a non-empty table, got {g!r}")
         kept = g.start
         kept_holds = probe(kept) if g.start_holds is None else g.start_holds
         up = kept_holds != (safe == "above") if g.table else g.factor > 1.0
@@ -122,7 +128,10 @@ def search_scale(holds: Callable[[float], bool], lo: float | None = None, hi: fl
             else:
                 if g.limit is not None and (x >= g.limit if up else x <= g.limit):
                     return result(min(kept, x), max(kept, x), "capped", kept if kept_holds else None)
-                x = x * g.factor
+                step = x * g.factor
+                if g.limit is not None and g.stop_past_limit and not g.clip and (step > g.limit if up else step < g.limit):
+                    return result(min(kept, x), max(kept, x), "capped", kept if kept_holds else None)
+                x = step
                 if g.limit is not None and g.clip:
                     x = min(x, g.limit) if up else max(x, g.limit)
             ok = probe(x)
@@ -162,32 +171,46 @@ def smallest_holding_scale(lo: float, hi: float, holds: Callable[[float], bool],
 
 
 def bisect_batch(excess: Callable[[np.ndarray, np.ndarray], np.ndarray], lo: np.ndarray, hi: np.ndarray,
-                 g_lo: np.ndarray, g_hi: np.ndarray, *, rel_tol: float, max_steps: int,
-                 midpoint: str = "illinois") -> np.ndarray:
-    """Many searches at once: for each i, the root of excess (increasing through 0 from lo to hi:
-    g_lo <= 0 holds, g_hi > 0 fails, safe below) until hi <= lo (1 + rel_tol) or max_steps rounds;
-    returns the holding ends lo. excess(x, i) evaluates the open searches i at x in one batch.
+                 g_lo: np.ndarray | None = None, g_hi: np.ndarray | None = None, *, rel_tol: float | None,
+                 max_steps: int, midpoint: str = "illinois", safe: str = "below") -> np.ndarray:
+    """Many searches at once: for each i, the root of excess (g <= 0 holds, g > 0 fails; safe "below":
+    increasing through 0 from lo to hi, g_lo <= 0 and g_hi > 0; safe "above": decreasing, the hi end holds)
+    until hi <= lo (1 + rel_tol) or max_steps rounds (rel_tol None: max_steps rounds of every search, the
+    whole batch evaluated each round); returns the holding ends. excess(x, i) evaluates the open searches i
+    at x in one batch (a verdict only, -1.0 holds and 1.0 fails, does for midpoint "arithmetic").
     midpoint "illinois": regula falsi with the Illinois halving of the end kept twice (arithmetic
-    when the secant leaves the bracket); "arithmetic": plain bisection."""
+    when the secant leaves the bracket; needs g_lo, g_hi, updated in place); "arithmetic": plain
+    bisection (g_lo, g_hi unused)."""
     if midpoint not in ("illinois", "arithmetic"):
         raise ValueError(f"batched midpoint must be 'illinois' or 'arithmetic', got {midpoint!r}")
+    if safe not in ("above", "below"):
+        raise ValueError(f"safe must be 'above' or 'below', got {safe!r}")
+    if midpoint == "illinois" and (g_lo is None or g_hi is None):
+        raise ValueError("the Illinois midpoint needs the ends' values g_lo and g_hi")
     kept = np.zeros(len(lo), dtype=int)  # +1: lo kept last step, -1: hi kept
+    every = np.arange(len(lo))
     for _ in range(max_steps):
-        open_ = hi > lo * (1.0 + rel_tol)
-        if not np.any(open_):
-            break
-        i = np.flatnonzero(open_)
-        half = 0.5 * (lo[i] + hi[i])
-        if midpoint == "illinois":
-            m = (lo[i] * g_hi[i] - hi[i] * g_lo[i]) / (g_hi[i] - g_lo[i])
-            m = np.where((m > lo[i]) & (m < hi[i]), m, half)
+        if rel_tol is None:
+            i = every
         else:
-            m = half
+            open_ = hi > lo * (1.0 + rel_tol)
+            if not np.any(open_):
+                break
+            i = np.flatnonzero(open_)
+        lo_i, hi_i = lo[i], hi[i]
+        half = 0.5 * (lo_i + hi_i)
+        if midpoint == "arithmetic":  # the ends' values play no part
+            gm = excess(half, i)
+            left = gm <= 0.0 if safe == "below" else gm > 0.0  # the lo end moves to the midpoint
+            lo[i], hi[i] = np.where(left, half, lo_i), np.where(left, hi_i, half)
+            continue
+        m = (lo_i * g_hi[i] - hi_i * g_lo[i]) / (g_hi[i] - g_lo[i])
+        m = np.where((m > lo_i) & (m < hi_i), m, half)
         gm = excess(m, i)
-        left = gm <= 0.0
+        left = gm <= 0.0 if safe == "below" else gm > 0.0
         j, k = i[left], i[~left]
         g_hi[j] = np.where(kept[j] == 1, 0.5 * g_hi[j], g_hi[j])  # lo moves again: halve hi's value
         g_lo[k] = np.where(kept[k] == -1, 0.5 * g_lo[k], g_lo[k])
         lo[j], g_lo[j], kept[j] = m[left], gm[left], 1
         hi[k], g_hi[k], kept[k] = m[~left], gm[~left], -1
-    return lo
+    return lo if safe == "below" else hi

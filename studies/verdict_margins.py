@@ -8,7 +8,7 @@ as `qmt-drake plan crane-tray --method toppra --carried` does) and the fastest c
 docs/spatial.md; each through planners/spatial_carried.carried_search, the plan itself tried first),
 the plan is co-simulated at plant steps of 1, 0.5 and 0.25 ms with each of Drake's discrete contact
 approximations (MultibodyPlantConfig.discrete_contact_approximation: tamsi, sap, similar, lagged;
-the tray's through tray/cosim's keyword, the spatial ones through margin_runs.spatial_plant_settings).
+the tray's through tray/cosim's keyword, the spatial ones through margin_runs.spatial_plant_options).
 Each cell: the outcome, the deciding quantity of the verdict's margin (qmt_drake/margin.py) and its
 ratio to the threshold. The weld-that-breaks hands of the UR5 need SAP's constraints (TAMSI has none):
 their TAMSI cells are 'n/a' with Drake's reason.
@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 
 from qmt_drake.api import load_scenario, plan_with, simulate
-from qmt_drake.margin_runs import spatial_margin, spatial_plant_settings
+from qmt_drake.margin_runs import spatial_margin, spatial_plant_options
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_carried import carried_search
 from qmt_drake.planners.spatial_trajectory import TimeScaled
@@ -74,8 +74,7 @@ def runner(case: str, sc, plan):
         traj = plan.trajectory if s == 1.0 else TimeScaled(plan.trajectory, s)
         t0 = time.perf_counter()
         try:
-            with spatial_plant_settings(h, a):
-                r = simulate_spatial(sc, traj)
+            r = simulate_spatial(sc, traj, **spatial_plant_options(h, a))
         except RuntimeError as exc:  # TAMSI refuses the weld constraint of the cup / magnet hand
             return {"outcome": "n/a", "held": None, "error": str(exc).strip().splitlines()[0][:200]}
         r["margin"] = spatial_margin(sc, r)

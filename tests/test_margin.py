@@ -10,7 +10,7 @@ from qmt_drake.margin import criterion, flip_time_scale, half_step_verdict, verd
 from qmt_drake.margin_runs import (
     search_half_step,
     spatial_margin,
-    spatial_plant_settings,
+    spatial_plant_options,
     transfer_run,
     with_margin,
 )
@@ -101,11 +101,9 @@ def test_benchmark_row_reads_the_half_step_from_the_converged_search():
 
 def test_margin_inputs_are_refused_in_one_line():
     with pytest.raises(QmtInputError, match="approximation"):
-        with spatial_plant_settings(approximation="implicit"):
-            pass
+        spatial_plant_options(approximation="implicit")
     with pytest.raises(QmtInputError, match="1 ms divided"):
-        with spatial_plant_settings(time_step_s=0.3e-3):
-            pass
+        spatial_plant_options(time_step_s=0.3e-3)
     m = verdict_margin("carried", [criterion("x", np.nan, 1.0, "slipped")])  # not measured: never deciding
     assert m["ratio"] is None and m["criteria"][0]["ratio"] is None
 

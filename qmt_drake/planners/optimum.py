@@ -24,6 +24,7 @@ from scipy.stats import qmc
 from qmt_drake.plan import Plan, family_plan
 from qmt_drake.planners import family_optimum_core
 from qmt_drake.problem import Evaluation, PlanningProblem
+from qmt_drake.timescale import Grow, bisect_batch, search_scale
 
 BOUND_PENALTY_S = 100.0  # seconds of objective per unit of normalised bound violation
 
@@ -43,7 +44,8 @@ def tight_scale(problem: PlanningProblem, genes: np.ndarray, *, lam_max: float =
     """(K,) smallest lam with the motion played lam times slower on every limit (nan: none).
 
     Exact (lam = sqrt(worst ratio)) when the limit set allows the time-scaling shortcut; otherwise
-    a batched bisection in log(lam) over [1/lam_max, lam_hi] (40 halvings), where lam_hi is
+    a batched bisection in log(lam) over [1/lam_max, lam_hi] (40 halvings of every row:
+    timescale.bisect_batch), where lam_hi is
     lam_max or, if smaller, the slowing that makes the motion as long as the family's slowest
     motion (all genes at their upper bounds; slower ones lie outside the family, and sampling
     them would cost memory in proportion to their length)."""
@@ -57,10 +59,10 @@ def tight_scale(problem: PlanningProblem, genes: np.ndarray, *, lam_max: float =
     lo = np.full(len(g), -np.log(lam_max))
     hi = np.log(lam_hi)
     feasible_hi = problem.peaks(problem.family.time_scaled(g, np.exp(hi))).feasible
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        f = problem.peaks(problem.family.time_scaled(g, np.exp(mid))).feasible
-        hi, lo = np.where(f, mid, hi), np.where(f, lo, mid)
+
+    def excess(v, i):  # the verdict at lam = exp(v): -1 on every limit, 1 over one
+        return np.where(problem.peaks(problem.family.time_scaled(g[i], np.exp(v))).feasible, -1.0, 1.0)
+    hi = bisect_batch(excess, lo, hi, rel_tol=None, max_steps=iterations, midpoint="arithmetic", safe="above")
     return np.where(ok & feasible_hi, np.exp(hi), np.nan)
 
 
@@ -147,12 +149,14 @@ def plan_family_optimum(problem: PlanningProblem, *, starts: int = 24, polished:
 
 def _slow_until_confirmed(problem, genes, step: float = 1e-6, tries: int = 60):
     """Play the motion 1e-6, 2e-6, 4e-6 ... slower until the refined re-check passes (no exact
-    factor exists when gravity acts)."""
-    for k in range(tries):
-        y = problem.family.time_scaled(genes, 1.0 + step * 2**k)[0]
-        if problem.confirm(y):
-            return y
-    return genes
+    factor exists when gravity acts): timescale.search_scale on that table of factors, not bisected."""
+    def slowed(lam):
+        return problem.family.time_scaled(genes, lam)[0]
+    if tries < 1:
+        return genes
+    found = search_scale(lambda lam: problem.confirm(slowed(lam)), steps=0,
+                         grow=Grow(start=1.0, table=tuple(1.0 + step * 2**k for k in range(tries))))
+    return genes if found.holding is None else slowed(found.holding)
 
 
 def _settle_inside_bounds(problem, y):

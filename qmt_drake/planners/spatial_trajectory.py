@@ -42,7 +42,7 @@ from qmt_drake.limits.spatial_columns import (
     peaks,
 )
 from qmt_drake.planners.spatial_toppra import DrakePath
-from qmt_drake.timescale import smallest_holding_scale
+from qmt_drake.timescale import Grow, search_scale, smallest_holding_scale
 from qmt_drake.trajectory import (
     ConcatenatedTrajectory,
     JointTrajectory,
@@ -249,16 +249,13 @@ def _held_on_pieces(sc, traj, k, rate_hz) -> bool:
 
 def _raised_until(k: float, holds, k_max: float, rel_tol: float) -> float:
     """k itself if holds(k), else the smallest scale above k (to rel_tol) that holds: bracketed upwards from
-    k by 16 rel_tol, then 10 % steps, then bisected (timescale.smallest_holding_scale)."""
-    if holds(k):
-        return k
-    lo, hi = k, min(k * (1.0 + 16.0 * rel_tol), k_max)
-    while not holds(hi):
-        if hi >= k_max:
-            raise QmtInputError(f"the trajectory breaks a limit between its samples even {k_max:g} times slower; "
-                                "relax that limit")
-        lo, hi = hi, min(hi * 1.1, k_max)
-    return smallest_holding_scale(lo, hi, holds, rel_tol)
+    k by 16 rel_tol, then 10 % steps up to k_max, then bisected (timescale.search_scale)."""
+    found = search_scale(holds, k, k_max, rel_tol=rel_tol, ends=("lo",),
+                         grow=Grow(start=k, first=min(k * (1.0 + 16.0 * rel_tol), k_max), factor=1.1, limit=k_max))
+    if found.status == "capped":
+        raise QmtInputError(f"the trajectory breaks a limit between its samples even {k_max:g} times slower; "
+                            "relax that limit")
+    return found.holding
 
 
 def pose_errors(sc, traj, times_s) -> np.ndarray:

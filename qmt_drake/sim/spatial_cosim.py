@@ -48,7 +48,7 @@ from qmt_drake.model.actuator_order import connect_joint_torques
 from qmt_drake.model.urdf_check import load_arm_plant
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD, transfer_outcome
 from qmt_drake.sim.cosim_run import CoSim, run
-from qmt_drake.sim.sim_settings import apply_contact_settings, simulation_of
+from qmt_drake.sim.sim_settings import APPROXIMATION_ENUMS, apply_contact_settings, simulation_of
 from qmt_drake.sim.spatial_actuation import (
     SpatialMotorDrive,
     add_tracking_logs,
@@ -169,7 +169,8 @@ def simulate_spatial(sc, traj, **options) -> dict:
 def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: str = "ideal",
                         feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
                         drive: SpatialMotorDrive | None = None, time_step_s: float | None = None,
-                        export: bool = False, explicit: bool = False) -> CoSim:
+                        export: bool = False, explicit: bool = False,
+                        contact_approximation: str | None = None) -> CoSim:
     """The co-simulation of `traj` on scenario sc as a CoSim, its parts chosen by the hand (the weld, the
     contact hand, the tray) and the actuator. grip: the suction hand's stability set in the co-simulation
     (default: the scenario's cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the
@@ -180,7 +181,12 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
     are built from (default sc; a sweep case simulates a drawn sc under the nominal controller); drive: a
     prepared dc_motor drive instead. time_step_s: the plant step [s] (default TIME_STEP_S; the plan is
     sampled and the hold checked at it). export: export the named ports (user composition). explicit: the
-    dc_motor law applies its loop damping itself, nothing folded into the plant (SpatialMotorDrive)."""
+    dc_motor law applies its loop damping itself, nothing folded into the plant (SpatialMotorDrive).
+    contact_approximation: the plant's discrete contact approximation (a run option over the scenario's
+    simulation.plant and the hand's own)."""
+    if contact_approximation is not None and contact_approximation not in APPROXIMATION_ENUMS:
+        raise QmtInputError(f"contact approximation {contact_approximation!r}: use one of "
+                            f"{', '.join(APPROXIMATION_ENUMS)}")
     h = spatial_time_step(sc, time_step_s)
     ctrl = sc if controller_sc is None else controller_sc
     if drive is None:
@@ -199,10 +205,11 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
     else:
         hand = WeldHand(sc, sc.hand_term(grip), actuator)
     traj = closed_loop_reference(traj, feedforward, drive, h)  # feedforward 'shaped': sim/spatial_reference
-    return assemble(sc, traj, hand, drive, ctrl, record_path, h, export)
+    return assemble(sc, traj, hand, drive, ctrl, record_path, h, export, contact_approximation)
 
 
-def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool) -> CoSim:
+def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool,
+             contact_approximation: str | None = None) -> CoSim:
     """The spatial co-simulation's one assembly: the arm's URDF plant (1 ms discrete by default), the hand
     part (its plant settings, bodies and geometry before Finalize, its wiring after), the drive part and
     the reference, the tracking logs and the hand's monitor; the run's start, advance and finish."""
@@ -210,11 +217,13 @@ def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool) -
     plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=h,
                                  effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
                                  finalize=False)
-    # SAP (weld constraints, the tray's contact) through this module's name: margin_runs may swap it
+    # SAP (weld constraints, the tray's contact)
     plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap if hand.approximation == "sap"
                                              else hand.approximation)
     hand.configure(plant)
     apply_contact_settings(plant, simulation_of(sc).plant)  # the scenario's simulation.plant over the hand's
+    if contact_approximation is not None:  # the run's option over both
+        plant.set_discrete_contact_approximation(APPROXIMATION_ENUMS[contact_approximation])
     builder.AddSystem(plant)
     arm = H.model_instance()
     hand.add(builder, plant, H)
