@@ -1,9 +1,8 @@
 """A saved plan re-checks as it did (issue 27 item 3): a planar plan without a closed form is stored as 1 kHz
 samples (a quintic between them, ~1e-8 rad/s^2 off), so a plan at 0.999999999 of its limit could come back at
-1.0000000009, infeasible. The planar Ruckig and trajopt plans also store what rebuilds them exactly
-(plan_files.rebuild_spec: Ruckig's inputs, the B-spline, the slow-down, the segments) and load from it: the same
-trajectory bit for bit, the same re-check. The planar TOPP-RA plan still comes back from its samples (its path
-has no file form yet): the strict xfail below names that gap."""
+1.0000000009, infeasible. The planar Ruckig, trajopt and TOPP-RA plans also store what rebuilds them
+exactly (plan_files.rebuild_spec: Ruckig's inputs, the B-spline, the path and TOPP-RA's profile, the slow-down,
+the segments) and load from it: the same trajectory bit for bit, the same re-check."""
 
 import json
 
@@ -54,8 +53,10 @@ def test_a_rebuild_that_disagrees_with_its_samples_is_refused(tmp_path):
         load_plan(path)
 
 
-@pytest.mark.xfail(strict=True, reason="the planar TOPP-RA plan is stored as samples only: 0.999999998 of its limit "
-                   "comes back at 1.0000000147 (thesis-ch2), 1.00026 (via5-ch4)")
 def test_a_saved_toppra_plan_rechecks_as_it_did(tmp_path):
-    plan, loaded, _ = _round_trip(tmp_path, "thesis-ch2", "toppra")
-    assert loaded.check.worst_ratio <= 1.0 and loaded.feasible
+    """via5-ch4's TOPP-RA plan (five segments on the traced spline path, slowed by the exact factor): at
+    0.999999998 of its limit; from its samples it came back at 1.00026, infeasible."""
+    plan, loaded, _ = _round_trip(tmp_path, "via5-ch4", "toppra")
+    assert plan.feasible and loaded.feasible and abs(plan.check.worst_ratio - 1.0) < 1e-6
+    assert loaded.check.worst_ratio == plan.check.worst_ratio
+    _same_values(plan, loaded)
