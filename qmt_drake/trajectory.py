@@ -12,7 +12,14 @@ spatial_trajectory.between_pieces both take `breakpoints_s` and `evaluate` of wh
 `sample` has two conventions at and after the end (`holds_end_value`): the planar trajectories (False)
 rest there (qd = qdd = 0 from T on); the spatial ones (True: TOPP-RA's profile, the via cubic, the
 families' segments, Ruckig, an export stream) clip t into [0, T] and so give the last piece's value at T
-(the stopping acceleration), which their sampled check needs. TimeScaledTrajectory and
+(the stopping acceleration), which their sampled check needs. Both stay because published numbers read
+them (measured in session 16): the spatial sampled check (planners/spatial_trajectory.check: the planners'
+searches, scale_to_hold, each plan's columns) takes its end sample through sample(), and a family plan's
+stop is a peak there (ur5-suction-bins' family_optimum plan ends at 9.57 rad/s^2; at rest its
+joint_acceleration column would read 0.63712 instead of 0.63796, motor_torque 0.37092 instead of 0.37107);
+the planar Plan.sample, CSV and goldens give rest at T (thesis-ch3/ch4's thesis plans would give their last
+piece's 1.89 / 6.43 rad/s^2 there). One convention moves one set of goldens; the re-check between samples
+(evaluate, one-sided by t_piece) is the same for both. TimeScaledTrajectory and
 ConcatenatedTrajectory follow their parts (one implementation of time scaling and of playing
 trajectories one after another for both; spatial_trajectory's TimeScaled and SequenceTrajectory are
 these classes) and still take an object that only samples (duration_s, sample).

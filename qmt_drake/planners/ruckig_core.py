@@ -5,6 +5,10 @@ phase synchronisation, so the motion stays on the straight line), the spatial ar
 joint axes, time synchronisation) and seed 002's tray line (tray/waypoints.py: one axis, the distance
 along the line). The seeds' variants are its named option `phase_synchronization`; each caller words its
 own refusal from the returned Ruckig result.
+
+`RuckigProfile` is the one evaluator of a Ruckig trajectory (the planar plans' profiles, the spatial
+segments, the spatial refusal): Ruckig's own at_time, vectorised, bit for bit (tests/test_one_ruckig.py).
+`rest_to_rest_profile` keeps the inputs with it, which the planar plan files store to rebuild it exactly.
 """
 
 from __future__ import annotations
