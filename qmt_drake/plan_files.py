@@ -202,7 +202,7 @@ def _load_transfer_plan(path: Path, d: dict, scenario: TransferScenario | None) 
                                     f"{scenario.name}'s arm has {scenario.arm.n_dof}; plan again for it")
             _check_endpoints(q[0], q[-1], scenario, f"plan file {path}")
             traj_obj = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
-            if isinstance(d.get("rebuild"), dict):  # the exact form (module docstring), held to its samples
+            if "rebuild" in d:  # the exact form (module docstring), held to its samples
                 traj_obj = _rebuilt(d["rebuild"], scenario, (t, q, qd, qdd), path)
             plan = make_plan(scenario, str(d.get("method", "loaded")), traj_obj, genes=d.get("genes"))
         else:
@@ -349,7 +349,12 @@ def _difference(a, b) -> float:
 
 def _rebuilt(spec: dict, scenario: TransferScenario, samples, path: Path) -> JointTrajectory:
     """A file's `rebuild` trajectory, refused in one line if it disagrees with the file's own samples."""
-    traj = trajectory_from_rebuild(spec, scenario)
+    if not isinstance(spec, dict):
+        raise ValueError("'rebuild' must be a mapping")
+    try:
+        traj = trajectory_from_rebuild(spec, scenario)
+    except RuntimeError as exc:  # Ruckig refusing the stored inputs
+        raise ValueError(str(exc)) from None
     err = _difference(_file_samples(traj), samples)
     if not err <= REBUILD_TOL:
         raise QmtInputError(f"plan file {path}: its 'rebuild' disagrees with its samples (by {err:.3g}); "

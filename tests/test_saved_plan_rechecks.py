@@ -51,6 +51,15 @@ def test_a_rebuild_that_disagrees_with_its_samples_is_refused(tmp_path):
     path.write_text(json.dumps(d))
     with pytest.raises(QmtInputError, match="'rebuild' disagrees with its samples"):
         load_plan(path)
+    # a malformed one is one line too (Ruckig refusing the inputs, a rebuild that is not a mapping)
+    d["rebuild"]["ruckig_inputs"]["max_acceleration"] = [-1.0] * len(d["rebuild"]["ruckig_inputs"]["max_jerk"])
+    path.write_text(json.dumps(d))
+    with pytest.raises(QmtInputError, match="cannot rebuild its trajectory .ruckig failed"):
+        load_plan(path)
+    d["rebuild"] = [1, 2]
+    path.write_text(json.dumps(d))
+    with pytest.raises(QmtInputError, match="'rebuild' must be a mapping"):
+        load_plan(path)
 
 
 def test_a_saved_toppra_plan_rechecks_as_it_did(tmp_path):
