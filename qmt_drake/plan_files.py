@@ -14,7 +14,8 @@ limit peaks (moment, motor torque, joint range), payload, link lengths, planner 
 scenario's fingerprint, task points, `extra`, and `trajectory`: {kind: family, family} (the genes
 rebuild it) or {kind: samples, t_s, q_rad, qd_rad_s, qdd_rad_s2, breakpoints_s} (1 kHz per piece, both
 values at each phase boundary). A sampled plan whose trajectory has an exact file form (`rebuild_spec`: the
-planar Ruckig plan's Ruckig inputs, trajopt's B-spline, TOPP-RA's path and profile, their slow-down factor
+planar Ruckig plan's Ruckig inputs, trajopt's B-spline, TOPP-RA's path and profile, Drake Toppra's
+q(s) and s(t), their slow-down factor
 and segments) also has `rebuild`, and is loaded from
 that: the same trajectory bit for bit, so it re-checks at the same value (the quintic between the samples is
 ~1e-8 rad/s^2 off, enough to move a plan at 0.999999999 of its limit past 1). Its samples stay (to plot, and
@@ -70,7 +71,8 @@ REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: a `rebuild` against the samples writt
 # Leaf kinds of `rebuild` (module docstring), each registered by the module that knows its trajectory and imported
 # by that name on first use (as plan.plan_kind does for the scenario kinds: that module imports this one).
 REBUILD_MODULES = {"ruckig": "qmt_drake.planners.baselines.ruckig_plan", "bspline": "qmt_drake.planners.baselines.trajopt_plan",
-                   "path_timing": "qmt_drake.planners.baselines.paths"}
+                   "path_timing": "qmt_drake.planners.baselines.paths",
+                   "drake_timed": "qmt_drake.planners.baselines.toppra_plan"}
 REBUILDERS: dict[str, Callable[[dict, Any], JointTrajectory]] = {}
 
 

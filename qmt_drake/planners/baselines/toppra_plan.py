@@ -49,12 +49,14 @@ import time
 
 import numpy as np
 from pydrake.multibody.optimization import Toppra
+from pydrake.polynomial import Polynomial_
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError, QmtNoPlanError
 from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
 from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.plan import Plan
+from qmt_drake.plan_files import register_rebuild
 from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan, no_path_plan
 from qmt_drake.planners.baselines.paths import (
     PATHS,
@@ -283,7 +285,34 @@ def _drake_timed(pp, s_of_t) -> JointTrajectory:
         return (d1.vector_values(s) * sdd + d2.vector_values(s) * sd**2).T
 
     bp = np.asarray(s_of_t.get_segment_times()) - t0
-    return _OneSided(f, T, bp, pp.rows())
+    traj = _OneSided(f, T, bp, pp.rows())
+    traj.pp, traj.s_of_t = pp, s_of_t  # its file form (file_spec)
+    return traj
+
+
+def _polynomial_spec(p) -> dict:
+    """A Drake PiecewisePolynomial's exact file form: its breaks and every segment's coefficients."""
+    coefficients = [[[p.getPolynomial(i, r, c).GetCoefficients() for c in range(p.cols())] for r in range(p.rows())]
+                    for i in range(p.get_number_of_segments())]
+    return {"breaks": np.asarray(p.get_segment_times()), "coefficients": coefficients}
+
+
+def _polynomial_from_spec(spec: dict) -> PiecewisePolynomial:
+    """The PiecewisePolynomial of `_polynomial_spec` (the same coefficients, so the same values bit for bit)."""
+    breaks = [float(b) for b in spec["breaks"]]
+    mats = [np.array([[Polynomial_[float](np.asarray(c, dtype=float)) for c in row] for row in seg], dtype=object)
+            for seg in spec["coefficients"]]
+    if len(mats) != len(breaks) - 1 or not all(np.isfinite(breaks)):
+        raise ValueError("a piecewise polynomial needs one coefficient block per interval between finite breaks")
+    return PiecewisePolynomial(mats, breaks)
+
+
+def drake_timed_from_file(spec: dict, scenario) -> JointTrajectory:
+    """Drake Toppra's q(s(t)) from its file form: the path q(s) and s(t), exactly."""
+    return _drake_timed(_polynomial_from_spec(spec["path"]), _polynomial_from_spec(spec["s_of_t"]))
+
+
+register_rebuild("drake_timed", drake_timed_from_file)
 
 
 class _OneSided(CallableTrajectory):
@@ -296,6 +325,10 @@ class _OneSided(CallableTrajectory):
         j = np.clip(np.searchsorted(bp, tp, side="right") - 1, 0, len(bp) - 2)
         te = np.clip(t, bp[j] + 1e-9, bp[j + 1] - 1e-9)
         return super().evaluate(te, tp)
+
+    def file_spec(self) -> dict:
+        """What rebuilds it exactly (plan_files.rebuild_spec): Drake's path q(s) and its s(t), coefficients."""
+        return {"kind": "drake_timed", "path": _polynomial_spec(self.pp), "s_of_t": _polynomial_spec(self.s_of_t)}
 
 
 # ============================================================================ Drake's Toppra, spatial arms
