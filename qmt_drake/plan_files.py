@@ -15,7 +15,7 @@ scenario's fingerprint, task points, `extra`, and `trajectory`: {kind: family, f
 rebuild it) or {kind: samples, t_s, q_rad, qd_rad_s, qdd_rad_s2, breakpoints_s} (1 kHz per piece, both
 values at each phase boundary). A sampled plan whose trajectory has an exact file form (`rebuild_spec`: the
 planar Ruckig plan's Ruckig inputs, trajopt's B-spline, TOPP-RA's path and profile, Drake Toppra's
-q(s) and s(t), their slow-down factor
+q(s) and s(t), a Drake PiecewisePolynomial's coefficients (collocation), their slow-down factor
 and segments) also has `rebuild`, and is loaded from
 that: the same trajectory bit for bit, so it re-checks at the same value (the quintic between the samples is
 ~1e-8 rad/s^2 off, enough to move a plan at 0.999999999 of its limit past 1). Its samples stay (to plot, and
@@ -57,8 +57,10 @@ from qmt_drake.trajectory import (
     ConcatenatedTrajectory,
     FamilyTrajectory,
     JointTrajectory,
+    PolynomialTrajectory,
     SampledTrajectory,
     TimeScaledTrajectory,
+    polynomial_from_spec,
 )
 from qmt_drake.transfer_scenario import TransferScenario, load_scenario
 
@@ -104,6 +106,9 @@ def trajectory_from_rebuild(spec: dict, scenario: TransferScenario) -> JointTraj
         return TimeScaledTrajectory(trajectory_from_rebuild(spec["inner"], scenario), k)
     if kind == "sequence":
         return ConcatenatedTrajectory([trajectory_from_rebuild(p, scenario) for p in spec["parts"]])
+    if kind == "polynomial":
+        return PolynomialTrajectory(polynomial_from_spec(spec["pp"]), np.asarray(spec["breakpoints_s"], dtype=float),
+                                    holds_end_value=bool(spec["holds_end_value"]))
     if kind not in REBUILDERS and kind in REBUILD_MODULES:
         importlib.import_module(REBUILD_MODULES[kind])
     if kind not in REBUILDERS:

@@ -1,9 +1,9 @@
 """A saved plan re-checks as it did (issue 27 item 3): a planar plan without a closed form is stored as 1 kHz
 samples (a quintic between them, ~1e-8 rad/s^2 off), so a plan at 0.999999999 of its limit could come back at
-1.0000000009, infeasible. The planar Ruckig, trajopt, TOPP-RA and Drake Toppra plans also store what rebuilds
-them exactly (plan_files.rebuild_spec: Ruckig's inputs, the B-spline, the path and TOPP-RA's profile, Drake's
-q(s) and s(t) by their coefficients, the slow-down, the segments) and load from it: the same trajectory bit
-for bit, the same re-check."""
+1.0000000009, infeasible. The planar Ruckig, trajopt, TOPP-RA, Drake Toppra and collocation plans also store
+what rebuilds them exactly (plan_files.rebuild_spec: Ruckig's inputs, the B-spline, the path and TOPP-RA's
+profile, Drake's q(s) and s(t) and collocation's PiecewisePolynomial by their coefficients, the slow-down, the
+segments) and load from it: the same trajectory bit for bit, the same re-check."""
 
 import json
 
@@ -76,5 +76,12 @@ def test_a_saved_drake_toppra_plan_rechecks_as_it_did(tmp_path):
     """Drake Toppra's plan (q(s) and s(t) stored by their coefficients): from its samples thesis-ch2's came
     back at 0.70749 instead of 0.70712 of its limit."""
     plan, loaded, _ = _round_trip(tmp_path, "thesis-ch2", "toppra-drake")
+    assert loaded.check.worst_ratio == plan.check.worst_ratio and loaded.feasible == plan.feasible
+    _same_values(plan, loaded)
+
+
+def test_a_saved_collocation_plan_rechecks_as_it_did(tmp_path):
+    """A planar collocation plan (a Drake PiecewisePolynomial, stored by its coefficients)."""
+    plan, loaded, _ = _round_trip(tmp_path, "thesis-ch4", "collocation")
     assert loaded.check.worst_ratio == plan.check.worst_ratio and loaded.feasible == plan.feasible
     _same_values(plan, loaded)

@@ -49,7 +49,6 @@ import time
 
 import numpy as np
 from pydrake.multibody.optimization import Toppra
-from pydrake.polynomial import Polynomial_
 from pydrake.trajectories import PiecewisePolynomial
 
 from qmt_drake.errors import QmtInputError, QmtNoPlanError
@@ -70,7 +69,13 @@ from qmt_drake.planners.spatial_search import finish_or_least_violating
 from qmt_drake.planners.spatial_toppra import joint_path, plan_drake_toppra
 from qmt_drake.planners.spatial_trajectory import ToppraTrajectory
 from qmt_drake.planners.toppra_core import parameterise, toppra_path
-from qmt_drake.trajectory import CallableTrajectory, ConcatenatedTrajectory, JointTrajectory
+from qmt_drake.trajectory import (
+    CallableTrajectory,
+    ConcatenatedTrajectory,
+    JointTrajectory,
+    polynomial_from_spec,
+    polynomial_spec,
+)
 
 
 def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
@@ -290,26 +295,9 @@ def _drake_timed(pp, s_of_t) -> JointTrajectory:
     return traj
 
 
-def _polynomial_spec(p) -> dict:
-    """A Drake PiecewisePolynomial's exact file form: its breaks and every segment's coefficients."""
-    coefficients = [[[p.getPolynomial(i, r, c).GetCoefficients() for c in range(p.cols())] for r in range(p.rows())]
-                    for i in range(p.get_number_of_segments())]
-    return {"breaks": np.asarray(p.get_segment_times()), "coefficients": coefficients}
-
-
-def _polynomial_from_spec(spec: dict) -> PiecewisePolynomial:
-    """The PiecewisePolynomial of `_polynomial_spec` (the same coefficients, so the same values bit for bit)."""
-    breaks = [float(b) for b in spec["breaks"]]
-    mats = [np.array([[Polynomial_[float](np.asarray(c, dtype=float)) for c in row] for row in seg], dtype=object)
-            for seg in spec["coefficients"]]
-    if len(mats) != len(breaks) - 1 or not all(np.isfinite(breaks)):
-        raise ValueError("a piecewise polynomial needs one coefficient block per interval between finite breaks")
-    return PiecewisePolynomial(mats, breaks)
-
-
 def drake_timed_from_file(spec: dict, scenario) -> JointTrajectory:
     """Drake Toppra's q(s(t)) from its file form: the path q(s) and s(t), exactly."""
-    return _drake_timed(_polynomial_from_spec(spec["path"]), _polynomial_from_spec(spec["s_of_t"]))
+    return _drake_timed(polynomial_from_spec(spec["path"]), polynomial_from_spec(spec["s_of_t"]))
 
 
 register_rebuild("drake_timed", drake_timed_from_file)
@@ -328,7 +316,7 @@ class _OneSided(CallableTrajectory):
 
     def file_spec(self) -> dict:
         """What rebuilds it exactly (plan_files.rebuild_spec): Drake's path q(s) and its s(t), coefficients."""
-        return {"kind": "drake_timed", "path": _polynomial_spec(self.pp), "s_of_t": _polynomial_spec(self.s_of_t)}
+        return {"kind": "drake_timed", "path": polynomial_spec(self.pp), "s_of_t": polynomial_spec(self.s_of_t)}
 
 
 # ============================================================================ Drake's Toppra, spatial arms
