@@ -13,12 +13,20 @@ A transfer plan's facts block (flat beside the common keys, plan.py's docstring)
 limit peaks (moment, motor torque, joint range), payload, link lengths, planner bookkeeping, the
 scenario's fingerprint, task points, `extra`, and `trajectory`: {kind: family, family} (the genes
 rebuild it) or {kind: samples, t_s, q_rad, qd_rad_s, qdd_rad_s2, breakpoints_s} (1 kHz per piece, both
-values at each phase boundary).
+values at each phase boundary). A sampled plan whose trajectory has an exact file form (`rebuild_spec`: the
+planar Ruckig plan's Ruckig inputs, trajopt's B-spline, TOPP-RA's path and profile, Drake Toppra's
+q(s) and s(t), a Drake PiecewisePolynomial's coefficients (collocation), their slow-down factor
+and segments) also has `rebuild`, and is loaded from
+that: the same trajectory bit for bit, so it re-checks at the same value (the quintic between the samples is
+~1e-8 rad/s^2 off, enough to move a plan at 0.999999999 of its limit past 1). Its samples stay (to plot, and
+the loader refuses a file whose `rebuild` disagrees with them by more than REBUILD_TOL).
 """
 
 from __future__ import annotations
 
+import importlib
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -45,13 +53,67 @@ from qmt_drake.plan import (
 from qmt_drake.plan_identity import IDENTITY_KEY, check_identity, identity, transfer_sections
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.sampling import piecewise_grid
-from qmt_drake.trajectory import FamilyTrajectory, SampledTrajectory
+from qmt_drake.trajectory import (
+    ConcatenatedTrajectory,
+    FamilyTrajectory,
+    JointTrajectory,
+    PolynomialTrajectory,
+    SampledTrajectory,
+    TimeScaledTrajectory,
+    polynomial_from_spec,
+)
 from qmt_drake.transfer_scenario import TransferScenario, load_scenario
 
 __all__ = ["PLAN_KINDS", "Motion", "PlanKind", "PlanLoader", "check_plan_fits", "load_plan", "plan_file_kind",
            "read_plan_file", "register_plan_kind", "scenario_kind_of"]
 
 PLAN_ENDPOINT_TOL_M = 1e-6
+REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: a `rebuild` against the samples written with it (only rounding differs)
+
+# Leaf kinds of `rebuild` (module docstring), each registered by the module that knows its trajectory and imported
+# by that name on first use (as plan.plan_kind does for the scenario kinds: that module imports this one).
+REBUILD_MODULES = {"ruckig": "qmt_drake.planners.baselines.ruckig_plan", "bspline": "qmt_drake.planners.baselines.trajopt_plan",
+                   "path_timing": "qmt_drake.planners.baselines.paths",
+                   "drake_timed": "qmt_drake.planners.baselines.toppra_plan"}
+REBUILDERS: dict[str, Callable[[dict, Any], JointTrajectory]] = {}
+
+
+def register_rebuild(kind: str, rebuild: Callable[[dict, Any], JointTrajectory]) -> None:
+    """rebuild(spec, scenario) -> the trajectory whose `file_spec()` gave spec (spec["kind"] == kind)."""
+    REBUILDERS[kind] = rebuild
+
+
+def rebuild_spec(traj) -> dict | None:
+    """The exact file form of a transfer trajectory: time scaling and segments around leaves that have a
+    `file_spec()`; None when a part has none (then only its samples are stored)."""
+    if isinstance(traj, TimeScaledTrajectory):
+        inner = rebuild_spec(traj.inner)
+        return None if inner is None else {"kind": "time_scaled", "k": traj.factor, "inner": inner}
+    if isinstance(traj, ConcatenatedTrajectory):
+        parts = [rebuild_spec(p) for p in traj.parts]
+        return None if any(p is None for p in parts) else {"kind": "sequence", "parts": parts}
+    spec = getattr(traj, "file_spec", None)
+    return spec() if callable(spec) else None
+
+
+def trajectory_from_rebuild(spec: dict, scenario: TransferScenario) -> JointTrajectory:
+    """The trajectory a `rebuild` dict describes; ValueError/KeyError/TypeError/RuntimeError if malformed."""
+    kind = spec["kind"]
+    if kind == "time_scaled":
+        k = float(spec["k"])
+        if not (np.isfinite(k) and k > 0):
+            raise ValueError("'k' must be a positive number")
+        return TimeScaledTrajectory(trajectory_from_rebuild(spec["inner"], scenario), k)
+    if kind == "sequence":
+        return ConcatenatedTrajectory([trajectory_from_rebuild(p, scenario) for p in spec["parts"]])
+    if kind == "polynomial":
+        return PolynomialTrajectory(polynomial_from_spec(spec["pp"]), np.asarray(spec["breakpoints_s"], dtype=float),
+                                    holds_end_value=bool(spec["holds_end_value"]))
+    if kind not in REBUILDERS and kind in REBUILD_MODULES:
+        importlib.import_module(REBUILD_MODULES[kind])
+    if kind not in REBUILDERS:
+        raise ValueError(f"unknown rebuild kind {kind!r}")
+    return REBUILDERS[kind](spec, scenario)
 
 
 def read_plan_file(path: str | Path) -> dict:
@@ -147,6 +209,8 @@ def _load_transfer_plan(path: Path, d: dict, scenario: TransferScenario | None) 
                                     f"{scenario.name}'s arm has {scenario.arm.n_dof}; plan again for it")
             _check_endpoints(q[0], q[-1], scenario, f"plan file {path}")
             traj_obj = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
+            if "rebuild" in d:  # the exact form (module docstring), held to its samples
+                traj_obj = _rebuilt(d["rebuild"], scenario, (t, q, qd, qdd), path)
             plan = make_plan(scenario, str(d.get("method", "loaded")), traj_obj, genes=d.get("genes"))
         else:
             raise ValueError(f"unknown trajectory kind {traj.get('kind')!r}")
@@ -261,14 +325,48 @@ def transfer_file_dict(plan: Plan) -> dict:
     if isinstance(plan.trajectory, FamilyTrajectory):
         d["trajectory"] = {"kind": "family", "family": plan.scenario.family.kind}
     else:
-        # 1 kHz samples per piece, each phase boundary twice (left and right values).
-        grid = piecewise_grid(plan.trajectory.breakpoints_s[None, :], 1000.0)
-        q, qd, qdd = plan.trajectory.evaluate(grid.t_s, grid.t_piece_s)
-        q, qd = _boundary_values(grid.t_s, q), _boundary_values(grid.t_s, qd)
-        d["trajectory"] = {"kind": "samples", "t_s": grid.t_s.tolist(), "q_rad": q.tolist(),
+        t, q, qd, qdd = _file_samples(plan.trajectory)
+        d["trajectory"] = {"kind": "samples", "t_s": t.tolist(), "q_rad": q.tolist(),
                            "qd_rad_s": qd.tolist(), "qdd_rad_s2": qdd.tolist(),
                            "breakpoints_s": plan.trajectory.breakpoints_s.tolist()}
+        spec = rebuild_spec(plan.trajectory)
+        if spec is not None:
+            spec = jsonable(spec)
+            err = _difference(_file_samples(trajectory_from_rebuild(json.loads(json.dumps(spec)), plan.scenario)),
+                              (t, q, qd, qdd))
+            if not err <= REBUILD_TOL:
+                raise RuntimeError(f"the {plan.method} plan's file form does not rebuild it (difference {err:.3g}); a bug")
+            d["rebuild"] = spec
     return d
+
+
+def _file_samples(traj: JointTrajectory):
+    """t, q, qd, qdd of a transfer file: 1 kHz samples per piece, each phase boundary twice (left and right)."""
+    grid = piecewise_grid(traj.breakpoints_s[None, :], 1000.0)
+    q, qd, qdd = traj.evaluate(grid.t_s, grid.t_piece_s)
+    return grid.t_s, _boundary_values(grid.t_s, q), _boundary_values(grid.t_s, qd), qdd
+
+
+def _difference(a, b) -> float:
+    """Largest |difference| of two (t, q, qd, qdd); inf if their shapes differ."""
+    if any(np.shape(x) != np.shape(y) for x, y in zip(a, b)):
+        return float("inf")
+    return max(float(np.max(np.abs(np.asarray(x) - np.asarray(y)), initial=0.0)) for x, y in zip(a, b))
+
+
+def _rebuilt(spec: dict, scenario: TransferScenario, samples, path: Path) -> JointTrajectory:
+    """A file's `rebuild` trajectory, refused in one line if it disagrees with the file's own samples."""
+    if not isinstance(spec, dict):
+        raise ValueError("'rebuild' must be a mapping")
+    try:
+        traj = trajectory_from_rebuild(spec, scenario)
+    except RuntimeError as exc:  # Ruckig refusing the stored inputs
+        raise ValueError(str(exc)) from None
+    err = _difference(_file_samples(traj), samples)
+    if not err <= REBUILD_TOL:
+        raise QmtInputError(f"plan file {path}: its 'rebuild' disagrees with its samples (by {err:.3g}); "
+                            f"write it again with `qmt-drake plan {scenario.name} --json PATH`")
+    return traj
 
 
 def _boundary_values(t_s: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -12,7 +12,14 @@ spatial_trajectory.between_pieces both take `breakpoints_s` and `evaluate` of wh
 `sample` has two conventions at and after the end (`holds_end_value`): the planar trajectories (False)
 rest there (qd = qdd = 0 from T on); the spatial ones (True: TOPP-RA's profile, the via cubic, the
 families' segments, Ruckig, an export stream) clip t into [0, T] and so give the last piece's value at T
-(the stopping acceleration), which their sampled check needs. TimeScaledTrajectory and
+(the stopping acceleration), which their sampled check needs. Both stay because published numbers read
+them (measured in session 16): the spatial sampled check (planners/spatial_trajectory.check: the planners'
+searches, scale_to_hold, each plan's columns) takes its end sample through sample(), and a family plan's
+stop is a peak there (ur5-suction-bins' family_optimum plan ends at 9.57 rad/s^2; at rest its
+joint_acceleration column would read 0.63712 instead of 0.63796, motor_torque 0.37092 instead of 0.37107);
+the planar Plan.sample, CSV and goldens give rest at T (thesis-ch3/ch4's thesis plans would give their last
+piece's 1.89 / 6.43 rad/s^2 there). One convention moves one set of goldens; the re-check between samples
+(evaluate, one-sided by t_piece) is the same for both. TimeScaledTrajectory and
 ConcatenatedTrajectory follow their parts (one implementation of time scaling and of playing
 trajectories one after another for both; spatial_trajectory's TimeScaled and SequenceTrajectory are
 these classes) and still take an object that only samples (duration_s, sample).
@@ -24,6 +31,7 @@ from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
+from pydrake.polynomial import Polynomial_
 from pydrake.trajectories import PiecewisePolynomial
 
 ONE_SIDED_S = 1e-9  # a breakpoint's one-sided value: evaluated this far inside the piece
@@ -131,6 +139,14 @@ class PolynomialTrajectory(JointTrajectory):
         t = self.t0 + np.clip(np.atleast_1d(np.asarray(t_s, float)), 0.0, self.duration_s)
         return tuple(d.vector_values(t).T for d in (self.pp, self.pp_d, self.pp_dd))
 
+    def file_spec(self) -> dict | None:
+        """What rebuilds it exactly (plan_files.rebuild_spec): a PiecewisePolynomial's coefficients; None for
+        another Drake trajectory."""
+        if not isinstance(self.pp, PiecewisePolynomial):
+            return None
+        return {"kind": "polynomial", "pp": polynomial_spec(self.pp), "breakpoints_s": self.breakpoints_s,
+                "holds_end_value": self.holds_end_value}
+
     def evaluate(self, t_s, t_piece_s):
         t = np.atleast_1d(np.asarray(t_s, dtype=float))
         tp = np.broadcast_to(t_piece_s, t.shape)
@@ -140,6 +156,23 @@ class PolynomialTrajectory(JointTrajectory):
         qd = np.where(rest[:, None], 0.0, self.pp_d.vector_values(te).T)
         qdd = np.where(rest[:, None], 0.0, self.pp_dd.vector_values(te).T)
         return q, qd, qdd
+
+
+def polynomial_spec(p) -> dict:
+    """A Drake PiecewisePolynomial's exact file form: its breaks and every segment's coefficients."""
+    coefficients = [[[p.getPolynomial(i, r, c).GetCoefficients() for c in range(p.cols())] for r in range(p.rows())]
+                    for i in range(p.get_number_of_segments())]
+    return {"breaks": np.asarray(p.get_segment_times()), "coefficients": coefficients}
+
+
+def polynomial_from_spec(spec: dict) -> PiecewisePolynomial:
+    """The PiecewisePolynomial of `polynomial_spec` (the same coefficients, so the same values bit for bit)."""
+    breaks = [float(b) for b in spec["breaks"]]
+    mats = [np.array([[Polynomial_[float](np.asarray(c, dtype=float)) for c in row] for row in seg], dtype=object)
+            for seg in spec["coefficients"]]
+    if len(mats) != len(breaks) - 1 or not all(np.isfinite(breaks)):
+        raise ValueError("a piecewise polynomial needs one coefficient block per interval between finite breaks")
+    return PiecewisePolynomial(mats, breaks)
 
 
 class SampledTrajectory(JointTrajectory):

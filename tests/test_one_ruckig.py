@@ -5,10 +5,10 @@ before (written out here with ruckig's API): the same duration and states bit fo
 import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
-from qmt_drake.planners.ruckig_core import rest_to_rest
+from qmt_drake.planners.ruckig_core import RuckigProfile, rest_to_rest
 from tests.test_one_toppra import _calls
 
-CALLERS = {"planners/baselines/ruckig_plan.py", "planners/spatial_ruckig.py", "tray/waypoints.py"}
+CALLERS = {"planners/ruckig_core.py", "planners/spatial_ruckig.py", "tray/waypoints.py"}  # the core: rest_to_rest_profile
 
 
 def test_every_ruckig_call_goes_through_the_one_core():
@@ -50,3 +50,23 @@ def test_the_core_is_each_callers_former_ruckig_call():
 def test_refused_input_is_none_with_ruckigs_reason():
     traj, res = rest_to_rest([0.0], [1.0], [1.0], [-1.0], [1.0])  # a negative acceleration limit
     assert traj is None and "maximum acceleration limit" in res
+
+
+def test_the_one_evaluator_is_ruckigs_at_time_bit_for_bit():
+    """planners/ruckig_core.RuckigProfile (the planar and the spatial Ruckig plans' evaluator) gives at_time's
+    values exactly: at random times, at every phase switch and one ulp either side, at and after the end."""
+    rng = np.random.default_rng(7)
+    for trial in range(24):
+        n, phase = int(rng.integers(1, 7)), bool(trial % 2)
+        start, goal = rng.uniform(-2, 2, n), rng.uniform(-2, 2, n)
+        if trial % 4 == 0:
+            goal[0] = start[0]  # an axis that does not move
+        traj, _ = rest_to_rest(start, goal, rng.uniform(0.1, 3, n), rng.uniform(0.1, 10, n), rng.uniform(0.5, 100, n),
+                               phase_synchronization=phase)
+        prof = RuckigProfile(traj)
+        sw = prof.switch_times_s
+        t = np.concatenate([rng.uniform(0, traj.duration, 50), sw, np.nextafter(sw, -1), np.nextafter(sw, 9),
+                            [traj.duration * 1.01]])
+        mine = np.hstack(prof.evaluate(t))
+        theirs = np.array([np.concatenate(traj.at_time(float(x))) for x in t])
+        assert np.array_equal(mine, theirs), (trial, np.abs(mine - theirs).max())

@@ -9,7 +9,7 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.at_rest import describe_at_rest, worst_terms_at_rest
-from qmt_drake.planners.ruckig_core import rest_to_rest
+from qmt_drake.planners.ruckig_core import RuckigProfile, rest_to_rest
 
 REFUSAL_SAMPLES = 201  # positions along a refused segment where its limits are looked at at rest
 
@@ -36,7 +36,7 @@ def ruckig_refusal(sc, segment: int, slowest, factor: float, binding: str, ratio
     alone breaks it, else the `binding` column of that slowest motion's check and its `ratio`."""
     T = float(slowest.duration)
     t = np.linspace(0.0, T, REFUSAL_SAMPLES)
-    q = np.array([slowest.at_time(float(x))[0] for x in t])
+    q = RuckigProfile(slowest).evaluate(t)[0]  # the one evaluator (Ruckig's at_time, vectorised)
     terms = list(sc.terms())
     head = (f"Ruckig: no reduction of the acceleration and jerk limits makes segment {segment + 1} (task pose "
             f"{segment} -> {segment + 1}) hold its limits")

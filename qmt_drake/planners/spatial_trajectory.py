@@ -41,6 +41,7 @@ from qmt_drake.limits.spatial_columns import (
     binding,
     peaks,
 )
+from qmt_drake.planners.ruckig_core import RuckigProfile
 from qmt_drake.planners.spatial_toppra import DrakePath
 from qmt_drake.timescale import Grow, search_scale, smallest_holding_scale
 from qmt_drake.trajectory import (
@@ -129,24 +130,21 @@ class ToppraTrajectory(JointTrajectory):
 
 
 class _RuckigSegment(JointTrajectory):
-    """One Ruckig trajectory (from rest to rest); breakpoints_s: every joint's phase switches (its jerk
-    jumps there, its acceleration kinks); evaluate: JointTrajectory's, through sample()."""
+    """One Ruckig trajectory (from rest to rest) through the one evaluator (planners/ruckig_core.RuckigProfile:
+    Ruckig's at_time, vectorised); breakpoints_s: every joint's phase switches (its jerk jumps there, its
+    acceleration kinks); evaluate: JointTrajectory's, through sample()."""
 
     holds_end_value = True
 
     def __init__(self, segment) -> None:
         self.segment = segment
-        self.duration_s = float(segment.duration)
-        self.n_dof = int(segment.degrees_of_freedom)
-        switches = [np.cumsum(p.t) for p in segment.profiles[0]]
-        self.breakpoints_s = np.unique(np.clip(np.concatenate([[0.0, self.duration_s], *switches]),
-                                               0.0, self.duration_s))
+        self.profile = RuckigProfile(segment)
+        self.duration_s = self.profile.duration_s
+        self.n_dof = self.profile.n
+        self.breakpoints_s = self.profile.switch_times_s
 
     def sample(self, t):
-        out = [np.empty((len(t), self.segment.degrees_of_freedom)) for _ in range(3)]
-        for j, tj in enumerate(t):
-            out[0][j], out[1][j], out[2][j] = self.segment.at_time(float(tj))
-        return tuple(out)
+        return self.profile.evaluate(t)
 
 
 class RuckigTrajectory(SequenceTrajectory):

@@ -18,6 +18,7 @@ from scipy.interpolate import CubicSpline
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import family_plan
+from qmt_drake.plan_files import register_rebuild
 from qmt_drake.planners.ga import run_ga
 from qmt_drake.problem import PlanningProblem
 from qmt_drake.trajectory import JointTrajectory
@@ -57,11 +58,15 @@ class JointLinePath(GeometricPath):
             raise QmtInputError("a joint-line segment has coinciding ends; remove repeated points")
         self.direction = delta / self.length
         self.n_dof = self.q0.size
+        self.q1 = np.asarray(q1, dtype=float)
 
     def derivatives(self, s):
         s = np.asarray(s, dtype=float)[:, None]
         q = self.q0 + s * self.direction
         return q, np.broadcast_to(self.direction, q.shape).copy(), np.zeros_like(q)
+
+    def file_spec(self) -> dict:
+        return {"kind": "joint_line", "q0_rad": self.q0, "q1_rad": self.q1}
 
 
 class CartesianLinePath(GeometricPath):
@@ -76,8 +81,8 @@ class CartesianLinePath(GeometricPath):
     def __init__(self, arm, p0, p1, tool_angle_rad=None, branch="elbow_positive",
                  samples: int = 401) -> None:
         self.arm = arm
-        self.p0 = np.asarray(p0, dtype=float)
-        delta = np.asarray(p1, dtype=float) - self.p0
+        self.p0, self.p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+        delta = self.p1 - self.p0
         self.length = float(np.hypot(*delta))
         if self.length <= 0:
             raise QmtInputError("a Cartesian segment has coinciding ends; remove repeated points")
@@ -101,6 +106,10 @@ class CartesianLinePath(GeometricPath):
         return self.arm.joint_motion_on_tip_path(self.p0 + s[:, None] * self.direction, d, np.zeros_like(d),
                                                  self.tool, self.branch)
 
+    def file_spec(self) -> dict:
+        return {"kind": "cartesian_line", "p0_m": self.p0, "p1_m": self.p1, "tool_angle_rad": self.tool,
+                "ik_branch": self.branch}
+
 
 class SplinePath(GeometricPath):
     """Cubic spline (not-a-knot) of q over joint-space arc length: a traced path."""
@@ -109,8 +118,12 @@ class SplinePath(GeometricPath):
 
     def __init__(self, sigma, q) -> None:
         self.spline = CubicSpline(sigma, q, axis=0)
+        self.sigma, self.q = np.asarray(sigma, dtype=float), np.asarray(q, dtype=float)  # its file form
         self.length = float(sigma[-1])
         self.n_dof = q.shape[1]
+
+    def file_spec(self) -> dict:
+        return {"kind": "spline", "sigma": self.sigma, "q_rad": self.q}
 
     def derivatives(self, s):
         s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
@@ -249,3 +262,39 @@ class PathTimingTrajectory(JointTrajectory):
         s, sd, sdd = self.timing(t_s, t_piece_s)
         q, qs, qss = self.path.derivatives(s)
         return q, qs * sd[:, None], qs * sdd[:, None] + qss * (sd**2)[:, None]
+
+    def file_spec(self) -> dict:
+        """What rebuilds it exactly (plan_files.rebuild_spec): its path's own data, the grid and s-dot."""
+        return {"kind": "path_timing", "path": self.path.file_spec(), "grid": self.s, "sd": self.sd}
+
+
+def _finite(spec: dict, key: str, ndim: int) -> np.ndarray:
+    a = np.asarray(spec[key], dtype=float)
+    if a.ndim != ndim or a.size == 0 or not np.all(np.isfinite(a)):
+        raise ValueError(f"'{key}' must be a finite {ndim}-D array")
+    return a
+
+
+def path_from_file(spec: dict, scenario) -> GeometricPath:
+    """The path a `file_spec` describes (the same inputs, so the same values bit for bit)."""
+    kind = spec["kind"]
+    if kind == "joint_line":
+        return JointLinePath(_finite(spec, "q0_rad", 1), _finite(spec, "q1_rad", 1))
+    if kind == "cartesian_line":
+        tool = spec["tool_angle_rad"]
+        return CartesianLinePath(scenario.arm, _finite(spec, "p0_m", 1), _finite(spec, "p1_m", 1),
+                                 None if tool is None else float(tool), str(spec["ik_branch"]))
+    if kind == "spline":
+        return SplinePath(_finite(spec, "sigma", 1), _finite(spec, "q_rad", 2))
+    raise ValueError(f"unknown path kind {kind!r}")
+
+
+def path_timing_from_file(spec: dict, scenario) -> PathTimingTrajectory:
+    """A TOPP-RA-timed path from its `file_spec`."""
+    grid, sd = _finite(spec, "grid", 1), _finite(spec, "sd", 1)
+    if grid.size != sd.size or grid.size < 2 or not np.all(np.diff(grid) > 0):
+        raise ValueError("grid must rise and match sd")
+    return PathTimingTrajectory(path_from_file(spec["path"], scenario), grid, sd)
+
+
+register_rebuild("path_timing", path_timing_from_file)

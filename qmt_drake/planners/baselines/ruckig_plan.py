@@ -29,9 +29,9 @@ Via points: the community edition computes intermediate waypoints only through a
 (cloud) service, unusable offline, so the motion is chained segment by segment, each rest to rest:
 it stops at every via point. `extra["notes"]` says so.
 
-Profiles are evaluated exactly and vectorised from Ruckig's own phase data (jerk, and position,
-velocity and acceleration at each phase start); `tests/test_planners_ruckig.py` compares this with
-`Trajectory.at_time`.
+Profiles are evaluated by the one Ruckig evaluator (planners/ruckig_core.RuckigProfile: Ruckig's own
+`Trajectory.at_time`, vectorised, bit for bit), which keeps Ruckig's inputs: a plan file stores them and
+rebuilds the plan exactly (plan_files.py, `rebuild`).
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
+from qmt_drake.plan_files import register_rebuild
 from qmt_drake.planners.baselines.finish import (
     finish_plan,
     infeasible_plan,
@@ -49,7 +50,7 @@ from qmt_drake.planners.baselines.finish import (
     slowest_allowed_motion_s,
 )
 from qmt_drake.planners.baselines.paths import CartesianLinePath, task_joint_points
-from qmt_drake.planners.ruckig_core import rest_to_rest
+from qmt_drake.planners.ruckig_core import RuckigProfile, rest_to_rest_profile
 from qmt_drake.sampling import piecewise_grid
 from qmt_drake.timescale import Grow, search_scale
 from qmt_drake.trajectory import ConcatenatedTrajectory, JointTrajectory
@@ -60,48 +61,10 @@ VIA_NOTE = ("via points chained segment by segment, each rest to rest: the Rucki
             "edition computes intermediate waypoints only through a remote service")
 
 
-class RuckigProfile:
-    """Exact, vectorised evaluation of a computed ruckig Trajectory (one section, all DoFs)."""
-
-    def __init__(self, trajectory) -> None:
-        profs = trajectory.profiles[0]
-        self.duration_s = float(trajectory.duration)
-        self.n = len(profs)
-        self.t0 = []  # phase start times per DoF (8 values, last = end)
-        self.j, self.a, self.v, self.p = [], [], [], []
-        for pr in profs:
-            if pr.brake.duration > 0:
-                raise RuntimeError("ruckig returned a brake pre-phase; rest-to-rest profiles "
-                                   "should have none")
-            self.t0.append(np.concatenate([[0.0], np.cumsum(pr.t)]))
-            self.j.append(np.array(pr.j))
-            self.a.append(np.array(pr.a))
-            self.v.append(np.array(pr.v))
-            self.p.append(np.array(pr.p))
-        self.switch_times_s = np.unique(np.clip(np.concatenate(self.t0), 0, self.duration_s))
-
-    def evaluate(self, t_s):
-        """Position, velocity, acceleration (len(t), n) at times t (held after the end)."""
-        t = np.clip(np.atleast_1d(np.asarray(t_s, dtype=float)), 0.0, self.duration_s)
-        P, V, Acc = (np.empty((t.size, self.n)) for _ in range(3))
-        for i in range(self.n):
-            T0 = self.t0[i]
-            k = np.clip(np.searchsorted(T0, t, side="right") - 1, 0, 6)
-            tau = np.minimum(t - T0[k], T0[k + 1] - T0[k])
-            j, a, v, p = self.j[i][k], self.a[i][k], self.v[i][k], self.p[i][k]
-            P[:, i] = p + v * tau + a * tau**2 / 2 + j * tau**3 / 6
-            V[:, i] = v + a * tau + j * tau**2 / 2
-            Acc[:, i] = a + j * tau
-        return P, V, Acc
-
-
 def ruckig_profile(start, goal, v_max, a_max, j_max, phase: bool = True) -> RuckigProfile:
-    """Rest-to-rest time-optimal profile (planners/ruckig_core.rest_to_rest; phase synchronisation by
-    default); raises RuntimeError if ruckig fails."""
-    traj, res = rest_to_rest(start, goal, v_max, a_max, j_max, phase_synchronization=phase)
-    if traj is None:
-        raise RuntimeError(f"ruckig failed: {res}")
-    return RuckigProfile(traj)
+    """Rest-to-rest time-optimal profile (planners/ruckig_core.rest_to_rest_profile; phase synchronisation
+    by default), keeping its inputs; raises RuntimeError if ruckig fails."""
+    return rest_to_rest_profile(start, goal, v_max, a_max, j_max, phase_synchronization=phase)
 
 
 class CartesianProfileTrajectory(JointTrajectory):
@@ -121,8 +84,15 @@ class CartesianProfileTrajectory(JointTrajectory):
         rest = np.broadcast_to(t_piece_s, np.shape(np.atleast_1d(t_s))) >= self.duration_s
         return q, np.where(rest[:, None], 0.0, qd), np.where(rest[:, None], 0.0, qdd)
 
+    def file_spec(self) -> dict:
+        """What rebuilds it exactly (plan_files.rebuild_spec): Ruckig's inputs, the tool angle and IK branch."""
+        return {"kind": "ruckig", "path": "cartesian_line", "tool_angle_rad": self.tool,
+                "ik_branch": self.branch, "ruckig_inputs": self.profile.inputs}
+
 
 class JointProfileTrajectory(JointTrajectory):
+    """Joints on a Ruckig profile in joint space."""
+
     def __init__(self, profile: RuckigProfile) -> None:
         self.profile = profile
         self.duration_s = profile.duration_s
@@ -134,6 +104,36 @@ class JointProfileTrajectory(JointTrajectory):
         q, qd, qdd = self.profile.evaluate(t_s)
         rest = np.broadcast_to(t_piece_s, np.shape(np.atleast_1d(t_s))) >= self.duration_s
         return q, np.where(rest[:, None], 0.0, qd), np.where(rest[:, None], 0.0, qdd)
+
+    def file_spec(self) -> dict:
+        """What rebuilds it exactly (plan_files.rebuild_spec): Ruckig's inputs."""
+        return {"kind": "ruckig", "path": "joint", "ruckig_inputs": self.profile.inputs}
+
+
+def _number_or_none(x):
+    """A tool angle as the task holds it: None (no tool angle held) or a float, rad."""
+    return None if x is None else float(x)
+
+
+RUCKIG_INPUTS = ("start", "goal", "max_velocity", "max_acceleration", "max_jerk")
+
+
+def trajectory_from_file(spec: dict, scenario) -> JointTrajectory:
+    """The trajectory a `file_spec` describes, Ruckig run again on the same inputs (deterministic, so the
+    same profile bit for bit); ValueError/KeyError/TypeError if malformed."""
+    inp = spec["ruckig_inputs"]
+    args = [np.asarray(inp[k], dtype=float) for k in RUCKIG_INPUTS]
+    if any(a.ndim != 1 or a.size != args[0].size or not np.all(np.isfinite(a)) for a in args):
+        raise ValueError("ruckig_inputs must be finite lists of one length")
+    prof = ruckig_profile(*args, phase=bool(inp["phase_synchronization"]))
+    if spec["path"] == "cartesian_line":
+        return CartesianProfileTrajectory(scenario.arm, prof, _number_or_none(spec["tool_angle_rad"]), str(spec["ik_branch"]))
+    if spec["path"] == "joint":
+        return JointProfileTrajectory(prof)
+    raise ValueError(f"unknown ruckig path {spec['path']!r}")
+
+
+register_rebuild("ruckig", trajectory_from_file)
 
 
 def _worst(scenario, traj: JointTrajectory, rate_hz: float) -> float:

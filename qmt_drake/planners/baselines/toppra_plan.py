@@ -55,6 +55,7 @@ from qmt_drake.errors import QmtInputError, QmtNoPlanError
 from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
 from qmt_drake.limits.spatial_columns import joint_range_by_name
 from qmt_drake.plan import Plan
+from qmt_drake.plan_files import register_rebuild
 from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan, no_path_plan
 from qmt_drake.planners.baselines.paths import (
     PATHS,
@@ -68,7 +69,13 @@ from qmt_drake.planners.spatial_search import finish_or_least_violating
 from qmt_drake.planners.spatial_toppra import joint_path, plan_drake_toppra
 from qmt_drake.planners.spatial_trajectory import ToppraTrajectory
 from qmt_drake.planners.toppra_core import parameterise, toppra_path
-from qmt_drake.trajectory import CallableTrajectory, ConcatenatedTrajectory, JointTrajectory
+from qmt_drake.trajectory import (
+    CallableTrajectory,
+    ConcatenatedTrajectory,
+    JointTrajectory,
+    polynomial_from_spec,
+    polynomial_spec,
+)
 
 
 def _constraint(scenario, angle0_rad: float, sides: int, inscribed: bool,
@@ -283,7 +290,17 @@ def _drake_timed(pp, s_of_t) -> JointTrajectory:
         return (d1.vector_values(s) * sdd + d2.vector_values(s) * sd**2).T
 
     bp = np.asarray(s_of_t.get_segment_times()) - t0
-    return _OneSided(f, T, bp, pp.rows())
+    traj = _OneSided(f, T, bp, pp.rows())
+    traj.pp, traj.s_of_t = pp, s_of_t  # its file form (file_spec)
+    return traj
+
+
+def drake_timed_from_file(spec: dict, scenario) -> JointTrajectory:
+    """Drake Toppra's q(s(t)) from its file form: the path q(s) and s(t), exactly."""
+    return _drake_timed(polynomial_from_spec(spec["path"]), polynomial_from_spec(spec["s_of_t"]))
+
+
+register_rebuild("drake_timed", drake_timed_from_file)
 
 
 class _OneSided(CallableTrajectory):
@@ -296,6 +313,10 @@ class _OneSided(CallableTrajectory):
         j = np.clip(np.searchsorted(bp, tp, side="right") - 1, 0, len(bp) - 2)
         te = np.clip(t, bp[j] + 1e-9, bp[j + 1] - 1e-9)
         return super().evaluate(te, tp)
+
+    def file_spec(self) -> dict:
+        """What rebuilds it exactly (plan_files.rebuild_spec): Drake's path q(s) and its s(t), coefficients."""
+        return {"kind": "drake_timed", "path": polynomial_spec(self.pp), "s_of_t": polynomial_spec(self.s_of_t)}
 
 
 # ============================================================================ Drake's Toppra, spatial arms

@@ -31,9 +31,12 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from pydrake.math import BsplineBasis
+from pydrake.trajectories import BsplineTrajectory
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.plan import Plan
+from qmt_drake.plan_files import register_rebuild
 from qmt_drake.planners import trajopt_core
 from qmt_drake.planners.baselines.finish import (
     finish_plan,
@@ -76,6 +79,23 @@ class BsplineJointTrajectory(JointTrajectory):
         qd = np.where(rest[:, None], 0.0, self.b1.vector_values(te).T)
         qdd = np.where(rest[:, None], 0.0, self.b2.vector_values(te).T)
         return q, qd, qdd
+
+    def file_spec(self) -> dict:
+        """What rebuilds it exactly (plan_files.rebuild_spec): the B-spline's order, knots and control points."""
+        return {"kind": "bspline", "order": self.b.basis().order(), "knots_s": np.asarray(self.b.basis().knots()),
+                "control_points_rad": np.hstack(self.b.control_points()).T}
+
+
+def bspline_from_file(spec: dict, scenario) -> BsplineJointTrajectory:
+    """The trajectory a `file_spec` describes (the same B-spline, so the same values bit for bit)."""
+    cp = np.asarray(spec["control_points_rad"], dtype=float)
+    if cp.ndim != 2 or cp.shape[1] != scenario.arm.n_dof or not np.all(np.isfinite(cp)):
+        raise ValueError("control_points_rad must be finite rows of one joint vector each")
+    basis = BsplineBasis(int(spec["order"]), [float(k) for k in spec["knots_s"]])
+    return BsplineJointTrajectory(BsplineTrajectory(basis, [c.reshape(-1, 1) for c in cp]))
+
+
+register_rebuild("bspline", bspline_from_file)
 
 
 def default_via_times(scenario, n_points: int) -> np.ndarray:
