@@ -134,6 +134,16 @@ def settle(root, plant, arm, H, src, src_a, reference, q0, seat, controller=None
     return {"residual_Nm": float(best[0]), "q_start_rad": q.copy(), "part_speed_after_step": seat_speed}
 
 
+def velocities_after_step(plant, pctx) -> np.ndarray:
+    """All the discrete plant's generalized velocities after one step from pctx (its inputs evaluated through
+    the diagram), whether its output ports are sampled (the step is then an unrestricted update) or live."""
+    if plant.IsDifferenceEquationSystem()[0]:
+        return plant.EvalUniquePeriodicDiscreteUpdate(pctx).value()[plant.num_positions():].copy()
+    scratch = plant.CreateDefaultContext()
+    plant.CalcForcedUnrestrictedUpdate(pctx, scratch.get_mutable_state())
+    return plant.GetVelocities(scratch)
+
+
 def seat_welded_part(plant, pctx, H, part) -> float:
     """The weld hand's part seated where its weld constraint already carries its weight: SAP's weld is a stiff
     regularised constraint, so a part seated exactly on the hand frame sinks in the first steps while the
@@ -141,11 +151,11 @@ def seat_welded_part(plant, pctx, H, part) -> float:
     on the nominal UR5 suction part). Solved by Newton on the part's velocity after one plant step, its pose
     offset in H (6, small) the unknowns; returns the largest part speed left after that step."""
     X_WH = H.CalcPoseInWorld(pctx)
-    nq, v0 = plant.num_positions(), part.floating_velocities_start_in_v()
+    v0 = part.floating_velocities_start_in_v()
 
     def speed_after_step(x):
         plant.SetFreeBodyPose(pctx, part, X_WH @ RigidTransform(RollPitchYaw(x[:3]), x[3:]))
-        return plant.EvalUniquePeriodicDiscreteUpdate(pctx).value()[nq + v0:nq + v0 + 6].copy()
+        return velocities_after_step(plant, pctx)[v0:v0 + 6]
 
     x = np.zeros(6)
     r = speed_after_step(x)
