@@ -25,6 +25,9 @@ part (add_ideal_controller, or spatial_actuation.SpatialMotorDrive.add_to), comp
 into a CoSim that sim/cosim_run.run runs. time_step_s (default TIME_STEP_S, at most MAX_TIME_STEP_S) is the
 plant step, the reference's sampling and the hold check's.
 Example-robot-data's Panda declares no actuators: the tray co-simulation adds one per chain joint.
+Every run starts in the simulated (possibly drawn) plant's static equilibrium at the plan's first pose, as a
+real arm that has settled holding the part (sim/spatial_start: the drive's integral or a PD law's settled
+pose, the weld hand's part seated loaded); settled_start=False keeps the old start at rest with zero state.
 """
 
 from __future__ import annotations
