@@ -19,9 +19,11 @@ tips at g r / h_G (both independent of the mass), so k_draw = sqrt(max(mu / mu',
 
 Standing still (`at_rest_ratio`, `stand_still`): the drawn part's limit ratio at the plan's start at rest
 (the limit check's static ratio), and the co-simulation of the drawn plant with the arm told to stay at the
-plan's start for the plan's duration (the same drive, the same hold check).
+plan's start for the plan's duration (the same drive, the same hold check), started in the drawn plant's
+equilibrium (sim/spatial_start) or, to compare, at rest with the drive's zero state (`--stand-still N`).
 
     PYTHONPATH=. python -m studies.hold_floor [--draws 2000] [--out out/hold_floor.json]
+    PYTHONPATH=. python -m studies.hold_floor --only ur5-suction-bins,ur5-magnet-part --stand-still 12
 """
 
 from __future__ import annotations

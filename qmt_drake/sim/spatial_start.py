@@ -82,7 +82,8 @@ def settle(root, plant, arm, H, src, src_a, reference, q0, seat, controller=None
     docstring). controller: the dc_motor law when it runs as a JointPidController, ki_V_per_rad_s its integral
     gains (actuator order; a zero: that joint settles by its position); None: no integral. welded_part: the
     weld hand's free part (`seat_welded_part`), or None.
-    Returns {"residual_Nm": the largest |applied - static| left, "q_start_rad": the arm's start pose}."""
+    Returns {"residual_Nm": the largest |applied - static| left [N*m], "q_start_rad": the arm's start pose
+    (actuator order), "part_speed_after_step": the welded part's largest speed after one step, or None}."""
     pctx = plant.GetMyMutableContextFromRoot(root)
     names = actuator_joint_names(plant, arm)  # the actuation input's order
     q_idx = arm_position_indices(plant, arm, names)
