@@ -19,9 +19,11 @@ tips at g r / h_G (both independent of the mass), so k_draw = sqrt(max(mu / mu',
 
 Standing still (`at_rest_ratio`, `stand_still`): the drawn part's limit ratio at the plan's start at rest
 (the limit check's static ratio), and the co-simulation of the drawn plant with the arm told to stay at the
-plan's start for the plan's duration (the same drive, the same hold check).
+plan's start for the plan's duration (the same drive, the same hold check), started in the drawn plant's
+equilibrium (sim/spatial_start) or, to compare, at rest with the drive's zero state (`--stand-still N`).
 
     PYTHONPATH=. python -m studies.hold_floor [--draws 2000] [--out out/hold_floor.json]
+    PYTHONPATH=. python -m studies.hold_floor --only ur5-suction-bins,ur5-magnet-part --stand-still 12
 """
 
 from __future__ import annotations
@@ -254,17 +256,18 @@ def hand_motion_at(sc, q0) -> dict:
 
 
 def stand_still(sc, draw: dict, q0, duration_s: float, integral_rate_per_s: float = 5.0,
-                blend: bool = True) -> dict:
+                blend: bool = True, settled_start: bool = True) -> dict:
     """The drawn plant (perturbed_scenario) with the arm told to stay at q0 [rad] for duration_s [s]: the
     nominal controller (the shaped drive with the integral rate), the drawn motors and law (drawn_drive; with
     `blend` the regularised gear switch of a sweep case that draws the efficiency), the same hold check as
-    every sweep case (sim/spatial_cosim.simulate_spatial)."""
+    every sweep case (sim/spatial_cosim.simulate_spatial), started in the drawn plant's equilibrium
+    (settled_start False: at rest at q0 with the law's zero state, the start before sim/spatial_start)."""
     physical = perturbed_scenario(sc, draw)
     nominal = SpatialMotorDrive.for_scenario(sc, q0, "shaped", integral_rate_per_s=integral_rate_per_s)
     drive = drawn_drive(nominal, sc, physical, draw,
                         EFFICIENCY_BLEND_RAD_S if blend and "gear_efficiency" in draw else None)
     cosim = build_spatial_cosim(physical, StandStill(q0, duration_s), controller_sc=sc, drive=drive,
-                                feedforward="shaped")
+                                feedforward="shaped", settled_start=settled_start)
     r = run(cosim)
     t, ratio = cosim.monitor.ratios(cosim.simulator.get_context(), 1)  # the hold check's samples (spatial_hold)
     j = int(np.argmax(ratio))
@@ -272,6 +275,23 @@ def stand_still(sc, draw: dict, q0, duration_s: float, integral_rate_per_s: floa
             "max_ratio_at_s": float(t[j]), "final_ratio": float(ratio[-1]),
             "late_mean_ratio": float(ratio[len(ratio) // 2:].mean()),  # the second half: settled, or chattering
             "max_tracking_error_rad": r["max_tracking_error_rad"]}
+
+
+def stand_still_rows(name: str, plan_file: str, draws_n: int, duration_s: float | None = None) -> list[dict]:
+    """stand_still of the first draws_n draws of the row (the search's), started in equilibrium and at rest
+    (the old start), beside each draw's static ratio at the plan's start (at_rest_ratio)."""
+    sc = load_spatial_scenario(name)
+    plan = load_spatial_plan(plan_file, sc)
+    q0 = plan.trajectory.sample([0.0])[0][0]
+    rows = []
+    for i, d in enumerate(draws_of(name, plan_file, draws_n)):
+        ps = perturbed_scenario(sc, d)
+        row = {"draw": i, "static_ratio": at_rest_ratio(ps, cosim_grip(ps), q0)}
+        for settled in (True, False):
+            r = stand_still(sc, d, q0, plan.duration_s if duration_s is None else duration_s, settled_start=settled)
+            row["settled" if settled else "at_rest"] = r
+        rows.append(row)
+    return rows
 
 
 # ----------------------------------------------------------------------------------------- rows
@@ -328,8 +348,21 @@ def main(argv=None) -> int:
     ap.add_argument("--only-parameters", default=None, metavar="A,B",
                     help="spatial rows: draw only these parameters (the others nominal)")
     ap.add_argument("--step-ms", type=float, default=1.0, help="spatial rows: the plan's motion sampled at this step")
+    ap.add_argument("--stand-still", type=int, default=0, metavar="N",
+                    help="spatial rows: only co-simulate the first N draws standing still (both starts)")
     ap.add_argument("--out", default="out/hold_floor.json")
     a = ap.parse_args(argv)
+    if a.stand_still:
+        rows = [{"scenario": n, "stand_still": stand_still_rows(n, str(Path(a.plans) / f"{n}-base.json"), a.stand_still)}
+                for n in a.only.split(",") if n in SPATIAL]
+        write_text_atomic(a.out, json.dumps(jsonable({"rows": rows}), indent=1))
+        for row in rows:
+            for r in row["stand_still"]:
+                s, o = r["settled"], r["at_rest"]
+                print(f"{row['scenario']} draw {r['draw']}: static {r['static_ratio']:.4f}; settled start "
+                      f"{s['outcome']} max {s['max_ratio']:.4f} at {s['max_ratio_at_s'] * 1e3:.0f} ms; old start "
+                      f"{o['outcome']} max {o['max_ratio']:.4f} at {o['max_ratio_at_s'] * 1e3:.0f} ms")
+        return 0
     only = None if a.only_parameters is None else a.only_parameters.split(",")
     rows = []
     for name in a.only.split(","):

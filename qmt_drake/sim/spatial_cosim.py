@@ -25,6 +25,9 @@ part (add_ideal_controller, or spatial_actuation.SpatialMotorDrive.add_to), comp
 into a CoSim that sim/cosim_run.run runs. time_step_s (default TIME_STEP_S, at most MAX_TIME_STEP_S) is the
 plant step, the reference's sampling and the hold check's.
 Example-robot-data's Panda declares no actuators: the tray co-simulation adds one per chain joint.
+Every run starts in the simulated (possibly drawn) plant's static equilibrium at the plan's first pose, as a
+real arm that has settled holding the part (sim/spatial_start: the drive's integral or a PD law's settled
+pose, the weld hand's part seated loaded); settled_start=False keeps the old start at rest with zero state.
 """
 
 from __future__ import annotations
@@ -66,6 +69,7 @@ from qmt_drake.sim.spatial_hold import (  # noqa: F401 (re-exported)
 )
 from qmt_drake.sim.spatial_recording import SpatialRecording, add_part_box
 from qmt_drake.sim.spatial_reference import closed_loop_reference
+from qmt_drake.sim.spatial_start import settle
 from qmt_drake.sim.spatial_tray_hand import (  # noqa: F401 (re-exported)
     SETTLE_S,
     SLIP_TOLERANCE_M,
@@ -134,13 +138,13 @@ def add_ideal_controller(builder, plant, arm, sc, src, src_a) -> None:
 
 def add_drive(builder, plant, arm, ctrl_sc, drive, reference, time_step_s: float):
     """The reference (TrajectorySources of the plan's state and acceleration) and the drive (a part: the
-    ideal controller, or the dc_motor drive) wired to the arm; (src, motors or None)."""
+    ideal controller, or the dc_motor drive) wired to the arm; (src, src_a, motors or None)."""
     pp, acc = reference[:2]
     src = builder.AddSystem(TrajectorySource(pp, output_derivative_order=1))
     src_a = builder.AddSystem(TrajectorySource(acc))
     motors = add_ideal_controller(builder, plant, arm, ctrl_sc, src, src_a) if drive is None else \
         drive.add_to(builder, plant, arm, src.get_output_port(), src_a.get_output_port(), time_step_s, (pp, acc))
-    return src, motors
+    return src, src_a, motors
 
 
 def spatial_ports(plant, arm, src, extra=None) -> dict:
@@ -170,7 +174,7 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
                         feedforward: str = "full", record_path=None, contact: dict | None = None, controller_sc=None,
                         drive: SpatialMotorDrive | None = None, time_step_s: float | None = None,
                         export: bool = False, explicit: bool = False,
-                        contact_approximation: str | None = None) -> CoSim:
+                        contact_approximation: str | None = None, settled_start: bool = True) -> CoSim:
     """The co-simulation of `traj` on scenario sc as a CoSim, its parts chosen by the hand (the weld, the
     contact hand, the tray) and the actuator. grip: the suction hand's stability set in the co-simulation
     (default: the scenario's cup with the finer FINE_GRIP polyhedron). actuator: 'ideal' (the
@@ -183,7 +187,9 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
     sampled and the hold checked at it). export: export the named ports (user composition). explicit: the
     dc_motor law applies its loop damping itself, nothing folded into the plant (SpatialMotorDrive).
     contact_approximation: the plant's discrete contact approximation (a run option over the scenario's
-    simulation.plant and the hand's own)."""
+    simulation.plant and the hand's own). settled_start: start in the simulated plant's static equilibrium
+    (sim/spatial_start.settle: the drive's integral, or a PD law's settled pose); False: at rest at the plan's
+    first pose with the law's zero state."""
     if contact_approximation is not None and contact_approximation not in APPROXIMATION_ENUMS:
         raise QmtInputError(f"contact approximation {contact_approximation!r}: use one of "
                             f"{', '.join(APPROXIMATION_ENUMS)}")
@@ -205,14 +211,15 @@ def build_spatial_cosim(sc, traj, *, grip: GripModel | None = None, actuator: st
     else:
         hand = WeldHand(sc, sc.hand_term(grip), actuator)
     traj = closed_loop_reference(traj, feedforward, drive, h)  # feedforward 'shaped': sim/spatial_reference
-    return assemble(sc, traj, hand, drive, ctrl, record_path, h, export, contact_approximation)
+    return assemble(sc, traj, hand, drive, ctrl, record_path, h, export, contact_approximation, settled_start)
 
 
 def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool,
-             contact_approximation: str | None = None) -> CoSim:
+             contact_approximation: str | None = None, equilibrium: bool = True) -> CoSim:
     """The spatial co-simulation's one assembly: the arm's URDF plant (1 ms discrete by default), the hand
     part (its plant settings, bodies and geometry before Finalize, its wiring after), the drive part and
-    the reference, the tracking logs and the hand's monitor; the run's start, advance and finish."""
+    the reference, the tracking logs and the hand's monitor; the run's start (equilibrium: in the plant's static
+    equilibrium, sim/spatial_start; its result in handles.start), advance and finish."""
     builder = DiagramBuilder()
     plant, H, _ = load_arm_plant(sc.urdf, sc.hand_frame, lock_joints=sc.lock_joints, time_step_s=h,
                                  effort_limit_Nm=sc.torque_limit_Nm, velocity_limit_rad_s=sc.velocity_limit_rad_s,
@@ -234,7 +241,7 @@ def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool,
     hand.connect(builder, plant, H, rec, continuous=drive is None)
     reference = _reference(_Delayed(traj, hand.settle_s) if hand.settle_s else traj, h)
     t_end, q_goal = reference[2:]
-    src, motors = add_drive(builder, plant, arm, ctrl, drive, reference, h)
+    src, src_a, motors = add_drive(builder, plant, arm, ctrl, drive, reference, h)
     logs = add_tracking_logs(builder, plant.get_state_output_port(arm), src.get_output_port(), h, motors)
     hand.add_monitor(builder, plant, arm, h)
     q0 = traj.sample([0.0])[0][0]
@@ -243,9 +250,14 @@ def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool,
     hand.set_default(plant, H)
 
     def start(sim) -> None:
-        pctx = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
+        root = sim.get_mutable_context()
+        pctx = plant.GetMyMutableContextFromRoot(root)
         plant.SetPositions(pctx, arm, q0)
         hand.start(plant, pctx, H)
+        if equilibrium:  # the drive's state holding the drawn plant still (sim/spatial_start)
+            law = diagram.GetSubsystemByName("controller") if diagram.HasSubsystemNamed("controller") else None
+            handles.start = settle(root, plant, arm, H, src, src_a, reference, q0, lambda c: hand.start(plant, c, H),
+                                   law, None if drive is None else drive.gains.ki_V_per_rad_s, hand.welded_part())
         if rec is not None:
             rec.start(plant, pctx, sc.path_points_m)
 
@@ -256,9 +268,9 @@ def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool,
         err = float(np.abs(q_goal - plant.GetPositions(plant.GetMyContextFromRoot(ctx), arm)).max())
         return hand.finish(ctx, plant, H, err, logs, drive, traj, t_end)
 
+    handles = SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, hand=hand, start=None)
     return CoSim(hand.kind, diagram, plant, start, lambda sim: hand.advance(sim, diagram, t_end), finish, dict,
-                 ports=ports, loggers={**logs, **hand.loggers}, monitor=hand.monitor,
-                 handles=SimpleNamespace(t_final_s=t_end, q_goal=q_goal, arm_instance=arm, hand=hand),
+                 ports=ports, loggers={**logs, **hand.loggers}, monitor=hand.monitor, handles=handles,
                  simulator_settings=simulation_of(sc).simulator)
 
 
@@ -306,6 +318,9 @@ class WeldHand(HandPart):
 
     def ports(self, plant) -> dict:
         return {"part_state": plant.get_state_output_port(self.part.model_instance())}
+
+    def welded_part(self):  # its weld carries the part's weight from the start (sim/spatial_start)
+        return self.part
 
     def set_default(self, plant, H) -> None:  # the part seated in the cup at the plan's start
         plant.SetDefaultFloatingBaseBodyPose(self.part, H.CalcPoseInWorld(plant.CreateDefaultContext()))

@@ -229,6 +229,9 @@ class HandPart:
     def start(self, plant, pctx, H) -> None:
         pass
 
+    def welded_part(self):  # a free part held by a weld constraint (WeldHand), seated loaded at the start
+        return None
+
     def advance(self, sim, diagram, t_end: float) -> None:
         sim.AdvanceTo(t_end)
 

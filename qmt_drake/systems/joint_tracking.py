@@ -167,6 +167,11 @@ class JointPidController(LeafSystem):
             self.DeclarePeriodicDiscreteUpdateEvent(self._Tc, 0.0, self._update_integral)
         self.DeclareVectorOutputPort("voltage_command", n, self._calc_voltage)
 
+    def set_integral(self, context, z_rad_s) -> None:
+        """Set the motor-side error integral z [rad*s] in this system's context (a start in equilibrium:
+        sim/spatial_start.settle)."""
+        context.get_mutable_discrete_state(self._z).SetFromVector(np.asarray(z_rad_s, float))
+
     def _unsaturated(self, context):
         err = self._xd_in.Eval(context) - self._x_in.Eval(context)
         n = self._n
