@@ -172,14 +172,15 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
     if sc.obstacles and clearance_m > 0.0:  # the clearance as a constraint where the plain program does not keep it
         res, kept = keep_clear(sc, problem, res, clearance_m, max_tilt_rad, tilt_samples)
         info["trajopt_clearance"] = kept
-    if not (res.success or info.get("trajopt_clearance", {}).get("used")):
+    if not (res.usable or info.get("trajopt_clearance", {}).get("used")):  # usable: trajopt_core.TrajoptResult
         rounds = info.get("trajopt_clearance", {}).get("rounds")
         also = f", nor with the clearance ({rounds[-1]['result']})" if rounds else ""
         raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}{also}); "
                             "give it more control points or relax a limit")
     traj = PolyTrajectory(res.trajectory)
     return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
-                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s, **info})
+                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s,
+                    "solution_result": res.solution_result, "proven_optimal": bool(res.success), **info})
 
 
 def _normal_at(sc, fractions, x: float) -> np.ndarray:

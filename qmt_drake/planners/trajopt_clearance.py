@@ -100,11 +100,6 @@ def clear_problem(sc, p: trajopt_core.TrajoptProblem, bound_m: float, max_tilt_r
         path_constraints=tilt + [(clear, float(x)) for x in samples], snopt_options=opts)
 
 
-def _usable(res) -> bool:
-    """Solved, or stopped at the iteration limit on a point that meets every constraint."""
-    return res.success or res.infeasible_constraints == []
-
-
 def _certify(sc, res) -> dict:
     return certified_clearance(sc, PolyTrajectory(res.trajectory), sc.check_rate_hz)
 
@@ -118,7 +113,7 @@ def keep_clear(sc, p: trajopt_core.TrajoptProblem, first, clearance_m: float, ma
     facts = {"clearance_m": clearance_m, "bound_m": bound, "path_points_clearance_m": float(d_points.min())}
     if bound <= 0.0:
         return first, {**facts, "used": False, "why": f"path point {int(np.argmin(d_points))} itself collides"}
-    if first.success:
+    if first.usable:
         cert = _certify(sc, first)
         facts["plain_certified_lower_bound_m"] = cert["clearance_lower_bound_m"]
         if cert["clearance_lower_bound_m"] >= 0.5 * bound:
@@ -130,7 +125,7 @@ def keep_clear(sc, p: trajopt_core.TrajoptProblem, first, clearance_m: float, ma
         row = {"samples": len(samples), "result": res.solution_result, "info": res.info,
                "duration_s": res.duration_s, "solve_wall_s": res.solve_wall_s}
         rounds.append(row)
-        if not _usable(res):
+        if not res.usable:
             row["infeasible_constraints"] = sorted(set(res.infeasible_constraints or []))
             break
         cert = _certify(sc, res)

@@ -116,6 +116,13 @@ class TrajoptResult:
     samples: dict  # {rows name: path fractions}
     infeasible_constraints: list | None = None  # not success: the constraints the returned point breaks (tol 1e-6)
 
+    @property
+    def usable(self) -> bool:
+        """Solved, or SNOPT stopped unsolved (its iteration limit; info 41, the point cannot be improved) on a
+        point that meets every constraint within INFEASIBLE_TOL: a trajectory of the program, not proven
+        minimal (the plan's re-check then judges it between samples)."""
+        return self.success or self.infeasible_constraints == []
+
 
 def _fractions(samples, basis) -> np.ndarray:
     return np.asarray(samples(basis) if callable(samples) else samples, float)
