@@ -17,7 +17,7 @@ from qmt_drake.model.obstacles import Obstacle
 from qmt_drake.planners import collision_free, trajopt_core
 from qmt_drake.planners.spatial_methods import plan_trajopt_spatial
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
-from qmt_drake.planners.trajopt_clearance import keep_clear
+from qmt_drake.planners.trajopt_clearance import breaks, keep_clear
 from qmt_drake.spatial_task import load_spatial_scenario
 from tests.test_collision_free import two_link
 
@@ -126,6 +126,23 @@ def test_a_plain_solve_snopt_cannot_improve_is_a_trajectory_kept_where_it_clears
     # a point that breaks a constraint is no trajectory: the same program stopped after 2 major iterations
     capped = trajopt_core.solve(replace(p, snopt_options={**p.snopt_options, "Major iterations limit": 2}))
     assert capped.solution_result.endswith("kIterationLimit") and capped.infeasible_constraints and not capped.usable
+
+
+def test_a_refusal_names_the_path_point_a_spline_at_rest_cannot_reach():
+    """A path point at fraction 0.97, 0.3 rad from the end: at rest at the end (zero speed and acceleration) the
+    last three control points are the end, so q(0.97) leaves it only by the weight w of the one before times that
+    point's offset; 0.3 / w exceeds the joint range (closed form), so no spline exists, and the refusal's reason
+    (trajopt_clearance.breaks, the deep totes' ends-only path of seed 0: 'misses path point 6') names the point."""
+    Q = np.array([[-1.0, 0.0], [0.0, 0.3], [0.8, 0.3], [1.0, 0.0]])
+    s, ncp = np.array([0.0, 0.5, 0.97, 1.0]), 8
+    guess = np.array([[np.interp(x, s, Q[:, j]) for j in range(2)] for x in np.linspace(0.0, 1.0, ncp)])
+    p = trajopt_core.TrajoptProblem(Q, s, np.array([-3.0, -2.8]), np.array([3.0, 2.8]), ncp, (0.05, 60.0), guess,
+                                    rest_derivatives=2, velocity_limit=np.full(2, 2.0))
+    r = trajopt_core.solve(p)
+    idx, W = trajopt_core.basis_weights(r.basis, 0.97)
+    assert idx[0] == ncp - 4 and Q[3, 1] + (Q[2, 1] - Q[3, 1]) / W[0][0] > 2.8  # the control point needed, out of range
+    assert not r.usable
+    assert breaks(r, p, None).startswith("misses path point 2 (fraction 0.970) by 0.3 rad")
 
 
 def test_trajopt_clearance_option_is_checked():

@@ -66,7 +66,7 @@ from qmt_drake.planners.spatial_trajectory import (
     ToppraTrajectory,
     check,
 )
-from qmt_drake.planners.trajopt_clearance import keep_clear
+from qmt_drake.planners.trajopt_clearance import breaks, keep_clear
 from qmt_drake.timescale import search_scale
 
 METHODS = registry.names(SPATIAL)  # the registry's spatial rows: toppra, ruckig, family_optimum, ga, trajopt
@@ -174,9 +174,9 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
         info["trajopt_clearance"] = kept
     if not (res.usable or info.get("trajopt_clearance", {}).get("used")):  # usable: trajopt_core.TrajoptResult
         rounds = info.get("trajopt_clearance", {}).get("rounds")
-        also = f", nor with the clearance ({rounds[-1]['result']})" if rounds else ""
-        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}{also}); "
-                            "give it more control points or relax a limit")
+        also = f"; nor with the clearance ({rounds[-1]['result']}: its point {rounds[-1]['breaks']})" if rounds else ""
+        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}: its point "
+                             f"{breaks(res, problem, max_tilt_rad)}{also}); give it more control points or relax a limit")
     traj = PolyTrajectory(res.trajectory)
     return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
                    {"control_points": control_points, "solver": "SNOPT", "point_fractions": s,

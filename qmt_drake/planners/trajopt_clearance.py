@@ -100,6 +100,32 @@ def clear_problem(sc, p: trajopt_core.TrajoptProblem, bound_m: float, max_tilt_r
         path_constraints=tilt + [(clear, float(x)) for x in samples], snopt_options=opts)
 
 
+def breaks(res, p: trajopt_core.TrajoptProblem, max_tilt_rad: float | None) -> str:
+    """What the point of an unusable solve breaks, in words (a refusal's reason): the path points it misses
+    (equality rows equal to a row of p.path_rad), the face tilt beyond max_tilt_rad (rows [cos max_tilt, 1]),
+    the clearance (MinimumDistanceLowerBoundConstraint's rows [-inf, 1]), any other constraint by its name."""
+    missed, tilt, near, other = {}, [], 0, {}
+    cos_tilt = None if max_tilt_rad is None else float(np.cos(max_tilt_rad))
+    for name, lo, hi, v in res.broken_rows or []:
+        k = [i for i, q in enumerate(p.path_rad) if lo.shape == q.shape and np.array_equal(lo, q) and np.array_equal(hi, q)]
+        if k:
+            missed[k[0]] = float(np.abs(v - lo).max())
+        elif lo.size == 1 and hi[0] == 1.0 and cos_tilt is not None and np.isclose(lo[0], cos_tilt):
+            tilt.append(float(np.arccos(np.clip(v[0], -1.0, 1.0))))
+        elif lo.size == 1 and lo[0] == -np.inf and hi[0] == 1.0:
+            near += 1
+        else:
+            key = name.split(" at s=")[0]
+            other[key] = other.get(key, 0) + 1
+    out = [f"misses path point {k} (fraction {p.fractions[k]:.3f}) by {d:.2g} rad" for k, d in sorted(missed.items())]
+    if tilt:
+        out.append(f"tilts the face {max(tilt):.4f} rad (bound {max_tilt_rad:g}) at {len(tilt)} samples")
+    if near:
+        out.append(f"comes within the clearance bound at {near} samples")
+    out += [f"breaks {key} ({m} rows)" for key, m in other.items()]
+    return ", ".join(out) or "breaks no constraint by more than its tolerance"
+
+
 def _certify(sc, res) -> dict:
     return certified_clearance(sc, PolyTrajectory(res.trajectory), sc.check_rate_hz)
 
@@ -127,6 +153,7 @@ def keep_clear(sc, p: trajopt_core.TrajoptProblem, first, clearance_m: float, ma
         rounds.append(row)
         if not res.usable:
             row["infeasible_constraints"] = sorted(set(res.infeasible_constraints or []))
+            row["breaks"] = breaks(res, p, max_tilt_rad)
             break
         cert = _certify(sc, res)
         row["certified_lower_bound_m"] = cert["clearance_lower_bound_m"]
