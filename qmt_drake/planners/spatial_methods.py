@@ -21,8 +21,10 @@
   the hand's face normal within `max_tilt_rad` (0.02 rad) of the path's (slerped between path points)
   at `tilt_samples` (40) evenly spaced path parameters (Drake's AngleBetweenVectorsConstraint: without
   it the spline tilts the hand between path points until gravity alone breaks the magnet's moment
-  limit); SNOPT with a 1e-10 feasibility tolerance. Torque and suction are not in its program
-  (nonlinear in the spline's control points), so the result is time-scaled uniformly (scale_to_hold)
+  limit); SNOPT with a 1e-10 feasibility tolerance (a point it stops on unsolved, e.g. its exit 41, that
+  meets every constraint within 1e-6 is used, `proven_optimal: false`; else the refusal names what it
+  breaks). Torque and suction are not in its program (nonlinear in the spline's control points), so the
+  result is time-scaled uniformly (scale_to_hold)
   until their re-check holds. The program is the one trajopt's (planners/trajopt_core.py; this is its
   spatial adapter, the planar one planners/baselines/trajopt_plan.py). In a cell (sc.obstacles), where the
   result's certified clearance is below half of `clearance_m`, the program is solved again with Drake's

@@ -9,9 +9,11 @@ was (`first`, a trajopt_core.TrajoptResult):
 1. `bound_m` = min(clearance_m, the path points' own clearance): a path point closer than the margin (the
    part 1 cm above a tote's floor at a pick pose is not) lowers the bound to it; a path point that
    collides leaves nothing to keep (the task itself collides: the plain result, re-checked infeasible).
-2. The plain result is kept, unchanged, when it solved and its clearance certified between samples
-   (limits/clearance.certified_clearance at the check rate) is at least bound_m / 2 (the collision-free
-   path's own acceptance, planners/collision_free.smooth): no program changes where none is needed.
+2. The plain result is kept, unchanged, when it is a trajectory of its program (trajopt_core.TrajoptResult.usable:
+   solved, or SNOPT stopped unsolved on a point meeting every constraint, e.g. its exit 41 on the deep totes'
+   ends-only path) and its clearance certified between samples (limits/clearance.certified_clearance at the
+   check rate) is at least bound_m / 2 (the collision-free path's own acceptance, planners/collision_free.smooth):
+   no program changes where none is needed.
 3. Else the program again with Drake's MinimumDistanceLowerBoundConstraint (the arm's and the carried
    part's shapes against the obstacles, the clearance model's plant, limits/clearance.CollisionModel) >=
    bound_m at SAMPLES uniform path fractions, seeded by the scenario's own geometric path (the C2 cubic in
@@ -22,7 +24,7 @@ was (`first`, a trajopt_core.TrajoptResult):
    collision-free path's straight joint edges tilt the hand up to 0.13 rad from it, and the two
    constraints together left SNOPT no feasible point). SNOPT stops at MAJOR_ITERATIONS and MINOR_ITERATIONS
    (a deterministic bound on the time); a point that meets every constraint (trajopt_core.INFEASIBLE_TOL) is accepted
-   then, reported as not proven minimal.
+   then, reported as not proven minimal. A point that does not is described by `breaks` (the refusal's reason).
 4. Certified again; where the lower bound is below bound_m / 2, constraint samples are added around the
    smallest (REFINE_POINTS at spacing 1 / (4 SAMPLES)) and the program solved again from the last point,
    up to REFINE_ROUNDS times. The result is what the plan's re-check (limits, clearance) then judges.
