@@ -50,6 +50,7 @@ from pydrake.planning import KinematicTrajectoryOptimization
 from pydrake.solvers import Solve
 from pydrake.trajectories import BsplineTrajectory
 
+from qmt_drake.energy.energy_plan import METHODS as ENERGY_TIME_METHODS
 from qmt_drake.errors import QmtNoPlanError
 from qmt_drake.limits.clearance import certified_clearance, collision_model
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
@@ -76,6 +77,8 @@ CARRIED_K_MAX = 1.5
 FREE_TRIES = 4  # --collision-free: seeded paths per cell, the one TOPP-RA times fastest kept
 CERTIFY_RATE_FACTOR = 10
 CARRIED_ITERATIONS = 6
+# the minimum-time methods (registry order, TOPP-RA first): the energy-time ones minimise another cost and take c1, c2
+METHODS = tuple(m for m in PLANNERS if m not in ENERGY_TIME_METHODS)
 
 
 def _plans(sc, methods, ga_generations: int) -> dict:
@@ -120,7 +123,7 @@ def collision_free_rows(cell, name: str, ga_generations: int, through: str) -> t
           f">= {facts['path_clearance_lower_bound_m']:.4f} m, seed {facts['seed']} ({facts['planning_s']:.1f} s)",
           flush=True)
     plans = {}
-    for m in PLANNERS:
+    for m in METHODS:
         try:
             plans.update(_plans(free, (m,), ga_generations))
         except QmtNoPlanError as exc:
@@ -250,7 +253,7 @@ def run(ga_generations: int, cosim: bool, kto: bool = False, free: tuple = ()) -
     with tempfile.TemporaryDirectory() as tmp:
         for task, cells in TASKS.items():
             base = load_spatial_scenario(task)
-            plans = _plans(base, PLANNERS, ga_generations)
+            plans = _plans(base, METHODS, ga_generations)
             for cell_ref in cells:
                 cell = base if cell_ref == task else load_spatial_scenario(cell_ref)
                 name = CELL_NAMES.get(str(cell_ref), str(cell_ref))
@@ -258,7 +261,7 @@ def run(ga_generations: int, cosim: bool, kto: bool = False, free: tuple = ()) -
                          for q in (p if cell is base else _in_cell(cell, p) for p in plans.values())]
                 without = _fastest(pairs, "within_limits")[0]
                 if min(r["clearance_m"] for r, _ in pairs) < 0:
-                    toppra = pairs[0][1]  # PLANNERS lists TOPP-RA first
+                    toppra = pairs[0][1]  # METHODS lists TOPP-RA first
                     dz, extra = detour(Path(cell_ref), -toppra.clearance["clearance_m"], ga_generations, Path(tmp))
                     pairs += [(_row(name, p, f" (lift +{dz:.2f} m)"), p) for p in extra.values()]
                     if kto:

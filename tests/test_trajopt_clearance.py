@@ -6,6 +6,8 @@ j1 + j2 / 2, and j1 cannot go round: |j1| <= 3), so it must pass at a radius cos
 |j2| > 1.97 rad: no path exists in the task box (j2 within +-0.5 rad). Checked independently by Drake's signed
 distance sampled densely along the result."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -15,7 +17,7 @@ from qmt_drake.model.obstacles import Obstacle
 from qmt_drake.planners import collision_free, trajopt_core
 from qmt_drake.planners.spatial_methods import plan_trajopt_spatial
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory
-from qmt_drake.planners.trajopt_clearance import keep_clear
+from qmt_drake.planners.trajopt_clearance import breaks, keep_clear
 from qmt_drake.spatial_task import load_spatial_scenario
 from tests.test_collision_free import two_link
 
@@ -91,6 +93,56 @@ def test_trajopt_keeps_the_clearance_the_plain_program_breaks(tmp_path, quick):
     assert np.abs(q_at - Q).max() < 1e-6  # still through every path point at its fraction
     qd = traj.sample(np.linspace(0.0, traj.duration_s, 2000))[1]
     assert np.abs(qd).max() <= 2.0 + 1e-6  # and within the speed limit
+
+
+def test_a_plain_solve_snopt_cannot_improve_is_a_trajectory_kept_where_it_clears(tmp_path, quick):
+    """SNOPT's exit 41 ("the current point cannot be improved") on a point that meets every constraint is a
+    trajectory (trajopt_core.TrajoptResult.usable), certified and kept where it clears, without the clearance
+    program: on the deep totes' ends-only path (seed 2) such a plain point, certified +6.3 mm, was refused. Here:
+    the post's detour in the task box, 14 control points and a jerk bound (SNOPT's 41, deterministic)."""
+    post = Obstacle("post", "box", (1.09, 0.0, 0.0), size_m=(0.1, 0.1, 0.4))
+    sc = two_link(tmp_path, [post])
+    sc.check_rate_hz = 200.0
+    Q = collision_free.collision_free_path(sc, margin_m=MARGIN_M, seed=0)["Q"]
+    c = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(Q, axis=0), axis=1))]
+    s, ncp = c / c[-1], 14
+    guess = np.array([[np.interp(x, s, Q[:, j]) for j in range(2)] for x in np.linspace(0.0, 1.0, ncp)])
+    p = trajopt_core.TrajoptProblem(Q, s, np.array([-3.0, -2.8]), np.array([3.0, 2.8]), ncp, (0.05, 60.0), guess,
+                                    rest_derivatives=2, velocity_limit=np.full(2, 2.0),
+                                    acceleration_limit=np.full(2, 10.0), jerk_limit=np.full(2, 40.0),
+                                    snopt_options={"Major feasibility tolerance": 1e-10})
+    first = trajopt_core.solve(p)
+    assert not first.success and first.info == 41 and first.infeasible_constraints == []
+    res, facts = keep_clear(sc, p, first, MARGIN_M, 0.02, 20)
+    assert res is first and not facts["used"] and facts["plain_certified_lower_bound_m"] >= MARGIN_M / 2
+    assert first.usable
+    traj = PolyTrajectory(res.trajectory)
+    q, qd, qdd = traj.sample(np.linspace(0.0, traj.duration_s, 4000))[:3]
+    cm = collision_model(sc)
+    assert min(cm.distance(qk)[0] for qk in q) >= MARGIN_M / 2  # independent dense signed distances
+    q_at = np.array([res.trajectory.value(x * res.duration_s).ravel() for x in s])
+    assert np.abs(q_at - Q).max() < 1e-6  # through every path point at its fraction
+    assert np.abs(qd).max() <= 2.0 + 1e-6 and np.abs(qdd).max() <= 10.0 + 1e-6  # within the limits between samples
+    # a point that breaks a constraint is no trajectory: the same program stopped after 2 major iterations
+    capped = trajopt_core.solve(replace(p, snopt_options={**p.snopt_options, "Major iterations limit": 2}))
+    assert capped.solution_result.endswith("kIterationLimit") and capped.infeasible_constraints and not capped.usable
+
+
+def test_a_refusal_names_the_path_point_a_spline_at_rest_cannot_reach():
+    """A path point at fraction 0.97, 0.3 rad from the end: at rest at the end (zero speed and acceleration) the
+    last three control points are the end, so q(0.97) leaves it only by the weight w of the one before times that
+    point's offset; 0.3 / w exceeds the joint range (closed form), so no spline exists, and the refusal's reason
+    (trajopt_clearance.breaks, the deep totes' ends-only path of seed 0: 'misses path point 6') names the point."""
+    Q = np.array([[-1.0, 0.0], [0.0, 0.3], [0.8, 0.3], [1.0, 0.0]])
+    s, ncp = np.array([0.0, 0.5, 0.97, 1.0]), 8
+    guess = np.array([[np.interp(x, s, Q[:, j]) for j in range(2)] for x in np.linspace(0.0, 1.0, ncp)])
+    p = trajopt_core.TrajoptProblem(Q, s, np.array([-3.0, -2.8]), np.array([3.0, 2.8]), ncp, (0.05, 60.0), guess,
+                                    rest_derivatives=2, velocity_limit=np.full(2, 2.0))
+    r = trajopt_core.solve(p)
+    idx, W = trajopt_core.basis_weights(r.basis, 0.97)
+    assert idx[0] == ncp - 4 and Q[3, 1] + (Q[2, 1] - Q[3, 1]) / W[0][0] > 2.8  # the control point needed, out of range
+    assert not r.usable
+    assert breaks(r, p, None).startswith("misses path point 2 (fraction 0.970) by 0.3 rad")
 
 
 def test_trajopt_clearance_option_is_checked():

@@ -21,8 +21,10 @@
   the hand's face normal within `max_tilt_rad` (0.02 rad) of the path's (slerped between path points)
   at `tilt_samples` (40) evenly spaced path parameters (Drake's AngleBetweenVectorsConstraint: without
   it the spline tilts the hand between path points until gravity alone breaks the magnet's moment
-  limit); SNOPT with a 1e-10 feasibility tolerance. Torque and suction are not in its program
-  (nonlinear in the spline's control points), so the result is time-scaled uniformly (scale_to_hold)
+  limit); SNOPT with a 1e-10 feasibility tolerance (a point it stops on unsolved, e.g. its exit 41, that
+  meets every constraint within 1e-6 is used, `proven_optimal: false`; else the refusal names what it
+  breaks). Torque and suction are not in its program (nonlinear in the spline's control points), so the
+  result is time-scaled uniformly (scale_to_hold)
   until their re-check holds. The program is the one trajopt's (planners/trajopt_core.py; this is its
   spatial adapter, the planar one planners/baselines/trajopt_plan.py). In a cell (sc.obstacles), where the
   result's certified clearance is below half of `clearance_m`, the program is solved again with Drake's
@@ -66,7 +68,7 @@ from qmt_drake.planners.spatial_trajectory import (
     ToppraTrajectory,
     check,
 )
-from qmt_drake.planners.trajopt_clearance import keep_clear
+from qmt_drake.planners.trajopt_clearance import breaks, keep_clear
 from qmt_drake.timescale import search_scale
 
 METHODS = registry.names(SPATIAL)  # the registry's spatial rows: toppra, ruckig, family_optimum, ga, trajopt
@@ -172,14 +174,15 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
     if sc.obstacles and clearance_m > 0.0:  # the clearance as a constraint where the plain program does not keep it
         res, kept = keep_clear(sc, problem, res, clearance_m, max_tilt_rad, tilt_samples)
         info["trajopt_clearance"] = kept
-    if not (res.success or info.get("trajopt_clearance", {}).get("used")):
+    if not (res.usable or info.get("trajopt_clearance", {}).get("used")):  # usable: trajopt_core.TrajoptResult
         rounds = info.get("trajopt_clearance", {}).get("rounds")
-        also = f", nor with the clearance ({rounds[-1]['result']})" if rounds else ""
-        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}{also}); "
-                            "give it more control points or relax a limit")
+        also = f"; nor with the clearance ({rounds[-1]['result']}: its point {rounds[-1]['breaks']})" if rounds else ""
+        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}: its point "
+                             f"{breaks(res, problem, max_tilt_rad)}{also}); give it more control points or relax a limit")
     traj = PolyTrajectory(res.trajectory)
     return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
-                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s, **info})
+                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s,
+                    "solution_result": res.solution_result, "proven_optimal": bool(res.success), **info})
 
 
 def _normal_at(sc, fractions, x: float) -> np.ndarray:

@@ -9,9 +9,11 @@ was (`first`, a trajopt_core.TrajoptResult):
 1. `bound_m` = min(clearance_m, the path points' own clearance): a path point closer than the margin (the
    part 1 cm above a tote's floor at a pick pose is not) lowers the bound to it; a path point that
    collides leaves nothing to keep (the task itself collides: the plain result, re-checked infeasible).
-2. The plain result is kept, unchanged, when it solved and its clearance certified between samples
-   (limits/clearance.certified_clearance at the check rate) is at least bound_m / 2 (the collision-free
-   path's own acceptance, planners/collision_free.smooth): no program changes where none is needed.
+2. The plain result is kept, unchanged, when it is a trajectory of its program (trajopt_core.TrajoptResult.usable:
+   solved, or SNOPT stopped unsolved on a point meeting every constraint, e.g. its exit 41 on the deep totes'
+   ends-only path) and its clearance certified between samples (limits/clearance.certified_clearance at the
+   check rate) is at least bound_m / 2 (the collision-free path's own acceptance, planners/collision_free.smooth):
+   no program changes where none is needed.
 3. Else the program again with Drake's MinimumDistanceLowerBoundConstraint (the arm's and the carried
    part's shapes against the obstacles, the clearance model's plant, limits/clearance.CollisionModel) >=
    bound_m at SAMPLES uniform path fractions, seeded by the scenario's own geometric path (the C2 cubic in
@@ -22,7 +24,7 @@ was (`first`, a trajopt_core.TrajoptResult):
    collision-free path's straight joint edges tilt the hand up to 0.13 rad from it, and the two
    constraints together left SNOPT no feasible point). SNOPT stops at MAJOR_ITERATIONS and MINOR_ITERATIONS
    (a deterministic bound on the time); a point that meets every constraint (trajopt_core.INFEASIBLE_TOL) is accepted
-   then, reported as not proven minimal.
+   then, reported as not proven minimal. A point that does not is described by `breaks` (the refusal's reason).
 4. Certified again; where the lower bound is below bound_m / 2, constraint samples are added around the
    smallest (REFINE_POINTS at spacing 1 / (4 SAMPLES)) and the program solved again from the last point,
    up to REFINE_ROUNDS times. The result is what the plan's re-check (limits, clearance) then judges.
@@ -100,9 +102,30 @@ def clear_problem(sc, p: trajopt_core.TrajoptProblem, bound_m: float, max_tilt_r
         path_constraints=tilt + [(clear, float(x)) for x in samples], snopt_options=opts)
 
 
-def _usable(res) -> bool:
-    """Solved, or stopped at the iteration limit on a point that meets every constraint."""
-    return res.success or res.infeasible_constraints == []
+def breaks(res, p: trajopt_core.TrajoptProblem, max_tilt_rad: float | None) -> str:
+    """What the point of an unusable solve breaks, in words (a refusal's reason): the path points it misses
+    (equality rows equal to a row of p.path_rad), the face tilt beyond max_tilt_rad (rows [cos max_tilt, 1]),
+    the clearance (MinimumDistanceLowerBoundConstraint's rows [-inf, 1]), any other constraint by its name."""
+    missed, tilt, near, other = {}, [], 0, {}
+    cos_tilt = None if max_tilt_rad is None else float(np.cos(max_tilt_rad))
+    for name, lo, hi, v in res.broken_rows or []:
+        k = [i for i, q in enumerate(p.path_rad) if lo.shape == q.shape and np.array_equal(lo, q) and np.array_equal(hi, q)]
+        if k:
+            missed[k[0]] = float(np.abs(v - lo).max())
+        elif lo.size == 1 and hi[0] == 1.0 and cos_tilt is not None and np.isclose(lo[0], cos_tilt):
+            tilt.append(float(np.arccos(np.clip(v[0], -1.0, 1.0))))
+        elif lo.size == 1 and lo[0] == -np.inf and hi[0] == 1.0:
+            near += 1
+        else:
+            key = name.split(" at s=")[0]
+            other[key] = other.get(key, 0) + 1
+    out = [f"misses path point {k} (fraction {p.fractions[k]:.3f}) by {d:.2g} rad" for k, d in sorted(missed.items())]
+    if tilt:
+        out.append(f"tilts the face {max(tilt):.4f} rad (bound {max_tilt_rad:g}) at {len(tilt)} samples")
+    if near:
+        out.append(f"comes within the clearance bound at {near} samples")
+    out += [f"breaks {key} ({m} rows)" for key, m in other.items()]
+    return ", ".join(out) or "breaks no constraint by more than its tolerance"
 
 
 def _certify(sc, res) -> dict:
@@ -118,7 +141,7 @@ def keep_clear(sc, p: trajopt_core.TrajoptProblem, first, clearance_m: float, ma
     facts = {"clearance_m": clearance_m, "bound_m": bound, "path_points_clearance_m": float(d_points.min())}
     if bound <= 0.0:
         return first, {**facts, "used": False, "why": f"path point {int(np.argmin(d_points))} itself collides"}
-    if first.success:
+    if first.usable:
         cert = _certify(sc, first)
         facts["plain_certified_lower_bound_m"] = cert["clearance_lower_bound_m"]
         if cert["clearance_lower_bound_m"] >= 0.5 * bound:
@@ -130,8 +153,9 @@ def keep_clear(sc, p: trajopt_core.TrajoptProblem, first, clearance_m: float, ma
         row = {"samples": len(samples), "result": res.solution_result, "info": res.info,
                "duration_s": res.duration_s, "solve_wall_s": res.solve_wall_s}
         rounds.append(row)
-        if not _usable(res):
+        if not res.usable:
             row["infeasible_constraints"] = sorted(set(res.infeasible_constraints or []))
+            row["breaks"] = breaks(res, p, max_tilt_rad)
             break
         cert = _certify(sc, res)
         row["certified_lower_bound_m"] = cert["clearance_lower_bound_m"]

@@ -115,6 +115,14 @@ class TrajoptResult:
     basis: object
     samples: dict  # {rows name: path fractions}
     infeasible_constraints: list | None = None  # not success: the constraints the returned point breaks (tol 1e-6)
+    broken_rows: list | None = None  # not success: (description, lower, upper, value) of each of them
+
+    @property
+    def usable(self) -> bool:
+        """Solved, or SNOPT stopped unsolved (its iteration limit; info 41, the point cannot be improved) on a
+        point that meets every constraint within INFEASIBLE_TOL: a trajectory of the program, not proven
+        minimal (the plan's re-check then judges it between samples)."""
+        return self.success or self.infeasible_constraints == []
 
 
 def _fractions(samples, basis) -> np.ndarray:
@@ -232,7 +240,10 @@ def solve(p: TrajoptProblem) -> TrajoptResult:
     result = solver.Solve(prog, None, opts)
     wall = time.perf_counter() - t0
     ok = bool(result.is_success())
+    broken = None if ok else [(b.evaluator().get_description(), np.asarray(b.evaluator().lower_bound(), float),
+                               np.asarray(b.evaluator().upper_bound(), float), np.asarray(result.EvalBinding(b), float))
+                              for b in result.GetInfeasibleConstraints(prog, INFEASIBLE_TOL)]
     return TrajoptResult(ok, str(result.get_solution_result()),
                          int(result.get_solver_details().info), float(result.GetSolution(Tvar)), wall,
                          to.ReconstructTrajectory(result), basis, used,
-                         None if ok else list(result.GetInfeasibleConstraintNames(prog, INFEASIBLE_TOL)))
+                         None if ok else list(result.GetInfeasibleConstraintNames(prog, INFEASIBLE_TOL)), broken)
