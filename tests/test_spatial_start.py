@@ -143,3 +143,31 @@ def test_the_plan_start_acceleration_is_not_cancelled():
              and s.get_output_port().size() == sc.n_dof]
     values = [s.get_output_port().Eval(s.GetMyContextFromRoot(sim.get_context())) for s in src_a]
     assert any(np.allclose(v, 0.5) for v in values)  # the plan's acceleration, restored
+
+
+def test_a_held_laws_compensated_reference_is_at_rest_for_the_solve_too():
+    """With the law held (2 ms) its feedforward reads the plan through HoldCompensatedReference, which
+    evaluates the plan itself; the solve puts it at rest with the sources, so a plan that accelerates at
+    t = 0 settles to the same integral as one standing still (the start's acceleration is the move's, not
+    the hold's), and the compensated reference is restored after the solve."""
+    sc = load_or_skip("ur5-suction-bins")
+    q0 = np.asarray(sc.q_poses_rad[0], float)
+
+    class Accelerating(StandStill):
+        def sample(self, t_s):
+            t = np.atleast_1d(np.asarray(t_s, float))[:, None]
+            a = np.full(self.n_dof, 0.5)
+            return q0 + 0.5 * a * t**2, a * t, np.tile(a, (len(t), 1))
+
+    nominal = SpatialMotorDrive.for_scenario(sc, q0, "full", integral_rate_per_s=5.0, control_period_s=0.002)
+    integrals = []
+    for plan in (StandStill(q0, 0.05), Accelerating(q0, 0.05)):
+        co = build_spatial_cosim(sc, plan, drive=nominal, feedforward="full")
+        sim = Simulator(co.diagram)
+        co.start(sim)
+        law = co.diagram.GetSubsystemByName("controller")
+        integrals.append(law.GetMyContextFromRoot(sim.get_context()).get_discrete_state(law._z).CopyToVector())
+        ahead = co.diagram.GetSubsystemByName("hold_compensated_reference")
+    np.testing.assert_allclose(integrals[1], integrals[0], rtol=0, atol=1e-9)
+    acc = ahead.GetOutputPort("desired_acceleration").Eval(ahead.GetMyContextFromRoot(sim.get_context()))
+    np.testing.assert_allclose(acc, 0.5)  # the plan's acceleration, restored

@@ -256,8 +256,11 @@ def assemble(sc, traj, hand, drive, ctrl, record_path, h: float, export: bool,
         hand.start(plant, pctx, H)
         if equilibrium:  # the drive's state holding the drawn plant still (sim/spatial_start)
             law = diagram.GetSubsystemByName("controller") if diagram.HasSubsystemNamed("controller") else None
+            ahead = (diagram.GetSubsystemByName("hold_compensated_reference")
+                     if diagram.HasSubsystemNamed("hold_compensated_reference") else None)
             handles.start = settle(root, plant, arm, H, src, src_a, reference, q0, lambda c: hand.start(plant, c, H),
-                                   law, None if drive is None else drive.gains.ki_V_per_rad_s, hand.welded_part())
+                                   law, None if drive is None else drive.gains.ki_V_per_rad_s, hand.welded_part(),
+                                   ahead)
         if rec is not None:
             rec.start(plant, pctx, sc.path_points_m)
 

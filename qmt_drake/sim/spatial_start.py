@@ -69,19 +69,25 @@ def static_torque(plant, pctx, arm, H, joint_names) -> np.ndarray:
     return tau
 
 
-def _at_rest(src, src_a, q0) -> None:
-    """The reference sources (TrajectorySource of the state, of the acceleration) told to hold q0 at rest."""
-    src.UpdateTrajectory(PiecewisePolynomial(np.asarray(q0, float).reshape(-1, 1)))
-    src_a.UpdateTrajectory(PiecewisePolynomial(np.zeros((len(q0), 1))))
+def _at_rest(src, src_a, q0, ahead=None) -> None:
+    """The reference sources (TrajectorySource of the state, of the acceleration) told to hold q0 at rest, and
+    the held law's compensated reference (joint_tracking.HoldCompensatedReference, which evaluates the
+    plan itself) with them."""
+    rest_q, rest_a = PiecewisePolynomial(np.asarray(q0, float).reshape(-1, 1)), PiecewisePolynomial(np.zeros((len(q0), 1)))
+    src.UpdateTrajectory(rest_q)
+    src_a.UpdateTrajectory(rest_a)
+    if ahead is not None:
+        ahead.update_reference(rest_q, rest_a)
 
 
 def settle(root, plant, arm, H, src, src_a, reference, q0, seat, controller=None, ki_V_per_rad_s=None,
-           welded_part=None) -> dict:
+           welded_part=None, ahead=None) -> dict:
     """Set the drive's start state in root (the simulator's context, at t = 0) so that the arm, the part
     seated (seat(pctx): the hand's seat at the present pose), starts in static equilibrium (module
     docstring). controller: the dc_motor law when it runs as a JointPidController, ki_V_per_rad_s its integral
     gains (actuator order; a zero: that joint settles by its position); None: no integral. welded_part: the
-    weld hand's free part (`seat_welded_part`), or None.
+    weld hand's free part (`seat_welded_part`), or None. ahead: the held law's compensated reference
+    (HoldCompensatedReference) if the diagram has one: put at rest with the sources and restored.
     Returns {"residual_Nm": the largest |applied - static| left [N*m], "q_start_rad": the arm's start pose
     (actuator order), "part_speed_after_step": the welded part's largest speed after one step, or None}."""
     pctx = plant.GetMyMutableContextFromRoot(root)
@@ -96,7 +102,7 @@ def settle(root, plant, arm, H, src, src_a, reference, q0, seat, controller=None
     q = plant.GetPositions(pctx)[q_idx].copy()
     actuation = plant.get_actuation_input_port(arm)
     pp, acc = reference[:2]
-    _at_rest(src, src_a, q0)
+    _at_rest(src, src_a, q0, ahead)
     root.SetTime(root.get_time())  # the sources' outputs recomputed (their cached values depend on time only)
 
     def apply(p):
@@ -131,6 +137,8 @@ def settle(root, plant, arm, H, src, src_a, reference, q0, seat, controller=None
     finally:
         src.UpdateTrajectory(pp)
         src_a.UpdateTrajectory(acc)
+        if ahead is not None:
+            ahead.update_reference(pp, acc)
         root.SetTime(root.get_time())
     return {"residual_Nm": float(best[0]), "q_start_rad": q.copy(), "part_speed_after_step": seat_speed}
 

@@ -246,6 +246,11 @@ class HoldCompensatedReference(LeafSystem):
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._calc_state)
         self.DeclareVectorOutputPort("desired_acceleration", n, self._calc_acceleration)
 
+    def update_reference(self, pp, acc) -> None:
+        """Replace the reference (as TrajectorySource.UpdateTrajectory does): sim/spatial_start.settle solves the
+        start with every reference at rest, this one included."""
+        self._pp, self._acc = pp.Clone(), acc.Clone()
+
     def _calc_state(self, context, output: BasicVector):
         ts = context.get_time() + self._offsets
         q = np.mean([self._pp.value(t).ravel() for t in ts], axis=0)
