@@ -155,7 +155,7 @@ def parse_spatial_data(name_or_path: str | Path, overrides: dict | None = None) 
     uncertainty = check_spatial_uncertainty(raw.get("uncertainty"), hand.kind, f"{where}: uncertainty")
     simulation = parse_simulation(raw.get("simulation"), where, continuous=DISCRETE_ONLY,
                                   no_tamsi=WELD_NO_TAMSI if hand.kind != "tray" and hand.physics == "weld" else None)
-    return SpatialScenarioData(name=str(raw.get("name", path.stem)), path=path, arm=arm, actuators=actuators,
+    return SpatialScenarioData(name=F.string(raw, "name", where, default=path.stem), path=path, arm=arm, actuators=actuators,
                                hand=hand, payload=payload, task=task, check_rate_hz=rate, obstacles=obstacles,
                                uncertainty=uncertainty, simulation=simulation)
 
@@ -189,6 +189,9 @@ def _lock_joints(raw, where: str) -> dict:
     if isinstance(raw, dict):
         return {str(k): F.num(raw, k, where) for k in raw}
     if isinstance(raw, (list, tuple)) and all(isinstance(k, str) for k in raw):
+        twice = sorted({k for k in raw if raw.count(k) > 1})
+        if twice:  # a joint listed twice is a copy-paste slip (the other joint meant is then left free)
+            raise QmtInputError(f"{where} names {twice} more than once; list each joint once")
         return {k: 0.0 for k in raw}
     raise QmtInputError(f"{where} must be a list of joint names (locked at 0) or a mapping joint: value "
                         f"(rad or m, e.g. {{torso_lift_joint: 0.25}}); got {F.show(raw)}")
