@@ -61,3 +61,38 @@ def test_lock_joints_listed_twice_is_refused(tmp_path):
                          arm__lock_joints=["panda_finger_joint1", "panda_finger_joint1"])
     with pytest.raises(QmtInputError, match=r"lock_joints names \['panda_finger_joint1'\] more than once"):
         parse_spatial_data(path)
+
+
+def _ur5_text() -> str:
+    from qmt_drake.model.urdf_package import example_robot_urdf
+    return example_robot_urdf("ur5")[0].read_text()
+
+
+_PAN_LIMIT = '<limit effort="150.0" lower="-6.28318530718" upper="6.28318530718" velocity="3.15"/>'
+
+
+@pytest.mark.parametrize("old, new, needle", [
+    # each reached Drake's parser: a bare ValueError traceback, or (lower > upper) a C++ assertion, exit 1
+    ('<axis xyz="0 0 1"/>', '<axis xyz="0 0 nan"/>', r"'shoulder_pan_joint' <axis xyz=\"0 0 nan\">: give three"),
+    ('xyz="0.0 0.0 0.089159"', 'xyz="0.0 0.0 nan"', r"'shoulder_pan_joint' <origin xyz=\"0.0 0.0 nan\">: give three"),
+    (_PAN_LIMIT, '<limit effort="150" lower="1" upper="-1" velocity="3.15"/>', "the lower limit exceeds the upper one"),
+    (_PAN_LIMIT, '<limit effort="150" lower="-1" upper="1" velocity="fast"/>', r"<limit velocity=\"fast\">: give a fin"),
+    # read as a branch ("movable joints ... are not on the chain"): the misspelt link was not named
+    ('<child link="forearm_link"/>', '<child link="nolink"/>', "names child link 'nolink', which the URDF does not"),
+    # a mimic joint on the chain was planned as an independent joint (a motion the robot cannot make)
+    ('<axis xyz="0 1 0"/>\n    <limit effort="28.0"', '<axis xyz="0 1 0"/>\n    <mimic joint="elbow_joint"/>\n'
+     '    <limit effort="28.0"', "chain joint 'wrist_1_joint' mimics 'elbow_joint'"),
+])
+def test_malformed_urdf_joint_is_one_line(old, new, needle):
+    from qmt_drake.model.urdf_check import load_arm_plant
+    text = _ur5_text()
+    assert old in text
+    with pytest.raises(QmtInputError, match=needle):
+        load_arm_plant(text.replace(old, new, 1), "tool0", source="ur5 edited")
+
+
+def test_urdf_without_links_says_so():
+    # a xacro file (or ur3.urdf of example-robot-data 6.0, an empty <robot>) was answered "name one of []"
+    from qmt_drake.model.urdf_check import load_arm_plant
+    with pytest.raises(QmtInputError, match=r"declares no <link> \(a xacro file"):
+        load_arm_plant('<robot name="x"><xacro:include xmlns:xacro="x" filename="a.xacro"/></robot>', "tool0")
