@@ -96,3 +96,29 @@ def test_urdf_without_links_says_so():
     from qmt_drake.model.urdf_check import load_arm_plant
     with pytest.raises(QmtInputError, match=r"declares no <link> \(a xacro file"):
         load_arm_plant('<robot name="x"><xacro:include xmlns:xacro="x" filename="a.xacro"/></robot>', "tool0")
+
+
+_JOINTS = ["j1", "j2", "j3"]
+_ROWS = "0.1,0.2,0.3\n0.4,0.5,0.6\n"
+
+
+def test_retime_csv_with_a_byte_order_mark_reads(tmp_path):
+    # a spreadsheet's CSV ("CSV UTF-8") starts with U+FEFF: its first joint was '\ufeffj1', "not a joint of the arm"
+    from qmt_drake.retime import read_joint_path
+    p = tmp_path / "p.csv"
+    p.write_text("\ufeffj1,j2,j3\n" + _ROWS, encoding="utf-8")
+    assert read_joint_path(p, _JOINTS).tolist() == [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]]
+
+
+@pytest.mark.parametrize("content, needle", [
+    (bytes(range(256)), "not a text file"),                       # was a UnicodeDecodeError traceback
+    (b"j1,j2,j1\n" + _ROWS.encode(), "joint 'j1' is named twice"),  # was "no column for joint 'j3'"
+    (b"j1;j2;j3\n0.1;0.2;0.3\n0.4;0.5;0.6\n", "columns separated by ';'"),  # was joint 'j1;j2;j3' unknown
+    (_ROWS.encode(), "the first row holds numbers, not joint names"),  # was joint '0.1' unknown
+])
+def test_retime_csv_mistakes_named(tmp_path, content, needle):
+    from qmt_drake.retime import read_joint_path
+    p = tmp_path / "p.csv"
+    p.write_bytes(content)
+    with pytest.raises(QmtInputError, match=needle):
+        read_joint_path(p, _JOINTS)
