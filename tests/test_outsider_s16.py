@@ -122,3 +122,49 @@ def test_retime_csv_mistakes_named(tmp_path, content, needle):
     p.write_bytes(content)
     with pytest.raises(QmtInputError, match=needle):
         read_joint_path(p, _JOINTS)
+
+
+@pytest.mark.parametrize("argv, needle", [
+    # each was refused only after the plan and the whole search (minutes), naming no flag
+    (["--success-max-scale", "0.5"], "--success-max-scale 0.5 must exceed 1"),
+    (["--success-check-cases", "100000000"], "--success-check-cases 100000000: sweep spec"),
+    (["--success-check-cases", "100000"], "--success-check-cases 100000: a sweep of 100000 cases"),
+    # could never confirm the target (all 10 carried: lower bound 0.78 < 0.9): the search ran, then the check missed
+    (["--success-check-cases", "10"], "--success-check-cases 10 cannot confirm P >= 0.9"),
+])
+def test_success_options_refused_before_planning(tmp_path, capsys, monkeypatch, argv, needle):
+    from qmt_drake.apps import spatial_cli
+
+    def no_planning(*_a, **_k):
+        raise AssertionError("planned before refusing")
+    monkeypatch.setattr(spatial_cli, "_plan", no_planning)
+    line = _refused(capsys, "plan", "ur5-suction-bins", "--method", "toppra", "--success", "0.9",
+                    "--success-out", tmp_path / "s", *argv, within_s=60)
+    assert needle in line
+
+
+def test_success_search_cases_that_cannot_certify_refused(tmp_path, capsys, monkeypatch):
+    # monte_carlo.cases 4 for P >= 0.9: 4/4 carried gives a lower bound 0.51, so the search could only fail
+    from qmt_drake.apps import spatial_cli
+    monkeypatch.setattr(spatial_cli, "_plan", lambda *_a, **_k: pytest.fail("planned before refusing"))
+    path = _spatial_yaml(tmp_path, uncertainty__monte_carlo={"cases": 4, "seed": 1})
+    line = _refused(capsys, "plan", path, "--method", "toppra", "--success", "0.9", "--success-out", tmp_path / "s",
+                    within_s=60)
+    assert "uncertainty.monte_carlo.cases gives 4 cases" in line and "give >= 35" in line
+
+
+def test_cases_to_certify_is_the_wilson_bound_of_all_successes():
+    from qmt_drake.sweep.stats import cases_to_certify, wilson_interval
+    for target in (0.1, 0.5, 0.8, 0.9, 0.95, 0.99):
+        n = cases_to_certify(target)
+        assert wilson_interval(n, n)[0] >= target and (n == 1 or wilson_interval(n - 1, n - 1)[0] < target)
+    assert cases_to_certify(0.9) == 35
+
+
+def test_success_line_says_when_the_fresh_check_misses():
+    # "P(carried) 2/3 on fresh cases, 95 % Wilson lower bound 0.208" was all a --success 0.5 run printed
+    from qmt_drake.apps.spatial_cli import success_text
+    miss = {"carried": 2, "cases": 3, "ci_low": 0.208, "meets_target": False}
+    assert "BELOW the target 0.5: not confirmed" in success_text(miss, 1.0, 0.5)
+    assert "BELOW" not in success_text({**miss, "carried": 40, "cases": 40, "ci_low": 0.912, "meets_target": True},
+                                       1.0, 0.9)
