@@ -168,3 +168,19 @@ def test_success_line_says_when_the_fresh_check_misses():
     assert "BELOW the target 0.5: not confirmed" in success_text(miss, 1.0, 0.5)
     assert "BELOW" not in success_text({**miss, "carried": 40, "cases": 40, "ci_low": 0.912, "meets_target": True},
                                        1.0, 0.9)
+
+
+def test_two_outputs_on_one_file_refused(tmp_path, capsys):
+    # --json and --trajectory-csv on one path: the CSV silently replaced the plan file
+    same = tmp_path / "p.out"
+    line = _refused(capsys, "plan", "ur5-suction-bins", "--method", "toppra", "--json", same, "--trajectory-csv", same)
+    assert "--json and --trajectory-csv both name" in line and not same.exists()
+
+
+def test_output_over_an_input_refused(tmp_path, capsys):
+    # `plan my.yaml --json my.yaml` replaced the user's scenario with the plan
+    path = _spatial_yaml(tmp_path)
+    before = (tmp_path / "s.yaml").read_text()
+    line = _refused(capsys, "plan", path, "--method", "toppra", "--json", path)
+    assert "is the scenario file: writing it would replace the input" in line
+    assert (tmp_path / "s.yaml").read_text() == before
