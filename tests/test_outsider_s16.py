@@ -184,3 +184,10 @@ def test_output_over_an_input_refused(tmp_path, capsys):
     line = _refused(capsys, "plan", path, "--method", "toppra", "--json", path)
     assert "is the scenario file: writing it would replace the input" in line
     assert (tmp_path / "s.yaml").read_text() == before
+
+
+def test_misspelt_spatial_builtin_lists_every_builtin(capsys):
+    # was: "transfer scenario 'ur5-suction-binz' is neither a built-in (crane-tray, thesis-ch2, ...)": the planar
+    # list only, without the spatial scenario the user meant
+    line = _refused(capsys, "plan", "ur5-suction-binz", "--method", "toppra")
+    assert "ur5-suction-bins" in line and "did you mean ur5-suction-bins?" in line and "transfer scenario" not in line

@@ -8,6 +8,7 @@ and a file of the wrong kind is answered with the command that takes it.
 
 from __future__ import annotations
 
+import difflib
 from pathlib import Path
 
 from qmt_drake.config.fields import read_yaml_mapping
@@ -78,10 +79,13 @@ def resolve_scenario(name_or_path, kind: str | None = None) -> Path:
         raise QmtInputError(f"scenario '{name_or_path}' is a directory; give a built-in name "
                             f"({', '.join(_all_builtins())}) or a YAML file")
     if not path.is_file():
-        what = _KIND_ROUTES[kind][0].split(" ", 1)[1] if kind in _KIND_ROUTES else "scenario"
-        names = builtin_scenarios(kind) if kind else _all_builtins()
-        raise QmtInputError(f"{what} '{name_or_path}' is neither a built-in ({', '.join(names)}) nor a YAML "
-                            "file that exists")
+        # every kind's built-ins: a name that exists nowhere has no kind yet (the commands guess 'transfer'),
+        # and a misspelt spatial name must not be answered with the planar list alone
+        names = _all_builtins()
+        near = difflib.get_close_matches(str(name_or_path), names, n=1)
+        hint = f"; did you mean {near[0]}?" if near else ""
+        raise QmtInputError(f"scenario '{name_or_path}' is neither a built-in ({', '.join(names)}) nor a YAML "
+                            f"file that exists{hint}")
     found = scenario_kind(path)
     if kind is not None and found in _KIND_ROUTES and found != kind:
         what, route = _KIND_ROUTES[found]
