@@ -191,3 +191,15 @@ def test_misspelt_spatial_builtin_lists_every_builtin(capsys):
     # list only, without the spatial scenario the user meant
     line = _refused(capsys, "plan", "ur5-suction-binz", "--method", "toppra")
     assert "ur5-suction-bins" in line and "did you mean ur5-suction-bins?" in line and "transfer scenario" not in line
+
+
+def test_infeasible_by_collision_names_the_collision():
+    # a plan within every limit that collides was labelled "binding limit joint_acceleration[...] at 0.9999 of it"
+    from types import SimpleNamespace
+
+    from qmt_drake.apps.spatial_cli import infeasible_text
+    rc = {"max": 0.9999, "binding": "joint_acceleration[j2]"}
+    hit = SimpleNamespace(recheck=rc, clearance={"clearance_m": -0.13})
+    assert "collides with world.obstacles" in infeasible_text(hit) and "0.9999" not in infeasible_text(hit)
+    broke = SimpleNamespace(recheck={**rc, "max": 1.2}, clearance={"clearance_m": -0.13})
+    assert "binding limit joint_acceleration[j2] at 1.2" in infeasible_text(broke)

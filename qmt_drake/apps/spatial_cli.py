@@ -177,9 +177,17 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
-        print(summary_line(sc, p, bound) + _avoided_text(avoided) + ("" if holds else f"; INFEASIBLE (least-violating plan; binding limit "
-                                                              f"{p.recheck['binding']} at {p.recheck['max']:.4g} of it)"))
+        print(summary_line(sc, p, bound) + _avoided_text(avoided) + ("" if holds else infeasible_text(p)))
     return holds
+
+
+def infeasible_text(p) -> str:
+    """Why a plan is infeasible: the binding limit when one breaks, else its collision (the limits then hold,
+    and naming a limit at 0.9999 of itself would point the user at the wrong fix)."""
+    if p.recheck["max"] > 1.0 or not p.clearance or p.clearance["clearance_m"] >= 0:
+        return f"; INFEASIBLE (least-violating plan; binding limit {p.recheck['binding']} at {p.recheck['max']:.4g} of it)"
+    return ("; INFEASIBLE (it collides with world.obstacles, every limit held; plan around them with --avoid or move "
+            "the task)")
 
 
 def _avoided_text(a) -> str:
