@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from qmt_drake.config.fields import yaml_problem
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import clearance, collision_model
 from qmt_drake.plan_files import read_plan_file
@@ -181,7 +182,7 @@ def read_joint_path(source, joint_names) -> np.ndarray:
         try:
             msg = yaml.safe_load(text)
         except yaml.YAMLError as exc:
-            raise QmtInputError(f"{where}: not YAML/JSON ({str(exc).splitlines()[0]})") from None
+            raise QmtInputError(f"{where}: not YAML/JSON ({yaml_problem(exc, text)})") from None
         return parse_joint_trajectory(msg, joint_names, where)
     if isinstance(source, dict):
         return parse_joint_trajectory(source, joint_names)

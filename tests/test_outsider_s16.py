@@ -203,3 +203,16 @@ def test_infeasible_by_collision_names_the_collision():
     assert "collides with world.obstacles" in infeasible_text(hit) and "0.9999" not in infeasible_text(hit)
     broke = SimpleNamespace(recheck={**rc, "max": 1.2}, clearance={"clearance_m": -0.13})
     assert "binding limit joint_acceleration[j2] at 1.2" in infeasible_text(broke)
+
+
+def test_yaml_error_says_where_and_names_a_tab(tmp_path):
+    # was "not valid YAML (while scanning for the next token)": no line, no cause
+    p = tmp_path / "t.yaml"
+    p.write_text("kind: spatial_transfer\narm:\n\tpackage: example-robot-data/ur5\n")
+    with pytest.raises(QmtInputError, match=r"at line 3, column 1; indent with spaces, not tabs"):
+        parse_spatial_data(p)
+    q = tmp_path / "path.yaml"  # a JointTrajectory for retime: the same phrase
+    q.write_text("joint_names: [j1, j2, j3\npoints: []\n")
+    from qmt_drake.retime import read_joint_path
+    with pytest.raises(QmtInputError, match=r"not YAML/JSON \(.* at line 2, column"):
+        read_joint_path(q, _JOINTS)
