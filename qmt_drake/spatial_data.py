@@ -241,7 +241,12 @@ def _task(tk: dict, w: str, face_axis: np.ndarray) -> SpatialTaskData:
         raise QmtInputError(f"{w}.free_spin_about_normal: false needs hand_rpy_rad (a face normal leaves the "
                             "spin free); give hand_rpy_rad to fix the spin, or drop the key")
     spatial_poses.refuse_repeated_poses(P, normals, rotations, w)
-    return SpatialTaskData(seed, P, normals, rotations, F.integer(tk, "transfer_points", w, minimum=0, default=0))
+    n_transfer = F.integer(tk, "transfer_points", w, minimum=0, default=0)
+    if n_transfer and len(P) < 4:  # spatial_poses.path_points fills the carry between poses 1 and K-2 only
+        raise QmtInputError(f"{w}.transfer_points {n_transfer}: the points go on the carry between the lift and the "
+                            f"lower (poses 1 and K-2 of pick, lift, ..., lower, place), and this task has {len(P)} "
+                            "poses; add the points you want to poses_m instead")
+    return SpatialTaskData(seed, P, normals, rotations, n_transfer)
 
 
 def _tray_cup(hd: dict, w: str) -> TrayCup:

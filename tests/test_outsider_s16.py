@@ -216,3 +216,10 @@ def test_yaml_error_says_where_and_names_a_tab(tmp_path):
     from qmt_drake.retime import read_joint_path
     with pytest.raises(QmtInputError, match=r"not YAML/JSON \(.* at line 2, column"):
         read_joint_path(q, _JOINTS)
+
+
+def test_transfer_points_on_a_task_without_a_carry_refused(tmp_path):
+    # two poses with transfer_points: 5 (the fix a branch-change refusal suggests) was silently ignored
+    path = _spatial_yaml(tmp_path, task__poses_m=[[0.45, -0.3, 0.1], [0.45, 0.3, 0.1]], task__transfer_points=5)
+    with pytest.raises(QmtInputError, match=r"transfer_points 5: .* this task has 2 poses; add the points"):
+        parse_spatial_data(path)
