@@ -223,3 +223,11 @@ def test_transfer_points_on_a_task_without_a_carry_refused(tmp_path):
     path = _spatial_yaml(tmp_path, task__poses_m=[[0.45, -0.3, 0.1], [0.45, 0.3, 0.1]], task__transfer_points=5)
     with pytest.raises(QmtInputError, match=r"transfer_points 5: .* this task has 2 poses; add the points"):
         parse_spatial_data(path)
+
+
+@pytest.mark.parametrize("verb, what", [("sweep", "a sweep spec"), ("design", "a design task")])
+def test_scenario_file_given_as_a_spec_or_task_is_named(tmp_path, capsys, verb, what):
+    # was "unknown key 'actuators'; allowed keys are ..." (the scenario's first key the other file lacks)
+    path = _spatial_yaml(tmp_path)
+    line = _refused(capsys, verb, path, "--out", tmp_path / "out")
+    assert f"is a scenario file, not {what}" in line

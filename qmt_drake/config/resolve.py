@@ -93,6 +93,13 @@ def resolve_scenario(name_or_path, kind: str | None = None) -> Path:
     return path
 
 
+def refuse_scenario_file(raw, where: str, what: str, fix: str) -> None:
+    """A scenario file given where a sweep spec or a design task is expected, named as such (not as its
+    first key the other file does not know, e.g. "unknown key 'actuators'")."""
+    if isinstance(raw, dict) and ("arm" in raw or raw.get("kind") in (SPATIAL, ENERGY_TIME)):
+        raise QmtInputError(f"{where} is a scenario file, not {what}; {fix}")
+
+
 def builtin_tasks() -> list[str]:
     """Names of the built-in design tasks (models/tasks/NAME.yaml)."""
     return sorted(p.stem for p in TASK_DIR.glob("*.yaml"))
