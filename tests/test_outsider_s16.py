@@ -231,3 +231,21 @@ def test_scenario_file_given_as_a_spec_or_task_is_named(tmp_path, capsys, verb, 
     path = _spatial_yaml(tmp_path)
     line = _refused(capsys, verb, path, "--out", tmp_path / "out")
     assert f"is a scenario file, not {what}" in line
+
+
+@pytest.mark.xfail(strict=True, reason="planners/spatial_plan_io._check_fits (owned by the ruckig helper this "
+                   "session): a file whose n_dof disagrees with its joint_names is answered 'is for joints [j1..j6] "
+                   "but scenario has [j1..j6]', two equal lists; it should name n_dof")
+def test_plan_file_with_another_n_dof_names_it(tmp_path):
+    import json
+
+    from qmt_drake import load_scenario, plan_with
+    from qmt_drake.retime import load_plan_file
+    sc = load_scenario("ur5-suction-bins")
+    f = tmp_path / "p.json"
+    plan_with("ruckig", sc).write_json(f)
+    d = json.loads(f.read_text())
+    d["n_dof"] = 7  # edited by hand
+    f.write_text(json.dumps(d))
+    with pytest.raises(QmtInputError, match="n_dof 7"):
+        load_plan_file(f, sc)
