@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from qmt_drake.config.fields import yaml_problem
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import clearance, collision_model
 from qmt_drake.plan_files import read_plan_file
@@ -78,20 +79,31 @@ def _where(source) -> str:
     return f"path {source}" if source is not None else "joint path"
 
 
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _rows_to_array(names, rows, joint_names, where: str) -> np.ndarray:
     """(K, n) in the scenario's joint order from rows of values under `names` (one line per misfit)."""
     names = [str(x).strip() for x in names]
     arm = list(joint_names)
+    if len(set(names)) != len(names):  # before "missing": a name given twice is why another is missing
+        twice = next(x for x in names if names.count(x) > 1)
+        raise QmtInputError(f"{where}: joint {twice!r} is named twice; give each joint once")
     unknown = [x for x in names if x not in arm]
     if unknown:
+        sep = next((c for c in ";\t|" if c in unknown[0]), None)
+        if sep is not None:  # e.g. a spreadsheet's semicolon-separated export
+            raise QmtInputError(f"{where}: columns separated by {sep!r}; separate them by commas")
         raise QmtInputError(f"{where}: joint {unknown[0]!r} is not a moving joint of the arm; its joints are "
                             f"{', '.join(arm)} (rename the column, drop it, or unlock that joint in the scenario)")
     missing = [x for x in arm if x not in names]
     if missing:
         raise QmtInputError(f"{where}: no column for joint {missing[0]!r}; give every joint of the arm: {', '.join(arm)}")
-    if len(set(names)) != len(names):
-        twice = next(x for x in names if names.count(x) > 1)
-        raise QmtInputError(f"{where}: joint {twice!r} is named twice; give each joint once")
     out = []
     for k, row in enumerate(rows):
         if len(row) != len(names):
@@ -112,6 +124,9 @@ def parse_csv(text: str, joint_names, where: str = "joint path") -> np.ndarray:
     if not rows:
         raise QmtInputError(f"{where}: empty; give a header row of joint names and one waypoint a row")
     header = [c.strip() for c in rows[0]]
+    if all(_is_number(c) for c in header):  # the first row is already a waypoint
+        raise QmtInputError(f"{where}: the first row holds numbers, not joint names; add a header row naming each "
+                            f"column's joint ({', '.join(joint_names)})")
     keep = [i for i, c in enumerate(header) if c not in TIME_KEYS]
     body = [[r[i] for i in keep] if len(r) == len(header) else r for r in rows[1:]]
     return _rows_to_array([header[i] for i in keep], body, joint_names, where)
@@ -152,9 +167,12 @@ def read_joint_path(source, joint_names) -> np.ndarray:
         p = Path(source)
         where = _where(p)
         try:
-            text = p.read_text()
+            text = p.read_text(encoding="utf-8-sig")  # -sig: a spreadsheet's CSV starts with a byte-order mark
         except OSError as exc:
             raise QmtInputError(f"{where}: cannot read it ({exc.strerror}); give a CSV or a JointTrajectory "
+                                "YAML/JSON file") from None
+        except UnicodeDecodeError:
+            raise QmtInputError(f"{where}: not a text file (not UTF-8); give a CSV or a JointTrajectory "
                                 "YAML/JSON file") from None
         if p.suffix.lower() == ".csv":
             return parse_csv(text, joint_names, where)
@@ -164,7 +182,7 @@ def read_joint_path(source, joint_names) -> np.ndarray:
         try:
             msg = yaml.safe_load(text)
         except yaml.YAMLError as exc:
-            raise QmtInputError(f"{where}: not YAML/JSON ({str(exc).splitlines()[0]})") from None
+            raise QmtInputError(f"{where}: not YAML/JSON ({yaml_problem(exc, text)})") from None
         return parse_joint_trajectory(msg, joint_names, where)
     if isinstance(source, dict):
         return parse_joint_trajectory(source, joint_names)

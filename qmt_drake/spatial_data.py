@@ -155,7 +155,7 @@ def parse_spatial_data(name_or_path: str | Path, overrides: dict | None = None) 
     uncertainty = check_spatial_uncertainty(raw.get("uncertainty"), hand.kind, f"{where}: uncertainty")
     simulation = parse_simulation(raw.get("simulation"), where, continuous=DISCRETE_ONLY,
                                   no_tamsi=WELD_NO_TAMSI if hand.kind != "tray" and hand.physics == "weld" else None)
-    return SpatialScenarioData(name=str(raw.get("name", path.stem)), path=path, arm=arm, actuators=actuators,
+    return SpatialScenarioData(name=F.string(raw, "name", where, default=path.stem), path=path, arm=arm, actuators=actuators,
                                hand=hand, payload=payload, task=task, check_rate_hz=rate, obstacles=obstacles,
                                uncertainty=uncertainty, simulation=simulation)
 
@@ -189,6 +189,9 @@ def _lock_joints(raw, where: str) -> dict:
     if isinstance(raw, dict):
         return {str(k): F.num(raw, k, where) for k in raw}
     if isinstance(raw, (list, tuple)) and all(isinstance(k, str) for k in raw):
+        twice = sorted({k for k in raw if raw.count(k) > 1})
+        if twice:  # a joint listed twice is a copy-paste slip (the other joint meant is then left free)
+            raise QmtInputError(f"{where} names {twice} more than once; list each joint once")
         return {k: 0.0 for k in raw}
     raise QmtInputError(f"{where} must be a list of joint names (locked at 0) or a mapping joint: value "
                         f"(rad or m, e.g. {{torso_lift_joint: 0.25}}); got {F.show(raw)}")
@@ -238,7 +241,12 @@ def _task(tk: dict, w: str, face_axis: np.ndarray) -> SpatialTaskData:
         raise QmtInputError(f"{w}.free_spin_about_normal: false needs hand_rpy_rad (a face normal leaves the "
                             "spin free); give hand_rpy_rad to fix the spin, or drop the key")
     spatial_poses.refuse_repeated_poses(P, normals, rotations, w)
-    return SpatialTaskData(seed, P, normals, rotations, F.integer(tk, "transfer_points", w, minimum=0, default=0))
+    n_transfer = F.integer(tk, "transfer_points", w, minimum=0, default=0)
+    if n_transfer and len(P) < 4:  # spatial_poses.path_points fills the carry between poses 1 and K-2 only
+        raise QmtInputError(f"{w}.transfer_points {n_transfer}: the points go on the carry between the lift and the "
+                            f"lower (poses 1 and K-2 of pick, lift, ..., lower, place), and this task has {len(P)} "
+                            "poses; add the points you want to poses_m instead")
+    return SpatialTaskData(seed, P, normals, rotations, n_transfer)
 
 
 def _tray_cup(hd: dict, w: str) -> TrayCup:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 
 from qmt_drake.api_checks import number
 from qmt_drake.errors import QmtInputError
@@ -21,11 +22,29 @@ def check_positive_finite(value, flag: str, fix: str) -> None:
         number(value, flag, positive=True, fix=fix)
 
 
+# the commands' input files (the scenario, a plan, a joint path): an output written over one destroys it
+INPUT_ARGS = {"scenario": "the scenario file", "plan": "the plan file", "path": "the path file (--path)"}
+
+
 def check_outputs(args, *flags: str) -> None:
+    """The output paths of `flags`: at most one stdout, each writable, no two the same file, none an input."""
     paths = {flag: getattr(args, flag.lstrip("-").replace("-", "_"), None) for flag in flags}
     check_one_stdout(paths)
     for flag, path in paths.items():
         check_output_path(path, flag)
+    seen = {}
+    for flag, path in paths.items():
+        if path is None or str(path) == "-":
+            continue
+        key = Path(path).resolve()
+        if key in seen:  # the second write would replace the first result: it would be lost
+            raise QmtInputError(f"{seen[key]} and {flag} both name {path}; give each output its own file")
+        seen[key] = flag
+    for attr, what in INPUT_ARGS.items():
+        src = getattr(args, attr, None)
+        if isinstance(src, str) and Path(src).is_file() and Path(src).resolve() in seen:
+            raise QmtInputError(f"{seen[Path(src).resolve()]} {src} is {what}: writing it would replace the input; "
+                                "choose another path")
 
 
 def given(args, names) -> list[str]:

@@ -119,9 +119,9 @@ def cmd_plan(args) -> int:
         with tempfile.TemporaryDirectory() as d:
             base_file = Path(d) / "base_plan.json"
             plan.write_json(base_file)
-            plan, _ = plan_for_success(plan, base_file, args.success_out, target=args.success,
-                                       check_cases=args.success_check_cases, s_max=args.success_max_scale,
-                                       progress=None if args.quiet else progress)
+            plan, success = plan_for_success(plan, base_file, args.success_out, target=args.success,
+                                             check_cases=args.success_check_cases, s_max=args.success_max_scale,
+                                             progress=None if args.quiet else progress)
     if args.json and args.json != "-":
         plan.write_json(args.json)
     elif args.json == "-":
@@ -131,7 +131,8 @@ def cmd_plan(args) -> int:
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
         print(f"{sc.name} {args.method}: T0 = {plan.motion_time_s:.4f} s, {hand_plugin(sc).plan_ratios_text(plan)}, "
               f"{'feasible' if plan.feasible else 'INFEASIBLE (least-violating plan)'}, "
-              f"{plan.planner_wall_s:.2f} s")
+              f"{plan.planner_wall_s:.2f} s" + ("" if args.success is None else spatial_cli.success_text(
+                  success["fresh_check"], success["search"]["time_scale"], args.success)))
     return 0 if plan.feasible else EXIT_INFEASIBLE
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from qmt_drake.apps.arg_checks import parse_options
 from qmt_drake.config.resolve import kind_of
+from qmt_drake.config.validate import check_scenario_kind
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners import registry
 
@@ -23,8 +24,12 @@ DEFAULT_METHOD = {registry.TRANSFER: "ga", registry.SPATIAL: "ga", registry.ENER
 
 def scenario_kind(name_or_path) -> str:
     """The kind of a built-in name or a YAML path (config.resolve.kind_of; '' -> transfer, whose loader
-    then says in one line why the file is none)."""
-    return kind_of(name_or_path) or registry.TRANSFER
+    then says in one line why the file is none). A misspelt `kind:` is refused here, in the loaders' words:
+    the registry has no row for it."""
+    kind = kind_of(name_or_path) or registry.TRANSFER
+    if kind not in registry.KINDS:
+        check_scenario_kind({"kind": kind}, str(name_or_path))
+    return kind
 
 
 def _pattern(s: str | None):

@@ -24,6 +24,7 @@ is refused by the registry in one line naming it; `optimum` is accepted for `fam
 from __future__ import annotations
 
 import json
+import os
 import tempfile
 import time
 from dataclasses import replace
@@ -64,7 +65,10 @@ from qmt_drake.retime import load_plan_file
 from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulate_spatial, spatial_time_step
 from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
+from qmt_drake.sweep.budget import estimate_spatial_sweep, estimate_sweep
 from qmt_drake.sweep.robust import plan_for_success, success_spec
+from qmt_drake.sweep.spec import load_spec
+from qmt_drake.sweep.stats import cases_to_certify, wilson_interval
 
 SPATIAL_METHODS = METHODS
 SPATIAL_FAMILIES = FAMILIES
@@ -173,9 +177,17 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
     if args.trajectory_csv:
         p.write_csv(args.trajectory_csv)
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
-        print(summary_line(sc, p, bound) + _avoided_text(avoided) + ("" if holds else f"; INFEASIBLE (least-violating plan; binding limit "
-                                                              f"{p.recheck['binding']} at {p.recheck['max']:.4g} of it)"))
+        print(summary_line(sc, p, bound) + _avoided_text(avoided) + ("" if holds else infeasible_text(p)))
     return holds
+
+
+def infeasible_text(p) -> str:
+    """Why a plan is infeasible: the binding limit when one breaks, else its collision (the limits then hold,
+    and naming a limit at 0.9999 of itself would point the user at the wrong fix)."""
+    if p.recheck["max"] > 1.0 or not p.clearance or p.clearance["clearance_m"] >= 0:
+        return f"; INFEASIBLE (least-violating plan; binding limit {p.recheck['binding']} at {p.recheck['max']:.4g} of it)"
+    return ("; INFEASIBLE (it collides with world.obstacles, every limit held; plan around them with --avoid or move "
+            "the task)")
 
 
 def _avoided_text(a) -> str:
@@ -210,8 +222,32 @@ def check_success_options(args, sc) -> None:
         raise QmtInputError("--carried and --success both choose the time scale; give one of them")
     check_int(args.success_check_cases, "--success-check-cases", 1, "e.g. 200")
     check_positive_finite(args.success_max_scale, "--success-max-scale", "e.g. 2")
+    if args.success_max_scale <= 1:  # the search brackets (1, max]: refused there only after planning
+        raise QmtInputError(f"--success-max-scale {args.success_max_scale:g} must exceed 1 (the slowest time scale "
+                            "tried; 1 is the plan as planned), e.g. 2")
     check_output_dir(args.success_out, "--success-out")
-    success_spec(sc)
+    need = cases_to_certify(args.success)  # fewer cases can never certify it: the search would run to no end
+    search_cases = success_spec(sc).n_cases
+    if search_cases < need:
+        raise QmtInputError(f"--success {args.success:g}: the scenario's uncertainty.monte_carlo.cases gives "
+                            f"{search_cases} cases per time scale, and even all of them carried certify only a 95 % "
+                            f"lower bound {wilson_interval(search_cases, search_cases)[0]:.3f}; give >= {need} cases")
+    n = args.success_check_cases
+    if n < need:
+        raise QmtInputError(f"--success-check-cases {args.success_check_cases} cannot confirm P >= {args.success:g} "
+                            f"(all carried: 95 % lower bound {wilson_interval(n, n)[0]:.3f}); "
+                            f"give >= {need}")
+    try:  # the fresh check's sweep (run after the plan and the search), its size and price checked now
+        spec = success_spec(sc, cases=args.success_check_cases, name="success-check")
+        raw = dict(spec.raw)
+        raw["parameters"] = {**raw["parameters"], "time_scale": float(args.success_max_scale)}  # its slowest
+        spec = load_spec(raw, name=spec.name)
+        workers = os.cpu_count() or 1
+        est = (estimate_spatial_sweep(spec, workers) if kind_of(spec.scenario) == registry.SPATIAL
+               else estimate_sweep(spec, sc, workers))
+        check_budget(est, allow_large=getattr(args, "allow_large", False))
+    except QmtInputError as exc:
+        raise QmtInputError(f"--success-check-cases {args.success_check_cases}: {exc}") from None
 
 
 def _slow_for_success(args, sc, p):
@@ -249,9 +285,19 @@ def summary_line(sc, p, bound) -> str:
         line += f"; carried in the co-simulation at x{s['chosen']:.4f}{lost}"
     ok = (p.info.get("success") or {}).get("fresh_check")
     if ok:
-        line += (f"; P(carried) {ok['carried']}/{ok['cases']} on fresh cases, 95 % Wilson lower bound "
-                 f"{ok['ci_low']:.3f} at x{p.info['time_scale']:.4f}")
+        line += success_text(ok, p.info["time_scale"], p.info["success"]["search"]["target"])
     return line
+
+
+def success_text(check: dict, time_scale: float, target: float) -> str:
+    """The --success fresh check in a summary line; a check that misses the target says so (the search's
+    own cases met it, the fresh ones do not confirm it)."""
+    text = (f"; P(carried) {check['carried']}/{check['cases']} on fresh cases, 95 % Wilson lower bound "
+            f"{check['ci_low']:.3f} at x{time_scale:.4f}")
+    if not check["meets_target"]:
+        text += (f", BELOW the target {target:g}: not confirmed (more fresh cases, --success-check-cases, or a "
+                 "slower plan)")
+    return text
 
 
 def simulate(args, energy_options=()) -> int:

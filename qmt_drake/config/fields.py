@@ -84,6 +84,18 @@ def _refuse_alias_bombs(root) -> None:
         stack.extend((k, False) for k in kids if id(k) not in size)
 
 
+def yaml_problem(exc: Exception, text: str = "") -> str:
+    """PyYAML's error as one phrase with where it is: its problem and line/column (its first line alone,
+    e.g. 'while scanning for the next token', says neither); a tab there named, YAML's commonest slip."""
+    problem, mark = getattr(exc, "problem", None), getattr(exc, "problem_mark", None)
+    if not problem or mark is None:
+        return str(exc).splitlines()[0]
+    lines = text.splitlines()
+    line = lines[mark.line] if 0 <= mark.line < len(lines) else ""
+    tab = "; indent with spaces, not tabs" if line[mark.column:mark.column + 1] == "\t" else ""
+    return f"{problem} at line {mark.line + 1}, column {mark.column + 1}{tab}"
+
+
 def load_yaml_text(text: str, where: str) -> Any:
     """YAML text parsed with duplicated keys refused; one-line QmtInputError naming `where`."""
     try:
@@ -91,7 +103,7 @@ def load_yaml_text(text: str, where: str) -> Any:
     except QmtInputError as exc:
         raise QmtInputError(f"{where}: {exc}") from None
     except yaml.YAMLError as exc:
-        raise QmtInputError(f"{where}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        raise QmtInputError(f"{where}: not valid YAML ({yaml_problem(exc, text)})") from None
     except RecursionError:
         raise QmtInputError(f"{where}: nested too deeply to read; an input file is a few levels deep") from None
 

@@ -8,6 +8,7 @@ and a file of the wrong kind is answered with the command that takes it.
 
 from __future__ import annotations
 
+import difflib
 from pathlib import Path
 
 from qmt_drake.config.fields import read_yaml_mapping
@@ -78,15 +79,25 @@ def resolve_scenario(name_or_path, kind: str | None = None) -> Path:
         raise QmtInputError(f"scenario '{name_or_path}' is a directory; give a built-in name "
                             f"({', '.join(_all_builtins())}) or a YAML file")
     if not path.is_file():
-        what = _KIND_ROUTES[kind][0].split(" ", 1)[1] if kind in _KIND_ROUTES else "scenario"
-        names = builtin_scenarios(kind) if kind else _all_builtins()
-        raise QmtInputError(f"{what} '{name_or_path}' is neither a built-in ({', '.join(names)}) nor a YAML "
-                            "file that exists")
+        # every kind's built-ins: a name that exists nowhere has no kind yet (the commands guess 'transfer'),
+        # and a misspelt spatial name must not be answered with the planar list alone
+        names = _all_builtins()
+        near = difflib.get_close_matches(str(name_or_path), names, n=1)
+        hint = f"; did you mean {near[0]}?" if near else ""
+        raise QmtInputError(f"scenario '{name_or_path}' is neither a built-in ({', '.join(names)}) nor a YAML "
+                            f"file that exists{hint}")
     found = scenario_kind(path)
     if kind is not None and found in _KIND_ROUTES and found != kind:
         what, route = _KIND_ROUTES[found]
         raise QmtInputError(f"scenario '{name_or_path}' is {what}: plan it with {route.format(name=name_or_path)}")
     return path
+
+
+def refuse_scenario_file(raw, where: str, what: str, fix: str) -> None:
+    """A scenario file given where a sweep spec or a design task is expected, named as such (not as its
+    first key the other file does not know, e.g. "unknown key 'actuators'")."""
+    if isinstance(raw, dict) and ("arm" in raw or raw.get("kind") in (SPATIAL, ENERGY_TIME)):
+        raise QmtInputError(f"{where} is a scenario file, not {what}; {fix}")
 
 
 def builtin_tasks() -> list[str]:

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.config.fields import check_keys, num, read_yaml_mapping, sequence, show, string, vector
-from qmt_drake.config.resolve import resolve_task
+from qmt_drake.config.resolve import refuse_scenario_file, resolve_task
 from qmt_drake.design.arm_types import LEVEL_STEP_M, N_LEVELS
 from qmt_drake.design.operability import AXES
 from qmt_drake.errors import QmtInputError
@@ -134,6 +134,7 @@ def task_from_dict(d: dict, source: str = "") -> Task:
     top = source or "task"
     if not isinstance(d, dict):
         raise QmtInputError(f"{top}: the top level must be a mapping with 'units'")
+    refuse_scenario_file(d, top, "a design task", "a design task lists its units (models/tasks/*.yaml)")
     check_keys(d, TASK_KEYS, top)
     units_in = d.get("units")
     if not isinstance(units_in, list) or not units_in:

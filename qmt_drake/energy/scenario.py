@@ -130,7 +130,7 @@ def load_energy_data(name_or_path, overrides: dict | None = None) -> EnergyScena
             raise QmtInputError(f"{w}.{key} = {row}: i and j must be integers from 1")
         init[(int(i), int(j))] = float(a)
     reported = F.mapping(sec["paper"], "reported", w, default={})
-    return EnergyScenarioData(str(raw.get("name", path.stem)), str(raw.get("description", "")).strip(), X,
+    return EnergyScenarioData(F.string(raw, "name", where, default=path.stem), str(raw.get("description", "")).strip(), X,
                               c1=c1, c2=c2, m=m, divisions=div, T_init_s=T_init, fixed_T_s=fixed_T, moving_joints=mj,
                               paper_initial_a=init, reported=reported, torque_limit_Nm=lim, urdf=urdf,
                               source_path=path, simulation=parse_simulation(raw.get("simulation"), where,

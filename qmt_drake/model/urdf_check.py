@@ -39,6 +39,7 @@ from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 from qmt_drake.errors import QmtInputError
 from qmt_drake.model.actuator_order import actuator_joint_names, actuator_specs, add_actuators_in_order
 from qmt_drake.model.arm import add_urdf
+from qmt_drake.model.urdf_fields import check_joint_fields
 from qmt_drake.model.urdf_package import EXAMPLE_ARMS, example_robot_urdf  # noqa: F401 (re-exported)
 
 DRAKE_NS = "http://drake.mit.edu"
@@ -56,9 +57,11 @@ def _read_root(urdf: str | Path, source: str) -> ET.Element:
     if "drake:" in text and "xmlns:drake" not in text:  # Drake's parser accepts the undeclared prefix
         text = re.sub(r"<robot\b", f'<robot xmlns:drake="{DRAKE_NS}"', text, count=1)
     try:
-        return ET.fromstring(text)
+        root = ET.fromstring(text)
     except ET.ParseError as exc:
         raise QmtInputError(f"{source}: not well-formed XML ({exc}); fix the URDF's XML") from None
+    check_joint_fields(root, source)  # names and numbers, before any reader or Drake's parser sees them
+    return root
 
 
 def lock_values(lock_joints) -> dict:
@@ -194,6 +197,12 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
                             f"{hand_frame!r} (a branch); lock them (lock_joints, or lock: off_chain for every one) "
                             "or name a hand frame after them")
     movable = [j for j in path if j.get("type") in MOVABLE_OK]
+    mimic = [j for j in movable if j.find("mimic") is not None]
+    if mimic:  # the planners move every chain joint on its own; a mimic joint follows another's angle
+        j = mimic[0]
+        raise QmtInputError(f"{source}: chain joint {j.get('name')!r} mimics {j.find('mimic').get('joint')!r} "
+                            "(<mimic>), and the planners move each chain joint on its own; lock it (lock_joints) "
+                            "or drop its <mimic>")
     if not movable:
         raise QmtInputError(f"{source}: no revolute joint between the base and {hand_frame!r}; "
                             "name a hand link at the end of the arm")

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from qmt_drake.config.fields import check_keys, read_yaml_mapping, show
-from qmt_drake.config.resolve import kind_of
+from qmt_drake.config.resolve import kind_of, refuse_scenario_file
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.registry import TRANSFER, find, names
 from qmt_drake.sweep.options import check_options
@@ -117,6 +117,8 @@ def load_spec(path_or_dict, *, name: str | None = None) -> SweepSpec:
 
 
 def spec_from_dict(raw: dict, where: str, path: Path | None = None, name: str | None = None) -> SweepSpec:
+    refuse_scenario_file(raw, where, "a sweep spec", "a spec names its scenario (scenario: PATH) with plans and "
+                         "parameters (models/sweeps/*.yaml)")
     _check_keys(raw, SPEC_KEYS, where)
     scenario = raw.get("scenario")
     if not isinstance(scenario, str) or not scenario:

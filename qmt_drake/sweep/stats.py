@@ -7,9 +7,10 @@ unlike the normal ("Wald") interval it stays inside [0, 1] and is not empty at k
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 
-from scipy.stats import binomtest
+from scipy.stats import binomtest, norm
 
 
 def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
@@ -24,6 +25,15 @@ def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, fl
     ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="wilson")
     # k = 0 and k = n make the interval touch 0 or 1 exactly (rounding could miss it by 1e-17).
     return (0.0 if k == 0 else float(ci.low), 1.0 if k == n else float(ci.high))
+
+
+def cases_to_certify(target: float, confidence: float = 0.95) -> int:
+    """The fewest trials whose Wilson lower bound can reach `target` at all: every one a success, the
+    bound n / (n + z^2), so n >= target z^2 / (1 - target) (0.9: 35 cases, 0.5: 4). Fewer trials can
+    never certify it, however the transfers go."""
+    z = float(norm.ppf(0.5 + confidence / 2))
+    n = max(1, math.ceil(target * z * z / (1.0 - target)))
+    return n - 1 if n > 1 and wilson_interval(n - 1, n - 1, confidence)[0] >= target else n  # the rounding
 
 
 def success_rows(results: list[dict], group_keys=("label",), confidence: float = 0.95) -> list[dict]:
