@@ -233,9 +233,6 @@ def test_scenario_file_given_as_a_spec_or_task_is_named(tmp_path, capsys, verb, 
     assert f"is a scenario file, not {what}" in line
 
 
-@pytest.mark.xfail(strict=True, reason="planners/spatial_plan_io._check_fits (owned by the ruckig helper this "
-                   "session): a file whose n_dof disagrees with its joint_names is answered 'is for joints [j1..j6] "
-                   "but scenario has [j1..j6]', two equal lists; it should name n_dof")
 def test_plan_file_with_another_n_dof_names_it(tmp_path):
     import json
 

@@ -289,6 +289,9 @@ def _check_fits(d: dict, path, sc) -> None:
         raise QmtInputError(f"plan file {path} was made for scenario {d.get('scenario')}, not {sc.name}"
                             f"{differ_note(differ)}; {again}")
     check_identity(d, path, spatial_sections(sc), sc.name)  # the same name, other content
+    if d.get("joint_names") == list(sc.joint_names) and d.get("n_dof") != sc.n_dof:  # the names agree: say which
+        raise QmtInputError(f"plan file {path} says n_dof {d.get('n_dof')} for its {sc.n_dof} joints "
+                            f"{list(sc.joint_names)}: the file was edited or damaged; {again}")
     if d.get("n_dof") != sc.n_dof or d.get("joint_names") != list(sc.joint_names):
         raise QmtInputError(f"plan file {path} is for joints {d.get('joint_names')} (scenario {d.get('scenario')}) "
                             f"but scenario {sc.name} has {list(sc.joint_names)}; {again}")
