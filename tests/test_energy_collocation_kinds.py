@@ -32,8 +32,11 @@ def test_collocation_plans_the_planar_magnet_arm(tmp_path):
     double integrator's exact integration), whose motor torques by Drake at 10x the re-check rate hold, whose z
     recomputed from them is the plan's, and which costs less than the family's SNOPT optimum it started from."""
     sc = load_scenario("thesis-ch4")
-    plan = registry.plan(sc, "collocation", knots=3)
+    lines: list[str] = []
+    plan = registry.plan(sc, "collocation", knots=3, progress=lines.append)
     x = plan.extra
+    # a line for the seed and one per solve (a long run says where it is)
+    assert lines[0].startswith("collocation: seeded") and len(lines) == 2 + x["refine_rounds"]
     assert plan.feasible and plan.method == "collocation" and x["converged"] and x["knots_per_segment"] == 3
     q, qd, _ = plan.sample([0.0, plan.motion_time_s])
     pts = task_joint_points(sc)

@@ -311,16 +311,19 @@ def fine_violations(tr: Transcription, h, Z) -> tuple[float, list]:
     return peak, bad
 
 
-def _collocate(P, poses, sample, pose_times, knots, max_iter, x0_z, rows=None):
+def _collocate(P, poses, sample, pose_times, knots, max_iter, x0_z, rows=None, progress=None):
     """(transcription, h, spline, info) of the collocation started from a motion (sample, pose_times); where
     the collocated motion breaks a limit between the held points, those points are held too and it is solved
-    again from there (at most REFINE_ROUNDS times)."""
+    again from there (at most REFINE_ROUNDS times). progress: a callable taking one line per solve, or None."""
     tr = Transcription(P, poses, _check_knots(knots), rows)
     h, Z = tr.seed(sample, pose_times)
     extra: list = []
     for rnd in range(REFINE_ROUNDS + 1):
         h, Z, status, ok = tr.solve(h, Z, max_iter, extra)
         peak, bad = fine_violations(tr, h, Z)
+        if progress is not None:  # each solve can take minutes on a 7-joint arm: say where the run is
+            progress(f"collocation solve {rnd + 1} of at most {REFINE_ROUNDS + 1}: T {float(np.sum(tr.K * h)):.4f} s, "
+                     f"peak {peak:.5f} of the limits between the knots, {len(bad)} points held next (above {1 + REFINE_TOL:.5f})")
         if not bad or rnd == REFINE_ROUNDS:
             break
         extra += bad
@@ -333,24 +336,26 @@ def _collocate(P, poses, sample, pose_times, knots, max_iter, x0_z, rows=None):
 
 
 def plan_collocation_spatial(sc, *, c1: float = PAPER_C1, c2: float = PAPER_C2, max_iter: int = 200,
-                             knots: int = KNOTS):
+                             knots: int = KNOTS, progress=None):
     """The energy-time optimum of spatial scenario sc by direct collocation (module docstring): its
     SpatialPlan, re-checked (spatial_search.finish_or_least_violating)."""
     t0 = time.perf_counter()
     _check_knots(knots)
     P = SpatialEnergyTime(sc, c1, c2)
     x, _ = _solve(P, "snopt", max_iter, sc.name)
+    if progress is not None:
+        progress(f"collocation: seeded by the via cubic's SNOPT optimum (z {P.z(x):.6g})")
     fam = P.family
     seed = fam.trajectory(x)
     tr, h, pp, info = _collocate(P, sc.q_poses_rad, seed.sample, fam.pose_times(x), knots, max_iter, P.z(x),
-                                 grip_rows(P.columns))
+                                 grip_rows(P.columns), progress)
     plan = finish_or_least_violating(sc, "collocation", PolyTrajectory(pp), tr.times(h)[::tr.K], t0, info)
     plan.info["z"] = z_of(P, plan.trajectory)
     return plan
 
 
 def plan_collocation_transfer(scenario, *, c1: float = PAPER_C1, c2: float = PAPER_C2, max_iter: int = 200,
-                              knots: int = KNOTS):
+                              knots: int = KNOTS, progress=None):
     """The energy-time optimum of a transfer scenario (planar magnet, tray) by direct collocation (module
     docstring): its Plan, re-checked at the scenario's check rate and slowed until it holds
     (baselines/finish.finish_plan)."""
@@ -369,7 +374,10 @@ def plan_collocation_transfer(scenario, *, c1: float = PAPER_C1, c2: float = PAP
     else:
         raise QmtInputError(f"{scenario.name}: collocation needs the time at which the family passes each of the "
                             f"task's {len(poses)} points; its {type(fam).__name__} family does not say: use --method snopt")
-    tr, h, pp, info = _collocate(P, poses, lambda t: fam.sample(x, t), pose_times, knots, max_iter, P.z(x))
+    if progress is not None:
+        progress(f"collocation: seeded by the family's SNOPT optimum (z {P.z(x):.6g})")
+    tr, h, pp, info = _collocate(P, poses, lambda t: fam.sample(x, t), pose_times, knots, max_iter, P.z(x),
+                                 progress=progress)
     plan = finish_plan(scenario, "collocation", PolynomialTrajectory(pp), planner_wall_s=time.perf_counter() - t0,
                        extra=info)
     plan.extra["z"] = z_of(P, plan.trajectory)
