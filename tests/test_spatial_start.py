@@ -66,6 +66,15 @@ def _joint_accelerations_at_start(physical, co) -> np.ndarray:
     return np.array([v[check.GetJointByName(n).velocity_start()] for n in names])
 
 
+class _Accelerating(StandStill):
+    """From rest at q0, every joint accelerating at 0.5 rad/s^2 from t = 0."""
+
+    def sample(self, t_s):
+        t = np.atleast_1d(np.asarray(t_s, float))[:, None]
+        a = np.full(self.n_dof, 0.5)
+        return self.q0 + 0.5 * a * t**2, a * t, np.tile(a, (len(t), 1))
+
+
 @pytest.fixture(scope="module")
 def suction():
     return load_or_skip("ur5-suction-bins")
@@ -128,13 +137,7 @@ def test_the_plan_start_acceleration_is_not_cancelled():
     sc = load_or_skip("ur5-suction-bins")
     q0 = np.asarray(sc.q_poses_rad[0], float)
 
-    class Accelerating(StandStill):
-        def sample(self, t_s):
-            t = np.atleast_1d(np.asarray(t_s, float))[:, None]
-            a = np.full(self.n_dof, 0.5)
-            return q0 + 0.5 * a * t**2, a * t, np.tile(a, (len(t), 1))
-
-    co = build_spatial_cosim(sc, Accelerating(q0, 0.05))
+    co = build_spatial_cosim(sc, _Accelerating(q0, 0.05))
     sim = Simulator(co.diagram)
     co.start(sim)
     assert co.handles.start["residual_Nm"] < 1e-6
@@ -153,15 +156,9 @@ def test_a_held_laws_compensated_reference_is_at_rest_for_the_solve_too():
     sc = load_or_skip("ur5-suction-bins")
     q0 = np.asarray(sc.q_poses_rad[0], float)
 
-    class Accelerating(StandStill):
-        def sample(self, t_s):
-            t = np.atleast_1d(np.asarray(t_s, float))[:, None]
-            a = np.full(self.n_dof, 0.5)
-            return q0 + 0.5 * a * t**2, a * t, np.tile(a, (len(t), 1))
-
     nominal = SpatialMotorDrive.for_scenario(sc, q0, "full", integral_rate_per_s=5.0, control_period_s=0.002)
     integrals = []
-    for plan in (StandStill(q0, 0.05), Accelerating(q0, 0.05)):
+    for plan in (StandStill(q0, 0.05), _Accelerating(q0, 0.05)):
         co = build_spatial_cosim(sc, plan, drive=nominal, feedforward="full")
         sim = Simulator(co.diagram)
         co.start(sim)
