@@ -83,7 +83,7 @@ def register_rebuild(kind: str, rebuild: Callable[[dict, Any], JointTrajectory])
     REBUILDERS[kind] = rebuild
 
 
-def rebuild_spec(traj) -> dict | None:
+def rebuild_spec(traj: JointTrajectory) -> dict | None:
     """The exact file form of a transfer trajectory: time scaling and segments around leaves that have a
     `file_spec()`; None when a part has none (then only its samples are stored)."""
     if isinstance(traj, TimeScaledTrajectory):
@@ -208,7 +208,7 @@ def _load_transfer_plan(path: Path, d: dict, scenario: TransferScenario | None) 
                 raise QmtInputError(f"plan file {path} has {q.shape[1]} joints but scenario "
                                     f"{scenario.name}'s arm has {scenario.arm.n_dof}; plan again for it")
             _check_endpoints(q[0], q[-1], scenario, f"plan file {path}")
-            traj_obj = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
+            traj_obj: JointTrajectory = SampledTrajectory(t, q, qd, qdd, traj.get("breakpoints_s"))
             if "rebuild" in d:  # the exact form (module docstring), held to its samples
                 traj_obj = _rebuilt(d["rebuild"], scenario, (t, q, qd, qdd), path)
             plan = make_plan(scenario, str(d.get("method", "loaded")), traj_obj, genes=d.get("genes"))
@@ -340,21 +340,21 @@ def transfer_file_dict(plan: Plan) -> dict:
     return d
 
 
-def _file_samples(traj: JointTrajectory):
+def _file_samples(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """t, q, qd, qdd of a transfer file: 1 kHz samples per piece, each phase boundary twice (left and right)."""
     grid = piecewise_grid(traj.breakpoints_s[None, :], 1000.0)
     q, qd, qdd = traj.evaluate(grid.t_s, grid.t_piece_s)
     return grid.t_s, _boundary_values(grid.t_s, q), _boundary_values(grid.t_s, qd), qdd
 
 
-def _difference(a, b) -> float:
+def _difference(a: tuple, b: tuple) -> float:
     """Largest |difference| of two (t, q, qd, qdd); inf if their shapes differ."""
     if any(np.shape(x) != np.shape(y) for x, y in zip(a, b)):
         return float("inf")
     return max(float(np.max(np.abs(np.asarray(x) - np.asarray(y)), initial=0.0)) for x, y in zip(a, b))
 
 
-def _rebuilt(spec: dict, scenario: TransferScenario, samples, path: Path) -> JointTrajectory:
+def _rebuilt(spec: dict, scenario: TransferScenario, samples: tuple, path: Path) -> JointTrajectory:
     """A file's `rebuild` trajectory, refused in one line if it disagrees with the file's own samples."""
     if not isinstance(spec, dict):
         raise ValueError("'rebuild' must be a mapping")
