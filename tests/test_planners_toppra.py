@@ -2,12 +2,19 @@
 Drake's box), exact path derivatives and trajectory evaluation, binding motor-torque rows, the
 exact slow-down of an overshooting output, solve time, and infeasible limits as infeasible plans."""
 
+import time
+
 import numpy as np
 import pytest
 
 from qmt_drake.planners.baselines.finish import finish_plan
 from qmt_drake.planners.baselines.paths import CartesianLinePath, PathTimingTrajectory
-from qmt_drake.planners.baselines.toppra_plan import plan_toppra, plan_toppra_drake
+from qmt_drake.planners.baselines.toppra_plan import (
+    _segments_into,
+    plan_toppra,
+    plan_toppra_drake,
+    toppra_segment,
+)
 from qmt_drake.trajectory import TimeScaledTrajectory
 from qmt_drake.transfer_scenario import load_scenario
 
@@ -117,11 +124,18 @@ def test_overshoot_is_reported_and_slowed_exactly(sc3):
 
 
 def test_solve_time_two_link_200_points(sc3):
-    plan_toppra(sc3, path="joint_line", measure_polygon_cost=False)  # warm imports
-    walls = [plan_toppra(sc3, path="joint_line", grid_points=200,
-                         measure_polygon_cost=False).extra["toppra_solve_wall_s"]
-             for _ in range(3)]
-    assert min(walls) < 0.1  # tens of milliseconds
+    """The TOPP-RA solve of a 200-point grid costs milliseconds of CPU. Measured as this thread's CPU
+    time (time.thread_time), not wall time: a wall-clock bound failed under a loaded machine (0.102 s
+    against 0.1 s while other processes held both cores) although the solve itself is ~5 ms."""
+    seg = _segments_into({}, sc3, "joint_line", None)[0]
+    toppra_segment(sc3, seg, grid_points=200)  # warm imports
+    cpu = []
+    for _ in range(3):
+        t0 = time.thread_time()
+        traj, code, _ = toppra_segment(sc3, seg, grid_points=200)
+        cpu.append(time.thread_time() - t0)
+        assert traj is not None, code
+    assert min(cpu) < 0.05
 
 
 def test_drake_toppra_box_on_the_line(sc2):
