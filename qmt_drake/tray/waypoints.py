@@ -28,7 +28,7 @@ import numpy as np
 
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.at_rest import describe_at_rest, worst_at_rest
-from qmt_drake.planners.ruckig_core import rest_to_rest
+from qmt_drake.planners.ruckig_core import RuckigProfile, rest_to_rest
 from qmt_drake.planners.toppra_core import parameterise
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS, RPM
 from qmt_drake.tray.conditions import (
@@ -217,7 +217,7 @@ def ruckig_line(bottle, *, start_xy=SEED_START_XY_M, goal_xy=SEED_GOAL_XY_M, mar
     T = float(traj.duration) * time_scale
     t = np.arange(0.0, T + 0.5 * stream_period_s, stream_period_s)
     t[-1] = min(t[-1], T)
-    dist = np.array([traj.at_time(float(x) / time_scale)[0][0] for x in t])
+    dist = RuckigProfile(traj).evaluate(t / time_scale)[0][:, 0]  # the one Ruckig evaluator
     pts = a + np.outer(dist / L, b - a)
     q = np.array([tray_ik(x, y, geom) for x, y in pts])
     info = {"duration_s": T, "planned_duration_s": float(traj.duration), "a_max_m_s2": a_max, "v_max_m_s": v_max,
