@@ -223,6 +223,8 @@ class SpatialMotorDrive:
         hold's plant steps, times gain_scales, with the integral rate of `gains` (Ki / Kp)."""
         if not self.current_held(time_step_s):
             return self.gains
+        if self.mass_matrix is None:
+            raise ValueError("a held current law is designed on the arm's mass matrix: build the drive with for_scenario")
         mp, Mj = self.params, np.diag(self.mass_matrix)
         per_kp = effective_joint_gains(PidGains(np.ones(mp.n), np.zeros(mp.n), np.zeros(mp.n)), mp)[0]  # c N
         K, D = CLOSED_LOOP_RAD_S ** 2 * Mj, 2.0 * DAMPING_RATIO * CLOSED_LOOP_RAD_S * Mj

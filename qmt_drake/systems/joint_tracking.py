@@ -235,6 +235,17 @@ class JointPidController(LeafSystem):
 HOLD_COMPENSATIONS = ("mean", "midpoint", "none")  # what a held law's feedforward is evaluated on (the first: default)
 
 
+def hold_offsets(hold_period_s: float, time_step_s: float, mode: str = "mean") -> np.ndarray:
+    """The times [s] after a sample instant at which a held feedforward sees the reference (HoldCompensatedReference):
+    "mean": the hold's m plant steps j h, j < m (m = ceil(T_h / h)); "midpoint": their middle, (m - 1) h / 2."""
+    if mode not in HOLD_COMPENSATIONS[:2]:
+        raise ValueError(f"hold compensation {mode!r}: choose one of {', '.join(HOLD_COMPENSATIONS[:2])}")
+    if not 0 < time_step_s <= hold_period_s:
+        raise ValueError(f"hold period {hold_period_s} s and plant step {time_step_s} s: need 0 < step <= period")
+    m = int(np.ceil(hold_period_s / time_step_s - 1e-6))  # the steps a sample's voltage is held over
+    return np.arange(m) * time_step_s if mode == "mean" else np.array([(m - 1) * time_step_s / 2])
+
+
 class HoldCompensatedReference(LeafSystem):
     """The plan as a feedforward held for hold_period_s = T_h from each sample instant t should see it (module
     docstring); the plant steps time_step_s = h, so the hold spans the m steps t + j h < t + T_h. Outputs
@@ -251,12 +262,7 @@ class HoldCompensatedReference(LeafSystem):
 
     def __init__(self, pp, acc, hold_period_s: float, time_step_s: float, mode: str = "mean"):
         super().__init__()
-        if mode not in HOLD_COMPENSATIONS[:2]:
-            raise ValueError(f"hold compensation {mode!r}: choose one of {', '.join(HOLD_COMPENSATIONS[:2])}")
-        if not 0 < time_step_s <= hold_period_s:
-            raise ValueError(f"hold period {hold_period_s} s and plant step {time_step_s} s: need 0 < step <= period")
-        m = int(np.ceil(hold_period_s / time_step_s - 1e-6))  # the steps a sample's voltage is held over
-        self._offsets = np.arange(m) * time_step_s if mode == "mean" else np.array([(m - 1) * time_step_s / 2])
+        self._offsets = hold_offsets(hold_period_s, time_step_s, mode)
         self._pp, self._acc = pp.Clone(), acc.Clone()
         n = pp.rows()
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._calc_state)
