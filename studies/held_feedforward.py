@@ -11,10 +11,10 @@ steps ("midpoint") or on the reference's mean over them ("mean", the default; jo
 plus the every-step law (period None) as
 the reference row. A plan may be played slower (--scale NAME=K; default: the magnet's 1.4x, carried by the plain
 plan's every-step law, whose fastest carried scale is 1.305, and the suction's 1.05x: at 1x its plan rides its
-limit, ratio 1.0000 on the every-step law, and every held law loses the part within 100 ms whatever its feedforward),
-so that every row compares the whole motion. --amplifier: what the held law commands (sim/spatial_actuation
-HELD_AMPLIFIERS: "current", the default since session 17, or "voltage", the law the table of session 16 measured). Each row: outcome, largest hand ratio while held (the tray: also the
-cup's largest slide [m]), largest and RMS tracking error |q_ref - q| [rad] during the motion, goal error [rad].
+limit, ratio 1.0000 on the every-step law, and every held law behind a voltage amplifier loses the part within 100 ms
+whatever its feedforward), so that every row compares the whole motion. --amplifier: what the held law commands
+(sim/spatial_actuation HELD_AMPLIFIERS: "current", the default since session 17, or "voltage", the law the table of
+session 16 measured). Each row: outcome, largest hand ratio while held (the tray: also the cup's largest slide [m]), largest and RMS tracking error |q_ref - q| [rad] during the motion, goal error [rad].
 
 Writes OUT/held_feedforward/held_feedforward.json atomically.
 """
