@@ -117,15 +117,20 @@ def _graph(sc, drive):
 def test_control_period_at_the_plant_step_is_the_default_drive(suction):
     """control_period_s None (default) or equal to the plant step: the same diagram (the compiled every-step law,
     the loop damping folded into the plant), hence the same numbers. A longer period runs the held law (the
-    Python controller) with only the back EMF folded into the plant; explicit folds nothing."""
+    Python controller) with only the back EMF folded into the plant behind a voltage amplifier, nothing behind the
+    current amplifier (the default: its current loop cancels the back EMF); explicit folds nothing."""
     q0 = suction.q_poses_rad[0]
     default = SpatialMotorDrive.for_scenario(suction, q0, "full")
     at_step = SpatialMotorDrive.for_scenario(suction, q0, "full", control_period_s=1e-3)
     assert _graph(suction, default) == _graph(suction, at_step)
     assert "motor_actuation" in _graph(suction, default)
-    held = SpatialMotorDrive.for_scenario(suction, q0, "full", control_period_s=4e-3)
+    held = SpatialMotorDrive.for_scenario(suction, q0, "full", control_period_s=4e-3, amplifier="voltage")
     assert held.sampled(1e-3) and not at_step.sampled(1e-3)
     np.testing.assert_array_equal(held.plant_damping_Nms(1e-3), back_emf_damping(held.params))
+    current = SpatialMotorDrive.for_scenario(suction, q0, "full", control_period_s=4e-3)
+    np.testing.assert_array_equal(current.plant_damping_Nms(1e-3), 0.0)
+    np.testing.assert_array_equal(dataclasses.replace(current, control_period_s=None).plant_damping_Nms(1e-3),
+                                  default.loop_damping_Nms)  # the amplifier is a held law's only
     assert np.all(held.plant_damping_Nms(1e-3) <= held.loop_damping_Nms)  # (Kd = 0 where the back EMF alone
     assert np.any(held.plant_damping_Nms(1e-3) < held.loop_damping_Nms)  # damps the joint critically)
     np.testing.assert_array_equal(dataclasses.replace(default, explicit=True).plant_damping_Nms(1e-3), 0.0)
@@ -136,13 +141,16 @@ def test_control_period_at_the_plant_step_is_the_default_drive(suction):
         SpatialMotorDrive.for_scenario(suction, q0, "full", control_period_s=0.02)
 
 
-@pytest.mark.parametrize("period_s, explicit", [(4e-3, False), (None, True)])
-def test_held_and_explicit_laws_hold_gravity_at_the_closed_form(suction, period_s, explicit):
+@pytest.mark.parametrize("period_s, explicit, amplifier", [(4e-3, False, "voltage"), (4e-3, False, "current"),
+                                                           (None, True, "current")])
+def test_held_and_explicit_laws_hold_gravity_at_the_closed_form(suction, period_s, explicit, amplifier):
     """The static hold without feedforward (tests/test_spatial_dc_motor's closed form): at rest the law's held
-    voltage is Kp N e whatever its period or stepping, so the arm settles at e = R tau_g / (N^2 k_t Kp) with
-    N k_t i = tau_g, gravity from Drake at the settled pose."""
+    voltage is Kp N e whatever its period, stepping or amplifier (at rest the current loop adds no back EMF), so the
+    arm settles at e = R tau_g / (N^2 k_t Kp) with N k_t i = tau_g, gravity from Drake at the settled pose; Kp the
+    law's (a held current law's own, SpatialMotorDrive.law_gains)."""
     sc, q0 = suction, suction.q_poses_rad[0]
-    drive = SpatialMotorDrive.for_scenario(sc, q0, "none", control_period_s=period_s, explicit=explicit)
+    drive = SpatialMotorDrive.for_scenario(sc, q0, "none", control_period_s=period_s, explicit=explicit,
+                                           amplifier=amplifier)
     r = simulate_spatial(sc, Hold(q0, 1.5), drive=drive, feedforward="none", grip=_strong_grip(sc))
     assert r["lost_at_s"] is None
     e, i = np.array(r["final_tracking_error_rad"]), np.array(r["final_current_A"])
@@ -155,7 +163,7 @@ def test_held_and_explicit_laws_hold_gravity_at_the_closed_form(suction, period_
     N, kt, R = mp.gear_ratio, mp.torque_constant_Nm_per_A, mp.resistance_ohm
     scale = np.abs(tau_g).max()
     np.testing.assert_allclose(N * kt * i, tau_g, atol=1e-4 * scale)
-    np.testing.assert_allclose(e, R * tau_g / (N ** 2 * kt * drive.gains.kp_V_per_rad), atol=1e-7)
+    np.testing.assert_allclose(e, R * tau_g / (N ** 2 * kt * drive.law_gains(1e-3).kp_V_per_rad), atol=1e-7)
     assert np.abs(e).max() > 1e-3
 
 

@@ -38,7 +38,14 @@ motors' back EMF b is folded into the plant. The held feedforwards (back EMF, in
 are evaluated on the reference's mean over the coming hold's plant steps (hold_compensation "mean", the
 default; joint_tracking.HoldCompensatedReference), not at the sample instant, where they lag the plan by T/2;
 "midpoint" and "none" (the uncompensated law) for comparison (docs/spatial_drives.md). The P/D terms keep the
-reference at the sample instant. `explicit` (`simulate --explicit`): nothing folded into the plant,
+reference at the sample instant. A held law's amplifier (`amplifier`, HELD_AMPLIFIERS): "current" (the default)
+holds a current command and cancels the back EMF of the speed measured at every plant step (a drive's current loop,
+joint_tracking.JointPidController current_loop), so the motors' torque is constant over each hold; nothing is folded
+into the plant, and the PD is the 30 rad/s critically damped joint loop (b no longer damps it) slowed for its period
+until its discrete poles keep HELD_MIN_DAMPING (systems/held_loop.period_scale, on the mass matrix at the plan's
+start). "voltage" holds the voltage (the law before): its current falls over the hold as the joints speed up, which
+saws the motors' torque by b qdd (T - h) per hold and lost the UR5 suction box at 4-8 ms (docs/spatial_drives.md).
+`explicit` (`simulate --explicit`): nothing folded into the plant,
 the law applies the loop's damping itself (plant_damping_Nms).
 
 `add_tracking_logs` / `tracking_report` record the arm state and the plan (both actuators) and, with
@@ -68,6 +75,7 @@ from qmt_drake.sim.actuation import (
 from qmt_drake.sim.plant import move_loop_damping_into_plant
 from qmt_drake.spatial_motor import MOTOR_KEYS, check_control_period, check_integral_rate
 from qmt_drake.systems.dc_motor import DcMotorParams, dc_motors_as_primitives
+from qmt_drake.systems.held_loop import HELD_MIN_DAMPING, period_scale
 from qmt_drake.systems.joint_tracking import (
     HOLD_COMPENSATIONS,
     HoldCompensatedReference,
@@ -82,6 +90,7 @@ ACTUATORS = ("ideal", "dc_motor")
 SPATIAL_FEEDFORWARD = {**FEEDFORWARD_OPTIONS, "shaped": FEEDFORWARD_OPTIONS["full"]}
 CLOSED_LOOP_RAD_S = 30.0  # = sqrt(KP_1_S2) of sim/spatial_cosim's inverse-dynamics controller
 DAMPING_RATIO = 1.0  # = KD_1_S / (2 sqrt(KP_1_S2)) there
+HELD_AMPLIFIERS = ("current", "voltage")  # what a held law commands (module docstring; the first: default)
 
 
 def set_drive_inertia(plant, arm_instance, sc) -> None:
@@ -147,16 +156,23 @@ class SpatialMotorDrive:
     control_period_s: float | None = None  # the law's sample-and-hold period [s]; None: every plant step
     explicit: bool = False  # True: nothing folded into the plant, the law's damping applied by the law itself
     hold_compensation: str = HOLD_COMPENSATIONS[0]  # a held law's feedforward: the plan's mean over the hold
+    amplifier: str = HELD_AMPLIFIERS[0]  # a held law's command: a current (the drive's current loop) or a voltage
+    mass_matrix: np.ndarray | None = None  # the arm's at the plan's start [kg m^2]: a held current law's design
+    gain_scales: tuple = (1.0, 1.0)  # a sweep's drawn kp_scale, kd_scale on the held current law's gains
 
     @classmethod
     def for_scenario(cls, sc, q_start_rad, feedforward: str = "full", integral_rate_per_s=None,
                      control_period_s: float | None = None, explicit: bool = False,
-                     hold_compensation: str = HOLD_COMPENSATIONS[0]) -> SpatialMotorDrive:
+                     hold_compensation: str = HOLD_COMPENSATIONS[0],
+                     amplifier: str = HELD_AMPLIFIERS[0]) -> SpatialMotorDrive:
         """The drive designed from sc (the nominal model). integral_rate_per_s [1/s]: the PID's Ki / K, one
         number or one per joint; None: the scenario's actuators.motor.integral_rate_per_s (default 0, a PD law).
         control_period_s [s]: the law's sample-and-hold period (check_control_period); None: the plant step.
         explicit: module docstring, `--explicit`. hold_compensation: what a held law's feedforward is evaluated
-        on (joint_tracking.HOLD_COMPENSATIONS; module docstring)."""
+        on (joint_tracking.HOLD_COMPENSATIONS; module docstring). amplifier: what a held law commands
+        (HELD_AMPLIFIERS; module docstring); the every-step law is unchanged by it."""
+        if amplifier not in HELD_AMPLIFIERS:
+            raise QmtInputError(f"amplifier {amplifier!r}: choose one of {', '.join(HELD_AMPLIFIERS)}")
         if hold_compensation not in HOLD_COMPENSATIONS:
             raise QmtInputError(f"hold compensation {hold_compensation!r}: choose one of {', '.join(HOLD_COMPENSATIONS)}")
         if feedforward not in SPATIAL_FEEDFORWARD:
@@ -171,10 +187,12 @@ class SpatialMotorDrive:
         plant.SetPositions(ctx, np.asarray(q_start_rad, float))
         rate = sc.motor.integral_rate_per_s if integral_rate_per_s is None else check_integral_rate(
             integral_rate_per_s, "sim", mp.n, mp.names)
-        gains = decentralised_gains(mp, np.diag(plant.CalcMassMatrix(ctx)), rate)
+        M = plant.CalcMassMatrix(ctx)
+        gains = decentralised_gains(mp, np.diag(M), rate)
         return cls(mp, gains, effective_joint_gains(gains, mp)[1], feedforward, plant,
                    control_period_s=check_control_period(control_period_s),
-                   explicit=bool(explicit), hold_compensation=hold_compensation)
+                   explicit=bool(explicit), hold_compensation=hold_compensation, amplifier=amplifier,
+                   mass_matrix=M)
 
     def prepare_plant(self, plant, arm_instance, sc) -> None:
         """Before the simulated plant's Finalize: reflected inertia, and the loop damping in the joints
@@ -195,6 +213,31 @@ class SpatialMotorDrive:
         """True when the law is sampled and held at a period longer than the plant step."""
         return self.control_period_s is not None and self.control_period_s > time_step_s * (1.0 + 1e-9)
 
+    def current_held(self, time_step_s: float) -> bool:
+        """True when the law is held behind a current amplifier (module docstring)."""
+        return self.sampled(time_step_s) and self.amplifier == "current"
+
+    def law_gains(self, time_step_s: float) -> PidGains:
+        """The gains the law runs with: `gains`; held behind a current amplifier, the 30 rad/s critically damped
+        joint loop (K = w^2 M_jj, D = 2 zeta w M_jj; no back EMF) slowed by systems/held_loop.period_scale for the
+        hold's plant steps, times gain_scales, with the integral rate of `gains` (Ki / Kp)."""
+        if not self.current_held(time_step_s):
+            return self.gains
+        if self.mass_matrix is None:
+            raise ValueError("a held current law is designed on the arm's mass matrix: build the drive with for_scenario")
+        mp, Mj = self.params, np.diag(self.mass_matrix)
+        per_kp = effective_joint_gains(PidGains(np.ones(mp.n), np.zeros(mp.n), np.zeros(mp.n)), mp)[0]  # c N
+        K, D = CLOSED_LOOP_RAD_S ** 2 * Mj, 2.0 * DAMPING_RATIO * CLOSED_LOOP_RAD_S * Mj
+        m = int(np.ceil(self.control_period_s / time_step_s - 1e-6))  # the plant steps a sample is held over
+        try:
+            s = period_scale(self.mass_matrix, K, D, time_step_s, m)
+        except ValueError:
+            raise QmtInputError(f"control period {self.control_period_s * 1e3:g} ms: no joint loop slowed for it keeps "
+                                f"damping {HELD_MIN_DAMPING} held; choose a shorter period") from None
+        kp, kd = (float(x) for x in self.gain_scales)
+        rate = self.gains.ki_V_per_rad_s / self.gains.kp_V_per_rad
+        return PidGains(kp * K * s * s / per_kp, kp * rate * K * s * s / per_kp, kd * D * s / per_kp)
+
     def has_discrete_law(self, time_step_s: float) -> bool:
         """True when the law has discrete state of its own (the integral, the hold): it runs as JointPidController."""
         return bool(np.any(self.gains.ki_V_per_rad_s != 0.0)) or self.sampled(time_step_s)
@@ -203,7 +246,7 @@ class SpatialMotorDrive:
         """The joint damping folded into the plant (stepped implicitly, added back by the law): the loop's
         D (PD + back EMF) when the law acts at every step; the back EMF alone when the law is sampled (its
         derivative acts on the sampled speed, held: not a damping of the plant's own step); none explicitly."""
-        if self.explicit:
+        if self.explicit or self.current_held(time_step_s):  # (a current loop cancels the back EMF)
             return np.zeros(self.params.n)
         if self.sampled(time_step_s):
             return back_emf_damping(self.params)
@@ -219,7 +262,8 @@ class SpatialMotorDrive:
         require_joint_order(plant, arm_instance, mp.names)  # the motors' torques go to the actuators in this order
         opts = SPATIAL_FEEDFORWARD[self.feedforward]
         sampled, D = self.sampled(time_step_s), self.plant_damping_Nms(time_step_s)
-        back_emf = opts.get("back_emf_feedforward", False)
+        current = self.current_held(time_step_s)  # the current loop cancels the measured speed's back EMF itself
+        back_emf = opts.get("back_emf_feedforward", False) and not current
         ff_state, ff_acc, ahead = desired_state_port, desired_acceleration_port, None
         if sampled and self.hold_compensation != "none" and (back_emf or opts.get("inverse_dynamics_feedforward")):
             if reference is None:
@@ -227,11 +271,11 @@ class SpatialMotorDrive:
             ahead = builder.AddNamedSystem("hold_compensated_reference", HoldCompensatedReference(
                 *reference[:2], self.control_period_s, time_step_s, self.hold_compensation))
             ff_state, ff_acc = ahead.GetOutputPort("desired_state"), ahead.GetOutputPort("desired_acceleration")
-        pid = JointPidController(self.gains, mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
+        pid = JointPidController(self.law_gains(time_step_s), mp.gear_ratio, mp.voltage_limit_V, control_period_s=time_step_s,
                                  motor=mp, back_emf_feedforward=back_emf,
                                  torque_feedforward=opts.get("inverse_dynamics_feedforward", False),
                                  hold_period_s=self.control_period_s if sampled else None,
-                                 feedforward_velocity_port=ahead is not None and back_emf)
+                                 feedforward_velocity_port=ahead is not None and back_emf, current_loop=current)
         pm = mp if self.plant_params is None else self.plant_params  # the motors simulated (a sweep draws them)
         # a PD law at every step is one compiled system with the motors; a PID or a sampled law runs as the
         # Python controller (the integral and the held voltage are discrete states) driving the motors as

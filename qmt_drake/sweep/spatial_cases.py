@@ -252,7 +252,8 @@ def drawn_drive(nominal: SpatialMotorDrive, sc, physical, values: dict,
     kp, kd = float(values.get("kp_scale", 1.0)), float(values.get("kd_scale", 1.0))
     if kp != 1.0 or kd != 1.0:
         g = d.gains
-        d = dataclasses.replace(d, gains=PidGains(g.kp_V_per_rad * kp, g.ki_V_per_rad_s * kp, g.kd_V_s_per_rad * kd))
+        d = dataclasses.replace(d, gains=PidGains(g.kp_V_per_rad * kp, g.ki_V_per_rad_s * kp, g.kd_V_s_per_rad * kd),
+                                gain_scales=(kp, kd))  # (a held current law's own gains scaled alike: law_gains)
     if "loop_period_s" in values:  # the law sampled and held at the drawn period (at least the plant step)
         d = dataclasses.replace(d, control_period_s=check_control_period(float(values["loop_period_s"])))
     return d

@@ -13,6 +13,11 @@ Sampled law (`hold_period_s` = T_h > T_c, a firmware loop slower than the plant 
 sample instants only and held (zero-order hold) in between; a sample falls on the first update (period T_c)
 at or after each k T_h, its voltage applies from that step on (no computation delay), and the integral then
 grows by T_h e_m per sample. hold_period_s None (default): u is evaluated at every step, as before.
+A held VOLTAGE drives a current (V - K_e N qd)/R that falls over the hold as the joint speeds up: the motors'
+torque saws by b qdd (T_h - T_c) per hold (b = N^2 eta Kt^2 / R, the back-EMF damping), which on motors whose b
+dominates the joint inertia (b/M ~ 90-260 1/s on the UR5 and Panda) saws the arm's acceleration by tens of percent.
+`current_loop` models the amplifier's current loop instead: u is then a current command R i_cmd held over the hold,
+and the output at every step is u + K_e N qd with the speed measured at that step, so i = i_cmd throughout.
 A feedforward evaluated at the sample instant and held lags the plan by T_h/2 on average (a feedforward
 ramp of slope s held by a zero-order hold is s (T_h - T_c)/2 short of the every-step law over the hold, s T_h/2
 of a continuous one). `HoldCompensatedReference` gives the feedforward the reference's mean over the coming
@@ -128,10 +133,14 @@ class JointPidController(LeafSystem):
 
     def __init__(self, gains: PidGains, gear_ratio, voltage_limit_V, *, control_period_s: float = 1e-3,
                  motor=None, back_emf_feedforward: bool = False, torque_feedforward: bool = False,
-                 hold_period_s: float | None = None, feedforward_velocity_port: bool = False):
+                 hold_period_s: float | None = None, feedforward_velocity_port: bool = False,
+                 current_loop: bool = False):
         """motor: a DcMotorParams, needed for either feedforward (Kt, R, efficiency). hold_period_s [s]: the
         sampled law's period (module docstring), at least control_period_s; None: evaluated every step.
-        feedforward_velocity_port: the back-EMF feedforward reads the input feedforward_velocity."""
+        feedforward_velocity_port: the back-EMF feedforward reads the input feedforward_velocity.
+        current_loop (a held law only, needs motor): the held u is the amplifier's current command R i_cmd [V]
+        and the output at every step is u + K_e N qd (qd measured that step): a current loop that cancels the
+        back EMF, so the motors' current stays i_cmd over the hold (module docstring)."""
         super().__init__()
         n = gains.n
         self._n = n
@@ -154,6 +163,10 @@ class JointPidController(LeafSystem):
         self._ffv_in = self.DeclareVectorInputPort("feedforward_velocity", n) if feedforward_velocity_port else None
         self._has_integral = bool(np.any(gains.ki_V_per_rad_s != 0.0))
         self._Th = None if hold_period_s is None else float(hold_period_s)
+        if current_loop and (self._Th is None or motor is None or back_emf_feedforward):
+            raise ValueError("current_loop is a held law's (hold_period_s) with the motor given and no back-EMF "
+                             "feedforward (the loop cancels the measured speed's back EMF itself)")
+        self._ke_loop = motor.torque_constant_Nm_per_A * self._N if current_loop else None
         if self._Th is not None and not self._Th >= self._Tc:
             raise ValueError(f"hold_period_s {self._Th} s is shorter than the control period {self._Tc} s")
         if self._has_integral:
@@ -190,10 +203,13 @@ class JointPidController(LeafSystem):
 
     def _calc_voltage(self, context, output: BasicVector):
         if self._Th is not None and not self._sampling_now(context):  # between samples: the held voltage
-            output.SetFromVector(context.get_discrete_state(self._held).get_value())
-            return
-        u, _ = self._unsaturated(context)
-        output.SetFromVector(np.minimum(np.maximum(u, -self._Vmax), self._Vmax))
+            v = context.get_discrete_state(self._held).get_value()
+        else:
+            u, _ = self._unsaturated(context)
+            v = np.minimum(np.maximum(u, -self._Vmax), self._Vmax)
+        if self._ke_loop is not None:  # the current loop: + the back EMF of the speed measured at this step
+            v = np.minimum(np.maximum(v + self._ke_loop * self._x_in.Eval(context)[self._n:], -self._Vmax), self._Vmax)
+        output.SetFromVector(v)
 
     def _integrated(self, context, u, e, period_s: float):
         """z after one period_s of the error e, clamped (anti-windup) where u saturates and e pushes further."""
@@ -219,6 +235,17 @@ class JointPidController(LeafSystem):
 HOLD_COMPENSATIONS = ("mean", "midpoint", "none")  # what a held law's feedforward is evaluated on (the first: default)
 
 
+def hold_offsets(hold_period_s: float, time_step_s: float, mode: str = "mean") -> np.ndarray:
+    """The times [s] after a sample instant at which a held feedforward sees the reference (HoldCompensatedReference):
+    "mean": the hold's m plant steps j h, j < m (m = ceil(T_h / h)); "midpoint": their middle, (m - 1) h / 2."""
+    if mode not in HOLD_COMPENSATIONS[:2]:
+        raise ValueError(f"hold compensation {mode!r}: choose one of {', '.join(HOLD_COMPENSATIONS[:2])}")
+    if not 0 < time_step_s <= hold_period_s:
+        raise ValueError(f"hold period {hold_period_s} s and plant step {time_step_s} s: need 0 < step <= period")
+    m = int(np.ceil(hold_period_s / time_step_s - 1e-6))  # the steps a sample's voltage is held over
+    return np.arange(m) * time_step_s if mode == "mean" else np.array([(m - 1) * time_step_s / 2])
+
+
 class HoldCompensatedReference(LeafSystem):
     """The plan as a feedforward held for hold_period_s = T_h from each sample instant t should see it (module
     docstring); the plant steps time_step_s = h, so the hold spans the m steps t + j h < t + T_h. Outputs
@@ -235,12 +262,7 @@ class HoldCompensatedReference(LeafSystem):
 
     def __init__(self, pp, acc, hold_period_s: float, time_step_s: float, mode: str = "mean"):
         super().__init__()
-        if mode not in HOLD_COMPENSATIONS[:2]:
-            raise ValueError(f"hold compensation {mode!r}: choose one of {', '.join(HOLD_COMPENSATIONS[:2])}")
-        if not 0 < time_step_s <= hold_period_s:
-            raise ValueError(f"hold period {hold_period_s} s and plant step {time_step_s} s: need 0 < step <= period")
-        m = int(np.ceil(hold_period_s / time_step_s - 1e-6))  # the steps a sample's voltage is held over
-        self._offsets = np.arange(m) * time_step_s if mode == "mean" else np.array([(m - 1) * time_step_s / 2])
+        self._offsets = hold_offsets(hold_period_s, time_step_s, mode)
         self._pp, self._acc = pp.Clone(), acc.Clone()
         n = pp.rows()
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._calc_state)

@@ -21,7 +21,7 @@ from qmt_drake.plan_files import check_plan_fits
 from qmt_drake.sim.cosim_run import CoSim, run
 from qmt_drake.sim.sim_settings import simulation_of, time_step_of
 from qmt_drake.systems.dynamixel_servo import CRANE_X7_PLANAR_SERVOS
-from qmt_drake.systems.servo_reference import shaped_goals
+from qmt_drake.systems.servo_reference import hold_mean_motion, shaped_goals
 from qmt_drake.tray.cosim import TIME_STEP_S, URDF_PATH, build_tray_cosim, tray_margin
 from qmt_drake.tray.waypoints import GoalSchedule, _stream
 
@@ -36,10 +36,12 @@ MAX_SERVO_DELAY_S = 0.1
 
 
 def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, settle_s: float = SETTLE_S,
-                  tail_s: float = TAIL_S, shaped_for=None) -> GoalSchedule:
+                  tail_s: float = TAIL_S, shaped_for=None, plant_step_s: float = TIME_STEP_S) -> GoalSchedule:
     """Goal stream of `plan` played time_scale times slower, one goal per period_s [s]. shaped_for:
     a tray scenario whose servos the goals are shaped for (systems/servo_reference.py: the goals
-    that make the firmware's loop execute the plan), or None to stream the plan itself."""
+    that make the firmware's loop execute the plan), or None to stream the plan itself. plant_step_s [s]:
+    the simulated plant's step; with a servo period longer than it, the shaped goals' PWM is the plan's mean
+    over each hold's plant steps (servo_reference.hold_mean_motion)."""
     if not (np.isfinite(time_scale) and time_scale > 0):
         raise QmtInputError(f"time scale {time_scale} must be a positive number")
     T = float(plan.motion_time_s) * time_scale
@@ -53,10 +55,16 @@ def plan_schedule(plan, *, time_scale: float = 1.0, period_s: float = 1e-3, sett
     # shaped: the loop's inverse runs on through the tail too (the plan rests at its goal there), so
     # the goal eases back onto the plan's end as the integral takes up the new static load
     t_all = np.arange(0.0, T + tail_s, period_s)
-    q, qd, qdd = plan.sample(t_all / time_scale)
-    qd, qdd = qd / time_scale, qdd / time_scale**2
-    tau = shaped_for.arm.joint_torque(q, qd, qdd)
-    goals = shaped_goals(q, qd, qdd, tau, shaped_for.actuator.datasheets(), shaped_for.actuator.gains(), period_s)
+    def sample(ts):
+        q, qd, qdd = plan.sample(ts / time_scale)
+        return q, qd / time_scale, qdd / time_scale**2
+
+    q, qd, qdd = sample(t_all)
+    held = (q, qd, qdd) if period_s <= plant_step_s * (1 + 1e-9) else hold_mean_motion(sample, t_all, period_s,
+                                                                                        plant_step_s)
+    tau = shaped_for.arm.joint_torque(*held)
+    goals = shaped_goals(q, qd, qdd, tau, shaped_for.actuator.datasheets(), shaped_for.actuator.gains(), period_s,
+                         pwm_speed_rad_s=held[1])
     return GoalSchedule(np.concatenate([[0.0], settle_s + t_all]), np.vstack([goals[:1], goals]),
                         settle_s + T + tail_s, {"settle": (0.0, settle_s), "move": (settle_s, settle_s + T)},
                         label + " shaped")
