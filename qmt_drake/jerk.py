@@ -33,12 +33,13 @@ import numpy as np
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk_filter import FilteredTiming, exact_peak_jerk
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
-from qmt_drake.planners.spatial_trajectory import TimeScaled, ToppraTrajectory, scale_to_hold
+from qmt_drake.planners.spatial_trajectory import TimeScaled, ToppraTrajectory, check, scale_to_hold
 from qmt_drake.timescale import Grow, search_scale
 
 JERK_REL_TOL = 1e-4
 JERK_K_MAX = 1e4
-JERK_WINDOWS = 12  # widths scanned (geometric) over [2 / rate, T] for each box, then 5 between the best's neighbours
+JERK_WINDOWS = 10  # widths scanned (geometric) over [2 / rate, T] for each box, then 5 between the best's neighbours
+PROXY_RATE_DIVISOR = 10.0  # the windows' ranking checks the other limits at a tenth of the re-check rate
 C2_REL_TOL = 1e-8  # q_ss left vs right of a knot, relative to its largest magnitude: a C2 path
 
 
@@ -68,7 +69,7 @@ def jerk_time_scale(ratio, ratio_before: float, who: str, k_max: float = JERK_K_
     return found.holding
 
 
-def _base_timing(traj):
+def filter_base(traj):
     """(ToppraTrajectory, its time scale) of a TOPP-RA plan's trajectory, or (None, why not filtered)."""
     k = 1.0
     if isinstance(traj, TimeScaled):
@@ -95,24 +96,29 @@ def is_c2(pp) -> bool:
 
 
 def best_windows(sc, base, k_hold: float, rate_hz: float) -> dict:
-    """{'windows_s' (in the base's time), 'scale' K, 'duration_s'} minimising K (T + sum of windows), K the
-    smallest scale >= k_hold whose exact peak jerk (jerk_filter.exact_peak_jerk) is within the limits: one
-    box or two (the second no wider), scanned on a geometric grid of widths from 2 / rate_hz to T, then on a
-    finer grid between the best one's neighbours."""
+    """{'windows_s' (in the base's time), 'scale' K, 'duration_s', 'estimate_s'}: one box or two, scanned on
+    a geometric grid of widths from 2 / rate_hz to T, then on a finer grid around the best one. K is the
+    smallest scale >= k_hold whose exact peak jerk (jerk_filter.exact_peak_jerk) is within the limits, and
+    the best has the shortest estimate of the plan's duration once its other limits hold: K (T + sum of
+    windows) times sqrt of the largest ratio of a sampled check at rate_hz / PROXY_RATE_DIVISOR (an
+    inertial ratio falls as 1/k^2; only a ranking: the plan's own scale is then found by the re-check)."""
     def trial(w):
         f = FilteredTiming(base, w)
         r = exact_peak_jerk(sc, f, rate_hz * k_hold)["peak_jerk_ratio"]  # at scale 1, read as densely as at k_hold
         K = max(k_hold, r ** (1.0 / 3.0) * (1.0 + JERK_REL_TOL))
-        return {"windows_s": tuple(w), "scale": float(K), "duration_s": float(K * f.duration_s)}
+        limits = check(sc, TimeScaled(f, K), rate_hz / PROXY_RATE_DIVISOR)["max_timed"]
+        T = K * f.duration_s
+        return {"windows_s": tuple(w), "scale": float(K), "duration_s": float(T),
+                "estimate_s": float(T * math.sqrt(max(limits, 1.0)))}
 
     widths = np.geomspace(2.0 / rate_hz, base.duration_s, JERK_WINDOWS)
     step = widths[1] / widths[0]
     coarse = [(w1,) for w1 in widths] + [(w1, w2) for i, w1 in enumerate(widths) for w2 in widths[:i + 1]]
-    best = min((trial(w) for w in coarse), key=lambda x: x["duration_s"])
+    best = min((trial(w) for w in coarse), key=lambda x: x["estimate_s"])
     w = best["windows_s"]
     near = np.geomspace(1.0 / step, step, 5)
     finer = [(w[0] * a,) + tuple(x * b for x in w[1:]) for a in near for b in (near if len(w) > 1 else [1.0])]
-    return min([best, *(trial(x) for x in finer)], key=lambda x: x["duration_s"])
+    return min([best, *(trial(x) for x in finer)], key=lambda x: x["estimate_s"])
 
 
 def filtered_plan(sc, plan, base, k_hold: float):
@@ -167,7 +173,7 @@ def jerk_limited_plan(sc, plan):
     filter cannot bound the jerk, the plan slowed; the plan itself when its sampled jerk is within them."""
     if peak_jerk(sc, plan.trajectory, sc.recheck_rate_hz)["peak_jerk_ratio"] <= 1.0:
         return slowed_plan(sc, plan, "already within the jerk limits")
-    base, k_hold = _base_timing(plan.trajectory)
+    base, k_hold = filter_base(plan.trajectory)
     if base is None:
         return slowed_plan(sc, plan, str(k_hold))
     if plan.recheck["max"] > 1.0:

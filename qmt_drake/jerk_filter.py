@@ -40,6 +40,7 @@ from qmt_drake.planners.spatial_trajectory import TimeScaled, ToppraTrajectory
 from qmt_drake.trajectory import ONE_SIDED_S, JointTrajectory
 
 MAX_BOXES = 2  # the base's antiderivatives are kept to the second
+TIME_AT_TOL = 1e-12  # path units: time_at's s_f(t) - s (on a path a few rad long; FK measures the poses)
 TIME_AT_ITERATIONS = 100  # at most, in time_at (Newton converges in a few; bisection halves a bracket to rounding)
 
 
@@ -116,7 +117,7 @@ class FilteredTiming(JointTrajectory):
     def time_at(self, s) -> np.ndarray:
         """The times [s] at which the filtered timing reaches path positions s: s_f(t) lies between the base's
         s(t - sum of windows) and s(t), so t is bracketed by the base's time there and that plus the windows;
-        safeguarded Newton (s_f' exact) inside the bracket, bisection where a step leaves it."""
+        safeguarded Newton (s_f' exact) inside the bracket, bisection where a step leaves it, to TIME_AT_TOL."""
         s = np.atleast_1d(np.asarray(s, float))
         lo = np.clip(self.base.time_at(s), 0.0, self.duration_s)
         hi = np.minimum(lo + sum(self.windows_s), self.duration_s)
@@ -127,7 +128,7 @@ class FilteredTiming(JointTrajectory):
             lo, hi = np.where(f < 0.0, t, lo), np.where(f < 0.0, hi, t)
             newton = t - f / np.where(v > 0.0, v, np.inf)
             t = np.where((newton > lo) & (newton < hi), newton, 0.5 * (lo + hi))
-            if np.all((hi - lo <= 4.0 * np.spacing(self.duration_s)) | (np.abs(f) <= np.spacing(s))):
+            if np.all((hi - lo <= 4.0 * np.spacing(self.duration_s)) | (np.abs(f) <= TIME_AT_TOL)):
                 break
         return t
 
