@@ -6,15 +6,18 @@ constant s-ddot per grid interval, so its acceleration steps at grid points: its
 continuous time, and sampled at rate R a step da reads da R. The number is therefore always given
 with its rate; a stream sampled at a lower rate than the one checked reads a lower jerk.
 
-`jerk_limited_plan(sc, plan)`: the TOPP-RA plan's path timing seen through a moving average of width
-w (jerk_filter.FilteredTiming: the same path, its jerk bounded in closed form) and played K times
-slower (K >= the plan's own hold scale): the jerk of the smooth part falls as 1/K^3, so for each w the
-smallest K is (exact peak jerk ratio)^(1/3); w is chosen to make K (T + w) the shortest (a geometric
-scan of JERK_WINDOWS widths, then the same scan between the best one's neighbours). The exact jerk is
-read at the re-check rate and on both sides of every breakpoint (where it jumps), so the sampled jerk at
-any rate is within the limit. The other limits are then re-checked and the timing slowed until they
-hold (spatial_trajectory.scale_to_hold, refined between samples and on the pieces). Duration
-K (T_raw + w) = T_raw K + tau, tau = K w the window in the plan's time.
+`jerk_limited_plan(sc, plan)`: the TOPP-RA plan's path timing seen through one or two moving averages
+of widths w (jerk_filter.FilteredTiming: the same path, its jerk bounded and exact in closed form) and
+played K times slower (K >= the plan's own hold scale). The jerk scales as 1/K^3, so for given widths the
+smallest K is (exact peak jerk ratio)^(1/3); the widths are scanned (`best_windows`: a geometric grid of
+JERK_WINDOWS widths per box, then finer around the best) for the shortest K (T + sum w) once the other
+limits hold, those ranked by a sampled check at a tenth of the re-check rate. The exact jerk is read at
+the re-check rate and on both sides of every breakpoint (where it jumps; smooth between), so the jerk
+sampled at any rate stays within it. The other limits are then re-checked and the timing slowed until
+they hold (spatial_trajectory.scale_to_hold, refined between samples and on the pieces): the filter
+averages (s'', s'^2) over the window while the limits depend on s. Duration K (T_raw + sum w) =
+T_raw K + tau, tau = K sum w the windows in the plan's time (info: jerk_filter_windows_s, jerk_time_scale
+= K / the plan's hold scale, jerk_recheck_scale the re-check's share of it).
 
 Where the filter cannot bound the jerk (a path that is not C2: its q_ss jumps at a knot, so qdd jumps
 whatever the timing; a plan of rest-to-rest segments; a plan that breaks a limit already), the plan is
@@ -31,7 +34,7 @@ import time
 import numpy as np
 
 from qmt_drake.errors import QmtInputError
-from qmt_drake.jerk_filter import FilteredTiming, exact_peak_jerk
+from qmt_drake.jerk_filter import MAX_BOXES, FilteredTiming, exact_peak_jerk
 from qmt_drake.planners.spatial_plan_io import make_spatial_plan
 from qmt_drake.planners.spatial_trajectory import TimeScaled, ToppraTrajectory, check, scale_to_hold
 from qmt_drake.timescale import Grow, search_scale
@@ -95,9 +98,9 @@ def is_c2(pp) -> bool:
     return bool(np.abs(left - right).max() <= C2_REL_TOL * max(float(np.abs(right).max()), 1e-300))
 
 
-def best_windows(sc, base, k_hold: float, rate_hz: float) -> dict:
-    """{'windows_s' (in the base's time), 'scale' K, 'duration_s', 'estimate_s'}: one box or two, scanned on
-    a geometric grid of widths from 2 / rate_hz to T, then on a finer grid around the best one. K is the
+def best_windows(sc, base, k_hold: float, rate_hz: float, boxes: int = MAX_BOXES) -> dict:
+    """{'windows_s' (in the base's time), 'scale' K, 'duration_s', 'estimate_s'}: one box or two (at most
+    `boxes`), scanned on a geometric grid of widths from 2 / rate_hz to T, then finer around the best. K is the
     smallest scale >= k_hold whose exact peak jerk (jerk_filter.exact_peak_jerk) is within the limits, and
     the best has the shortest estimate of the plan's duration once its other limits hold: K (T + sum of
     windows) times sqrt of the largest ratio of a sampled check at rate_hz / PROXY_RATE_DIVISOR (an
@@ -113,7 +116,7 @@ def best_windows(sc, base, k_hold: float, rate_hz: float) -> dict:
 
     widths = np.geomspace(2.0 / rate_hz, base.duration_s, JERK_WINDOWS)
     step = widths[1] / widths[0]
-    coarse = [(w1,) for w1 in widths] + [(w1, w2) for i, w1 in enumerate(widths) for w2 in widths[:i + 1]]
+    coarse = [(w1,) for w1 in widths] + [(w1, w2) for i, w1 in enumerate(widths) for w2 in widths[:i + 1] if boxes > 1]
     best = min((trial(w) for w in coarse), key=lambda x: x["estimate_s"])
     w = best["windows_s"]
     near = np.geomspace(1.0 / step, step, 5)

@@ -130,7 +130,7 @@ class FilteredTiming(JointTrajectory):
             t = np.where((newton > lo) & (newton < hi), newton, 0.5 * (lo + hi))
             if np.all((hi - lo <= 4.0 * np.spacing(self.duration_s)) | (np.abs(f) <= TIME_AT_TOL)):
                 break
-        return t
+        return np.where(s <= self.base.grid[0], 0.0, np.where(s >= self.base.grid[-1], self.duration_s, t))  # at rest
 
     @property
     def breakpoints_s(self) -> np.ndarray:
