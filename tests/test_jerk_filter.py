@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.errors import QmtInputError
 from qmt_drake.export import export_plan
 from qmt_drake.jerk import filter_base, is_c2, jerk_limited_plan, peak_jerk
 from qmt_drake.jerk_filter import FilteredTiming, exact_peak_jerk, joint_jerk
@@ -124,6 +125,11 @@ def test_plan_file_reloads_exactly_and_exports(sc, jl, tmp_path):
     assert again.recheck["max"] == pytest.approx(jl.recheck["max"], abs=1e-9)
     rep = export_plan(sc, again, "csv", 1000.0, tmp_path / "s.csv", "cubic")
     assert rep["n_samples"] > 0 and rep["plan_peak_jerk"]["peak_jerk_ratio"] <= 1.0
+    for bad in ([-0.01], [], "wide", [0.01, 0.01, 0.01]):  # an edited file is refused in one line
+        d["rebuild"]["inner"]["windows_s"] = bad
+        (tmp_path / "bad.json").write_text(json.dumps(d))
+        with pytest.raises(QmtInputError, match="cannot rebuild its trajectory"):
+            load_plan(tmp_path / "bad.json", sc)
 
 
 def test_exact_peak_reads_both_sides_of_a_jump(sc, base):
