@@ -74,7 +74,7 @@ REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: a `rebuild` against the samples writt
 # by that name on first use (as plan.plan_kind does for the scenario kinds: that module imports this one).
 REBUILD_MODULES = {"ruckig": "qmt_drake.planners.baselines.ruckig_plan", "bspline": "qmt_drake.planners.baselines.trajopt_plan",
                    "path_timing": "qmt_drake.planners.baselines.paths",
-                   "drake_timed": "qmt_drake.planners.baselines.toppra_plan"}
+                   "drake_timed": "qmt_drake.planners.baselines.toppra_plan", "filtered_toppra": "qmt_drake.jerk_filter"}
 REBUILDERS: dict[str, Callable[[dict, Any], JointTrajectory]] = {}
 
 

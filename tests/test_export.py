@@ -10,7 +10,7 @@ import yaml
 from qmt_drake.apps.cli import main
 from qmt_drake.errors import QmtInputError
 from qmt_drake.export import LinearStream, check_rate, export_plan, stream_samples
-from qmt_drake.jerk import jerk_limited_plan, peak_jerk
+from qmt_drake.jerk import peak_jerk, slowed_plan
 from qmt_drake.planners.spatial_methods import plan_toppra_spatial
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.retime import load_plan_file
@@ -87,7 +87,7 @@ def test_ros2_yaml_round_trip_and_csv_header(sc, plan, tmp_path):
 
 def test_jerk_limited_toppra_is_within_the_jerk_limits_and_no_faster_scaling_is(sc, plan):
     before = peak_jerk(sc, plan.trajectory, sc.recheck_rate_hz)["peak_jerk_ratio"]
-    jl = jerk_limited_plan(sc, plan)
+    jl = slowed_plan(sc, plan, "the old --jerk-limited, kept as the fallback (tests/test_jerk_filter.py: the filter)")
     k = jl.info["jerk_time_scale"]
     assert before > 1.0 and k > 1.0 and jl.info["peak_jerk_ratio"] <= 1.0
     assert jl.duration_s == pytest.approx(plan.duration_s * k, rel=1e-12)

@@ -73,8 +73,8 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
                    help="planner option (e.g. path=joint_line, jerk_limit=10)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
-    s.add_argument("--jerk-limited", action="store_true", help="spatial --method toppra: slowed until its peak jerk "
-                   "is within the scenario's jerk limits (qmt_drake/jerk.py)")
+    s.add_argument("--jerk-limited", action="store_true", help="spatial --method toppra: its path timing box-filtered "
+                   "and slowed until its jerk is within the scenario's jerk limits (qmt_drake/jerk.py)")
     s.add_argument("--avoid", nargs="?", const="poses", choices=("poses", "ends"), default=None,
                    help="spatial scenarios with world.obstacles: plan along a collision-free path "
                         "(planners/collision_free.py: RRT-Connect, shortcut, certified spline) through every task "

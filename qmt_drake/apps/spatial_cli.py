@@ -272,8 +272,13 @@ def summary_line(sc, p, bound) -> str:
             f"{p.pose_error[:, 0].max():.1e} m, {p.planning_s:.2f} s")
     pj = peak_jerk(sc, p.trajectory, sc.recheck_rate_hz)
     line += f", peak jerk {pj['peak_jerk_ratio']:.3g} x the limit at {sc.recheck_rate_hz:g} Hz"
-    if p.info.get("jerk_limited"):
-        line += f" (jerk-limited: {p.info['jerk_time_scale']:.4f} x slower than {p.info['duration_before_jerk_limit_s']:.4f} s)"
+    if p.info.get("jerk_limited") == "box_filter":  # qmt_drake/jerk.py
+        w = " + ".join(f"{x:.4f}" for x in p.info["jerk_filter_windows_s"])
+        line += (f" (jerk-limited: TOPP-RA's timing filtered over {w} s and {p.info['jerk_time_scale']:.4f} x slower, "
+                 f"from {p.info['duration_before_jerk_limit_s']:.4f} s)")
+    elif p.info.get("jerk_limited"):
+        line += (f" (jerk-limited: {p.info['jerk_time_scale']:.4f} x slower than {p.info['duration_before_jerk_limit_s']:.4f} s;"
+                 f" not filtered: {p.info['jerk_filter_not_used']})")
     if p.clearance:
         c = p.clearance
         line += (f", clearance >= {c['clearance_m']:.4f} m (no obstacle nearer)" if c["clearance_pair"] is None else

@@ -18,6 +18,7 @@ what identifies its scenario (`scenario`, `scenario_kind` = plan.SPATIAL_PLAN_KI
               segments of a family (planners/spatial_families.SegmentTrajectory)
     {"kind": "ruckig", "segments": [{q_start_rad, q_goal_rad, max_velocity_rad_s,
               max_acceleration_rad_s2, max_jerk_rad_s3}]}         Ruckig run again (deterministic)
+    {"kind": "filtered_toppra", "base": {toppra}, "windows_s"}  TOPP-RA's timing box-filtered (jerk_filter.py)
 
 Floats are written by repr (exact), so the rebuilt trajectory is the planned one to rounding;
 `write_spatial_plan` proves it on every write (rebuilt vs planned at 1 kHz, REBUILD_TOL) and never
@@ -43,7 +44,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import clearance
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, a_kind, ratio_report, register_plan_kind
-from qmt_drake.plan_files import plan_file_kind, read_plan_file
+from qmt_drake.plan_files import REBUILD_MODULES, plan_file_kind, read_plan_file, trajectory_from_rebuild
 from qmt_drake.plan_identity import (
     IDENTITY_KEY,
     check_identity,
@@ -187,6 +188,8 @@ def trajectory_spec(traj, ruckig_segments=None) -> dict:
                 "control_points_rad": np.hstack(bs.control_points()).T}
     if isinstance(traj, PolynomialTrajectory):
         return _cubic_spec(traj.pp)
+    if callable(getattr(traj, "file_spec", None)):  # a kind registered in plan_files (jerk_filter.FilteredTiming)
+        return traj.file_spec()
     raise ValueError(f"no plan-file form for a {type(traj).__name__}")
 
 
@@ -222,6 +225,8 @@ def trajectory_from_spec(spec: dict):
     if kind == "ruckig":
         keys = ("q_start_rad", "q_goal_rad", "max_velocity_rad_s", "max_acceleration_rad_s2", "max_jerk_rad_s3")
         return RuckigTrajectory([ruckig_rest_to_rest(*(_arr(s, k, 1) for k in keys)) for s in spec["segments"]])
+    if kind in REBUILD_MODULES:  # plan_files' registry (imported by name on first use)
+        return trajectory_from_rebuild(spec, None)
     raise ValueError(f"unknown trajectory kind {kind!r}")
 
 
