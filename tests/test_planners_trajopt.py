@@ -84,3 +84,27 @@ def test_infeasible_limits_give_infeasible_plans():
     far = load_scenario("thesis-ch3", overrides={"task": {"points_m": [[0.22, 0.15], [0.5, 0.5]]}})
     p = plan_trajopt(far, **QUICK)
     assert not p.feasible and "unreachable" in p.extra["infeasible"]
+
+
+def test_a_point_snopt_stops_on_within_every_constraint_is_a_plan():
+    """SNOPT stopped by its iteration limit on a point meeting every constraint within 1e-6 is a trajectory of the
+    program (trajopt_core.TrajoptResult.usable, the spatial trajopt's rule): planned and re-checked, not proven
+    minimal; stopped earlier, on a point that breaks the moment rows, it stays an infeasible plan naming them.
+    Checked independently: the tip through the vias at their times and the moment and motor torque by Drake's
+    own kinematics and inverse dynamics on 20 kHz samples, twice the re-check's rate."""
+    sc = load_scenario("thesis-ch4")
+    p = plan_trajopt(sc, major_iterations=12, **QUICK)  # SNOPT's kIterationLimit on a point within every row
+    assert p.extra["solution_result"].endswith("kIterationLimit") and p.extra["proven_optimal"] is False
+    assert p.feasible
+    sv = np.array(p.extra["via_normalized_times"])
+    np.testing.assert_allclose(sc.arm.tip_position(p.sample(sv * p.motion_time_s)[0]), sc.task.points_m[1:-1],
+                               atol=1e-6)
+    q, qd, qdd = p.sample(np.linspace(0.0, p.motion_time_s, int(20000 * p.motion_time_s)))
+    lin, _, tau, _ = sc.arm.drake_chain.hand_acceleration_and_joint_torque(q, qd, qdd)
+    A = sc.limits.moment_limit_Nm / sc.moment_per_accel_kgm
+    assert np.linalg.norm(lin, axis=1).max() / A <= 1.0 + 1e-6
+    motor = np.abs(tau / sc.arm.gear_ratio) / sc.limits.motor_torque_limit_Nm
+    assert motor.max() <= 1.0 + 1e-6
+    early = plan_trajopt(sc, major_iterations=8, **QUICK)
+    assert early.extra["proven_optimal"] is False and not early.feasible
+    assert "its point breaks 2 constraints (moment s=" in early.extra["infeasible"]

@@ -17,7 +17,10 @@
   duration under joint position/speed/acceleration/jerk bounds, zero velocity and acceleration at
   both ends, every point of the IK'd geometric path (task poses and transfer points, so the cup
   stays near face-down between them) an equality constraint at a fixed path parameter (given
-  fractions, e.g. TOPP-RA's times at them over its duration, else joint chord-length shares), and
+  fractions, e.g. TOPP-RA's times at them over its duration, else joint chord-length shares, and where
+  those find no trajectory the times a rest-to-rest move at constant acceleration covers the shares,
+  `point_fractions_rule` in the plan: a spline at rest at an end reaches a point near it in share only
+  through a small basis weight), and
   the hand's face normal within `max_tilt_rad` (0.02 rad) of the path's (slerped between path points)
   at `tilt_samples` (40) evenly spaced path parameters (Drake's AngleBetweenVectorsConstraint: without
   it the spline tilts the hand between path points until gravity alone breaks the magnet's moment
@@ -145,18 +148,44 @@ def plan_ruckig_spatial(sc) -> SpatialPlan:
 def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, max_tilt_rad: float = 0.02,
                          tilt_samples: int = 40, clearance_m: float = MARGIN_M) -> SpatialPlan:
     """trajopt (module docstring); in a cell (sc.obstacles) the result keeps clearance_m from the obstacles
-    where the plain program does not clear (planners/trajopt_clearance.keep_clear; 0: the plain program only)."""
+    where the plain program does not clear (planners/trajopt_clearance.keep_clear; 0: the plain program only).
+    point_fractions None: the path points at their joint chord shares, and where that finds no trajectory, at the
+    times a rest-to-rest move at constant acceleration covers those shares (trajopt_core.rest_to_rest_fractions)."""
     t0 = time.perf_counter()
     if not (np.isfinite(clearance_m) and clearance_m >= 0.0):
         raise QmtInputError(f"trajopt clearance_m {clearance_m!r} must be a distance >= 0 in m (0: no clearance constraint)")
-    Q, n = sc.q_path_rad, sc.n_dof
+    Q = sc.q_path_rad
     if point_fractions is None:
         d = np.linalg.norm(np.diff(Q, axis=0), axis=1)
         c = np.r_[0.0, np.cumsum(d)]
-        point_fractions = c / c[-1]  # the last exactly 1 (Drake aborts on a path parameter above 1)
-    s = np.asarray(point_fractions, float)
-    if s.shape != (len(Q),) or s[0] != 0.0 or s[-1] != 1.0 or np.any(np.diff(s) <= 0.0):
-        raise QmtInputError(f"trajopt point_fractions: give {len(Q)} rising fractions from 0 to 1, one per path point")
+        shares = c / c[-1]  # the last exactly 1 (Drake aborts on a path parameter above 1)
+        tries = [("chord shares", shares), ("rest-to-rest times", trajopt_core.rest_to_rest_fractions(shares))]
+    else:
+        tries = [("given", np.asarray(point_fractions, float))]
+    refusals: list[str] = []
+    for rule, s in tries:
+        if s.shape != (len(Q),) or s[0] != 0.0 or s[-1] != 1.0 or np.any(np.diff(s) <= 0.0):
+            raise QmtInputError(f"trajopt point_fractions: give {len(Q)} rising fractions from 0 to 1, one per path point")
+        res, info, refusal = _trajopt_at(sc, s, control_points, max_tilt_rad, tilt_samples, clearance_m)
+        if refusal is None:
+            break
+        refusals.append(f"({rule}) {refusal}")
+    else:
+        raise QmtNoPlanError("trajopt found no trajectory through the task poses: " + "; ".join(refusals)
+                             + "; give it more control points or relax a limit")
+    if refusals:  # the chord shares found none: the plan is at the rest-to-rest times
+        info["chord_shares_refused"] = refusals[0]
+    traj = PolyTrajectory(res.trajectory)
+    return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
+                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s,
+                    "point_fractions_rule": rule, "solution_result": res.solution_result,
+                    "proven_optimal": bool(res.success), **info})
+
+
+def _trajopt_at(sc, s, control_points: int, max_tilt_rad, tilt_samples: int, clearance_m: float) -> tuple:
+    """(result, facts, None) of the program with the path points at fractions s (and, in a cell, the clearance
+    kept: trajopt_clearance.keep_clear), or (result, facts, what its point breaks) where it found no trajectory."""
+    Q, n = sc.q_path_rad, sc.n_dof
     lower, upper = sc.plant.GetPositionLowerLimits(), sc.plant.GetPositionUpperLimits()
     tilt = []
     if max_tilt_rad is not None:  # the face normal within max_tilt_rad of the path's at tilt_samples points
@@ -174,15 +203,11 @@ def plan_trajopt_spatial(sc, *, control_points: int = 16, point_fractions=None, 
     if sc.obstacles and clearance_m > 0.0:  # the clearance as a constraint where the plain program does not keep it
         res, kept = keep_clear(sc, problem, res, clearance_m, max_tilt_rad, tilt_samples)
         info["trajopt_clearance"] = kept
-    if not (res.usable or info.get("trajopt_clearance", {}).get("used")):  # usable: trajopt_core.TrajoptResult
-        rounds = info.get("trajopt_clearance", {}).get("rounds")
-        also = f"; nor with the clearance ({rounds[-1]['result']}: its point {rounds[-1]['breaks']})" if rounds else ""
-        raise QmtNoPlanError(f"trajopt found no trajectory through the task poses ({res.solution_result}: its point "
-                             f"{breaks(res, problem, max_tilt_rad)}{also}); give it more control points or relax a limit")
-    traj = PolyTrajectory(res.trajectory)
-    return finish_or_least_violating(sc, "trajopt", traj, s[sc.path_pose_index] * traj.duration_s, t0,
-                   {"control_points": control_points, "solver": "SNOPT", "point_fractions": s,
-                    "solution_result": res.solution_result, "proven_optimal": bool(res.success), **info})
+    if res.usable or info.get("trajopt_clearance", {}).get("used"):  # usable: trajopt_core.TrajoptResult
+        return res, info, None
+    rounds = info.get("trajopt_clearance", {}).get("rounds")
+    also = f"; nor with the clearance ({rounds[-1]['result']}: its point {rounds[-1]['breaks']})" if rounds else ""
+    return res, info, f"{res.solution_result}: its point {breaks(res, problem, max_tilt_rad)}{also}"
 
 
 def _normal_at(sc, fractions, x: float) -> np.ndarray:

@@ -125,6 +125,15 @@ class TrajoptResult:
         return self.success or self.infeasible_constraints == []
 
 
+def rest_to_rest_fractions(shares) -> np.ndarray:
+    """The time fractions at which a rest-to-rest move at constant acceleration magnitude (accelerating to half
+    way, then braking) covers the given shares (rising, 0 to 1) of its length: x = sqrt(c / 2) to c = 1/2, then
+    1 - sqrt((1 - c) / 2). Points near the ends get more time than their share, as any move from rest gives them
+    (a spline at rest at an end reaches a point at a share near that end only through a small basis weight)."""
+    c = np.clip(np.asarray(shares, float), 0.0, 1.0)
+    return np.where(c <= 0.5, np.sqrt(c / 2.0), 1.0 - np.sqrt((1.0 - c) / 2.0))
+
+
 def _fractions(samples, basis) -> np.ndarray:
     return np.asarray(samples(basis) if callable(samples) else samples, float)
 

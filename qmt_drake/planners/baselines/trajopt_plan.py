@@ -23,7 +23,11 @@ The constraints hold at the samples; the result is re-checked at 10 kHz like eve
 breaks a limit between samples, played slower by the exact factor with the raw overshoot kept in
 extra["raw_check"] (toppra_plan.finish_plan). SNOPT finds a local optimum, so the duration is an
 estimate of what any path could do (the free-path bound), not a certificate: extra["solver"]
-holds the solver's status.
+holds the solver's status. A solve SNOPT stops unsolved (its iteration limit, its exit 41) on a point
+that meets every constraint within trajopt_core.INFEASIBLE_TOL is a trajectory of the program
+(trajopt_core.TrajoptResult.usable, the spatial trajopt's one rule): it is finished and re-checked like a
+solved one, with extra["proven_optimal"] false and extra["solution_result"] saying why; any other unsolved
+point is an infeasible plan naming the constraints it breaks.
 """
 
 from __future__ import annotations
@@ -199,14 +203,19 @@ def plan_trajopt(scenario, *, num_control_points: int = 16, constraint_samples: 
     extra["solver"] = {"name": "SNOPT", "success": res.success, "info": res.info,
                        "solution_result": res.solution_result,
                        "duration_s": res.duration_s, "solve_wall_s": res.solve_wall_s}
+    extra["solution_result"] = res.solution_result
+    extra["proven_optimal"] = bool(res.success)  # usable but unsolved: a trajectory of the program, not proven minimal
     traj = BsplineJointTrajectory(res.trajectory)
     wall = time.perf_counter() - t_start
-    if not res.success:
+    if not res.usable:  # trajopt_core.TrajoptResult.usable: solved, or stopped on a point meeting every constraint
         at_bound = traj.duration_s >= T_max * (1 - 1e-6)
+        names = sorted(set(res.infeasible_constraints or []))
         return infeasible_plan(
             scenario, method, f"SNOPT did not converge ({res.solution_result}, info "
             f"{res.info})" + (f" with the duration at its upper bound {T_max:.4f} s (the slowest "
                               "allowed motion): the limits are likely too tight" if at_bound else "")
+            + (f"; its point breaks {len(names)} constraints ({', '.join(names[:3])}"
+               + (", ..." if len(names) > 3 else "") + ")" if names else "")
             + "; the last iterate is kept as the trajectory", planner_wall_s=wall,
             trajectory=traj, extra=extra)
     return finish_plan(scenario, method, traj, planner_wall_s=wall, extra=extra,
