@@ -272,7 +272,7 @@ def _retime_toppra(sc, Q, n_grid: int, info: dict) -> SpatialPlan:
                     acceleration_limit=sc.acceleration_limit_rad_s2, terms=sc.terms(), n_grid=n_grid)
     traj = ToppraTrajectory(pp, r["grid"], r["sd"])
     return finish_plan(sc, "retime_toppra", traj, [0.0, traj.duration_s], t0,
-                       {**info, "n_grid": n_grid, "toppra_solve_s": r["planning_s"]})
+                       {**info, "n_grid": n_grid, "grid_points": len(r["grid"]), "toppra_solve_s": r["planning_s"]})
 
 
 def _retime_ga(sc, Q, info: dict, **ga_options) -> SpatialPlan:
