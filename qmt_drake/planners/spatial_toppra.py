@@ -4,7 +4,8 @@ The path q(s) is a Drake PiecewisePolynomial (`joint_path`: cubic through IK way
 continuous second derivatives and zero end slopes, s the cumulative joint-space chord length, rad).
 `plan_toppra` hands the same object to the `toppra` package (wrapped as its geometric path) with
 joint velocity limits, and the joint accelerations and every LimitTerm whose `toppra_w` / `toppra_rows`
-exist as rows precomputed for all grid points (w of all terms by SpatialChain in three batched calls,
+exist as rows precomputed for all grid points (`path_grid`: evenly spaced, or, on a dense path whose
+short pieces an even grid would step over, the path's knots with those pieces split) (w of all terms by SpatialChain in three batched calls,
 limits/toppra_form.py), solved by the one TOPP-RA (planners/toppra_core.py: two passes over toppra's
 Seidel LP, the same LPs as toppra's TOPPRA, bit for bit, 1000 grid points with
 the UR5's suction rows in about 30 ms instead of 78 ms: studies/bench_spatial.py).
@@ -31,7 +32,8 @@ from qmt_drake.limits.toppra_form import rows_constraints
 from qmt_drake.planners.toppra_core import parameterise, toppra_path
 
 RANGE_SAMPLES_PER_SEGMENT = 64  # where the C2 cubic is looked at for leaving a joint's range
-GRID_CUBIC_TOL = 0.01  # largest |q'''| ds^2 (max over the joints) on a TOPP-RA grid interval (`path_grid`)
+GRID_CUBIC_TOL = 1e-4  # largest |q'''| ds^2 (max over the joints) on an interval of the "knots" grid (`path_grid`)
+GRID_UNIFORM_TOL = 0.01  # "auto" keeps the uniform grid while its |q'''| ds^2 is at most this on every piece
 GRIDS = ("auto", "uniform", "knots")  # `path_grid`'s kinds
 
 
@@ -117,9 +119,9 @@ def _third_derivative(pp) -> np.ndarray:
 def path_grid(pp, n_grid: int = 1000, grid: str = "auto") -> np.ndarray:
     """TOPP-RA's grid points on the piecewise cubic q(s) pp. "uniform": n_grid evenly spaced points.
     "knots": every knot of pp, each piece split into equal intervals no longer than the uniform spacing
-    and short enough that |q'''| ds^2 <= GRID_CUBIC_TOL on it. "auto" (the default): "uniform" when its
-    spacing already meets that bound on every piece (every IK'd task path here, by a factor of 40 or
-    more: the grid and the plan as before), else "knots".
+    and short enough that |q'''| ds^2 <= GRID_CUBIC_TOL on it. "auto" (the default): "uniform" while its
+    |q'''| ds^2 is at most GRID_UNIFORM_TOL on every piece (every IK'd task path here: at most 3e-4; the
+    grid and the plan as before, bit for bit), else "knots".
 
     Why: TOPP-RA holds its rows at the grid points (both ends of each interval: toppra's Interpolation
     scheme), s-ddot u constant between them. Inside an interval the joint acceleration
@@ -129,13 +131,16 @@ def path_grid(pp, n_grid: int = 1000, grid: str = "auto") -> np.ndarray:
     |q'''| ~ 6 / h^2 (h the piece's length): a uniform grid holds several such pieces inside one
     interval, TOPP-RA never sees them, and the re-check then slows the whole plan (x1.6 on a 129-sample
     TALOS stream). More uniform points do not help: the overshoot depends on where the points fall
-    on the short pieces, not on how many there are (x2.5 with 5000)."""
+    on the short pieces, not on how many there are (x2.5 with 5000). GRID_CUBIC_TOL = 1e-4 keeps the
+    overshoot near 1e-4 of a limit, inside the margin TOPP-RA keeps at its grid points, so a check at
+    10x the re-check rate holds too (1e-2 left 5e-5 above a limit inside a piece shorter than one
+    re-check sample, where the re-check's refinement, capped at 64 maxima per column, did not look)."""
     if grid not in GRIDS:
         raise QmtInputError(f"grid {grid!r}: give one of {', '.join(GRIDS)}")
     s0, s1 = float(pp.start_time()), float(pp.end_time())
     du = (s1 - s0) / (n_grid - 1)
     q3 = _third_derivative(pp)
-    if grid == "uniform" or (grid == "auto" and q3.max() * du * du <= GRID_CUBIC_TOL):
+    if grid == "uniform" or (grid == "auto" and q3.max() * du * du <= GRID_UNIFORM_TOL):
         return np.linspace(s0, s1, n_grid)
     knots = np.asarray(pp.get_segment_times(), float)
     h = np.diff(knots)
