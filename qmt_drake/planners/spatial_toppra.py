@@ -4,8 +4,8 @@ The path q(s) is a Drake PiecewisePolynomial (`joint_path`: cubic through IK way
 continuous second derivatives and zero end slopes, s the cumulative joint-space chord length, rad).
 `plan_toppra` hands the same object to the `toppra` package (wrapped as its geometric path) with
 joint velocity limits, and the joint accelerations and every LimitTerm whose `toppra_w` / `toppra_rows`
-exist as rows precomputed for all grid points (`path_grid`: evenly spaced, or, on a dense path whose
-short pieces an even grid would step over, the path's knots with those pieces split) (w of all terms by SpatialChain in three batched calls,
+exist as rows precomputed for all grid points (`path_grid`: evenly spaced, or on a dense path the
+path's knots with its short pieces split; w of all terms by SpatialChain in three batched calls,
 limits/toppra_form.py), solved by the one TOPP-RA (planners/toppra_core.py: two passes over toppra's
 Seidel LP, the same LPs as toppra's TOPPRA, bit for bit, 1000 grid points with
 the UR5's suction rows in about 30 ms instead of 78 ms: studies/bench_spatial.py).
