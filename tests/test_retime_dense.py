@@ -2,16 +2,19 @@
 export has it): TOPP-RA's grid (planners/spatial_toppra.path_grid) holds the path's knots and splits its
 short pieces, so the dense path is timed as fast as the same geometry given sparsely and holds its limits
 between the samples; on the old uniform grid the same path broke its limits (the re-check then slowed the
-whole plan), and more grid points no longer make it slower."""
+whole plan), and more grid points no longer make it slower. The planar retime uses the same grid."""
 
 import numpy as np
 import pytest
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake import load_scenario
 from qmt_drake.errors import QmtInputError
+from qmt_drake.planners import plan_with
 from qmt_drake.planners.spatial_toppra import GRID_CUBIC_TOL, joint_path, path_grid, plan_toppra
 from qmt_drake.planners.spatial_trajectory import ToppraTrajectory, check
 from qmt_drake.retime import retime_path
+from qmt_drake.retime_planar import retime_planar_path
 from tests.spatial_fixtures import load_or_skip
 from tests.test_retime import HAND_PATH
 
@@ -85,3 +88,19 @@ def test_more_grid_points_do_not_make_a_dense_path_slower(sc, dense_and_sparse):
     finer = retime_path(sc, stream(HAND_PATH, 130), n_grid=3000)
     assert finer.duration_s <= dense_and_sparse[0].duration_s * (1 + 1e-4)
     assert finer.recheck["max"] <= 1.0
+
+
+def test_a_planar_dense_stream_is_not_slowed_by_the_recheck_and_holds_at_50_khz():
+    # the planar retime (retime_planar.py) times its path on the same grid: the thesis plan's 125 Hz stream
+    # (216 samples) was slowed x1.52 to hold on the uniform grid (2.3564 s, `qmt-drake retime thesis-ch4 --path s.csv`)
+    sc = load_scenario("thesis-ch4")
+    base = plan_with("thesis", sc)
+    Q = base.sample(np.r_[np.arange(0.0, base.motion_time_s, 1 / 125), base.motion_time_s])[0]
+    p = retime_planar_path(sc, Q)
+    assert p.feasible and p.extra["grid_points"] > 1000
+    assert p.extra.get("slowdown_factor", 1.0) < 1.005
+    assert retime_planar_path(sc, Q, n_grid=5000).motion_time_s <= p.motion_time_s * (1 + 1e-4)
+    t = np.linspace(0.0, p.motion_time_s, int(p.motion_time_s * 50_000) + 1)  # 5x the re-check's 10 kHz
+    q, qd, qdd = p.sample(t)
+    cols = sc.limit_set.columns(q, qd, qdd)[:, sc.limit_set.ratio_mask]
+    assert cols.max() <= 1.0 + 1e-6
