@@ -51,6 +51,8 @@ def test_the_grid_holds_every_knot_and_splits_short_pieces_only_where_needed():
     assert 0.5 in g and len(g) == 12 and np.diff(g).max() <= 0.2 + 1e-12
     with pytest.raises(QmtInputError, match="grid 'fine'"):
         path_grid(sparse, 1000, "fine")
+    with pytest.raises(QmtInputError, match="at least 2 points"):
+        path_grid(sparse, 1)
 
 
 @pytest.fixture(scope="module")

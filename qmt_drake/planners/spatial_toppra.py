@@ -137,6 +137,8 @@ def path_grid(pp, n_grid: int = 1000, grid: str = "auto") -> np.ndarray:
     re-check sample, where the re-check's refinement, capped at 64 maxima per column, did not look)."""
     if grid not in GRIDS:
         raise QmtInputError(f"grid {grid!r}: give one of {', '.join(GRIDS)}")
+    if not n_grid >= 2:
+        raise QmtInputError(f"n_grid {n_grid!r}: TOPP-RA's grid needs at least 2 points (1000 by default)")
     s0, s1 = float(pp.start_time()), float(pp.end_time())
     du = (s1 - s0) / (n_grid - 1)
     q3 = _third_derivative(pp)
