@@ -27,7 +27,9 @@ smallest clearance (info 'path_clearance').
 
 Methods: `toppra` (the fastest timing of that very path: planners/spatial_toppra.plan_toppra with the
 scenario's joint speed and acceleration limits, joint torques and the hand's contact rows, the same
-rows the spatial TOPP-RA uses), `ga` (the spatial GA over the via-point cubic through the path's
+rows the spatial TOPP-RA uses; on a dense path, e.g. a stream sampled from rest to rest, its grid holds
+the path's knots and splits the short pieces where the samples crowd: spatial_toppra.path_grid, info
+'grid_points'), `ga` (the spatial GA over the via-point cubic through the path's
 waypoints, genes the segment times: it passes every waypoint, but between them its shape depends on
 the segment times, so it follows the path only at the waypoints; at most GA_MAX_WAYPOINTS). Either
 result goes through the spatial re-check (spatial_plan_io.finish_plan: sampled at 10x the check
@@ -272,7 +274,7 @@ def _retime_toppra(sc, Q, n_grid: int, info: dict) -> SpatialPlan:
                     acceleration_limit=sc.acceleration_limit_rad_s2, terms=sc.terms(), n_grid=n_grid)
     traj = ToppraTrajectory(pp, r["grid"], r["sd"])
     return finish_plan(sc, "retime_toppra", traj, [0.0, traj.duration_s], t0,
-                       {**info, "n_grid": n_grid, "toppra_solve_s": r["planning_s"]})
+                       {**info, "n_grid": n_grid, "grid_points": len(r["grid"]), "toppra_solve_s": r["planning_s"]})
 
 
 def _retime_ga(sc, Q, info: dict, **ga_options) -> SpatialPlan:

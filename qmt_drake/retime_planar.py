@@ -24,7 +24,7 @@ from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan
 from qmt_drake.planners.baselines.paths import GeometricPath
 from qmt_drake.planners.baselines.toppra_plan import toppra_segment
-from qmt_drake.planners.spatial_toppra import joint_path
+from qmt_drake.planners.spatial_toppra import joint_path, path_grid
 from qmt_drake.retime import read_joint_path
 
 METHOD = "retime_toppra"
@@ -64,8 +64,10 @@ def retime_planar_path(scenario, joint_path_or_file, *, n_grid: int = 1000):
     seg = SplinePath(joint_path(Q))
     extra = {"path": "user joint path", "path_source": None if src is None else str(src),
              "path_waypoints": len(Q), "path_q_rad": Q.tolist(), "path_length_rad": seg.length,
-             "grid_points": n_grid, "path_unit": seg.unit}
-    traj, code, wall = toppra_segment(scenario, seg, grid_points=n_grid)
+             "n_grid": n_grid, "path_unit": seg.unit}
+    grid = path_grid(seg.pp, n_grid)  # a dense path's knots and short pieces on the grid, as spatial retime
+    extra["grid_points"] = len(grid)
+    traj, code, wall = toppra_segment(scenario, seg, grid_points=grid)
     extra["toppra_solve_wall_s"] = wall
     if traj is None:
         return infeasible_plan(scenario, METHOD, f"toppra found no parameterization of the path ({code}): a limit "

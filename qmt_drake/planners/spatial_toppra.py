@@ -4,7 +4,8 @@ The path q(s) is a Drake PiecewisePolynomial (`joint_path`: cubic through IK way
 continuous second derivatives and zero end slopes, s the cumulative joint-space chord length, rad).
 `plan_toppra` hands the same object to the `toppra` package (wrapped as its geometric path) with
 joint velocity limits, and the joint accelerations and every LimitTerm whose `toppra_w` / `toppra_rows`
-exist as rows precomputed for all grid points (w of all terms by SpatialChain in three batched calls,
+exist as rows precomputed for all grid points (`path_grid`: evenly spaced, or on a dense path the
+path's knots with its short pieces split; w of all terms by SpatialChain in three batched calls,
 limits/toppra_form.py), solved by the one TOPP-RA (planners/toppra_core.py: two passes over toppra's
 Seidel LP, the same LPs as toppra's TOPPRA, bit for bit, 1000 grid points with
 the UR5's suction rows in about 30 ms instead of 78 ms: studies/bench_spatial.py).
@@ -31,6 +32,9 @@ from qmt_drake.limits.toppra_form import rows_constraints
 from qmt_drake.planners.toppra_core import parameterise, toppra_path
 
 RANGE_SAMPLES_PER_SEGMENT = 64  # where the C2 cubic is looked at for leaving a joint's range
+GRID_CUBIC_TOL = 1e-4  # largest |q'''| ds^2 (max over the joints) on an interval of the "knots" grid (`path_grid`)
+GRID_UNIFORM_TOL = 0.01  # "auto" keeps the uniform grid while its |q'''| ds^2 is at most this on every piece
+GRIDS = ("auto", "uniform", "knots")  # `path_grid`'s kinds
 
 
 def joint_path(q_waypoints, lower_rad=None, upper_rad=None) -> PiecewisePolynomial:
@@ -106,9 +110,53 @@ def pick_and_place_waypoints(ik, pick_m, place_m, *, lift_m: float, seed, normal
     return ik.solve_path(np.array(pts), normals=normals, seed=seed, max_joint_step_rad=1.0, what="pick-and-place point")
 
 
+def _third_derivative(pp) -> np.ndarray:
+    """(K-1,) largest |q'''| (rad/rad^3, over the joints) on each piece of the piecewise cubic pp."""
+    s = np.asarray(pp.get_segment_times(), float)
+    return np.abs(pp.derivative(3).vector_values(0.5 * (s[:-1] + s[1:]))).max(axis=0)
+
+
+def path_grid(pp, n_grid: int = 1000, grid: str = "auto") -> np.ndarray:
+    """TOPP-RA's grid points on the piecewise cubic q(s) pp. "uniform": n_grid evenly spaced points.
+    "knots": every knot of pp, each piece split into equal intervals no longer than the uniform spacing
+    and short enough that |q'''| ds^2 <= GRID_CUBIC_TOL on it. "auto" (the default): "uniform" while its
+    |q'''| ds^2 is at most GRID_UNIFORM_TOL on every piece (every IK'd task path here: at most 3e-4; the
+    grid and the plan as before, bit for bit), else "knots".
+
+    Why: TOPP-RA holds its rows at the grid points (both ends of each interval: toppra's Interpolation
+    scheme), s-ddot u constant between them. Inside an interval the joint acceleration
+    q' u + q'' sdot^2 is a quadratic in s of curvature 5 q''' u, which can rise above its values at the
+    ends by (5/8) |q'''| |u| ds^2. A dense path (a 125 Hz stream, a controller's log) has pieces a few
+    microradians long where it leaves and reaches rest, and the C2 cubic's zero end slopes give them
+    |q'''| ~ 6 / h^2 (h the piece's length): a uniform grid holds several such pieces inside one
+    interval, TOPP-RA never sees them, and the re-check then slows the whole plan (x1.6 on a 129-sample
+    TALOS stream). More uniform points do not help: the overshoot depends on where the points fall
+    on the short pieces, not on how many there are (x2.5 with 5000). GRID_CUBIC_TOL = 1e-4 keeps the
+    overshoot near 1e-4 of a limit, inside the margin TOPP-RA keeps at its grid points, so a check at
+    10x the re-check rate holds too (1e-2 left 5e-5 above a limit inside a piece shorter than one
+    re-check sample, where the re-check's refinement, capped at 64 maxima per column, did not look)."""
+    if grid not in GRIDS:
+        raise QmtInputError(f"grid {grid!r}: give one of {', '.join(GRIDS)}")
+    if not n_grid >= 2:
+        raise QmtInputError(f"n_grid {n_grid!r}: TOPP-RA's grid needs at least 2 points (1000 by default)")
+    s0, s1 = float(pp.start_time()), float(pp.end_time())
+    du = (s1 - s0) / (n_grid - 1)
+    q3 = _third_derivative(pp)
+    if grid == "uniform" or (grid == "auto" and q3.max() * du * du <= GRID_UNIFORM_TOL):
+        return np.linspace(s0, s1, n_grid)
+    knots = np.asarray(pp.get_segment_times(), float)
+    h = np.diff(knots)
+    step = np.minimum(du, np.sqrt(GRID_CUBIC_TOL / np.maximum(q3, np.finfo(float).tiny)))
+    m = np.maximum(np.ceil(h / step * (1.0 - 1e-12)).astype(int), 1)  # intervals per piece
+    piece = np.repeat(np.arange(len(h)), m)
+    j = np.arange(piece.size) - np.repeat(np.cumsum(m) - m, m)  # the interval's index inside its piece
+    return np.r_[knots[piece] + h[piece] * j / m[piece], s1]
+
+
 def toppra_problem(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000,
-                   **row_options):
-    """(path, constraints, grid) of `plan_toppra` for toppra: joint speed limits as toppra's
+                   grid: str = "auto", **row_options):
+    """(path, constraints, grid points) of `plan_toppra` for toppra (`path_grid(pp, n_grid, grid)`):
+    joint speed limits as toppra's
     JointVelocityConstraint (bounds on sdot^2); the joint accelerations qdd = q' sddot + q'' sdot^2 and
     the terms' rows F w <= g as precomputed rows (limits/toppra_form.py), the acceleration rows first,
     then every term's rows stacked, w of all terms from one batched SpatialChain evaluation."""
@@ -132,20 +180,21 @@ def toppra_problem(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n
             return np.concatenate([term.toppra_w(state) for term in terms], axis=1)
 
         cons += rows_constraints(w, F, g, n)
-    return path, cons, np.linspace(*path.path_interval, n_grid)
+    return path, cons, path_grid(pp, n_grid, grid)
 
 
-def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000, **row_options):
+def plan_toppra(pp, chain, *, velocity_limit, acceleration_limit, terms=(), n_grid: int = 1000, grid: str = "auto",
+                **row_options):
     """dict(duration_s, planning_s, grid, sd, sdd) or QmtInputError when no parameterisation exists:
     `toppra_problem` solved by the one TOPP-RA (planners/toppra_core.parameterise: TOPP-RA's passes over
     toppra's Seidel LP, equal to toppra's TOPPRA with solver_wrapper="seidel")."""
     t0 = time.perf_counter()
-    path, cons, grid = toppra_problem(pp, chain, velocity_limit=velocity_limit, acceleration_limit=acceleration_limit,
-                                      terms=terms, n_grid=n_grid, **row_options)
-    sol = parameterise(path, cons, grid)
+    path, cons, points = toppra_problem(pp, chain, velocity_limit=velocity_limit, acceleration_limit=acceleration_limit,
+                                        terms=terms, n_grid=n_grid, grid=grid, **row_options)
+    sol = parameterise(path, cons, points)
     planning_s = time.perf_counter() - t0
     if not sol.ok:
-        raise QmtInputError(_no_parameterisation(pp, chain, terms, grid))
+        raise QmtInputError(_no_parameterisation(pp, chain, terms, points))
     return {"duration_s": sol.duration_s, "planning_s": planning_s, "grid": sol.grid, "sd": sol.sd,
             "sdd": np.asarray(sol.sdd, float), "n_grid": n_grid}
 

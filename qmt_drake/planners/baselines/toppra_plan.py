@@ -94,7 +94,7 @@ def _toppra_path(path: GeometricPath):
 
 
 def toppra_segment(scenario, segment: GeometricPath, *, polygon_sides: int = 32,
-                   grid_points: int = 200, inscribed: bool = True,
+                   grid_points: int | np.ndarray = 200, inscribed: bool = True,
                    parametrizer: str = "ParametrizeConstAccel", vertex_on_chord: bool = True):
     """Time one rest-to-rest segment; (trajectory or None, return code, solve wall s). The one TOPP-RA
     (planners/toppra_core.parameterise); `parametrizer` names the output: the exact constant-s-ddot
@@ -102,7 +102,8 @@ def toppra_segment(scenario, segment: GeometricPath, *, polygon_sides: int = 32,
     t0 = time.perf_counter()
     c = _constraint(scenario, chord_angle_rad(scenario, segment), polygon_sides, inscribed,
                     vertex_on_chord)
-    grid = np.linspace(0.0, segment.length, int(grid_points))
+    # grid_points: a count (evenly spaced) or the grid itself (retime_planar: spatial_toppra.path_grid)
+    grid = np.linspace(0.0, segment.length, int(grid_points)) if np.ndim(grid_points) == 0 else grid_points
     sol = parameterise(_toppra_path(segment), [c], grid)
     wall = time.perf_counter() - t0
     if not sol.ok:
