@@ -138,7 +138,7 @@ def summary_line(sc, p, sim) -> str:
     c = p.info.get("path_clearance")
     if c:  # the scenario has obstacles: the path's smallest clearance (--collisions refuse: a colliding path stopped)
         line += (f"; clearance >= {c['clearance_m']:.4f} m (no obstacle nearer)" if c["clearance_pair"] is None else
-                 f"; clearance {c['clearance_m']:.4f} m ({' vs '.join(c['clearance_pair'])} at {c['at']}"
+                 f"; clearance {c['clearance_m']:.4f} m ({' vs '.join(c['clearance_pair'])} {'' if c['at'].startswith('between') else 'at '}{c['at']}"
                  f"{'; COLLIDES' if c['clearance_m'] < 0 else ''})")
     t = p.clearance
     if t and t.get("clearance_pair") and t["clearance_m"] < 0 <= (c or {}).get("clearance_m", 0.0):
