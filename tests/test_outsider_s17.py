@@ -5,6 +5,7 @@ acceptance, a wrong answer, a refusal only after seconds of building)."""
 
 import time
 
+import numpy as np
 import pytest
 import yaml
 
@@ -60,3 +61,65 @@ def test_dc_motor_without_motor_section_refused_before_building(tmp_path, capsys
     _no_build(monkeypatch)
     line = _refused(capsys, *[a.format(p=path) for a in argv])
     assert "actuator dc_motor needs actuators.motor" in line
+
+
+# --- the Python API -------------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def ur5():
+    from qmt_drake import load_scenario
+    return load_scenario("ur5-suction-bins")
+
+
+@pytest.fixture(scope="module")
+def ur5_plan(ur5):
+    from qmt_drake import plan_with
+    return plan_with("toppra", ur5, n_grid=100)
+
+
+@pytest.fixture(scope="module")
+def ch4():
+    from qmt_drake import load_scenario
+    return load_scenario("thesis-ch4")
+
+
+def test_plan_sample_2d_times_refused_on_every_kind(ur5_plan, ch4):
+    # a (1, 2) array of times: a pybind TypeError traceback on a spatial plan, a (1, 2, n) answer on a planar one
+    from qmt_drake import plan_with
+    planar = plan_with("thesis", ch4)
+    for p in (ur5_plan, planar):
+        with pytest.raises(QmtInputError, match=r"Plan.sample: t_s: got an array of shape \(1, 2\); give a time"):
+            p.sample([[0.1, 0.2]])
+        assert p.sample([0.1, 0.2])[0].shape[0] == 2  # a 1-D array still works
+
+
+def test_retime_cli_n_grid_and_ga_priced(tmp_path, capsys, monkeypatch):
+    # --n-grid 10^9 filled 23 GB until the kernel killed the process; --generations 10^8 ran for months, unpriced
+    from qmt_drake.apps import retime_command
+
+    def reached(*a, **k):
+        raise AssertionError("reached the retime (without the check: 23 GB or months here)")
+    monkeypatch.setattr(retime_command, "retime_path", reached)
+    monkeypatch.setattr(retime_command, "retime_planar_path", reached)
+    path = tmp_path / "p.csv"
+    path.write_text("shoulder_pan_joint,shoulder_lift_joint,elbow_joint,wrist_1_joint,wrist_2_joint,wrist_3_joint\n"
+                    "-0.791,-1.145,1.993,-2.418,-1.571,0.0\n0.780,-1.145,1.993,-2.418,-1.571,0.0\n")
+    line = _refused(capsys, "retime", "ur5-suction-bins", "--path", path, "--n-grid", 10 ** 9)
+    assert "--n-grid 1000000000 must be <= 100000" in line
+    line = _refused(capsys, "retime", "ur5-suction-bins", "--path", path, "--method", "ga", "--generations", 10 ** 8)
+    assert line.startswith("qmt-drake: error: --generations 100000000: a spatial GA") and "--allow-large" in line
+    line = _refused(capsys, "retime", "thesis-ch4", "--path", path, "--n-grid", 10 ** 9)
+    assert "--n-grid 1000000000 must be <= 100000" in line
+
+
+def test_retime_planar_n_grid_range_and_numpy_int(ch4, monkeypatch):
+    # retime_planar_path(n_grid=10**9) reached TOPP-RA (23 GB), and np.int64(200) was refused as "not an integer"
+    from qmt_drake import retime_planar
+
+    def reached(*a, **k):
+        raise RuntimeError("reached TOPP-RA")
+    monkeypatch.setattr(retime_planar, "toppra_segment", reached)  # (without the check: no 23 GB here)
+    with pytest.raises(QmtInputError, match=r"n_grid 1000000000 must be <= 100000"):
+        retime_planar.retime_planar_path(ch4, [[0.0, 0.0], [1.0, 1.0]], n_grid=10 ** 9)
+    with pytest.raises(RuntimeError, match="reached TOPP-RA"):  # the n_grid check passed
+        retime_planar.retime_planar_path(ch4, [[0.0, 0.0], [1.0, 1.0]], n_grid=np.int64(200))
