@@ -123,3 +123,28 @@ def test_retime_planar_n_grid_range_and_numpy_int(ch4, monkeypatch):
         retime_planar.retime_planar_path(ch4, [[0.0, 0.0], [1.0, 1.0]], n_grid=10 ** 9)
     with pytest.raises(RuntimeError, match="reached TOPP-RA"):  # the n_grid check passed
         retime_planar.retime_planar_path(ch4, [[0.0, 0.0], [1.0, 1.0]], n_grid=np.int64(200))
+
+
+# --- export: the stream as the controller interpolates it ---------------------------------------------------------
+
+def test_export_stream_that_cuts_into_a_tote_does_not_hold(ur5, ur5_plan, tmp_path):
+    # at 1 Hz the linear stream kept every limit and was reported "keeps the limits" (exit 0) while it put the
+    # box 81 mm into bin B's wall: the stream's clearance was never checked
+    from qmt_drake.apps.export_command import summary_line
+    from qmt_drake.export import export_plan
+    from qmt_drake.limits.clearance import clearance
+    rep = export_plan(ur5, ur5_plan, "csv", 1.0, tmp_path / "s.csv", "linear")
+    rc = rep["stream_recheck"]
+    independent = clearance(ur5, rep["stream"], 4000.0)["clearance_m"]  # a finer sampling of the same stream
+    assert rc["clearance_m"] < -0.01 and independent < -0.01
+    assert not rep["stream_holds"] and "the stream COLLIDES" in summary_line(rep)
+
+
+def test_export_rate_slower_than_the_plan_refused(ur5, ur5_plan, tmp_path):
+    # --rate 0.001 wrote 2 samples (start, and the goal at 1000 s), re-checked 2e6 points for 54 s (the budget
+    # priced the plan's 2 s, not the stream's 1000 s) and said "keeps the limits": the plan's path was gone
+    from qmt_drake.export import export_plan
+    t = time.perf_counter()
+    with pytest.raises(QmtInputError, match=r"--rate 0.001: one period \(1e\+03 s\) is longer than the"):
+        export_plan(ur5, ur5_plan, "ros2", 1e-3, tmp_path / "s.yaml")
+    assert time.perf_counter() - t < 1.0 and not (tmp_path / "s.yaml").exists()
