@@ -148,3 +148,61 @@ def test_export_rate_slower_than_the_plan_refused(ur5, ur5_plan, tmp_path):
     with pytest.raises(QmtInputError, match=r"--rate 0.001: one period \(1e\+03 s\) is longer than the"):
         export_plan(ur5, ur5_plan, "ros2", 1e-3, tmp_path / "s.yaml")
     assert time.perf_counter() - t < 1.0 and not (tmp_path / "s.yaml").exists()
+
+
+# --- defects in files owned by other helpers this session: the failing test, the fix in the report -----------------
+
+def _no_timing(monkeypatch):
+    """retime.py's TOPP-RA and GA fail the test if reached (an unchecked n_grid of 10^9 filled 23 GB)."""
+    from qmt_drake import retime
+
+    def reached(*a, **k):
+        raise AssertionError("the timing ran before the refusal")
+    monkeypatch.setattr(retime, "_retime_toppra", reached)
+    monkeypatch.setattr(retime, "plan_ga_spatial", reached)
+
+
+_RETIME_XFAIL = pytest.mark.xfail(strict=True, reason="retime.py (helper tgrid's): retime_path's arguments are not "
+                                  "checked as the API's are; fix in the s17 outsider report")
+
+
+@_RETIME_XFAIL
+@pytest.mark.parametrize("path, kw, needle", [
+    ([[0.0, 1.0], [1.0, 2.0, 3.0]], {}, r"joint path: .*\(K, 6\) array"),  # ragged: numpy's ValueError traceback
+    ([["a"] * 6, ["b"] * 6], {}, r"joint path: .*numbers"),  # text: "could not convert string to float"
+    ({"joint_names": "shoulder_pan_joint", "points": []}, {}, r"joint_names must be a list"),  # "joint 'o' is named twice"
+    ("Q", {"n_grid": 10 ** 9}, r"n_grid 1000000000 must be <= 100000"),  # 23 GB, then the kernel's OOM killer
+    ("Q", {"n_grid": np.int64(200)}, r"the timing ran"),  # a numpy integer refused as "not an integer"
+    ("Q", {"ngrid": 200}, r"unknown .*ngrid.*n_grid"),  # "option 'ngrid' is a GA option"
+    ("Q", {"method": "ga", "generations": 10 ** 8}, r"allow_large"),  # a GA of months, unpriced
+])
+def test_retime_path_arguments_one_line(ur5, monkeypatch, path, kw, needle):
+    from qmt_drake.retime import retime_path
+    _no_timing(monkeypatch)
+    with pytest.raises((QmtInputError, AssertionError), match=needle) as info:
+        retime_path(ur5, ur5.q_path_rad if isinstance(path, str) else path, **kw)
+    assert info.type is QmtInputError or "the timing ran" in needle
+
+
+@_RETIME_XFAIL
+@pytest.mark.parametrize("scenario", ["ur5-suction-bins", "ch4"])
+def test_retime_path_scenario_argument(ch4, ur5, monkeypatch, scenario):
+    # a name (the API's other functions load it) or a planar scenario: AttributeError 'joint_names'
+    from qmt_drake.retime import retime_path
+    _no_timing(monkeypatch)
+    sc = ch4 if scenario == "ch4" else scenario
+    with pytest.raises((QmtInputError, AssertionError), match=r"retime_path|the timing ran") as info:
+        retime_path(sc, ur5.q_path_rad[[0, -1]])
+    assert info.type is QmtInputError or scenario != "ch4"
+
+
+@pytest.mark.xfail(strict=True, reason="planners/collision_free.py (helper trajopt's): a task pose that collides is "
+                   "told to 'give a margin below' a negative depth; fix in the s17 outsider report")
+def test_avoid_with_a_task_pose_inside_an_obstacle_names_the_fix(tmp_path, capsys):
+    raw = yaml.safe_load((SCENARIO_DIR / "ur5-suction-bins.yaml").read_text())
+    raw["world"]["obstacles"].append({"name": "block", "kind": "box", "size_m": [0.1, 0.1, 0.1],
+                                      "pose": {"xyz_m": [0.45, -0.30, 0.05]}})  # around the pick pose's box
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    line = _refused(capsys, "plan", path, "--method", "toppra", "--avoid", within_s=30)
+    assert "task pose 0" in line and "block" in line and "give a margin below" not in line
