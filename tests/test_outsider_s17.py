@@ -206,3 +206,20 @@ def test_avoid_with_a_task_pose_inside_an_obstacle_names_the_fix(tmp_path, capsy
     path.write_text(yaml.safe_dump(raw))
     line = _refused(capsys, "plan", path, "--method", "toppra", "--avoid", within_s=30)
     assert "task pose 0" in line and "block" in line and "give a margin below" not in line
+
+
+# --- plan files edited by hand -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("key, value", [("method", 5), ("method", ""), ("scenario", ["ur5-suction-bins"])])
+def test_plan_file_with_a_method_or_scenario_that_is_no_name(ur5, ur5_plan, tmp_path, key, value):
+    # method 5 loaded and ran: "ur5-suction-bins 5 x1: carried, ..."
+    import json
+
+    from qmt_drake import load_plan
+    f = tmp_path / "p.json"
+    ur5_plan.write_json(f)
+    d = json.loads(f.read_text())
+    d[key] = value
+    f.write_text(json.dumps(d))
+    with pytest.raises(QmtInputError, match=rf"plan file .*p.json: its {key} .* is not a name \(edited by hand\?\)"):
+        load_plan(f, ur5)
