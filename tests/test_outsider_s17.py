@@ -223,3 +223,17 @@ def test_plan_file_with_a_method_or_scenario_that_is_no_name(ur5, ur5_plan, tmp_
     f.write_text(json.dumps(d))
     with pytest.raises(QmtInputError, match=rf"plan file .*p.json: its {key} .* is not a name \(edited by hand\?\)"):
         load_plan(f, ur5)
+
+
+def test_overrides_take_numpy_arrays_and_scalars():
+    # load_scenario(overrides={"payload": {"com_m": np.array([...])}}) was refused: "must be a list of numbers"
+    from qmt_drake.config.fields import merge_overrides
+    base = {"payload": {"mass_kg": 2.0, "com_m": [0.0, 0.0, 0.08]}}
+    out = merge_overrides(base, {"payload": {"com_m": np.array([0.0, 0.01, 0.08]), "mass_kg": np.float32(1.5)}})
+    assert out["payload"] == {"mass_kg": 1.5, "com_m": [0.0, 0.01, 0.08]}
+    assert type(out["payload"]["com_m"]) is list and type(out["payload"]["mass_kg"]) is float
+    from qmt_drake.spatial_data import parse_spatial_data
+    d = parse_spatial_data("ur5-suction-bins", {"payload": {"com_m": np.array([0.0, 0.0, 0.07])}})
+    assert d.payload.com_m.tolist() == [0.0, 0.0, 0.07]
+    with pytest.raises(QmtInputError, match=r"payload.mass_kg must be positive, got nan"):  # still checked
+        parse_spatial_data("ur5-suction-bins", {"payload": {"mass_kg": np.float64("nan")}})

@@ -149,8 +149,14 @@ def merge_overrides(base: dict, extra: dict) -> dict:
     out = dict(base)
     for k, v in extra.items():
         nested = isinstance(v, dict) and isinstance(out.get(k), dict) and k != "genes"
-        out[k] = merge_overrides(out[k], v) if nested else v
+        out[k] = merge_overrides(out[k], v) if nested else _plain(v)
     return out
+
+
+def _plain(v):
+    """A numpy array or scalar from a Python caller as the YAML's plain list or number (`com_m=np.array(...)`
+    was refused as "must be a list of numbers"); the validators then check it as the file's value."""
+    return v.tolist() if isinstance(v, (np.ndarray, np.generic)) else v
 
 
 def show(v) -> str:
