@@ -237,3 +237,12 @@ def test_overrides_take_numpy_arrays_and_scalars():
     assert d.payload.com_m.tolist() == [0.0, 0.0, 0.07]
     with pytest.raises(QmtInputError, match=r"payload.mass_kg must be positive, got nan"):  # still checked
         parse_spatial_data("ur5-suction-bins", {"payload": {"mass_kg": np.float64("nan")}})
+
+
+def test_success_with_motor_parameters_and_no_motor_section_refused_before_building(tmp_path, capsys, monkeypatch):
+    # the uncertainty section draws motor constants the scenario does not have: refused only once the arm was built
+    path = _spatial_yaml(tmp_path, actuators__motor=None)
+    _no_build(monkeypatch)
+    line = _refused(capsys, "plan", path, "--method", "toppra", "--success", "0.9")
+    assert "uncertainty.parameters.gear_efficiency scales its DC motors" in line  # (the file's keys sorted)
+    assert "add actuators.motor or drop that parameter" in line

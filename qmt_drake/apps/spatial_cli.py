@@ -68,6 +68,7 @@ from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulat
 from qmt_drake.spatial_data import parse_spatial_data
 from qmt_drake.spatial_task import SPATIAL_KIND, build_spatial_scenario, load_spatial_scenario
 from qmt_drake.sweep.budget import estimate_spatial_sweep, estimate_sweep
+from qmt_drake.sweep.parameters import MOTOR_PARAMETERS
 from qmt_drake.sweep.robust import plan_for_success, success_spec
 from qmt_drake.sweep.spec import load_spec
 from qmt_drake.sweep.stats import cases_to_certify, wilson_interval
@@ -138,7 +139,8 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     drive = carried_drive(args) if args.carried else ("ideal", "full")
-    sc = drive_scenario(args.scenario, *drive) if scenario is None else scenario
+    success = getattr(args, "success", None) is not None
+    sc = drive_scenario(args.scenario, *drive, success=success) if scenario is None else scenario
     avoided = None
     if getattr(args, "avoid", None):  # the task becomes the certified collision-free path (planners/collision_free)
         check_positive_finite(args.avoid_margin, "--avoid-margin", "e.g. 0.005 (m)")
@@ -207,12 +209,17 @@ def carried_drive(args) -> tuple[str, str]:
     return ("ideal", "full") if ff is None else ("dc_motor", ff)
 
 
-def drive_scenario(name, actuator: str, feedforward: str, explicit: bool = False):
+def drive_scenario(name, actuator: str, feedforward: str, explicit: bool = False, success: bool = False):
     """The built scenario, after check_drive's refusals that its plain data shows (an unknown drive, dc_motor
-    without actuators.motor): building the arm (URDF, IK of every path point) takes seconds on a big robot."""
+    without actuators.motor; success: motor parameters in its uncertainty section without actuators.motor):
+    building the arm (URDF, IK of every path point) takes seconds on a big robot."""
     data = parse_spatial_data(name)
     if actuator != "dc_motor" or data.actuators.motor is None:  # then check_drive reads only these fields
         check_drive(SimpleNamespace(name=data.name, motor=None), actuator, feedforward, explicit)
+    drawn = [p for p in (data.uncertainty or {}).get("parameters", {}) if p in MOTOR_PARAMETERS]
+    if success and drawn and data.actuators.motor is None:  # (sweep/spatial_cases.check_spatial_spec, once built)
+        raise QmtInputError(f"--success: scenario {data.name}'s uncertainty.parameters.{drawn[0]} scales its DC motors, "
+                            "and it has no actuators.motor; add actuators.motor or drop that parameter")
     return build_spatial_scenario(data)
 
 

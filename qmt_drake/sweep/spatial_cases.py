@@ -124,7 +124,8 @@ def check_spatial_spec(spec: SweepSpec, base) -> tuple[str, str]:
                                 f"not vary it (scenario {base.name}); vary "
                                 f"{', '.join(SPATIAL_HAND_PARAMETERS[base.hand_kind])}")
         if name in MOTOR_PARAMETERS and base.motor is None:
-            raise QmtInputError(f"sweep parameter '{name}': scenario {base.name} has no actuators.motor")
+            raise QmtInputError(f"sweep parameter '{name}': scenario {base.name} has no actuators.motor (the DC motors "
+                                "it scales); add actuators.motor to the scenario or drop the parameter")
     extra = sorted(set(spec.sim) - {"actuator", "feedforward", "integral_rate_per_s"})
     if extra:
         raise QmtInputError(f"sweep sim.{extra[0]}: the spatial co-simulation steps at 1 ms; give only sim.actuator, "
