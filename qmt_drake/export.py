@@ -31,17 +31,20 @@ puts the box 81 mm into a tote's wall), and a stream that collides does not hold
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import yaml
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.api_checks import number, path_arg
 from qmt_drake.budgets import Estimate, check_budget
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import peak_jerk
 from qmt_drake.limits.clearance import clearance
-from qmt_drake.outputs import write_text_atomic
-from qmt_drake.plan import recheck
+from qmt_drake.outputs import check_output_path, write_text_atomic
+from qmt_drake.plan import Plan, a_kind, recheck
+from qmt_drake.plan_files import scenario_kind_of
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.timescale import smallest_holding_scale
 from qmt_drake.trajectory import JointTrajectory, PolynomialTrajectory
@@ -179,9 +182,7 @@ def check_stream_options(fmt: str, rate_hz, interp: str) -> None:
         raise QmtInputError(f"--format {fmt!r}: give {'|'.join(FORMATS)} (ros2: a JointTrajectory YAML)")
     if interp not in INTERPOLATIONS:
         raise QmtInputError(f"--interp {interp!r}: give {'|'.join(INTERPOLATIONS)}")
-    if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise QmtInputError(f"--rate {rate_hz}: give the controller's rate in Hz, a finite positive number "
-                            "(UR: 125 or 500, Franka: 1000)")
+    number(rate_hz, "--rate", positive=True, fix="give the controller's rate in Hz (UR: 125 or 500, Franka: 1000)")
 
 
 def _obstacles(sc) -> bool:
@@ -203,6 +204,25 @@ def check_export_inputs(sc, duration_s: float, fmt: str, rate_hz, interp: str, *
                           f"export at {rate_hz:g} Hz of a {duration_s:.3g} s plan ({n:.3g} check samples at "
                           f"{check_rate(sc, rate_hz):g} Hz)", "give the controller's rate (125 to 1000 Hz typical)"),
                  allow_large=allow_large)
+
+
+def check_export_call(sc, plan, out, hold, allow_large) -> None:
+    """export_plan's objects from a Python caller, one line each (a name for sc, a plan file's path for plan,
+    an int for out, a plan of another scenario reached an AttributeError or a numpy broadcast error)."""
+    target = getattr(sc, "E", sc) if _own_check(sc) else sc  # energy/stream.EnergyStreamTarget: its Experiment
+    if isinstance(sc, (str, bytes, os.PathLike)):
+        raise QmtInputError(f"export_plan: scenario {sc!r} is a name; pass load_scenario({str(sc)!r})")
+    kind = scenario_kind_of(target)
+    if not isinstance(plan, Plan):
+        raise QmtInputError(f"export_plan: plan {plan!r:.60} is not a Plan; pass plan_with(...) or load_plan(PATH)")
+    if plan.scenario_kind != kind or getattr(plan.scenario, "name", None) != sc.name:
+        raise QmtInputError(f"export_plan: the {plan.method} plan is {a_kind(plan.scenario_kind)} plan for scenario "
+                            f"{getattr(plan.scenario, 'name', '?')}, not for {a_kind(kind)} scenario {sc.name}")
+    path_arg(out, "export_plan: out", "stream file")
+    check_output_path(out, "export_plan: out")
+    for name, flag in (("hold", hold), ("allow_large", allow_large)):
+        if not isinstance(flag, bool):
+            raise QmtInputError(f"export_plan: {name} {flag!r} must be True or False")
 
 
 def ros2_joint_trajectory(joint_names, t, q, qd, qdd) -> dict:
@@ -270,6 +290,7 @@ def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", 
     """Write `plan` (a SpatialPlan of sc) as the stream (module docstring) and re-check the stream as
     `interp` interpolates it; hold: first slow the plan by hold_scale so that the stream keeps the limits.
     The report: the stream's re-check beside the plan's own at the same rate, peak jerks, the scale."""
+    check_export_call(sc, plan, out, hold, allow_large)
     check_export_inputs(sc, plan.duration_s * (HOLD_MAX_SCALE if hold else 1.0), fmt, rate_hz, interp,
                         allow_large=allow_large)
     k = hold_scale(sc, plan.trajectory, rate_hz, interp) if hold else 1.0

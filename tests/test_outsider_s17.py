@@ -246,3 +246,24 @@ def test_success_with_motor_parameters_and_no_motor_section_refused_before_build
     line = _refused(capsys, "plan", path, "--method", "toppra", "--success", "0.9")
     assert "uncertainty.parameters.gear_efficiency scales its DC motors" in line  # (the file's keys sorted)
     assert "add actuators.motor or drop that parameter" in line
+
+
+def test_export_plan_python_arguments_one_line(ur5, ur5_plan, ch4, tmp_path):
+    # each reached a traceback (AttributeError, TypeError, a numpy broadcast ValueError), or was taken: rate True as
+    # 1 Hz, hold "yes"; a numpy integer rate was refused as not a number
+    from qmt_drake import plan_with
+    from qmt_drake.export import export_plan
+    out = tmp_path / "s.csv"
+    planar = plan_with("thesis", ch4)
+    for args, kw, needle in [
+        (("thesis-ch4", planar, "csv", 125, out), {}, r"scenario 'thesis-ch4' is a name; pass load_scenario"),
+        ((ch4, "p.json", "csv", 125, out), {}, r"plan 'p.json' is not a Plan"),
+        ((ch4, ur5_plan, "csv", 125, out), {}, r"a spatial \(3-D\) plan for scenario ur5-suction-bins, not for a planar"),
+        ((ch4, planar, "csv", 125, 5), {}, r"export_plan: out: got 5"),
+        ((ch4, planar, "csv", True, out), {}, r"--rate True must be a number"),
+        ((ch4, planar, "csv", 125, out), {"hold": "yes"}, r"hold 'yes' must be True or False"),
+    ]:
+        with pytest.raises(QmtInputError, match=needle):
+            export_plan(*args, **kw)
+    assert not out.exists()
+    assert export_plan(ch4, planar, "csv", np.int64(125), out)["rate_hz"] == 125.0
