@@ -267,3 +267,11 @@ def test_export_plan_python_arguments_one_line(ur5, ur5_plan, ch4, tmp_path):
             export_plan(*args, **kw)
     assert not out.exists()
     assert export_plan(ch4, planar, "csv", np.int64(125), out)["rate_hz"] == 125.0
+
+
+def test_vector_message_says_numbers_once():
+    # "actuators.torque_limit_Nm must be a list of numbers (numbers), got 150.0"
+    from qmt_drake.spatial_data import parse_spatial_data
+    with pytest.raises(QmtInputError) as info:
+        parse_spatial_data("ur5-suction-bins", {"actuators": {"torque_limit_Nm": 150.0}})
+    assert str(info.value).endswith("actuators.torque_limit_Nm must be a list of numbers, got 150.0")
