@@ -275,3 +275,16 @@ def test_vector_message_says_numbers_once():
     with pytest.raises(QmtInputError) as info:
         parse_spatial_data("ur5-suction-bins", {"actuators": {"torque_limit_Nm": 150.0}})
     assert str(info.value).endswith("actuators.torque_limit_Nm must be a list of numbers, got 150.0")
+
+
+@pytest.mark.parametrize("key, value", [("resistance_ohm", [1.0, -1.0]), ("resistance_ohm", [1.0, 0.0]),
+                                        ("torque_constant_Nm_per_A", [0.05, float("nan")]),
+                                        ("gear_ratio", [100.0, float("inf")]), ("voltage_limit_V", [24.0, 0.0])])
+def test_dc_motor_params_refuse_non_physical_values(key, value):
+    # a user composing DcMotorWithGear in their own diagram: a zero or negative resistance gave inf/NaN torques
+    from qmt_drake.systems.dc_motor import DcMotorParams
+    kw = {"torque_constant_Nm_per_A": [0.05, 0.05], "resistance_ohm": [1.0, 1.0], "gear_ratio": [100.0, 100.0],
+          "voltage_limit_V": [24.0, 24.0], "current_limit_A": [5.0, np.inf], "efficiency": [0.8, 0.8]}
+    DcMotorParams(**kw)  # the nominal one (an unlimited current) builds
+    with pytest.raises(QmtInputError, match=rf"DcMotorParams.{key} .* must be .*positive for every joint"):
+        DcMotorParams(**{**kw, key: value})
