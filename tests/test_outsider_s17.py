@@ -288,3 +288,20 @@ def test_dc_motor_params_refuse_non_physical_values(key, value):
     DcMotorParams(**kw)  # the nominal one (an unlimited current) builds
     with pytest.raises(QmtInputError, match=rf"DcMotorParams.{key} .* must be .*positive for every joint"):
         DcMotorParams(**{**kw, key: value})
+
+
+def test_spatial_sweep_plan_file_checked_before_the_cases_run(ur5_plan, tmp_path):
+    # an edited plan file in a spatial sweep failed in every worker (exit 4), named by the worker's temporary copy
+    import json
+
+    from qmt_drake.sweep.spatial_cases import build_spatial_cases
+    from qmt_drake.sweep.spec import load_spec
+    f = tmp_path / "edited.json"
+    ur5_plan.write_json(f)
+    d = json.loads(f.read_text())
+    d["rebuild"]["k"] = 2 * d["rebuild"]["k"]  # the stored samples no longer match
+    f.write_text(json.dumps(d))
+    spec = load_spec({"name": "s", "scenario": "ur5-suction-bins", "plans": [{"file": str(f)}],
+                      "parameters": {"friction": [0.4]}}, name="s")
+    with pytest.raises(QmtInputError, match=rf"plan file {f}: its rebuilt trajectory differs"):
+        build_spatial_cases(spec)

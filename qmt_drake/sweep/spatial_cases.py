@@ -164,7 +164,8 @@ def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]
     samples = spec.samples()
     cases, plans = [], {}
     for pdef in spec.plans:
-        if "file" in pdef:
+        if "file" in pdef:  # loaded (rebuilt, fitted to the scenario) now: in a worker a bad file was every case's
+            load_spatial_plan(pdef["file"], base)  # failure (exit 4), named by the worker's temporary copy
             ref = PlanRef(spec.scenario, {}, file=pdef["file"], file_sha256=plan_file_hash(pdef["file"]))
         else:
             ref = PlanRef(spec.scenario, {}, method=registry.find(registry.SPATIAL, pdef["method"]).name,
