@@ -305,3 +305,15 @@ def test_spatial_sweep_plan_file_checked_before_the_cases_run(ur5_plan, tmp_path
                       "parameters": {"friction": [0.4]}}, name="s")
     with pytest.raises(QmtInputError, match=rf"plan file {f}: its rebuilt trajectory differs"):
         build_spatial_cases(spec)
+
+
+def test_planar_sweep_plan_file_checked_before_the_cases_run(ur5_plan, tmp_path):
+    # a spatial plan file in a thesis-ch4 sweep: every case failed in the workers (exit 4), named by a temporary copy
+    from qmt_drake.sweep.cases import build_cases
+    from qmt_drake.sweep.spec import load_spec
+    f = tmp_path / "ur5.json"
+    ur5_plan.write_json(f)
+    spec = load_spec({"name": "s", "scenario": "thesis-ch4", "plans": [{"file": str(f)}],
+                      "parameters": {"friction": [0.3]}}, name="s")
+    with pytest.raises(QmtInputError, match=rf"plan file {f} is a spatial \(3-D\) plan for scenario ur5-suction-bins"):
+        build_cases(spec)
