@@ -141,6 +141,9 @@ def times(t_s: Any, name: str = "t_s") -> Any:
         raise QmtInputError(f"{name}: got {show(t_s)}; give a time [s] or an array of times") from None
     if a.dtype.kind not in "iuf" or a.size == 0:
         raise QmtInputError(f"{name}: got {show(t_s)}; give a time [s] or a non-empty array of times (numbers)")
+    if a.ndim > 1:  # a spatial plan's Drake call refused it (a TypeError), a planar one answered a (1, K, n) shape
+        raise QmtInputError(f"{name}: got an array of shape {a.shape}; give a time [s] or a 1-D array of times "
+                            "(e.g. np.ravel it)")
     if not np.all(np.isfinite(a)):
         raise QmtInputError(f"{name} must be finite times [s]; got {show(t_s)}")
     return t_s

@@ -21,23 +21,30 @@ take a plan:
   (-v_last / dt) at the last sample.
 
 The check samples the interpolated stream at CHECK_FACTOR (10) times the stream rate, or at the
-scenario's re-check rate if that is finer, and states its peak jerk there (qmt_drake/jerk.py).
+scenario's re-check rate if that is finer, and states its peak jerk there (qmt_drake/jerk.py). A scenario
+with obstacles also gets the interpolated stream's clearance (limits/clearance.py, at its re-check rate): a
+stream between sparse samples cuts corners (the UR5 bin task's 1 Hz linear stream keeps every limit and
+puts the box 81 mm into a tote's wall), and a stream that collides does not hold.
 `hold` (--hold) first slows the plan (TimeScaled) by the time scale at which its stream keeps the limits.
 """
 
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import yaml
 from pydrake.trajectories import PiecewisePolynomial
 
+from qmt_drake.api_checks import number, path_arg
 from qmt_drake.budgets import Estimate, check_budget
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import peak_jerk
-from qmt_drake.outputs import write_text_atomic
-from qmt_drake.plan import recheck
+from qmt_drake.limits.clearance import clearance
+from qmt_drake.outputs import check_output_path, write_text_atomic
+from qmt_drake.plan import Plan, a_kind, recheck
+from qmt_drake.plan_files import scenario_kind_of
 from qmt_drake.planners.spatial_trajectory import TimeScaled, check
 from qmt_drake.timescale import smallest_holding_scale
 from qmt_drake.trajectory import JointTrajectory, PolynomialTrajectory
@@ -49,6 +56,7 @@ CHECK_FACTOR = 10
 # by `check` on 3974 / 39722 samples of a TOPP-RA plan); the stream and the plan are checked, the jerk sampled: x3
 CHECK_S_PER_SAMPLE = 3 * 40e-6
 CHECK_BYTES_PER_SAMPLE = 3e3
+CLEARANCE_S_PER_SAMPLE = 0.5e-3  # Drake's signed distance of the UR5 and its box from two totes: ~0.4 ms a sample
 HOLD_MAX_SCALE = 3.0  # --hold: the slowest time scale tried
 HOLD_REL_TOL = 1e-3
 
@@ -174,19 +182,47 @@ def check_stream_options(fmt: str, rate_hz, interp: str) -> None:
         raise QmtInputError(f"--format {fmt!r}: give {'|'.join(FORMATS)} (ros2: a JointTrajectory YAML)")
     if interp not in INTERPOLATIONS:
         raise QmtInputError(f"--interp {interp!r}: give {'|'.join(INTERPOLATIONS)}")
-    if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise QmtInputError(f"--rate {rate_hz}: give the controller's rate in Hz, a finite positive number "
-                            "(UR: 125 or 500, Franka: 1000)")
+    number(rate_hz, "--rate", positive=True, fix="give the controller's rate in Hz (UR: 125 or 500, Franka: 1000)")
+
+
+def _obstacles(sc) -> bool:
+    return bool(getattr(sc, "obstacles", ()))  # spatial scenarios with world.obstacles (planar arms have none)
 
 
 def check_export_inputs(sc, duration_s: float, fmt: str, rate_hz, interp: str, *, allow_large: bool = False) -> None:
-    """check_stream_options, then the budget of the stream's check (budgets.check_budget)."""
+    """check_stream_options, a rate that samples the plan, then the budget of the stream's check
+    (budgets.check_budget) over the stream's own length (up to one period past the plan's end)."""
     check_stream_options(fmt, rate_hz, interp)
-    n = duration_s * check_rate(sc, rate_hz)
-    check_budget(Estimate(n * CHECK_BYTES_PER_SAMPLE, n * CHECK_S_PER_SAMPLE,
+    if 1.0 / rate_hz > duration_s:  # the stream is the start and the end pose: the plan's path between is gone
+        raise QmtInputError(f"--rate {rate_hz:g}: one period ({1.0 / rate_hz:.3g} s) is longer than the {duration_s:.3g} s "
+                            "plan, so the stream would hold only its start and end pose; give the controller's rate "
+                            "(125 to 1000 Hz typical)")
+    end_s = math.ceil(duration_s * rate_hz - 1e-9) / rate_hz  # stream_times' last sample, not its array (1e9 Hz)
+    n = end_s * check_rate(sc, rate_hz)
+    seconds = n * CHECK_S_PER_SAMPLE + (end_s * own_recheck_rate(sc) * CLEARANCE_S_PER_SAMPLE if _obstacles(sc) else 0.0)
+    check_budget(Estimate(n * CHECK_BYTES_PER_SAMPLE, seconds,
                           f"export at {rate_hz:g} Hz of a {duration_s:.3g} s plan ({n:.3g} check samples at "
                           f"{check_rate(sc, rate_hz):g} Hz)", "give the controller's rate (125 to 1000 Hz typical)"),
                  allow_large=allow_large)
+
+
+def check_export_call(sc, plan, out, hold, allow_large) -> None:
+    """export_plan's objects from a Python caller, one line each (a name for sc, a plan file's path for plan,
+    an int for out, a plan of another scenario reached an AttributeError or a numpy broadcast error)."""
+    target = getattr(sc, "E", sc) if _own_check(sc) else sc  # energy/stream.EnergyStreamTarget: its Experiment
+    if isinstance(sc, (str, bytes, os.PathLike)):
+        raise QmtInputError(f"export_plan: scenario {sc!r} is a name; pass load_scenario({str(sc)!r})")
+    kind = scenario_kind_of(target)
+    if not isinstance(plan, Plan):
+        raise QmtInputError(f"export_plan: plan {plan!r:.60} is not a Plan; pass plan_with(...) or load_plan(PATH)")
+    if plan.scenario_kind != kind or getattr(plan.scenario, "name", None) != sc.name:
+        raise QmtInputError(f"export_plan: the {plan.method} plan is {a_kind(plan.scenario_kind)} plan for scenario "
+                            f"{getattr(plan.scenario, 'name', '?')}, not for {a_kind(kind)} scenario {sc.name}")
+    path_arg(out, "export_plan: out", "stream file")
+    check_output_path(out, "export_plan: out")
+    for name, flag in (("hold", hold), ("allow_large", allow_large)):
+        if not isinstance(flag, bool):
+            raise QmtInputError(f"export_plan: {name} {flag!r} must be True or False")
 
 
 def ros2_joint_trajectory(joint_names, t, q, qd, qdd) -> dict:
@@ -214,9 +250,20 @@ def write_stream(path, fmt: str, joint_names, t, q, qd, qdd) -> None:
 
 
 def stream_check(sc, stream, rate_hz: float) -> dict:
-    """The scenario's limit check of the interpolated stream at check_rate(rate_hz) ('check_rate_hz' added)."""
+    """The scenario's limit check of the interpolated stream at check_rate(rate_hz) ('check_rate_hz' added),
+    and with obstacles its clearance at the scenario's re-check rate ('clearance_m', 'clearance_pair')."""
     rate = check_rate(sc, rate_hz)
-    return {**limit_check(sc, stream, rate), "check_rate_hz": rate}
+    out = {**limit_check(sc, stream, rate), "check_rate_hz": rate}
+    if _obstacles(sc):
+        c = clearance(sc, stream, own_recheck_rate(sc))
+        out.update(clearance_m=float(c["clearance_m"]), clearance_pair=list(c["clearance_pair"]),
+                   clearance_time_s=float(c["clearance_time_s"]))
+    return out
+
+
+def stream_holds(rc: dict) -> bool:
+    """A stream check holds: every limit (ratio <= 1) and, with obstacles, clear of them."""
+    return bool(rc["max"] <= 1.0 and rc.get("clearance_m", 0.0) >= 0.0)
 
 
 def _stream_of(sc, traj, rate_hz: float, interp: str):
@@ -229,13 +276,13 @@ def hold_scale(sc, traj, rate_hz: float, interp: str, *, k_max: float = HOLD_MAX
     """The time scale k in [1, k_max] (bisection to rel_tol) at which the stream of traj played k times
     slower keeps every limit as interpolated; each k tried is checked, and the one returned holds. The
     ratio is not monotone in k (the samples fall elsewhere on the plan), so a smaller k may hold too."""
-    if _stream_of(sc, traj, rate_hz, interp)[2]["max"] <= 1.0:
+    if stream_holds(_stream_of(sc, traj, rate_hz, interp)[2]):
         return 1.0
-    if _stream_of(sc, TimeScaled(traj, k_max), rate_hz, interp)[2]["max"] > 1.0:
-        raise QmtInputError(f"--hold: the stream at {rate_hz:g} Hz breaks a limit even {k_max:g} times slower; "
-                            "raise the rate or use the other --interp")
+    if not stream_holds(_stream_of(sc, TimeScaled(traj, k_max), rate_hz, interp)[2]):
+        raise QmtInputError(f"--hold: the stream at {rate_hz:g} Hz breaks a limit or collides even {k_max:g} times "
+                            "slower; raise the rate or use the other --interp")
     return smallest_holding_scale(
-        1.0, k_max, lambda k: _stream_of(sc, TimeScaled(traj, k), rate_hz, interp)[2]["max"] <= 1.0, rel_tol)
+        1.0, k_max, lambda k: stream_holds(_stream_of(sc, TimeScaled(traj, k), rate_hz, interp)[2]), rel_tol)
 
 
 def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", *, hold: bool = False,
@@ -243,6 +290,7 @@ def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", 
     """Write `plan` (a SpatialPlan of sc) as the stream (module docstring) and re-check the stream as
     `interp` interpolates it; hold: first slow the plan by hold_scale so that the stream keeps the limits.
     The report: the stream's re-check beside the plan's own at the same rate, peak jerks, the scale."""
+    check_export_call(sc, plan, out, hold, allow_large)
     check_export_inputs(sc, plan.duration_s * (HOLD_MAX_SCALE if hold else 1.0), fmt, rate_hz, interp,
                         allow_large=allow_large)
     k = hold_scale(sc, plan.trajectory, rate_hz, interp) if hold else 1.0
@@ -252,6 +300,6 @@ def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", 
     own = limit_check(sc, plan.trajectory, check_rate(sc, rate_hz))
     return {"scenario": sc.name, "method": plan.method, "format": fmt, "rate_hz": float(rate_hz), "interp": interp,
             "out": str(out), "n_samples": int(len(t)), "stream_end_s": float(t[-1]), "plan_duration_s": plan.duration_s,
-            "hold_scale": k, "stream_recheck": rc, "stream_holds": rc["max"] <= 1.0, "plan_recheck_same_rate": own,
+            "hold_scale": k, "stream_recheck": rc, "stream_holds": stream_holds(rc), "plan_recheck_same_rate": own,
             "stream_peak_jerk": stream_jerk(sc, stream, rc["check_rate_hz"]),
             "plan_peak_jerk": stream_jerk(sc, plan.trajectory, own_recheck_rate(sc)), "stream": stream}

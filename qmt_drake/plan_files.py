@@ -137,6 +137,9 @@ def read_plan_file(path: str | Path) -> dict:
     if not isinstance(d, dict) or "scenario" not in d or not (isinstance(d.get("trajectory"), dict) or legacy_energy):
         raise QmtInputError(f"plan file {path} lacks the 'scenario' or 'trajectory' key; write it "
                             "with `qmt-drake plan ... --json PATH`")
+    bad = [k for k in ("scenario", "method") if k in d and not (isinstance(d[k], str) and d[k].strip())]
+    if bad:  # names every summary line prints ("ur5-suction-bins 5 x1: carried")
+        raise QmtInputError(f"plan file {path}: its {bad[0]} {d[bad[0]]!r} is not a name (edited by hand?); write it again")
     return d
 
 

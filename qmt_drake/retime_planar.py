@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from qmt_drake.api_checks import OPTION_RANGES, number
 from qmt_drake.errors import QmtInputError
 from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan
 from qmt_drake.planners.baselines.paths import GeometricPath
@@ -52,8 +53,8 @@ def retime_planar_path(scenario, joint_path_or_file, *, n_grid: int = 1000):
     """The fastest timing of a given joint path on a planar scenario (module docstring): a Plan
     re-checked at the scenario's check rate (feasible False, the reason in extra['infeasible'], when
     TOPP-RA finds no timing or the path leaves a joint range)."""
-    if not (isinstance(n_grid, int) and n_grid >= 10):
-        raise QmtInputError(f"n_grid {n_grid!r} must be an integer >= 10 (TOPP-RA's grid points; 1000 by default)")
+    lo, hi, fix = OPTION_RANGES["n_grid"]  # the API's range: 10^9 points would fill the memory before any word
+    n_grid = number(n_grid, "n_grid", minimum=lo, maximum=hi, integer=True, fix=fix)
     src = joint_path_or_file if isinstance(joint_path_or_file, (str, Path)) else None
     Q = read_joint_path(joint_path_or_file, scenario.arm.joint_names)
     if not np.all(np.isfinite(Q)):

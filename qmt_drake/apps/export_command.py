@@ -91,8 +91,12 @@ def summary_line(rep: dict) -> str:
             f"the plan's {max(pj['peak_jerk_rad_s3']):.4g} at {pj['jerk_rate_hz']:g} Hz)")
     line = (f"{rep['scenario']} {rep['method']} -> {rep['out']}: {rep['n_samples']} samples at {rep['rate_hz']:g} Hz "
             f"({rep['format']}); {rep['interp']} interpolation re-checked at {rc['check_rate_hz']:g} Hz: max ratio "
-            f"{rc['max']:.4f} ({binding(rc)}), the stream {'keeps' if rep['stream_holds'] else 'BREAKS'} the limits "
+            f"{rc['max']:.4f} ({binding(rc)}), the stream {'keeps' if rc['max'] <= 1.0 else 'BREAKS'} the limits "
             f"(the plan itself {own['max']:.5f} at that rate); {jerk}")
+    if "clearance_m" in rc:  # a scenario with obstacles: the interpolated stream's clearance from them
+        a, b = rc["clearance_pair"]
+        line += (f"; clearance {rc['clearance_m']:+.4f} m ({a} vs {b} at {rc['clearance_time_s']:.4f} s)"
+                 + ("" if rc["clearance_m"] >= 0.0 else ": the stream COLLIDES"))
     if rep["hold_scale"] != 1.0:
         line += f"; played {rep['hold_scale']:.4f} x slower (--hold): T = {rep['plan_duration_s'] * rep['hold_scale']:.4f} s"
     sim = rep.get("simulation")

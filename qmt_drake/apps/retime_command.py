@@ -16,14 +16,20 @@ An energy-time scenario with joint torque limits (ohsaka-fig3) is retimed as its
 
 from __future__ import annotations
 
+import inspect
+from dataclasses import replace
+
+from qmt_drake.api_checks import OPTION_RANGES, number
 from qmt_drake.apps.arg_checks import check_int, check_outputs, emit_json, progress
 from qmt_drake.apps.spatial_cli import is_spatial_scenario
+from qmt_drake.budgets import check_budget, spatial_ga_estimate
 from qmt_drake.energy.as_transfer import transfer_scenario_of
 from qmt_drake.energy.scenario import get_experiment, is_energy_scenario
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import run_simulate
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import jsonable
+from qmt_drake.planners.spatial_search import plan_ga_spatial
 from qmt_drake.retime import METHODS, retime_path
 from qmt_drake.retime_planar import retime_planar_path
 from qmt_drake.sim.spatial_cosim import simulate_spatial
@@ -50,6 +56,7 @@ def add_parser(subparsers):
     s.add_argument("--json", metavar="PATH|-", help="write the plan file")
     s.add_argument("--trajectory-csv", metavar="PATH", help="t, q, qd, qdd at 1 kHz")
     s.add_argument("--simulate", action="store_true", help="then co-simulate it (carried or not)")
+    s.add_argument("--allow-large", action="store_true", help="run even over the memory/time budget (budgets.py)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_retime)
     return s
@@ -57,7 +64,8 @@ def add_parser(subparsers):
 
 def cmd_retime(args) -> int:
     check_outputs(args, "--json", "--trajectory-csv")
-    check_int(args.n_grid, "--n-grid", 10, "TOPP-RA needs a grid (1000 by default)")
+    lo, hi, fix = OPTION_RANGES["n_grid"]  # 10^9 points filled 23 GB before anything was said
+    number(args.n_grid, "--n-grid", minimum=lo, maximum=hi, integer=True, fix=fix)
     energy = is_energy_scenario(args.scenario)
     if energy and args.simulate:
         raise QmtInputError(f"--simulate: retime {args.scenario} --json FILE, then `qmt-drake simulate {args.scenario} "
@@ -69,7 +77,11 @@ def cmd_retime(args) -> int:
         raise QmtInputError(f"--{sorted(ga)[0]}: an option of --method ga; drop it")
     check_int(ga.get("seed"), "--seed", 0, "seeds are non-negative integers")
     check_int(ga.get("generations"), "--generations", 1, "run at least one generation")
-    if args.method == "ga":
+    if args.method == "ga":  # priced as `plan --method ga` is (its population: plan_ga_spatial's default)
+        population = inspect.signature(plan_ga_spatial).parameters["population"].default
+        est = spatial_ga_estimate(population, ga.get("generations", 150))
+        check_budget(replace(est, what=f"--generations {ga.get('generations', 150)}: {est.what}",
+                             fix="use fewer --generations"), allow_large=args.allow_large)
         ga["progress"] = None if args.quiet else progress
     # seed 001's arm: its joint-space transfer (energy/as_transfer.py: its joint torque limits; none: one line)
     sc = transfer_scenario_of(get_experiment(args.scenario)) if energy else load_spatial_scenario(args.scenario)

@@ -29,6 +29,7 @@ import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 from qmt_drake.apps.arg_checks import (
     check_int,
@@ -64,8 +65,10 @@ from qmt_drake.planners.spatial_trajectory import TimeScaled
 from qmt_drake.retime import load_plan_file
 from qmt_drake.sim.spatial_actuation import check_drive
 from qmt_drake.sim.spatial_cosim import TAIL_S, check_spatial_time_step, simulate_spatial, spatial_time_step
-from qmt_drake.spatial_task import SPATIAL_KIND, load_spatial_scenario
+from qmt_drake.spatial_data import parse_spatial_data
+from qmt_drake.spatial_task import SPATIAL_KIND, build_spatial_scenario, load_spatial_scenario
 from qmt_drake.sweep.budget import estimate_spatial_sweep, estimate_sweep
+from qmt_drake.sweep.parameters import MOTOR_PARAMETERS
 from qmt_drake.sweep.robust import plan_for_success, success_spec
 from qmt_drake.sweep.spec import load_spec
 from qmt_drake.sweep.stats import cases_to_certify, wilson_interval
@@ -135,7 +138,9 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
-    sc = load_spatial_scenario(args.scenario) if scenario is None else scenario
+    drive = carried_drive(args) if args.carried else ("ideal", "full")
+    success = getattr(args, "success", None) is not None
+    sc = drive_scenario(args.scenario, *drive, success=success) if scenario is None else scenario
     avoided = None
     if getattr(args, "avoid", None):  # the task becomes the certified collision-free path (planners/collision_free)
         check_positive_finite(args.avoid_margin, "--avoid-margin", "e.g. 0.005 (m)")
@@ -202,6 +207,20 @@ def carried_drive(args) -> tuple[str, str]:
     default, the scenario's DC motors with --carried-feedforward none|back-emf|full given."""
     ff = getattr(args, "carried_feedforward", None)
     return ("ideal", "full") if ff is None else ("dc_motor", ff)
+
+
+def drive_scenario(name, actuator: str, feedforward: str, explicit: bool = False, success: bool = False):
+    """The built scenario, after check_drive's refusals that its plain data shows (an unknown drive, dc_motor
+    without actuators.motor; success: motor parameters in its uncertainty section without actuators.motor):
+    building the arm (URDF, IK of every path point) takes seconds on a big robot."""
+    data = parse_spatial_data(name)
+    if actuator != "dc_motor" or data.actuators.motor is None:  # then check_drive reads only these fields
+        check_drive(SimpleNamespace(name=data.name, motor=None), actuator, feedforward, explicit)
+    drawn = [p for p in (data.uncertainty or {}).get("parameters", {}) if p in MOTOR_PARAMETERS]
+    if success and drawn and data.actuators.motor is None:  # (sweep/spatial_cases.check_spatial_spec, once built)
+        raise QmtInputError(f"--success: scenario {data.name}'s uncertainty.parameters.{drawn[0]} scales its DC motors, "
+                            "and it has no actuators.motor; add actuators.motor or drop that parameter")
+    return build_spatial_scenario(data)
 
 
 def _check_carried_budget(args, motion_time_s: float) -> None:
@@ -310,11 +329,11 @@ def simulate(args, energy_options=()) -> int:
     _refuse_given(args, SIMULATE_REFUSED, energy_options)
     check_outputs(args, "--json", "--record")
     check_positive_finite(args.time_scale, "--time-scale", "1 replays the plan as planned, 2 twice as slow")
-    sc = load_spatial_scenario(args.scenario)
     actuator = args.actuator or "ideal"
     feedforward = args.feedforward or "full"
     explicit = bool(getattr(args, "explicit", False))
     check_positive_finite(args.time_step_ms, "--time-step-ms", "the plant step in ms, e.g. 1 or 2")
+    sc = drive_scenario(args.scenario, actuator, feedforward, explicit)
     h = None if args.time_step_ms is None else check_spatial_time_step(args.time_step_ms * 1e-3)
     if h is None and sc.simulation.plant.time_step is not None:  # the scenario's simulation.plant.time_step
         h = spatial_time_step(sc, None)

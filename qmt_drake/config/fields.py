@@ -149,8 +149,14 @@ def merge_overrides(base: dict, extra: dict) -> dict:
     out = dict(base)
     for k, v in extra.items():
         nested = isinstance(v, dict) and isinstance(out.get(k), dict) and k != "genes"
-        out[k] = merge_overrides(out[k], v) if nested else v
+        out[k] = merge_overrides(out[k], v) if nested else _plain(v)
     return out
+
+
+def _plain(v):
+    """A numpy array or scalar from a Python caller as the YAML's plain list or number (`com_m=np.array(...)`
+    was refused as "must be a list of numbers"); the validators then check it as the file's value."""
+    return v.tolist() if isinstance(v, (np.ndarray, np.generic)) else v
 
 
 def show(v) -> str:
@@ -247,18 +253,19 @@ def boolean(d: dict, key: str, where: str, *, default=MISSING) -> bool:
 
 
 def vector(d: dict, key: str, where: str, *, positive: bool = False, nonnegative: bool = False,
-           length: int | None = None, what: str = "numbers") -> np.ndarray:
+           length: int | None = None, what: str = "") -> np.ndarray:
     """A non-empty list of finite numbers (positive / non-negative if asked; `length` entries)."""
     v = need(d, key, where)
+    said = f" ({what})" if what else ""  # (the default was "numbers": "a list of numbers (numbers)")
     if not isinstance(v, list) or not v or not all(is_number(x) for x in v):
-        raise QmtInputError(f"{key_path(where, key)} must be a list of numbers ({what}), got {show(v)}{float_text_hint(v)}")
+        raise QmtInputError(f"{key_path(where, key)} must be a list of numbers{said}, got {show(v)}{float_text_hint(v)}")
     a = np.asarray(v, dtype=float)
     bad = ~np.isfinite(a) | ((a <= 0) if positive else (a < 0) if nonnegative else False)
     if np.any(bad):
         sign = "positive " if positive else "non-negative " if nonnegative else "finite "
-        raise QmtInputError(f"{key_path(where, key)} must be a list of {sign}numbers ({what}), got {a.tolist()}")
+        raise QmtInputError(f"{key_path(where, key)} must be a list of {sign}numbers{said}, got {a.tolist()}")
     if length is not None and len(a) != length:
-        raise QmtInputError(f"{key_path(where, key)} has {len(a)} entries; give {length} ({what})")
+        raise QmtInputError(f"{key_path(where, key)} has {len(a)} entries; give {length}{said}")
     return a
 
 

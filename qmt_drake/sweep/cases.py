@@ -114,6 +114,8 @@ def build_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]]:
                 values = {**spec.fixed, **point, **draw}
                 case, ref = _make_case(spec, base, pdef, values, index,
                                        i if spec.distributions else None)
+                if ref.file is not None and ref.key not in plans:  # loaded now, on the scenario the cases plan on:
+                    load_plan(ref.file, scenario=_scenario(ref.scenario, ref.overrides))  # in a worker: exit 4
                 plans.setdefault(ref.key, ref)
                 cases.append(case)
                 index += 1

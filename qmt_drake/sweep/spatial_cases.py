@@ -124,7 +124,8 @@ def check_spatial_spec(spec: SweepSpec, base) -> tuple[str, str]:
                                 f"not vary it (scenario {base.name}); vary "
                                 f"{', '.join(SPATIAL_HAND_PARAMETERS[base.hand_kind])}")
         if name in MOTOR_PARAMETERS and base.motor is None:
-            raise QmtInputError(f"sweep parameter '{name}': scenario {base.name} has no actuators.motor")
+            raise QmtInputError(f"sweep parameter '{name}': scenario {base.name} has no actuators.motor (the DC motors "
+                                "it scales); add actuators.motor to the scenario or drop the parameter")
     extra = sorted(set(spec.sim) - {"actuator", "feedforward", "integral_rate_per_s"})
     if extra:
         raise QmtInputError(f"sweep sim.{extra[0]}: the spatial co-simulation steps at 1 ms; give only sim.actuator, "
@@ -163,7 +164,8 @@ def build_spatial_cases(spec: SweepSpec) -> tuple[list[Case], dict[str, PlanRef]
     samples = spec.samples()
     cases, plans = [], {}
     for pdef in spec.plans:
-        if "file" in pdef:
+        if "file" in pdef:  # loaded (rebuilt, fitted to the scenario) now: in a worker a bad file was every case's
+            load_spatial_plan(pdef["file"], base)  # failure (exit 4), named by the worker's temporary copy
             ref = PlanRef(spec.scenario, {}, file=pdef["file"], file_sha256=plan_file_hash(pdef["file"]))
         else:
             ref = PlanRef(spec.scenario, {}, method=registry.find(registry.SPATIAL, pdef["method"]).name,

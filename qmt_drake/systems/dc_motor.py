@@ -80,6 +80,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import Multiplexer, PassThrough
 
 from qmt_drake.catalog import HARMONIC_DRIVE_EFFICIENCY, MOTOR_CATALOG, MotorDatasheet, motor_for_rated_torque  # noqa: F401 (re-exported)
+from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
 
@@ -106,6 +107,12 @@ class DcMotorParams:
         for k in ("resistance_ohm", "gear_ratio", "voltage_limit_V", "current_limit_A", "efficiency"):
             if getattr(self, k).shape != (n,):
                 raise ValueError(f"DcMotorParams.{k} has shape {getattr(self, k).shape}, expected ({n},)")
+        for k in ("torque_constant_Nm_per_A", "resistance_ohm", "gear_ratio", "voltage_limit_V", "current_limit_A"):
+            v = getattr(self, k)  # a zero or negative resistance divided its way into inf/NaN torques, silently
+            finite = k not in ("voltage_limit_V", "current_limit_A")  # (an unlimited supply: inf)
+            if not np.all(v > 0) or (finite and not np.all(np.isfinite(v))):
+                raise QmtInputError(f"DcMotorParams.{k} {v.tolist()} must be {'finite and ' if finite else ''}positive "
+                                    "for every joint")
         if self.inductance_H is not None:
             self.inductance_H = np.atleast_1d(np.asarray(self.inductance_H, dtype=float))
         if np.any(self.efficiency <= 0) or np.any(self.efficiency > 1):
