@@ -9,13 +9,13 @@ TOPP-RA uses for the IK'd path (planners/spatial_toppra.joint_path: zero slopes 
 arm starts and stops at rest). Inputs:
 
 - CSV: a header row of joint names, one waypoint a row (an optional `time_s` / `time_from_start`
-  column is read and ignored, as any timing);
+  column is ignored, as any timing, but must rise as YAML's times must);
 - a ROS 2 `trajectory_msgs/JointTrajectory` as YAML or JSON (`joint_names`, `points[].positions`,
   optional `time_from_start` {sec, nanosec}; also inside a moveit_msgs/RobotTrajectory's
   `joint_trajectory`): only the geometric path is kept; times, if given, must rise.
 
 Refused in one line, before any planning: an unknown or missing joint name, a row of another length,
-a non-finite value, fewer than 2 waypoints, two neighbouring waypoints closer than SAME_RAD, a
+a value that is no number (text, a boolean), a non-finite value, fewer than 2 waypoints, two neighbouring waypoints closer than SAME_RAD, a
 waypoint or the spline between waypoints outside the URDF's joint range, falling time_from_start,
 and, when the scenario has obstacles (`world.obstacles`), a path whose arm or carried part collides
 with one (`path_clearance`: Drake's signed distance along the spline through the waypoints,
@@ -44,6 +44,8 @@ trajectory equal to the file's own samples, re-checked afresh.
 from __future__ import annotations
 
 import csv
+import difflib
+import inspect
 import io
 import time
 from dataclasses import replace
@@ -52,7 +54,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from qmt_drake.config.fields import yaml_problem
+from qmt_drake.api_checks import OPTION_RANGES, check_options, number, strict_call
+from qmt_drake.budgets import check_budget, spatial_ga_estimate
+from qmt_drake.config.fields import show, yaml_problem
+from qmt_drake.config.registry import ENERGY_TIME
+from qmt_drake.config.resolve import SPATIAL, kind_of
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import clearance, collision_model
 from qmt_drake.plan_files import read_plan_file
@@ -68,6 +74,7 @@ from qmt_drake.planners.spatial_plan_io import (
 from qmt_drake.planners.spatial_search import plan_ga_spatial
 from qmt_drake.planners.spatial_toppra import joint_path, plan_toppra
 from qmt_drake.planners.spatial_trajectory import PolyTrajectory, ToppraTrajectory
+from qmt_drake.spatial_task import SpatialScenario, load_spatial_scenario
 
 METHODS = ("toppra", "ga")
 SAME_RAD = 1e-9  # neighbouring waypoints closer than this (joint-space norm) are one waypoint given twice
@@ -112,6 +119,8 @@ def _rows_to_array(names, rows, joint_names, where: str) -> np.ndarray:
             raise QmtInputError(f"{where}: waypoint {k} has {len(row)} values for {len(names)} joints; give one "
                                 "value per named joint")
         try:
+            if any(isinstance(v, (bool, np.bool_)) for v in row):  # YAML's `true` is no angle (float() made it 1 rad)
+                raise TypeError
             vals = [float(v) for v in row]
         except (TypeError, ValueError):
             raise QmtInputError(f"{where}: waypoint {k} has a value that is not a number ({row}); give radians") from None
@@ -131,7 +140,14 @@ def parse_csv(text: str, joint_names, where: str = "joint path") -> np.ndarray:
                             f"column's joint ({', '.join(joint_names)})")
     keep = [i for i, c in enumerate(header) if c not in TIME_KEYS]
     body = [[r[i] for i in keep] if len(r) == len(header) else r for r in rows[1:]]
-    return _rows_to_array([header[i] for i in keep], body, joint_names, where)
+    Q = _rows_to_array([header[i] for i in keep], body, joint_names, where)
+    for i in (i for i, c in enumerate(header) if c in TIME_KEYS):  # ignored, but refused out of order as YAML's are
+        t = [r[i].strip() for r in rows[1:] if len(r) == len(header)]
+        if not all(_is_number(x) for x in t):
+            raise QmtInputError(f"{where}: column {header[i]} holds a value that is not a time ("
+                                f"{next(x for x in t if not _is_number(x))!r}); give seconds or drop the column")
+        _times_rise([float(x) for x in t], where, f"column {header[i]}", "waypoint")
+    return Q
 
 
 def _seconds(t, where: str, k: int) -> float:
@@ -142,6 +158,14 @@ def _seconds(t, where: str, k: int) -> float:
         return float(t)
     except (TypeError, ValueError):
         raise QmtInputError(f"{where}: point {k}'s time_from_start {t!r} is not a time; give {{sec, nanosec}}") from None
+
+
+def _times_rise(times: list, where: str, what: str, item: str) -> None:
+    """Refuse times that do not rise (points out of order or repeated)."""
+    if len(times) > 1 and np.any(np.diff(times) <= 0):
+        k = int(np.argmax(np.diff(times) <= 0)) + 1
+        raise QmtInputError(f"{where}: {what} does not rise at {item} {k} ({times[k - 1]:g} s then "
+                            f"{times[k]:g} s); the {item}s are out of order or repeated")
 
 
 def parse_joint_trajectory(msg, joint_names, where: str = "joint path") -> np.ndarray:
@@ -155,11 +179,11 @@ def parse_joint_trajectory(msg, joint_names, where: str = "joint path") -> np.nd
     if any(not isinstance(p, dict) or not isinstance(p.get("positions"), list) for p in points):
         raise QmtInputError(f"{where}: every point needs a positions list (radians)")
     times = [_seconds(p["time_from_start"], where, k) for k, p in enumerate(points) if "time_from_start" in p]
-    if len(times) == len(points) and len(times) > 1 and np.any(np.diff(times) <= 0):
-        k = int(np.argmax(np.diff(times) <= 0)) + 1
-        raise QmtInputError(f"{where}: time_from_start does not rise at point {k} ({times[k - 1]:g} s then "
-                            f"{times[k]:g} s); the points are out of order or repeated")
-    return _rows_to_array(msg["joint_names"] or [], [p["positions"] for p in points], joint_names, where)
+    if len(times) == len(points):
+        _times_rise(times, where, "time_from_start", "point")
+    if not isinstance(msg["joint_names"], (list, tuple)):  # a string was read letter by letter
+        raise QmtInputError(f"{where}: joint_names must be a list of joint names, got {show(msg['joint_names'])}")
+    return _rows_to_array(msg["joint_names"], [p["positions"] for p in points], joint_names, where)
 
 
 def read_joint_path(source, joint_names) -> np.ndarray:
@@ -188,7 +212,14 @@ def read_joint_path(source, joint_names) -> np.ndarray:
         return parse_joint_trajectory(msg, joint_names, where)
     if isinstance(source, dict):
         return parse_joint_trajectory(source, joint_names)
-    Q = np.asarray(source, float)
+    fix = (f"give a (K, {len(joint_names)}) array of numbers (radians) in the order {', '.join(joint_names)}, or a "
+           "file with joint names")
+    try:
+        if np.asarray(source).dtype.kind == "b":
+            raise TypeError
+        Q = np.asarray(source, float)
+    except (TypeError, ValueError):  # ragged rows, text, booleans
+        raise QmtInputError(f"joint path: a {type(source).__name__} of ragged rows, text or booleans; {fix}") from None
     if Q.ndim != 2 or Q.shape[1] != len(joint_names):
         raise QmtInputError(f"joint path: give a (K, {len(joint_names)}) array in the order {', '.join(joint_names)} "
                             f"(got shape {Q.shape}), or a file with joint names")
@@ -287,22 +318,68 @@ def _retime_ga(sc, Q, info: dict, **ga_options) -> SpatialPlan:
                      pose_times_s=np.array([0.0, p.duration_s]))
 
 
-def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid: int = 1000,
-                collisions: str = "refuse", **ga_options) -> SpatialPlan:
-    """The fastest timing of a given joint path on a spatial scenario (module docstring): a SpatialPlan
-    re-checked at the scenario's re-check rate. joint_path_or_file: a .csv / .yaml / .json file, a
-    JointTrajectory mapping, or a (K, n) array in scenario.joint_names order (rad). method: "toppra"
-    (n_grid grid points) or "ga" (ga_options: plan_ga_spatial's seed, generations, population, stall,
-    progress). collisions: "refuse" a path that collides with the scenario's obstacles (one line, before
-    any timing), or "report" it (timed anyway: info 'path_clearance' negative, the plan infeasible)."""
-    if method not in METHODS:
-        raise QmtInputError(f"method {method!r}: retime takes {'|'.join(METHODS)}")
-    if collisions not in ("refuse", "report"):
-        raise QmtInputError(f"collisions {collisions!r}: give 'refuse' or 'report'")
-    if not (isinstance(n_grid, int) and n_grid >= 10):
-        raise QmtInputError(f"n_grid {n_grid!r} must be an integer >= 10 (TOPP-RA's grid points; 1000 by default)")
+def _scenario_arg(scenario) -> SpatialScenario:
+    """A spatial scenario; a built-in name or a YAML path of one is loaded; anything else refused."""
+    if isinstance(scenario, SpatialScenario):
+        return scenario
+    kind = kind_of(scenario)
+    if kind == SPATIAL or (not kind and isinstance(scenario, (str, Path))):  # no such file: the loader names it
+        return load_spatial_scenario(scenario)
+    if kind == ENERGY_TIME:
+        raise QmtInputError(f"retime_path: {scenario} is an energy-time experiment; pass its arm as a spatial "
+                            "scenario: qmt_drake.energy.as_transfer.transfer_scenario_of(load_scenario(NAME))")
+    raise QmtInputError(f"retime_path: scenario {show(scenario)} is not a spatial scenario; retime a planar "
+                        "scenario's path with qmt_drake.retime_planar.retime_planar_path")
+
+
+GA_SKIP = ("sc", "family")  # retime's GA searches the via-cubic family through the path's waypoints
+_GA_PLANNER = plan_ga_spatial  # its keywords, read once (a test's stand-in for the GA keeps them)
+GA_DEFAULTS = {k: p.default for k, p in inspect.signature(plan_ga_spatial).parameters.items() if k not in GA_SKIP}
+
+
+def _check_ga_options(method: str, ga_options: dict, allow_large) -> None:
+    """ga_options against plan_ga_spatial's keywords (a misspelt one named with the closest known keyword),
+    their values and the GA's price (budgets.spatial_ga_estimate), before any work."""
+    known = ["method", "n_grid", "collisions", "allow_large", *GA_DEFAULTS]
+    for key in ga_options:
+        if key not in GA_DEFAULTS:
+            near = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+            raise QmtInputError(f"retime_path: unknown keyword {key!r}; {f'did you mean {near[0]!r}? ' if near else ''}"
+                                f"it takes {', '.join(known)}")
     if method == "toppra" and ga_options:
         raise QmtInputError(f"option {sorted(ga_options)[0]!r} is a GA option; drop it for method toppra")
+    if not isinstance(allow_large, (bool, np.bool_)):
+        raise QmtInputError(f"retime_path: allow_large {show(allow_large)} must be True or False")
+    check_options(_GA_PLANNER, ga_options, "retime_path option", "the spatial GA", skip=GA_SKIP)
+    if method == "ga":
+        size = {k: ga_options.get(k, GA_DEFAULTS[k]) for k in ("population", "generations")}
+        est = replace(spatial_ga_estimate(size["population"], size["generations"]),
+                      fix="use fewer generations= (or a smaller stall=) or a smaller population=")
+        try:
+            check_budget(est, allow_large=bool(allow_large))
+        except QmtInputError as exc:  # the API's keyword, not the CLI's flag
+            raise QmtInputError(str(exc).replace("--allow-large", "allow_large=True")) from None
+
+
+@strict_call
+def retime_path(scenario, joint_path_or_file, method: str = "toppra", *, n_grid: int = 1000,
+                collisions: str = "refuse", allow_large: bool = False, **ga_options) -> SpatialPlan:
+    """The fastest timing of a given joint path on a spatial scenario (module docstring): a SpatialPlan
+    re-checked at the scenario's re-check rate. scenario: a SpatialScenario, or a spatial scenario's
+    built-in name or YAML path (loaded). joint_path_or_file: a .csv / .yaml / .json file, a
+    JointTrajectory mapping, or a (K, n) array in scenario.joint_names order (rad). method: "toppra"
+    (n_grid grid points) or "ga" (ga_options: plan_ga_spatial's seed, generations, population, stall,
+    progress, ...; priced by budgets.spatial_ga_estimate and refused over the budget unless allow_large).
+    collisions: "refuse" a path that collides with the scenario's obstacles (one line, before
+    any timing), or "report" it (timed anyway: info 'path_clearance' negative, the plan infeasible)."""
+    if not isinstance(method, str) or method not in METHODS:
+        raise QmtInputError(f"method {show(method)}: retime takes {'|'.join(METHODS)}")
+    if not isinstance(collisions, str) or collisions not in ("refuse", "report"):
+        raise QmtInputError(f"collisions {show(collisions)}: give 'refuse' or 'report'")
+    lo, hi, fix = OPTION_RANGES["n_grid"]  # before any allocation: 10^9 points filled 23 GB
+    n_grid = number(n_grid, "n_grid", minimum=lo, maximum=hi, integer=True, fix=fix)
+    _check_ga_options(method, ga_options, allow_large)
+    scenario = _scenario_arg(scenario)
     src = joint_path_or_file if isinstance(joint_path_or_file, (str, Path)) else None
     where = _where(src)
     Q = read_joint_path(joint_path_or_file, scenario.joint_names)

@@ -122,8 +122,11 @@ def test_refusals(tmp_path):
         collision_free_path(two_link(tmp_path, []))
     with pytest.raises(QmtInputError, match="margin"):
         collision_free_path(two_link(tmp_path, [POST]), margin_m=-1.0)
-    near = Obstacle("near", "box", (0.54, -0.84, 0.0), size_m=(0.1, 0.1, 0.4))  # next to the start pose's tip
-    with pytest.raises(QmtInputError, match="task pose 0 is itself within the margin"):
+    inside = Obstacle("near", "box", (0.54, -0.84, 0.0), size_m=(0.1, 0.1, 0.4))  # around the start pose's part
+    with pytest.raises(QmtInputError, match=r"task pose 0 collides with obstacle/near by 90.0 mm .*move the obstacle"):
+        collision_free_path(two_link(tmp_path, [inside]), margin_m=0.05)  # no margin can help: not "a margin below"
+    near = Obstacle("near", "box", (0.66, -0.84, 0.0), size_m=(0.1, 0.1, 0.4))  # 28 mm from the start pose's part
+    with pytest.raises(QmtInputError, match=r"task pose 0 is itself within the margin or tilted \(28.2 mm"):
         collision_free_path(two_link(tmp_path, [near]), margin_m=0.05)
 
 

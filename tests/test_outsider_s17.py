@@ -162,11 +162,6 @@ def _no_timing(monkeypatch):
     monkeypatch.setattr(retime, "plan_ga_spatial", reached)
 
 
-_RETIME_XFAIL = pytest.mark.xfail(strict=True, reason="retime.py (helper tgrid's): retime_path's arguments are not "
-                                  "checked as the API's are; fix in the s17 outsider report")
-
-
-@_RETIME_XFAIL
 @pytest.mark.parametrize("path, kw, needle", [
     ([[0.0, 1.0], [1.0, 2.0, 3.0]], {}, r"joint path: .*\(K, 6\) array"),  # ragged: numpy's ValueError traceback
     ([["a"] * 6, ["b"] * 6], {}, r"joint path: .*numbers"),  # text: "could not convert string to float"
@@ -184,7 +179,6 @@ def test_retime_path_arguments_one_line(ur5, monkeypatch, path, kw, needle):
     assert info.type is QmtInputError or "the timing ran" in needle
 
 
-@_RETIME_XFAIL
 @pytest.mark.parametrize("scenario", ["ur5-suction-bins", "ch4"])
 def test_retime_path_scenario_argument(ch4, ur5, monkeypatch, scenario):
     # a name (the API's other functions load it) or a planar scenario: AttributeError 'joint_names'
@@ -192,12 +186,10 @@ def test_retime_path_scenario_argument(ch4, ur5, monkeypatch, scenario):
     _no_timing(monkeypatch)
     sc = ch4 if scenario == "ch4" else scenario
     with pytest.raises((QmtInputError, AssertionError), match=r"retime_path|the timing ran") as info:
-        retime_path(sc, ur5.q_path_rad[[0, -1]])
+        retime_path(sc, ur5.q_path_rad)  # the IK path clears the bins (its two ends joined straight collide)
     assert info.type is QmtInputError or scenario != "ch4"
 
 
-@pytest.mark.xfail(strict=True, reason="planners/collision_free.py (helper trajopt's): a task pose that collides is "
-                   "told to 'give a margin below' a negative depth; fix in the s17 outsider report")
 def test_avoid_with_a_task_pose_inside_an_obstacle_names_the_fix(tmp_path, capsys):
     raw = yaml.safe_load((SCENARIO_DIR / "ur5-suction-bins.yaml").read_text())
     raw["world"]["obstacles"].append({"name": "block", "kind": "box", "size_m": [0.1, 0.1, 0.1],

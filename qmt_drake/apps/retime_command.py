@@ -85,7 +85,8 @@ def cmd_retime(args) -> int:
         ga["progress"] = None if args.quiet else progress
     # seed 001's arm: its joint-space transfer (energy/as_transfer.py: its joint torque limits; none: one line)
     sc = transfer_scenario_of(get_experiment(args.scenario)) if energy else load_spatial_scenario(args.scenario)
-    p = retime_path(sc, args.path, args.method, n_grid=args.n_grid, collisions=args.collisions, **ga)
+    p = retime_path(sc, args.path, args.method, n_grid=args.n_grid, collisions=args.collisions,
+                    allow_large=args.allow_large, **ga)
     sim = simulate_spatial(sc, p.trajectory) if args.simulate else None
     if _write_outputs(args, p, sim):
         print(summary_line(sc, p, sim))

@@ -253,6 +253,9 @@ def collision_free_path(sc, *, margin_m: float = MARGIN_M, seed: int = 0, max_ti
     for k in stops:
         if not chk.valid(Qs[k]):
             d = chk.cm.distance(Qs[k])
+            if d[0] < 0.0:  # a margin cannot help a pose that overlaps an obstacle
+                raise QmtInputError(f"collision-free path: task pose {k} collides with {d[2]} by {-d[0] * 1e3:.1f} mm "
+                                    f"({d[1]}); move the obstacle or the pose")
             raise QmtInputError(f"collision-free path: task pose {k} is itself within the margin or tilted "
                                 f"({d[0] * 1e3:.1f} mm, {d[1]} vs {d[2]}); give a margin below it")
     rng = np.random.default_rng(seed)
