@@ -2,7 +2,7 @@
 
     plan = retime_planar_path(load_scenario("thesis-ch4"), "path.csv")   # or .yaml / .json / (K, n)
 
-The path is read as for a spatial scenario (retime.read_joint_path: joints BY NAME, CSV or a ROS 2
+The path is read as for a spatial scenario (joint_path_files.read_joint_path: joints BY NAME, CSV or a ROS 2
 JointTrajectory) and joined by the same C2 cubic in the joint-space chord length (zero slopes at the
 ends: the arm starts and stops at rest; spatial_toppra.joint_path). Its fastest timing is the planar
 TOPP-RA (planners/baselines/toppra_plan.toppra_segment): the scenario's LimitSet as toppra rows
@@ -22,11 +22,11 @@ import numpy as np
 
 from qmt_drake.api_checks import OPTION_RANGES, number
 from qmt_drake.errors import QmtInputError
+from qmt_drake.joint_path_files import read_joint_path
 from qmt_drake.planners.baselines.finish import finish_plan, infeasible_plan
 from qmt_drake.planners.baselines.paths import GeometricPath
 from qmt_drake.planners.baselines.toppra_plan import toppra_segment
 from qmt_drake.planners.spatial_toppra import joint_path, path_grid
-from qmt_drake.retime import read_joint_path
 
 METHOD = "retime_toppra"
 # a user path may be longer than anything the scenario's family makes: the motion-time budget of the

@@ -104,7 +104,7 @@ _ROWS = "0.1,0.2,0.3\n0.4,0.5,0.6\n"
 
 def test_retime_csv_with_a_byte_order_mark_reads(tmp_path):
     # a spreadsheet's CSV ("CSV UTF-8") starts with U+FEFF: its first joint was '\ufeffj1', "not a joint of the arm"
-    from qmt_drake.retime import read_joint_path
+    from qmt_drake.joint_path_files import read_joint_path
     p = tmp_path / "p.csv"
     p.write_text("\ufeffj1,j2,j3\n" + _ROWS, encoding="utf-8")
     assert read_joint_path(p, _JOINTS).tolist() == [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]]
@@ -117,7 +117,7 @@ def test_retime_csv_with_a_byte_order_mark_reads(tmp_path):
     (_ROWS.encode(), "the first row holds numbers, not joint names"),  # was joint '0.1' unknown
 ])
 def test_retime_csv_mistakes_named(tmp_path, content, needle):
-    from qmt_drake.retime import read_joint_path
+    from qmt_drake.joint_path_files import read_joint_path
     p = tmp_path / "p.csv"
     p.write_bytes(content)
     with pytest.raises(QmtInputError, match=needle):
@@ -213,7 +213,7 @@ def test_yaml_error_says_where_and_names_a_tab(tmp_path):
         parse_spatial_data(p)
     q = tmp_path / "path.yaml"  # a JointTrajectory for retime: the same phrase
     q.write_text("joint_names: [j1, j2, j3\npoints: []\n")
-    from qmt_drake.retime import read_joint_path
+    from qmt_drake.joint_path_files import read_joint_path
     with pytest.raises(QmtInputError, match=r"not YAML/JSON \(.* at line 2, column"):
         read_joint_path(q, _JOINTS)
 
