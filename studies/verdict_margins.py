@@ -97,10 +97,11 @@ class Store:
 def _cell(r: dict) -> dict:
     m = r.get("margin", {})
     extra = ("lost_at_s", "max_gap_m", "max_slide_m", "final_slide_on_face_m", "max_tilt_while_held_rad",
-             "max_grip_ratio_while_held")
+             "max_grip_ratio_while_held", "final_goal_error_rad")
     return {"outcome": r["outcome"], "held": bool(r["held"]), "max_slip_m": r.get("max_slip_m"),
             "quantity": m.get("quantity"), "value": m.get("value"), "threshold": m.get("threshold"),
             "ratio": m.get("ratio"), "wall_s": r.get("sim_wall_s"),
+            "criteria": {c["quantity"]: c["ratio"] for c in m.get("criteria", [])},
             **({k: r.get(k) for k in extra} if r.get("hand_physics") == "contact" else {})}
 
 

@@ -15,7 +15,7 @@ from qmt_drake.limits.suction import GripModel
 from qmt_drake.margin_runs import spatial_margin, spatial_plant_options
 from qmt_drake.sim.spatial_contact_hand import LOST_GAP_M
 from qmt_drake.sim.spatial_cosim import simulate_spatial
-from studies.verdict_margins import TOL, Store, contact_fastest
+from studies.verdict_margins import TOL, Store, _cell, contact_fastest
 from studies.verdict_margins_table import fmt
 from tests.spatial_fixtures import load_or_skip
 from tests.test_margin import check_consistent
@@ -46,7 +46,7 @@ def test_contact_margin_is_the_loss_rule(cup, approximation):
     check_consistent(dropped)  # detached: its deciding quantity at or above its threshold
     assert dropped["outcome"] == "detached" and dropped["margin"]["quantity"] == "max_gap_m"
     assert dropped["max_gap_m"] > LOST_GAP_M > dropped["max_gap_while_held_m"]
-    assert fmt(dict(dropped, **dropped["margin"], held=False)).startswith("detached at ")
+    assert fmt(_cell(dropped)).startswith("detached at ") and "gap " in fmt(_cell(dropped))
 
 
 def test_store_resumes_without_running_again(tmp_path):
