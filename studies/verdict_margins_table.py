@@ -6,9 +6,10 @@ SHORT = {"max_slip_m": "slip", "final_slide_m": "slide", "max_grip_ratio_while_h
          "max_gap_m": "gap", "max_slide_m": "slide", "final_slide_on_face_m": "final slide",
          "final_goal_error_rad": "goal error"}
 CONTACT_HOLD = ("max_gap_m", "max_slide_m", "final_slide_on_face_m")
-CONTACT_NOTE = ("Contact-hand cells: outcome (detached: when), the hold's quantity nearest its threshold in mm and "
-                "as its ratio (gap 5 mm or slide 10 mm: detached; final slide 5 mm: slipped), the largest tilt while "
-                "held, and the arrival's ratio (final goal error against 1 mrad: unfinished at or above 1).")
+CONTACT_NOTE = ("Contact-hand cells: detached, when and the largest tilt while held; else the outcome, the hold's "
+                "quantity nearest its threshold in mm and as its ratio (gap 5 mm or slide 10 mm: detached; final "
+                "slide 5 mm: slipped), the largest tilt, and the arrival's ratio (final goal error against 1 mrad: "
+                "unfinished at or above 1).")
 
 
 def fmt(c: dict) -> str:
@@ -19,11 +20,13 @@ def fmt(c: dict) -> str:
         return f"{c['outcome']} ({c.get('error', 'nothing measured')})"
     q = c["quantity"]
     if "max_tilt_while_held_rad" in c:  # the contact hand: its hold's nearest quantity, the tilt, the arrival
-        when = f" at {c['lost_at_s']:.3f} s" if c.get("lost_at_s") is not None else ""
+        tilt = f"tilt {c['max_tilt_while_held_rad'] * 1e3:.3g} mrad"
+        if c.get("lost_at_s") is not None:  # after the loss the part falls: its gap says nothing more
+            return f"{c['outcome']} at {c['lost_at_s']:.3f} s ({tilt} while held)"
         ratios = c["criteria"]
         hold = max((k for k in CONTACT_HOLD if ratios.get(k) is not None), key=lambda k: ratios[k])
-        return (f"{c['outcome']}{when}, {SHORT[hold]} {c[hold] * 1e3:.2f} mm ({ratios[hold]:.2f}), tilt "
-                f"{c['max_tilt_while_held_rad'] * 1e3:.0f} mrad, arrival {ratios['final_goal_error_rad']:.2f}")
+        return (f"{c['outcome']}, {SHORT[hold]} {c[hold] * 1e3:.3g} mm ({ratios[hold]:.2f}), {tilt}, "
+                f"arrival {ratios['final_goal_error_rad']:.2f}")
     if q in ("max_slip_m", "final_slide_m"):
         return f"{c['outcome']}, {SHORT[q]} {c['value'] * 1e3:.3f} mm"
     return f"{c['outcome']}, {SHORT.get(q, q)} {c['value']:.5f}"

@@ -46,7 +46,8 @@ def test_contact_margin_is_the_loss_rule(cup, approximation):
     check_consistent(dropped)  # detached: its deciding quantity at or above its threshold
     assert dropped["outcome"] == "detached" and dropped["margin"]["quantity"] == "max_gap_m"
     assert dropped["max_gap_m"] > LOST_GAP_M > dropped["max_gap_while_held_m"]
-    assert fmt(_cell(dropped)).startswith("detached at ") and "gap " in fmt(_cell(dropped))
+    assert fmt(_cell(dropped)).startswith("detached at ") and "while held" in fmt(_cell(dropped))
+    assert "gap " in fmt(_cell(held)) and "arrival" in fmt(_cell(held))
 
 
 def test_store_resumes_without_running_again(tmp_path):
