@@ -47,7 +47,7 @@ def test_contact_margin_is_the_loss_rule(cup, approximation):
     assert dropped["outcome"] == "detached" and dropped["margin"]["quantity"] == "max_gap_m"
     assert dropped["max_gap_m"] > LOST_GAP_M > dropped["max_gap_while_held_m"]
     assert fmt(_cell(dropped)).startswith("detached at ") and "while held" in fmt(_cell(dropped))
-    assert "gap " in fmt(_cell(held)) and "arrival" in fmt(_cell(held))
+    assert fmt(_cell(held)).startswith("carried, ") and " mm (" in fmt(_cell(held)) and "arrival" in fmt(_cell(held))
 
 
 def test_store_resumes_without_running_again(tmp_path):
