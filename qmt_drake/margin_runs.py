@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import qmt_drake.sim.spatial_contact_hand as contact_hand
 import qmt_drake.sim.spatial_cosim as spatial_cosim
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin, run_simulate
@@ -23,7 +24,10 @@ APPROXIMATIONS = APPROXIMATION_ENUMS  # Drake's names -> its enum (sim/sim_setti
 
 
 def spatial_margin(sc, summary: dict) -> dict:
-    """The cheap margin of a spatial co-simulation's summary (sim/spatial_cosim.simulate_spatial)."""
+    """The cheap margin of a spatial co-simulation's summary (sim/spatial_cosim.simulate_spatial). The weld
+    hand: its limit ratio against 1; the contact hand (hand_physics contact): the part's largest gap from the
+    face and slide along it (from the plan's start, the loss included) against the loss rule's 5 mm and
+    10 mm, its final slide against the slip tolerance 5 mm; the tray: slide, tilt and edge."""
     tol = ARRIVAL_TOLERANCE_DC_MOTOR_RAD
     arrival = criterion("final_goal_error_rad", summary.get("final_goal_error_rad"), tol, "unfinished")
     if sc.hand_kind == "tray":
@@ -35,6 +39,14 @@ def spatial_margin(sc, summary: dict) -> dict:
                 criterion("max_slide_m", summary.get("max_slide_m"), edge, "slid_off"), arrival]
         return verdict_margin(summary["outcome"], crit, note="max_slide_m against the nearer tray edge: an upper "
                               "bound of the per-axis ratio that decides slid_off")
+    if summary.get("hand_physics") == "contact":  # the contact hand's own rules (sim/spatial_contact_hand)
+        crit = [criterion("max_gap_m", summary.get("max_gap_m"), contact_hand.LOST_GAP_M, "detached"),
+                criterion("max_slide_m", summary.get("max_slide_m"), contact_hand.LOST_SLIDE_M, "detached"),
+                criterion("final_slide_on_face_m", summary.get("final_slide_on_face_m"),
+                          contact_hand.SLIP_TOLERANCE_M, "slipped"), arrival]
+        return verdict_margin(summary["outcome"], crit, note="contact hand: the part's gap and slide on the hand's "
+                              "face (the weld's threshold on this run's hand motion is max_grip_ratio_while_held, "
+                              "a diagnostic)")
     crit = [criterion("max_grip_ratio_while_held", summary.get("max_grip_ratio_while_held"), 1.0, "detached"),
             arrival]
     return verdict_margin(summary["outcome"], crit)

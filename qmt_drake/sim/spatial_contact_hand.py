@@ -258,6 +258,7 @@ class ContactHand(HandPart):
                 "max_tilt_while_held_rad": float(tilt[held].max(initial=0.0)),
                 "final_slide_on_face_m": float(slide[-1]),
                 "final_gap_m": float(gap[-1]), "max_slide_m": float(slide[moving].max(initial=0.0)),
+                "max_gap_m": float(gap[moving].max(initial=0.0)),  # the loss included (margin_runs.spatial_margin)
                 "part_distance_from_cup_at_end_m": float(np.linalg.norm(log.data()[4:7, -1])),
                 "max_grip_ratio_while_held": threshold["threshold_max_ratio"],  # the weld's key: its threshold, held
                 **threshold, "actuator": "ideal" if drive is None else "dc_motor",
