@@ -249,12 +249,14 @@ def write_stream(path, fmt: str, joint_names, t, q, qd, qdd) -> None:
                                           sort_keys=False))
 
 
-def stream_check(sc, stream, rate_hz: float) -> dict:
+def stream_check(sc, stream, rate_hz: float, *, clearance_if_over: bool = True) -> dict:
     """The scenario's limit check of the interpolated stream at check_rate(rate_hz) ('check_rate_hz' added),
-    and with obstacles its clearance at the scenario's re-check rate ('clearance_m', 'clearance_pair')."""
+    and with obstacles its clearance at the scenario's re-check rate ('clearance_m', 'clearance_pair').
+    clearance_if_over=False skips the clearance (Drake's signed distance, the costly part) of a stream
+    that already breaks a limit: --hold's bisection only needs it where the limits hold."""
     rate = check_rate(sc, rate_hz)
     out = {**limit_check(sc, stream, rate), "check_rate_hz": rate}
-    if _obstacles(sc):
+    if _obstacles(sc) and (clearance_if_over or out["max"] <= 1.0):
         c = clearance(sc, stream, own_recheck_rate(sc))
         out.update(clearance_m=float(c["clearance_m"]), clearance_pair=list(c["clearance_pair"]),
                    clearance_time_s=float(c["clearance_time_s"]))
@@ -272,17 +274,32 @@ def _stream_of(sc, traj, rate_hz: float, interp: str):
     return (t, q, qd, qdd), stream, stream_check(sc, stream, rate_hz)
 
 
+def _holds_at(sc, traj, rate_hz: float, interp: str, *, clear_too: bool = True) -> bool:
+    """The stream of traj keeps every limit and, when clear_too, clears the obstacles (the clearance, Drake's
+    signed distance and the costly part, is computed only where the limits hold)."""
+    t, q, qd, _ = stream_samples(traj, rate_hz)
+    stream = interpolated(t, q, qd, interp, _planar(sc))
+    if not clear_too:
+        return bool(limit_check(sc, stream, check_rate(sc, rate_hz))["max"] <= 1.0)
+    return stream_holds(stream_check(sc, stream, rate_hz, clearance_if_over=False))
+
+
 def hold_scale(sc, traj, rate_hz: float, interp: str, *, k_max: float = HOLD_MAX_SCALE, rel_tol: float = HOLD_REL_TOL):
     """The time scale k in [1, k_max] (bisection to rel_tol) at which the stream of traj played k times
-    slower keeps every limit as interpolated; each k tried is checked, and the one returned holds. The
-    ratio is not monotone in k (the samples fall elsewhere on the plan), so a smaller k may hold too."""
-    if stream_holds(_stream_of(sc, traj, rate_hz, interp)[2]):
+    slower keeps every limit as interpolated and clears the obstacles; each k tried is checked, and the one
+    returned holds. The ratio is not monotone in k (the samples fall elsewhere on the plan), so a smaller k
+    may hold too. The limits are bisected first without the clearance; only if the scale found there does
+    not clear is the bisection continued with it (a scale that clears and holds is at least the limits' one)."""
+    if _holds_at(sc, traj, rate_hz, interp):
         return 1.0
-    if not stream_holds(_stream_of(sc, TimeScaled(traj, k_max), rate_hz, interp)[2]):
+    if not _holds_at(sc, TimeScaled(traj, k_max), rate_hz, interp):
         raise QmtInputError(f"--hold: the stream at {rate_hz:g} Hz breaks a limit or collides even {k_max:g} times "
                             "slower; raise the rate or use the other --interp")
-    return smallest_holding_scale(
-        1.0, k_max, lambda k: stream_holds(_stream_of(sc, TimeScaled(traj, k), rate_hz, interp)[2]), rel_tol)
+    k = smallest_holding_scale(
+        1.0, k_max, lambda k: _holds_at(sc, TimeScaled(traj, k), rate_hz, interp, clear_too=False), rel_tol)
+    if not _obstacles(sc) or _holds_at(sc, TimeScaled(traj, k), rate_hz, interp):
+        return k
+    return smallest_holding_scale(k, k_max, lambda k: _holds_at(sc, TimeScaled(traj, k), rate_hz, interp), rel_tol)
 
 
 def export_plan(sc, plan, fmt: str, rate_hz: float, out, interp: str = "cubic", *, hold: bool = False,

@@ -142,3 +142,25 @@ def test_jerk_limited_is_refused_for_other_methods_in_one_line(capsys):
     assert main(["plan", "ur5-suction-bins", "--method", "ruckig", "--jerk-limited", "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--method toppra" in err
+
+
+def test_hold_bisects_the_clearance_only_past_the_limits_scale(monkeypatch):
+    """--hold: the limits are bisected without the (costly) clearance; where the scale found there still
+    collides, the search continues with the clearance, so the scale returned keeps both (a stand-in stream:
+    limits hold from x1.2, the obstacles clear from x1.5)."""
+    import qmt_drake.export as E
+
+    calls = []
+
+    def holds(sc, k, rate_hz, interp, *, clear_too=True):
+        calls.append(clear_too)
+        return k >= 1.2 and (not clear_too or k >= 1.5)
+
+    monkeypatch.setattr(E, "TimeScaled", lambda traj, k: k)
+    monkeypatch.setattr(E, "_holds_at", holds)
+    monkeypatch.setattr(E, "_obstacles", lambda sc: True)
+    k = E.hold_scale(None, 1.0, 125.0, "cubic")
+    assert 1.5 <= k <= 1.5 * (1 + 2 * E.HOLD_REL_TOL)
+    monkeypatch.setattr(E, "_holds_at", lambda sc, k, r, i, *, clear_too=True: k >= 1.2)  # nothing to collide with
+    assert 1.2 <= E.hold_scale(None, 1.0, 125.0, "cubic") <= 1.2 * (1 + 2 * E.HOLD_REL_TOL)
+    assert calls.count(False) > 3  # the limits' bisection ran without the clearance
