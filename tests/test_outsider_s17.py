@@ -10,38 +10,9 @@ import pytest
 import yaml
 
 from qmt_drake.apps import spatial_cli
-from qmt_drake.apps.cli import main
 from qmt_drake.config.scenario import SCENARIO_DIR
 from qmt_drake.errors import QmtInputError
-
-
-def _spatial_yaml(tmp_path, base="ur5-suction-bins", file="s.yaml", **changes) -> str:
-    """A shipped spatial scenario with `changes` (section__key: value; value None deletes the key)."""
-    raw = yaml.safe_load((SCENARIO_DIR / f"{base}.yaml").read_text())
-    for path, value in changes.items():
-        d = raw
-        keys = path.split("__")
-        for k in keys[:-1]:
-            d = d[k]
-        if value is None:
-            d.pop(keys[-1], None)
-        else:
-            d[keys[-1]] = value
-    p = tmp_path / file
-    p.write_text(yaml.safe_dump(raw))
-    return str(p)
-
-
-def _refused(capsys, *argv, within_s=5.0) -> str:
-    """The one line a refused command prints (exit 2, no traceback), within `within_s`."""
-    t = time.perf_counter()
-    rc = main([str(a) for a in argv])
-    dt = time.perf_counter() - t
-    _, err = capsys.readouterr()
-    lines = err.strip().splitlines()
-    assert rc == 2 and len(lines) == 1 and "Traceback" not in err, (rc, err)
-    assert dt < within_s, dt
-    return lines[0]
+from tests.test_outsider_s16 import _refused, _spatial_yaml  # the same scenario-file and refusal helpers
 
 
 def _no_build(monkeypatch):
