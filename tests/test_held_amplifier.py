@@ -8,6 +8,8 @@ command over the hold."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
@@ -152,3 +154,14 @@ def test_an_unknown_amplifier_is_refused_in_one_line():
     with pytest.raises(QmtInputError, match="amplifier 'torque': choose one of current, voltage") as e:
         SpatialMotorDrive.for_scenario(sc, sc.q_poses_rad[0], "full", control_period_s=4e-3, amplifier="torque")
     assert "\n" not in str(e.value)
+
+
+def test_a_held_current_law_without_its_mass_matrix_is_refused_in_one_line():
+    """A drive composed by hand (no for_scenario) has no mass matrix to design the held current law on."""
+    sc = load_or_skip("panda-tray-cup")
+    d = SpatialMotorDrive.for_scenario(sc, sc.q_poses_rad[0], "full", control_period_s=4e-3)
+    bare = dataclasses.replace(d, mass_matrix=None)
+    with pytest.raises(QmtInputError, match="mass matrix at the plan's start") as e:
+        bare.law_gains(STEP_S)
+    assert "\n" not in str(e.value)
+    assert bare.law_gains(4e-3).kp_V_per_rad is d.gains.kp_V_per_rad  # not held at its own period: the nominal gains

@@ -224,7 +224,7 @@ class SpatialMotorDrive:
         if not self.current_held(time_step_s):
             return self.gains
         if self.mass_matrix is None:
-            raise ValueError("a held current law is designed on the arm's mass matrix: build the drive with for_scenario")
+            raise QmtInputError("a held current law is designed on the arm's mass matrix at the plan's start: build the drive with SpatialMotorDrive.for_scenario(sc, q_start_rad, ...), or give mass_matrix=")
         mp, Mj = self.params, np.diag(self.mass_matrix)
         per_kp = effective_joint_gains(PidGains(np.ones(mp.n), np.zeros(mp.n), np.zeros(mp.n)), mp)[0]  # c N
         K, D = CLOSED_LOOP_RAD_S ** 2 * Mj, 2.0 * DAMPING_RATIO * CLOSED_LOOP_RAD_S * Mj
