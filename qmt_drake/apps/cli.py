@@ -54,7 +54,7 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
                      "--option KEY=VALUE). Energy-time scenarios (ohsaka-fig2/3/4): "
                      f"{', '.join(ENERGY_METHODS)} (their options below). Spatial (3-D) scenarios "
                      f"(ur5-suction-bins, ur5-magnet-part, kind: spatial_transfer): {', '.join(SPATIAL_METHODS)} "
-                     "(optimum: family_optimum; GA: --seed --generations --stall --checkpoint; --carried, --carried-max-scale, "
+                     "(optimum: family_optimum; GA: --seed --generations --stall --checkpoint; --carried, --carried-max-scale, --carried-cells, "
                      "--option KEY=VALUE of the planner's int/float keywords). Default: ga, or snopt for an "
                      "energy-time scenario.")
     s.add_argument("scenario", help="built-in name (see `qmt-drake scenarios`) or a YAML path")
@@ -93,6 +93,11 @@ def plan_arguments(s: argparse.ArgumentParser) -> None:
                         "instead of Drake's inverse-dynamics controller)")
     s.add_argument("--carried-max-scale", type=float, default=3.0,
                    help="with --carried: the slowest time scale tried (default 3)")
+    s.add_argument("--carried-cells", default=None, metavar="CELLS",
+                   help="with --carried: also run the chosen scale at these plant steps and contact approximations "
+                        "and raise it until every cell carries the part: 'all' (the search's step h, h/2, h/4 x "
+                        "tamsi, sap, similar, lagged; a cell Drake cannot build is n/a) or MS:APPROX pairs, e.g. "
+                        "1:sap,0.25:lagged (docs/cosimulation.md)")
     s.add_argument("--success", type=float, default=None, metavar="P",
                    help="then slow the plan to the fastest time scale whose success probability under the "
                         "scenario's uncertainty section has its 95%% Wilson lower bound >= P (Dask sweeps, "

@@ -20,6 +20,14 @@ from qmt_drake.apps.arg_checks import (
 )
 from qmt_drake.apps.plan_options import FLAGS, checked_method, scenario_kind
 from qmt_drake.budgets import check_replay_budget
+from qmt_drake.carried_cells import (
+    carried_transfer_plan_every_cell,
+    check_transfer_cells,
+    every_cell_lines,
+    every_cell_text,
+    resolve_cells,
+    transfer_default_cell,
+)
 from qmt_drake.energy.cli import plan_energy
 from qmt_drake.errors import QmtInputError
 from qmt_drake.hands import hand_plugin
@@ -81,6 +89,7 @@ def cmd_plan(args) -> int:
     check_outputs(args, "--json", "--trajectory-csv")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
+    cells = spatial_cli.carried_cells_arg(args)
     if args.success is not None:  # the options and the uncertainty section, checked before any planning
         spatial_cli.check_success_options(args, load_scenario(args.scenario))
     if args.carried_max_scale <= 1:
@@ -92,6 +101,8 @@ def cmd_plan(args) -> int:
             check_replay_budget(sc, args.carried_max_scale, allow_large=args.allow_large)
         except QmtInputError as exc:
             raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g}: {exc}") from None
+        if cells is not None:  # each cell's step checked by the hand before any planning
+            check_transfer_cells(sc, resolve_cells(cells, transfer_default_cell(sc)[0]), "--carried-cells")
     if args.checkpoint is not None:
         _check_checkpoint(args.checkpoint, sc, args.seed)
     options = check_plan_options(args.method, sc, options, where=FLAGS, allow_large=args.allow_large)
@@ -100,8 +111,17 @@ def cmd_plan(args) -> int:
         if not plan.feasible:
             raise QmtInputError(f"--carried: the {args.method} plan breaks a limit on the re-check; nothing to "
                                 "time-scale (drop --carried to write the least-violating plan)")
+        base = plan
         plan = plan_fastest_carried(sc, args.method, base_plan=plan, feedforward=args.carried_feedforward or "full",
                                     s_max=args.carried_max_scale, progress=None if args.quiet else progress)
+        if cells is not None:  # raised until carried at every cell (carried_cells.py)
+            plan = carried_transfer_plan_every_cell(sc, base, plan, cells, feedforward=args.carried_feedforward or "full",
+                                                    s_max=args.carried_max_scale, progress=None if args.quiet else progress)
+            if not args.quiet:
+                every = plan.extra["carried_search"]["every_cell"]
+                for line in every_cell_lines(every):
+                    progress(line)
+                progress(f"{sc.name} {args.method} x{every['time_scale']:.5f}{every_cell_text(every)}")
         search = plan.extra["carried_search"]
         lost = search.get("lost_below")
         search["margin"] = None if lost is None else search["chosen"] / lost - 1.0

@@ -2,7 +2,7 @@
 
     qmt-drake plan ur5-suction-bins --method toppra|ruckig|family_optimum|ga|trajopt --json p.json
         [--family via_cubic|line_cubic_velocity|trapezoid_ptp (toppra, family_optimum, ga)] [--trajectory-csv p.csv]
-        [--carried [--carried-max-scale K] [--carried-feedforward none|back-emf|full]]
+        [--carried [--carried-max-scale K] [--carried-feedforward none|back-emf|full] [--carried-cells all|MS:APPROX,...]]
         [--seed N --generations G --stall S --checkpoint PATH] [--option KEY=VALUE] [--quiet]
     qmt-drake simulate ur5-suction-bins --plan p.json [--time-scale S] [--json out.json]
 
@@ -47,6 +47,14 @@ from qmt_drake.budgets import (
     path_time_lower_bound_s,
     replay_estimate,
     spatial_ga_estimate,
+)
+from qmt_drake.carried_cells import (
+    check_spatial_cells,
+    every_cell_lines,
+    every_cell_text,
+    parse_cells,
+    resolve_cells,
+    spatial_default_cell,
 )
 from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
@@ -138,6 +146,7 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
     if args.carried_max_scale <= 1:
         raise QmtInputError(f"--carried-max-scale {args.carried_max_scale:g} must exceed 1 (1 is the plan as planned)")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
+    cells = carried_cells_arg(args)
     drive = carried_drive(args) if args.carried else ("ideal", "full")
     success = getattr(args, "success", None) is not None
     sc = drive_scenario(args.scenario, *drive, success=success) if scenario is None else scenario
@@ -153,6 +162,8 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
     if args.carried:  # priced before planning at the path's speed-limit bound, again after at the plan's duration
         check_drive(sc, actuator, feedforward)
         _check_carried_budget(args, path_time_lower_bound_s(sc.q_path_rad, sc.velocity_limit_rad_s))
+        if cells is not None:  # each cell's step and approximation, before planning
+            check_spatial_cells(resolve_cells(cells, spatial_default_cell(sc)[0]), "--carried-cells")
     check_success_options(args, sc)  # the uncertainty section, before any planning
     p = _plan(args, sc, row, opts)
     if avoided is not None:
@@ -171,7 +182,10 @@ def plan(args, row, opts: dict, scenario=None) -> bool:
     if args.carried:
         _check_carried_budget(args, p.duration_s)
         search = carried_search(sc, p, k_max=args.carried_max_scale, progress=None if args.quiet else progress,
-                                actuator=actuator, feedforward=feedforward)
+                                actuator=actuator, feedforward=feedforward, cells=cells)
+        if cells is not None and not args.quiet:
+            for line in every_cell_lines(search["every_cell"]):
+                progress(line)
         p = carried_plan(sc, p, search)
     if getattr(args, "success", None) is not None:
         p = _slow_for_success(args, sc, p)
@@ -200,6 +214,17 @@ def _avoided_text(a) -> str:
     return "" if a is None else (f"; along the collision-free path through the task's {a['through']} (seed "
                                  f"{a['seed']}, {a['vertices']} vertices, "
                                  f"certified >= {a['path_clearance_lower_bound_m']:.4f} m)")
+
+
+def carried_cells_arg(args):
+    """--carried-cells parsed (carried_cells.parse_cells; None when not given), refused without --carried."""
+    text = getattr(args, "carried_cells", None)
+    if text is None:
+        return None
+    if not args.carried:
+        raise QmtInputError("--carried-cells: an option of --carried (the fastest-carried search); add --carried or "
+                            "drop it")
+    return parse_cells(text)
 
 
 def carried_drive(args) -> tuple[str, str]:
@@ -307,6 +332,8 @@ def summary_line(sc, p, bound) -> str:
     if s:
         lost = f", lost at x{s['lost_below']:.4f}" if s["lost_below"] else ", as planned"
         line += f"; carried in the co-simulation at x{s['chosen']:.4f}{lost}"
+        if s.get("every_cell"):
+            line += every_cell_text(s["every_cell"])
     ok = (p.info.get("success") or {}).get("fresh_check")
     if ok:
         line += success_text(ok, p.info["time_scale"], p.info["success"]["search"]["target"])
