@@ -275,33 +275,37 @@ def carried_at_every_cell(run: Callable[[float, float, str], dict], chosen: floa
 def carried_transfer_plan_every_cell(sc, base_plan, carried, cells, *, feedforward: str = "full",
                                      s_max: float = 2.0, rel_tol: float = REL_TOL, time_step_s: float | None = None,
                                      progress=None):
-    """`carried` (sweep/robust.plan_fastest_carried's Plan of base_plan, time-scale variant) raised until it is
-    carried at every cell (carried_at_every_cell; time_step_s: the search's step, None the hand's default).
-    Returns the Plan: `carried` itself if no cell is lost, else base_plan at the raised scale; its
-    extra['carried_search'] gets 'every_cell' (the result), and 'chosen' / 'lost_below' become the raised
-    scale and its bracket ('chosen_at_default_cell' keeps the search's). QmtInputError (one line) when
-    not carried at every cell even s_max slower."""
+    """`carried` (sweep/robust.plan_fastest_carried's Plan) raised until it is carried at every cell
+    (carried_at_every_cell; time_step_s: the search's step, None the hand's default). A time-scale search
+    (base_plan: the plan it scaled) is raised on base_plan's scale from its choice, 'chosen' / 'lost_below'
+    then become the raised scale and its bracket ('chosen_at_default_cell' keeps the search's); a jerk-limit
+    search (base_plan None) plays `carried` slower from x1, its 'chosen' jerk limit kept. Returns `carried`
+    itself if no cell is lost, else the slower Plan; extra['carried_search']['every_cell'] is the result.
+    QmtInputError (one line) when not carried at every cell even s_max slower."""
     search = carried.extra["carried_search"]
-    if search.get("variable") != "time_scale":
-        raise QmtInputError("cells: the every-cell raise applies to a time-scale search (base_plan given)")
+    on_scale = search.get("variable") == "time_scale"
+    if on_scale and base_plan is None:
+        raise QmtInputError("cells: a time-scale search's every-cell raise needs the plan it scaled (base_plan)")
+    base, k0 = (base_plan, float(search["chosen"])) if on_scale else (carried, 1.0)
     h0, a0 = transfer_default_cell(sc)
     h = h0 if time_step_s is None else float(time_step_s)
     todo = resolve_cells(cells, h)
     check_transfer_cells(sc, todo)
-    every = carried_at_every_cell(transfer_cell_runner(sc, base_plan, feedforward=feedforward), search["chosen"],
-                                  todo, k_max=s_max, rel_tol=rel_tol, default_cell=(h, a0), progress=progress)
+    every = carried_at_every_cell(transfer_cell_runner(sc, base, feedforward=feedforward), k0, todo,
+                                  k_max=s_max, rel_tol=rel_tol, default_cell=(h, a0),
+                                  progress=progress)
     k = every["time_scale"]
     if k is None:
-        raise QmtInputError(f"cells: the {base_plan.method} plan is lost at some cell even {s_max:g}x slower; raise "
+        raise QmtInputError(f"cells: the {carried.method} plan is lost at some cell even {s_max:g}x slower; raise "
                             "--carried-max-scale")
     plan = carried
     if every["raised"]:
-        plan = time_scaled_plan(base_plan, k, carried.method, extra={
+        plan = time_scaled_plan(base, k, carried.method, extra={
             k_: v for k_, v in carried.extra.items() if k_ not in ("base_plan_extra", "time_scale")})
         plan.planner_wall_s = carried.planner_wall_s
-    plan.extra["carried_search"] = dict(search, chosen=k, chosen_at_default_cell=search["chosen"],
-                                        lost_below=every["lost_below"] if every["raised"] else search.get("lost_below"),
-                                        every_cell=every)
+    update = ({"chosen": k, "chosen_at_default_cell": k0,
+               "lost_below": every["lost_below"] if every["raised"] else search.get("lost_below")} if on_scale else {})
+    plan.extra["carried_search"] = dict(search, **update, every_cell=every)
     return plan
 
 

@@ -41,11 +41,12 @@ import numpy as np
 
 from qmt_drake.apps.bang_bang import bang_bang_acceleration_m_s2, closed_form_bound_s
 from qmt_drake.apps.benchmark_report import CARRIED_LABEL, benchmark_markdown, write_figures
+from qmt_drake.carried_cells import carried_transfer_plan_every_cell
 from qmt_drake.hands import hand_plugin, run_simulate
 from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import Plan
 from qmt_drake.plan_files import load_plan
-from qmt_drake.planners import registry
+from qmt_drake.planners import plan_with, registry
 from qmt_drake.sweep.robust import plan_fastest_carried_converged
 from qmt_drake.transfer_scenario import load_scenario
 
@@ -112,14 +113,17 @@ CARRIED_STEPS_S = (2e-3, 1e-3, 0.5e-3)  # plant steps tried, coarsest first (con
 
 
 def fastest_carried(scenario, *, quick: bool = False, steps_s=CARRIED_STEPS_S, progress=None,
-                    candidates=None) -> tuple:
+                    candidates=None, cells=None) -> tuple:
     """(Plan, row) of the fastest plan carried in the nominal co-simulation with the controller's
     full feedforward. Task without vias: Ruckig's jerk-limited Cartesian line, J by bisection on
     log J in [1, 300] m/s^3; with vias (Ruckig stops at every via): the time scale, by bisection,
     of the fastest limit-keeping plan among `candidates` ((label, Plan) pairs, e.g. the
     benchmark's rows), or of the TOPP-RA family path without them. The row's held / slip are the
     co-simulation at the step the search settled on (the plan's own verdict), with its
-    feedforward; 'carried_wall_s' is what the search added to the benchmark."""
+    feedforward; 'carried_wall_s' is what the search added to the benchmark. cells (None: not asked):
+    'all' or (time_step_s, approximation) pairs at which the chosen plan must be carried too, the plan then
+    raised until it is (carried_cells.carried_transfer_plan_every_cell, at the step the search settled
+    on; the row's held / slip are then the default cell's at the raised plan, 'every_cell' its tables)."""
     t0 = time.perf_counter()
     bound = closed_form_bound_s(scenario)
     rel_tol = 0.01 if quick else 0.002
@@ -135,7 +139,14 @@ def fastest_carried(scenario, *, quick: bool = False, steps_s=CARRIED_STEPS_S, p
     plan = plan_fastest_carried_converged(scenario, method, steps_s=steps_s, rel_tol=rel_tol,
                                           progress=progress, **opts)
     s = plan.extra["carried_search"]
-    at = _chosen_points(s)
+    if cells is not None:
+        base = opts.get("base_plan")
+        if base is None and s["variable"] == "time_scale":  # the family path plan_fastest_carried planned
+            base = plan_with(method, scenario, seed=0, **opts)
+        plan = carried_transfer_plan_every_cell(scenario, base, plan, cells, rel_tol=rel_tol,
+                                                time_step_s=s["time_step_s"], progress=progress)
+        s = plan.extra["carried_search"]
+    at = _chosen_points(s) if cells is None else _default_cell_point(s["every_cell"])
     h = s["time_step_s"]
     label = f"{CARRIED_LABEL} ({what}, ff full, {h * 1e3:g} ms)"
     row = _row(scenario, label, plan, cosim=False)
@@ -162,6 +173,12 @@ def _half_step(search: dict) -> dict:
     return {"verdict_at_half_step": r.get("outcome", "carried" if r["held"] else "lost"),
             "slip_at_half_step": r.get("max_slip_m"),
             "flips_at_half_step": not r["held"], "half_step_s": conv["check_step_s"]}
+
+
+def _default_cell_point(every: dict) -> list[dict]:
+    """The every-cell answer's default-cell run as a carried point (none if that cell was not asked)."""
+    c = every["table"].get(every["default_cell"])
+    return [] if c is None else [{"held": c["held"], "max_slip_m": c["slip_m"], "detached_at_s": None}]
 
 
 def _chosen_points(search: dict) -> list[dict]:
