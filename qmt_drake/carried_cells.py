@@ -130,7 +130,8 @@ def transfer_default_cell(sc) -> tuple[float, str]:
 def _cell(summary: dict, margin: dict, slip_m) -> dict:
     return {"outcome": summary["outcome"], "held": bool(summary["held"]), "quantity": margin.get("quantity"),
             "value": margin.get("value"), "threshold": margin.get("threshold"), "ratio": margin.get("ratio"),
-            "slip_m": None if slip_m is None else float(slip_m), "sim_wall_s": summary.get("sim_wall_s")}
+            "slip_m": None if slip_m is None else float(slip_m), "max_tilt_rad": summary.get("max_tilt_rad"),
+            "sim_wall_s": summary.get("sim_wall_s")}
 
 
 def _guarded(build, summarize) -> dict:
@@ -185,18 +186,20 @@ def transfer_cell_runner(sc, plan, *, feedforward: str = "full"):
     ff = "none" if hand.kind == "tray" else feedforward
     scenarios: dict[str, object] = {}
 
-    def with_approximation(a: str):
-        if a not in scenarios:
-            sim = simulation_of(sc)
-            plant = dataclasses.replace(sim.plant, discrete_contact_approximation=a)
-            scenarios[a] = dataclasses.replace(sc, simulation=dataclasses.replace(sim, plant=plant))
-        return scenarios[a]
-
     def run(k: float, h: float, a: str) -> dict:
-        return _guarded(lambda: hand.build_cosim(with_approximation(a), plan, time_scale=k, time_step_s=h,
-                                                 feedforward=ff),
+        if a not in scenarios:
+            scenarios[a] = scenario_at(sc, a)
+        return _guarded(lambda: hand.build_cosim(scenarios[a], plan, time_scale=k, time_step_s=h, feedforward=ff),
                         lambda r: _cell(r, r.get("margin") or {}, r.get("max_slip_m")))
     return run
+
+
+def scenario_at(sc, approximation: str):
+    """A copy of transfer scenario sc whose simulation.plant names the discrete contact approximation (the
+    planar and tray plants take the section's fields over their own: sim/sim_settings.plant_config)."""
+    sim = simulation_of(sc)
+    plant = dataclasses.replace(sim.plant, discrete_contact_approximation=approximation)
+    return dataclasses.replace(sc, simulation=dataclasses.replace(sim, plant=plant))
 
 
 def check_transfer_cells(sc, cells, where: str = "cells") -> None:

@@ -11,10 +11,18 @@ from qmt_drake.carried_cells import (
     check_cells,
     parse_cells,
     resolve_cells,
+    scenario_at,
     spatial_cell_runner,
     spatial_default_cell,
+    transfer_cell_runner,
+    transfer_default_cell,
 )
 from qmt_drake.errors import QmtInputError
+from qmt_drake.hands import hand_plugin
+from qmt_drake.planners import plan_with
+from qmt_drake.sim.sim_settings import APPROXIMATION_ENUMS
+from qmt_drake.sweep.robust import carried_in_cosim
+from qmt_drake.transfer_scenario import load_scenario
 from tests.spatial_fixtures import load_or_skip, shipped_toppra
 
 ALL_1MS = resolve_cells("all", 1e-3)
@@ -104,3 +112,18 @@ def test_a_cell_drake_cannot_build_is_na_with_drakes_reason():
     assert spatial_default_cell(sc) == (1e-3, "sap")
     cell = spatial_cell_runner(sc, shipped_toppra("ur5-suction-bins").trajectory)(1.0, 1e-3, "tamsi")
     assert cell["outcome"] == "n/a" and cell["held"] is None and "TAMSI" in cell["error"]
+
+
+def test_the_transfer_default_cell_is_the_searchs_own_run_and_the_approximation_reaches_the_plant():
+    sc = load_scenario("crane-tray")
+    plan = plan_with("ruckig", sc)  # (1 s to plan; TOPP-RA's 3-12 s)
+    assert transfer_default_cell(sc) == (1e-3, "lagged")
+    own = carried_in_cosim(sc, plan, time_scale=1.03)  # the carried search's predicate at its default cell
+    lagged = transfer_cell_runner(sc, plan)(1.03, 1e-3, "lagged")
+    assert own["max_tilt_rad"] > 0
+    assert (lagged["held"], lagged["slip_m"], lagged["max_tilt_rad"]) == (own["held"], own["max_slip_m"],
+                                                                          own["max_tilt_rad"])  # bit for bit
+    assert lagged["quantity"] is not None and lagged["ratio"] == pytest.approx(lagged["value"] / lagged["threshold"])
+    for a, enum in APPROXIMATION_ENUMS.items():  # each cell's plant is built with its approximation and step
+        cosim = hand_plugin(sc).build_cosim(scenario_at(sc, a), plan, time_scale=1.03, time_step_s=0.25e-3)
+        assert (cosim.plant.get_discrete_contact_approximation(), cosim.plant.time_step()) == (enum, 0.25e-3)
