@@ -2,6 +2,8 @@
 at one cell is raised to the smallest scale carried at every cell; a cell Drake cannot build is 'n/a' and
 does not count; bad cells stop in one line (the API and `--carried-cells`, exit 2)."""
 
+from types import SimpleNamespace
+
 import pytest
 
 from qmt_drake.apps.cli import main as cli_main
@@ -127,3 +129,32 @@ def test_the_transfer_default_cell_is_the_searchs_own_run_and_the_approximation_
     for a, enum in APPROXIMATION_ENUMS.items():  # each cell's plant is built with its approximation and step
         cosim = hand_plugin(sc).build_cosim(scenario_at(sc, a), plan, time_scale=1.03, time_step_s=0.25e-3)
         assert (cosim.plant.get_discrete_contact_approximation(), cosim.plant.time_step()) == (enum, 0.25e-3)
+
+
+def test_the_spatial_search_takes_the_raised_scale_and_without_cells_is_unchanged(monkeypatch):
+    import qmt_drake.planners.spatial_carried as spatial_carried
+
+    def factor(traj):
+        return getattr(traj, "factor", 1.0)
+
+    def sim(sc, traj, **kw):  # the default cell: carried from x1.1
+        held = factor(traj) >= 1.1
+        return {"outcome": "carried" if held else "detached", "held": held, "max_grip_ratio_while_held": 1.0}
+
+    monkeypatch.setattr(spatial_carried, "simulate_spatial", sim)
+    monkeypatch.setattr(spatial_carried, "spatial_half_step", lambda sc, traj, **kw: {
+        "half_step_s": 5e-4, "verdict_at_half_step": "carried", "flips_at_half_step": False, "k": factor(traj)})
+    monkeypatch.setattr(spatial_carried, "spatial_cell_runner", lambda sc, traj, **kw: stand_in(
+        {(0.25e-3, "lagged"): [(0.0, 1.2)]} | {c: [(0.0, 1.1)] for c in ALL_1MS if c != (0.25e-3, "lagged")}))
+    sc = SimpleNamespace(name="stand-in", hand_kind="suction", hand_physics="weld")
+    plan = SimpleNamespace(trajectory=SimpleNamespace(duration_s=2.0, sample=None), duration_s=2.0, method="toppra")
+    plain = spatial_carried.carried_search(sc, plan)
+    assert "every_cell" not in plain and 1.1 <= plain["chosen"] < 1.12
+    s = spatial_carried.carried_search(sc, plan, cells="all")
+    every = s["every_cell"]
+    assert every["chosen_at_default_cell"] == plain["chosen"] and every["raised"]
+    assert s["chosen"] == every["time_scale"] and 1.2 <= s["chosen"] <= 1.2 * 1.002
+    assert s["lost_below"] == every["lost_below"] < 1.2
+    assert s["cosim"]["held"] and s["points"][-1]["time_scale"] == s["chosen"]  # its default-cell run
+    assert s["half_step"]["k"] == s["chosen"]
+    assert {k for k in s if k != "every_cell"} == set(plain)
