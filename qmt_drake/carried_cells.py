@@ -227,7 +227,7 @@ def carried_at_every_cell(run: Callable[[float, float, str], dict], chosen: floa
     def cell(k: float, h: float, a: str) -> dict:
         if (k, h, a) not in memo:
             c = memo[(k, h, a)] = dict(run(k, h, a), time_step_s=h, approximation=a)
-            detail = (f", {c['quantity']} {c['value']:.4g} ({c['ratio']:.3f} of its threshold)"
+            detail = (f", {c['quantity']} {c['value']:.4g} ({c['ratio']:.4f} of its threshold)"
                       if c.get("ratio") is not None else f" ({c['error']})" if c.get("error") else "")
             say(f"  x{k:.5f} {cell_key(h, a)}: {c['outcome']}{detail}")
         return memo[(k, h, a)]
@@ -332,7 +332,7 @@ def every_cell_lines(every: dict) -> list[str]:
     out = []
     for key, c in every["table"].items():
         if c.get("ratio") is not None:
-            out.append(f"  {key}: {c['outcome']}, {c['quantity']} {c['value']:.4g} ({c['ratio']:.3f} of "
+            out.append(f"  {key}: {c['outcome']}, {c['quantity']} {c['value']:.4g} ({c['ratio']:.4f} of "
                        f"{c['threshold']:.4g})")
         else:
             out.append(f"  {key}: {c['outcome']}" + (f" ({c['error']})" if c.get("error") else ""))
