@@ -48,8 +48,9 @@ holds the part but contact and a pull, so a loss is simulated, not declared:
   arrival_steady); the part must stay held through it.
 
 Monitoring after the run from logged signals (VectorLogSink, no Python system in the loop): the part's
-joint state every step (the arrival's wait reads the logged arm state between chunks). Lost ("detached", qmt_drake/outcome.py) at the first step the gap exceeds
-LOST_GAP_M or the slide LOST_SLIDE_M; slipped when held but the final slide exceeds SLIP_TOLERANCE_M.
+joint state every step (the arrival's wait reads the logged arm state between chunks). Lost ("detached",
+qmt_drake/outcome.py) at the first step the gap exceeds LOST_GAP_M or the slide LOST_SLIDE_M; slipped when
+held but the final slide exceeds SLIP_TOLERANCE_M.
 Diagnostics (`_diagnostics`): the hand's limit ratio (the weld's threshold, the planners' constraint) of
 the hand motion this run actually made while the part was held (logged arm state and acceleration
 through sc.chain), its largest value and the first time it passed 1: where the threshold would have
