@@ -31,7 +31,10 @@ half the step) goes to the row's 'margin'.
 Resumable: every co-simulation, search and margin is stored under '_runs' in
 OUT/verdict_margins/verdict_margins.json (written atomically after each), keyed by its case, time scale,
 step and approximation; a rerun replays the searches from it and runs only what is missing (delete the
-file to recompute). Prints the table and writes the JSON and the .md atomically.
+file to recompute). A contact case's keys and row also carry the contact hand's revision
+(spatial_contact_hand.CONTACT_HAND_REVISION, e.g. 'ur5-suction-contact|r2|1.0|0.001|sap'): runs of an older
+contact hand are not reused, the tray's and the weld hands' are. Prints the table and writes the JSON and
+the .md atomically.
 """
 
 from __future__ import annotations
@@ -50,6 +53,7 @@ from qmt_drake.margin_runs import spatial_margin, spatial_plant_options
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_carried import carried_search
 from qmt_drake.planners.spatial_trajectory import TimeScaled
+from qmt_drake.sim.spatial_contact_hand import CONTACT_HAND_REVISION
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.sweep.robust import plan_fastest_carried
 from qmt_drake.timescale import Grow, search_scale
@@ -97,7 +101,8 @@ class Store:
 def _cell(r: dict) -> dict:
     m = r.get("margin", {})
     extra = ("lost_at_s", "max_gap_m", "max_slide_m", "final_slide_on_face_m", "max_tilt_while_held_rad",
-             "max_grip_ratio_while_held", "final_goal_error_rad")
+             "max_grip_ratio_while_held", "final_goal_error_rad", "goal_error_at_end_rad", "arrival_wait_s",
+             "arrival_steady", "relaxation_time_s")
     return {"outcome": r["outcome"], "held": bool(r["held"]), "max_slip_m": r.get("max_slip_m"),
             "quantity": m.get("quantity"), "value": m.get("value"), "threshold": m.get("threshold"),
             "ratio": m.get("ratio"), "wall_s": r.get("sim_wall_s"),
@@ -123,8 +128,18 @@ def runner(case: str, sc, plan, store: Store):
         return _cell(r)
 
     def run(s, h, a):
-        return store.memo(f"{case}|{s!r}|{h!r}|{a}", lambda: raw(s, h, a))
+        return store.memo(f"{key(case)}|{s!r}|{h!r}|{a}", lambda: raw(s, h, a))
     return run
+
+
+def key(case: str) -> str:
+    """The store's key prefix of a case: a contact case's carries the contact hand's revision (module docstring)."""
+    return f"{case}|r{CONTACT_HAND_REVISION}" if CASES[case][3] == "contact" else case
+
+
+def reusable(case: str, row: dict) -> bool:
+    """A finished row of this code's hands: a contact case's row of the present contact hand revision."""
+    return CASES[case][3] != "contact" or row.get("contact_hand_revision") == CONTACT_HAND_REVISION
 
 
 def fastest(case: str, sc, plan, store: Store) -> tuple[float, dict]:
@@ -218,7 +233,8 @@ def study(case: str, store: Store) -> dict:
     if physics == "contact":
         row["weld_time_scale"], row["weld_search"] = s, search
         row["cells_at_weld"] = grid(run, s)
-        search = store.memo(f"{case}|contact_search", lambda: contact_fastest(run, s))
+        row["contact_hand_revision"] = CONTACT_HAND_REVISION
+        search = store.memo(f"{key(case)}|contact_search", lambda: contact_fastest(run, s))
         if search["chosen"] is None:
             row.update(chosen_time_scale=None, search=search, cells={}, same_verdict=same_verdict(row["cells_at_weld"]))
             row["wall_s"] = time.perf_counter() - t0
@@ -262,7 +278,7 @@ def main(argv=None) -> int:
     d.mkdir(parents=True, exist_ok=True)
     store = Store(d / "verdict_margins.json")
     for case in [] if a.table_only else (a.only or list(CASES)):
-        if case in store.data:  # a finished row (an unfinished one resumes from '_runs')
+        if case in store.data and reusable(case, store.data[case]):  # (an unfinished one resumes from '_runs')
             log(f"{case}: reused from {store.path}")
             continue
         store.data[case] = study(case, store)

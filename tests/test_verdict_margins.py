@@ -13,9 +13,9 @@ import pytest
 
 from qmt_drake.limits.suction import GripModel
 from qmt_drake.margin_runs import spatial_margin, spatial_plant_options
-from qmt_drake.sim.spatial_contact_hand import LOST_GAP_M
+from qmt_drake.sim.spatial_contact_hand import CONTACT_HAND_REVISION, LOST_GAP_M
 from qmt_drake.sim.spatial_cosim import simulate_spatial
-from studies.verdict_margins import TOL, Store, _cell, contact_fastest
+from studies.verdict_margins import TOL, Store, _cell, contact_fastest, key, reusable
 from studies.verdict_margins_table import fmt
 from tests.spatial_fixtures import load_or_skip
 from tests.test_margin import check_consistent
@@ -74,3 +74,10 @@ def test_contact_search_brackets_the_flip(edge, s_weld):
         return
     assert found["lost_below"] < edge <= found["chosen"] <= found["lost_below"] * (1 + TOL)
     assert seen[0] == s_weld and found["tries"][-1]["time_scale"] == seen[-1]
+
+
+def test_contact_runs_are_keyed_by_the_contact_hand_revision():
+    assert key("tray") == "tray" and key("ur5-suction") == "ur5-suction"  # stored tray and weld runs stay valid
+    assert key("ur5-suction-contact") == f"ur5-suction-contact|r{CONTACT_HAND_REVISION}"
+    assert reusable("ur5-magnet", {}) and not reusable("ur5-magnet-contact", {})  # a row of the old contact hand
+    assert reusable("ur5-magnet-contact", {"contact_hand_revision": CONTACT_HAND_REVISION})

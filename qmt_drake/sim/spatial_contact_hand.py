@@ -24,10 +24,33 @@ holds the part but contact and a pull, so a loss is simulated, not declared:
 - point contact, MultibodyPlant's discrete lagged approximation (the planar hands', sim/plant.py) at the
   co-simulation's 1 ms; the arm holds its start for CONTACT_SETTLE_S while the contact takes up the load,
   then plays the plan (times below are from the plan's start).
+- dissipation under every approximation: Drake's TAMSI, similar and lagged use the Hunt-Crossley
+  dissipation d [s/m], SAP only a relaxation time tau [s] and ignores d (DiscreteContactApproximation,
+  "Accessing point contact parameters"); a geometry without one gets Drake's default 0.1 s, so a pair 0.2 s
+  (the pair's tau is the sum of its two geometries'). Normal force with x = -phi >= 0 the penetration:
+  Hunt-Crossley f = k x (1 + d xdot) (MultibodyPlant's contact model), SAP's linear Kelvin-Voigt
+  f = k (x + tau xdot) (SapHuntCrossley/SapFrictionConeConstraint: gamma_n / dt = (-k phi - tau k v_n)_+).
+  Both have stiffness k; their damping coefficients are k d x and k tau, equal at x when tau = d x. Matched
+  at the seat (`relaxation_time_s`): x the static penetration of each contact under the part's seat load,
+  the part hanging under a face-down hand (the picks' and places' pose): the pull at the seat minus m g
+  (the pull alone if that is not positive) shared by the rim's or the ring's points, x = load / (points
+  x the pair's stiffness). Each of the pair's two geometries gets tau / 2. Suction: (40 - 2 x 9.81) N on
+  1e5 N/m, x = 0.204 mm, tau = 20 s/m x x = 4.08 ms; magnet: 0.146 N on 8 x 5e5 N/m, x = 37 nm,
+  tau = 0.18 us (the ring's Hunt-Crossley damping is negligible at the seat, SAP's default was 1e6 times it).
+- the arrival (`arrival_error`): the part may still rock on its rim when the plan's hold at the goal
+  (spatial_cosim.TAIL_S) ends, and the arm, under a law without a model of the rocking part, rocks with it
+  (UR5 suction at x1.0212, 0.5 ms lagged: +-1.2 mrad at about 2.5 Hz, decaying over about 2 s to a
+  steady 0.08 mrad), so the error at one instant is a phase of that oscillation. The run goes on past the
+  tail in ARRIVAL_CHUNK_S chunks, the arm holding the goal, until every joint position has varied by less
+  than ARRIVAL_STEADY_FRACTION of the arrival tolerance over the last ARRIVAL_WINDOW_S (at most
+  ARRIVAL_MAX_WAIT_S; not when the part is already lost), and the arrival error is the largest goal error
+  over that last window (steady or not: no phase decides it). The wait is reported (arrival_wait_s,
+  arrival_steady); the part must stay held through it.
 
 Monitoring after the run from logged signals (VectorLogSink, no Python system in the loop): the part's
-joint state every step. Lost ("detached", qmt_drake/outcome.py) at the first step the gap exceeds
-LOST_GAP_M or the slide LOST_SLIDE_M; slipped when held but the final slide exceeds SLIP_TOLERANCE_M.
+joint state every step (the arrival's wait reads the logged arm state between chunks). Lost ("detached",
+qmt_drake/outcome.py) at the first step the gap exceeds LOST_GAP_M or the slide LOST_SLIDE_M; slipped when
+held but the final slide exceeds SLIP_TOLERANCE_M.
 Diagnostics (`_diagnostics`): the hand's limit ratio (the weld's threshold, the planners' constraint) of
 the hand motion this run actually made while the part was held (logged arm state and acceleration
 through sc.chain), its largest value and the first time it passed 1: where the threshold would have
@@ -80,6 +103,14 @@ SEAL_GAP_M = 2.0e-3  # the vacuum holds while the part's face is within this of 
 LOST_GAP_M = 5.0e-3  # lost: the part's face more than this from the hand's face ...
 LOST_SLIDE_M = 10.0e-3  # ... or slid more than this along it
 SLIP_TOLERANCE_M = 5.0e-3  # held to the end but ended further than this from its seat: slipped
+# the arrival (module docstring): steady when every joint varied less than this fraction of the tolerance ...
+ARRIVAL_STEADY_FRACTION = 0.1
+ARRIVAL_WINDOW_S = 0.5  # ... over this window (longer than the rocking's period, 0.3-0.5 s) ...
+ARRIVAL_CHUNK_S = 0.1  # ... checked after each such chunk past the plan's tail ...
+ARRIVAL_MAX_WAIT_S = 4.0  # ... for at most this long
+# what the contact hand's runs mean (studies key stored runs by it): 2 = SAP's relaxation time matched to the
+# Hunt-Crossley dissipation and the arrival measured steady (session 18); 1 = before
+CONTACT_HAND_REVISION = 2
 
 
 def face_frame_rotation(face_axis) -> np.ndarray:
@@ -102,10 +133,27 @@ def magnet_current_A(sc, spec: PayloadSpec, params: MagnetParams) -> float:
     return params.current_for_force_A(force)
 
 
-def _props(stiffness_N_per_m: float, dissipation_s_per_m: float, friction: float) -> ProximityProperties:
+def seat_load_N(sc, pull_N: float) -> float:
+    """The contact's total normal force [N] at the seat, the part hanging under a face-down hand: the pull
+    minus its weight m |g| (the pull alone when that is not positive: a part too heavy to hang)."""
+    load = pull_N - float(sc.body.mass_kg) * float(np.linalg.norm(sc.gravity_m_s2))
+    return load if load > 0.0 else float(pull_N)
+
+
+def relaxation_time_s(dissipation_s_per_m: float, load_N: float, stiffness_N_per_m: float) -> float:
+    """SAP's relaxation time [s] equivalent to a Hunt-Crossley dissipation d at the static penetration
+    x = load / stiffness (module docstring: k x (1 + d xdot) and k (x + tau xdot) damp alike at x when
+    tau = d x). load_N and stiffness_N_per_m: one contact's, or all of them together (their ratio is x)."""
+    return dissipation_s_per_m * load_N / stiffness_N_per_m
+
+
+def _props(stiffness_N_per_m: float, dissipation_s_per_m: float, friction: float,
+           pair_relaxation_time_s: float) -> ProximityProperties:
+    """One geometry's contact material; its relaxation time half the pair's (Drake sums the two)."""
     props = ProximityProperties()
     AddContactMaterial(dissipation=dissipation_s_per_m, point_stiffness=stiffness_N_per_m,
                        friction=CoulombFriction(friction, friction), properties=props)
+    props.AddProperty("material", "relaxation_time", 0.5 * pair_relaxation_time_s)
     return props
 
 
@@ -121,9 +169,22 @@ def _add_part(plant, sc, F_frame, R_HF):
     return part, joint
 
 
-def _add_magnet_geometry(plant, hand_body, X_BF, part, spec: PayloadSpec) -> None:
-    """systems/payload.add_payload's geometry in the face frame F: the hand's face box, the part's ring."""
-    props = _props(spec.point_stiffness_N_per_m, spec.hunt_crossley_dissipation_s_per_m, spec.friction)
+def magnet_relaxation_time_s(sc, spec: PayloadSpec, pull_N: float) -> float:
+    """The ring's pair relaxation time [s] (module docstring): both geometries have the spec's stiffness, so
+    each ring contact has half of it in series."""
+    return relaxation_time_s(spec.hunt_crossley_dissipation_s_per_m, seat_load_N(sc, pull_N),
+                             spec.n_contact_points * 0.5 * spec.point_stiffness_N_per_m)
+
+
+def suction_relaxation_time_s(sc, pull_N: float, rim_stiffness_N_per_m: float, rim_dissipation_s_per_m: float) -> float:
+    """The rim's pair relaxation time [s] (module docstring): the rim's total stiffness carries the seat load."""
+    return relaxation_time_s(rim_dissipation_s_per_m, seat_load_N(sc, pull_N), rim_stiffness_N_per_m)
+
+
+def _add_magnet_geometry(plant, hand_body, X_BF, part, spec: PayloadSpec, tau_s: float) -> None:
+    """systems/payload.add_payload's geometry in the face frame F: the hand's face box, the part's ring;
+    tau_s: the pair's relaxation time."""
+    props = _props(spec.point_stiffness_N_per_m, spec.hunt_crossley_dissipation_s_per_m, spec.friction, tau_s)
     half, thick = 8.0e-3, 4.0e-3
     plant.RegisterCollisionGeometry(hand_body, X_BF @ RigidTransform([0.0, 0.0, thick / 2]),
                                     Box(2 * half, 2 * half, thick), "magnet_face", props)
@@ -134,12 +195,13 @@ def _add_magnet_geometry(plant, hand_body, X_BF, part, spec: PayloadSpec) -> Non
 
 
 def _add_suction_geometry(plant, hand_body, X_BF, part, grip, rim_stiffness_N_per_m: float,
-                          rim_dissipation_s_per_m: float) -> None:
+                          rim_dissipation_s_per_m: float, tau_s: float) -> None:
     """The cup's rim: grip.rim_points spheres on the hand (bottoms in the face plane z_F = 0) on the grip's
     radius; the part's flat face a box top at z_P = 0. Both geometries get twice the per-point stiffness:
-    Drake combines them in series, so each rim contact has rim_stiffness / rim_points."""
+    Drake combines them in series, so each rim contact has rim_stiffness / rim_points. tau_s: the pair's
+    relaxation time."""
     k = 2.0 * rim_stiffness_N_per_m / grip.rim_points
-    props = _props(k, rim_dissipation_s_per_m, grip.friction)
+    props = _props(k, rim_dissipation_s_per_m, grip.friction, tau_s)
     r, s = grip.radius_m, RIM_SPHERE_RADIUS_M
     for i in range(grip.rim_points):
         a = 2.0 * math.pi * i / grip.rim_points
@@ -179,10 +241,28 @@ def classify_contact_run(t, q_part, lost_gap_m: float = LOST_GAP_M, lost_slide_m
     return None, None, gap, slide, tilt
 
 
-def add_contact_hand(builder, plant, H, sc, grip, rim_stiffness_N_per_m: float, rim_dissipation_s_per_m: float):
+def magnet_params(spec: PayloadSpec) -> MagnetParams:
+    """The magnet hand's coil (MAGNET_COIL) on the part's face."""
+    return MagnetParams(THESIS_COILS[MAGNET_COIL], MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m)
+
+
+def hand_pull(sc, grip, coil_current_A: float | None = None) -> tuple[float, float | None]:
+    """The pull at the seat [N] and the magnet's coil current [A] (None for a cup): the calibrated current
+    (magnet_current_A) unless coil_current_A is given; the cup's grip.pull_force_N."""
+    if sc.hand_kind != "magnet":
+        return float(grip.pull_force_N), None
+    spec = magnet_spec(sc)
+    params = magnet_params(spec)
+    current = magnet_current_A(sc, spec, params) if coil_current_A is None else float(coil_current_A)
+    return params.force_N(current), current
+
+
+def add_contact_hand(builder, plant, H, sc, grip, rim_stiffness_N_per_m: float, rim_dissipation_s_per_m: float,
+                     pull_N: float):
     """The contact hand (a part, before Finalize): a SceneGraph, the face frame F on the hand, the part on
-    its 6-DOF joint from F and the magnet's or the suction rim's contact geometry; (scene_graph, part, joint,
-    magnet PayloadSpec or None)."""
+    its 6-DOF joint from F and the magnet's or the suction rim's contact geometry, its relaxation time
+    matched to its Hunt-Crossley dissipation at the seat load of pull_N [N] (hand_pull); (scene_graph, part,
+    joint, magnet PayloadSpec or None, the pair relaxation time [s])."""
     scene_graph = builder.AddSystem(SceneGraph())
     plant.RegisterAsSourceForSceneGraph(scene_graph)
     R_HF = face_frame_rotation(sc.face_axis)
@@ -191,10 +271,12 @@ def add_contact_hand(builder, plant, H, sc, grip, rim_stiffness_N_per_m: float, 
     part, joint = _add_part(plant, sc, F_frame, R_HF)
     spec = magnet_spec(sc) if sc.hand_kind == "magnet" else None
     if spec is not None:
-        _add_magnet_geometry(plant, H.body(), X_BF, part, spec)
+        tau = magnet_relaxation_time_s(sc, spec, pull_N)
+        _add_magnet_geometry(plant, H.body(), X_BF, part, spec, tau)
     else:
-        _add_suction_geometry(plant, H.body(), X_BF, part, grip, rim_stiffness_N_per_m, rim_dissipation_s_per_m)
-    return scene_graph, part, joint, spec
+        tau = suction_relaxation_time_s(sc, pull_N, rim_stiffness_N_per_m, rim_dissipation_s_per_m)
+        _add_suction_geometry(plant, H.body(), X_BF, part, grip, rim_stiffness_N_per_m, rim_dissipation_s_per_m, tau)
+    return scene_graph, part, joint, spec, tau
 
 
 class ContactHand(HandPart):
@@ -218,8 +300,9 @@ class ContactHand(HandPart):
         plant.set_contact_model(ContactModel.kPoint)
 
     def add(self, builder, plant, H) -> None:
-        self.scene_graph, self.part, self.joint, self.spec = add_contact_hand(builder, plant, H, self.sc, self.grip,
-                                                                              *self.rim)
+        self.pull, self.current = hand_pull(self.sc, self.grip, self.coil_current_A)
+        (self.scene_graph, self.part, self.joint, self.spec,
+         self.relaxation_time_s) = add_contact_hand(builder, plant, H, self.sc, self.grip, *self.rim, self.pull)
 
     def recording(self, builder, plant, arm):
         return SpatialRecording.add(builder, plant, arm, self.scene_graph)
@@ -228,14 +311,36 @@ class ContactHand(HandPart):
         self.connect_scene_graph(builder, plant, rec)
         allow_contact(plant, self.scene_graph, H.body(), self.part)
         # the ideal actuator's controller integrates its error (continuous state); the dc_motor drive has none
-        self.pull = _add_pull(builder, plant, self.joint, self.sc, self.spec, self.grip, self.coil_current_A,
-                              continuous=continuous)
+        _add_pull(builder, plant, self.joint, self.spec, self.grip, self.current, continuous=continuous)
 
     def add_monitor(self, builder, plant, arm, h: float) -> None:
+        self.n_arm = plant.num_positions(arm)
         self.loggers = {"part_state": LogVectorOutput(plant.get_state_output_port(self.part.model_instance()),
                                                       builder, h),
                         "arm_acceleration": LogVectorOutput(plant.get_generalized_acceleration_output_port(arm),
-                                                            builder, h)}
+                                                            builder, h),
+                        "arm_state_for_arrival": LogVectorOutput(plant.get_state_output_port(arm), builder, h)}
+
+    def advance(self, sim, diagram, t_end: float) -> None:
+        """To the tail's end, then on while the arm is not steady (module docstring, the arrival)."""
+        sim.AdvanceTo(t_end)
+        ctx = sim.get_context()
+        wait = 0.0
+        while wait < ARRIVAL_MAX_WAIT_S - 1e-9 and not self._steady(ctx):
+            wait = min(wait + ARRIVAL_CHUNK_S, ARRIVAL_MAX_WAIT_S)
+            sim.AdvanceTo(t_end + wait)
+        self.arrival_wait_s = wait
+
+    def _steady(self, ctx) -> bool:
+        """The part lost (no arrival to wait for), or every arm joint within ARRIVAL_STEADY_FRACTION of the
+        arrival tolerance over the last ARRIVAL_WINDOW_S."""
+        part = self.loggers["part_state"].FindLog(ctx)
+        if classify_contact_run(part.sample_times(), part.data()[:7])[0] is not None:
+            return True
+        log = self.loggers["arm_state_for_arrival"].FindLog(ctx)
+        t, q = log.sample_times(), log.data()[:self.n_arm]
+        w = q[:, t >= t[-1] - ARRIVAL_WINDOW_S + 1e-9]
+        return bool((w.max(axis=1) - w.min(axis=1)).max() < ARRIVAL_STEADY_FRACTION * ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
 
     def ports(self, plant) -> dict:
         return {"part_state": plant.get_state_output_port(self.part.model_instance())}
@@ -248,11 +353,14 @@ class ContactHand(HandPart):
         moving = t >= 0.0
         held = moving & (t < lost_at) if lost is not None else moving
         slipped = lost is None and bool(slide[-1] > SLIP_TOLERANCE_M)
+        err_now, err = err, arrival_error(logs["arm_state"].FindLog(ctx), logs["desired_state"].FindLog(ctx), sc.n_dof)
         outcome = transfer_outcome(lost, slipped, err, ARRIVAL_TOLERANCE_DC_MOTOR_RAD)
         threshold = _diagnostics(sc, self.grip, self.spec, self.pull, logs["arm_state"].FindLog(ctx),
                                  self.loggers["arm_acceleration"].FindLog(ctx), lost_at)
         return {"outcome": outcome, "held": outcome == "carried", "lost_at_s": lost_at, "hand_physics": "contact",
-                "final_goal_error_rad": err, "duration_s": traj.duration_s, "pull_N": self.pull,
+                "final_goal_error_rad": err, "goal_error_at_end_rad": err_now, "arrival_wait_s": self.arrival_wait_s,
+                "arrival_steady": self.arrival_wait_s < ARRIVAL_MAX_WAIT_S - 1e-9 or self._steady(ctx),
+                "relaxation_time_s": self.relaxation_time_s, "duration_s": traj.duration_s, "pull_N": self.pull,
                 "max_gap_while_held_m": float(gap[held].max(initial=0.0)),
                 "max_slide_while_held_m": float(slide[held].max(initial=0.0)),
                 "max_tilt_while_held_rad": float(tilt[held].max(initial=0.0)),
@@ -265,19 +373,27 @@ class ContactHand(HandPart):
                 **tracking_report(logs, ctx, traj.duration_s + CONTACT_SETTLE_S, sc, drive)}
 
 
-def _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A, continuous: bool) -> float:
-    """Wire the magnet's or the vacuum's pull into the plant's applied generalized force; its value at
-    the seat [N]."""
+def arrival_error(arm_log, desired_log, n: int) -> float:
+    """The arrival error [rad] (module docstring): the largest |q_goal - q| of the arm's n joints over the
+    run's last ARRIVAL_WINDOW_S, q_goal the reference's last sample."""
+    t = arm_log.sample_times()
+    w = t >= t[-1] - ARRIVAL_WINDOW_S + 1e-9
+    goal = desired_log.data()[:n, -1:]
+    return float(np.abs(goal - arm_log.data()[:n, w]).max())
+
+
+def _add_pull(builder, plant, joint, spec, grip, current_A: float | None, continuous: bool) -> None:
+    """Wire the magnet's (its coil at current_A) or the vacuum's pull into the plant's applied generalized
+    force."""
     if spec is not None:
-        params = MagnetParams(THESIS_COILS[MAGNET_COIL], MAGNET_EFFECTIVE_GAP_M, spec.face_radius_m)
-        current = magnet_current_A(sc, spec, params) if coil_current_A is None else float(coil_current_A)
+        params = magnet_params(spec)
         magnet = builder.AddNamedSystem("magnet", electromagnet_force(params, plant, joint,
                                                                       host_has_continuous_state=continuous))
-        coil = builder.AddNamedSystem("coil_current", ConstantVectorSource([current]))
+        coil = builder.AddNamedSystem("coil_current", ConstantVectorSource([current_A]))
         builder.Connect(plant.get_state_output_port(), magnet.GetInputPort("plant_state"))
         builder.Connect(coil.get_output_port(), magnet.GetInputPort("coil_current"))
         builder.Connect(magnet.GetOutputPort("generalized_force"), plant.get_applied_generalized_force_input_port())
-        return params.force_N(current)
+        return
     pick, law, to_joint = seal_law(plant, joint, grip.pull_force_N, host_has_continuous_state=continuous)
     sel = builder.AddNamedSystem("part_translation", MatrixGain(pick))
     law = builder.AddNamedSystem("vacuum", law)
@@ -286,7 +402,6 @@ def _add_pull(builder, plant, joint, sc, spec, grip, coil_current_A, continuous:
     builder.Connect(sel.get_output_port(), law.get_input_port())
     builder.Connect(law.get_output_port(), out.get_input_port())
     builder.Connect(out.get_output_port(), plant.get_applied_generalized_force_input_port())
-    return float(grip.pull_force_N)
 
 
 def _over(name: str, ratio, t) -> dict:
