@@ -165,8 +165,6 @@ def _reuse(client):
 
 def _plan_phase(cl, store: SweepStore, refs: dict, plan_fn, failures: list) -> dict:
     """Plan documents by plan key: from the store, else planned in the workers and stored."""
-    # lazy: Dask (~0.4 s) only when a sweep runs
-    from distributed import as_completed
     docs, futs = {}, {}
     for k, ref in refs.items():
         doc = store.read_plan(k)
@@ -174,7 +172,13 @@ def _plan_phase(cl, store: SweepStore, refs: dict, plan_fn, failures: list) -> d
             docs[k] = doc
         else:
             futs[cl.submit(plan_fn, ref, key=f"plan-{k[:16]}-{uuid.uuid4().hex[:8]}", pure=False)] = k
-    for fut in as_completed(list(futs), loop=cl.loop):
+    try:
+        finished = list(_completed_while_workers_live(cl, list(futs)))
+    except RuntimeError as exc:  # no worker left: the plans not made fail their cases; a rerun resumes
+        finished = [f for f in futs if f.done()]
+        for f in futs.keys() - set(finished):
+            failures.append({"plan_key": futs[f], "plan": _describe_ref(refs[futs[f]]), "error": str(exc)})
+    for fut in finished:
         k = futs[fut]
         try:
             doc = fut.result()
@@ -199,8 +203,6 @@ def _describe_ref(ref) -> str:
 
 def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failures: list, prog: Progress) -> int:
     """Submit the pending cases, store each result as it arrives; returns how many were stored."""
-    # lazy: Dask (~0.4 s) only when a sweep runs
-    from distributed import as_completed
     # Plan documents enter the graph as the result of a task, not scattered: data scattered to a
     # worker that dies is gone for good, a task's result is recomputed from its inputs.
     doc_futs = {k: cl.submit(_identity, d, key=f"plandoc-{k[:16]}-{uuid.uuid4().hex[:8]}", pure=False)
@@ -215,18 +217,23 @@ def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failu
                       pure=False)
         futs[f] = c
     suspects = []  # cases given up after worker deaths: perhaps only co-located with the killer
-    for fut in as_completed(list(futs), loop=cl.loop):
-        c = futs.pop(fut)
-        try:
-            res = fut.result()
-        except Exception as exc:  # noqa: BLE001 - KilledWorker after allowed-failures, or a bug in the case
-            if type(exc).__name__ == "KilledWorker":
-                suspects.append(c)
+    try:
+        for fut in _completed_while_workers_live(cl, list(futs)):
+            c = futs.pop(fut)
+            try:
+                res = fut.result()
+            except Exception as exc:  # noqa: BLE001 - KilledWorker after allowed-failures, or a bug in the case
+                if type(exc).__name__ == "KilledWorker":
+                    suspects.append(c)
+                    continue
+                _record_failure(failures, c, exc, prog)
                 continue
+            stored += _store_result(store, c, res, prog)
+            fut.release()
+    except RuntimeError as exc:  # no worker left: every unfinished case is failed, a rerun resumes them
+        for c in [*futs.values(), *suspects]:
             _record_failure(failures, c, exc, prog)
-            continue
-        stored += _store_result(store, c, res, prog)
-        fut.release()
+        return stored
     # The scheduler assigns a case to a worker before the worker is free (cases depend on the plan
     # document, so they are not queued centrally), so an innocent case can share a dying worker.
     # Each suspect runs once more alone: only a case that kills its worker by itself fails.
@@ -246,18 +253,33 @@ def _case_phase(cl, store: SweepStore, pending: list, docs: dict, case_fn, failu
 NO_WORKER_S = 120.0  # how long a case waits on a cluster with no worker at all before it is failed
 
 
+def _completed_while_workers_live(cl, futures, poll_s: float = 5.0, no_worker_s: float = NO_WORKER_S):
+    """Yield `futures` as they finish (as distributed.as_completed), but not forever: a cluster that has
+    lost every worker (a LocalCluster whose nannies could not restart a killed worker, seen under heavy
+    load) would leave the sweep waiting for good; after no_worker_s [s] without a worker and without a
+    finished future, RuntimeError (the caller fails what is unfinished; a rerun resumes it)."""
+    # lazy: Dask (~0.4 s) only when a sweep runs
+    from distributed import as_completed
+    finished = as_completed(list(futures), loop=cl.loop)
+    without, tick = 0.0, min(0.05, poll_s)  # tick [s]: how often finished futures are looked for
+    while not finished.is_empty():
+        waited = 0.0
+        while waited < poll_s and not finished.has_ready():
+            time.sleep(tick)
+            waited += tick
+        if finished.has_ready():
+            without = 0.0
+            yield from finished.next_batch(block=False)
+            continue
+        without = 0.0 if cl.scheduler_info().get("workers") else without + poll_s
+        if without >= no_worker_s:
+            raise RuntimeError(f"no Dask worker alive for {no_worker_s:g} s; run the sweep again to resume")
+
+
 def _result_while_workers_live(cl, fut, poll_s: float = 5.0, no_worker_s: float = NO_WORKER_S):
-    """fut.result(), but not forever: a cluster that has lost every worker (a nanny that could not restart
-    one) would leave it waiting for good; after no_worker_s [s] without a worker, RuntimeError (the case is
-    recorded as failed and the sweep resumes it on the next run)."""
-    without = 0.0
-    while True:
-        try:
-            return fut.result(timeout=poll_s)
-        except TimeoutError:
-            without = 0.0 if cl.scheduler_info().get("workers") else without + poll_s
-            if without >= no_worker_s:
-                raise RuntimeError(f"no Dask worker alive for {no_worker_s:g} s; run the sweep again to resume") from None
+    """fut.result(), waiting only while the cluster has a worker (`_completed_while_workers_live`)."""
+    for done in _completed_while_workers_live(cl, [fut], poll_s, no_worker_s):
+        return done.result()
 
 
 def _record_failure(failures: list, c, exc: BaseException, prog: Progress) -> None:
