@@ -33,13 +33,13 @@ from qmt_drake.limits.suction import SuctionTerm, cached_grip
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
 from qmt_drake.planners.spatial_methods import PLANNERS
 from qmt_drake.planners.spatial_trajectory import TimeScaled
-from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M
-from qmt_drake.sim.spatial_contact_hand import (
+from qmt_drake.sim.contact_hand_build import (
     MAGNET_COIL,
     RIM_STIFFNESS_N_PER_M,
     magnet_current_A,
     magnet_spec,
 )
+from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M
 from qmt_drake.sim.spatial_cosim import FINE_GRIP, simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 from qmt_drake.systems.electromagnet import THESIS_COILS, MagnetParams

@@ -20,9 +20,10 @@ scale, then at the contact hand's own fastest carried scale, bisected at its def
 carried_search would (k >= 1, the plan itself first; from the weld's scale outward by x1.02, 1.1, 1.5, 2.5
 when lost there, then geometric bisection to TOL); its bracket is the row's margin (the flip scale).
 
-When a grid's verdicts differ, the fastest time scale carried at EVERY cell is searched (geometric
-bisection in [chosen, 1.2 chosen] to TOL, each try run at the cells that were lost, then the answer
-checked at all twelve): how far the verdict moves.
+When a grid's verdicts differ, the fastest time scale carried at EVERY cell is searched by the library's
+search (carried_cells.carried_at_every_cell, what `qmt-drake plan --carried --carried-cells all` runs:
+raised from the choice by x1.02 steps, then geometric bisection to TOL, each try run at the cells lost so
+far, the answer checked at all twelve): how far the verdict moves.
 
 Each weld-hand or tray plan's verdict margin at the defaults (api.simulate(..., margin=True): the deciding
 quantity against its threshold, the time scale at which the verdict flips, to 0.5 %, and the verdict at
@@ -48,6 +49,7 @@ import time
 from pathlib import Path
 
 from qmt_drake.api import load_scenario, plan_with, simulate
+from qmt_drake.carried_cells import carried_at_every_cell
 from qmt_drake.errors import QmtSimulationError
 from qmt_drake.margin_runs import spatial_margin, spatial_plant_options
 from qmt_drake.outputs import check_output_dir, jsonable, write_text_atomic
@@ -193,27 +195,6 @@ def same_verdict(cells: dict) -> bool:
     return len({c["held"] for c in cells.values() if c["held"] is not None}) == 1
 
 
-def carried_everywhere(run, s_chosen: float, cells: dict, s_max: float) -> dict:
-    """The fastest scale carried at every cell (module docstring), or None if s_max is not."""
-    lost = [(c["time_step_s"], c["approximation"]) for c in cells.values() if c["held"] is False]
-    tries = []
-
-    def ok(s):
-        res = [run(s, h, a) for h, a in lost]
-        tries.append({"time_scale": s, "outcomes": [r["outcome"] for r in res]})
-        log(f"  all-cells search x{s:.5f}: {[r['outcome'] for r in res]}")
-        return all(r["held"] for r in res)
-
-    lo, hi = s_chosen, s_max
-    if not ok(hi):
-        return {"time_scale": None, "tries": tries, "s_max": s_max}
-    while hi / lo - 1 > TOL:
-        mid = math.sqrt(lo * hi)
-        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
-    return {"time_scale": hi, "lost_below": lo, "tries": tries, "relative_to_chosen": hi / s_chosen - 1,
-            "cells": grid(run, hi)}
-
-
 def scenario_of(case: str):
     name, method, opts, physics = CASES[case]
     sc = load_scenario(name)
@@ -249,7 +230,12 @@ def study(case: str, store: Store) -> dict:
     row["same_verdict"] = same_verdict(cells)
     if not row["same_verdict"]:
         s_max = TRAY_S_MAX if case == "tray" else 2.5
-        row["carried_at_every_cell"] = carried_everywhere(run, s, cells, min(s_max, s * 1.2))
+        default = CONTACT_DEFAULT if physics == "contact" else (1e-3, "lagged" if case == "tray" else "sap")
+        every = carried_at_every_cell(run, s, [(h, a) for h in STEPS_S for a in APPROXIMATIONS], k_max=s_max,
+                                      rel_tol=TOL, default_cell=default, progress=log)
+        row["carried_at_every_cell"] = {"time_scale": every["time_scale"], "lost_below": every["lost_below"],
+                                        "tries": every["tries"], "relative_to_chosen": every["relative_to_chosen"],
+                                        "cells": every["table"]}
     if physics != "contact":
         row["margin"] = store.memo(f"{case}|margin|{s!r}", lambda: with_flip(sc, plan, s))
     row["wall_s"] = time.perf_counter() - t0

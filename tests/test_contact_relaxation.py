@@ -16,6 +16,7 @@ import pytest
 
 from qmt_drake.margin_runs import spatial_plant_options
 from qmt_drake.outcome import ARRIVAL_TOLERANCE_DC_MOTOR_RAD
+from qmt_drake.sim import contact_hand_build as build
 from qmt_drake.sim import spatial_contact_hand as hand
 from qmt_drake.sim.cosim_run import run
 from qmt_drake.sim.spatial_cosim import build_spatial_cosim
@@ -30,22 +31,22 @@ def suction():
 
 def _static_penetration_m(sc) -> float:
     """(F - m g) / k: the rim's total stiffness carrying the vacuum's pull less the weight (face down)."""
-    return (sc.grip.pull_force_N - sc.body.mass_kg * 9.81) / hand.RIM_STIFFNESS_N_PER_M
+    return (sc.grip.pull_force_N - sc.body.mass_kg * 9.81) / build.RIM_STIFFNESS_N_PER_M
 
 
 def test_relaxation_time_closed_forms(suction):
     x = _static_penetration_m(suction)
-    assert hand.suction_relaxation_time_s(suction, suction.grip.pull_force_N, hand.RIM_STIFFNESS_N_PER_M,
-                                          hand.RIM_DISSIPATION_S_PER_M) == pytest.approx(20.0 * x, rel=1e-12)
+    assert build.suction_relaxation_time_s(suction, suction.grip.pull_force_N, build.RIM_STIFFNESS_N_PER_M,
+                                          build.RIM_DISSIPATION_S_PER_M) == pytest.approx(20.0 * x, rel=1e-12)
     assert 20.0 * x == pytest.approx(4.08e-3, rel=1e-3)  # the docstring's number
     # the magnet's ring: 8 points of 1e6 N/m against the face box's 1e6 N/m in series, d = 5 s/m
     magnet = load_or_skip("ur5-magnet-part")
-    spec = hand.magnet_spec(magnet)
+    spec = build.magnet_spec(magnet)
     pull = 0.44
     x_ring = (pull - magnet.body.mass_kg * 9.81) / (8 * 0.5e6)
-    assert hand.magnet_relaxation_time_s(magnet, spec, pull) == pytest.approx(5.0 * x_ring, rel=1e-12)
+    assert build.magnet_relaxation_time_s(magnet, spec, pull) == pytest.approx(5.0 * x_ring, rel=1e-12)
     # a part too heavy to hang: the pull alone sets x
-    assert hand.seat_load_N(suction, 10.0) == 10.0
+    assert build.seat_load_N(suction, 10.0) == 10.0
 
 
 def _pressed_run(sc, approximation: str, press: float = 1.2):
@@ -78,7 +79,7 @@ def test_sap_settles_at_the_assumed_penetration_and_damps_like_hunt_crossley(suc
     assert u_lagged < -0.005 and u_sap < -0.005  # pressed 20 % in, both spring back past the seat
     assert u_sap == pytest.approx(u_lagged, rel=0.25)  # measured 0.0147 and 0.0130 of x
     # Drake's default relaxation time (0.1 s a geometry, 0.2 s the pair) is 50 times this: no undershoot at all
-    monkeypatch.setattr(hand, "suction_relaxation_time_s", lambda *a: 0.2)
+    monkeypatch.setattr(build, "suction_relaxation_time_s", lambda *a: 0.2)
     default, _, _ = _pressed_run(suction, "sap")
     assert default[early].min() > 0.1 * u_lagged
 

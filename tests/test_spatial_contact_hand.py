@@ -15,12 +15,12 @@ import pytest
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.contact_wrench import CarriedBody
 from qmt_drake.limits.suction import GripModel
-from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M
-from qmt_drake.sim.spatial_contact_hand import (
+from qmt_drake.sim.contact_hand_build import (
     MAGNET_COIL,
     RIM_STIFFNESS_N_PER_M,
     magnet_spec,
 )
+from qmt_drake.sim.magnet_hand import MAGNET_EFFECTIVE_GAP_M
 from qmt_drake.sim.spatial_cosim import simulate_spatial
 from qmt_drake.spatial_task import load_spatial_scenario
 from qmt_drake.systems.electromagnet import THESIS_COILS, MagnetParams
