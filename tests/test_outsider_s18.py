@@ -55,3 +55,40 @@ def test_sweep_integral_rate_named_as_given(rate, says):
     with pytest.raises(QmtInputError, match=says) as e:
         build_spatial_cases(load_spec(spec))
     assert "\n" not in str(e.value)
+
+
+def test_chain_joint_with_a_zero_range_is_named():
+    # example-robot-data's double pendulum has <limit lower="0" upper="0"> on both joints (an exporter's "none
+    # given"): IK blamed the task ("too few joints", "out of reach"), the planners held the joints at 0
+    from tests.test_spatial_urdf_check import joint, link, refused, robot
+    parts = [link("l1"), joint("j1", "base", "l1", limit='<limit lower="0.5" upper="0.5" effort="5" velocity="2"/>'),
+             link("hand", inertial=False), joint("hw", "l1", "hand", "fixed", "")]
+    msg = refused(robot(*parts))
+    assert "chain joint 'j1' has the range [0.5, 0.5]" in msg and "cannot move" in msg and "lock_joints" in msg
+    # a revolute joint without lower/upper (Drake: unbounded) or a continuous one still loads
+    from qmt_drake.model.urdf_check import load_arm_plant
+    parts[1] = joint("j1", "base", "l1", limit='<limit effort="5" velocity="2"/>')
+    load_arm_plant(robot(*parts), "hand")
+    parts[1] = joint("j1", "base", "l1", kind="continuous", limit='<limit effort="5" velocity="2"/>')
+    load_arm_plant(robot(*parts), "hand")
+
+
+@pytest.mark.parametrize("change, says", [
+    ({"inductance_H": [-1e-3]}, r"inductance_H \[-0.001\] must be finite and positive"),
+    ({"inductance_H": [float("nan")]}, "inductance_H .nan. must be finite and positive"),
+    ({"inductance_H": [1e-3, 1e-3]}, r"inductance_H has shape \(2,\), expected \(1,\)"),
+    ({"back_drive_efficiency": 2.0}, r"back_drive_efficiency 2.0 must be in \(0, 1\]"),
+    ({"efficiency": [float("nan")]}, r"efficiency \[nan\] \(the gearbox's\) must be in \(0, 1\]"),
+    ({"efficiency_blend_speed_rad_s": float("inf")}, "efficiency_blend_speed_rad_s inf must be finite"),
+    ({"torque_constant_Nm_per_A": [[0.05]]}, r"torque_constant_Nm_per_A has shape \(1, 1\)"),
+])
+def test_dc_motor_params_composed_by_hand_refuse_non_physical_values(change, says):
+    # composing DcMotorWithGear into one's own DiagramBuilder: a negative or NaN inductance, a back-drive
+    # efficiency of 2 (a gear that makes energy) and a NaN gearbox efficiency were accepted silently
+    from qmt_drake.systems.dc_motor import DcMotorParams, DcMotorWithGear
+    base = dict(torque_constant_Nm_per_A=[0.05], resistance_ohm=[1.0], gear_ratio=[100], voltage_limit_V=[24],
+                current_limit_A=[5], efficiency=[0.8])
+    DcMotorWithGear(DcMotorParams(**base, inductance_H=[1e-3]))  # the good one builds
+    with pytest.raises(QmtInputError, match=says) as e:
+        DcMotorWithGear(DcMotorParams(**{**base, **change}))
+    assert "\n" not in str(e.value)
