@@ -92,3 +92,28 @@ def test_dc_motor_params_composed_by_hand_refuse_non_physical_values(change, say
     with pytest.raises(QmtInputError, match=says) as e:
         DcMotorWithGear(DcMotorParams(**{**base, **change}))
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("dist, says", [
+    ({"dist": "normal", "mean": 0.3, "std": 1.0}, r"38.2% of its mass outside friction's range \(0, inf\); the draws "
+                                                  r"would be cut there \(their mean 0.917, not 0.3\)"),
+    ({"dist": "normal", "mean": 0.3, "std": 0.15}, r"2.3% of its mass outside"),
+])
+def test_normal_cut_hard_at_a_physical_bound_is_refused(dist, says):
+    # friction N(0.3, 1) was drawn cut at 0 without a word: 6 cases with mean 0.87 reported as the spec's N(0.3, 1)
+    from qmt_drake.sweep.spec import load_spec
+    spec = {"name": "n", "scenario": "thesis-ch4", "plans": [{"method": "thesis"}],
+            "monte_carlo": {"cases": 4, "seed": 0}, "parameters": {"friction": dist}}
+    with pytest.raises(QmtInputError, match=says) as e:
+        load_spec(spec)
+    assert "\n" not in str(e.value) and "say where to cut it (low, high)" in str(e.value)
+    load_spec({**spec, "parameters": {"friction": {**dist, "low": 0.01}}})  # cut where the file says: taken
+    load_spec({**spec, "parameters": {"friction": {**dist, "std": 0.1}}})  # 0.13 % cut (3 std): taken
+
+
+def test_scenario_uncertainty_section_refuses_a_normal_cut_hard(tmp_path):
+    # the same section drives `plan --success`: its cases were drawn from a cut distribution the file did not name
+    from qmt_drake import load_scenario_data
+    path = _spatial_yaml(tmp_path, uncertainty__parameters__friction={"dist": "normal", "mean": 0.5, "std": 0.5})
+    with pytest.raises(QmtInputError, match=r"uncertainty.*friction.*15.9% of its mass outside"):
+        load_scenario_data(path)
