@@ -237,12 +237,12 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     if not isinstance(margin, bool):
         raise QmtInputError(f"simulate: margin {show(margin)} must be True or False")
     if isinstance(scenario, TransferScenario):
-        check_own_actuator(scenario, actuator, "simulate: actuator")  # as the CLI: only its YAML's own actuator
+        own = check_own_actuator(scenario, actuator, "simulate: actuator")  # as the CLI: only its YAML's own one
         result = run(build_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
                                  time_step_s=time_step_s, implicit_loop_damping=None,
                                  feedforward=feedforward or "none"))
         if actuator is not None:  # the result says which was run, as the CLI's does
-            result = {**result, "actuator": actuator, "actuator_kind": scenario.actuator.kind}
+            result = {**result, "actuator": actuator, "actuator_kind": own}
         return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale, time_step_s=time_step_s,
                            feedforward=feedforward or "none")
     spatial = plan.scenario_kind == SPATIAL_PLAN_KIND
@@ -278,7 +278,10 @@ def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0,
     part seated (on your own Simulator the weld holds: its release at the first step past the hand's limit
     is run's, from cosim.monitor's logs); energy-time scenarios: the vertical arm's diagram (no option).
     time_scale and time_step_s [s] as in `simulate` (checked the same way, the replay priced); meshcat: a
-    pydrake Meshcat to draw in (planar scenarios)."""
+    pydrake Meshcat to draw in (planar scenarios). Compose it with discrete-time systems (or none): its
+    per-step laws are Drake SymbolicVectorSystems, which Drake 1.51 cannot ask for time derivatives, so a
+    Simulator of a diagram that also holds continuous state (an Integrator of yours) stops with
+    "DoCalcTimeDerivatives(): condition ... failed"."""
     scenario = _scenario_arg(scenario, "build_diagram")
     _check_run_args(scenario, plan, time_scale, time_step_s, None, allow_large, "build_diagram")
     if meshcat is not None and not isinstance(meshcat, Meshcat):

@@ -117,3 +117,41 @@ def test_scenario_uncertainty_section_refuses_a_normal_cut_hard(tmp_path):
     path = _spatial_yaml(tmp_path, uncertainty__parameters__friction={"dist": "normal", "mean": 0.5, "std": 0.5})
     with pytest.raises(QmtInputError, match=r"uncertainty.*friction.*15.9% of its mass outside"):
         load_scenario_data(path)
+
+
+COMPOSE = """
+import gc
+from pydrake.all import DiagramBuilder, Simulator
+from qmt_drake import build_diagram, load_scenario, plan_with
+b = DiagramBuilder()
+b.AddSystem(build_diagram(load_scenario("thesis-ch4"), plan_with("thesis", load_scenario("thesis-ch4")),
+                          inverse_dynamics_feedforward=True).diagram)
+gc.collect()
+Simulator(b.Build()).AdvanceTo(0.01)
+print("advanced")
+"""
+
+
+def test_cosims_composed_after_their_scenario_is_dropped_do_not_read_a_freed_plant():
+    # README's "compose cosim.diagram in your DiagramBuilder": Drake's InverseDynamics (the planar
+    # inverse_dynamics_feedforward, the spatial DC drive's full feedforward) points at a plant it does not own;
+    # with the scenario / CoSim dropped, the user's Simulator read freed memory: a segfault (exit -11)
+    import os
+    import subprocess
+    import sys
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [os.getcwd(), os.environ.get("PYTHONPATH")]))}
+    run = subprocess.run([sys.executable, "-c", COMPOSE], capture_output=True, text=True, timeout=120, env=env)
+    assert run.returncode == 0 and "advanced" in run.stdout, (run.returncode, run.stderr[-500:])
+
+
+@pytest.mark.xfail(strict=True, raises=(RuntimeError, SystemExit),
+                   reason="Drake 1.51's SymbolicVectorSystem (the compiled per-step laws) fails when a diagram with "
+                          "continuous state asks it for time derivatives; build_diagram's docstring says so")
+def test_a_cosim_beside_a_users_continuous_system(ch4):
+    from pydrake.all import DiagramBuilder, Integrator, Simulator
+
+    from qmt_drake import build_diagram, plan_with
+    b = DiagramBuilder()
+    b.AddSystem(build_diagram(ch4, plan_with("thesis", ch4)).diagram)
+    b.AddSystem(Integrator(1))  # e.g. a user's own energy integrator
+    Simulator(b.Build()).AdvanceTo(0.01)
