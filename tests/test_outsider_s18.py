@@ -5,7 +5,9 @@ the input and the fix (exit 2) before any long work; each test is a defect found
 import json
 
 import pytest
+import yaml
 
+from qmt_drake.config.scenario import SCENARIO_DIR
 from qmt_drake.errors import QmtInputError
 from tests.test_outsider_s16 import _refused, _spatial_yaml  # noqa: F401  (the shared scenario-file helpers)
 
@@ -155,3 +157,41 @@ def test_a_cosim_beside_a_users_continuous_system(ch4):
     b.AddSystem(build_diagram(ch4, plan_with("thesis", ch4)).diagram)
     b.AddSystem(Integrator(1))  # e.g. a user's own energy integrator
     Simulator(b.Build()).AdvanceTo(0.01)
+
+
+def test_ruckig_duration_error_is_its_refusal_not_a_valueerror():
+    # a joint speed of 1e-9 rad/s: Ruckig's ErrorTrajectoryDuration (-101), absent from its Python enum, came out
+    # as "ValueError: -101 is not a valid Result" (a traceback of `plan --method ruckig`)
+    from qmt_drake.planners.ruckig_core import rest_to_rest
+    traj, why = rest_to_rest([0.0, 0.0], [1.0, 1.0], [1.0, 1e-9], [10.0, 10.0], [200.0, 200.0])
+    assert traj is None and "outlast Ruckig's numerical range" in why
+    traj, _ = rest_to_rest([0.0, 0.0], [1.0, 1.0], [1.0, 1.0], [10.0, 10.0], [200.0, 200.0])
+    assert traj is not None
+
+
+def test_spatial_check_of_a_path_timed_in_decades_is_refused_not_allocated(monkeypatch):
+    # TOPP-RA under a 1e-9 rad/s joint speed timed the UR5 path in 2.8e10 s; its re-check asked numpy for 20.7 TiB
+    # (a MemoryError traceback); the check now prices its samples first
+    from types import SimpleNamespace
+
+    from qmt_drake.planners import spatial_trajectory
+    sc = SimpleNamespace(name="slow-arm", n_dof=6)
+    traj = SimpleNamespace(duration_s=2.84e10)
+    monkeypatch.setattr(spatial_trajectory, "sample_times", lambda *a: pytest.fail("sampled before pricing"))
+    with pytest.raises(QmtInputError, match=r"^slow-arm: the timed path takes 2.84e\+10 s, .* far too small"):
+        spatial_trajectory.check(sc, traj, 2000.0)
+
+
+def test_planar_method_without_a_timing_says_why_not_least_violating(tmp_path, capsys):
+    # joint_speed_fraction 0.1 on thesis-ch4: TOPP-RA's time passes the family's 9 s cap, so no timing is
+    # found and the file holds the arm at rest (T0 = 0); the line called that "INFEASIBLE (least-violating plan)"
+    # with every ratio 0.0000, and the reason was only inside the JSON
+    from qmt_drake.apps.cli import main
+    raw = yaml.safe_load((SCENARIO_DIR / "thesis-ch4.yaml").read_text())
+    raw["limits"]["joint_speed_fraction"] = 0.1
+    raw["arm"]["urdf"] = str((SCENARIO_DIR / raw["arm"]["urdf"]).resolve())
+    path = tmp_path / "slow.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    assert main(["plan", str(path), "--method", "toppra", "--json", str(tmp_path / "p.json"), "--quiet"]) == 3
+    out = capsys.readouterr().out
+    assert "least-violating" not in out and "no timing found: the fastest motion found takes" in out
