@@ -195,3 +195,13 @@ def test_planar_method_without_a_timing_says_why_not_least_violating(tmp_path, c
     assert main(["plan", str(path), "--method", "toppra", "--json", str(tmp_path / "p.json"), "--quiet"]) == 3
     out = capsys.readouterr().out
     assert "least-violating" not in out and "no timing found: the fastest motion found takes" in out
+
+
+def test_success_spec_errors_name_the_scenarios_uncertainty_section():
+    # `plan --success` on a scenario whose uncertainty.monte_carlo.cases is 10^7 said "sweep spec 'success': ..."
+    # (no sweep spec was written); the line names the scenario's section
+    from qmt_drake import load_scenario
+    from qmt_drake.sweep.robust import success_spec
+    sc = load_scenario("thesis-ch4", overrides={"uncertainty": {"monte_carlo": {"cases": 10 ** 7, "seed": 1}}})
+    with pytest.raises(QmtInputError, match=r"^scenario thesis-ch4: uncertainty: 10000000 cases is too many"):
+        success_spec(sc)
