@@ -197,6 +197,10 @@ def _load_transfer_plan(path: Path, d: dict, scenario: TransferScenario | None) 
         scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
     _check_plan_fits(d, path, scenario)
     traj = d["trajectory"]
+    why = d.get("extra", {}).get("infeasible") if isinstance(d.get("extra"), dict) else None
+    if why and d.get("motion_time_s") == 0.0:  # `plan` wrote the arm at rest: its method found no timing
+        raise QmtInputError(f"plan file {path} holds no motion: its planner found no timing ({why}); change the "
+                            "scenario's limits and plan again")
     try:
         if traj.get("kind") == "family":
             if traj.get("family", scenario.family.kind) != scenario.family.kind:

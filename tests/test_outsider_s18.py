@@ -195,6 +195,11 @@ def test_planar_method_without_a_timing_says_why_not_least_violating(tmp_path, c
     assert main(["plan", str(path), "--method", "toppra", "--json", str(tmp_path / "p.json"), "--quiet"]) == 3
     out = capsys.readouterr().out
     assert "least-violating" not in out and "no timing found: the fastest motion found takes" in out
+    # the file it wrote (the arm at rest, T0 = 0) was refused back as "cannot rebuild its trajectory (samples must
+    # ... rise to a positive motion time)", as if edited by hand
+    from qmt_drake import load_plan
+    with pytest.raises(QmtInputError, match=r"p.json holds no motion: its planner found no timing \(the fastest"):
+        load_plan(tmp_path / "p.json")
 
 
 def test_success_spec_errors_name_the_scenarios_uncertainty_section():
