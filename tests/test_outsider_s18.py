@@ -210,3 +210,17 @@ def test_success_spec_errors_name_the_scenarios_uncertainty_section():
     sc = load_scenario("thesis-ch4", overrides={"uncertainty": {"monte_carlo": {"cases": 10 ** 7, "seed": 1}}})
     with pytest.raises(QmtInputError, match=r"^scenario thesis-ch4: uncertainty: 10000000 cases is too many"):
         success_spec(sc)
+
+
+@pytest.mark.parametrize("change, says", [
+    ({"work": ["x", "x"]}, r"units\[1\].work: direction 'x' is listed twice"),
+    ({"name": "P1"}, r"units\[1\].name 'P1' is used by an earlier unit"),
+])
+def test_design_task_unit_typos_refused(change, says):
+    # work: [x, x] (for [x, y]) planned a task whose y was free (E 0.1765 instead of 0.1647, no word); two units
+    # named alike made two report rows of one name
+    from qmt_drake.design.tasks import task_from_dict
+    raw = yaml.safe_load((SCENARIO_DIR.parent / "tasks" / "task1_welding_plate.yaml").read_text())
+    raw["units"] = [raw["units"][1], {**raw["units"][0], **change}]
+    with pytest.raises(QmtInputError, match=says):
+        task_from_dict(raw, "t.yaml")
