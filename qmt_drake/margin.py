@@ -187,8 +187,14 @@ def margin_text(m: dict) -> str:
     """The CLI's margin line: the deciding quantity against its threshold, then the expensive part if run."""
     if m.get("ratio") is None:
         return "margin: nothing measured"
-    line = (f"margin: {m['quantity']} {m['value']:.4g} vs {m['threshold']:.4g} ({m['outcome_over']} at or above), "
-            f"ratio {m['ratio']:.4f}")
+    value, threshold, d = m["value"], m["threshold"], 4
+    while d < 12 and value != threshold and f"{value:.{d}g}" == f"{threshold:.{d}g}":
+        d += 1  # 0.99996 against 1 printed "1 vs 1 (detached at or above)" beside a carried verdict
+    ratio, r = m["ratio"], 4
+    while r < 12 and ratio != 1.0 and f"{ratio:.{r}f}" == f"{1.0:.{r}f}":
+        r += 1
+    line = (f"margin: {m['quantity']} {value:.{d}g} vs {threshold:.4g} ({m['outcome_over']} at or above), "
+            f"ratio {ratio:.{r}f}")
     f, h = m.get("flip"), m.get("half_step")
     if isinstance(f, dict):
         line += ("; no flip found within the tried scales" if f["flip_time_scale"] is None else

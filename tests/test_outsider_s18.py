@@ -224,3 +224,13 @@ def test_design_task_unit_typos_refused(change, says):
     raw["units"] = [raw["units"][1], {**raw["units"][0], **change}]
     with pytest.raises(QmtInputError, match=says):
         task_from_dict(raw, "t.yaml")
+
+
+def test_margin_line_never_prints_a_value_equal_to_its_threshold_beside_the_other_verdict():
+    # the UR5 suction plan through DC motors (a 5-joint copy, wrist_3 locked): "carried ... margin:
+    # max_grip_ratio_while_held 1 vs 1 (detached at or above), ratio 1.0000" for a ratio of 0.99996
+    from qmt_drake.margin import margin_text
+    m = {"quantity": "max_grip_ratio_while_held", "value": 0.99996, "threshold": 1.0, "outcome_over": "detached",
+         "ratio": 0.99996}
+    assert "0.99996 vs 1 (detached at or above), ratio 0.99996" in margin_text(m)
+    assert "0.7933 vs 1 (detached at or above), ratio 0.7933" in margin_text({**m, "value": 0.7933, "ratio": 0.7933})
