@@ -61,6 +61,31 @@ def actuator_plugin(scenario: Any) -> ActuatorPlugin | None:
     return entry
 
 
+# the words naming a planar scenario's YAML actuator kinds as the spatial drives are named (--actuator, actuator=)
+_ACTUATOR_FLAG = {"dc_motor_gear": "dc_motor", "ideal": "ideal"}
+
+
+def check_own_actuator(sc, value: str | None, option: str = "--actuator") -> str | None:
+    """A planar scenario's drive is its YAML actuator section (the arm's hardware): `option` (the CLI's
+    --actuator, the API's actuator=) may name it (dc_motor for DC motors with gears, ideal for a torque
+    source) and nothing else; one-line QmtInputError naming the scenario's own actuator else. Returns
+    its actuator.kind when `value` named it (None when no value was given)."""
+    if value is None:
+        return None
+    if sc.actuator is None:
+        raise QmtInputError(f"{option} {value}: scenario {sc.name} has no actuator section to name; drop {option}")
+    kind = sc.actuator.kind
+    if _ACTUATOR_FLAG.get(kind) == value:
+        return kind
+    if kind == "dynamixel":
+        raise QmtInputError(f"{option} {value}: {sc.name}'s actuator is its YAML's Dynamixel position servos "
+                            f"({', '.join(sc.actuator.servos)}), whose firmware closes the position loop: there is "
+                            f"no motor voltage or joint torque to drive from outside; drop {option}")
+    raise QmtInputError(f"{option} {value}: {sc.name}'s actuator is its YAML's actuator.kind {kind} "
+                        f"({option} {_ACTUATOR_FLAG.get(kind, kind)}); the arm's drive is part of the scenario: "
+                        f"drop {option} or set actuator.kind in a copy of the YAML file")
+
+
 register_actuator(ActuatorPlugin(
     kind="dc_motor_gear", parse=parse_dc_motor_gear, per_joint="motors",
     magnet_actuation=DC_MOTOR_ACTUATION,

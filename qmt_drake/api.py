@@ -24,6 +24,7 @@ from pydrake.geometry import Meshcat
 import qmt_drake.builders  # noqa: F401  (registers the scenario's builders)
 import qmt_drake.sweep.parameters  # noqa: F401  (registers the check of the scenario's uncertainty section)
 from qmt_drake import api_checks as C
+from qmt_drake.actuators import check_own_actuator
 from qmt_drake.budgets import (
     SPATIAL_REPLAY,
     check_budget,
@@ -217,8 +218,9 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     "max_tracking_error_rad", "final_error_rad"). time_scale: replay the plan time_scale times slower
     (< 1 faster); time_step_s: the plant step [s] (default: the scenario's stable default);
     feedforward: "none" (default), "back-emf" or "full" (DC motors; spatial dc_motor: "full" default,
-    "gravity", ...); actuator (spatial only): "ideal" (default) or "dc_motor" (the scenario's
-    actuators.motor constants); record_path: write a Meshcat HTML replay there. A plan made for
+    "gravity", ...); actuator: spatial: "ideal" (default) or "dc_motor" (the scenario's
+    actuators.motor constants), planar: only the YAML's own actuator (dc_motor, ideal) as in the CLI;
+    record_path: write a Meshcat HTML replay there. A plan made for
     another scenario, an unstable step, a bad option or a replay over the budget (budgets.py; unless
     allow_large=True) raises QmtInputError (one line) before anything runs; the spatial and
     energy-time runs take time_scale (spatial) and record_path only. Every result holds "margin": the
@@ -235,12 +237,12 @@ def simulate(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0, time
     if not isinstance(margin, bool):
         raise QmtInputError(f"simulate: margin {show(margin)} must be True or False")
     if isinstance(scenario, TransferScenario):
-        if actuator is not None:
-            raise QmtInputError(f"simulate: actuator: the planar scenario {scenario.name} takes its actuator from its "
-                                "YAML actuator section; drop actuator")
+        own = check_own_actuator(scenario, actuator, "simulate: actuator")  # as the CLI: only its YAML's own one
         result = run(build_cosim(scenario, plan, time_scale=time_scale, record_path=record_path,
                                  time_step_s=time_step_s, implicit_loop_damping=None,
                                  feedforward=feedforward or "none"))
+        if actuator is not None:  # the result says which was run, as the CLI's does
+            result = {**result, "actuator": actuator, "actuator_kind": own}
         return with_margin(scenario, plan, result, expensive=margin, time_scale=time_scale, time_step_s=time_step_s,
                            feedforward=feedforward or "none")
     spatial = plan.scenario_kind == SPATIAL_PLAN_KIND
@@ -276,7 +278,10 @@ def build_diagram(scenario: AnyScenario, plan: Plan, *, time_scale: float = 1.0,
     part seated (on your own Simulator the weld holds: its release at the first step past the hand's limit
     is run's, from cosim.monitor's logs); energy-time scenarios: the vertical arm's diagram (no option).
     time_scale and time_step_s [s] as in `simulate` (checked the same way, the replay priced); meshcat: a
-    pydrake Meshcat to draw in (planar scenarios)."""
+    pydrake Meshcat to draw in (planar scenarios). Compose it with discrete-time systems (or none): its
+    per-step laws are Drake SymbolicVectorSystems, which Drake 1.51 cannot ask for time derivatives, so a
+    Simulator of a diagram that also holds continuous state (an Integrator of yours) stops with
+    "DoCalcTimeDerivatives(): condition ... failed"."""
     scenario = _scenario_arg(scenario, "build_diagram")
     _check_run_args(scenario, plan, time_scale, time_step_s, None, allow_large, "build_diagram")
     if meshcat is not None and not isinstance(meshcat, Meshcat):

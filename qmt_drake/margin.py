@@ -183,12 +183,22 @@ def expensive_margin(run: Callable[[float, float | None], dict], summary: dict, 
             "half_step": half_step_verdict(run, summary, time_step_s, time_scale=time_scale, progress=progress)}
 
 
+def apart(value: float, threshold: float, style: str = "f", digits: int = 4) -> str:
+    """`value` with `digits` digits (style 'f' or 'g'), more when it would print as `threshold` without being
+    it: a verdict's deciding number never reads as its threshold."""
+    d = digits
+    while d < 12 and value != threshold and f"{value:.{d}{style}}" == f"{threshold:.{d}{style}}":
+        d += 1
+    return f"{value:.{d}{style}}"
+
+
 def margin_text(m: dict) -> str:
     """The CLI's margin line: the deciding quantity against its threshold, then the expensive part if run."""
     if m.get("ratio") is None:
         return "margin: nothing measured"
-    line = (f"margin: {m['quantity']} {m['value']:.4g} vs {m['threshold']:.4g} ({m['outcome_over']} at or above), "
-            f"ratio {m['ratio']:.4f}")
+    # (0.99996 against 1 printed "1 vs 1 (detached at or above)" beside a carried verdict)
+    line = (f"margin: {m['quantity']} {apart(m['value'], m['threshold'], 'g')} vs {m['threshold']:.4g} "
+            f"({m['outcome_over']} at or above), ratio {apart(m['ratio'], 1.0)}")
     f, h = m.get("flip"), m.get("half_step")
     if isinstance(f, dict):
         line += ("; no flip found within the tried scales" if f["flip_time_scale"] is None else

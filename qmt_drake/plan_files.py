@@ -65,7 +65,7 @@ from qmt_drake.trajectory import (
 from qmt_drake.transfer_scenario import TransferScenario, load_scenario
 
 __all__ = ["PLAN_KINDS", "Motion", "PlanKind", "PlanLoader", "check_plan_fits", "load_plan", "plan_file_kind",
-           "read_plan_file", "register_plan_kind", "scenario_kind_of"]
+           "plan_file_words", "read_plan_file", "register_plan_kind", "scenario_kind_of"]
 
 PLAN_ENDPOINT_TOL_M = 1e-6
 REBUILD_TOL = 1e-9  # rad, rad/s, rad/s^2: a `rebuild` against the samples written with it (only rounding differs)
@@ -149,6 +149,16 @@ def plan_file_kind(d: dict) -> str:
     return str(kind)
 
 
+def plan_file_words(d: dict, wanted_kind: str) -> str:
+    """'a planar plan', ...: a file's kind for a one-line refusal by a scenario of `wanted_kind`; a file
+    without `scenario_kind` (planar files written before the field, or a file edited by hand) is not
+    called planar: the line says the field is missing and which value that scenario's files carry."""
+    if "scenario_kind" in d or d.get("kind") == ENERGY_PLAN_KIND:
+        return f"{a_kind(plan_file_kind(d))} plan"
+    return (f"a plan without scenario_kind (edited by hand? {a_kind(wanted_kind)} scenario's plans have "
+            f"scenario_kind: {wanted_kind})")
+
+
 def scenario_kind_of(scenario: Any) -> str:
     """The kind of a scenario object (transfer, spatial_transfer, energy_time); QmtInputError if it is
     none that load_scenario returns."""
@@ -174,7 +184,7 @@ def load_plan(path: str | Path, scenario: Any = None) -> Plan:
         mine = scenario_kind_of(scenario)
         if mine != kind:
             name = getattr(scenario, "name", "?")
-            raise QmtInputError(f"plan file {path} is {a_kind(kind)} plan for scenario "
+            raise QmtInputError(f"plan file {path} is {plan_file_words(d, mine)} for scenario "
                                 f"{d['scenario']}, not one for the {KIND_WORDS.get(mine, mine)} scenario {name}; "
                                 f"plan it with `qmt-drake plan {name} --json PATH`")
     return plan_kind(kind).load(path, d, scenario)
@@ -187,6 +197,10 @@ def _load_transfer_plan(path: Path, d: dict, scenario: TransferScenario | None) 
         scenario = load_scenario(src if isinstance(src, str) and Path(src).is_file() else str(d["scenario"]))
     _check_plan_fits(d, path, scenario)
     traj = d["trajectory"]
+    why = d.get("extra", {}).get("infeasible") if isinstance(d.get("extra"), dict) else None
+    if why and d.get("motion_time_s") == 0.0:  # `plan` wrote the arm at rest: its method found no timing
+        raise QmtInputError(f"plan file {path} holds no motion: its planner found no timing ({why}); change the "
+                            "scenario's limits and plan again")
     try:
         if traj.get("kind") == "family":
             if traj.get("family", scenario.family.kind) != scenario.family.kind:

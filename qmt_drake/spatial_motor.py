@@ -53,7 +53,10 @@ class SpatialMotors:
 
 def _per_joint(raw: dict, key: str, where: str, n: int, names, default=None, positive: bool = True) -> np.ndarray:
     v = raw.get(key, default)
-    if F.is_number(v):
+    if F.is_number(v):  # one number for every joint: a bad one is named as given, not as n copies
+        if not np.isfinite(v) or (v <= 0 if positive else v < 0):
+            raise QmtInputError(f"{where}.{key} must be a {'positive' if positive else 'non-negative'} number "
+                                f"(or a list of {n}, one per joint {list(names)}), got {float(v):g}")
         v = [v] * n
     if not isinstance(v, list) or len(v) != n:
         raise QmtInputError(f"{where}.{key} must be one number or a list of {n} numbers, one per joint {list(names)}; "
@@ -68,7 +71,7 @@ def check_integral_rate(value, section: str, n: int, joint_names=()) -> np.ndarr
     rate = _per_joint({key: value}, key, section, n, list(joint_names) or list(range(n)), positive=False)
     if np.any(rate > MAX_INTEGRAL_RATE_PER_S):
         raise QmtInputError(f"{section}.{key} must be at most {MAX_INTEGRAL_RATE_PER_S:g} 1/s (beyond it the joint "
-                            f"loop's slow poles are damped less than 0.55 and ring); got {rate.tolist()}")
+                            f"loop's slow poles are damped less than 0.55 and ring); got {F.show(np.asarray(value).tolist())}")
     return rate
 
 

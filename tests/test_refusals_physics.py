@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from qmt_drake.apps.commands import check_own_actuator
+from qmt_drake.actuators import check_own_actuator
 from qmt_drake.errors import QmtInputError
 from qmt_drake.transfer_scenario import load_scenario
 

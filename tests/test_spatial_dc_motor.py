@@ -77,7 +77,7 @@ def test_dc_motor_refused_without_motor_constants(sc, tmp_path):
      "shoulder_pan_joint's motor reaches 0.2424 N m at stall .* below its torque limit 150 N m"),
     ({"torque_constant_Nm_per_A": 0.1, "resistance_ohm": 0.35, "voltage_limit_V": 48.0, "kv": 1.0}, "unknown key 'kv'"),
     ({"torque_constant_Nm_per_A": 0.1, "resistance_ohm": 0.35, "voltage_limit_V": 48.0, "integral_rate_per_s": -1.0},
-     "integral_rate_per_s must be a list of non-negative numbers"),
+     r"integral_rate_per_s must be a non-negative number \(or a list of 6.*got -1$"),
     ({"torque_constant_Nm_per_A": 0.1, "resistance_ohm": 0.35, "voltage_limit_V": 48.0, "integral_rate_per_s": 30.0},
      "integral_rate_per_s must be at most 10 1/s"),
 ])

@@ -83,7 +83,7 @@ def test_a_sweep_takes_the_integral_rate(panda):
 
 @pytest.mark.parametrize("sim, says", [
     ({"actuator": "dc_motor", "integral_rate_per_s": 11.0}, "sweep sim.integral_rate_per_s must be at most 10 1/s"),
-    ({"actuator": "dc_motor", "integral_rate_per_s": -1.0}, "integral_rate_per_s must be a list of non-negative"),
+    ({"actuator": "dc_motor", "integral_rate_per_s": -1.0}, "integral_rate_per_s must be a non-negative number"),
     ({"actuator": "ideal", "integral_rate_per_s": 1.0}, "the DC-motor drive's PID integral"),
 ])
 def test_a_meaningless_integral_rate_is_refused_in_one_line(sim, says):

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from qmt_drake.actuators import check_own_actuator
 from qmt_drake.apps import spatial_cli
 from qmt_drake.apps.arg_checks import (
     check_int,
@@ -47,27 +48,6 @@ def cmd_scenarios(args) -> int:
               f"plan with --method snopt|steepest|ipopt|collocation")
     spatial_cli.list_scenarios()
     return 0
-
-
-# --actuator's words for a planar scenario's YAML actuator kinds (config/sections.py)
-_ACTUATOR_FLAG = {"dc_motor_gear": "dc_motor", "ideal": "ideal"}
-
-
-def check_own_actuator(sc, flag: str | None) -> None:
-    """A planar scenario's drive is its YAML actuator section (the arm's hardware): --actuator may name
-    it (dc_motor for DC motors with gears, ideal for a torque source) and nothing else."""
-    if flag is None:
-        return
-    kind = sc.actuator.kind
-    if _ACTUATOR_FLAG.get(kind) == flag:
-        return
-    if kind == "dynamixel":
-        raise QmtInputError(f"--actuator {flag}: {sc.name}'s actuator is its YAML's Dynamixel position servos "
-                            f"({', '.join(sc.actuator.servos)}), whose firmware closes the position loop: there is "
-                            "no motor voltage or joint torque to drive from outside; drop --actuator")
-    raise QmtInputError(f"--actuator {flag}: {sc.name}'s actuator is its YAML's actuator.kind {kind} "
-                        f"(--actuator {_ACTUATOR_FLAG.get(kind, kind)}); the arm's drive is part of the scenario: "
-                        "drop --actuator or set actuator.kind in a copy of the YAML file")
 
 
 def cmd_simulate(args) -> int:

@@ -150,10 +150,19 @@ def cmd_plan(args) -> int:
         plan.write_csv(args.trajectory_csv)
     if not (is_stdout(args.json) or is_stdout(args.trajectory_csv)):  # stdout is the JSON or the CSV then
         print(f"{sc.name} {args.method}: T0 = {plan.motion_time_s:.4f} s, {hand_plugin(sc).plan_ratios_text(plan)}, "
-              f"{'feasible' if plan.feasible else 'INFEASIBLE (least-violating plan)'}, "
+              f"{'feasible' if plan.feasible else infeasible_text(plan)}, "
               f"{plan.planner_wall_s:.2f} s" + ("" if args.success is None else spatial_cli.success_text(
                   success["fresh_check"], success["search"]["time_scale"], args.success)))
     return 0 if plan.feasible else EXIT_INFEASIBLE
+
+
+def infeasible_text(plan) -> str:
+    """An infeasible plan's words: the planner's reason when it gave one (a method that found no timing writes
+    the arm at rest, T0 = 0: that is no least-violating plan, and its 0.0000 ratios say nothing)."""
+    reason = getattr(plan, "extra", {}).get("infeasible")
+    if reason and plan.motion_time_s == 0.0:
+        return f"INFEASIBLE, no timing found: {reason} (the file holds the arm at rest)"
+    return "INFEASIBLE (least-violating plan" + (f": {reason})" if reason else ")")
 
 
 def check_tray_method(sc, method: str) -> None:

@@ -59,7 +59,7 @@ from qmt_drake.carried_cells import (
 from qmt_drake.config.resolve import builtin_scenarios, kind_of
 from qmt_drake.errors import QmtInputError
 from qmt_drake.jerk import jerk_limited_plan, peak_jerk
-from qmt_drake.margin import margin_text
+from qmt_drake.margin import apart, margin_text
 from qmt_drake.margin_runs import with_margin
 from qmt_drake.outcome import verdict_line
 from qmt_drake.outputs import check_output_dir, check_output_path, is_stdout, jsonable
@@ -389,7 +389,7 @@ def simulate(args, energy_options=()) -> int:
                         "time_step_s": h, "explicit": explicit, **r, "wall_s": wall}), args.json)
     if args.json != "-":
         print(f"{sc.name} {p.method} x{args.time_scale:g}: {verdict_line(r['outcome'], r.get('collided_at_s') or r['lost_at_s'])}, "
-              f"T = {r['duration_s']:.4f} s, largest hand ratio while held {r['max_grip_ratio_while_held']:.4f}, "
+              f"T = {r['duration_s']:.4f} s, largest hand ratio while held {apart(r['max_grip_ratio_while_held'], 1.0)}, "
               f"goal error {r['final_goal_error_rad']:.1e} rad, {_where_the_part_ended(r)}, "
               f"real-time factor {(r['duration_s'] + TAIL_S) / wall:.2f}"
               + (f"; recording {args.record}" if args.record else ""))

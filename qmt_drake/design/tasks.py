@@ -104,6 +104,8 @@ def _axes_mask(u: dict, key: str, what: str) -> np.ndarray:
         if key_n not in AXES:
             raise QmtInputError(f"{what}.{key}: direction {show(n)} is not a unit axis of the task frame; "
                                 f"use {', '.join(AXES)}")
+        if m[AXES.index(key_n)]:  # [x, x] for [x, y]: the y meant was left out without a word (an unlisted axis is free)
+            raise QmtInputError(f"{what}.{key}: direction {key_n!r} is listed twice; list each axis once")
         m[AXES.index(key_n)] = True
     return m
 
@@ -160,6 +162,8 @@ def task_from_dict(d: dict, source: str = "") -> Task:
                                 f"constrained, free, a}}, got {show(u)}")
         check_keys(u, UNIT_KEYS, what)
         nm = string(u, "name", what, default=f"unit{i}")
+        if nm in [un.name for un in units]:  # the reports' rows are named by unit
+            raise QmtInputError(f"{what}.name {nm!r} is used by an earlier unit; give each unit its own name")
         p = vector(u, "position_m", what, length=3, what="tool point x, y, z in m")
         rpy = vector(u, "rpy_deg", what, length=3, what="roll, pitch, yaw in degrees") \
             if u.get("rpy_deg") is not None else np.zeros(3)

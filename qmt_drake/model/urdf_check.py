@@ -226,6 +226,13 @@ def check_urdf(root: ET.Element, hand_frame: str, *, source: str = "URDF",
             warnings.warn(f"{exc} (ignored: the link does not move with the arm)", stacklevel=3)
     for j in movable:
         lim = j.find("limit")
+        lo, hi = (None, None) if lim is None else (lim.get("lower"), lim.get("upper"))
+        if j.get("type") == "revolute" and lo is not None and hi is not None and float(lo) == float(hi):
+            # (exporters write lower = upper = 0 for "no range given"); the planners would hold it there, and
+            # IK would blame the task ("too few joints", "out of reach")
+            raise QmtInputError(f"{source}: chain joint {j.get('name')!r} has the range [{lo}, {hi}] (<limit lower="
+                                f"\"{lo}\" upper=\"{hi}\">): it cannot move; give its range in a copy of the URDF "
+                                "(arm.urdf) or lock it (lock_joints)")
         for attr, supplied, what in (("effort", effort_limit_Nm, "effort"),
                                      ("velocity", velocity_limit_rad_s, "velocity")):
             value = None if lim is None else lim.get(attr)

@@ -39,6 +39,12 @@ def rest_to_rest(start, goal, max_velocity, max_acceleration, max_jerk, *, phase
         result = Ruckig(n).calculate(inp, traj)
     except RuckigError as exc:  # ruckig raises on inputs it refuses; the callers word their own refusal
         return None, next((line for line in str(exc).splitlines() if line.strip()), "RuckigError")
+    except ValueError as exc:  # a code the Python enum lacks: -101, ErrorTrajectoryDuration (a limit so small
+        # that the motion would outlast Ruckig's numerical range, 7e3 s), came out as "-101 is not a valid Result"
+        if "not a valid Result" not in str(exc):
+            raise
+        return None, ("the motion would outlast Ruckig's numerical range (ErrorTrajectoryDuration: a velocity, "
+                      "acceleration or jerk limit far too small)" if str(exc).startswith("-101") else str(exc))
     return (traj if result in (Result.Working, Result.Finished) else None), result
 
 

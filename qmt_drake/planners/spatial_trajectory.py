@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmt_drake.budgets import MEMORY_BUDGET_BYTES, TIME_BUDGET_S, check_rate_estimate
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.refine import REFINE_NEAR_LIMIT, peaks_on_pieces
 from qmt_drake.limits.spatial_columns import (
@@ -176,6 +177,12 @@ def check(sc, traj, rate_hz: float, terms=None, *, refine: bool = False) -> dict
     'max_timed' the largest of those a time scaling changes (all but the joint range), 'binding' the
     largest column ('motor_torque[shoulder_lift_joint]', 'suction', 'joint_range[elbow_joint]', ...)
     and 'binding_time_s' its time."""
+    # a limit set far too tight (a joint speed of 1e-9 rad/s) times a path in decades: its samples would not fit
+    est = check_rate_estimate(rate_hz, traj.duration_s, sc.n_dof, "the re-check")
+    if not (est.bytes <= MEMORY_BUDGET_BYTES and est.seconds <= TIME_BUDGET_S):
+        raise QmtInputError(f"{sc.name}: the timed path takes {traj.duration_s:.4g} s, and {est.what} needs "
+                            f"{est.describe()}; a limit of the scenario is far too small for the task: check "
+                            "actuators' velocity, acceleration, jerk and torque limits")
     t = sample_times(traj.duration_s, rate_hz)
     cols = SpatialColumns(sc, terms)
     peak, t_peak, refined = peaks(cols, traj, t, refine)

@@ -198,6 +198,9 @@ def add_inverse_dynamics_feedforward(builder, scenario, pp_qdd, desired_state_po
     evaluated on the desired state and acceleration, into the controller's feedforward_torque."""
     id_plant = scenario.arm.plant
     inv = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(id_plant))
+    # Drake's InverseDynamics points at the plant without owning it: the system holds it, so a diagram composed
+    # in a user's builder after the scenario object is dropped does not read a freed plant (a segfault)
+    inv._qmt_keep_alive = id_plant
     acc = builder.AddNamedSystem("desired_acceleration", TrajectorySource(pp_qdd))
     builder.Connect(desired_state_port, inv.get_input_port_estimated_state())
     builder.Connect(acc.get_output_port(), inv.get_input_port_desired_acceleration())

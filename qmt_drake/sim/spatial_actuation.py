@@ -293,6 +293,7 @@ class SpatialMotorDrive:
             builder.Connect(ff_split.get_output_port(1), law.GetInputPort("feedforward_velocity"))
         if opts.get("inverse_dynamics_feedforward"):
             inv = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(self.id_plant))
+            inv._qmt_keep_alive = self.id_plant  # (Drake's system points at it without owning it: sim/actuation.py)
             builder.Connect(ff_state, inv.get_input_port_estimated_state())
             builder.Connect(ff_acc, inv.get_input_port_desired_acceleration())
             ff = inv.get_output_port_generalized_force()

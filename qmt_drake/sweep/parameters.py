@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import truncnorm
+from scipy.stats import norm, truncnorm
 
 from qmt_drake.config.fields import check_keys, is_number, show
 from qmt_drake.errors import QmtInputError
@@ -169,7 +169,25 @@ def check_distribution(v: dict, p: Parameter, at: str) -> Distribution:
         check_range(x, p, at)
     if kind == "normal" and p.integer:
         raise QmtInputError(f"{at}: '{p.name}' is an integer; give a list of values instead")
+    if kind == "normal" and args["std"] > 0 and "low" not in args and "high" not in args:
+        _check_normal_within_bounds(args["mean"], args["std"], p, at)
     return Distribution(kind, args)
+
+
+# A normal's draws are cut at the parameter's physical bounds (Distribution.sample); beyond this share of its
+# mass cut off (2.3 std), the cases are no longer the distribution the file names (friction N(0.3, 1): mean 0.92,
+# not 0.3), unless the file says where to cut (low / high).
+MAX_CUT_MASS = 0.01
+
+
+def _check_normal_within_bounds(mean: float, std: float, p: Parameter, at: str) -> None:
+    a, b = (p.lower - mean) / std, (p.upper - mean) / std
+    cut = float(norm.cdf(a) + norm.sf(b))
+    if cut > MAX_CUT_MASS:
+        drawn = float(truncnorm.mean(a, b, loc=mean, scale=std))
+        raise QmtInputError(f"{at}: normal(mean {mean:g}, std {std:g}) has {cut:.1%} of its mass outside "
+                            f"{p.name}'s range ({p.lower:g}, {p.upper:g}); the draws would be cut there (their mean "
+                            f"{drawn:.3g}, not {mean:g}): give a smaller std, or say where to cut it (low, high)")
 
 
 def check_values(values, p: Parameter, at: str) -> list:

@@ -349,8 +349,14 @@ def success_spec(scenario, plan_file=None, *, cases: int | None = None, seed: in
     drive = {**check_success_drive(u.get("sim"), "uncertainty.sim"), **check_success_drive(sim, "--success drive")}
     plan_ref = ({"method": "toppra" if spatial else "optimum"} if plan_file is None else {"file": str(plan_file)})
     path = scenario.path if spatial else scenario.source_path
-    spec = load_spec({"name": name, "scenario": str(path), "plans": [plan_ref], "monte_carlo": mc,
-                      "parameters": dict(u["parameters"]), **({"sim": drive} if drive else {})}, name=name)
+    try:
+        spec = load_spec({"name": name, "scenario": str(path), "plans": [plan_ref], "monte_carlo": mc,
+                          "parameters": dict(u["parameters"]), **({"sim": drive} if drive else {})}, name=name)
+    except QmtInputError as exc:  # the user wrote the scenario's uncertainty section, not a sweep spec: name it
+        if cases is not None or seed is not None:  # (a caller's own count or seed: the caller names its option)
+            raise
+        raise QmtInputError(str(exc).replace(f"sweep spec '{name}'", f"scenario {scenario.name}: uncertainty",
+                                             1)) from None
     if spatial:  # its real drive (sweep/spatial_cases.default_actuator)
         check_spatial_spec(spec, scenario)
     else:

@@ -101,24 +101,37 @@ class DcMotorParams:
 
     def __post_init__(self) -> None:
         for k in ("torque_constant_Nm_per_A", "resistance_ohm", "gear_ratio", "voltage_limit_V",
-                  "current_limit_A", "efficiency"):
-            setattr(self, k, np.atleast_1d(np.asarray(getattr(self, k), dtype=float)))
+                  "current_limit_A", "efficiency", "inductance_H"):
+            if k != "inductance_H" or self.inductance_H is not None:
+                setattr(self, k, np.atleast_1d(np.asarray(getattr(self, k), dtype=float)))
+        if self.torque_constant_Nm_per_A.ndim != 1:
+            raise QmtInputError(f"DcMotorParams.torque_constant_Nm_per_A has shape "
+                                f"{self.torque_constant_Nm_per_A.shape}; give one number per joint")
         n = self.n
-        for k in ("resistance_ohm", "gear_ratio", "voltage_limit_V", "current_limit_A", "efficiency"):
-            if getattr(self, k).shape != (n,):
-                raise ValueError(f"DcMotorParams.{k} has shape {getattr(self, k).shape}, expected ({n},)")
+        for k in ("resistance_ohm", "gear_ratio", "voltage_limit_V", "current_limit_A", "efficiency", "inductance_H"):
+            if getattr(self, k) is not None and getattr(self, k).shape != (n,):
+                raise QmtInputError(f"DcMotorParams.{k} has shape {getattr(self, k).shape}, expected ({n},)")
+        # a zero, negative or NaN inductance or back-drive efficiency ran without a word: an armature current
+        # that grows without bound, a gear that makes energy when driven backwards
+        if self.inductance_H is not None and not np.all(np.isfinite(self.inductance_H) & (self.inductance_H > 0)):
+            raise QmtInputError(f"DcMotorParams.inductance_H {self.inductance_H.tolist()} must be finite and positive "
+                                "for every joint (or None: the quasi-static armature)")
+        eta_b = np.asarray(self.back_drive_efficiency, dtype=float)
+        if not np.all(np.isfinite(eta_b) & (eta_b > 0) & (eta_b <= 1)):
+            raise QmtInputError(f"DcMotorParams.back_drive_efficiency {self.back_drive_efficiency!r} must be in (0, 1]")
         for k in ("torque_constant_Nm_per_A", "resistance_ohm", "gear_ratio", "voltage_limit_V", "current_limit_A"):
             v = getattr(self, k)  # a zero or negative resistance divided its way into inf/NaN torques, silently
             finite = k not in ("voltage_limit_V", "current_limit_A")  # (an unlimited supply: inf)
             if not np.all(v > 0) or (finite and not np.all(np.isfinite(v))):
                 raise QmtInputError(f"DcMotorParams.{k} {v.tolist()} must be {'finite and ' if finite else ''}positive "
                                     "for every joint")
-        if self.inductance_H is not None:
-            self.inductance_H = np.atleast_1d(np.asarray(self.inductance_H, dtype=float))
-        if np.any(self.efficiency <= 0) or np.any(self.efficiency > 1):
-            raise ValueError("gearbox efficiency must be in (0, 1]")
-        if self.efficiency_blend_speed_rad_s is not None and not self.efficiency_blend_speed_rad_s > 0:
-            raise ValueError("efficiency_blend_speed_rad_s must be positive (or None for the switched gain)")
+        if not np.all((self.efficiency > 0) & (self.efficiency <= 1)):
+            raise QmtInputError(f"DcMotorParams.efficiency {self.efficiency.tolist()} (the gearbox's) must be in "
+                                "(0, 1] for every joint")
+        blend = self.efficiency_blend_speed_rad_s
+        if blend is not None and not (np.isfinite(blend) and blend > 0):
+            raise QmtInputError(f"DcMotorParams.efficiency_blend_speed_rad_s {blend!r} must be finite and positive "
+                                "(or None for the switched gain)")
 
     @property
     def n(self) -> int:
