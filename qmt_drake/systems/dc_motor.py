@@ -272,9 +272,9 @@ class DcMotorWithGear(LeafSystem):
     def __init__(self, params: DcMotorParams, command: str = "voltage"):
         super().__init__()
         if command not in ("voltage", "current"):
-            raise ValueError(f"command must be 'voltage' or 'current', got {command!r}")
+            raise QmtInputError(f"command must be 'voltage' or 'current', got {command!r}")
         if command == "current" and params.inductance_H is not None:
-            raise ValueError("current-command mode uses the quasi-static armature (inductance_H=None)")
+            raise QmtInputError("current-command mode uses the quasi-static armature (inductance_H=None)")
         self._current_mode = command == "current"
         self.params = p = params
         n = p.n
@@ -382,7 +382,7 @@ def dc_motors_as_primitives(params: DcMotorParams, *, host_has_continuous_state:
     formula (`motor_forward`) compiled into SymbolicVectorSystems, no Python per step.
     host_has_continuous_state: see scalar_ops.symbolic_law."""
     if params.inductance_H is not None:
-        raise ValueError("dc_motors_as_primitives models the quasi-static armature; use DcMotorWithGear with "
+        raise QmtInputError("dc_motors_as_primitives models the quasi-static armature; use DcMotorWithGear with "
                          "inductance_H")
     return _per_joint_laws_diagram(
         "motors", params, motor_forward, ("voltage_command", "joint_velocity"),

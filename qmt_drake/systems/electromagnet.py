@@ -56,6 +56,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, MatrixGain, Multiplexer
 
 from qmt_drake.catalog import THESIS_COILS, CoilSpec  # noqa: F401 (re-exported)
+from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
 MU0 = 4e-7 * math.pi
@@ -103,7 +104,7 @@ def covered_fraction(d, a: float, b: float, ops=FLOAT):
 def payload_translation_indices(payload_joint) -> list[int]:
     """Indices of the joint's translation coordinates (x, y, z of p_HP [m]) in the plant's state."""
     if payload_joint.type_name() != "quaternion_floating":
-        raise ValueError(f"the magnet needs the payload's 6-DOF joint to the hand (payload.add_payload); "
+        raise QmtInputError(f"the magnet needs the payload's 6-DOF joint to the hand (payload.add_payload); "
                          f"joint '{payload_joint.name()}' is a {payload_joint.type_name()} joint")
     start = payload_joint.position_start()
     return [start + 4, start + 5, start + 6]  # positions: quaternion (w, x, y, z), then translation

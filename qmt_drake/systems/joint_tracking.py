@@ -90,6 +90,7 @@ from pydrake import symbolic
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import Multiplexer
 
+from qmt_drake.errors import QmtInputError
 from qmt_drake.systems.scalar_ops import FLOAT, SYMBOLIC, symbolic_law
 
 THESIS_DERIVATIVE_SAMPLE_S = 1e-3
@@ -149,7 +150,7 @@ class JointPidController(LeafSystem):
         self._Vmax = np.broadcast_to(np.asarray(voltage_limit_V, float), (n,)).copy()
         self._Tc = float(control_period_s)
         if (back_emf_feedforward or torque_feedforward) and motor is None:
-            raise ValueError("feedforward needs the motor parameters (motor=DcMotorParams)")
+            raise QmtInputError("feedforward needs the motor parameters (motor=DcMotorParams)")
         self._ke = None if not back_emf_feedforward else motor.torque_constant_Nm_per_A * self._N
         self._v_per_Nm = None
         if torque_feedforward:
@@ -159,16 +160,16 @@ class JointPidController(LeafSystem):
         self._x_in = self.DeclareVectorInputPort("estimated_state", 2 * n)
         self._ff_in = self.DeclareVectorInputPort("feedforward_torque", n) if torque_feedforward else None
         if feedforward_velocity_port and not back_emf_feedforward:
-            raise ValueError("feedforward_velocity_port without the back-EMF feedforward: nothing reads it")
+            raise QmtInputError("feedforward_velocity_port without the back-EMF feedforward: nothing reads it")
         self._ffv_in = self.DeclareVectorInputPort("feedforward_velocity", n) if feedforward_velocity_port else None
         self._has_integral = bool(np.any(gains.ki_V_per_rad_s != 0.0))
         self._Th = None if hold_period_s is None else float(hold_period_s)
         if current_loop and (self._Th is None or motor is None or back_emf_feedforward):
-            raise ValueError("current_loop is a held law's (hold_period_s) with the motor given and no back-EMF "
-                             "feedforward (the loop cancels the measured speed's back EMF itself)")
+            raise QmtInputError("current_loop is a held law's (hold_period_s) with the motor given and no back-EMF "
+                                "feedforward (the loop cancels the measured speed's back EMF itself)")
         self._ke_loop = motor.torque_constant_Nm_per_A * self._N if current_loop else None
         if self._Th is not None and not self._Th >= self._Tc:
-            raise ValueError(f"hold_period_s {self._Th} s is shorter than the control period {self._Tc} s")
+            raise QmtInputError(f"hold_period_s {self._Th} s is shorter than the control period {self._Tc} s")
         if self._has_integral:
             self._z = self.DeclareDiscreteState(n)
         if self._Th is not None:  # the held voltage and the next sample time, updated at every step
@@ -239,9 +240,9 @@ def hold_offsets(hold_period_s: float, time_step_s: float, mode: str = "mean") -
     """The times [s] after a sample instant at which a held feedforward sees the reference (HoldCompensatedReference):
     "mean": the hold's m plant steps j h, j < m (m = ceil(T_h / h)); "midpoint": their middle, (m - 1) h / 2."""
     if mode not in HOLD_COMPENSATIONS[:2]:
-        raise ValueError(f"hold compensation {mode!r}: choose one of {', '.join(HOLD_COMPENSATIONS[:2])}")
+        raise QmtInputError(f"hold compensation {mode!r}: choose one of {', '.join(HOLD_COMPENSATIONS[:2])}")
     if not 0 < time_step_s <= hold_period_s:
-        raise ValueError(f"hold period {hold_period_s} s and plant step {time_step_s} s: need 0 < step <= period")
+        raise QmtInputError(f"hold period {hold_period_s} s and plant step {time_step_s} s: need 0 < step <= period")
     m = int(np.ceil(hold_period_s / time_step_s - 1e-6))  # the steps a sample's voltage is held over
     return np.arange(m) * time_step_s if mode == "mean" else np.array([(m - 1) * time_step_s / 2])
 
@@ -287,7 +288,7 @@ def pd_voltage(pid: JointPidController, x_des, x, feedforward_torque=None, ops=F
     [+ Ke N qd_des] [+ tau_ff R / (N eta Kt)], +-V_max) [V]; x_des, x: the 2n desired / estimated
     states (floats or drake symbolic Expressions with ops=SYMBOLIC, systems.scalar_ops)."""
     if pid._ffv_in is not None:
-        raise ValueError("the compiled law reads the back-EMF feedforward's speed from desired_state; "
+        raise QmtInputError("the compiled law reads the back-EMF feedforward's speed from desired_state; "
                          "feedforward_velocity_port is the held law's (JointPidController)")
     n = pid._n
     out = []

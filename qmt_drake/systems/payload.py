@@ -56,6 +56,7 @@ from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import QuaternionFloatingJoint, SpatialInertia, UnitInertia
 
 from qmt_drake.catalog import STEEL_DENSITY_KG_M3
+from qmt_drake.errors import QmtInputError
 
 
 @dataclass(frozen=True)
@@ -100,7 +101,7 @@ class PayloadSpec:
         p = scenario.payload
         body = p.body
         if body is None:
-            raise ValueError(f"scenario '{scenario.name}' payload has no body; load it with load_scenario")
+            raise QmtInputError(f"scenario '{scenario.name}' payload has no body; load it with load_scenario")
         contact = {}
         hand = getattr(scenario, "hand", None)
         if hand is not None:
@@ -161,7 +162,7 @@ def six_dof_joint_of(plant, body):
         if joint.child_body().index() == body.index() and joint.type_name() == "quaternion_floating" \
                 and joint.parent_body().index() != plant.world_body().index():
             return joint
-    raise ValueError(f"body '{body.name()}' has no 6-DOF joint to a carrying body; add it with "
+    raise QmtInputError(f"body '{body.name()}' has no 6-DOF joint to a carrying body; add it with "
                      "add_payload(..., attach_to_hand=True) (add_bottle(..., tray_body=tray))")
 
 
