@@ -319,7 +319,8 @@ def every_cell_text(every: dict) -> str:
     na = len(every["cells"]) - len(runs) if table else 0
     if every["time_scale"] is None:
         return f"; lost at some cell even x{every['k_max']:g}"
-    where = f"carried at all {len(runs)} cells that run" + (f" ({na} n/a)" if na else "")
+    where = f"carried at all {len(runs)} cells that run" if len(runs) != 1 else "carried at the 1 cell that runs"
+    where += f" ({na} n/a)" if na else ""
     if not every["raised"]:
         return f"; {where}"
     lost = [k for k, c in every["table_at_chosen"].items() if c["held"] is False]

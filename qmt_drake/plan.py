@@ -85,6 +85,31 @@ def a_kind(kind: str) -> str:
     return ("an " if word[:1] in "aeiou" else "a ") + word
 
 
+def plan_file_kind(d: dict) -> str:
+    """The scenario kind of a plan file's mapping (files older than `scenario_kind` included)."""
+    kind = d.get("scenario_kind") or (ENERGY_PLAN_KIND if d.get("kind") == ENERGY_PLAN_KIND else TRANSFER_PLAN_KIND)
+    return str(kind)
+
+
+def plan_file_words(d: dict, wanted_kind: str) -> str:
+    """'a planar plan', ...: a file's kind for a one-line refusal by a scenario of `wanted_kind`; a file
+    without `scenario_kind` (planar files written before the field, or a file edited by hand) is not
+    called planar: the line says the field is missing and which value that scenario's files carry."""
+    if "scenario_kind" in d or d.get("kind") == ENERGY_PLAN_KIND:
+        return f"{a_kind(plan_file_kind(d))} plan"
+    return (f"a plan without scenario_kind (edited by hand? {a_kind(wanted_kind)} scenario's plans have "
+            f"scenario_kind: {wanted_kind})")
+
+
+def check_plan_file_kind(d: dict, path: str | Path, wanted_kind: str, scenario_name: str) -> None:
+    """One line (QmtInputError) when a plan file's mapping is of another scenario kind than the scenario
+    `scenario_name` (of `wanted_kind`) it is loaded on: every kind's loader refuses it in these words."""
+    if plan_file_kind(d) != wanted_kind:
+        raise QmtInputError(f"plan file {path} is {plan_file_words(d, wanted_kind)} for scenario {d.get('scenario')}, "
+                            f"not one for the {KIND_WORDS.get(wanted_kind, wanted_kind)} scenario {scenario_name}; "
+                            f"plan it with `qmt-drake plan {scenario_name} --json PATH`")
+
+
 @dataclass(eq=False)
 class Plan:
     """A planned motion of one scenario, of any kind, re-checked by sampling: `motion_time_s` [s],

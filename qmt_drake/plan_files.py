@@ -37,16 +37,17 @@ from qmt_drake.outputs import jsonable, write_text_atomic
 from qmt_drake.plan import (
     ENERGY_PLAN_KIND,
     KIND_MODULES,
-    KIND_WORDS,
     PLAN_KINDS,
     TRANSFER_PLAN_KIND,
     Motion,
     Plan,
     PlanKind,
     PlanLoader,
-    a_kind,
+    check_plan_file_kind,
     family_plan,
     make_plan,
+    plan_file_kind,
+    plan_file_words,
     plan_kind,
     register_plan_kind,
 )
@@ -143,22 +144,6 @@ def read_plan_file(path: str | Path) -> dict:
     return d
 
 
-def plan_file_kind(d: dict) -> str:
-    """The scenario kind of a plan file's mapping (files older than `scenario_kind` included)."""
-    kind = d.get("scenario_kind") or (ENERGY_PLAN_KIND if d.get("kind") == ENERGY_PLAN_KIND else TRANSFER_PLAN_KIND)
-    return str(kind)
-
-
-def plan_file_words(d: dict, wanted_kind: str) -> str:
-    """'a planar plan', ...: a file's kind for a one-line refusal by a scenario of `wanted_kind`; a file
-    without `scenario_kind` (planar files written before the field, or a file edited by hand) is not
-    called planar: the line says the field is missing and which value that scenario's files carry."""
-    if "scenario_kind" in d or d.get("kind") == ENERGY_PLAN_KIND:
-        return f"{a_kind(plan_file_kind(d))} plan"
-    return (f"a plan without scenario_kind (edited by hand? {a_kind(wanted_kind)} scenario's plans have "
-            f"scenario_kind: {wanted_kind})")
-
-
 def scenario_kind_of(scenario: Any) -> str:
     """The kind of a scenario object (transfer, spatial_transfer, energy_time); QmtInputError if it is
     none that load_scenario returns."""
@@ -181,12 +166,7 @@ def load_plan(path: str | Path, scenario: Any = None) -> Plan:
         raise QmtInputError(f"plan file {path} has scenario_kind {kind!r}; known: "
                             f"{', '.join({**KIND_MODULES, **PLAN_KINDS})}")
     if scenario is not None:
-        mine = scenario_kind_of(scenario)
-        if mine != kind:
-            name = getattr(scenario, "name", "?")
-            raise QmtInputError(f"plan file {path} is {plan_file_words(d, mine)} for scenario "
-                                f"{d['scenario']}, not one for the {KIND_WORDS.get(mine, mine)} scenario {name}; "
-                                f"plan it with `qmt-drake plan {name} --json PATH`")
+        check_plan_file_kind(d, path, scenario_kind_of(scenario), getattr(scenario, "name", "?"))
     return plan_kind(kind).load(path, d, scenario)
 
 

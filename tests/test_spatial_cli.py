@@ -182,7 +182,7 @@ def planar_plan(tmp_path_factory):
     (["plan", SC, "--c2", "5"], "--c2: not an option of the spatial (3-D) ga planner (the planners that take it: "
      "planar snopt, ipopt, steepest and collocation; spatial (3-D) snopt"),
     (["simulate", SC, "--plan", "{missing}"], "does not exist"),
-    (["simulate", SC, "--plan", "{planar}"], "is a planar plan (scenario thesis-ch4)"),
+    (["simulate", SC, "--plan", "{planar}"], "is a planar plan for scenario thesis-ch4, not one for the spatial (3-D) scenario"),
     (["simulate", "thesis-ch4", "--plan", "{spatial}"], "is a spatial (3-D) plan for scenario ur5-suction-bins"),
     (["simulate", "ur5-magnet-part", "--plan", "{spatial}"], "was made for scenario ur5-suction-bins, not ur5-magnet-part"),
     (["simulate", SC, "--plan", "{spatial}", "--time-scale", "-1"], "--time-scale -1.0 must be a finite positive"),

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from qmt_drake.api_checks import number
+from qmt_drake.carried_cells import parse_cells
 from qmt_drake.errors import QmtInputError
 from qmt_drake.outputs import check_one_stdout, check_output_path, write_text_atomic
 
@@ -86,3 +87,14 @@ def emit_json(data: dict, target: str | None) -> None:
         print(text)
     else:
         write_text_atomic(target, text + "\n")
+
+
+def carried_cells_arg(args):
+    """--carried-cells parsed (carried_cells.parse_cells; None when not given), refused without --carried."""
+    text = getattr(args, "carried_cells", None)
+    if text is None:
+        return None
+    if not args.carried:
+        raise QmtInputError("--carried-cells: an option of --carried (the fastest-carried search); add --carried or "
+                            "drop it")
+    return parse_cells(text)

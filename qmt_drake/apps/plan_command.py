@@ -11,6 +11,7 @@ from pathlib import Path
 from qmt_drake.api import check_plan_options
 from qmt_drake.apps import spatial_cli
 from qmt_drake.apps.arg_checks import (
+    carried_cells_arg,
     check_int,
     check_outputs,
     check_positive_finite,
@@ -89,7 +90,7 @@ def cmd_plan(args) -> int:
     check_outputs(args, "--json", "--trajectory-csv")
     check_int(args.seed, "--seed", 0, "seeds are non-negative integers")
     check_positive_finite(args.carried_max_scale, "--carried-max-scale", "e.g. 3: try up to 3x slower")
-    cells = spatial_cli.carried_cells_arg(args)
+    cells = carried_cells_arg(args)
     if args.success is not None:  # the options and the uncertainty section, checked before any planning
         spatial_cli.check_success_options(args, load_scenario(args.scenario))
     if args.carried_max_scale <= 1:

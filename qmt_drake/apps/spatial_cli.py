@@ -32,6 +32,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from qmt_drake.apps.arg_checks import (
+    carried_cells_arg,
     check_int,
     check_outputs,
     check_positive_finite,
@@ -52,7 +53,6 @@ from qmt_drake.carried_cells import (
     check_spatial_cells,
     every_cell_lines,
     every_cell_text,
-    parse_cells,
     resolve_cells,
     spatial_default_cell,
 )
@@ -214,17 +214,6 @@ def _avoided_text(a) -> str:
     return "" if a is None else (f"; along the collision-free path through the task's {a['through']} (seed "
                                  f"{a['seed']}, {a['vertices']} vertices, "
                                  f"certified >= {a['path_clearance_lower_bound_m']:.4f} m)")
-
-
-def carried_cells_arg(args):
-    """--carried-cells parsed (carried_cells.parse_cells; None when not given), refused without --carried."""
-    text = getattr(args, "carried_cells", None)
-    if text is None:
-        return None
-    if not args.carried:
-        raise QmtInputError("--carried-cells: an option of --carried (the fastest-carried search); add --carried or "
-                            "drop it")
-    return parse_cells(text)
 
 
 def carried_drive(args) -> tuple[str, str]:

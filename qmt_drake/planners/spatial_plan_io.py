@@ -43,14 +43,8 @@ from pydrake.trajectories import BsplineTrajectory, PiecewisePolynomial
 from qmt_drake.errors import QmtInputError
 from qmt_drake.limits.clearance import clearance
 from qmt_drake.outputs import jsonable, write_text_atomic
-from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, ratio_report, register_plan_kind
-from qmt_drake.plan_files import (
-    REBUILD_MODULES,
-    plan_file_kind,
-    plan_file_words,
-    read_plan_file,
-    trajectory_from_rebuild,
-)
+from qmt_drake.plan import SPATIAL_PLAN_KIND, Plan, check_plan_file_kind, ratio_report, register_plan_kind
+from qmt_drake.plan_files import REBUILD_MODULES, read_plan_file, trajectory_from_rebuild
 from qmt_drake.plan_identity import (
     IDENTITY_KEY,
     check_identity,
@@ -291,10 +285,7 @@ def write_spatial_csv(plan: Plan, path, rate_hz: float = 1000.0) -> None:
 
 def _check_fits(d: dict, path, sc) -> None:
     """The file's scenario against sc (module docstring), before rebuilding anything."""
-    if plan_file_kind(d) != SPATIAL_PLAN_KIND:
-        raise QmtInputError(f"plan file {path} is {plan_file_words(d, SPATIAL_PLAN_KIND)} (scenario "
-                            f"{d.get('scenario')}); spatial scenario "
-                            f"{sc.name} needs a plan written by `qmt-drake plan {sc.name} --json PATH`")
+    check_plan_file_kind(d, path, SPATIAL_PLAN_KIND, sc.name)
     again = f"plan again with `qmt-drake plan {sc.name} --json PATH`"
     differ = differing_sections(d, spatial_sections(sc))  # content decides, whatever the names say
     if differ != [] and d.get("scenario") != sc.name:  # other content, or no record: by its name
